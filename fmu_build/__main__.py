@@ -1,0 +1,28 @@
+"""``python -m fmu_build``: build build/RockingBlock.fmu from model/c."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fmu_build.build import BuildError, build_fmu
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m fmu_build", description=__doc__)
+    parser.add_argument("--out", type=Path, help="output .fmu path (default build/RockingBlock.fmu)")
+    parser.add_argument("--sanitize", action="store_true", help="build with AddressSanitizer and UBSan")
+    parser.add_argument("--force", action="store_true", help="rebuild even if the sources did not change")
+    args = parser.parse_args(argv)
+    try:
+        path = build_fmu(args.out, sanitize=args.sanitize, force=args.force)
+    except (BuildError, OSError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""Read the variable table model/c/variables.def (the single source of truth
+shared by the C core and modelDescription.xml)."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+_LINE = re.compile(
+    r'^VAR\(\s*(?P<type>REAL|INTEGER|BOOLEAN)\s*,\s*(?P<vr>\d+)\s*,\s*(?P<field>\w+)\s*,'
+    r'\s*"(?P<name>[^"]+)"\s*,\s*(?P<causality>\w+)\s*,\s*(?P<variability>\w+)\s*,'
+    r'\s*(?P<start>[-+0-9.eE]+)\s*,\s*"(?P<unit>[^"]*)"\s*,\s*"(?P<description>[^"]*)"\s*\)\s*$'
+)
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI scalar variable as declared in variables.def."""
+
+    type: str  # "Real", "Integer" or "Boolean"
+    value_reference: int
+    field: str
+    name: str
+    causality: str
+    variability: str
+    start: str
+    unit: str
+    description: str
+
+
+def read_variables(path: Path) -> list[Variable]:
+    """Parse every ``VAR(...)`` line of ``path``; raise ValueError on a malformed one."""
+    variables: list[Variable] = []
+    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+        if not line.startswith("VAR("):
+            continue
+        m = _LINE.match(line.strip())
+        if not m:
+            raise ValueError(f"{path}:{lineno}: malformed VAR line: {line.strip()}")
+        d = m.groupdict()
+        variables.append(
+            Variable(
+                type=d["type"].capitalize(),
+                value_reference=int(d["vr"]),
+                field=d["field"],
+                name=d["name"],
+                causality=d["causality"],
+                variability=d["variability"],
+                start=d["start"],
+                unit=d["unit"],
+                description=d["description"],
+            )
+        )
+    names = [v.name for v in variables]
+    refs = [(v.type, v.value_reference) for v in variables]
+    if len(set(names)) != len(names) or len(set(refs)) != len(refs):
+        raise ValueError(f"{path}: duplicate variable name or value reference")
+    return variables

@@ -1,0 +1,669 @@
+/* FMI 2.0 Co-Simulation interface of RockingBlock: instance life cycle, call
+ * sequence checks, variable access, FMU state and stepping. All physics is in
+ * model.c and solver.c; this file holds no global state. */
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "config.h" /* MODEL_GUID, written by fmu_build */
+#include "model.h"
+#include "solver.h"
+
+typedef enum {
+    PHASE_INSTANTIATED = 1,
+    PHASE_INITIALIZATION = 2,
+    PHASE_STEP_COMPLETE = 4,
+    PHASE_TERMINATED = 8,
+    PHASE_ERROR = 16
+} Phase;
+
+#define SNAPSHOT_MAGIC 0x524f434bu /* "ROCK" */
+
+typedef struct {
+    unsigned magic;
+    unsigned size;
+    Model model;
+    double tc, startTime, stopTime;
+    int stopDefined;
+    Phase phase;
+    int dirty;
+} Snapshot;
+
+typedef struct {
+    Snapshot s; /* everything that makes up the FMU state */
+    fmi2CallbackFunctions cb;
+    char *name;
+    int loggingOn;
+    int logEvents;
+} Instance;
+
+/* ---------------------------------------------------------------- logging */
+
+static void log_message(Instance *I, fmi2Status status, const char *category,
+                        const char *fmt, ...) {
+    char buf[600];
+    va_list ap;
+    if (!I || !I->cb.logger) return;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof(buf), fmt, ap);
+    va_end(ap);
+    for (char *p = buf; *p; p++) /* the logger treats the message as a format */
+        if (*p == '%') *p = ' ';
+    I->cb.logger(I->cb.componentEnvironment, I->name, status, category, "%s", buf);
+}
+
+#define LOG_ERROR(I, ...) log_message(I, fmi2Error, "logStatusError", __VA_ARGS__)
+
+static void solver_log(void *ctx, int category, const char *message) {
+    Instance *I = (Instance *)ctx;
+    if (category == 1) LOG_ERROR(I, "%s", message);
+    else if (I->loggingOn && I->logEvents) log_message(I, fmi2OK, "logEvents", "%s", message);
+}
+
+/* Check that the instance exists and is in one of the allowed phases. */
+static int bad_call(Instance *I, int allowed, const char *fn) {
+    if (!I) return 1;
+    if (!(I->s.phase & allowed)) {
+        LOG_ERROR(I, "%s must not be called in the current state (%d)", fn, (int)I->s.phase);
+        return 1;
+    }
+    return 0;
+}
+
+#define CHECK(I, allowed, fn)                  \
+    do {                                       \
+        if (bad_call(I, allowed, fn)) return fmi2Error; \
+    } while (0)
+
+#define ANY_PHASE (PHASE_INSTANTIATED | PHASE_INITIALIZATION | PHASE_STEP_COMPLETE | PHASE_TERMINATED | PHASE_ERROR)
+#define GET_PHASES (PHASE_INITIALIZATION | PHASE_STEP_COMPLETE | PHASE_TERMINATED | PHASE_ERROR)
+
+/* Validate, derive and initialise if parameters changed; write outputs. */
+static fmi2Status ensure_initialized(Instance *I) {
+    Model *M = &I->s.model;
+    if (!I->s.dirty) return fmi2OK;
+    char msg[400];
+    if (model_validate(&M->v, msg, sizeof(msg))) {
+        LOG_ERROR(I, "invalid parameter: %s", msg);
+        return fmi2Error;
+    }
+    model_derive(&M->v, &M->d);
+    model_initialize(M, I->s.startTime);
+    I->s.tc = I->s.startTime;
+    solver_outputs(M, I->s.tc);
+    I->s.dirty = 0;
+    return fmi2OK;
+}
+
+/* ------------------------------------------------------------- life cycle */
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn,
+                               size_t nCategories, const fmi2String categories[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2SetDebugLogging");
+    I->loggingOn = loggingOn;
+    if (nCategories == 0) {
+        I->logEvents = 1;
+        return fmi2OK;
+    }
+    if (!categories) {
+        LOG_ERROR(I, "fmi2SetDebugLogging: categories is NULL");
+        return fmi2Error;
+    }
+    I->logEvents = 0;
+    for (size_t i = 0; i < nCategories; i++) {
+        if (!categories[i]) continue;
+        if (strcmp(categories[i], "logEvents") == 0) I->logEvents = 1;
+        else if (strcmp(categories[i], "logStatusError") != 0) {
+            LOG_ERROR(I, "fmi2SetDebugLogging: unknown log category '%s'", categories[i]);
+            return fmi2Error;
+        }
+    }
+    return fmi2OK;
+}
+
+static void reset_instance(Instance *I) {
+    memset(&I->s, 0, sizeof(I->s));
+    I->s.magic = SNAPSHOT_MAGIC;
+    I->s.size = (unsigned)sizeof(Snapshot);
+    model_set_defaults(&I->s.model);
+    I->s.phase = PHASE_INSTANTIATED;
+    I->s.dirty = 1;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
+                              fmi2String fmuGUID, fmi2String fmuResourceLocation,
+                              const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    (void)fmuResourceLocation;
+    (void)visible;
+    if (!functions || !functions->allocateMemory || !functions->freeMemory) return NULL;
+    Instance tmp;
+    memset(&tmp, 0, sizeof(tmp));
+    tmp.cb = *functions;
+    tmp.name = (char *)(instanceName ? instanceName : "RockingBlock");
+    if (!instanceName || !instanceName[0]) {
+        LOG_ERROR(&tmp, "fmi2Instantiate: missing instance name");
+        return NULL;
+    }
+    if (fmuType != fmi2CoSimulation) {
+        LOG_ERROR(&tmp, "fmi2Instantiate: RockingBlock supports Co-Simulation only");
+        return NULL;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
+        LOG_ERROR(&tmp, "fmi2Instantiate: GUID '%s' does not match this binary (%s)",
+                  fmuGUID ? fmuGUID : "(null)", MODEL_GUID);
+        return NULL;
+    }
+    Instance *I = (Instance *)functions->allocateMemory(1, sizeof(Instance));
+    if (!I) return NULL;
+    memset(I, 0, sizeof(*I));
+    I->cb = *functions;
+    size_t len = strlen(instanceName) + 1;
+    I->name = (char *)functions->allocateMemory(len, 1);
+    if (!I->name) {
+        functions->freeMemory(I);
+        return NULL;
+    }
+    memcpy(I->name, instanceName, len);
+    I->loggingOn = loggingOn;
+    I->logEvents = 1;
+    reset_instance(I);
+    return I;
+}
+
+void fmi2FreeInstance(fmi2Component c) {
+    Instance *I = (Instance *)c;
+    if (!I) return;
+    fmi2CallbackFreeMemory freeMemory = I->cb.freeMemory;
+    freeMemory(I->name);
+    freeMemory(I);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
+                               fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    Instance *I = (Instance *)c;
+    (void)toleranceDefined;
+    (void)tolerance; /* the FMU's own solver.relTol governs accuracy */
+    CHECK(I, PHASE_INSTANTIATED, "fmi2SetupExperiment");
+    if (!isfinite(startTime) || (stopTimeDefined && !(isfinite(stopTime) && stopTime >= startTime))) {
+        LOG_ERROR(I, "fmi2SetupExperiment: invalid start time %g or stop time %g", startTime, stopTime);
+        return fmi2Error;
+    }
+    I->s.startTime = startTime;
+    I->s.stopTime = stopTime;
+    I->s.stopDefined = stopTimeDefined;
+    I->s.tc = startTime;
+    I->s.dirty = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    Instance *I = (Instance *)c;
+    CHECK(I, PHASE_INSTANTIATED, "fmi2EnterInitializationMode");
+    I->s.dirty = 1;
+    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
+    I->s.phase = PHASE_INITIALIZATION;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    Instance *I = (Instance *)c;
+    CHECK(I, PHASE_INITIALIZATION, "fmi2ExitInitializationMode");
+    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
+    I->s.phase = PHASE_STEP_COMPLETE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    Instance *I = (Instance *)c;
+    CHECK(I, PHASE_STEP_COMPLETE | PHASE_ERROR, "fmi2Terminate");
+    I->s.phase = PHASE_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2Reset");
+    reset_instance(I);
+    return fmi2OK;
+}
+
+/* -------------------------------------------------------- variable access */
+
+static int is_parameter(fmi2ValueReference vr) { return vr < 30; }
+static int is_input(fmi2ValueReference vr) { return vr == 30 || vr == 31; }
+
+static fmi2Status check_array(Instance *I, const void *vr, size_t nvr, const void *value,
+                              const char *fn) {
+    if (nvr > 0 && (!vr || !value)) {
+        LOG_ERROR(I, "%s: NULL array with nvr = %zu", fn, nvr);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+/* May the variable vr be set now? */
+static fmi2Status settable(Instance *I, fmi2ValueReference vr, const char *name, const char *fn) {
+    if (I->s.phase == PHASE_STEP_COMPLETE && !is_input(vr)) {
+        LOG_ERROR(I, "%s: '%s' cannot be set after initialization", fn, name);
+        return fmi2Error;
+    }
+    if (!is_parameter(vr) && !is_input(vr)) {
+        LOG_ERROR(I, "%s: '%s' is an output and cannot be set", fn, name);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+#define SET_PHASES (PHASE_INSTANTIATED | PHASE_INITIALIZATION | PHASE_STEP_COMPLETE)
+
+/* Setters and getters are generated per type from variables.def: VAR expands
+ * to VAR_REAL, VAR_INTEGER or VAR_BOOLEAN, and each function defines only the
+ * expansion of its own type. */
+#define VAR(T, ref, field, name, caus, var, start, unit, desc) VAR_##T(ref, field, name)
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, SET_PHASES, "fmi2SetReal");
+    if (check_array(I, vr, nvr, value, "fmi2SetReal")) return fmi2Error;
+    Model *M = &I->s.model;
+    for (size_t i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+#define VAR_REAL(ref, field, name)                                                      \
+    case ref:                                                                          \
+        if (settable(I, ref, name, "fmi2SetReal")) return fmi2Error;                   \
+        if (!isfinite(value[i])) {                                                     \
+            LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", name, value[i]); \
+            return fmi2Error;                                                          \
+        }                                                                              \
+        if (I->s.phase == PHASE_STEP_COMPLETE && M->v.field != value[i])              \
+            solver_rollback(M, I->s.tc);                                               \
+        M->v.field = value[i];                                                         \
+        if (is_parameter(ref)) I->s.dirty = 1;                                         \
+        continue;
+#define VAR_INTEGER(ref, field, name)
+#define VAR_BOOLEAN(ref, field, name)
+#include "variables.def"
+#undef VAR_REAL
+#undef VAR_INTEGER
+#undef VAR_BOOLEAN
+        default:
+            break;
+        }
+        LOG_ERROR(I, "fmi2SetReal: unknown Real value reference %u", vr[i]);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Integer value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, SET_PHASES, "fmi2SetInteger");
+    if (check_array(I, vr, nvr, value, "fmi2SetInteger")) return fmi2Error;
+    Model *M = &I->s.model;
+    for (size_t i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+#define VAR_REAL(ref, field, name)
+#define VAR_INTEGER(ref, field, name)                                         \
+    case ref:                                                                \
+        if (settable(I, ref, name, "fmi2SetInteger")) return fmi2Error;      \
+        M->v.field = value[i];                                               \
+        I->s.dirty = 1;                                                      \
+        continue;
+#define VAR_BOOLEAN(ref, field, name)
+#include "variables.def"
+#undef VAR_REAL
+#undef VAR_INTEGER
+#undef VAR_BOOLEAN
+        default:
+            break;
+        }
+        LOG_ERROR(I, "fmi2SetInteger: unknown Integer value reference %u", vr[i]);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Boolean value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, SET_PHASES, "fmi2SetBoolean");
+    if (check_array(I, vr, nvr, value, "fmi2SetBoolean")) return fmi2Error;
+    Model *M = &I->s.model;
+    for (size_t i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+#define VAR_REAL(ref, field, name)
+#define VAR_INTEGER(ref, field, name)
+#define VAR_BOOLEAN(ref, field, name)                                         \
+    case ref:                                                                \
+        if (settable(I, ref, name, "fmi2SetBoolean")) return fmi2Error;      \
+        M->v.field = value[i] ? 1 : 0;                                       \
+        I->s.dirty = 1;                                                      \
+        continue;
+#include "variables.def"
+#undef VAR_REAL
+#undef VAR_INTEGER
+#undef VAR_BOOLEAN
+        default:
+            break;
+        }
+        LOG_ERROR(I, "fmi2SetBoolean: unknown Boolean value reference %u", vr[i]);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                         const fmi2String value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, SET_PHASES, "fmi2SetString");
+    (void)value;
+    if (nvr == 0) return fmi2OK;
+    LOG_ERROR(I, "fmi2SetString: the model has no String variables (value reference %u)",
+              vr ? vr[0] : 0u);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Real value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, GET_PHASES, "fmi2GetReal");
+    if (check_array(I, vr, nvr, value, "fmi2GetReal")) return fmi2Error;
+    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
+    const Model *M = &I->s.model;
+    for (size_t i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+#define VAR_REAL(ref, field, name) case ref: value[i] = M->v.field; continue;
+#define VAR_INTEGER(ref, field, name) 
+#define VAR_BOOLEAN(ref, field, name) 
+#include "variables.def"
+#undef VAR_REAL
+#undef VAR_INTEGER
+#undef VAR_BOOLEAN
+        default:
+            break;
+        }
+        LOG_ERROR(I, "fmi2GetReal: unknown Real value reference %u", vr[i]);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Integer value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, GET_PHASES, "fmi2GetInteger");
+    if (check_array(I, vr, nvr, value, "fmi2GetInteger")) return fmi2Error;
+    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
+    const Model *M = &I->s.model;
+    for (size_t i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+#define VAR_REAL(ref, field, name) 
+#define VAR_INTEGER(ref, field, name) case ref: value[i] = M->v.field; continue;
+#define VAR_BOOLEAN(ref, field, name) 
+#include "variables.def"
+#undef VAR_REAL
+#undef VAR_INTEGER
+#undef VAR_BOOLEAN
+        default:
+            break;
+        }
+        LOG_ERROR(I, "fmi2GetInteger: unknown Integer value reference %u", vr[i]);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Boolean value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, GET_PHASES, "fmi2GetBoolean");
+    if (check_array(I, vr, nvr, value, "fmi2GetBoolean")) return fmi2Error;
+    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
+    const Model *M = &I->s.model;
+    for (size_t i = 0; i < nvr; i++) {
+        switch (vr[i]) {
+#define VAR_REAL(ref, field, name) 
+#define VAR_INTEGER(ref, field, name) 
+#define VAR_BOOLEAN(ref, field, name) case ref: value[i] = (M->v.field ? fmi2True : fmi2False); continue;
+#include "variables.def"
+#undef VAR_REAL
+#undef VAR_INTEGER
+#undef VAR_BOOLEAN
+        default:
+            break;
+        }
+        LOG_ERROR(I, "fmi2GetBoolean: unknown Boolean value reference %u", vr[i]);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+#undef VAR
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                         fmi2String value[]) {
+    Instance *I = (Instance *)c;
+    CHECK(I, GET_PHASES, "fmi2GetString");
+    (void)value;
+    if (nvr == 0) return fmi2OK;
+    LOG_ERROR(I, "fmi2GetString: the model has no String variables (value reference %u)",
+              vr ? vr[0] : 0u);
+    return fmi2Error;
+}
+
+/* -------------------------------------------------------------- FMU state */
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Instance *I = (Instance *)c;
+    CHECK(I, GET_PHASES | PHASE_INSTANTIATED, "fmi2GetFMUstate");
+    if (!state) {
+        LOG_ERROR(I, "fmi2GetFMUstate: state pointer is NULL");
+        return fmi2Error;
+    }
+    Snapshot *snap = (Snapshot *)*state;
+    if (!snap) {
+        snap = (Snapshot *)I->cb.allocateMemory(1, sizeof(Snapshot));
+        if (!snap) {
+            LOG_ERROR(I, "fmi2GetFMUstate: out of memory");
+            return fmi2Error;
+        }
+    } else if (snap->magic != SNAPSHOT_MAGIC) {
+        LOG_ERROR(I, "fmi2GetFMUstate: the state to overwrite was not made by this FMU");
+        return fmi2Error;
+    }
+    *snap = I->s;
+    *state = snap;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    Instance *I = (Instance *)c;
+    CHECK(I, GET_PHASES | PHASE_INSTANTIATED, "fmi2SetFMUstate");
+    const Snapshot *snap = (const Snapshot *)state;
+    if (!snap || snap->magic != SNAPSHOT_MAGIC || snap->size != sizeof(Snapshot)) {
+        LOG_ERROR(I, "fmi2SetFMUstate: not a state of this FMU");
+        return fmi2Error;
+    }
+    I->s = *snap;
+    return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2FreeFMUstate");
+    if (!state || !*state) return fmi2OK;
+    I->cb.freeMemory(*state);
+    *state = NULL;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2SerializedFMUstateSize");
+    (void)state;
+    if (!size) {
+        LOG_ERROR(I, "fmi2SerializedFMUstateSize: size pointer is NULL");
+        return fmi2Error;
+    }
+    *size = sizeof(Snapshot);
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
+                                 size_t size) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2SerializeFMUstate");
+    const Snapshot *snap = (const Snapshot *)state;
+    if (!snap || snap->magic != SNAPSHOT_MAGIC || !bytes || size < sizeof(Snapshot)) {
+        LOG_ERROR(I, "fmi2SerializeFMUstate: invalid state or buffer of %zu bytes (need %zu)",
+                  size, sizeof(Snapshot));
+        return fmi2Error;
+    }
+    memcpy(bytes, snap, sizeof(Snapshot));
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size,
+                                   fmi2FMUstate *state) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2DeSerializeFMUstate");
+    Snapshot tmp;
+    if (!bytes || !state || size != sizeof(Snapshot)) {
+        LOG_ERROR(I, "fmi2DeSerializeFMUstate: expected %zu bytes, got %zu", sizeof(Snapshot), size);
+        return fmi2Error;
+    }
+    memcpy(&tmp, bytes, sizeof(Snapshot));
+    if (tmp.magic != SNAPSHOT_MAGIC || tmp.size != sizeof(Snapshot)) {
+        LOG_ERROR(I, "fmi2DeSerializeFMUstate: bytes are not a state of this FMU");
+        return fmi2Error;
+    }
+    Snapshot *snap = (Snapshot *)*state;
+    if (!snap) {
+        snap = (Snapshot *)I->cb.allocateMemory(1, sizeof(Snapshot));
+        if (!snap) {
+            LOG_ERROR(I, "fmi2DeSerializeFMUstate: out of memory");
+            return fmi2Error;
+        }
+    }
+    *snap = tmp;
+    *state = snap;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
+                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[],
+                                        size_t nKnown, const fmi2Real dvKnown[],
+                                        fmi2Real dvUnknown[]) {
+    Instance *I = (Instance *)c;
+    (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown, (void)dvUnknown;
+    CHECK(I, ANY_PHASE, "fmi2GetDirectionalDerivative");
+    LOG_ERROR(I, "fmi2GetDirectionalDerivative is not supported");
+    return fmi2Error;
+}
+
+/* -------------------------------------------------------- co-simulation */
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    Instance *I = (Instance *)c;
+    (void)vr, (void)nvr, (void)order, (void)value;
+    CHECK(I, ANY_PHASE, "fmi2SetRealInputDerivatives");
+    LOG_ERROR(I, "fmi2SetRealInputDerivatives is not supported (inputs are held constant over a step)");
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    Instance *I = (Instance *)c;
+    (void)vr, (void)nvr, (void)order, (void)value;
+    CHECK(I, ANY_PHASE, "fmi2GetRealOutputDerivatives");
+    LOG_ERROR(I, "fmi2GetRealOutputDerivatives is not supported");
+    return fmi2Error;
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
+                      fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    Instance *I = (Instance *)c;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    CHECK(I, PHASE_STEP_COMPLETE, "fmi2DoStep");
+    double tc = I->s.tc;
+    if (!isfinite(currentCommunicationPoint) || !isfinite(communicationStepSize) ||
+        communicationStepSize < 0) {
+        LOG_ERROR(I, "fmi2DoStep: invalid communication point %g or step size %g",
+                  currentCommunicationPoint, communicationStepSize);
+        return fmi2Error;
+    }
+    if (fabs(currentCommunicationPoint - tc) > 1e-9 * fmax(1.0, fabs(tc))) {
+        LOG_ERROR(I, "fmi2DoStep: communication point %.17g does not match the FMU time %.17g",
+                  currentCommunicationPoint, tc);
+        return fmi2Error;
+    }
+    double target = currentCommunicationPoint + communicationStepSize;
+    if (solver_advance(&I->s.model, target, solver_log, I)) {
+        I->s.phase = PHASE_ERROR;
+        return fmi2Error;
+    }
+    I->s.tc = target;
+    solver_outputs(&I->s.model, target);
+    return fmi2OK;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2CancelStep");
+    LOG_ERROR(I, "fmi2CancelStep: fmi2DoStep is synchronous, there is nothing to cancel");
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    Instance *I = (Instance *)c;
+    (void)s, (void)value;
+    CHECK(I, ANY_PHASE, "fmi2GetStatus");
+    LOG_ERROR(I, "fmi2GetStatus: no asynchronous status available");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2GetRealStatus");
+    if (s == fmi2LastSuccessfulTime && value) {
+        *value = I->s.tc;
+        return fmi2OK;
+    }
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    Instance *I = (Instance *)c;
+    (void)s, (void)value;
+    CHECK(I, ANY_PHASE, "fmi2GetIntegerStatus");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2GetBooleanStatus");
+    if (s == fmi2Terminated && value) {
+        *value = fmi2False;
+        return fmi2OK;
+    }
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    Instance *I = (Instance *)c;
+    (void)s, (void)value;
+    CHECK(I, ANY_PHASE, "fmi2GetStringStatus");
+    return fmi2Discard;
+}

@@ -1,0 +1,191 @@
+/* Rocking rigid block: parameters, excitation, equation of motion, energy.
+ * Conventions in model.h and docs/conventions.md. */
+#include "model.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+void model_set_defaults(Model *M) {
+    memset(M, 0, sizeof(*M));
+#define VAR(T, vr, field, name, caus, var, start, unit, desc) M->v.field = start;
+#include "variables.def"
+#undef VAR
+}
+
+#define FAIL(...)                        \
+    do {                                 \
+        snprintf(msg, n, __VA_ARGS__);   \
+        return 1;                        \
+    } while (0)
+
+int model_validate(const Variables *v, char *msg, size_t n) {
+    /* every Real must be finite */
+#define VAR(T, vr, field, name, caus, var, start, unit, desc) CHECK_##T(field, name)
+#define CHECK_REAL(field, name) \
+    if (!isfinite(v->field)) FAIL("%s = %g is not a finite number", name, v->field);
+#define CHECK_INTEGER(field, name)
+#define CHECK_BOOLEAN(field, name)
+#include "variables.def"
+#undef CHECK_REAL
+#undef CHECK_INTEGER
+#undef CHECK_BOOLEAN
+#undef VAR
+    if (v->nBlocks != 1)
+        FAIL("nBlocks = %d is not supported (this FMU models nBlocks = 1)", v->nBlocks);
+    if (!(v->halfWidth > 0)) FAIL("block1.halfWidth = %g must be > 0 m", v->halfWidth);
+    if (!(v->halfHeight > 0)) FAIL("block1.halfHeight = %g must be > 0 m", v->halfHeight);
+    if (!(v->mass > 0)) FAIL("block1.mass = %g must be > 0 kg", v->mass);
+    if (!(v->g > 0)) FAIL("g = %g must be > 0 m/s2", v->g);
+    if (v->law < 0 || v->law > 2)
+        FAIL("restitution.law = %d must be 0 (Housner), 1 (modified) or 2 (constant)", v->law);
+    if (!(v->k >= 0 && v->k <= 1)) FAIL("restitution.k = %g must be in [0, 1]", v->k);
+    if (!(v->eta >= 0 && v->eta <= 1)) FAIL("restitution.eta = %g must be in [0, 1]", v->eta);
+    if (!(v->correction > 0)) FAIL("restitution.correction = %g must be > 0", v->correction);
+    {
+        double alpha = atan(v->halfWidth / v->halfHeight);
+        double eta = model_law_restitution(v, alpha) * v->correction;
+        if (!(eta >= 0 && eta <= 1))
+            FAIL("effective restitution %g (law %d x correction %g) must be in [0, 1]",
+                 eta, v->law, v->correction);
+        if (!(fabs(v->theta0) < M_PI / 2))
+            FAIL("block1.theta0 = %g must satisfy |theta0| < pi/2 (the block would lie on its side)",
+                 v->theta0);
+    }
+    if (v->kind < 0 || v->kind > 3)
+        FAIL("excitation.kind = %d must be 0 (none), 1 (sine pulse), 2 (cosine pulse) or 3 (harmonic)",
+             v->kind);
+    if (v->kind != 0) {
+        if (!(v->frequency > 0)) FAIL("excitation.frequency = %g must be > 0 Hz", v->frequency);
+        if (v->kind != 3 && !(v->cycles > 0))
+            FAIL("excitation.cycles = %g must be > 0 for a pulse", v->cycles);
+        if (v->kind == 3 && !(v->cycles >= 0))
+            FAIL("excitation.cycles = %g must be >= 0 (0: endless harmonic)", v->cycles);
+        if (!(fabs(v->verticalAmplitude) < v->g))
+            FAIL("excitation.verticalAmplitude = %g must be below g in magnitude (the block would leave the ground)",
+                 v->verticalAmplitude);
+    }
+    if (!(v->relTol > 0 && v->relTol <= 0.1)) FAIL("solver.relTol = %g must be in (0, 0.1]", v->relTol);
+    if (!(v->absTol > 0)) FAIL("solver.absTol = %g must be > 0", v->absTol);
+    if (!(v->restRatio > 0 && v->restRatio < 1))
+        FAIL("solver.restRatio = %g must be in (0, 1)", v->restRatio);
+    return 0;
+}
+#undef FAIL
+
+double model_law_restitution(const Variables *v, double alpha) {
+    double s2 = sin(alpha) * sin(alpha);
+    switch (v->law) {
+    case 0: /* Housner (1963): conservation of angular momentum, corner impact */
+        return 1.0 - 1.5 * s2;
+    case 1: /* modified law (Kalliontzis et al.; Ceh and Jelenic eq. 10) */
+        return (4.0 - 3.0 * s2 * (1.0 + v->k * v->k)) /
+               (4.0 - 3.0 * s2 * (1.0 - v->k * v->k));
+    default:
+        return v->eta;
+    }
+}
+
+void model_derive(const Variables *v, Derived *d) {
+    double b = v->halfWidth, h = v->halfHeight;
+    d->R = sqrt(b * b + h * h);
+    d->alpha = atan(b / h);
+    d->tanAlpha = b / h;
+    d->I0 = 4.0 / 3.0 * v->mass * d->R * d->R;
+    d->mROverI0 = 3.0 / (4.0 * d->R);
+    d->p2 = 3.0 * v->g / (4.0 * d->R);
+    d->eta = model_law_restitution(v, d->alpha) * v->correction;
+    d->omegaExc = 2.0 * M_PI * v->frequency;
+    d->accAmp = v->kind == 3 ? v->displacement * d->omegaExc * d->omegaExc : v->amplitude;
+    if (v->kind == 0) {
+        d->excStart = INFINITY;
+        d->excEnd = INFINITY;
+    } else {
+        d->excStart = v->startTime;
+        d->excEnd = (v->kind == 3 && v->cycles == 0) ? INFINITY
+                                                     : v->startTime + v->cycles / v->frequency;
+    }
+}
+
+/* Waveform on the window, evaluated as the analytic piece (no window test). */
+static double wave_inside(const Model *M, double t) {
+    double ph = M->d.omegaExc * (t - M->v.startTime);
+    switch (M->v.kind) {
+    case 1: return sin(ph);
+    case 2: return cos(ph);
+    case 3: return -sin(ph); /* table displacement D sin(ph) */
+    default: return 0.0;
+    }
+}
+
+double model_waveform(const Model *M, double t) {
+    if (t < M->d.excStart || t >= M->d.excEnd) return 0.0;
+    return wave_inside(M, t);
+}
+
+int model_piece(const Model *M, double tStart) {
+    if (tStart < M->d.excStart || tStart >= M->d.excEnd) return 0;
+    return 1;
+}
+
+void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
+    double s = piece ? wave_inside(M, t) : 0.0;
+    *ah = M->d.accAmp * s + M->v.ahIn;
+    *av = M->v.verticalAmplitude * s + M->v.avIn;
+}
+
+void model_ground(const Model *M, double t, double *ah, double *av) {
+    double s = model_waveform(M, t);
+    *ah = M->d.accAmp * s + M->v.ahIn;
+    *av = M->v.verticalAmplitude * s + M->v.avIn;
+}
+
+void model_rhs_piece(const Model *M, double t, const double y[2], int side,
+                     int piece, double dy[2]) {
+    double ah, av;
+    model_ground_piece(M, t, piece, &ah, &av);
+    double phi = side * M->d.alpha - y[0];
+    dy[0] = y[1];
+    dy[1] = -M->d.mROverI0 * ((M->v.g + av) * sin(phi) + ah * cos(phi));
+}
+
+void model_rhs(const Model *M, double t, const double y[2], int side, double dy[2]) {
+    model_rhs_piece(M, t, y, side, !(t < M->d.excStart || t >= M->d.excEnd), dy);
+}
+
+double model_energy(const Model *M, double theta, double omega) {
+    double a = M->d.alpha;
+    return 0.5 * M->d.I0 * omega * omega +
+           M->v.mass * M->v.g * M->d.R * (cos(a - fabs(theta)) - cos(a));
+}
+
+double model_uplift_indicator_piece(const Model *M, double t, int side, int piece) {
+    double ah, av;
+    model_ground_piece(M, t, piece, &ah, &av);
+    return -side * ah - (M->v.g + av) * M->d.tanAlpha;
+}
+
+double model_uplift_indicator(const Model *M, double t, int side) {
+    return model_uplift_indicator_piece(M, t, side,
+                                        !(t < M->d.excStart || t >= M->d.excEnd));
+}
+
+void model_initialize(Model *M, double t0) {
+    State *S = &M->s;
+    memset(S, 0, sizeof(*S));
+    S->t = t0;
+    S->y[0] = M->v.theta0;
+    S->y[1] = M->v.omega0;
+    if (M->v.theta0 == 0.0 && M->v.omega0 == 0.0) {
+        S->mode = MODE_REST;
+        S->side = 1;
+    } else {
+        S->mode = MODE_ROCKING;
+        S->side = M->v.theta0 > 0 ? 1 : M->v.theta0 < 0 ? -1 : (M->v.omega0 > 0 ? 1 : -1);
+    }
+    S->lastImpactTime = -1;
+    S->lastPeakTime = -1;
+    S->overturnTime = -1;
+    S->restTime = -1;
+    S->maxAbsTheta = fabs(M->v.theta0);
+}

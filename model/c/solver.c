@@ -1,0 +1,440 @@
+/* Event-driven time stepping: steps, events, rest and uplift. */
+#include "solver.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "integrator.h"
+
+#define LOG_EVENTS 0
+#define LOG_ERROR 1
+
+typedef struct {
+    const Model *M;
+    int side;
+    int piece;
+} RhsCtx;
+
+static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
+    const RhsCtx *c = (const RhsCtx *)ctx;
+    model_rhs_piece(c->M, t, y, c->side, c->piece, dy);
+}
+
+static void say(LogFn log, void *ctx, int category, const char *fmt, ...) {
+    char buf[512];
+    va_list ap;
+    if (!log) return;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof(buf), fmt, ap);
+    va_end(ap);
+    log(ctx, category, buf);
+}
+
+static int excitation_over(const Model *M, double t) {
+    return M->v.kind == 0 || t >= M->d.excEnd;
+}
+
+/* Next window edge of the built-in excitation after t (a step stops there). */
+static double next_breakpoint(const Model *M, double t) {
+    if (M->v.kind == 0) return INFINITY;
+    if (t < M->d.excStart) return M->d.excStart;
+    if (t < M->d.excEnd) return M->d.excEnd;
+    return INFINITY;
+}
+
+static void restep(const RhsCtx *c, double t, const double *y, const double *f0,
+                   double h, double *y1, double *f1, double cont[5][NMAX]) {
+    double err[NMAX];
+    dopri5_step(rhs_cb, c, 2, t, y, f0, h, y1, f1, err, cont);
+}
+
+/* Newton iteration on the step length h in (0, hMax] so that component comp
+ * of the step result equals target; d y1[comp] / dh = f1[comp]. Leaves the
+ * step result for the returned h in y1, f1, cont. */
+static double refine(const RhsCtx *c, double t, const double *y, const double *f0,
+                     double h, double hMax, int comp, double target, double *y1,
+                     double *f1, double cont[5][NMAX]) {
+    restep(c, t, y, f0, h, y1, f1, cont);
+    for (int it = 0; it < 8; it++) {
+        double g = y1[comp] - target, dg = f1[comp];
+        if (g == 0.0 || dg == 0.0 || !isfinite(dg)) break;
+        double dh = -g / dg;
+        if (fabs(dh) <= 4.0 * DBL_EPSILON * (fabs(t) + fabs(h))) break;
+        double hn = h + dh;
+        if (hn > hMax) hn = hMax;
+        if (hn <= 0.0) hn = 0.5 * h;
+        if (hn == h) break;
+        h = hn;
+        restep(c, t, y, f0, h, y1, f1, cont);
+    }
+    return h;
+}
+
+/* Polynomial bounds on [0, 1]: lower and upper bound of sum c_i s^i. */
+static int may_have_root(const double *c) {
+    double lo = c[0], hi = c[0];
+    for (int i = 1; i <= 4; i++) {
+        if (c[i] < 0) lo += c[i];
+        else hi += c[i];
+    }
+    return lo <= 0.0 && hi >= 0.0;
+}
+
+/* First root in (0, 1] of c where it crosses with the given slope sign. */
+static double first_crossing(const double *c, int slope) {
+    double roots[4], d[4];
+    if (!may_have_root(c)) return 2.0;
+    int nr = poly_roots(c, 4, 0.0, 1.0, roots);
+    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
+    for (int j = 0; j < nr; j++) {
+        if (roots[j] <= 0.0) continue;
+        double dv = poly_eval(d, 3, roots[j]);
+        if ((slope < 0 && dv < 0) || (slope > 0 && dv > 0)) return roots[j];
+    }
+    return 2.0;
+}
+
+static void commit_peaks(Model *M, LogFn log, void *ctx) {
+    State *S = &M->s;
+    for (int i = 0; i < S->nStepPeaks; i++) {
+        S->peaks++;
+        S->lastPeakTime = S->stepPeakTime[i];
+        S->lastPeakTheta = S->stepPeakTheta[i];
+        if (fabs(S->lastPeakTheta) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->lastPeakTheta);
+        say(log, ctx, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
+    }
+    S->nStepPeaks = 0;
+    if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
+}
+
+static void apply_event(Model *M, LogFn log, void *ctx) {
+    State *S = &M->s;
+    commit_peaks(M, log, ctx);
+    if (S->pending == EVENT_IMPACT) {
+        double wm = S->y[1], wp = M->d.eta * wm;
+        S->impacts++;
+        S->lastImpactTime = S->t;
+        S->y[0] = 0.0;
+        S->y[1] = wp;
+        S->side = -S->side;
+        S->fValid = 0;
+        say(log, ctx, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g",
+            S->t, wm, wp);
+        /* Rest criterion: below the uplift threshold, an impact whose rebound
+         * (free rocking with effective gravity g + a_v) would peak below
+         * restRatio * alpha ends the rocking. */
+        double ah, av;
+        model_ground(M, S->t, &ah, &av);
+        double geff = M->v.g + av;
+        if (geff > 0 && fabs(ah) <= geff * M->d.tanAlpha) {
+            double pe2 = M->d.mROverI0 * geff;
+            double cmax = cos(M->d.alpha) + wp * wp / (2.0 * pe2);
+            if (cmax < 1.0 && M->d.alpha - acos(cmax) < M->v.restRatio * M->d.alpha) {
+                S->mode = MODE_REST;
+                S->y[1] = 0.0;
+                S->restTime = S->t;
+                S->h = 0.0;
+                say(log, ctx, LOG_EVENTS, "rest t=%.17g", S->t);
+            }
+        }
+    } else if (S->pending == EVENT_OVERTURN) {
+        S->mode = MODE_OVERTURNED;
+        S->overturnTime = S->t;
+        S->y[0] = S->side * M_PI / 2;
+        S->y[1] = 0.0;
+        S->maxAbsTheta = M_PI / 2;
+        say(log, ctx, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
+    }
+    S->pending = EVENT_NONE;
+}
+
+static int take_step(Model *M, LogFn log, void *ctx) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    RhsCtx c = {M, S->side, model_piece(M, S->t)};
+    double bp = next_breakpoint(M, S->t);
+    double hmax = bp - S->t;
+    double y1[NMAX], f1[NMAX], err[NMAX], cont[5][NMAX];
+    double h = S->h, hNext;
+    int hitBp;
+
+    if (!S->fValid) {
+        rhs_cb(&c, S->t, S->y, S->f);
+        S->fValid = 1;
+    }
+    if (!(h > 0))
+        h = dopri5_initial_step(rhs_cb, &c, 2, S->t, S->y, S->f, v->relTol, v->absTol,
+                                fmin(hmax, 1.0));
+    for (;;) {
+        hitBp = 0;
+        if (h >= hmax) {
+            h = hmax;
+            hitBp = 1;
+        }
+        dopri5_step(rhs_cb, &c, 2, S->t, S->y, S->f, h, y1, f1, err, cont);
+        double en = dopri5_error_norm(2, S->y, y1, err, v->relTol, v->absTol);
+        if (en <= 1.0) {
+            double fac = en > 0 ? 0.9 * pow(en, -0.2) : 5.0;
+            hNext = h * fmin(5.0, fmax(0.2, fac));
+            break;
+        }
+        if (!isfinite(en)) en = 1e10;
+        h *= fmax(0.2, 0.9 * pow(en, -0.2));
+        S->rejected++;
+        if (h < 16.0 * DBL_EPSILON * fmax(1.0, fabs(S->t))) {
+            say(log, ctx, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+            return -1;
+        }
+    }
+    S->steps++;
+
+    /* events on the dense output */
+    int side = S->side;
+    double cth[5], P[5], Q[5];
+    dense_poly(cont, 0, cth);
+    for (int i = 0; i < 5; i++) {
+        P[i] = side * cth[i];
+        Q[i] = P[i];
+    }
+    Q[0] -= M_PI / 2;
+    double sImpact = first_crossing(P, -1);
+    double sOver = first_crossing(Q, +1);
+    EventKind ev = EVENT_NONE;
+    double hStep = h, tNew = hitBp ? bp : S->t + h;
+    if (sImpact <= 1.0 || sOver <= 1.0) {
+        int comp = 0;
+        double target;
+        if (sImpact <= sOver) {
+            ev = EVENT_IMPACT;
+            target = 0.0;
+        } else {
+            ev = EVENT_OVERTURN;
+            target = side * M_PI / 2;
+        }
+        double s = ev == EVENT_IMPACT ? sImpact : sOver;
+        hStep = refine(&c, S->t, S->y, S->f, s * h, h, comp, target, y1, f1, cont);
+        y1[0] = target;
+        tNew = S->t + hStep;
+        hitBp = 0;
+    }
+
+    /* peaks (omega = 0) inside the step, refined the same way */
+    double com[5], roots[4];
+    dense_poly(cont, 1, com);
+    S->nStepPeaks = 0;
+    if (may_have_root(com)) {
+        int nr = poly_roots(com, 4, 0.0, 1.0, roots);
+        for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
+            double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
+            if (r <= 0.0 || d == 0.0) continue;
+            if (ev != EVENT_NONE && r >= 1.0) continue;
+            double yp[NMAX], fp[NMAX], cp[5][NMAX], yd[NMAX];
+            double hp = refine(&c, S->t, S->y, S->f, r * hStep, hStep, 1, 0.0, yp, fp, cp);
+            double tp = S->t + hp, thp = yp[0];
+            if (fabs(hp - r * hStep) > 1e-3 * hStep) { /* Newton strayed: keep the interpolant */
+                dense_eval(cont, 2, r, yd);
+                tp = S->t + r * hStep;
+                thp = yd[0];
+            }
+            S->stepPeakTime[S->nStepPeaks] = tp;
+            S->stepPeakTheta[S->nStepPeaks] = thp;
+            S->nStepPeaks++;
+        }
+    }
+
+    S->tOld = S->t;
+    S->hDense = hStep;
+    memcpy(S->cont, cont, sizeof(cont));
+    S->denseSide = side;
+    S->denseValid = 1;
+    S->t = tNew;
+    S->y[0] = y1[0];
+    S->y[1] = y1[1];
+    S->f[0] = f1[0];
+    S->f[1] = f1[1];
+    S->fValid = (ev == EVENT_NONE && !hitBp);
+    S->h = hNext;
+    S->pending = ev;
+
+    {
+        double ah, av;
+        model_ground_piece(M, S->t, c.piece, &ah, &av);
+        if (!(M->v.g + av > 0)) {
+            say(log, ctx, LOG_ERROR,
+                "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)",
+                av, S->t);
+            return -1;
+        }
+    }
+    if (!isfinite(S->y[0]) || !isfinite(S->y[1])) {
+        say(log, ctx, LOG_ERROR, "non-finite state at t=%.17g", S->t);
+        return -1;
+    }
+
+    /* Early overturn decision once nothing drives the block any more: past
+     * alpha it falls if it moves outwards, or if it moves inwards without
+     * the energy to get back over the corner (E < p^2). */
+    if (ev == EVENT_NONE && v->earlyOverturn && excitation_over(M, S->t) &&
+        v->ahIn == 0.0 && v->avIn == 0.0 && fabs(S->y[0]) > M->d.alpha) {
+        double E = 0.5 * S->y[1] * S->y[1] + M->d.p2 * cos(M->d.alpha - fabs(S->y[0]));
+        if (side * S->y[1] > 0 || E < M->d.p2) S->pending = EVENT_OVERTURN;
+    }
+    return 0;
+}
+
+/* Next edge of a cell on which the excitation waveform is monotone. */
+static double next_cell_edge(const Model *M, double a) {
+    if (M->v.kind == 0) return INFINITY;
+    if (a < M->d.excStart) return M->d.excStart;
+    if (a >= M->d.excEnd) return INFINITY;
+    double T4 = 0.25 / M->v.frequency;
+    double j = floor((a - M->d.excStart) / T4) + 1.0;
+    double b = M->d.excStart + j * T4;
+    if (b <= a) b = M->d.excStart + (j + 1.0) * T4;
+    return fmin(b, M->d.excEnd);
+}
+
+/* At rest: find the first time in [t, tc] at which the ground tips the block
+ * over a corner. On each cell the indicator is monotone (linear in the
+ * waveform), so a sign test at the cell edges finds every crossing. */
+static void rest_advance(Model *M, double tc, LogFn log, void *ctx) {
+    State *S = &M->s;
+    double a = S->t;
+    for (;;) {
+        int piece = model_piece(M, a);
+        double b = fmin(next_cell_edge(M, a), tc);
+        int best = 0;
+        double tu = INFINITY;
+        for (int side = 1; side >= -1 && !best; side -= 2)
+            if (model_uplift_indicator_piece(M, a, side, piece) > 0) {
+                best = side;
+                tu = a;
+            }
+        for (int side = 1; side >= -1 && !best && b > a; side -= 2) {
+            if (model_uplift_indicator_piece(M, b, side, piece) > 0) {
+                double lo = a, hi = b;
+                for (int it = 0; it < 200 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
+                    double mid = 0.5 * (lo + hi);
+                    if (model_uplift_indicator_piece(M, mid, side, piece) > 0) hi = mid;
+                    else lo = mid;
+                }
+                if (hi < tu) tu = hi;
+            }
+        }
+        if (!best && isfinite(tu)) {
+            /* pick the side whose indicator is positive at tu */
+            best = model_uplift_indicator_piece(M, tu, 1, piece) > 0 ? 1 : -1;
+        }
+        if (best) {
+            S->t = tu;
+            S->mode = MODE_ROCKING;
+            S->side = best;
+            S->y[0] = 0.0;
+            S->y[1] = 0.0;
+            S->fValid = 0;
+            S->denseValid = 0;
+            S->h = 0.0;
+            say(log, ctx, LOG_EVENTS, "uplift t=%.17g side=%d", tu, best);
+            return;
+        }
+        if (b >= tc) {
+            S->t = tc;
+            S->denseValid = 0;
+            return;
+        }
+        a = b;
+    }
+}
+
+int solver_advance(Model *M, double tc, LogFn log, void *ctx) {
+    State *S = &M->s;
+    for (;;) {
+        if (S->pending != EVENT_NONE && S->t <= tc) apply_event(M, log, ctx);
+        if (S->t >= tc) break;
+        commit_peaks(M, log, ctx);
+        switch (S->mode) {
+        case MODE_OVERTURNED:
+            S->t = tc;
+            S->denseValid = 0;
+            break;
+        case MODE_REST:
+            rest_advance(M, tc, log, ctx);
+            break;
+        default:
+            if (take_step(M, log, ctx)) return -1;
+        }
+    }
+    return 0;
+}
+
+void solver_outputs(Model *M, double tc) {
+    State *S = &M->s;
+    Variables *v = &M->v;
+    double y[2] = {S->y[0], S->y[1]};
+    int side = S->side;
+    if (S->t > tc && S->denseValid) {
+        double s = (tc - S->tOld) / S->hDense;
+        if (s < 0) s = 0;
+        if (s > 1) s = 1;
+        dense_eval(S->cont, 2, s, y);
+        side = S->denseSide;
+    }
+    v->theta = y[0];
+    v->omega = y[1];
+    if (S->mode == MODE_ROCKING) {
+        double dy[2];
+        model_rhs(M, tc, y, side, dy);
+        v->alphaDD = dy[1];
+    } else {
+        v->alphaDD = 0.0;
+    }
+    int peaks = S->peaks;
+    double lastT = S->lastPeakTime, lastTh = S->lastPeakTheta, mx = S->maxAbsTheta;
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc) {
+            peaks++;
+            lastT = S->stepPeakTime[i];
+            lastTh = S->stepPeakTheta[i];
+            if (fabs(lastTh) > mx) mx = fabs(lastTh);
+        }
+    if (fabs(y[0]) > mx) mx = fabs(y[0]);
+    v->peaks = peaks;
+    v->lastPeakTime = lastT;
+    v->lastPeakTheta = lastTh;
+    v->maxAbsTheta = mx;
+    v->impacts = S->impacts;
+    v->lastImpactTime = S->lastImpactTime;
+    v->overturned = S->mode == MODE_OVERTURNED;
+    v->atRest = S->mode == MODE_REST;
+    v->overturnTime = S->overturnTime;
+    v->restTime = S->restTime;
+    v->energy = model_energy(M, y[0], y[1]);
+    model_ground(M, tc, &v->ahTotal, &v->avTotal);
+}
+
+void solver_rollback(Model *M, double tc) {
+    State *S = &M->s;
+    if (S->mode != MODE_ROCKING || S->t <= tc || !S->denseValid) return;
+    double s = (tc - S->tOld) / S->hDense, y[2];
+    if (s < 0) s = 0;
+    if (s > 1) s = 1;
+    dense_eval(S->cont, 2, s, y);
+    S->y[0] = y[0];
+    S->y[1] = y[1];
+    S->t = tc;
+    S->side = S->denseSide;
+    S->pending = EVENT_NONE;
+    S->fValid = 0;
+    S->denseValid = 0;
+    int k = 0;
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc) {
+            S->stepPeakTime[k] = S->stepPeakTime[i];
+            S->stepPeakTheta[k] = S->stepPeakTheta[i];
+            k++;
+        }
+    S->nStepPeaks = k;
+}
