@@ -52,7 +52,7 @@ static void log_message(Instance *I, fmi2Status status, const char *category,
     va_end(ap);
     for (char *p = buf; *p; p++) /* the logger treats the message as a format */
         if (*p == '%') *p = ' ';
-    I->cb.logger(I->cb.componentEnvironment, I->name, status, category, "%s", buf);
+    I->cb.logger(I->cb.componentEnvironment, I->name, status, category, buf);
 }
 
 #define LOG_ERROR(I, ...) log_message(I, fmi2Error, "logStatusError", __VA_ARGS__)

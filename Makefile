@@ -1,0 +1,38 @@
+# Set-up and entry points. `make run` and `make test` are the two commands the
+# README promises; both create .venv, install the project and build the FMU.
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+BIN := $(VENV)/bin
+INSTALLED := $(VENV)/.installed
+
+.PHONY: run test fmu sanitize bench clean
+
+$(INSTALLED): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(INSTALLED)
+
+fmu: $(INSTALLED)
+	$(BIN)/python -m fmu_build
+
+run: fmu
+	$(BIN)/runners simulate examples/sine_pulse.toml
+
+test: fmu
+	$(BIN)/python -m pytest
+
+# The FMU tests again, against an FMU built with AddressSanitizer and UBSan.
+sanitize: $(INSTALLED)
+	$(BIN)/python -m fmu_build --sanitize
+	ROCKING_FMU=build/RockingBlock-sanitize.fmu \
+	LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libubsan.so)" \
+	ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+	$(BIN)/python -m pytest -p no:cacheprovider tests/test_fmu_physics.py tests/test_fmu_interface.py
+
+bench: fmu
+	$(BIN)/runners bench
+	$(BIN)/python -m pytest -m slow
+
+clean:
+	rm -rf build $(VENV)

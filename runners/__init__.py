@@ -1,0 +1,1 @@
+"""Runners: build scenes, run them through RockingBlock.fmu, report results."""

@@ -1,0 +1,80 @@
+"""The ``runners`` command line: simulate scenes and benchmark the FMU.
+
+Every failure prints one line ``error: ...`` to stderr and exits non-zero.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+from runners.fmu import FMUError, RockingFMU
+from runners.scene import SceneError, load_scene
+from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
+
+
+def _fmu_path(arg: str | None) -> Path:
+    if arg:
+        return Path(arg)
+    if os.environ.get("ROCKING_FMU"):
+        return Path(os.environ["ROCKING_FMU"])
+    from fmu_build import build_fmu
+
+    return build_fmu()
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    scene = load_scene(args.scene)
+    if args.stop_time is not None:
+        scene.stop_time = args.stop_time
+    if args.step is not None:
+        scene.step = args.step
+    with RockingFMU(_fmu_path(args.fmu)) as fmu:
+        defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
+    summary = summarize(scene, result, defaults)
+    print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from runners.bench import run_native_bench
+
+    print(run_native_bench(_fmu_path(args.fmu), repeats=args.repeats))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="runners", description="Rocking rigid blocks: run scenes through RockingBlock.fmu")
+    sub = parser.add_subparsers(dest="command", required=True)
+    sim = sub.add_parser("simulate", help="run one scene file and print a summary")
+    sim.add_argument("scene", help="scene file (TOML), see examples/")
+    sim.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
+    sim.add_argument("--json", action="store_true", help="print the summary as JSON")
+    sim.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
+    sim.add_argument("--step", type=float, help="override [simulation] step (s)")
+    sim.set_defaults(func=cmd_simulate)
+    bench = sub.add_parser("bench", help="measure the native cost of single-block simulations")
+    bench.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
+    bench.add_argument("--repeats", type=int, default=2000, help="simulations per case")
+    bench.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (SceneError, FMUError, FileNotFoundError, ValueError, OSError) as exc:
+        print(f"error: {exc}".splitlines()[0], file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,218 @@
+"""Drive RockingBlock.fmu through fmpy's FMI 2.0 Co-Simulation API.
+
+Units are SI and angles radians, with the sign convention of
+docs/conventions.md (theta > 0: clockwise, rocking on the right corner).
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+from fmpy.fmi2 import calloc, free  # the C runtime's allocator, as fmpy uses it
+
+DEFAULT_OUTPUTS = (
+    "block1.theta",
+    "block1.omega",
+    "block1.alpha_dd",
+    "impacts",
+    "overturned",
+    "atRest",
+    "energy",
+    "ground.ahTotal",
+)
+
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|overturn) (.*)$")
+
+
+class FMUError(RuntimeError):
+    """The FMU returned an error; the message is the FMU's own log line."""
+
+
+@dataclass
+class Event:
+    """An event the FMU reported through its ``logEvents`` category."""
+
+    kind: str  # impact, peak, uplift, rest or overturn
+    t: float  # s
+    values: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class RunResult:
+    """Sampled outputs (one array per variable, at ``time``) and the events."""
+
+    time: np.ndarray
+    outputs: dict[str, np.ndarray]
+    events: list[Event]
+    wall_time: float  # s, instantiate to terminate
+
+    def event_times(self, kind: str) -> np.ndarray:
+        return np.array([e.t for e in self.events if e.kind == kind])
+
+    def event_values(self, kind: str, key: str) -> np.ndarray:
+        return np.array([e.values[key] for e in self.events if e.kind == kind])
+
+
+def _parse_event(message: str) -> Event | None:
+    m = _EVENT.match(message)
+    if not m:
+        return None
+    values = {}
+    for item in m.group(2).split():
+        key, _, val = item.partition("=")
+        values[key] = float(val)
+    return Event(m.group(1), values.pop("t"), values)
+
+
+class RockingFMU:
+    """One extracted copy of the FMU; :meth:`run` simulates a scene with it.
+
+    Extracting once and instantiating many times keeps sweeps cheap. Use as a
+    context manager or call :meth:`close` to remove the extracted files.
+    """
+
+    def __init__(self, fmu_path: str | Path):
+        fmu_path = Path(fmu_path)
+        if not fmu_path.is_file():
+            raise FileNotFoundError(f"FMU not found: {fmu_path} (run: python -m fmu_build)")
+        self.path = fmu_path
+        self.model_description = read_model_description(str(fmu_path))
+        self.unzipdir = extract(str(fmu_path))
+        self.vars = {v.name: v for v in self.model_description.modelVariables}
+
+    def close(self) -> None:
+        shutil.rmtree(self.unzipdir, ignore_errors=True)
+
+    def __enter__(self) -> "RockingFMU":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def variable(self, name: str):
+        try:
+            return self.vars[name]
+        except KeyError:
+            raise KeyError(f"unknown FMU variable '{name}'") from None
+
+    def instantiate(self, log: Callable[[int, str, str], None], instance_name: str = "block",
+                    logging_on: bool = True) -> tuple[FMU2Slave, fmi2CallbackFunctions]:
+        """Instantiate a slave whose log lines go to ``log(status, category, message)``."""
+
+        def logger(env, name, status, category, message):
+            log(status, (category or b"").decode(), (message or b"").decode())
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        slave = FMU2Slave(
+            guid=self.model_description.guid,
+            unzipDirectory=self.unzipdir,
+            modelIdentifier=self.model_description.coSimulation.modelIdentifier,
+            instanceName=instance_name,
+        )
+        slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
+        return slave, callbacks
+
+    def set_parameters(self, slave: FMU2Slave, parameters: dict[str, float | int | bool]) -> None:
+        for name, value in parameters.items():
+            v = self.variable(name)
+            if v.type == "Real":
+                slave.setReal([v.valueReference], [float(value)])
+            elif v.type == "Integer":
+                slave.setInteger([v.valueReference], [int(value)])
+            elif v.type == "Boolean":
+                slave.setBoolean([v.valueReference], [bool(value)])
+            else:
+                raise TypeError(f"unsupported variable type {v.type} of '{name}'")
+
+    def _getter(self, slave: FMU2Slave, names: Iterable[str]) -> Callable[[], list[float]]:
+        groups: dict[str, list[tuple[int, int]]] = {"Real": [], "Integer": [], "Boolean": []}
+        names = list(names)
+        for i, n in enumerate(names):
+            v = self.variable(n)
+            groups[v.type].append((i, v.valueReference))
+        getters = {"Real": slave.getReal, "Integer": slave.getInteger, "Boolean": slave.getBoolean}
+
+        def get() -> list[float]:
+            row = [0.0] * len(names)
+            for typ, items in groups.items():
+                if items:
+                    vals = getters[typ]([vr for _, vr in items])
+                    for (i, _), val in zip(items, vals):
+                        row[i] = float(val)
+            return row
+
+        return get
+
+    def run(
+        self,
+        parameters: dict[str, float | int | bool],
+        stop_time: float,
+        step: float,
+        outputs: Iterable[str] = DEFAULT_OUTPUTS,
+        start_time: float = 0.0,
+        inputs: Callable[[float], tuple[float, float]] | None = None,
+        events: bool = True,
+    ) -> RunResult:
+        """Simulate from ``start_time`` to ``stop_time`` with communication step ``step`` (s).
+
+        ``inputs(t)`` may return (ground.ah, ground.av) in m/s^2, held over each step.
+        Raises :class:`FMUError` with the FMU's message if any call fails.
+        """
+        if not (step > 0 and stop_time > start_time):
+            raise ValueError(f"need step > 0 and stop_time > start_time (got {step}, {start_time}..{stop_time})")
+        log_events: list[Event] = []
+        errors: list[str] = []
+
+        def log(status: int, category: str, message: str) -> None:
+            if status >= 3:
+                errors.append(message)
+            elif events and category == "logEvents":
+                ev = _parse_event(message)
+                if ev:
+                    log_events.append(ev)
+
+        t0 = time.perf_counter()
+        slave, _callbacks = self.instantiate(log, logging_on=events)
+        names = list(outputs)
+        n = int(round((stop_time - start_time) / step))
+        times = start_time + step * np.arange(n + 1)
+        times[-1] = stop_time
+        data = np.empty((n + 1, len(names)))
+        try:
+            try:
+                slave.setupExperiment(startTime=start_time, stopTime=stop_time)
+                self.set_parameters(slave, parameters)
+                slave.enterInitializationMode()
+                slave.exitInitializationMode()
+                get = self._getter(slave, names)
+                ah_av = (self.variable("ground.ah").valueReference, self.variable("ground.av").valueReference)
+                data[0] = get()
+                for i in range(n):
+                    if inputs is not None:
+                        slave.setReal(list(ah_av), list(inputs(times[i])))
+                    slave.doStep(currentCommunicationPoint=times[i], communicationStepSize=times[i + 1] - times[i])
+                    data[i + 1] = get()
+                slave.terminate()
+            except Exception as exc:
+                raise FMUError(errors[-1] if errors else str(exc)) from None
+        finally:
+            slave.freeInstance()
+        wall = time.perf_counter() - t0
+        return RunResult(times, {k: data[:, j] for j, k in enumerate(names)}, log_events, wall)

@@ -1,0 +1,121 @@
+"""Scene files: TOML descriptions of one simulation, validated into FMU parameters.
+
+A scene has the tables [block], [restitution], [excitation] and [simulation];
+every key is optional and falls back to the FMU's default. Units are SI and
+angles radians (docs/conventions.md). See examples/*.toml.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+LAWS = {"housner": 0, "modified": 1, "constant": 2}
+KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3}
+
+# table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
+SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
+    "block": {
+        "half_width": ("block1.halfWidth", "real"),
+        "half_height": ("block1.halfHeight", "real"),
+        "mass": ("block1.mass", "real"),
+        "theta0": ("block1.theta0", "real"),
+        "omega0": ("block1.omega0", "real"),
+    },
+    "restitution": {
+        "law": ("restitution.law", LAWS),
+        "k": ("restitution.k", "real"),
+        "eta": ("restitution.eta", "real"),
+        "correction": ("restitution.correction", "real"),
+    },
+    "excitation": {
+        "kind": ("excitation.kind", KINDS),
+        "amplitude": ("excitation.amplitude", "real"),
+        "frequency": ("excitation.frequency", "real"),
+        "cycles": ("excitation.cycles", "real"),
+        "start_time": ("excitation.startTime", "real"),
+        "vertical_amplitude": ("excitation.verticalAmplitude", "real"),
+        "displacement": ("excitation.displacement", "real"),
+    },
+    "simulation": {
+        "stop_time": (None, "real"),
+        "step": (None, "real"),
+        "g": ("g", "real"),
+        "rel_tol": ("solver.relTol", "real"),
+        "abs_tol": ("solver.absTol", "real"),
+        "rest_ratio": ("solver.restRatio", "real"),
+        "early_overturn": ("solver.earlyOverturn", "bool"),
+    },
+}
+
+
+class SceneError(ValueError):
+    """A scene file is unreadable or invalid; str() is a one-line message."""
+
+
+@dataclass
+class Scene:
+    name: str
+    parameters: dict[str, float | int | bool] = field(default_factory=dict)
+    stop_time: float = 5.0  # s
+    step: float = 1e-3  # s, communication step
+    source: str = ""
+
+
+def _value(where: str, value: Any, kind: Any) -> float | int | bool:
+    if kind == "real":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SceneError(f"{where}: expected a number, got {value!r}")
+        if not math.isfinite(value):
+            raise SceneError(f"{where}: {value!r} is not a finite number")
+        return float(value)
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise SceneError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if not isinstance(value, str) or value not in kind:
+        raise SceneError(f"{where}: expected one of {', '.join(kind)}, got {value!r}")
+    return kind[value]
+
+
+def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
+    """Validate a parsed TOML document into a :class:`Scene`."""
+    scene = Scene(name=str(data.get("name", Path(source).stem)), source=source)
+    for table, content in data.items():
+        if table == "name":
+            continue
+        if table not in SCHEMA:
+            raise SceneError(f"{source}: unknown table [{table}] (expected {', '.join(SCHEMA)})")
+        if not isinstance(content, dict):
+            raise SceneError(f"{source}: '{table}' must be a table")
+        for key, value in content.items():
+            if key not in SCHEMA[table]:
+                raise SceneError(f"{source}: [{table}] unknown key '{key}' (expected {', '.join(SCHEMA[table])})")
+            fmu_name, kind = SCHEMA[table][key]
+            v = _value(f"{source}: [{table}] {key}", value, kind)
+            if fmu_name is None:
+                setattr(scene, key, v)
+            else:
+                scene.parameters[fmu_name] = v
+    if not scene.stop_time > 0:
+        raise SceneError(f"{source}: [simulation] stop_time must be > 0 s, got {scene.stop_time}")
+    if not 0 < scene.step <= scene.stop_time:
+        raise SceneError(f"{source}: [simulation] step must be in (0, stop_time], got {scene.step}")
+    return scene
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise SceneError(f"{path}: no such scene file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{path}: cannot read: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: invalid TOML: {exc}") from None
+    return scene_from_dict(data, str(path))
