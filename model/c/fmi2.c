@@ -610,7 +610,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
         return fmi2Error;
     }
     double target = currentCommunicationPoint + communicationStepSize;
-    if (solver_advance(&I->s.model, target, solver_log, I)) {
+    Logger log = {solver_log, I, I->loggingOn && I->logEvents};
+    if (solver_advance(&I->s.model, target, &log)) {
         I->s.phase = PHASE_ERROR;
         return fmi2Error;
     }

@@ -92,8 +92,13 @@ typedef struct {
 } Model;
 
 /* Logging callback used by the solver; ctx is opaque. category: 0 events,
- * 1 errors. */
+ * 1 errors. Event messages are only formatted when `events` is set. */
 typedef void (*LogFn)(void *ctx, int category, const char *message);
+typedef struct {
+    LogFn fn;
+    void *ctx;
+    int events;
+} Logger;
 
 /* Set every variable to its start value. */
 void model_set_defaults(Model *M);

@@ -23,14 +23,14 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     model_rhs_piece(c->M, t, y, c->side, c->piece, dy);
 }
 
-static void say(LogFn log, void *ctx, int category, const char *fmt, ...) {
+static void say(const Logger *log, int category, const char *fmt, ...) {
     char buf[512];
     va_list ap;
-    if (!log) return;
+    if (!log || !log->fn || (category == LOG_EVENTS && !log->events)) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof(buf), fmt, ap);
     va_end(ap);
-    log(ctx, category, buf);
+    log->fn(log->ctx, category, buf);
 }
 
 static int excitation_over(const Model *M, double t) {
@@ -97,22 +97,22 @@ static double first_crossing(const double *c, int slope) {
     return 2.0;
 }
 
-static void commit_peaks(Model *M, LogFn log, void *ctx) {
+static void commit_peaks(Model *M, const Logger *log) {
     State *S = &M->s;
     for (int i = 0; i < S->nStepPeaks; i++) {
         S->peaks++;
         S->lastPeakTime = S->stepPeakTime[i];
         S->lastPeakTheta = S->stepPeakTheta[i];
         if (fabs(S->lastPeakTheta) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->lastPeakTheta);
-        say(log, ctx, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
+        say(log, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
     }
     S->nStepPeaks = 0;
     if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
 }
 
-static void apply_event(Model *M, LogFn log, void *ctx) {
+static void apply_event(Model *M, const Logger *log) {
     State *S = &M->s;
-    commit_peaks(M, log, ctx);
+    commit_peaks(M, log);
     if (S->pending == EVENT_IMPACT) {
         double wm = S->y[1], wp = M->d.eta * wm;
         S->impacts++;
@@ -121,7 +121,7 @@ static void apply_event(Model *M, LogFn log, void *ctx) {
         S->y[1] = wp;
         S->side = -S->side;
         S->fValid = 0;
-        say(log, ctx, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g",
+        say(log, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g",
             S->t, wm, wp);
         /* Rest criterion: below the uplift threshold, an impact whose rebound
          * (free rocking with effective gravity g + a_v) would peak below
@@ -137,7 +137,7 @@ static void apply_event(Model *M, LogFn log, void *ctx) {
                 S->y[1] = 0.0;
                 S->restTime = S->t;
                 S->h = 0.0;
-                say(log, ctx, LOG_EVENTS, "rest t=%.17g", S->t);
+                say(log, LOG_EVENTS, "rest t=%.17g", S->t);
             }
         }
     } else if (S->pending == EVENT_OVERTURN) {
@@ -146,12 +146,12 @@ static void apply_event(Model *M, LogFn log, void *ctx) {
         S->y[0] = S->side * M_PI / 2;
         S->y[1] = 0.0;
         S->maxAbsTheta = M_PI / 2;
-        say(log, ctx, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
+        say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
     }
     S->pending = EVENT_NONE;
 }
 
-static int take_step(Model *M, LogFn log, void *ctx) {
+static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     RhsCtx c = {M, S->side, model_piece(M, S->t)};
@@ -185,7 +185,7 @@ static int take_step(Model *M, LogFn log, void *ctx) {
         h *= fmax(0.2, 0.9 * pow(en, -0.2));
         S->rejected++;
         if (h < 16.0 * DBL_EPSILON * fmax(1.0, fabs(S->t))) {
-            say(log, ctx, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+            say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
             return -1;
         }
     }
@@ -263,14 +263,14 @@ static int take_step(Model *M, LogFn log, void *ctx) {
         double ah, av;
         model_ground_piece(M, S->t, c.piece, &ah, &av);
         if (!(M->v.g + av > 0)) {
-            say(log, ctx, LOG_ERROR,
+            say(log, LOG_ERROR,
                 "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)",
                 av, S->t);
             return -1;
         }
     }
     if (!isfinite(S->y[0]) || !isfinite(S->y[1])) {
-        say(log, ctx, LOG_ERROR, "non-finite state at t=%.17g", S->t);
+        say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
         return -1;
     }
 
@@ -300,7 +300,7 @@ static double next_cell_edge(const Model *M, double a) {
 /* At rest: find the first time in [t, tc] at which the ground tips the block
  * over a corner. On each cell the indicator is monotone (linear in the
  * waveform), so a sign test at the cell edges finds every crossing. */
-static void rest_advance(Model *M, double tc, LogFn log, void *ctx) {
+static void rest_advance(Model *M, double tc, const Logger *log) {
     State *S = &M->s;
     double a = S->t;
     for (;;) {
@@ -337,7 +337,7 @@ static void rest_advance(Model *M, double tc, LogFn log, void *ctx) {
             S->fValid = 0;
             S->denseValid = 0;
             S->h = 0.0;
-            say(log, ctx, LOG_EVENTS, "uplift t=%.17g side=%d", tu, best);
+            say(log, LOG_EVENTS, "uplift t=%.17g side=%d", tu, best);
             return;
         }
         if (b >= tc) {
@@ -349,22 +349,22 @@ static void rest_advance(Model *M, double tc, LogFn log, void *ctx) {
     }
 }
 
-int solver_advance(Model *M, double tc, LogFn log, void *ctx) {
+int solver_advance(Model *M, double tc, const Logger *log) {
     State *S = &M->s;
     for (;;) {
-        if (S->pending != EVENT_NONE && S->t <= tc) apply_event(M, log, ctx);
+        if (S->pending != EVENT_NONE && S->t <= tc) apply_event(M, log);
         if (S->t >= tc) break;
-        commit_peaks(M, log, ctx);
+        commit_peaks(M, log);
         switch (S->mode) {
         case MODE_OVERTURNED:
             S->t = tc;
             S->denseValid = 0;
             break;
         case MODE_REST:
-            rest_advance(M, tc, log, ctx);
+            rest_advance(M, tc, log);
             break;
         default:
-            if (take_step(M, log, ctx)) return -1;
+            if (take_step(M, log)) return -1;
         }
     }
     return 0;

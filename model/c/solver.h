@@ -14,7 +14,7 @@
 #include "model.h"
 
 /* Returns 0 on success, nonzero on failure (a message went to log). */
-int solver_advance(Model *M, double tc, LogFn log, void *ctx);
+int solver_advance(Model *M, double tc, const Logger *log);
 
 /* Write the output variables of M->v for time tc (<= integrator time). */
 void solver_outputs(Model *M, double tc);

@@ -15,7 +15,7 @@
 
 typedef struct {
     const char *name;
-    double b, h, theta0, amplitude, frequency, relTol, stop;
+    double b, h, theta0, amplitude, frequency, relTol, stop, restRatio;
     int kind, law;
 } Case;
 
@@ -48,15 +48,17 @@ int main(int argc, char **argv) {
     LOAD(fmi2GetInteger) LOAD(fmi2GetBoolean) LOAD(fmi2FreeInstance)
     int repeats = atoi(argv[3]);
     fmi2CallbackFunctions cb = {quiet, xcalloc, free, NULL, NULL};
-    /* b, h, theta0, amplitude, frequency, relTol, stop, kind, law */
+    /* b, h, theta0, amplitude, frequency, relTol, stop, restRatio, kind, law */
     Case cases[] = {
-        {"sine pulse to rest, rtol 1e-10 (default)", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1, 0},
-        {"sine pulse to rest, rtol 1e-6", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1, 0},
-        {"sine pulse overturning, rtol 1e-10", 0.1, 0.3, 0, 6.0, 2.0, 1e-10, 5.0, 1, 0},
-        {"free rocking 10 impacts, rtol 1e-10", 0.1, 0.3, 0.2, 0, 1, 1e-10, 0, 0, 2},
-        {"free rocking 10 impacts, rtol 1e-6", 0.1, 0.3, 0.2, 0, 1, 1e-6, 0, 0, 2},
+        {"sine pulse to rest, rtol 1e-10, restRatio 1e-6 (defaults)", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-6, 1, 0},
+        {"sine pulse to rest, rtol 1e-6, restRatio 1e-6", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-6, 1, 0},
+        {"sine pulse to rest, rtol 1e-10, restRatio 1e-3", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-3, 1, 0},
+        {"sine pulse to rest, rtol 1e-6, restRatio 1e-3", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-3, 1, 0},
+        {"sine pulse overturning, rtol 1e-10", 0.1, 0.3, 0, 6.0, 2.0, 1e-10, 5.0, 1e-6, 1, 0},
+        {"free rocking 10 impacts, rtol 1e-10", 0.1, 0.3, 0.2, 0, 1, 1e-10, 0, 1e-6, 0, 2},
+        {"free rocking 10 impacts, rtol 1e-6", 0.1, 0.3, 0.2, 0, 1, 1e-6, 0, 1e-6, 0, 2},
     };
-    const fmi2ValueReference vrReal[] = {2, 3, 5, 13, 14, 19};
+    const fmi2ValueReference vrReal[] = {2, 3, 5, 13, 14, 19, 21};
     const fmi2ValueReference vrInt[] = {12, 8};
     const fmi2ValueReference vrImp = 43, vrOver = 44, vrRest = 45;
     for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
@@ -70,9 +72,9 @@ int main(int argc, char **argv) {
         for (int r = 0; r < repeats; r++) {
             fmi2Component m = fmi2Instantiate("bench", fmi2CoSimulation, argv[2], "", &cb, 0, 0);
             if (!m) return 1;
-            double real[] = {k.b, k.h, k.theta0, k.amplitude, k.frequency, k.relTol};
+            double real[] = {k.b, k.h, k.theta0, k.amplitude, k.frequency, k.relTol, k.restRatio};
             int ints[] = {k.kind, k.law};
-            fmi2SetReal(m, vrReal, 6, real);
+            fmi2SetReal(m, vrReal, 7, real);
             fmi2SetInteger(m, vrInt, 2, ints);
             fmi2SetupExperiment(m, 0, 0, 0, 0, 0);
             fmi2EnterInitializationMode(m);

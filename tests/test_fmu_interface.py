@@ -1,0 +1,260 @@
+"""FMI 2.0 behaviour of RockingBlock.fmu: validation, errors, state, instances, importers."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+import sys
+import threading
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+from fmpy.validation import validate_fmu
+
+from runners.fmu import FMUError
+
+SCENE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
+OUT = ["block1.theta", "block1.omega", "impacts", "atRest", "energy", "peaks"]
+
+
+def test_validate_fmu_reports_nothing(fmu_path):
+    assert validate_fmu(str(fmu_path)) == []
+
+
+def test_only_fmi2_symbols_are_exported(fmu_path, tmp_path):
+    with zipfile.ZipFile(fmu_path) as zf:
+        zf.extractall(tmp_path)
+    so = tmp_path / "binaries" / "linux64" / "RockingBlock.so"
+    out = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True, check=True).stdout
+    names = [line.split()[-1] for line in out.splitlines() if line.strip()]
+    assert names and all(n.startswith("fmi2") for n in names), names
+
+
+def test_fmu_ships_the_sources_and_capabilities(fmu):
+    cs = fmu.model_description.coSimulation
+    assert cs.canHandleVariableCommunicationStepSize and cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
+    names = {v.name for v in fmu.model_description.modelVariables}
+    for n in ["nBlocks", "block1.halfWidth", "restitution.law", "excitation.kind", "solver.relTol", "ground.ah",
+              "ground.av", "block1.theta", "block1.alpha_dd", "impacts", "overturned", "atRest", "energy",
+              "ground.ahTotal"]:
+        assert n in names
+
+
+INVALID = [
+    ("block1.halfWidth", 0.0), ("block1.halfWidth", -0.1), ("block1.halfHeight", 0.0), ("block1.halfHeight", -1.0),
+    ("block1.mass", 0.0), ("block1.mass", -3.0), ("restitution.eta", -0.01), ("restitution.eta", 1.01),
+    ("restitution.k", -0.01), ("restitution.k", 1.5), ("restitution.correction", 0.0), ("g", 0.0),
+    ("block1.theta0", 1.6), ("solver.relTol", 0.0), ("solver.absTol", -1.0), ("solver.restRatio", 0.0),
+    ("restitution.law", 3), ("excitation.kind", 7), ("nBlocks", 3),
+]
+REAL_PARAMETERS = ["block1.halfWidth", "block1.halfHeight", "block1.mass", "block1.theta0", "block1.omega0", "g",
+                   "restitution.k", "restitution.eta", "restitution.correction", "excitation.amplitude",
+                   "excitation.frequency", "excitation.cycles", "excitation.startTime",
+                   "excitation.verticalAmplitude", "excitation.displacement", "solver.relTol", "solver.absTol",
+                   "solver.restRatio", "ground.ah", "ground.av"]
+
+
+@pytest.mark.parametrize("name,value", INVALID + [(n, v) for n in REAL_PARAMETERS for v in (math.nan, math.inf)],
+                         ids=lambda x: str(x))
+def test_invalid_parameter_gives_error_and_message(fmu, name, value):
+    with pytest.raises(FMUError) as exc:
+        fmu.run({name: value}, 0.1, 0.1)
+    assert name in str(exc.value)
+
+
+def test_invalid_combinations_give_errors(fmu):
+    with pytest.raises(FMUError, match="effective restitution"):
+        fmu.run({"restitution.law": 2, "restitution.eta": 0.9, "restitution.correction": 1.2}, 0.1, 0.1)
+    with pytest.raises(FMUError, match="effective restitution"):  # Housner for a squat block is negative
+        fmu.run({"block1.halfWidth": 1.0, "block1.halfHeight": 0.5}, 0.1, 0.1)
+    with pytest.raises(FMUError, match="excitation.frequency"):
+        fmu.run({"excitation.kind": 1, "excitation.frequency": 0.0}, 0.1, 0.1)
+    with pytest.raises(FMUError, match="verticalAmplitude"):
+        fmu.run({"excitation.kind": 1, "excitation.verticalAmplitude": 10.0}, 0.1, 0.1)
+
+
+def test_vertical_input_below_minus_g_is_an_error_not_a_crash(fmu):
+    with pytest.raises(FMUError, match="leave the ground"):
+        fmu.run({"block1.theta0": 0.1}, 0.5, 0.01, inputs=lambda t: (0.0, -20.0))
+
+
+class Slave:
+    """A raw fmpy slave with its log captured, for call-sequence tests."""
+
+    def __init__(self, fmu):
+        self.messages: list[str] = []
+        self.fmu = fmu
+        self.s, self._cb = fmu.instantiate(lambda st, cat, msg: self.messages.append(msg))
+        self.vr = {n: v.valueReference for n, v in fmu.vars.items()}
+
+    def start(self, params=None, t0=0.0):
+        self.s.setupExperiment(startTime=t0)
+        self.fmu.set_parameters(self.s, params or {})
+        self.s.enterInitializationMode()
+        self.s.exitInitializationMode()
+
+    def real(self, *names):
+        return self.s.getReal([self.vr[n] for n in names])
+
+    def outputs(self):
+        return self.real("block1.theta", "block1.omega", "energy") + self.s.getInteger(
+            [self.vr["impacts"], self.vr["peaks"]]
+        )
+
+    def expect_error(self, call, text):
+        n = len(self.messages)
+        with pytest.raises(Exception):
+            call()
+        assert any(text in m for m in self.messages[n:]), self.messages[n:]
+
+    def close(self):
+        self.s.freeInstance()
+
+
+@pytest.fixture
+def slave(fmu):
+    s = Slave(fmu)
+    yield s
+    s.close()
+
+
+def test_invalid_call_sequences_are_errors(slave):
+    s = slave.s
+    slave.expect_error(lambda: s.doStep(0.0, 0.1), "fmi2DoStep must not be called")
+    slave.expect_error(lambda: s.getReal([slave.vr["block1.theta"]]), "fmi2GetReal must not be called")
+    slave.expect_error(lambda: s.exitInitializationMode(), "fmi2ExitInitializationMode must not be called")
+    slave.start()
+    slave.expect_error(lambda: s.setReal([slave.vr["block1.mass"]], [2.0]), "cannot be set after initialization")
+    slave.expect_error(lambda: s.setReal([slave.vr["block1.theta"]], [2.0]), "cannot be set")
+    slave.expect_error(lambda: s.setReal([9999], [1.0]), "unknown Real value reference")
+    slave.expect_error(lambda: s.getInteger([slave.vr["block1.theta"]]), "unknown Integer value reference")
+    slave.expect_error(lambda: s.doStep(0.5, 0.1), "does not match the FMU time")
+    slave.expect_error(lambda: s.doStep(0.0, -0.1), "invalid communication point")
+    slave.expect_error(lambda: s.setupExperiment(startTime=0.0), "fmi2SetupExperiment must not be called")
+    s.doStep(0.0, 0.1)  # still usable after rejected calls
+    s.terminate()
+    slave.expect_error(lambda: s.doStep(0.1, 0.1), "fmi2DoStep must not be called")
+
+
+def test_fmu_state_round_trip_reproduces_the_continuation(slave):
+    slave.start(SCENE)
+    s = slave.s
+    for i in range(10):
+        s.doStep(0.1 * i, 0.1)
+    state = s.getFMUstate()
+    first = []
+    for i in range(10, 30):
+        s.doStep(0.1 * i, 0.1)
+        first.append(slave.outputs())
+    s.setFMUstate(state)
+    again = [None] * 20
+    for k, i in enumerate(range(10, 30)):
+        s.doStep(0.1 * i, 0.1)
+        again[k] = slave.outputs()
+    assert again == first  # bit for bit
+    # serialised state, restored into the same instance after more steps
+    blob = s.serializeFMUstate(state)
+    s.freeFMUstate(state)
+    restored = s.deSerializeFMUstate(blob)
+    s.setFMUstate(restored)
+    s.doStep(1.0, 0.1)
+    assert slave.outputs() == first[0]
+    s.freeFMUstate(restored)
+
+
+def test_deserialising_garbage_is_an_error(slave):
+    slave.start()
+    slave.expect_error(lambda: slave.s.deSerializeFMUstate(b"\0" * 16), "expected")
+
+
+def test_reset_then_rerun_reproduces_the_first_run(slave):
+    def run():
+        slave.start(SCENE)
+        rows = []
+        for i in range(30):
+            slave.s.doStep(0.1 * i, 0.1)
+            rows.append(slave.outputs())
+        return rows
+
+    first = run()
+    slave.s.reset()
+    assert run() == first
+
+
+def _run_scene(fmu, amplitude):
+    r = fmu.run({**SCENE, "excitation.amplitude": amplitude}, 3.0, 1e-2, outputs=OUT, events=False)
+    return np.column_stack([r.outputs[k] for k in OUT])
+
+
+def test_instances_run_side_by_side_in_threads(fmu):
+    amplitudes = [4.0, 4.5, 5.0, 5.5, 6.0, 7.0]
+    sequential = [_run_scene(fmu, a) for a in amplitudes]
+    results: dict[int, np.ndarray] = {}
+
+    def work(i):
+        results[i] = _run_scene(fmu, amplitudes[i])
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(amplitudes))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for i, seq in enumerate(sequential):
+        np.testing.assert_array_equal(results[i], seq)
+
+
+def test_fmpy_simulate_fmu_runs_it(fmu_path, fmu):
+    params = {"block1.theta0": 0.2, **SCENE}
+    r = simulate_fmu(str(fmu_path), start_values=params, stop_time=3.0, output_interval=1e-2, output=["block1.theta"])
+    ours = fmu.run(params, 3.0, 1e-2, outputs=["block1.theta"], events=False)
+    np.testing.assert_allclose(r["block1.theta"], ours.outputs["block1.theta"], rtol=0, atol=1e-12)
+
+
+def test_container_fmu_gives_the_same_trajectory(fmu_path, fmu, tmp_path):
+    """fmucontainer builds a container FMU whose own C runtime imports ours."""
+    tool = Path(sys.executable).parent / "fmucontainer"
+    if not tool.exists():
+        tool = shutil.which("fmucontainer")
+    assert tool, "fmucontainer (pip fmu-manipulation-toolbox) is not installed"
+    shutil.copy(fmu_path, tmp_path / "RockingBlock.fmu")
+    (tmp_path / "container.json").write_text(json.dumps({
+        "name": "RockingContainer.fmu", "step_size": 0.004, "auto_input": True, "auto_output": True,
+        "auto_parameter": True, "fmu": ["RockingBlock.fmu"],
+    }))
+    proc = subprocess.run([str(tool), "-container", "container.json", "-fmu-directory", "."], cwd=tmp_path,
+                          capture_output=True, text=True)
+    container = tmp_path / "RockingContainer.fmu"
+    assert container.is_file(), proc.stdout + proc.stderr
+    params = {"block1.theta0": 0.15, "excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
+    r = simulate_fmu(str(container), start_values={f"rockingblock.{k}": v for k, v in params.items()},
+                     stop_time=3.0, output_interval=0.02, output=["block1.theta", "impacts"])
+    ours = fmu.run(params, 3.0, 0.02, outputs=["block1.theta", "impacts"], events=False)
+    assert ours.outputs["impacts"][-1] > 5
+    np.testing.assert_allclose(r["time"], ours.time, atol=1e-9)
+    np.testing.assert_allclose(r["block1.theta"], ours.outputs["block1.theta"], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(r["impacts"], ours.outputs["impacts"])
+
+
+def test_sources_rebuild_with_fmpy_build_platform_binary(fmu_path, fmu, tmp_path):
+    from fmpy.build import build_platform_binary
+
+    unzipdir = tmp_path / "fmu"
+    with zipfile.ZipFile(fmu_path) as zf:
+        zf.extractall(unzipdir)
+    shutil.rmtree(unzipdir / "binaries")
+    (tmp_path / "cmake").mkdir()
+    build_platform_binary(unzipdir, build_dir=tmp_path / "cmake")
+    rebuilt = tmp_path / "rebuilt.fmu"
+    with zipfile.ZipFile(rebuilt, "w") as zf:
+        for p in sorted(unzipdir.rglob("*")):
+            if p.is_file():
+                zf.write(p, p.relative_to(unzipdir).as_posix())
+    params = {"block1.theta0": 0.2}
+    r = simulate_fmu(str(rebuilt), start_values=params, stop_time=2.0, output_interval=0.01, output=["block1.theta"])
+    ours = fmu.run(params, 2.0, 0.01, outputs=["block1.theta"], events=False)
+    np.testing.assert_allclose(r["block1.theta"], ours.outputs["block1.theta"], rtol=0, atol=1e-12)

@@ -1,0 +1,66 @@
+"""The runners command line, run as a user runs it (a real subprocess)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def runners(*args: str, fmu_path: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path)}
+    return subprocess.run([sys.executable, "-m", "runners.cli", *args], capture_output=True, text=True, env=env,
+                          cwd=ROOT)
+
+
+def test_simulate_prints_a_readable_summary(fmu_path):
+    p = runners("simulate", "examples/sine_pulse.toml", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert "outcome" in p.stdout and "impacts" in p.stdout and "at rest since" in p.stdout
+
+
+@pytest.mark.parametrize("scene", sorted((ROOT / "examples").glob("*.toml")), ids=lambda p: p.stem)
+def test_every_example_runs_and_json_is_consistent(fmu_path, scene):
+    p = runners("simulate", str(scene), "--json", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    s = json.loads(p.stdout)
+    assert s["final_state"] in ("at rest", "rocking", "overturned")
+    assert s["overturned"] == (s["final_state"] == "overturned")
+    assert s["max_abs_theta_over_alpha"] == pytest.approx(s["max_abs_theta_rad"] / s["alpha_rad"])
+
+
+BAD_SCENES = {
+    "unknown key": ("[block]\nhalf_widht = 0.1\n", "unknown key 'half_widht'"),
+    "unknown table": ("[blok]\nhalf_width = 0.1\n", "unknown table [blok]"),
+    "wrong type": ('[block]\nhalf_width = "wide"\n', "expected a number"),
+    "bad choice": ('[restitution]\nlaw = "elastic"\n', "expected one of housner"),
+    "bad toml": ("[block\n", "invalid TOML"),
+    "negative width": ("[block]\nhalf_width = -0.1\n", "block1.halfWidth"),
+    "bad step": ("[simulation]\nstep = 0\n", "step must be in"),
+}
+
+
+@pytest.mark.parametrize("name", BAD_SCENES)
+def test_bad_scene_gives_one_line_error_and_nonzero_exit(fmu_path, tmp_path, name):
+    text, message = BAD_SCENES[name]
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    p = runners("simulate", str(scene), fmu_path=fmu_path)
+    assert p.returncode == 2
+    assert p.stdout == ""
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], p.stderr
+    assert "Traceback" not in p.stderr
+
+
+def test_missing_scene_and_missing_fmu(fmu_path, tmp_path):
+    p = runners("simulate", str(tmp_path / "nope.toml"), fmu_path=fmu_path)
+    assert p.returncode == 2 and "no such scene file" in p.stderr
+    p = runners("simulate", "examples/sine_pulse.toml", fmu_path=tmp_path / "missing.fmu")
+    assert p.returncode == 2 and "FMU not found" in p.stderr and "Traceback" not in p.stderr
