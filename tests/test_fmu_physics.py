@@ -9,7 +9,7 @@ import pytest
 
 from model.reference import Block, free_rocking, housner_restitution, modified_restitution
 
-GEOMETRIES = [(0.1, 0.3), (0.045, 0.10125)]  # h/b = 3 and seed 003's B3M (half dimensions)
+GEOMETRIES = [(0.1, 0.3), (0.0225, 0.050625)]  # h/b = 3, and seed 003 B3M (h/b = 2.25, half dimensions)
 LAWS = [
     ("housner", {"restitution.law": 0}, lambda a: housner_restitution(a)),
     ("modified", {"restitution.law": 1, "restitution.k": 0.7595}, lambda a: modified_restitution(a, 0.7595)),
