@@ -265,42 +265,70 @@ static fmi2Status settable(Instance *I, fmi2ValueReference vr, const char *name,
 
 #define SET_PHASES (PHASE_INSTANTIATED | PHASE_INITIALIZATION | PHASE_STEP_COMPLETE)
 
-/* Setters and getters are generated per type from variables.def: VAR expands
- * to VAR_REAL, VAR_INTEGER or VAR_BOOLEAN, and each function defines only the
- * expansion of its own type. */
-#define VAR(T, ref, field, name, caus, var, start, unit, desc) VAR_##T(ref, field, name)
+/* ---------------------------------------------------- the variable table */
+
+typedef enum { TYPE_REAL, TYPE_INTEGER, TYPE_BOOLEAN } VarType;
+#define TYPE_OF_REAL TYPE_REAL
+#define TYPE_OF_INTEGER TYPE_INTEGER
+#define TYPE_OF_BOOLEAN TYPE_BOOLEAN
+
+/* Address, type and name of the variable with value reference vr in M, or
+ * NULL for an unknown reference. Generated from variables.def. */
+static void *var_address(Model *M, fmi2ValueReference vr, VarType *type, const char **name) {
+    switch (vr) {
+#define VAR(T, ref, field, name_, caus, var, start, unit, desc) \
+    case ref:                                                   \
+        *type = TYPE_OF_##T;                                    \
+        *name = name_;                                          \
+        return &M->v.field;
+#include "variables.def"
+#undef VAR
+    default:
+        return NULL;
+    }
+}
+
+static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean"};
+
+/* Common checks of the getters and setters; returns the variable's address
+ * or NULL after logging an error. */
+static void *lookup(Instance *I, fmi2ValueReference vr, VarType want, int set, const char *fn,
+                    const char **nameOut) {
+    VarType type;
+    const char *name = "";
+    void *p = var_address(&I->s.model, vr, &type, &name);
+    if (nameOut) *nameOut = name;
+    if (!p || type != want) {
+        LOG_ERROR(I, "%s: unknown %s value reference %u", fn, TYPE_NAMES[want], vr);
+        return NULL;
+    }
+    if (set && settable(I, vr, name, fn)) return NULL;
+    return p;
+}
+
+static fmi2Status begin_access(Instance *I, int set, const void *vr, size_t nvr, const void *value,
+                               const char *fn) {
+    if (bad_call(I, set ? SET_PHASES : GET_PHASES, fn)) return fmi2Error;
+    if (check_array(I, vr, nvr, value, fn)) return fmi2Error;
+    return set ? fmi2OK : ensure_initialized(I);
+}
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, SET_PHASES, "fmi2SetReal");
-    if (check_array(I, vr, nvr, value, "fmi2SetReal")) return fmi2Error;
-    Model *M = &I->s.model;
+    if (begin_access(I, 1, vr, nvr, value, "fmi2SetReal")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-#define VAR_REAL(ref, field, name)                                                      \
-    case ref:                                                                          \
-        if (settable(I, ref, name, "fmi2SetReal")) return fmi2Error;                   \
-        if (!isfinite(value[i])) {                                                     \
-            LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", name, value[i]); \
-            return fmi2Error;                                                          \
-        }                                                                              \
-        if (I->s.phase == PHASE_STEP_COMPLETE && M->v.field != value[i])              \
-            solver_rollback(M, I->s.tc);                                               \
-        M->v.field = value[i];                                                         \
-        if (is_parameter(ref)) I->s.dirty = 1;                                         \
-        continue;
-#define VAR_INTEGER(ref, field, name)
-#define VAR_BOOLEAN(ref, field, name)
-#include "variables.def"
-#undef VAR_REAL
-#undef VAR_INTEGER
-#undef VAR_BOOLEAN
-        default:
-            break;
+        const char *name;
+        double *p = (double *)lookup(I, vr[i], TYPE_REAL, 1, "fmi2SetReal", &name);
+        if (!p) return fmi2Error;
+        if (!isfinite(value[i])) {
+            LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", name, value[i]);
+            return fmi2Error;
         }
-        LOG_ERROR(I, "fmi2SetReal: unknown Real value reference %u", vr[i]);
-        return fmi2Error;
+        /* a changed input restarts the integrator at the communication point */
+        if (I->s.phase == PHASE_STEP_COMPLETE && *p != value[i]) solver_rollback(&I->s.model, I->s.tc);
+        *p = value[i];
+        if (is_parameter(vr[i])) I->s.dirty = 1;
     }
     return fmi2OK;
 }
@@ -308,28 +336,12 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Integer value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, SET_PHASES, "fmi2SetInteger");
-    if (check_array(I, vr, nvr, value, "fmi2SetInteger")) return fmi2Error;
-    Model *M = &I->s.model;
+    if (begin_access(I, 1, vr, nvr, value, "fmi2SetInteger")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-#define VAR_REAL(ref, field, name)
-#define VAR_INTEGER(ref, field, name)                                         \
-    case ref:                                                                \
-        if (settable(I, ref, name, "fmi2SetInteger")) return fmi2Error;      \
-        M->v.field = value[i];                                               \
-        I->s.dirty = 1;                                                      \
-        continue;
-#define VAR_BOOLEAN(ref, field, name)
-#include "variables.def"
-#undef VAR_REAL
-#undef VAR_INTEGER
-#undef VAR_BOOLEAN
-        default:
-            break;
-        }
-        LOG_ERROR(I, "fmi2SetInteger: unknown Integer value reference %u", vr[i]);
-        return fmi2Error;
+        int *p = (int *)lookup(I, vr[i], TYPE_INTEGER, 1, "fmi2SetInteger", NULL);
+        if (!p) return fmi2Error;
+        *p = value[i];
+        I->s.dirty = 1;
     }
     return fmi2OK;
 }
@@ -337,28 +349,12 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Boolean value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, SET_PHASES, "fmi2SetBoolean");
-    if (check_array(I, vr, nvr, value, "fmi2SetBoolean")) return fmi2Error;
-    Model *M = &I->s.model;
+    if (begin_access(I, 1, vr, nvr, value, "fmi2SetBoolean")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-#define VAR_REAL(ref, field, name)
-#define VAR_INTEGER(ref, field, name)
-#define VAR_BOOLEAN(ref, field, name)                                         \
-    case ref:                                                                \
-        if (settable(I, ref, name, "fmi2SetBoolean")) return fmi2Error;      \
-        M->v.field = value[i] ? 1 : 0;                                       \
-        I->s.dirty = 1;                                                      \
-        continue;
-#include "variables.def"
-#undef VAR_REAL
-#undef VAR_INTEGER
-#undef VAR_BOOLEAN
-        default:
-            break;
-        }
-        LOG_ERROR(I, "fmi2SetBoolean: unknown Boolean value reference %u", vr[i]);
-        return fmi2Error;
+        int *p = (int *)lookup(I, vr[i], TYPE_BOOLEAN, 1, "fmi2SetBoolean", NULL);
+        if (!p) return fmi2Error;
+        *p = value[i] ? 1 : 0;
+        I->s.dirty = 1;
     }
     return fmi2OK;
 }
@@ -377,79 +373,38 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                        fmi2Real value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, GET_PHASES, "fmi2GetReal");
-    if (check_array(I, vr, nvr, value, "fmi2GetReal")) return fmi2Error;
-    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
-    const Model *M = &I->s.model;
+    if (begin_access(I, 0, vr, nvr, value, "fmi2GetReal")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-#define VAR_REAL(ref, field, name) case ref: value[i] = M->v.field; continue;
-#define VAR_INTEGER(ref, field, name) 
-#define VAR_BOOLEAN(ref, field, name) 
-#include "variables.def"
-#undef VAR_REAL
-#undef VAR_INTEGER
-#undef VAR_BOOLEAN
-        default:
-            break;
-        }
-        LOG_ERROR(I, "fmi2GetReal: unknown Real value reference %u", vr[i]);
-        return fmi2Error;
+        const double *p = (const double *)lookup(I, vr[i], TYPE_REAL, 0, "fmi2GetReal", NULL);
+        if (!p) return fmi2Error;
+        value[i] = *p;
     }
     return fmi2OK;
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       fmi2Integer value[]) {
+                          fmi2Integer value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, GET_PHASES, "fmi2GetInteger");
-    if (check_array(I, vr, nvr, value, "fmi2GetInteger")) return fmi2Error;
-    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
-    const Model *M = &I->s.model;
+    if (begin_access(I, 0, vr, nvr, value, "fmi2GetInteger")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-#define VAR_REAL(ref, field, name) 
-#define VAR_INTEGER(ref, field, name) case ref: value[i] = M->v.field; continue;
-#define VAR_BOOLEAN(ref, field, name) 
-#include "variables.def"
-#undef VAR_REAL
-#undef VAR_INTEGER
-#undef VAR_BOOLEAN
-        default:
-            break;
-        }
-        LOG_ERROR(I, "fmi2GetInteger: unknown Integer value reference %u", vr[i]);
-        return fmi2Error;
+        const int *p = (const int *)lookup(I, vr[i], TYPE_INTEGER, 0, "fmi2GetInteger", NULL);
+        if (!p) return fmi2Error;
+        value[i] = *p;
     }
     return fmi2OK;
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                       fmi2Boolean value[]) {
+                          fmi2Boolean value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, GET_PHASES, "fmi2GetBoolean");
-    if (check_array(I, vr, nvr, value, "fmi2GetBoolean")) return fmi2Error;
-    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
-    const Model *M = &I->s.model;
+    if (begin_access(I, 0, vr, nvr, value, "fmi2GetBoolean")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
-        switch (vr[i]) {
-#define VAR_REAL(ref, field, name) 
-#define VAR_INTEGER(ref, field, name) 
-#define VAR_BOOLEAN(ref, field, name) case ref: value[i] = (M->v.field ? fmi2True : fmi2False); continue;
-#include "variables.def"
-#undef VAR_REAL
-#undef VAR_INTEGER
-#undef VAR_BOOLEAN
-        default:
-            break;
-        }
-        LOG_ERROR(I, "fmi2GetBoolean: unknown Boolean value reference %u", vr[i]);
-        return fmi2Error;
+        const int *p = (const int *)lookup(I, vr[i], TYPE_BOOLEAN, 0, "fmi2GetBoolean", NULL);
+        if (!p) return fmi2Error;
+        value[i] = *p ? fmi2True : fmi2False;
     }
     return fmi2OK;
 }
-
-#undef VAR
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
