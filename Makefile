@@ -32,7 +32,6 @@ sanitize: $(INSTALLED)
 
 bench: fmu
 	$(BIN)/runners bench
-	$(BIN)/python -m pytest -m slow
 
 clean:
 	rm -rf build $(VENV)

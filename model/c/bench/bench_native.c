@@ -3,7 +3,7 @@
  * initialise, one doStep over the whole horizon, read outputs, free) and print
  * one line per case: name, microseconds per simulation, impacts, outcome.
  *
- * usage: bench_native LIBRARY GUID REPEATS
+ * usage: bench_native LIBRARY GUID REPEATS [CASE]   (CASE: run only that row, from 0)
  */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
@@ -34,8 +34,8 @@ static double now(void) {
 #define LOAD(name) name##TYPE *name = (name##TYPE *)dlsym(lib, #name); if (!name) { fprintf(stderr, "missing %s\n", #name); return 1; }
 
 int main(int argc, char **argv) {
-    if (argc != 4) {
-        fprintf(stderr, "usage: %s LIBRARY GUID REPEATS\n", argv[0]);
+    if (argc != 4 && argc != 5) {
+        fprintf(stderr, "usage: %s LIBRARY GUID REPEATS [CASE]\n", argv[0]);
         return 2;
     }
     void *lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
@@ -61,7 +61,9 @@ int main(int argc, char **argv) {
     const fmi2ValueReference vrReal[] = {2, 3, 5, 13, 14, 19, 21};
     const fmi2ValueReference vrInt[] = {12, 8};
     const fmi2ValueReference vrImp = 43, vrOver = 44, vrRest = 45;
+    int only = argc == 5 ? atoi(argv[4]) : -1;
     for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
+        if (only >= 0 && (size_t)only != c) continue;
         Case k = cases[c];
         double stop = k.stop;
         if (k.law == 2) { /* free rocking with eta = 0.9: stop just after the 10th impact */
