@@ -1,0 +1,137 @@
+"""Equations of motion of two stacked rocking blocks (independent Python reference).
+
+Generalised coordinates q = (theta1, theta2): absolute rotations of the lower
+block 1 and the upper block 2, clockwise positive (docs/conventions.md). The
+pivot indicators s1, s2 = +1 (right corner) or -1 (left corner) choose the
+corner block 1 turns about on the ground and the corner block 2 turns about on
+block 1. The derivation is in docs/two_blocks.md: the centres of mass r_i(q)
+are written from the kinematics, their Jacobians J_i = dr_i/dq give the mass
+matrix M(q) = sum m_i J_i^T J_i + diag(Ic1, Ic2), and d'Alembert's principle in
+the (accelerating) ground frame gives
+
+    M(q) q'' = -sum_i m_i J_i^T (c_i(q, q') + (a_h, g + a_v))
+
+with c_i the velocity-product part of the acceleration of centre i. This module
+covers the mode in which both blocks rock ("both") and the locked mode in
+which the pair turns as one body about block 1's corner; impacts and mode
+changes are not here yet.
+
+Units SI, angles in radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def rot(theta: float) -> np.ndarray:
+    """Clockwise rotation by theta: (0, 1) tilts towards +x."""
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[c, s], [-s, c]])
+
+
+def drot(theta: float) -> np.ndarray:
+    """d rot / d theta; note d^2 rot / d theta^2 = -rot."""
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[-s, c], [-c, -s]])
+
+
+@dataclass(frozen=True)
+class Stack:
+    """Lower block 1 and upper block 2: half widths b, half heights h (m), masses m (kg).
+
+    Block 2 stands centred on block 1; their contact spans |x| <= min(b1, b2).
+    """
+
+    b1: float
+    h1: float
+    m1: float
+    b2: float
+    h2: float
+    m2: float
+    g: float = 9.81
+
+    @property
+    def c(self) -> float:
+        """Half width of the contact between the blocks (m)."""
+        return min(self.b1, self.b2)
+
+    @property
+    def Ic1(self) -> float:
+        return self.m1 * (self.b1**2 + self.h1**2) / 3.0
+
+    @property
+    def Ic2(self) -> float:
+        return self.m2 * (self.b2**2 + self.h2**2) / 3.0
+
+
+def _lever_arms(st: Stack, s1: int, s2: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Body-frame vectors: ground pivot P1, P1 -> centre 1, P1 -> pivot K, K -> centre 2."""
+    P1 = np.array([s1 * st.b1, 0.0])
+    u1 = np.array([0.0, st.h1]) - P1
+    uK = np.array([s2 * st.c, 2.0 * st.h1]) - P1
+    u2 = np.array([0.0, st.h2]) - np.array([s2 * st.c, 0.0])
+    return P1, u1, uK, u2
+
+
+def centres(st: Stack, q: np.ndarray, s1: int, s2: int) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (m) of the centres of mass in the ground frame (origin: block 1's bottom centre at rest)."""
+    P1, u1, uK, u2 = _lever_arms(st, s1, s2)
+    R1, R2 = rot(q[0]), rot(q[1])
+    return P1 + R1 @ u1, P1 + R1 @ uK + R2 @ u2
+
+
+def _jacobians(st, q, s1, s2):
+    _, u1, uK, u2 = _lever_arms(st, s1, s2)
+    D1, D2 = drot(q[0]), drot(q[1])
+    J1 = np.column_stack([D1 @ u1, np.zeros(2)])
+    J2 = np.column_stack([D1 @ uK, D2 @ u2])
+    return J1, J2, u1, uK, u2
+
+
+def mass_matrix(st: Stack, q: np.ndarray, s1: int, s2: int) -> np.ndarray:
+    J1, J2, *_ = _jacobians(st, q, s1, s2)
+    return st.m1 * J1.T @ J1 + st.m2 * J2.T @ J2 + np.diag([st.Ic1, st.Ic2])
+
+
+def _forces(st, q, w, s1, s2, ah, av):
+    """Mass matrix and right-hand side of M q'' = f."""
+    J1, J2, u1, uK, u2 = _jacobians(st, q, s1, s2)
+    R1, R2 = rot(q[0]), rot(q[1])
+    c1 = -R1 @ u1 * w[0] ** 2
+    c2 = -R1 @ uK * w[0] ** 2 - R2 @ u2 * w[1] ** 2
+    G = np.array([ah, st.g + av])
+    M = st.m1 * J1.T @ J1 + st.m2 * J2.T @ J2 + np.diag([st.Ic1, st.Ic2])
+    f = -st.m1 * J1.T @ (c1 + G) - st.m2 * J2.T @ (c2 + G)
+    return M, f
+
+
+def accelerations(st: Stack, q, w, s1: int, s2: int, ah: float = 0.0, av: float = 0.0) -> np.ndarray:
+    """q'' (rad/s^2) with both blocks rocking, for ground accelerations ah, av (m/s^2)."""
+    M, f = _forces(st, np.asarray(q, float), np.asarray(w, float), s1, s2, ah, av)
+    return np.linalg.solve(M, f)
+
+
+def locked_acceleration(st: Stack, theta: float, omega: float, s1: int, s2: int,
+                        ah: float = 0.0, av: float = 0.0) -> float:
+    """theta'' of the pair turning as one body about block 1's corner (theta1 = theta2)."""
+    q = np.array([theta, theta])
+    w = np.array([omega, omega])
+    M, f = _forces(st, q, w, s1, s2, ah, av)
+    L = np.array([1.0, 1.0])
+    return float(L @ f / (L @ M @ L))
+
+
+def energy(st: Stack, q, w, s1: int, s2: int) -> float:
+    """Kinetic plus gravitational potential energy (J), potential zero with both blocks at rest."""
+    q = np.asarray(q, float)
+    w = np.asarray(w, float)
+    J1, J2, *_ = _jacobians(st, q, s1, s2)
+    v1, v2 = J1 @ w, J2 @ w
+    r1, r2 = centres(st, q, s1, s2)
+    T = 0.5 * (st.m1 * v1 @ v1 + st.m2 * v2 @ v2 + st.Ic1 * w[0] ** 2 + st.Ic2 * w[1] ** 2)
+    V = st.g * (st.m1 * (r1[1] - st.h1) + st.m2 * (r2[1] - 2 * st.h1 - st.h2))
+    return float(T + V)
