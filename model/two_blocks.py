@@ -135,3 +135,49 @@ def energy(st: Stack, q, w, s1: int, s2: int) -> float:
     T = 0.5 * (st.m1 * v1 @ v1 + st.m2 * v2 @ v2 + st.Ic1 * w[0] ** 2 + st.Ic2 * w[1] ** 2)
     V = st.g * (st.m1 * (r1[1] - st.h1) + st.m2 * (r2[1] - 2 * st.h1 - st.h2))
     return float(T + V)
+
+
+def _velocity_map(st: Stack, q: np.ndarray, s1: int, s2: int) -> tuple[np.ndarray, np.ndarray]:
+    """Body velocities (v1x, v1y, w1, v2x, v2y, w2) = V q' and the body mass diagonal."""
+    J1, J2, *_ = _jacobians(st, q, s1, s2)
+    V = np.vstack([J1, [1.0, 0.0], J2, [0.0, 1.0]])
+    mass = np.array([st.m1, st.m1, st.Ic1, st.m2, st.m2, st.Ic2])
+    return V, mass
+
+
+def impact_map(st: Stack, q, w_minus, old: tuple[int, int], new: tuple[int, int]) -> np.ndarray:
+    """Post-impact q' when the pivots change from old = (s1, s2) to new (both blocks rocking after).
+
+    Impulses act only where the blocks touch after the impact (block 1's new
+    ground pivot and block 2's pivot on block 1), so for every virtual velocity
+    compatible with the new pivots the momentum change does no work:
+        V_new^T D (V_new q'+ - V_old q'-) = 0,   D = diag(m1, m1, Ic1, m2, m2, Ic2).
+    V_new q'+ is then the D-orthogonal projection of the pre-impact velocity
+    field onto the motions the new pivots allow, so an impact never adds
+    energy. For one block this is Housner's 1 - 1.5 sin^2(alpha).
+    """
+    q = np.asarray(q, float)
+    Vo, D = _velocity_map(st, q, *old)
+    Vn, _ = _velocity_map(st, q, *new)
+    A = Vn.T @ (D[:, None] * Vn)
+    B = Vn.T @ (D[:, None] * Vo)
+    return np.linalg.solve(A, B @ np.asarray(w_minus, float))
+
+
+def angular_momentum(st: Stack, q, w, s1: int, s2: int, point, blocks=(1, 2)) -> float:
+    """Counter-clockwise angular momentum (kg m^2/s) of the given blocks about a fixed point."""
+    q, w = np.asarray(q, float), np.asarray(w, float)
+    J1, J2, *_ = _jacobians(st, q, s1, s2)
+    r1, r2 = centres(st, q, s1, s2)
+    H = 0.0
+    for i, (m, Ic, r, v) in enumerate(((st.m1, st.Ic1, r1, J1 @ w), (st.m2, st.Ic2, r2, J2 @ w)), start=1):
+        if i in blocks:
+            d = r - np.asarray(point, float)
+            H += m * (d[0] * v[1] - d[1] * v[0]) - Ic * w[i - 1]  # theta is clockwise
+    return H
+
+
+def pivot_K(st: Stack, q, s1: int, s2: int) -> np.ndarray:
+    """Position of block 2's pivot on block 1 (m)."""
+    P1, _, uK, _ = _lever_arms(st, s1, s2)
+    return P1 + rot(float(np.asarray(q, float)[0])) @ uK

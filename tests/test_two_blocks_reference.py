@@ -92,3 +92,61 @@ def test_mass_matrix_is_symmetric_positive_definite():
             M = mass_matrix(THESIS, q, s1, s2)
             assert np.allclose(M, M.T, rtol=0, atol=1e-15)
             assert np.all(np.linalg.eigvalsh(M) > 0)
+
+
+# ----------------------------------------------------------------- impacts
+
+from model.two_blocks import angular_momentum, impact_map, pivot_K  # noqa: E402
+
+
+def test_impact_map_reduces_to_housner_for_one_block():
+    st = Stack(b1=0.1, h1=0.3, m1=10.0, b2=1e-6, h2=1e-6, m2=1e-12)
+    alpha = math.atan(1 / 3)
+    w = impact_map(st, [0.0, 0.0], [-1.0, -1.0], old=(1, 1), new=(-1, 1))
+    assert w[0] == pytest.approx(-(1 - 1.5 * math.sin(alpha) ** 2), rel=1e-9)
+
+
+def _random_impacts(rng, n):
+    for _ in range(n):
+        s1, s2 = PIVOTS[rng.integers(4)]
+        w = rng.normal(0, 1.0, 2)
+        kind = rng.integers(2)
+        if kind == 0:  # block 1 lands on the ground: theta1 = 0, its pivot flips
+            q = np.array([0.0, rng.normal(0, 0.1)])
+            yield q, w, (s1, s2), (-s1, s2), "ground"
+        else:  # block 2 lands on block 1: theta2 = theta1, its pivot flips
+            t = rng.normal(0, 0.1)
+            yield np.array([t, t]), w, (s1, s2), (s1, -s2), "interface"
+
+
+@pytest.mark.parametrize("st", [THESIS, SLENDER_ON_WIDE], ids=["thesis", "slender_on_wide"])
+def test_impacts_never_increase_energy(st):
+    rng = np.random.default_rng(3)
+    for q, w, old, new, _ in _random_impacts(rng, 200):
+        wp = impact_map(st, q, w, old, new)
+        assert energy(st, q, wp, *new) <= energy(st, q, w, *old) + 1e-12 * abs(energy(st, q, w, *old))
+
+
+@pytest.mark.parametrize("st", [THESIS, SLENDER_ON_WIDE], ids=["thesis", "slender_on_wide"])
+def test_impact_map_conserves_the_angular_momenta_of_seed_000_eq_32(st):
+    """Ground impact: the system about the new ground corner and block 2 about K.
+    Interface impact: the system about the ground pivot and block 2 about its new pivot K'."""
+    rng = np.random.default_rng(4)
+    for q, w, old, new, kind in _random_impacts(rng, 200):
+        wp = impact_map(st, q, w, old, new)
+        P_new = np.array([new[0] * st.b1, 0.0])
+        K_new = pivot_K(st, q, *new)
+        checks = [(P_new, (1, 2)), (K_new, (2,))]
+        for point, blocks in checks:
+            before = angular_momentum(st, q, w, *old, point, blocks)
+            after = angular_momentum(st, q, wp, *new, point, blocks)
+            scale = max(1.0, abs(before)) * (st.m1 + st.m2) * (st.b1 + st.h1 + st.h2) ** 2
+            assert abs(after - before) <= 1e-12 * scale, (kind, point, blocks)
+
+
+def test_impact_map_is_mirror_symmetric():
+    rng = np.random.default_rng(5)
+    for q, w, old, new, _ in _random_impacts(rng, 50):
+        a = impact_map(THESIS, q, w, old, new)
+        b = impact_map(THESIS, -q, -w, (-old[0], -old[1]), (-new[0], -new[1]))
+        np.testing.assert_allclose(b, -a, rtol=1e-12, atol=1e-14)
