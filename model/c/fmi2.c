@@ -238,26 +238,10 @@ fmi2Status fmi2Reset(fmi2Component c) {
 
 /* -------------------------------------------------------- variable access */
 
-static int is_parameter(fmi2ValueReference vr) { return vr < 30; }
-static int is_input(fmi2ValueReference vr) { return vr == 30 || vr == 31; }
-
 static fmi2Status check_array(Instance *I, const void *vr, size_t nvr, const void *value,
                               const char *fn) {
     if (nvr > 0 && (!vr || !value)) {
         LOG_ERROR(I, "%s: NULL array with nvr = %zu", fn, nvr);
-        return fmi2Error;
-    }
-    return fmi2OK;
-}
-
-/* May the variable vr be set now? */
-static fmi2Status settable(Instance *I, fmi2ValueReference vr, const char *name, const char *fn) {
-    if (I->s.phase == PHASE_STEP_COMPLETE && !is_input(vr)) {
-        LOG_ERROR(I, "%s: '%s' cannot be set after initialization", fn, name);
-        return fmi2Error;
-    }
-    if (!is_parameter(vr) && !is_input(vr)) {
-        LOG_ERROR(I, "%s: '%s' is an output and cannot be set", fn, name);
         return fmi2Error;
     }
     return fmi2OK;
@@ -271,15 +255,23 @@ typedef enum { TYPE_REAL, TYPE_INTEGER, TYPE_BOOLEAN } VarType;
 #define TYPE_OF_REAL TYPE_REAL
 #define TYPE_OF_INTEGER TYPE_INTEGER
 #define TYPE_OF_BOOLEAN TYPE_BOOLEAN
+typedef enum { CAUSALITY_parameter, CAUSALITY_input, CAUSALITY_output } Causality;
 
-/* Address, type and name of the variable with value reference vr in M, or
+typedef struct {
+    VarType type;
+    Causality causality;
+    const char *name;
+} VarInfo;
+
+/* Address and description of the variable with value reference vr in M, or
  * NULL for an unknown reference. Generated from variables.def. */
-static void *var_address(Model *M, fmi2ValueReference vr, VarType *type, const char **name) {
+static void *var_address(Model *M, fmi2ValueReference vr, VarInfo *info) {
     switch (vr) {
 #define VAR(T, ref, field, name_, caus, var, start, unit, desc) \
     case ref:                                                   \
-        *type = TYPE_OF_##T;                                    \
-        *name = name_;                                          \
+        info->type = TYPE_OF_##T;                               \
+        info->causality = CAUSALITY_##caus;                     \
+        info->name = name_;                                     \
         return &M->v.field;
 #include "variables.def"
 #undef VAR
@@ -288,21 +280,37 @@ static void *var_address(Model *M, fmi2ValueReference vr, VarType *type, const c
     }
 }
 
+/* May the variable be set now? */
+static fmi2Status settable(Instance *I, const VarInfo *info, const char *fn) {
+    if (info->causality == CAUSALITY_output) {
+        LOG_ERROR(I, "%s: '%s' is an output and cannot be set", fn, info->name);
+        return fmi2Error;
+    }
+    if (I->s.phase == PHASE_STEP_COMPLETE && info->causality != CAUSALITY_input) {
+        LOG_ERROR(I, "%s: '%s' cannot be set after initialization", fn, info->name);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
 static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean"};
 
 /* Common checks of the getters and setters; returns the variable's address
- * or NULL after logging an error. */
+ * or NULL after logging an error. A parameter about to be set marks the
+ * instance for validation and re-initialisation. */
 static void *lookup(Instance *I, fmi2ValueReference vr, VarType want, int set, const char *fn,
                     const char **nameOut) {
-    VarType type;
-    const char *name = "";
-    void *p = var_address(&I->s.model, vr, &type, &name);
-    if (nameOut) *nameOut = name;
-    if (!p || type != want) {
+    VarInfo info = {TYPE_REAL, CAUSALITY_output, ""};
+    void *p = var_address(&I->s.model, vr, &info);
+    if (nameOut) *nameOut = info.name;
+    if (!p || info.type != want) {
         LOG_ERROR(I, "%s: unknown %s value reference %u", fn, TYPE_NAMES[want], vr);
         return NULL;
     }
-    if (set && settable(I, vr, name, fn)) return NULL;
+    if (set) {
+        if (settable(I, &info, fn)) return NULL;
+        if (info.causality == CAUSALITY_parameter) I->s.dirty = 1;
+    }
     return p;
 }
 
@@ -328,7 +336,6 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         /* a changed input restarts the integrator at the communication point */
         if (I->s.phase == PHASE_STEP_COMPLETE && *p != value[i]) solver_rollback(&I->s.model, I->s.tc);
         *p = value[i];
-        if (is_parameter(vr[i])) I->s.dirty = 1;
     }
     return fmi2OK;
 }
@@ -341,7 +348,6 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
         int *p = (int *)lookup(I, vr[i], TYPE_INTEGER, 1, "fmi2SetInteger", NULL);
         if (!p) return fmi2Error;
         *p = value[i];
-        I->s.dirty = 1;
     }
     return fmi2OK;
 }
@@ -354,7 +360,6 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
         int *p = (int *)lookup(I, vr[i], TYPE_BOOLEAN, 1, "fmi2SetBoolean", NULL);
         if (!p) return fmi2Error;
         *p = value[i] ? 1 : 0;
-        I->s.dirty = 1;
     }
     return fmi2OK;
 }

@@ -118,11 +118,6 @@ static double wave_inside(const Model *M, double t) {
     }
 }
 
-double model_waveform(const Model *M, double t) {
-    if (t < M->d.excStart || t >= M->d.excEnd) return 0.0;
-    return wave_inside(M, t);
-}
-
 int model_piece(const Model *M, double tStart) {
     if (tStart < M->d.excStart || tStart >= M->d.excEnd) return 0;
     return 1;
@@ -135,9 +130,7 @@ void model_ground_piece(const Model *M, double t, int piece, double *ah, double 
 }
 
 void model_ground(const Model *M, double t, double *ah, double *av) {
-    double s = model_waveform(M, t);
-    *ah = M->d.accAmp * s + M->v.ahIn;
-    *av = M->v.verticalAmplitude * s + M->v.avIn;
+    model_ground_piece(M, t, model_piece(M, t), ah, av);
 }
 
 void model_rhs_piece(const Model *M, double t, const double y[2], int side,
@@ -150,7 +143,7 @@ void model_rhs_piece(const Model *M, double t, const double y[2], int side,
 }
 
 void model_rhs(const Model *M, double t, const double y[2], int side, double dy[2]) {
-    model_rhs_piece(M, t, y, side, !(t < M->d.excStart || t >= M->d.excEnd), dy);
+    model_rhs_piece(M, t, y, side, model_piece(M, t), dy);
 }
 
 double model_energy(const Model *M, double theta, double omega) {
@@ -163,11 +156,6 @@ double model_uplift_indicator_piece(const Model *M, double t, int side, int piec
     double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
     return -side * ah - (M->v.g + av) * M->d.tanAlpha;
-}
-
-double model_uplift_indicator(const Model *M, double t, int side) {
-    return model_uplift_indicator_piece(M, t, side,
-                                        !(t < M->d.excStart || t >= M->d.excEnd));
 }
 
 void model_initialize(Model *M, double t0) {

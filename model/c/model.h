@@ -114,9 +114,6 @@ void model_derive(const Variables *v, Derived *d);
  * correction factor). */
 double model_law_restitution(const Variables *v, double alpha);
 
-/* Normalised excitation waveform s(t) in [-1, 1] (0 outside the window). */
-double model_waveform(const Model *M, double t);
-
 /* Total ground accelerations (built-in plus inputs), m/s^2. */
 void model_ground(const Model *M, double t, double *ah, double *av);
 
@@ -128,10 +125,6 @@ void model_rhs(const Model *M, double t, const double y[2], int side, double dy[
 /* Energy (J): 0.5 I0 omega^2 + m g R (cos(alpha - |theta|) - cos(alpha)). */
 double model_energy(const Model *M, double theta, double omega);
 
-/* Uplift indicator of a block at rest for tipping towards side:
- * positive when the ground pushes it over its corner on that side. */
-double model_uplift_indicator(const Model *M, double t, int side);
-
 /* Piece of the excitation active on a step starting at tStart (0 outside
  * the excitation window, 1 inside). A step never crosses a window edge, so
  * evaluating the piece's analytic formula at the step's end points gives the
@@ -140,6 +133,8 @@ int model_piece(const Model *M, double tStart);
 void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av);
 void model_rhs_piece(const Model *M, double t, const double y[2], int side,
                      int piece, double dy[2]);
+/* Uplift indicator of a block at rest for tipping towards side: positive
+ * when the ground pushes it over its corner on that side. */
 double model_uplift_indicator_piece(const Model *M, double t, int side, int piece);
 
 /* Set the state from the initial parameters at time t0. */
