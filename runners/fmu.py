@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 import shutil
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +35,11 @@ DEFAULT_OUTPUTS = (
     "energy",
     "ground.ahTotal",
 )
+
+# fmpy changes the process's working directory while it loads an FMU's shared
+# library and restores it afterwards; two threads loading at once can leave the
+# process in the wrong directory, so loading is serialised.
+_LOAD_LOCK = threading.Lock()
 
 _EVENT = re.compile(r"^(impact|peak|uplift|rest|overturn) (.*)$")
 
@@ -120,12 +126,13 @@ class RockingFMU:
         callbacks.logger = fmi2CallbackLoggerTYPE(logger)
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        slave = FMU2Slave(
-            guid=self.model_description.guid,
-            unzipDirectory=self.unzipdir,
-            modelIdentifier=self.model_description.coSimulation.modelIdentifier,
-            instanceName=instance_name,
-        )
+        with _LOAD_LOCK:
+            slave = FMU2Slave(
+                guid=self.model_description.guid,
+                unzipDirectory=self.unzipdir,
+                modelIdentifier=self.model_description.coSimulation.modelIdentifier,
+                instanceName=instance_name,
+            )
         slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
         return slave, callbacks
 

@@ -14,7 +14,7 @@ from runners.fmu import RockingFMU
 @pytest.fixture(scope="session")
 def fmu_path() -> Path:
     env = os.environ.get("ROCKING_FMU")
-    return Path(env) if env else build_fmu()
+    return Path(env).resolve() if env else build_fmu()
 
 
 @pytest.fixture(scope="session")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -199,11 +200,13 @@ def test_instances_run_side_by_side_in_threads(fmu):
     def work(i):
         results[i] = _run_scene(fmu, amplitudes[i])
 
+    cwd = os.getcwd()
     threads = [threading.Thread(target=work, args=(i,)) for i in range(len(amplitudes))]
     for t in threads:
         t.start()
     for t in threads:
         t.join()
+    assert os.getcwd() == cwd  # loading libraries in threads must not move the process
     for i, seq in enumerate(sequential):
         np.testing.assert_array_equal(results[i], seq)
 
