@@ -41,7 +41,7 @@ DEFAULT_OUTPUTS = (
 # process in the wrong directory, so loading is serialised.
 _LOAD_LOCK = threading.Lock()
 
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|overturn) (.*)$")
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn) (.*)$")
 
 
 class FMUError(RuntimeError):
@@ -52,9 +52,10 @@ class FMUError(RuntimeError):
 class Event:
     """An event the FMU reported through its ``logEvents`` category."""
 
-    kind: str  # impact, peak, uplift, rest or overturn
+    kind: str  # impact, peak, uplift, rest, settle, open or overturn
     t: float  # s
     values: dict[str, float] = field(default_factory=dict)
+    labels: dict[str, str] = field(default_factory=dict)  # non-numeric fields, e.g. contact=ground
 
 
 @dataclass
@@ -77,11 +78,15 @@ def _parse_event(message: str) -> Event | None:
     m = _EVENT.match(message)
     if not m:
         return None
-    values = {}
+    values: dict[str, float] = {}
+    labels: dict[str, str] = {}
     for item in m.group(2).split():
         key, _, val = item.partition("=")
-        values[key] = float(val)
-    return Event(m.group(1), values.pop("t"), values)
+        try:
+            values[key] = float(val)
+        except ValueError:
+            labels[key] = val
+    return Event(m.group(1), values.pop("t"), values, labels)
 
 
 class RockingFMU:

@@ -1,8 +1,10 @@
 """Scene files: TOML descriptions of one simulation, validated into FMU parameters.
 
-A scene has the tables [block], [restitution], [excitation] and [simulation];
-every key is optional and falls back to the FMU's default. Units are SI and
-angles radians (docs/conventions.md). See examples/*.toml.
+A scene has the tables [block], [restitution], [excitation] and [simulation],
+and [block2] for a second block standing on the first (which makes it a
+two-block scene, nBlocks = 2). Every key is optional and falls back to the
+FMU's default. Units are SI and angles radians (docs/conventions.md). See
+examples/*.toml.
 """
 
 from __future__ import annotations
@@ -13,7 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-LAWS = {"housner": 0, "modified": 1, "constant": 2}
+# "housner" is the momentum law: Housner's coefficient for one block, the
+# projection of docs/two_blocks.md for two ("momentum" is its other name).
+LAWS = {"housner": 0, "momentum": 0, "modified": 1, "constant": 2}
 KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3}
 
 # table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
@@ -25,11 +29,20 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "theta0": ("block1.theta0", "real"),
         "omega0": ("block1.omega0", "real"),
     },
+    "block2": {
+        "half_width": ("block2.halfWidth", "real"),
+        "half_height": ("block2.halfHeight", "real"),
+        "mass": ("block2.mass", "real"),
+        "theta0": ("block2.theta0", "real"),
+        "omega0": ("block2.omega0", "real"),
+    },
     "restitution": {
         "law": ("restitution.law", LAWS),
         "k": ("restitution.k", "real"),
         "eta": ("restitution.eta", "real"),
         "correction": ("restitution.correction", "real"),
+        "eta_ground": ("restitution.etaGround", "real"),
+        "eta_interface": ("restitution.etaInterface", "real"),
     },
     "excitation": {
         "kind": ("excitation.kind", KINDS),
@@ -63,6 +76,10 @@ class Scene:
     stop_time: float = 5.0  # s
     step: float = 1e-3  # s, communication step
     source: str = ""
+
+    @property
+    def n_blocks(self) -> int:
+        return int(self.parameters.get("nBlocks", 1))
 
 
 def _value(where: str, value: Any, kind: Any) -> float | int | bool:
@@ -100,6 +117,8 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
                 setattr(scene, key, v)
             else:
                 scene.parameters[fmu_name] = v
+        if table == "block2":
+            scene.parameters["nBlocks"] = 2
     if not scene.stop_time > 0:
         raise SceneError(f"{source}: [simulation] stop_time must be > 0 s, got {scene.stop_time}")
     if not 0 < scene.step <= scene.stop_time:

@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from runners.fmu import RunResult
-from runners.scene import KINDS, LAWS, Scene
+from runners.scene import KINDS, Scene
 
 SUMMARY_OUTPUTS = (
     "block1.theta",
@@ -20,7 +20,28 @@ SUMMARY_OUTPUTS = (
     "overturnTime",
     "restTime",
     "ground.ahTotal",
+    "block2.theta",
+    "block2.maxAbsTheta",
+    "impactsGround",
+    "impactsInterface",
+    "block1.overturned",
+    "block2.overturned",
+    "pattern",
 )
+
+PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking alone",
+            4: "locked pair rocking", 5: "both blocks rocking"}
+
+
+def _stack_threshold(p: dict[str, float]) -> tuple[float, str]:
+    """Uplift threshold (m/s^2) of a two-block stack at rest and which pattern it starts."""
+    b1, h1, m1 = p["block1.halfWidth"], p["block1.halfHeight"], p["block1.mass"]
+    b2, h2, m2 = p["block2.halfWidth"], p["block2.halfHeight"], p["block2.mass"]
+    y_g = (m1 * h1 + m2 * (2 * h1 + h2)) / (m1 + m2)
+    pair, upper = b1 / y_g, min(b1, b2) / h2
+    if pair <= upper:
+        return p["g"] * pair, "the pair rocks as one body"
+    return p["g"] * upper, "the upper block rocks alone"
 
 
 def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> dict[str, Any]:
@@ -30,15 +51,18 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     alpha = math.atan2(b, h)
     R = math.hypot(b, h)
     out = result.outputs
+    two = int(p.get("nBlocks", 1)) == 2
     overturned = bool(out["overturned"][-1])
     at_rest = bool(out["atRest"][-1])
     state = "overturned" if overturned else "at rest" if at_rest else "rocking"
-    return {
+    law = {0: "momentum" if two else "housner", 1: "modified", 2: "constant"}[int(p["restitution.law"])]
+    summary: dict[str, Any] = {
         "scene": scene.name,
+        "blocks": 2 if two else 1,
         "alpha_rad": alpha,
         "p_rad_per_s": math.sqrt(3 * g / (4 * R)),
         "uplift_threshold_m_s2": g * math.tan(alpha),
-        "restitution_law": {v: k for k, v in LAWS.items()}[int(p["restitution.law"])],
+        "restitution_law": law,
         "excitation": {v: k for k, v in KINDS.items()}[int(p["excitation.kind"])],
         "stop_time_s": float(result.time[-1]),
         "final_state": state,
@@ -53,14 +77,33 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         "final_energy_J": float(out["energy"][-1]),
         "wall_time_s": result.wall_time,
     }
+    if two:
+        threshold, first = _stack_threshold(p)
+        summary.update({
+            "uplift_threshold_m_s2": threshold,
+            "first_pattern": first,
+            "final_pattern": PATTERNS[int(out["pattern"][-1])],
+            "impacts_ground": int(out["impactsGround"][-1]),
+            "impacts_interface": int(out["impactsInterface"][-1]),
+            "overturned_blocks": [i for i in (1, 2) if out[f"block{i}.overturned"][-1]],
+            "max_abs_theta2_rad": float(out["block2.maxAbsTheta"][-1]),
+            "final_theta2_rad": float(out["block2.theta"][-1]),
+            "peaks": None,
+        })
+    return summary
 
 
 def format_summary(s: dict[str, Any]) -> str:
     """A readable multi-line summary."""
+    if s["blocks"] == 2:
+        block = (f"two blocks       uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2, "
+                 f"then {s['first_pattern']}")
+    else:
+        block = (f"block            alpha = {s['alpha_rad']:.4f} rad, p = {s['p_rad_per_s']:.3f} rad/s, "
+                 f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2")
     lines = [
         f"scene            {s['scene']}",
-        f"block            alpha = {s['alpha_rad']:.4f} rad, p = {s['p_rad_per_s']:.3f} rad/s, "
-        f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2",
+        block,
         f"restitution      {s['restitution_law']}",
         f"excitation       {s['excitation']}",
         f"simulated        0 .. {s['stop_time_s']:g} s in {1e3 * s['wall_time_s']:.1f} ms wall",
@@ -72,6 +115,18 @@ def format_summary(s: dict[str, Any]) -> str:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
     elif s["final_state"] == "at rest":
         outcome += " (never lifted: the excitation stayed below the uplift threshold)"
+    if s["blocks"] == 2:
+        if s["overturned"]:
+            which = " and ".join(f"block {i}" for i in s["overturned_blocks"])
+            outcome = f"{which} overturned at t = {s['overturn_time_s']:.4f} s"
+        elif s["final_state"] == "rocking":
+            outcome = s["final_pattern"]
+        lines += [
+            f"outcome          {outcome}",
+            f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
+            f"peak |theta|     block 1 {s['max_abs_theta_rad']:.6f} rad, block 2 {s['max_abs_theta2_rad']:.6f} rad",
+        ]
+        return "\n".join(lines)
     lines += [
         f"outcome          {outcome}",
         f"impacts          {s['impacts']}",

@@ -91,7 +91,7 @@ static fmi2Status ensure_initialized(Instance *I) {
         return fmi2Error;
     }
     model_derive(&M->v, &M->d);
-    model_initialize(M, I->s.startTime);
+    solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
     solver_outputs(M, I->s.tc);
     I->s.dirty = 0;

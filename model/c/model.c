@@ -1,6 +1,7 @@
 /* Rocking rigid block: parameters, excitation, equation of motion, energy.
  * Conventions in model.h and docs/conventions.md. */
 #include "model.h"
+#include "stack.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -31,8 +32,8 @@ int model_validate(const Variables *v, char *msg, size_t n) {
 #undef CHECK_INTEGER
 #undef CHECK_BOOLEAN
 #undef VAR
-    if (v->nBlocks != 1)
-        FAIL("nBlocks = %d is not supported (this FMU models nBlocks = 1)", v->nBlocks);
+    if (v->nBlocks != 1 && v->nBlocks != 2)
+        FAIL("nBlocks = %d must be 1 (one block) or 2 (two stacked blocks)", v->nBlocks);
     if (!(v->halfWidth > 0)) FAIL("block1.halfWidth = %g must be > 0 m", v->halfWidth);
     if (!(v->halfHeight > 0)) FAIL("block1.halfHeight = %g must be > 0 m", v->halfHeight);
     if (!(v->mass > 0)) FAIL("block1.mass = %g must be > 0 kg", v->mass);
@@ -51,6 +52,26 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (!(fabs(v->theta0) < M_PI / 2))
             FAIL("block1.theta0 = %g must satisfy |theta0| < pi/2 (the block would lie on its side)",
                  v->theta0);
+    }
+    if (v->nBlocks == 2) {
+        if (!(v->halfWidth2 > 0)) FAIL("block2.halfWidth = %g must be > 0 m", v->halfWidth2);
+        if (!(v->halfHeight2 > 0)) FAIL("block2.halfHeight = %g must be > 0 m", v->halfHeight2);
+        if (!(v->mass2 > 0)) FAIL("block2.mass = %g must be > 0 kg", v->mass2);
+        if (v->law == 1)
+            FAIL("restitution.law = 1 (modified, impact position k) is defined for one block only; "
+                 "use 0 (momentum) or 2 (constant per interface) with nBlocks = 2");
+        if (v->correction != 1.0)
+            FAIL("restitution.correction = %g must be 1 with nBlocks = 2 (use law 2 with "
+                 "restitution.etaGround and restitution.etaInterface)", v->correction);
+        if (!(v->etaGround >= 0 && v->etaGround <= 1))
+            FAIL("restitution.etaGround = %g must be in [0, 1]", v->etaGround);
+        if (!(v->etaInterface >= 0 && v->etaInterface <= 1))
+            FAIL("restitution.etaInterface = %g must be in [0, 1]", v->etaInterface);
+        if (!(fabs(v->theta02 - v->theta0) < M_PI / 2))
+            FAIL("block2.theta0 - block1.theta0 = %g must be below pi/2 in magnitude "
+                 "(block 2 would lie on its side)", v->theta02 - v->theta0);
+        if (v->earlyOverturn)
+            FAIL("solver.earlyOverturn is available for nBlocks = 1 only");
     }
     if (v->kind < 0 || v->kind > 3)
         FAIL("excitation.kind = %d must be 0 (none), 1 (sine pulse), 2 (cosine pulse) or 3 (harmonic)",
@@ -105,6 +126,8 @@ void model_derive(const Variables *v, Derived *d) {
         d->excEnd = (v->kind == 3 && v->cycles == 0) ? INFINITY
                                                      : v->startTime + v->cycles / v->frequency;
     }
+    d->upliftSlope = d->tanAlpha;
+    if (v->nBlocks == 2) stack_derive(v, d);
 }
 
 /* Waveform on the window, evaluated as the analytic piece (no window test). */
@@ -155,7 +178,7 @@ double model_energy(const Model *M, double theta, double omega) {
 double model_uplift_indicator_piece(const Model *M, double t, int side, int piece) {
     double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
-    return -side * ah - (M->v.g + av) * M->d.tanAlpha;
+    return -side * ah - (M->v.g + av) * M->d.upliftSlope;
 }
 
 void model_initialize(Model *M, double t0) {

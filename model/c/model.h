@@ -46,10 +46,36 @@ typedef struct {
     double accAmp;     /* horizontal acceleration amplitude, m/s^2 */
     double excStart;   /* excitation window [excStart, excEnd), s */
     double excEnd;     /* +inf for an endless harmonic */
+    double upliftSlope; /* at rest the ground tips the body once |ah| > upliftSlope (g + av) */
+
+    /* two stacked blocks (nBlocks = 2), see stack.h */
+    double c;          /* half width of the contact between the blocks, m */
+    double Ic1, Ic2;   /* moments of inertia about the centres, kg m^2 */
+    double mTot;       /* total mass, kg */
+    double yG;         /* height of the pair's centre of mass at rest, m */
+    double RL, alphaL, IL; /* the pair as one body about a corner: R, alpha, inertia */
+    double RI, alphaI, II; /* block 2 about an end of the contact: R, alpha, inertia */
 } Derived;
 
-typedef enum { MODE_ROCKING = 0, MODE_REST = 1, MODE_OVERTURNED = 2 } Mode;
-typedef enum { EVENT_NONE = 0, EVENT_IMPACT = 1, EVENT_OVERTURN = 2 } EventKind;
+/* Motion pattern (the value of the output "pattern"). One block: ROCKING,
+ * REST, OVERTURNED. Two blocks: REST, UPPER (block 2 rocks on block 1 at
+ * rest), LOCKED (the pair rocks as one body), BOTH, OVERTURNED. */
+typedef enum {
+    MODE_ROCKING = 0,
+    MODE_REST = 1,
+    MODE_OVERTURNED = 2,
+    MODE_UPPER = 3,
+    MODE_LOCKED = 4,
+    MODE_BOTH = 5
+} Mode;
+typedef enum {
+    EVENT_NONE = 0,
+    EVENT_IMPACT = 1,    /* block 1 lands on the ground */
+    EVENT_OVERTURN = 2,  /* block 1 (and with it the stack) falls over */
+    EVENT_INTERFACE = 3, /* block 2 lands on block 1 */
+    EVENT_OVERTURN2 = 4, /* block 2 falls off block 1 */
+    EVENT_OPEN = 5       /* a closed contact starts to open (no velocity jump) */
+} EventKind;
 
 #define MAX_STEP_PEAKS 4
 
@@ -58,10 +84,11 @@ typedef enum { EVENT_NONE = 0, EVENT_IMPACT = 1, EVENT_OVERTURN = 2 } EventKind;
  * last accepted step, so results do not depend on the communication step. */
 typedef struct {
     double t;             /* time of the integrator state y, s */
-    double y[NMAX];       /* theta (rad), omega (rad/s) at t */
+    double y[NMAX];       /* theta1 (rad), omega1 (rad/s) [, theta2, omega2] at t */
     double f[NMAX];          /* derivative at (t, y) (first-same-as-last) */
     int fValid;
     int side;             /* +1 pivot on right corner, -1 on left corner */
+    int side2;            /* block 2's pivot on block 1 (nBlocks = 2) */
     Mode mode;
     double h;             /* proposed next step, s (0: choose one) */
 
@@ -69,7 +96,7 @@ typedef struct {
     int denseValid;
     double tOld, hDense;
     double cont[5][NMAX];
-    int denseSide;
+    int denseSide, denseSide2;
 
     EventKind pending;    /* event located at t, not yet applied */
 
@@ -83,6 +110,14 @@ typedef struct {
     double lastImpactTime, lastPeakTime, lastPeakTheta, maxAbsTheta;
     double overturnTime, restTime;
     long long steps, rejected;
+
+    /* two blocks */
+    int impactsGround, impactsInterface;
+    int overturned1, overturned2;
+    double maxAbsTheta2;
+    double maxPrev, maxPrev2; /* max |theta1|, |theta2| before the dense step */
+    double lastSwitchTime;
+    int quickSwitches;    /* pattern changes without time advancing */
 } State;
 
 typedef struct {

@@ -7,10 +7,9 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "events.h"
 #include "integrator.h"
-
-#define LOG_EVENTS 0
-#define LOG_ERROR 1
+#include "stack_solver.h"
 
 typedef struct {
     const Model *M;
@@ -23,78 +22,12 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     model_rhs_piece(c->M, t, y, c->side, c->piece, dy);
 }
 
-static void say(const Logger *log, int category, const char *fmt, ...) {
-    char buf[512];
-    va_list ap;
-    if (!log || !log->fn || (category == LOG_EVENTS && !log->events)) return;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof(buf), fmt, ap);
-    va_end(ap);
-    log->fn(log->ctx, category, buf);
-}
-
-static int excitation_over(const Model *M, double t) {
-    return M->v.kind == 0 || t >= M->d.excEnd;
-}
-
-/* Next window edge of the built-in excitation after t (a step stops there). */
-static double next_breakpoint(const Model *M, double t) {
-    if (M->v.kind == 0) return INFINITY;
-    if (t < M->d.excStart) return M->d.excStart;
-    if (t < M->d.excEnd) return M->d.excEnd;
-    return INFINITY;
-}
-
-static void restep(const RhsCtx *c, double t, const double *y, const double *f0,
-                   double h, double *y1, double *f1, double cont[5][NMAX]) {
-    double err[NMAX];
-    dopri5_step(rhs_cb, c, 2, t, y, f0, h, y1, f1, err, cont);
-}
-
-/* Newton iteration on the step length h in (0, hMax] so that component comp
- * of the step result equals target; d y1[comp] / dh = f1[comp]. Leaves the
- * step result for the returned h in y1, f1, cont. */
+/* Step length so that component comp of the step result equals target. */
 static double refine(const RhsCtx *c, double t, const double *y, const double *f0,
                      double h, double hMax, int comp, double target, double *y1,
                      double *f1, double cont[5][NMAX]) {
-    restep(c, t, y, f0, h, y1, f1, cont);
-    for (int it = 0; it < 8; it++) {
-        double g = y1[comp] - target, dg = f1[comp];
-        if (g == 0.0 || dg == 0.0 || !isfinite(dg)) break;
-        double dh = -g / dg;
-        if (fabs(dh) <= 4.0 * DBL_EPSILON * (fabs(t) + fabs(h))) break;
-        double hn = h + dh;
-        if (hn > hMax) hn = hMax;
-        if (hn <= 0.0) hn = 0.5 * h;
-        if (hn == h) break;
-        h = hn;
-        restep(c, t, y, f0, h, y1, f1, cont);
-    }
-    return h;
-}
-
-/* Polynomial bounds on [0, 1]: lower and upper bound of sum c_i s^i. */
-static int may_have_root(const double *c) {
-    double lo = c[0], hi = c[0];
-    for (int i = 1; i <= 4; i++) {
-        if (c[i] < 0) lo += c[i];
-        else hi += c[i];
-    }
-    return lo <= 0.0 && hi >= 0.0;
-}
-
-/* First root in (0, 1] of c where it crosses with the given slope sign. */
-static double first_crossing(const double *c, int slope) {
-    double roots[4], d[4];
-    if (!may_have_root(c)) return 2.0;
-    int nr = poly_roots(c, 4, 0.0, 1.0, roots);
-    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
-    for (int j = 0; j < nr; j++) {
-        if (roots[j] <= 0.0) continue;
-        double dv = poly_eval(d, 3, roots[j]);
-        if ((slope < 0 && dv < 0) || (slope > 0 && dv > 0)) return roots[j];
-    }
-    return 2.0;
+    double w[2] = {comp == 0, comp == 1};
+    return refine_step(rhs_cb, c, 2, t, y, f0, h, hMax, w, target, y1, f1, cont);
 }
 
 static void commit_peaks(Model *M, const Logger *log) {
@@ -157,7 +90,7 @@ static int take_step(Model *M, const Logger *log) {
     RhsCtx c = {M, S->side, model_piece(M, S->t)};
     double bp = next_breakpoint(M, S->t);
     double hmax = bp - S->t;
-    double y1[NMAX], f1[NMAX], err[NMAX], cont[5][NMAX];
+    double y1[NMAX], f1[NMAX], cont[5][NMAX];
     double h = S->h, hNext;
     int hitBp;
 
@@ -165,29 +98,10 @@ static int take_step(Model *M, const Logger *log) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
     }
-    if (!(h > 0))
-        h = dopri5_initial_step(rhs_cb, &c, 2, S->t, S->y, S->f, v->relTol, v->absTol,
-                                fmin(hmax, 1.0));
-    for (;;) {
-        hitBp = 0;
-        if (h >= hmax) {
-            h = hmax;
-            hitBp = 1;
-        }
-        dopri5_step(rhs_cb, &c, 2, S->t, S->y, S->f, h, y1, f1, err, cont);
-        double en = dopri5_error_norm(2, S->y, y1, err, v->relTol, v->absTol);
-        if (en <= 1.0) {
-            double fac = en > 0 ? 0.9 * pow(en, -0.2) : 5.0;
-            hNext = h * fmin(5.0, fmax(0.2, fac));
-            break;
-        }
-        if (!isfinite(en)) en = 1e10;
-        h *= fmax(0.2, 0.9 * pow(en, -0.2));
-        S->rejected++;
-        if (h < 16.0 * DBL_EPSILON * fmax(1.0, fabs(S->t))) {
-            say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
-            return -1;
-        }
+    if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
+                      cont, &hNext, &hitBp, &S->rejected)) {
+        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        return -1;
     }
     S->steps++;
 
@@ -285,72 +199,34 @@ static int take_step(Model *M, const Logger *log) {
     return 0;
 }
 
-/* Next edge of a cell on which the excitation waveform is monotone. */
-static double next_cell_edge(const Model *M, double a) {
-    if (M->v.kind == 0) return INFINITY;
-    if (a < M->d.excStart) return M->d.excStart;
-    if (a >= M->d.excEnd) return INFINITY;
-    double T4 = 0.25 / M->v.frequency;
-    double j = floor((a - M->d.excStart) / T4) + 1.0;
-    double b = M->d.excStart + j * T4;
-    if (b <= a) b = M->d.excStart + (j + 1.0) * T4;
-    return fmin(b, M->d.excEnd);
-}
-
-/* At rest: find the first time in [t, tc] at which the ground tips the block
- * over a corner. On each cell the indicator is monotone (linear in the
- * waveform), so a sign test at the cell edges finds every crossing. */
+/* At rest: wait for the ground to tip the block over a corner. */
 static void rest_advance(Model *M, double tc, const Logger *log) {
     State *S = &M->s;
-    double a = S->t;
-    for (;;) {
-        int piece = model_piece(M, a);
-        double b = fmin(next_cell_edge(M, a), tc);
-        int best = 0;
-        double tu = INFINITY;
-        for (int side = 1; side >= -1 && !best; side -= 2)
-            if (model_uplift_indicator_piece(M, a, side, piece) > 0) {
-                best = side;
-                tu = a;
-            }
-        for (int side = 1; side >= -1 && !best && b > a; side -= 2) {
-            if (model_uplift_indicator_piece(M, b, side, piece) > 0) {
-                double lo = a, hi = b;
-                for (int it = 0; it < 200 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
-                    double mid = 0.5 * (lo + hi);
-                    if (model_uplift_indicator_piece(M, mid, side, piece) > 0) hi = mid;
-                    else lo = mid;
-                }
-                if (hi < tu) tu = hi;
-            }
-        }
-        if (!best && isfinite(tu)) {
-            /* pick the side whose indicator is positive at tu */
-            best = model_uplift_indicator_piece(M, tu, 1, piece) > 0 ? 1 : -1;
-        }
-        if (best) {
-            S->t = tu;
-            S->mode = MODE_ROCKING;
-            S->side = best;
-            S->y[0] = 0.0;
-            S->y[1] = 0.0;
-            S->fValid = 0;
-            S->denseValid = 0;
-            S->h = 0.0;
-            say(log, LOG_EVENTS, "uplift t=%.17g side=%d", tu, best);
-            return;
-        }
-        if (b >= tc) {
-            S->t = tc;
-            S->denseValid = 0;
-            return;
-        }
-        a = b;
+    double tu;
+    int side = find_uplift(M, S->t, tc, &tu);
+    S->denseValid = 0;
+    if (!side) {
+        S->t = tc;
+        return;
     }
+    S->t = tu;
+    S->mode = MODE_ROCKING;
+    S->side = side;
+    S->y[0] = 0.0;
+    S->y[1] = 0.0;
+    S->fValid = 0;
+    S->h = 0.0;
+    say(log, LOG_EVENTS, "uplift t=%.17g side=%d", tu, side);
+}
+
+void solver_initialize(Model *M, double t0) {
+    model_initialize(M, t0);
+    if (M->v.nBlocks == 2) stack_initialize(M);
 }
 
 int solver_advance(Model *M, double tc, const Logger *log) {
     State *S = &M->s;
+    if (M->v.nBlocks == 2) return stack_advance(M, tc, log);
     for (;;) {
         if (S->pending != EVENT_NONE && S->t <= tc) apply_event(M, log);
         if (S->t >= tc) break;
@@ -373,6 +249,10 @@ int solver_advance(Model *M, double tc, const Logger *log) {
 void solver_outputs(Model *M, double tc) {
     State *S = &M->s;
     Variables *v = &M->v;
+    if (v->nBlocks == 2) {
+        stack_outputs(M, tc);
+        return;
+    }
     double y[2] = {S->y[0], S->y[1]};
     int side = S->side;
     if (S->t > tc && S->denseValid) {
@@ -417,6 +297,10 @@ void solver_outputs(Model *M, double tc) {
 
 void solver_rollback(Model *M, double tc) {
     State *S = &M->s;
+    if (M->v.nBlocks == 2) {
+        stack_rollback(M, tc);
+        return;
+    }
     if (S->mode != MODE_ROCKING || S->t <= tc || !S->denseValid) return;
     double s = (tc - S->tOld) / S->hDense, y[2];
     if (s < 0) s = 0;

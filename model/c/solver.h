@@ -13,6 +13,9 @@
 
 #include "model.h"
 
+/* Set the state from the initial parameters at time t0 (one or two blocks). */
+void solver_initialize(Model *M, double t0);
+
 /* Returns 0 on success, nonzero on failure (a message went to log). */
 int solver_advance(Model *M, double tc, const Logger *log);
 

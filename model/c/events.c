@@ -1,0 +1,150 @@
+/* Event location shared by the solvers (see events.h). */
+#include "events.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+
+void say(const Logger *log, int category, const char *fmt, ...) {
+    char buf[512];
+    va_list ap;
+    if (!log || !log->fn || (category == LOG_EVENTS && !log->events)) return;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof(buf), fmt, ap);
+    va_end(ap);
+    log->fn(log->ctx, category, buf);
+}
+
+int excitation_over(const Model *M, double t) {
+    return M->v.kind == 0 || t >= M->d.excEnd;
+}
+
+double next_breakpoint(const Model *M, double t) {
+    if (M->v.kind == 0) return INFINITY;
+    if (t < M->d.excStart) return M->d.excStart;
+    if (t < M->d.excEnd) return M->d.excEnd;
+    return INFINITY;
+}
+
+int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
+                  const double *f0, double *h, double hmax, double rtol, double atol,
+                  double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                  int *hitMax, long long *rejected) {
+    double err[NMAX], hh = *h;
+    if (!(hh > 0)) hh = dopri5_initial_step(f, ctx, n, t, y, f0, rtol, atol, fmin(hmax, 1.0));
+    for (;;) {
+        *hitMax = 0;
+        if (hh >= hmax) {
+            hh = hmax;
+            *hitMax = 1;
+        }
+        dopri5_step(f, ctx, n, t, y, f0, hh, y1, f1, err, cont);
+        double en = dopri5_error_norm(n, y, y1, err, rtol, atol);
+        if (en <= 1.0) {
+            double fac = en > 0 ? 0.9 * pow(en, -0.2) : 5.0;
+            *hNext = hh * fmin(5.0, fmax(0.2, fac));
+            *h = hh;
+            return 0;
+        }
+        if (!isfinite(en)) en = 1e10;
+        hh *= fmax(0.2, 0.9 * pow(en, -0.2));
+        (*rejected)++;
+        if (hh < 16.0 * DBL_EPSILON * fmax(1.0, fabs(t))) {
+            *h = hh;
+            return -1;
+        }
+    }
+}
+
+static double weighted(int n, const double *w, const double *y) {
+    double s = 0.0;
+    for (int i = 0; i < n; i++) s += w[i] * y[i];
+    return s;
+}
+
+double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
+                   const double *f0, double h, double hMax, const double *w,
+                   double target, double *y1, double *f1, double cont[5][NMAX]) {
+    double err[NMAX];
+    dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
+    for (int it = 0; it < 8; it++) {
+        double g = weighted(n, w, y1) - target, dg = weighted(n, w, f1);
+        if (g == 0.0 || dg == 0.0 || !isfinite(dg)) break;
+        double dh = -g / dg;
+        if (fabs(dh) <= 4.0 * DBL_EPSILON * (fabs(t) + fabs(h))) break;
+        double hn = h + dh;
+        if (hn > hMax) hn = hMax;
+        if (hn <= 0.0) hn = 0.5 * h;
+        if (hn == h) break;
+        h = hn;
+        dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
+    }
+    return h;
+}
+
+int may_have_root(const double *c) {
+    double lo = c[0], hi = c[0];
+    for (int i = 1; i <= 4; i++) {
+        if (c[i] < 0) lo += c[i];
+        else hi += c[i];
+    }
+    return lo <= 0.0 && hi >= 0.0;
+}
+
+double first_crossing(const double *c, int slope) {
+    double roots[4], d[4];
+    if (!may_have_root(c)) return 2.0;
+    int nr = poly_roots(c, 4, 0.0, 1.0, roots);
+    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
+    for (int j = 0; j < nr; j++) {
+        if (roots[j] <= 0.0) continue;
+        double dv = poly_eval(d, 3, roots[j]);
+        if ((slope < 0 && dv < 0) || (slope > 0 && dv > 0)) return roots[j];
+    }
+    return 2.0;
+}
+
+/* Next edge of a cell on which the excitation waveform is monotone. */
+static double next_cell_edge(const Model *M, double a) {
+    if (M->v.kind == 0) return INFINITY;
+    if (a < M->d.excStart) return M->d.excStart;
+    if (a >= M->d.excEnd) return INFINITY;
+    double T4 = 0.25 / M->v.frequency;
+    double j = floor((a - M->d.excStart) / T4) + 1.0;
+    double b = M->d.excStart + j * T4;
+    if (b <= a) b = M->d.excStart + (j + 1.0) * T4;
+    return fmin(b, M->d.excEnd);
+}
+
+int find_uplift(const Model *M, double t, double tc, double *tu) {
+    double a = t;
+    for (;;) {
+        int piece = model_piece(M, a);
+        double b = fmin(next_cell_edge(M, a), tc);
+        for (int side = 1; side >= -1; side -= 2)
+            if (model_uplift_indicator_piece(M, a, side, piece) > 0) {
+                *tu = a;
+                return side;
+            }
+        double best = INFINITY;
+        for (int side = 1; side >= -1 && b > a; side -= 2) {
+            if (model_uplift_indicator_piece(M, b, side, piece) > 0) {
+                double lo = a, hi = b;
+                for (int it = 0; it < 200 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
+                    double mid = 0.5 * (lo + hi);
+                    if (model_uplift_indicator_piece(M, mid, side, piece) > 0) hi = mid;
+                    else lo = mid;
+                }
+                if (hi < best) best = hi;
+            }
+        }
+        if (isfinite(best)) {
+            *tu = best;
+            /* the side whose indicator is positive at the crossing */
+            return model_uplift_indicator_piece(M, best, 1, piece) > 0 ? 1 : -1;
+        }
+        if (b >= tc) return 0;
+        a = b;
+    }
+}

@@ -1,0 +1,52 @@
+/* Event location shared by the one-block and two-block solvers: logging,
+ * excitation break points, step-length refinement of events and the search
+ * for uplift from rest. */
+#ifndef ROCKING_EVENTS_H
+#define ROCKING_EVENTS_H
+
+#include "integrator.h"
+#include "model.h"
+
+#define LOG_EVENTS 0
+#define LOG_ERROR 1
+
+/* printf-style message to the solver's logger (events only if enabled). */
+void say(const Logger *log, int category, const char *fmt, ...);
+
+/* True once the built-in excitation is over (or there is none). */
+int excitation_over(const Model *M, double t);
+
+/* Next window edge of the built-in excitation after t (a step stops there). */
+double next_breakpoint(const Model *M, double t);
+
+/* One accepted adaptive step from (t, y) with f0 = f(t, y): tries *h
+ * (capped at hmax, in which case *hitMax is set), shrinking it until the
+ * error norm is <= 1. Writes the step result, its dense output and the
+ * proposed next step; counts rejected attempts. Returns 0, or -1 if the
+ * step size underflows. */
+int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
+                  const double *f0, double *h, double hmax, double rtol, double atol,
+                  double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                  int *hitMax, long long *rejected);
+
+/* Newton iteration on the step length h in (0, hMax] so that the weighted
+ * sum of the step result's components, sum w[i] y1[i], equals target.
+ * Leaves the step result for the returned h in y1, f1, cont. */
+double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
+                   const double *f0, double h, double hMax, const double *w,
+                   double target, double *y1, double *f1, double cont[5][NMAX]);
+
+/* First root in (0, 1] of the quartic c crossing with the given slope sign
+ * (-1 falling, +1 rising); 2 if there is none. */
+double first_crossing(const double *c, int slope);
+
+/* Nonzero if the quartic c may have a root in [0, 1] (coefficient bounds). */
+int may_have_root(const double *c);
+
+/* At rest: the first time in [t, tc] at which |ah| exceeds
+ * M->d.upliftSlope * (g + av), found cell by cell (the waveform is monotone
+ * on quarter periods) and by bisection. Returns the tipping side (+1, -1)
+ * and the time in *tu, or 0 if the ground does not tip the body before tc. */
+int find_uplift(const Model *M, double t, double tc, double *tu);
+
+#endif

@@ -1,0 +1,540 @@
+/* Event-driven time stepping of two stacked blocks (see stack_solver.h and
+ * docs/two_blocks.md, "Patterns and their changes"). */
+#include "stack_solver.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include "events.h"
+#include "integrator.h"
+#include "stack.h"
+
+/* A closed contact opens once its margin (stack_margins) falls below
+ * -TOL_OPEN: a reaction moment 1e-9 of weight times contact half width. */
+#define TOL_OPEN 1e-9
+/* Pattern changes allowed at one instant before the solver gives up. */
+#define MAX_QUICK_SWITCHES 16
+/* Samples per step when looking for a contact that opens. */
+#define OPEN_SAMPLES 8
+
+typedef struct {
+    const Model *M;
+    Mode mode;
+    int s1, s2, piece;
+} Ctx;
+
+static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
+    const Ctx *c = (const Ctx *)ctx;
+    stack_rhs(c->M, c->mode, c->s1, c->s2, t, y, c->piece, dy);
+}
+
+static int moving(Mode m) { return m == MODE_UPPER || m == MODE_LOCKED || m == MODE_BOTH; }
+
+static const char *mode_name(Mode m) {
+    switch (m) {
+    case MODE_REST: return "rest";
+    case MODE_UPPER: return "upper";
+    case MODE_LOCKED: return "locked";
+    case MODE_BOTH: return "both";
+    case MODE_OVERTURNED: return "overturned";
+    default: return "?";
+    }
+}
+
+static int sign_of(double x, double y) { return x > 0 ? 1 : x < 0 ? -1 : (y < 0 ? -1 : 1); }
+
+static void set_mode(State *S, Mode mode, int s1, int s2) {
+    if (mode == MODE_LOCKED) s2 = s1; /* the irrelevant pivot follows the relevant one */
+    if (mode == MODE_UPPER) s1 = s2;
+    S->mode = mode;
+    S->side = s1;
+    S->side2 = s2;
+    S->fValid = 0;
+}
+
+/* Smallest reaction margin of the pattern's closed contacts at (t, y), and
+ * which contact (0 ground, 1 interface) and end (+1, -1) it belongs to. */
+static double weakest(const Model *M, Mode mode, int s1, int s2, const double y[4],
+                      double ah, double av, int *contact, int *end) {
+    double g[2], in[2], m = INFINITY;
+    stack_margins(M, mode, s1, s2, y, ah, av, g, in);
+    for (int k = 0; k < 2; k++) {
+        if (g[k] < m) {
+            m = g[k];
+            *contact = 0;
+            *end = k == 0 ? 1 : -1;
+        }
+        if (in[k] < m) {
+            m = in[k];
+            *contact = 1;
+            *end = k == 0 ? 1 : -1;
+        }
+    }
+    return m;
+}
+
+/* A pattern is admissible at (y, ah, av) if its closed contacts hold and
+ * every open contact with zero gap and zero gap rate accelerates open. */
+static int admissible(const Model *M, Mode mode, int s1, int s2, const double y[4],
+                      double ah, double av) {
+    int contact, end;
+    double acc[2], tol = 1e-12 * M->v.g / M->d.RL;
+    if (weakest(M, mode, s1, s2, y, ah, av, &contact, &end) < -TOL_OPEN) return 0;
+    if (mode == MODE_LOCKED) s2 = s1;
+    if (mode == MODE_UPPER) s1 = s2;
+    stack_accel(M, mode, s1, s2, y, ah, av, acc);
+    if ((mode == MODE_LOCKED || mode == MODE_BOTH) && y[0] == 0.0 && y[1] == 0.0 &&
+        s1 * acc[0] < -tol)
+        return 0;
+    if ((mode == MODE_UPPER || mode == MODE_BOTH) && y[2] == y[0] && y[3] == y[1] &&
+        s2 * (acc[1] - acc[0]) < -tol)
+        return 0;
+    return 1;
+}
+
+/* Angular velocity below which an impact settles a contact: the rate that
+ * would lift the body above it (the pair on the ground, or block 2 on block
+ * 1) to restRatio * alpha in free rocking under g + av. */
+static double settle_rate(const Model *M, int interface, double av) {
+    const Derived *d = &M->d;
+    double ge = M->v.g + av, W, R, a, I;
+    if (interface) {
+        W = M->v.mass2 * ge, R = d->RI, a = d->alphaI, I = d->II;
+    } else {
+        W = d->mTot * ge, R = d->RL, a = d->alphaL, I = d->IL;
+    }
+    double lift = cos(a - M->v.restRatio * a) - cos(a);
+    return lift > 0 ? sqrt(2.0 * W * R * lift / I) : 0.0;
+}
+
+void stack_initialize(Model *M) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    double *y = S->y, ah, av;
+    y[0] = v->theta0;
+    y[1] = v->omega0;
+    y[2] = v->theta02;
+    y[3] = v->omega02;
+    S->maxAbsTheta = fabs(y[0]);
+    S->maxAbsTheta2 = fabs(y[2]);
+    S->maxPrev = S->maxAbsTheta;
+    S->maxPrev2 = S->maxAbsTheta2;
+    S->lastSwitchTime = -INFINITY;
+    model_ground(M, S->t, &ah, &av);
+    int s1 = sign_of(y[0], y[1]), s2 = sign_of(y[2] - y[0], y[3] - y[1]);
+    Mode mode;
+    int contact, end;
+    if (y[0] == 0.0 && y[1] == 0.0) {
+        mode = (y[2] == 0.0 && y[3] == 0.0) ? MODE_REST : MODE_UPPER;
+        s1 = s2;
+    } else {
+        mode = (y[2] == y[0] && y[3] == y[1]) ? MODE_LOCKED : MODE_BOTH;
+        if (mode == MODE_LOCKED) s2 = s1;
+    }
+    /* a closed contact that cannot hold opens at its weak end (at rest the
+     * first step decides, see rest_advance) */
+    if ((mode == MODE_UPPER || mode == MODE_LOCKED) &&
+        weakest(M, mode, s1, s2, y, ah, av, &contact, &end) < -TOL_OPEN) {
+        if (mode == MODE_UPPER) s1 = end;
+        else s2 = end;
+        mode = MODE_BOTH;
+    }
+    set_mode(S, mode, s1, s2);
+}
+
+/* From rest at the time t the ground starts to tip the stack towards side:
+ * the static check of each candidate pattern, least motion first. */
+static void start_from_rest(Model *M, double t, int side, const Logger *log) {
+    State *S = &M->s;
+    static const Mode order[3] = {MODE_LOCKED, MODE_UPPER, MODE_BOTH};
+    double ah, av;
+    memset(S->y, 0, sizeof(S->y));
+    model_ground(M, t, &ah, &av);
+    Mode chosen = MODE_BOTH;
+    for (int i = 0; i < 3; i++)
+        if (admissible(M, order[i], side, side, S->y, ah, av)) {
+            chosen = order[i];
+            break;
+        }
+    S->t = t;
+    S->h = 0.0;
+    S->denseValid = 0;
+    set_mode(S, chosen, side, side);
+    say(log, LOG_EVENTS, "uplift t=%.17g side=%d pattern=%s", t, side, mode_name(chosen));
+}
+
+static void rest_advance(Model *M, double tc, const Logger *log) {
+    State *S = &M->s;
+    double tu;
+    int side = find_uplift(M, S->t, tc, &tu);
+    S->denseValid = 0;
+    if (!side) {
+        S->t = tc;
+        return;
+    }
+    start_from_rest(M, tu, side, log);
+}
+
+/* Impacts: the momentum map onto the new pattern (opening the contact that
+ * cannot carry the impulse), the constant-restitution scaling, and the
+ * settling of a contact whose rebound is below settle_rate. */
+static void apply_impact(Model *M, const Logger *log) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    double *y = S->y, ah, av, wm[2] = {y[1], y[3]}, wp[2], wq[2];
+    int ground = S->pending == EVENT_IMPACT;
+    Mode om = S->mode, nm = om;
+    int o1 = S->side, o2 = S->side2, n1 = o1, n2 = o2;
+    model_ground(M, S->t, &ah, &av);
+    if (ground) {
+        y[0] = 0.0;
+        if (om == MODE_LOCKED) y[2] = 0.0;
+        n1 = -o1;
+        if (om == MODE_LOCKED) n2 = n1;
+    } else {
+        y[2] = y[0];
+        n2 = -o2;
+        if (om == MODE_UPPER) n1 = n2;
+    }
+    if (!stack_impact(M, nm, n1, n2, o1, o2, y, wm, wp)) {
+        /* the closed contact would have to pull: it opens at one end */
+        int found = 0;
+        for (int e = 1; e >= -1 && !found; e -= 2) {
+            int b1 = nm == MODE_UPPER ? e : n1, b2 = nm == MODE_LOCKED ? e : n2;
+            stack_impact(M, MODE_BOTH, b1, b2, o1, o2, y, wm, wq);
+            double open = nm == MODE_UPPER ? e * wq[0] : e * (wq[1] - wq[0]);
+            if (open > 0) {
+                nm = MODE_BOTH, n1 = b1, n2 = b2, wp[0] = wq[0], wp[1] = wq[1];
+                found = 1;
+            }
+        }
+    }
+    if (v->law == 2) { /* constant restitution: kinetic energy ratio eta^2 */
+        double eta = ground ? v->etaGround : v->etaInterface;
+        double Tm = stack_kinetic(M, o1, o2, y, wm), Tp = stack_kinetic(M, n1, n2, y, wp);
+        double f = Tp > 0 ? eta * sqrt(Tm / Tp) : 0.0;
+        wp[0] *= f;
+        wp[1] *= f;
+    }
+    if (ground) S->impactsGround++;
+    else S->impactsInterface++;
+    S->impacts++;
+    S->lastImpactTime = S->t;
+    say(log, LOG_EVENTS,
+        "impact t=%.17g contact=%s theta1=%.17g theta2=%.17g w1m=%.17g w2m=%.17g w1p=%.17g "
+        "w2p=%.17g from=%s:%d:%d to=%s:%d:%d",
+        S->t, ground ? "ground" : "interface", y[0], y[2], wm[0], wm[1], wp[0], wp[1],
+        mode_name(om), o1, o2, mode_name(nm), n1, n2);
+
+    /* settling: a small rebound closes the contact (plastic impact) */
+    Mode sm = MODE_BOTH;
+    if (ground && fabs(wp[0]) < settle_rate(M, 0, av))
+        sm = nm == MODE_LOCKED ? MODE_REST : nm == MODE_BOTH ? MODE_UPPER : MODE_BOTH;
+    if (!ground && fabs(wp[1] - wp[0]) < settle_rate(M, 1, av))
+        sm = nm == MODE_UPPER ? MODE_REST : nm == MODE_BOTH ? MODE_LOCKED : MODE_BOTH;
+    if (sm != MODE_BOTH) {
+        /* A rigid block cannot be stopped by compressive impulses alone
+         * (docs/two_blocks.md), so settling is a rest criterion on a rebound
+         * that is already negligible, not an impact law: the remaining rates
+         * are projected onto the settled pattern, which must hold. */
+        stack_impact(M, sm, n1, n2, n1, n2, y, wp, wq);
+        double ys[4] = {y[0], wq[0], y[2], wq[1]};
+        if (admissible(M, sm, n1, n2, ys, ah, av)) {
+            nm = sm, wp[0] = wq[0], wp[1] = wq[1];
+            if (sm == MODE_REST) S->restTime = S->t;
+            say(log, LOG_EVENTS, "settle t=%.17g pattern=%s w1=%.17g w2=%.17g", S->t,
+                mode_name(sm), wq[0], wq[1]);
+        }
+    }
+    if (nm == MODE_REST) memset(y, 0, 4 * sizeof(double));
+    else {
+        y[1] = wp[0];
+        y[3] = wp[1];
+        if (nm == MODE_UPPER) y[0] = y[1] = 0.0;
+    }
+    set_mode(S, nm, n1, n2);
+}
+
+static int apply_event(Model *M, const Logger *log) {
+    State *S = &M->s;
+    if (S->t == S->lastSwitchTime) {
+        if (++S->quickSwitches > MAX_QUICK_SWITCHES) {
+            say(log, LOG_ERROR,
+                "the motion pattern keeps changing at t=%.17g without time advancing "
+                "(pattern %s); the contact problem has no consistent solution here",
+                S->t, mode_name(S->mode));
+            return -1;
+        }
+    } else {
+        S->quickSwitches = 0;
+        S->lastSwitchTime = S->t;
+    }
+    switch (S->pending) {
+    case EVENT_IMPACT:
+    case EVENT_INTERFACE:
+        apply_impact(M, log);
+        break;
+    case EVENT_OPEN: {
+        double ah, av;
+        int contact = 0, end = 1;
+        model_ground(M, S->t, &ah, &av);
+        weakest(M, S->mode, S->side, S->side2, S->y, ah, av, &contact, &end);
+        int s1 = contact == 0 ? end : S->side, s2 = contact == 1 ? end : S->side2;
+        say(log, LOG_EVENTS, "open t=%.17g contact=%s end=%d pattern=both", S->t,
+            contact ? "interface" : "ground", end);
+        set_mode(S, MODE_BOTH, s1, s2);
+        break;
+    }
+    case EVENT_OVERTURN:
+    case EVENT_OVERTURN2:
+        S->overturned2 = 1;
+        if (S->pending == EVENT_OVERTURN) S->overturned1 = 1;
+        S->overturnTime = S->t;
+        S->y[1] = S->y[3] = 0.0;
+        set_mode(S, MODE_OVERTURNED, S->side, S->side2);
+        say(log, LOG_EVENTS, "overturn t=%.17g blocks=%s", S->t, S->overturned1 ? "1+2" : "2");
+        break;
+    default:
+        break;
+    }
+    S->pending = EVENT_NONE;
+    return 0;
+}
+
+/* Largest |theta| of dense-output component comp over s in [0, sEnd]. */
+static double dense_max(const double cont[5][NMAX], int comp, double sEnd) {
+    double c[5], d[4], roots[3];
+    dense_poly(cont, comp, c);
+    double m = fmax(fabs(c[0]), fabs(poly_eval(c, 4, sEnd)));
+    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
+    int nr = poly_roots(d, 3, 0.0, sEnd, roots);
+    for (int j = 0; j < nr; j++) m = fmax(m, fabs(poly_eval(c, 4, roots[j])));
+    return m;
+}
+
+/* Weakest margin (shifted by TOL_OPEN) on the dense output at s. */
+static double open_margin(const Model *M, const Ctx *c, double t0, double h,
+                          const double cont[5][NMAX], double s) {
+    double y[NMAX], ah, av;
+    int contact, end;
+    dense_eval(cont, 4, s, y);
+    model_ground_piece(M, t0 + s * h, c->piece, &ah, &av);
+    return weakest(M, c->mode, c->s1, c->s2, y, ah, av, &contact, &end) + TOL_OPEN;
+}
+
+/* First s in (0, 1] at which a closed contact opens, or 2. The margin is
+ * sampled and the first sign change bisected to machine precision. */
+static double open_crossing(const Model *M, const Ctx *c, double t0, double h,
+                            const double cont[5][NMAX]) {
+    double lo = 0.0;
+    for (int k = 1; k <= OPEN_SAMPLES; k++) {
+        double hi = (double)k / OPEN_SAMPLES;
+        if (open_margin(M, c, t0, h, cont, hi) < 0) {
+            for (int it = 0; it < 60 && hi - lo > 4.0 * DBL_EPSILON; it++) {
+                double mid = 0.5 * (lo + hi);
+                if (open_margin(M, c, t0, h, cont, mid) < 0) hi = mid;
+                else lo = mid;
+            }
+            return hi;
+        }
+        lo = hi;
+    }
+    return 2.0;
+}
+
+static int take_step(Model *M, const Logger *log) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    Ctx c = {M, S->mode, S->side, S->side2, model_piece(M, S->t)};
+    int contact, end, hitBp;
+    double ah, av;
+
+    if (S->mode == MODE_LOCKED || S->mode == MODE_UPPER) {
+        model_ground_piece(M, S->t, c.piece, &ah, &av);
+        if (weakest(M, S->mode, S->side, S->side2, S->y, ah, av, &contact, &end) < -TOL_OPEN) {
+            S->pending = EVENT_OPEN; /* e.g. an input changed at the communication point */
+            S->denseValid = 0;
+            return 0;
+        }
+    }
+    double bp = next_breakpoint(M, S->t), hmax = bp - S->t;
+    double y1[NMAX], f1[NMAX], cont[5][NMAX], h = S->h, hNext;
+    if (!S->fValid) {
+        rhs_cb(&c, S->t, S->y, S->f);
+        S->fValid = 1;
+    }
+    if (adaptive_step(rhs_cb, &c, 4, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
+                      cont, &hNext, &hitBp, &S->rejected)) {
+        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        return -1;
+    }
+    S->steps++;
+
+    /* events: polynomial crossings of the dense output, and contact opening */
+    double a[5], b[5], P[5];
+    int s1 = S->side, s2 = S->side2;
+    dense_poly(cont, 0, a);
+    dense_poly(cont, 2, b);
+    EventKind ev = EVENT_NONE;
+    double sEv = 2.0;
+    struct {
+        EventKind kind;
+        int use;
+        double sign, offset;
+        int rel, slope;
+    } cand[4] = {
+        {EVENT_IMPACT, S->mode != MODE_UPPER, s1, 0.0, 0, -1},
+        {EVENT_OVERTURN, S->mode != MODE_UPPER, s1, M_PI / 2, 0, +1},
+        {EVENT_INTERFACE, S->mode != MODE_LOCKED, s2, 0.0, 1, -1},
+        {EVENT_OVERTURN2, S->mode != MODE_LOCKED, s2, M_PI / 2, 1, +1},
+    };
+    for (int k = 0; k < 4; k++) {
+        if (!cand[k].use) continue;
+        for (int i = 0; i < 5; i++) P[i] = cand[k].sign * (cand[k].rel ? b[i] - a[i] : a[i]);
+        P[0] -= cand[k].offset;
+        double s = first_crossing(P, cand[k].slope);
+        if (s < sEv) sEv = s, ev = cand[k].kind;
+    }
+    if (S->mode == MODE_LOCKED || S->mode == MODE_UPPER) {
+        double s = open_crossing(M, &c, S->t, h, cont);
+        if (s < sEv) sEv = s, ev = EVENT_OPEN;
+    }
+    double hStep = h, tNew = hitBp ? bp : S->t + h;
+    if (ev != EVENT_NONE) {
+        double w[NMAX] = {0}, target = 0.0;
+        if (ev == EVENT_IMPACT || ev == EVENT_OVERTURN) w[0] = 1.0;
+        if (ev == EVENT_INTERFACE || ev == EVENT_OVERTURN2) w[0] = -1.0, w[2] = 1.0;
+        if (ev == EVENT_OVERTURN) target = s1 * M_PI / 2;
+        if (ev == EVENT_OVERTURN2) target = s2 * M_PI / 2;
+        hStep = refine_step(rhs_cb, &c, 4, S->t, S->y, S->f, sEv * h, h, w, target, y1, f1, cont);
+        if (ev == EVENT_IMPACT || ev == EVENT_OVERTURN) y1[0] = target;
+        if (ev == EVENT_INTERFACE || ev == EVENT_OVERTURN2) y1[2] = y1[0] + target;
+        tNew = S->t + hStep;
+        hitBp = 0;
+    }
+
+    S->maxPrev = S->maxAbsTheta;
+    S->maxPrev2 = S->maxAbsTheta2;
+    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_max(cont, 0, 1.0), fabs(y1[0])));
+    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_max(cont, 2, 1.0), fabs(y1[2])));
+    S->tOld = S->t;
+    S->hDense = hStep;
+    memcpy(S->cont, cont, sizeof(cont));
+    S->denseSide = s1;
+    S->denseSide2 = s2;
+    S->denseValid = 1;
+    S->t = tNew;
+    memcpy(S->y, y1, 4 * sizeof(double));
+    memcpy(S->f, f1, 4 * sizeof(double));
+    S->fValid = (ev == EVENT_NONE && !hitBp);
+    S->h = hNext;
+    S->pending = ev;
+
+    model_ground_piece(M, S->t, c.piece, &ah, &av);
+    if (!(v->g + av > 0)) {
+        say(log, LOG_ERROR,
+            "vertical ground acceleration %g <= -g at t=%.17g: the blocks would leave the ground (not modelled)",
+            av, S->t);
+        return -1;
+    }
+    for (int i = 0; i < 4; i++)
+        if (!isfinite(S->y[i])) {
+            say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
+            return -1;
+        }
+    return 0;
+}
+
+int stack_advance(Model *M, double tc, const Logger *log) {
+    State *S = &M->s;
+    for (;;) {
+        if (S->pending != EVENT_NONE && S->t <= tc && apply_event(M, log)) return -1;
+        if (S->t >= tc) break;
+        switch (S->mode) {
+        case MODE_OVERTURNED:
+            S->t = tc;
+            S->denseValid = 0;
+            break;
+        case MODE_REST:
+            rest_advance(M, tc, log);
+            break;
+        default:
+            if (take_step(M, log)) return -1;
+        }
+    }
+    return 0;
+}
+
+/* State at tc (<= S->t) from the dense output, with the pivots of its step. */
+static int state_at(const Model *M, double tc, double y[4], int *s1, int *s2, double *s) {
+    const State *S = &M->s;
+    memcpy(y, S->y, 4 * sizeof(double));
+    *s1 = S->side;
+    *s2 = S->side2;
+    if (!(S->t > tc && S->denseValid)) return 0;
+    *s = (tc - S->tOld) / S->hDense;
+    if (*s < 0) *s = 0;
+    if (*s > 1) *s = 1;
+    dense_eval(S->cont, 4, *s, y);
+    *s1 = S->denseSide;
+    *s2 = S->denseSide2;
+    return 1;
+}
+
+void stack_outputs(Model *M, double tc) {
+    State *S = &M->s;
+    Variables *v = &M->v;
+    double y[4], s = 1.0, ah, av, acc[2] = {0.0, 0.0};
+    int s1, s2;
+    int inStep = state_at(M, tc, y, &s1, &s2, &s);
+    model_ground(M, tc, &ah, &av);
+    if (moving(S->mode)) stack_accel(M, S->mode, s1, s2, y, ah, av, acc);
+    v->theta = y[0];
+    v->omega = y[1];
+    v->theta2 = y[2];
+    v->omega2 = y[3];
+    v->alphaDD = acc[0];
+    v->alphaDD2 = acc[1];
+    v->maxAbsTheta = S->maxAbsTheta;
+    v->maxAbsTheta2 = S->maxAbsTheta2;
+    if (inStep) {
+        v->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
+        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+    }
+    v->energy = stack_energy(M, s1, s2, y);
+    v->impacts = S->impacts;
+    v->impactsGround = S->impactsGround;
+    v->impactsInterface = S->impactsInterface;
+    v->lastImpactTime = S->lastImpactTime;
+    v->locked = S->mode == MODE_LOCKED;
+    v->atRest = S->mode == MODE_REST;
+    v->overturned = S->mode == MODE_OVERTURNED;
+    v->overturned1 = S->overturned1;
+    v->overturned2 = S->overturned2;
+    v->overturnTime = S->overturnTime;
+    v->restTime = S->restTime;
+    v->pattern = (int)S->mode;
+    v->peaks = 0;
+    v->lastPeakTime = -1.0;
+    v->lastPeakTheta = 0.0;
+    v->ahTotal = ah;
+    v->avTotal = av;
+}
+
+void stack_rollback(Model *M, double tc) {
+    State *S = &M->s;
+    double y[4], s = 1.0;
+    int s1, s2;
+    if (!moving(S->mode) || S->t <= tc || !S->denseValid) return;
+    state_at(M, tc, y, &s1, &s2, &s);
+    S->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
+    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+    memcpy(S->y, y, sizeof(y));
+    S->t = tc;
+    S->side = s1;
+    S->side2 = s2;
+    S->pending = EVENT_NONE;
+    S->fValid = 0;
+    S->denseValid = 0;
+}
