@@ -12,9 +12,10 @@ the (accelerating) ground frame gives
     M(q) q'' = -sum_i m_i J_i^T (c_i(q, q') + (a_h, g + a_v))
 
 with c_i the velocity-product part of the acceleration of centre i. This module
-covers the mode in which both blocks rock ("both") and the locked mode in
-which the pair turns as one body about block 1's corner; impacts and mode
-changes are not here yet.
+covers the patterns in which both blocks rock, the pair turns as one body
+about block 1's corner (locked), or block 2 rocks on block 1 at rest (upper),
+and the momentum impact map. It is the independent check of the C core
+(model/c/stack.c), which uses the expanded Lagrange form instead.
 
 Units SI, angles in radians.
 """
@@ -181,3 +182,37 @@ def pivot_K(st: Stack, q, s1: int, s2: int) -> np.ndarray:
     """Position of block 2's pivot on block 1 (m)."""
     P1, _, uK, _ = _lever_arms(st, s1, s2)
     return P1 + rot(float(np.asarray(q, float)[0])) @ uK
+
+
+def upper_acceleration(st: Stack, theta2: float, omega2: float, s2: int,
+                       ah: float = 0.0, av: float = 0.0) -> float:
+    """theta2'' of block 2 rocking on block 1 held flat on the ground (theta1 = 0)."""
+    M, f = _forces(st, np.array([0.0, theta2]), np.array([0.0, omega2]), s2, s2, ah, av)
+    return float(f[1] / M[1, 1])
+
+
+def contact_margins(st: Stack, pattern: str, q, w, s1: int, s2: int,
+                    ah: float = 0.0, av: float = 0.0) -> np.ndarray:
+    """Reaction margins (right end, left end) of the closed contact of a pattern.
+
+    pattern "locked": the interface (block 2 seated on block 1 rocking on s1);
+    pattern "upper": the ground (block 1 flat, block 2 rocking on s2). A
+    margin is e * Q_e / (weight * half width), Q_e the generalised force the
+    closed contact must supply in the coordinates that pivot about its end e:
+    negative means the contact would have to pull, so it opens about e.
+    """
+    q, w = np.asarray(q, float), np.asarray(w, float)
+    if pattern == "locked":
+        L, comp, scale = np.array([1.0, 1.0]), 1, st.m2 * st.g * st.c
+        qdd = L * locked_acceleration(st, q[0], w[0], s1, s1, ah, av)
+    elif pattern == "upper":
+        L, comp, scale = np.array([0.0, 1.0]), 0, (st.m1 + st.m2) * st.g * st.b1
+        qdd = L * upper_acceleration(st, q[1], w[1], s2, ah, av)
+    else:
+        raise ValueError(f"pattern must be 'locked' or 'upper', got {pattern!r}")
+    out = []
+    for e in (1, -1):
+        piv = (s1, e) if pattern == "locked" else (e, s2)
+        M, f = _forces(st, q, w, *piv, ah, av)
+        out.append(e * (M @ qdd - f)[comp] / scale)
+    return np.array(out)
