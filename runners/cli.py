@@ -41,9 +41,20 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from runners.bench import run_native_bench
+    from runners.bench import run_fmpy_bench, run_native_bench
 
-    print(run_native_bench(_fmu_path(args.fmu), repeats=args.repeats))
+    fmu = _fmu_path(args.fmu)
+    print(run_native_bench(fmu, repeats=args.repeats))
+    print()
+    print(run_fmpy_bench(fmu, repeats=args.fmpy_repeats))
+    return 0
+
+
+def cmd_figures(args: argparse.Namespace) -> int:
+    from runners.figures import write_figures
+
+    for path in write_figures(_fmu_path(args.fmu), Path(args.out)):
+        print(path)
     return 0
 
 
@@ -57,10 +68,15 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
     sim.add_argument("--step", type=float, help="override [simulation] step (s)")
     sim.set_defaults(func=cmd_simulate)
-    bench = sub.add_parser("bench", help="measure the native cost of single-block simulations")
+    bench = sub.add_parser("bench", help="measure the cost of simulations, natively and through fmpy")
     bench.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
-    bench.add_argument("--repeats", type=int, default=2000, help="simulations per case")
+    bench.add_argument("--repeats", type=int, default=2000, help="native simulations per case")
+    bench.add_argument("--fmpy-repeats", type=int, default=20, help="fmpy runs per case")
     bench.set_defaults(func=cmd_bench)
+    figs = sub.add_parser("figures", help="draw the figures of docs/ from fresh FMU runs")
+    figs.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
+    figs.add_argument("--out", default="docs/figures", help="folder for the PNG files (default: docs/figures)")
+    figs.set_defaults(func=cmd_figures)
     return parser
 
 

@@ -17,6 +17,9 @@ typedef struct {
     const char *name;
     double b, h, theta0, amplitude, frequency, relTol, stop, restRatio;
     int kind, law;
+    /* two blocks (nBlocks = 2): lower block mass, upper block, table displacement */
+    int nBlocks;
+    double m, b2, h2, m2, theta02, displacement;
 } Case;
 
 static void *xcalloc(size_t n, size_t s) { return calloc(n, s); }
@@ -48,37 +51,49 @@ int main(int argc, char **argv) {
     LOAD(fmi2GetInteger) LOAD(fmi2GetBoolean) LOAD(fmi2FreeInstance)
     int repeats = atoi(argv[3]);
     fmi2CallbackFunctions cb = {quiet, xcalloc, free, NULL, NULL};
-    /* b, h, theta0, amplitude, frequency, relTol, stop, restRatio, kind, law */
+    /* b, h, theta0, amplitude, frequency, relTol, stop, restRatio, kind, law
+     * [, nBlocks, m, b2, h2, m2, theta02, displacement] */
+#define ONE 1, 10.0, 0.1, 0.2, 5.0, 0.0, 0.0
+#define SEED 2, 1.3, 0.030, 0.050, 2.3, 0.0 /* seed 000 Blocks 1 (lower) and 4 (upper) */
     Case cases[] = {
-        {"sine pulse to rest, rtol 1e-10, restRatio 1e-6 (defaults)", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-6, 1, 0},
-        {"sine pulse to rest, rtol 1e-6, restRatio 1e-6", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-6, 1, 0},
-        {"sine pulse to rest, rtol 1e-10, restRatio 1e-3", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-3, 1, 0},
-        {"sine pulse to rest, rtol 1e-6, restRatio 1e-3", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-3, 1, 0},
-        {"sine pulse overturning, rtol 1e-10", 0.1, 0.3, 0, 6.0, 2.0, 1e-10, 5.0, 1e-6, 1, 0},
-        {"free rocking 10 impacts, rtol 1e-10", 0.1, 0.3, 0.2, 0, 1, 1e-10, 0, 1e-6, 0, 2},
-        {"free rocking 10 impacts, rtol 1e-6", 0.1, 0.3, 0.2, 0, 1, 1e-6, 0, 1e-6, 0, 2},
+        {"sine pulse to rest, rtol 1e-10, restRatio 1e-6 (defaults)", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-6, 1, 0, ONE},
+        {"sine pulse to rest, rtol 1e-6, restRatio 1e-6", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-6, 1, 0, ONE},
+        {"sine pulse to rest, rtol 1e-10, restRatio 1e-3", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-3, 1, 0, ONE},
+        {"sine pulse to rest, rtol 1e-6, restRatio 1e-3", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-3, 1, 0, ONE},
+        {"sine pulse overturning, rtol 1e-10", 0.1, 0.3, 0, 6.0, 2.0, 1e-10, 5.0, 1e-6, 1, 0, ONE},
+        {"free rocking 10 impacts, rtol 1e-10", 0.1, 0.3, 0.2, 0, 1, 1e-10, 0, 1e-6, 0, 2, ONE},
+        {"free rocking 10 impacts, rtol 1e-6", 0.1, 0.3, 0.2, 0, 1, 1e-6, 0, 1e-6, 0, 2, ONE},
+        {"two blocks, free from opposite tilts, rtol 1e-10", 0.1, 0.3, 0.05, 0, 1, 1e-10, 3.0, 1e-6, 0, 0,
+         2, 10.0, 0.1, 0.2, 5.0, -0.08, 0.0},
+        {"two blocks, seed 7 Hz / 3 mm, 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 7.0, 1e-10, 10.0, 1e-6, 3, 2, SEED, 0.003},
+        {"two blocks, seed 7 Hz / 3 mm, 10 s, rtol 1e-6", 0.0145, 0.060, 0, 0, 7.0, 1e-6, 10.0, 1e-6, 3, 2, SEED, 0.003},
+        {"two blocks, seed 5.5 Hz / 3 mm, 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 5.5, 1e-10, 10.0, 1e-6, 3, 2, SEED, 0.003},
     };
-    const fmi2ValueReference vrReal[] = {2, 3, 5, 13, 14, 19, 21};
-    const fmi2ValueReference vrInt[] = {12, 8};
+#undef ONE
+#undef SEED
+    const fmi2ValueReference vrReal[] = {2, 3, 5, 13, 14, 19, 21, 4, 60, 61, 62, 63, 18, 15};
+    const fmi2ValueReference vrInt[] = {12, 8, 1};
     const fmi2ValueReference vrImp = 43, vrOver = 44, vrRest = 45;
     int only = argc == 5 ? atoi(argv[4]) : -1;
     for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
         if (only >= 0 && (size_t)only != c) continue;
         Case k = cases[c];
-        double stop = k.stop; /* free-rocking rows (law 2): set to the time of the 10th impact */
+        double stop = k.stop; /* one-block free-rocking rows (law 2): until the 10th impact */
         int impacts = 0, over = 0, rest = 0;
         double t0 = now();
         for (int r = 0; r < repeats; r++) {
             fmi2Component m = fmi2Instantiate("bench", fmi2CoSimulation, argv[2], "", &cb, 0, 0);
             if (!m) return 1;
-            double real[] = {k.b, k.h, k.theta0, k.amplitude, k.frequency, k.relTol, k.restRatio};
-            int ints[] = {k.kind, k.law};
-            fmi2SetReal(m, vrReal, 7, real);
-            fmi2SetInteger(m, vrInt, 2, ints);
+            double real[] = {k.b, k.h, k.theta0, k.amplitude, k.frequency, k.relTol, k.restRatio,
+                             k.m, k.b2, k.h2, k.m2, k.theta02, k.displacement,
+                             k.kind == 3 ? 0.0 : 1.0 /* cycles: harmonic endless */};
+            int ints[] = {k.kind, k.law, k.nBlocks};
+            fmi2SetReal(m, vrReal, 14, real);
+            fmi2SetInteger(m, vrInt, 3, ints);
             fmi2SetupExperiment(m, 0, 0, 0, 0, 0);
             fmi2EnterInitializationMode(m);
             fmi2ExitInitializationMode(m);
-            if (k.law == 2) {
+            if (k.law == 2 && k.nBlocks == 1) {
                 /* advance in 10 ms steps until the 10th impact (step-independent results) */
                 double t = 0;
                 impacts = 0;
