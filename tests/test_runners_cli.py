@@ -64,3 +64,35 @@ def test_missing_scene_and_missing_fmu(fmu_path, tmp_path):
     assert p.returncode == 2 and "no such scene file" in p.stderr
     p = runners("simulate", "examples/sine_pulse.toml", fmu_path=tmp_path / "missing.fmu")
     assert p.returncode == 2 and "FMU not found" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_two_block_scene_summary_names_both_blocks(fmu_path):
+    p = runners("simulate", "examples/two_blocks_free.toml", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert "between the blocks" in p.stdout and "block 2" in p.stdout
+    s = json.loads(runners("simulate", "examples/two_blocks_free.toml", "--json", fmu_path=fmu_path).stdout)
+    assert s["blocks"] == 2 and s["impacts"] == s["impacts_ground"] + s["impacts_interface"]
+    assert s["restitution_law"] == "momentum"
+
+
+def test_bad_two_block_scene_is_a_one_line_error(fmu_path, tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text("[block2]\nmass = 0.0\n")
+    p = runners("simulate", str(scene), fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "block2.mass" in p.stderr
+
+
+def test_bench_prints_native_and_fmpy_tables(fmu_path):
+    p = runners("bench", "--repeats", "1", "--fmpy-repeats", "1", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert "two blocks, seed 7 Hz / 3 mm, 10 s" in p.stdout and "Through fmpy" in p.stdout
+    p = runners("bench", "--repeats", "0", fmu_path=fmu_path)
+    assert p.returncode == 2 and "--repeats" in p.stderr
+
+
+def test_figures_are_drawn_into_the_given_folder(fmu_path, tmp_path):
+    p = runners("figures", "--out", str(tmp_path), fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    for name in ("two_blocks_fig17.png", "two_blocks_mirror.png"):
+        png = tmp_path / name
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
