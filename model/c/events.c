@@ -117,29 +117,42 @@ static double next_cell_edge(const Model *M, double a) {
     return fmin(b, M->d.excEnd);
 }
 
+/* Start of the cell that contains a (a itself outside the excitation). */
+static double cell_start(const Model *M, double a) {
+    if (M->v.kind == 0 || a < M->d.excStart || a >= M->d.excEnd) return a;
+    double T4 = 0.25 / M->v.frequency;
+    double lo = M->d.excStart + floor((a - M->d.excStart) / T4) * T4;
+    return lo <= a ? lo : a;
+}
+
 int find_uplift(const Model *M, double t, double tc, double *tu) {
     double a = t;
-    for (;;) {
+    for (int first = 1;; first = 0) {
         int piece = model_piece(M, a);
-        double b = fmin(next_cell_edge(M, a), tc);
         for (int side = 1; side >= -1; side -= 2)
             if (model_uplift_indicator_piece(M, a, side, piece) > 0) {
                 *tu = a;
                 return side;
             }
-        double best = INFINITY;
-        for (int side = 1; side >= -1 && b > a; side -= 2) {
-            if (model_uplift_indicator_piece(M, b, side, piece) > 0) {
-                double lo = a, hi = b;
-                for (int it = 0; it < 200 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
-                    double mid = 0.5 * (lo + hi);
-                    if (model_uplift_indicator_piece(M, mid, side, piece) > 0) hi = mid;
-                    else lo = mid;
-                }
-                if (hi < best) best = hi;
+        double b = next_cell_edge(M, a);
+        if (!isfinite(b)) return 0; /* no waveform left: the indicator stays put */
+        /* Bisect on the whole cell (where the indicator is still <= 0 at its
+         * start), not from a: the root then does not depend on where the
+         * previous call stopped, i.e. on the communication points. */
+        double best = INFINITY, c0 = first ? cell_start(M, a) : a;
+        for (int side = 1; side >= -1; side -= 2) {
+            if (!(model_uplift_indicator_piece(M, b, side, piece) > 0)) continue;
+            double lo = (c0 < a && model_uplift_indicator_piece(M, c0, side, piece) <= 0) ? c0 : a;
+            double hi = b;
+            for (int it = 0; it < 200 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
+                double mid = 0.5 * (lo + hi);
+                if (model_uplift_indicator_piece(M, mid, side, piece) > 0) hi = mid;
+                else lo = mid;
             }
+            if (hi < best) best = hi;
         }
         if (isfinite(best)) {
+            if (best > tc) return 0;
             *tu = best;
             /* the side whose indicator is positive at the crossing */
             return model_uplift_indicator_piece(M, best, 1, piece) > 0 ? 1 : -1;

@@ -227,17 +227,27 @@ static void apply_impact(Model *M, const Logger *log) {
         S->t, ground ? "ground" : "interface", y[0], y[2], wm[0], wm[1], wp[0], wp[1],
         mode_name(om), o1, o2, mode_name(nm), n1, n2);
 
-    /* settling: a small rebound closes the contact (plastic impact) */
-    Mode sm = MODE_BOTH;
-    if (ground && fabs(wp[0]) < settle_rate(M, 0, av))
-        sm = nm == MODE_LOCKED ? MODE_REST : nm == MODE_BOTH ? MODE_UPPER : MODE_BOTH;
-    if (!ground && fabs(wp[1] - wp[0]) < settle_rate(M, 1, av))
-        sm = nm == MODE_UPPER ? MODE_REST : nm == MODE_BOTH ? MODE_LOCKED : MODE_BOTH;
-    if (sm != MODE_BOTH) {
+    /* settling: a contact at zero gap whose rate is negligible closes. Both
+     * contacts are looked at (a landing block 2 can leave block 1 with a
+     * negligible rate too); the most settled admissible pattern wins. */
+    int groundOpen = nm == MODE_BOTH || nm == MODE_LOCKED;
+    int interfaceOpen = nm == MODE_BOTH || nm == MODE_UPPER;
+    int groundSettles = !groundOpen || (y[0] == 0.0 && fabs(wp[0]) < settle_rate(M, 0, av));
+    int interfaceSettles =
+        !interfaceOpen || (y[2] == y[0] && fabs(wp[1] - wp[0]) < settle_rate(M, 1, av));
+    Mode cand[3];
+    int nc = 0;
+    if (groundSettles && interfaceSettles) cand[nc++] = MODE_REST;
+    if (nm == MODE_BOTH) { /* close one contact, the impacting one first */
+        if (ground ? groundSettles : interfaceSettles) cand[nc++] = ground ? MODE_UPPER : MODE_LOCKED;
+        if (ground ? interfaceSettles : groundSettles) cand[nc++] = ground ? MODE_LOCKED : MODE_UPPER;
+    }
+    for (int i = 0; i < nc; i++) {
         /* A rigid block cannot be stopped by compressive impulses alone
          * (docs/two_blocks.md), so settling is a rest criterion on a rebound
          * that is already negligible, not an impact law: the remaining rates
          * are projected onto the settled pattern, which must hold. */
+        Mode sm = cand[i];
         stack_impact(M, sm, n1, n2, n1, n2, y, wp, wq);
         double ys[4] = {y[0], wq[0], y[2], wq[1]};
         if (admissible(M, sm, n1, n2, ys, ah, av)) {
@@ -245,6 +255,7 @@ static void apply_impact(Model *M, const Logger *log) {
             if (sm == MODE_REST) S->restTime = S->t;
             say(log, LOG_EVENTS, "settle t=%.17g pattern=%s w1=%.17g w2=%.17g", S->t,
                 mode_name(sm), wq[0], wq[1]);
+            break;
         }
     }
     if (nm == MODE_REST) memset(y, 0, 4 * sizeof(double));
