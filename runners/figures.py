@@ -41,6 +41,19 @@ def _shade_patterns(ax, t: np.ndarray, pattern: np.ndarray) -> None:
             start = i
 
 
+def _finish(fig, axes, title: str, out: Path) -> Path:
+    """Common axes labels, title and the PNG file."""
+    for ax in axes:
+        ax.set_ylabel("rad")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("t (s)")
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def seed_forced_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step: float = 2e-3) -> Path:
     """Seed 000 Fig. 17: the four harmonic table motions, theta1 and theta2 against time."""
     fig, axes = plt.subplots(len(SEED_CASES), 1, figsize=(9, 10), sharex=True)
@@ -61,18 +74,11 @@ def seed_forced_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step:
         else:
             title += f": {int(o['impactsGround'][-1])} ground, {int(o['impactsInterface'][-1])} interface impacts"
         ax.set_title(title, fontsize=10)
-        ax.set_ylabel("rad")
-        ax.grid(alpha=0.3)
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in PATTERN_COLOURS.values()]
     lines, labels = axes[0].get_legend_handles_labels()
     axes[0].legend(lines + handles, labels + list(PATTERN_NAMES.values()), fontsize=8, ncol=3, loc="upper right")
-    axes[-1].set_xlabel("t (s)")
-    fig.suptitle("Two blocks on a shaking table (seed 000 Fig. 17 cases), constant restitution 0.95 / 0.98",
-                 fontsize=11)
-    fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return _finish(fig, axes, "Two blocks on a shaking table (seed 000 Fig. 17 cases), "
+                   "constant restitution 0.95 / 0.98", out)
 
 
 def mirror_tests(fmu: RockingFMU, out: Path, stop_time: float = 3.0, step: float = 1e-3) -> Path:
@@ -93,16 +99,9 @@ def mirror_tests(fmu: RockingFMU, out: Path, stop_time: float = 3.0, step: float
         ax.plot(b.time, -b.outputs["block2.theta"], color="k", ls="--", lw=0.8, label="-theta2, mirrored start")
         gap = max(np.max(np.abs(a.outputs[k] + b.outputs[k])) for k in ("block1.theta", "block2.theta"))
         ax.set_title(f"{name}: largest mirror gap {gap:.1e} rad", fontsize=10)
-        ax.set_ylabel("rad")
-        ax.grid(alpha=0.3)
         ax.legend(fontsize=8, ncol=2, loc="upper right")
-    axes[-1].set_xlabel("t (s)")
-    fig.suptitle("Free rocking of two blocks (b = 0.1 m; h1 = 0.3 m, h2 = 0.2 m), momentum restitution",
-                 fontsize=11)
-    fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return _finish(fig, axes, "Free rocking of two blocks (b = 0.1 m; h1 = 0.3 m, h2 = 0.2 m), "
+                   "momentum restitution", out)
 
 
 FIGURES = {

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -21,3 +25,21 @@ def fmu_path() -> Path:
 def fmu(fmu_path: Path):
     with RockingFMU(fmu_path) as f:
         yield f
+
+
+def build_container(fmu_path: Path, folder: Path, step_size: float, name: str = "Container.fmu") -> Path:
+    """A container FMU (pip fmu-manipulation-toolbox's fmucontainer) whose own
+    C runtime imports ours; its variables are ours prefixed "rockingblock."."""
+    tool = Path(sys.executable).parent / "fmucontainer"
+    if not tool.exists():
+        tool = shutil.which("fmucontainer")
+    assert tool, "fmucontainer (pip fmu-manipulation-toolbox) is not installed"
+    shutil.copy(fmu_path, folder / "RockingBlock.fmu")
+    (folder / "container.json").write_text(json.dumps({
+        "name": name, "step_size": step_size, "auto_input": True, "auto_output": True,
+        "auto_parameter": True, "fmu": ["RockingBlock.fmu"]}))
+    proc = subprocess.run([str(tool), "-container", "container.json", "-fmu-directory", "."], cwd=folder,
+                          capture_output=True, text=True)
+    container = folder / name
+    assert container.is_file(), proc.stdout + proc.stderr
+    return container

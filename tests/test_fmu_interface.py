@@ -2,21 +2,19 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import shutil
 import subprocess
-import sys
 import threading
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
+from conftest import build_container
 from runners.fmu import FMUError
 
 SCENE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
@@ -220,19 +218,7 @@ def test_fmpy_simulate_fmu_runs_it(fmu_path, fmu):
 
 def test_container_fmu_gives_the_same_trajectory(fmu_path, fmu, tmp_path):
     """fmucontainer builds a container FMU whose own C runtime imports ours."""
-    tool = Path(sys.executable).parent / "fmucontainer"
-    if not tool.exists():
-        tool = shutil.which("fmucontainer")
-    assert tool, "fmucontainer (pip fmu-manipulation-toolbox) is not installed"
-    shutil.copy(fmu_path, tmp_path / "RockingBlock.fmu")
-    (tmp_path / "container.json").write_text(json.dumps({
-        "name": "RockingContainer.fmu", "step_size": 0.004, "auto_input": True, "auto_output": True,
-        "auto_parameter": True, "fmu": ["RockingBlock.fmu"],
-    }))
-    proc = subprocess.run([str(tool), "-container", "container.json", "-fmu-directory", "."], cwd=tmp_path,
-                          capture_output=True, text=True)
-    container = tmp_path / "RockingContainer.fmu"
-    assert container.is_file(), proc.stdout + proc.stderr
+    container = build_container(fmu_path, tmp_path, 0.004, "RockingContainer.fmu")
     params = {"block1.theta0": 0.15, "excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
     r = simulate_fmu(str(container), start_values={f"rockingblock.{k}": v for k, v in params.items()},
                      stop_time=3.0, output_interval=0.02, output=["block1.theta", "impacts"])

@@ -4,17 +4,13 @@ one-block model."""
 
 from __future__ import annotations
 
-import json
 import math
-import shutil
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
+from conftest import build_container
 from model import two_blocks as tb
 from runners.fmu import FMUError
 
@@ -387,18 +383,8 @@ def test_two_blocks_through_fmpy_simulate_and_the_container(fmu_path, fmu, tmp_p
                      output=["block1.theta", "block2.theta"])
     np.testing.assert_allclose(r["block2.theta"], ours.outputs["block2.theta"], rtol=0, atol=1e-12)
 
-    tool = Path(sys.executable).parent / "fmucontainer"
-    if not tool.exists():
-        tool = shutil.which("fmucontainer")
-    assert tool, "fmucontainer (pip fmu-manipulation-toolbox) is not installed"
-    shutil.copy(fmu_path, tmp_path / "RockingBlock.fmu")
-    (tmp_path / "container.json").write_text(json.dumps({
-        "name": "Stack.fmu", "step_size": 0.005, "auto_input": True, "auto_output": True,
-        "auto_parameter": True, "fmu": ["RockingBlock.fmu"]}))
-    proc = subprocess.run([str(tool), "-container", "container.json", "-fmu-directory", "."], cwd=tmp_path,
-                          capture_output=True, text=True)
-    assert (tmp_path / "Stack.fmu").is_file(), proc.stdout + proc.stderr
-    c = simulate_fmu(str(tmp_path / "Stack.fmu"), start_values={f"rockingblock.{k}": v for k, v in p.items()},
+    container = build_container(fmu_path, tmp_path, 0.005)
+    c = simulate_fmu(str(container), start_values={f"rockingblock.{k}": v for k, v in p.items()},
                      stop_time=3.0, output_interval=0.02, output=["block1.theta", "block2.theta"])
     np.testing.assert_allclose(c["block1.theta"], ours.outputs["block1.theta"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(c["block2.theta"], ours.outputs["block2.theta"], rtol=0, atol=1e-12)

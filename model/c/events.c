@@ -161,3 +161,24 @@ int find_uplift(const Model *M, double t, double tc, double *tu) {
         a = b;
     }
 }
+
+int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops) {
+    State *S = &M->s;
+    for (;;) {
+        if (S->pending != EVENT_NONE && S->t <= tc && ops->apply_event(M, log)) return -1;
+        if (S->t >= tc) return 0;
+        if (ops->before_step) ops->before_step(M, log);
+        if (S->mode == MODE_OVERTURNED) {
+            S->t = tc;
+            S->denseValid = 0;
+        } else if (S->mode == MODE_REST) {
+            double tu;
+            int side = find_uplift(M, S->t, tc, &tu);
+            S->denseValid = 0;
+            if (side) ops->start_moving(M, tu, side, log);
+            else S->t = tc;
+        } else if (ops->take_step(M, log)) {
+            return -1;
+        }
+    }
+}

@@ -49,4 +49,20 @@ int may_have_root(const double *c);
  * and the time in *tu, or 0 if the ground does not tip the body before tc. */
 int find_uplift(const Model *M, double t, double tc, double *tu);
 
+/* What a solver plugs into advance_to(). */
+typedef struct {
+    /* apply the event pending at S->t; nonzero on failure */
+    int (*apply_event)(Model *M, const Logger *log);
+    /* one integrator step in a moving mode; nonzero on failure */
+    int (*take_step)(Model *M, const Logger *log);
+    /* the ground tips the body resting at time t towards side */
+    void (*start_moving)(Model *M, double t, int side, const Logger *log);
+    /* called before each step or rest search (may be NULL) */
+    void (*before_step)(Model *M, const Logger *log);
+} SolverOps;
+
+/* Advance M to tc: apply events once time reaches them, wait at rest for
+ * uplift (find_uplift), step while moving, stay put once overturned. */
+int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops);
+
 #endif

@@ -43,7 +43,7 @@ static void commit_peaks(Model *M, const Logger *log) {
     if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
 }
 
-static void apply_event(Model *M, const Logger *log) {
+static int apply_event(Model *M, const Logger *log) {
     State *S = &M->s;
     commit_peaks(M, log);
     if (S->pending == EVENT_IMPACT) {
@@ -82,6 +82,7 @@ static void apply_event(Model *M, const Logger *log) {
         say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
     }
     S->pending = EVENT_NONE;
+    return 0;
 }
 
 static int take_step(Model *M, const Logger *log) {
@@ -199,25 +200,20 @@ static int take_step(Model *M, const Logger *log) {
     return 0;
 }
 
-/* At rest: wait for the ground to tip the block over a corner. */
-static void rest_advance(Model *M, double tc, const Logger *log) {
+/* The ground tips the block resting at time t over its corner on side. */
+static void start_rocking(Model *M, double t, int side, const Logger *log) {
     State *S = &M->s;
-    double tu;
-    int side = find_uplift(M, S->t, tc, &tu);
-    S->denseValid = 0;
-    if (!side) {
-        S->t = tc;
-        return;
-    }
-    S->t = tu;
+    S->t = t;
     S->mode = MODE_ROCKING;
     S->side = side;
     S->y[0] = 0.0;
     S->y[1] = 0.0;
     S->fValid = 0;
     S->h = 0.0;
-    say(log, LOG_EVENTS, "uplift t=%.17g side=%d", tu, side);
+    say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
 }
+
+static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks};
 
 void solver_initialize(Model *M, double t0) {
     model_initialize(M, t0);
@@ -225,25 +221,8 @@ void solver_initialize(Model *M, double t0) {
 }
 
 int solver_advance(Model *M, double tc, const Logger *log) {
-    State *S = &M->s;
     if (M->v.nBlocks == 2) return stack_advance(M, tc, log);
-    for (;;) {
-        if (S->pending != EVENT_NONE && S->t <= tc) apply_event(M, log);
-        if (S->t >= tc) break;
-        commit_peaks(M, log);
-        switch (S->mode) {
-        case MODE_OVERTURNED:
-            S->t = tc;
-            S->denseValid = 0;
-            break;
-        case MODE_REST:
-            rest_advance(M, tc, log);
-            break;
-        default:
-            if (take_step(M, log)) return -1;
-        }
-    }
-    return 0;
+    return advance_to(M, tc, log, &ONE_BLOCK);
 }
 
 void solver_outputs(Model *M, double tc) {

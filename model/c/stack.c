@@ -103,28 +103,35 @@ static void forces(const Model *M, const Arms *a, const Trig *T, const double y[
     r[1] = dm12 * y[1] * y[1] - V2;
 }
 
+/* Solve M x = r for the rates or accelerations the pattern allows:
+ * x = L (L^T M L)^-1 L^T r with L = I (both), (1, 1) (locked), (0, 1)
+ * (upper block alone); zero at rest. */
+static void pattern_solve(Mode mode, const double m[3], const double r[2], double x[2]) {
+    switch (mode) {
+    case MODE_BOTH: {
+        double det = m[0] * m[2] - m[1] * m[1];
+        x[0] = (m[2] * r[0] - m[1] * r[1]) / det;
+        x[1] = (m[0] * r[1] - m[1] * r[0]) / det;
+        break;
+    }
+    case MODE_LOCKED:
+        x[0] = x[1] = (r[0] + r[1]) / (m[0] + 2.0 * m[1] + m[2]);
+        break;
+    case MODE_UPPER:
+        x[0] = 0.0;
+        x[1] = r[1] / m[2];
+        break;
+    default:
+        x[0] = x[1] = 0.0;
+    }
+}
+
 static void accel_arms(const Model *M, Mode mode, const Arms *a, const Trig *T,
                        const double y[4], double ah, double av, double acc[2]) {
     double dm12, m[3], r[2];
     mass(M, a, T, m, &dm12);
     forces(M, a, T, y, ah, av, dm12, r);
-    switch (mode) {
-    case MODE_BOTH: {
-        double det = m[0] * m[2] - m[1] * m[1];
-        acc[0] = (m[2] * r[0] - m[1] * r[1]) / det;
-        acc[1] = (m[0] * r[1] - m[1] * r[0]) / det;
-        break;
-    }
-    case MODE_LOCKED:
-        acc[0] = acc[1] = (r[0] + r[1]) / (m[0] + 2.0 * m[1] + m[2]);
-        break;
-    case MODE_UPPER:
-        acc[0] = 0.0;
-        acc[1] = r[1] / m[2];
-        break;
-    default:
-        acc[0] = acc[1] = 0.0;
-    }
+    pattern_solve(mode, m, r, acc);
 }
 
 static void accel_trig(const Model *M, Mode mode, int s1, int s2, const Trig *T,
@@ -221,23 +228,8 @@ int stack_impact(const Model *M, Mode mode, int n1, int n2, int o1, int o2,
     cross_mass(M, &an, &ao, &T, B);
     p[0] = B[0][0] * wMinus[0] + B[0][1] * wMinus[1];
     p[1] = B[1][0] * wMinus[0] + B[1][1] * wMinus[1];
-    switch (mode) {
-    case MODE_BOTH: {
-        double det = m[0] * m[2] - m[1] * m[1];
-        wPlus[0] = (m[2] * p[0] - m[1] * p[1]) / det;
-        wPlus[1] = (m[0] * p[1] - m[1] * p[0]) / det;
-        return 1;
-    }
-    case MODE_LOCKED:
-        wPlus[0] = wPlus[1] = (p[0] + p[1]) / (m[0] + 2.0 * m[1] + m[2]);
-        break;
-    case MODE_UPPER:
-        wPlus[0] = 0.0;
-        wPlus[1] = p[1] / m[2];
-        break;
-    default:
-        wPlus[0] = wPlus[1] = 0.0;
-    }
+    pattern_solve(mode, m, p, wPlus);
+    if (mode == MODE_BOTH) return 1; /* no closed contact */
     /* impulses on the closed contacts, per end, in that end's coordinates */
     double tol = 1e-12 * (fabs(p[0]) + fabs(p[1]));
     for (int k = 0; k < 2; k++) {

@@ -164,18 +164,6 @@ static void start_from_rest(Model *M, double t, int side, const Logger *log) {
     say(log, LOG_EVENTS, "uplift t=%.17g side=%d pattern=%s", t, side, mode_name(chosen));
 }
 
-static void rest_advance(Model *M, double tc, const Logger *log) {
-    State *S = &M->s;
-    double tu;
-    int side = find_uplift(M, S->t, tc, &tu);
-    S->denseValid = 0;
-    if (!side) {
-        S->t = tc;
-        return;
-    }
-    start_from_rest(M, tu, side, log);
-}
-
 /* Impacts: the momentum map onto the new pattern (opening the contact that
  * cannot carry the impulse), the constant-restitution scaling, and the
  * settling of a contact whose rebound is below settle_rate. */
@@ -457,24 +445,10 @@ static int take_step(Model *M, const Logger *log) {
     return 0;
 }
 
+static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL};
+
 int stack_advance(Model *M, double tc, const Logger *log) {
-    State *S = &M->s;
-    for (;;) {
-        if (S->pending != EVENT_NONE && S->t <= tc && apply_event(M, log)) return -1;
-        if (S->t >= tc) break;
-        switch (S->mode) {
-        case MODE_OVERTURNED:
-            S->t = tc;
-            S->denseValid = 0;
-            break;
-        case MODE_REST:
-            rest_advance(M, tc, log);
-            break;
-        default:
-            if (take_step(M, log)) return -1;
-        }
-    }
-    return 0;
+    return advance_to(M, tc, log, &TWO_BLOCKS);
 }
 
 /* State at tc (<= S->t) from the dense output, with the pivots of its step. */
