@@ -416,3 +416,17 @@ def test_fmu_state_round_trip_for_two_blocks(fmu):
         assert again == first
     finally:
         s.freeInstance()
+
+
+def test_one_block_fills_the_shared_outputs_consistently(fmu):
+    """pattern, impactsGround and block1.overturned mean the same for one block."""
+    r = fmu.run({"block1.theta0": 0.2}, 3.0, 0.01, outputs=["pattern", "impacts", "impactsGround", "atRest"],
+                events=False)
+    o = r.outputs
+    np.testing.assert_array_equal(o["impactsGround"], o["impacts"])
+    np.testing.assert_array_equal(o["pattern"], np.where(o["atRest"] == 1, PATTERN["rest"], 0))
+    assert o["atRest"][-1] == 1 and o["atRest"][0] == 0
+    r = fmu.run({"excitation.kind": 1, "excitation.amplitude": 6.0, "excitation.frequency": 2.0}, 3.0, 0.01,
+                outputs=["overturned", "block1.overturned", "pattern"], events=False)
+    np.testing.assert_array_equal(r.outputs["overturned"], r.outputs["block1.overturned"])
+    assert r.outputs["overturned"][-1] == 1 and r.outputs["pattern"][-1] == PATTERN["overturned"]

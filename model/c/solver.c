@@ -270,6 +270,9 @@ void solver_outputs(Model *M, double tc) {
     v->atRest = S->mode == MODE_REST;
     v->overturnTime = S->overturnTime;
     v->restTime = S->restTime;
+    v->pattern = (int)S->mode;
+    v->impactsGround = S->impacts; /* one block: every impact is on the ground */
+    v->overturned1 = v->overturned;
     v->energy = model_energy(M, y[0], y[1]);
     model_ground(M, tc, &v->ahTotal, &v->avTotal);
 }
