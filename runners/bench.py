@@ -25,25 +25,55 @@ from runners.fmu import RockingFMU
 BENCH_SOURCE = Path(__file__).resolve().parent.parent / "model" / "c" / "bench" / "bench_native.c"
 
 
-def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
-    """Run the native benchmark and return a Markdown table of the results."""
-    if repeats < 1:
-        raise ValueError("--repeats must be >= 1")
+def _compile_native(fmu_path: Path, tmp: Path) -> tuple[Path, Path, str]:
+    """Compile the harness; return it, the FMU's library and its GUID."""
     md = read_model_description(str(fmu_path))
     cc = shutil.which("cc") or shutil.which("gcc")
     if cc is None:
         raise OSError("no C compiler (cc or gcc) found")
+    with zipfile.ZipFile(fmu_path) as zf:
+        zf.extractall(tmp / "fmu")
+    lib = tmp / "fmu" / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+    exe = tmp / "bench_native"
+    subprocess.run([cc, "-O2", "-I", str(fmi_headers_dir()), "-o", str(exe), str(BENCH_SOURCE), "-ldl"], check=True)
+    return exe, lib, md.guid
+
+
+class NativeTimer:
+    """Times single scenes natively (the harness's "custom" form); use as a context manager."""
+
+    def __init__(self, fmu_path: Path):
+        self._tmp = tempfile.TemporaryDirectory()
+        self.exe, self.lib, self.guid = _compile_native(Path(fmu_path), Path(self._tmp.name))
+        self.vars = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
+
+    def __enter__(self) -> "NativeTimer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._tmp.cleanup()
+
+    def seconds(self, parameters: dict, stop_time: float, repeats: int) -> float:
+        """Wall seconds per simulation (instantiate to free) of one scene."""
+        args = []
+        for name, value in parameters.items():
+            v = self.vars[name]
+            args.append(f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean")
+                        else f"{v.valueReference}={float(value)!r}")
+        proc = subprocess.run([str(self.exe), str(self.lib), self.guid, str(repeats), "custom", repr(float(stop_time)),
+                               *args], capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise OSError(f"native benchmark failed: {proc.stderr.strip() or proc.returncode}")
+        return float(proc.stdout.split()[0]) * 1e-6
+
+
+def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
+    """Run the native benchmark and return a Markdown table of the results."""
+    if repeats < 1:
+        raise ValueError("--repeats must be >= 1")
     with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        with zipfile.ZipFile(fmu_path) as zf:
-            zf.extractall(tmp / "fmu")
-        lib = tmp / "fmu" / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
-        exe = tmp / "bench_native"
-        subprocess.run(
-            [cc, "-O2", "-I", str(fmi_headers_dir()), "-o", str(exe), str(BENCH_SOURCE), "-ldl"],
-            check=True,
-        )
-        proc = subprocess.run([str(exe), str(lib), md.guid, str(repeats)], capture_output=True, text=True)
+        exe, lib, guid = _compile_native(fmu_path, Path(tmp))
+        proc = subprocess.run([str(exe), str(lib), guid, str(repeats)], capture_output=True, text=True)
         if proc.returncode != 0:
             raise OSError(f"native benchmark failed: {proc.stderr.strip()}")
     rows = [line.split("\t") for line in proc.stdout.strip().splitlines()]

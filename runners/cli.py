@@ -44,6 +44,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from runners.bench import run_fmpy_bench, run_native_bench
 
     fmu = _fmu_path(args.fmu)
+    if args.chart:
+        from runners.work_precision import run_work_precision
+
+        print(run_work_precision(fmu, Path(args.chart), quick=args.quick))
+        return 0
     print(run_native_bench(fmu, repeats=args.repeats))
     print()
     print(run_fmpy_bench(fmu, repeats=args.fmpy_repeats))
@@ -72,6 +77,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
     bench.add_argument("--repeats", type=int, default=2000, help="native simulations per case")
     bench.add_argument("--fmpy-repeats", type=int, default=20, help="fmpy runs per case")
+    bench.add_argument("--chart", metavar="DIR",
+                       help="instead: the work-precision comparison of every method, written to DIR")
+    bench.add_argument("--quick", action="store_true", help="with --chart: fewer settings (a smoke run)")
     bench.set_defaults(func=cmd_bench)
     figs = sub.add_parser("figures", help="draw the figures of docs/ from fresh FMU runs")
     figs.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")

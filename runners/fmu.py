@@ -74,7 +74,7 @@ class RunResult:
         return np.array([e.values[key] for e in self.events if e.kind == kind])
 
 
-def _parse_event(message: str) -> Event | None:
+def parse_event(message: str) -> Event | None:
     m = _EVENT.match(message)
     if not m:
         return None
@@ -196,7 +196,7 @@ class RockingFMU:
             if status >= 3:
                 errors.append(message)
             elif events and category == "logEvents":
-                ev = _parse_event(message)
+                ev = parse_event(message)
                 if ev:
                     log_events.append(ev)
 

@@ -96,3 +96,22 @@ def test_figures_are_drawn_into_the_given_folder(fmu_path, tmp_path):
     for name in ("two_blocks_fig17.png", "two_blocks_mirror.png"):
         png = tmp_path / name
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
+
+
+def test_work_precision_chart_and_tables(fmu_path, tmp_path):
+    """runners bench --chart: every method on both cases, and the FMU meets its accuracy target."""
+    p = runners("bench", "--chart", str(tmp_path), "--quick", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "work_precision.png").read_bytes()[:4] == b"\x89PNG"
+    rows = json.loads((tmp_path / "work_precision.json").read_text())
+    methods = {r["method"] for r in rows}
+    assert {"FMU native (C harness)", "FMU through fmpy", "scipy DOP853, event-driven",
+            "RK4, sign change (seed 000)", "Newmark + Newton, located (seed 003)"} <= methods
+    for case in ("free rocking", "sine pulse"):
+        fmu = [r for r in rows if r["case"] == case and r["method"] == "FMU native (C harness)"]
+        errors = [r["error"] for r in fmu]  # tolerances 1e-6, 1e-10
+        assert errors[1] < errors[0] / 100
+        assert errors[1] < 1e-8  # the default tolerance's accuracy target (issue 4)
+    assert "times faster" in p.stdout
+    lines = (tmp_path / "work_precision.csv").read_text().splitlines()
+    assert lines[0] == "case,method,setting,error,seconds" and len(lines) == len(rows) + 1

@@ -4,11 +4,16 @@
  * one line per case: name, microseconds per simulation, impacts, outcome.
  *
  * usage: bench_native LIBRARY GUID REPEATS [CASE]   (CASE: run only that row, from 0)
+ *        bench_native LIBRARY GUID REPEATS custom STOP VR=VALUE ...
+ * The second form times one scene given by value references (a VR written
+ * iVR=VALUE is an Integer) up to STOP seconds and prints microseconds per
+ * simulation and the number of impacts.
  */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 #include "fmi2Functions.h"
@@ -36,7 +41,54 @@ static double now(void) {
 
 #define LOAD(name) name##TYPE *name = (name##TYPE *)dlsym(lib, #name); if (!name) { fprintf(stderr, "missing %s\n", #name); return 1; }
 
+/* The "custom" form: one scene from the command line. */
+static int run_custom(void *lib, const char *guid, int repeats, int argc, char **argv) {
+    LOAD(fmi2Instantiate) LOAD(fmi2SetupExperiment) LOAD(fmi2SetReal) LOAD(fmi2SetInteger)
+    LOAD(fmi2EnterInitializationMode) LOAD(fmi2ExitInitializationMode) LOAD(fmi2DoStep)
+    LOAD(fmi2GetInteger) LOAD(fmi2FreeInstance)
+    fmi2CallbackFunctions cb = {quiet, xcalloc, free, NULL, NULL};
+    double stop = atof(argv[0]);
+    const fmi2ValueReference vrImp = 43;
+    int impacts = 0;
+    double t0 = now();
+    for (int r = 0; r < repeats; r++) {
+        fmi2Component m = fmi2Instantiate("bench", fmi2CoSimulation, guid, "", &cb, 0, 0);
+        if (!m) return 1;
+        for (int i = 1; i < argc; i++) {
+            const char *a = argv[i];
+            int integer = a[0] == 'i';
+            char *eq = strchr(a, '=');
+            if (!eq) return 2;
+            fmi2ValueReference vr = (fmi2ValueReference)atoi(a + integer);
+            if (integer) {
+                int value = atoi(eq + 1);
+                if (fmi2SetInteger(m, &vr, 1, &value) != fmi2OK) return 1;
+            } else {
+                double value = atof(eq + 1);
+                if (fmi2SetReal(m, &vr, 1, &value) != fmi2OK) return 1;
+            }
+        }
+        fmi2SetupExperiment(m, 0, 0, 0, 0, 0);
+        if (fmi2EnterInitializationMode(m) != fmi2OK || fmi2ExitInitializationMode(m) != fmi2OK) return 1;
+        if (fmi2DoStep(m, 0, stop, 1) != fmi2OK) return 1;
+        fmi2GetInteger(m, &vrImp, 1, &impacts);
+        fmi2FreeInstance(m);
+    }
+    printf("%.3f\t%d\n", (now() - t0) / repeats * 1e6, impacts);
+    return 0;
+}
+
 int main(int argc, char **argv) {
+    if (argc >= 6 && strcmp(argv[4], "custom") == 0) {
+        void *lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+        if (!lib) {
+            fprintf(stderr, "cannot load %s: %s\n", argv[1], dlerror());
+            return 1;
+        }
+        int rc = run_custom(lib, argv[2], atoi(argv[3]), argc - 5, argv + 5);
+        dlclose(lib);
+        return rc;
+    }
     if (argc != 4 && argc != 5) {
         fprintf(stderr, "usage: %s LIBRARY GUID REPEATS [CASE]\n", argv[0]);
         return 2;

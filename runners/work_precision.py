@@ -1,0 +1,236 @@
+"""Work-precision comparison: error against cost for every method (``runners bench --chart``).
+
+Case "free rocking": a block with h/b = 3 released at 0.6 alpha, constant
+restitution 0.9; the error is the largest relative error of the first 10
+impact times and the 9 peaks between them against the exact reference
+(model/reference.py). Case "sine pulse": the same block, eta 0.85, a one-sine
+pulse of 5 m/s2 at 3 Hz; the error is the largest relative error of the
+first 10 impact times against scipy's DOP853 at rtol 1e-13, an independent
+solver.
+
+Costs are wall seconds per simulation. The FMU appears twice: natively (the
+C harness of runners/bench.py, instantiate to free, mean of many runs) and
+through fmpy with one instance reset between runs (what a Python sweep pays
+per simulation, the minimum over repeats); both compute the same numbers, so
+they share the error. The Python methods are model/solvers.py (minimum over
+repeats).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from model.reference import Block, free_rocking
+from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
+from runners.bench import NativeTimer
+from runners.fmu import RockingFMU, parse_event
+
+BLOCK = Block(0.1, 0.3)
+N_IMPACTS = 10
+
+
+@dataclass
+class Point:
+    case: str
+    method: str  # one line of the chart
+    setting: str  # tolerance or step of this point
+    error: float  # largest relative error
+    seconds: float  # wall time per simulation
+
+
+@dataclass
+class Case:
+    name: str
+    scene: Scene
+    fmu_parameters: dict
+    t_end: float
+    reference_times: np.ndarray
+    reference_peaks: np.ndarray | None  # None: impact times only
+
+    @property
+    def fmu_stop(self) -> float:
+        """The FMU runs just past the last reference impact (the Python solvers stop at it)."""
+        t = self.reference_times
+        return float(t[-1] + 0.2 * (t[-1] - t[-2]))
+
+    def error(self, impact_times, peak_thetas) -> float:
+        ti = np.asarray(impact_times[:N_IMPACTS], float)
+        if len(ti) < N_IMPACTS:
+            return math.inf
+        e = float(np.max(np.abs(ti / self.reference_times - 1)))
+        if self.reference_peaks is not None:
+            pk = np.asarray(peak_thetas[: N_IMPACTS - 1], float)
+            if len(pk) < N_IMPACTS - 1:
+                return math.inf
+            e = max(e, float(np.max(np.abs(pk / self.reference_peaks - 1))))
+        return e
+
+
+def free_rocking_case() -> Case:
+    theta0, eta = 0.6 * BLOCK.alpha, 0.9
+    ref = free_rocking(BLOCK, theta0, eta, N_IMPACTS)
+    return Case("free rocking", Scene(BLOCK, eta, theta0=theta0),
+                {"block1.theta0": theta0, "restitution.law": 2, "restitution.eta": eta},
+                1.5 * ref.impact_times[-1], ref.impact_times, ref.peak_thetas[: N_IMPACTS - 1])
+
+
+def sine_pulse_case() -> Case:
+    A, f, eta = 5.0, 3.0, 0.85
+    ground, breaks = sine_pulse(A, f)
+    scene = Scene(BLOCK, eta, ground=ground, breaks=breaks)
+    ref = solve_event_driven(scene, 5.0, "DOP853", 1e-13, 1e-15, max_impacts=N_IMPACTS)
+    return Case("sine pulse", scene, {"excitation.kind": 1, "excitation.amplitude": A,
+                                       "excitation.frequency": f, "restitution.law": 2, "restitution.eta": eta},
+                1.5 * ref.impact_times[N_IMPACTS - 1], np.array(ref.impact_times[:N_IMPACTS]), None)
+
+
+def _timed(run: Callable[[], tuple[list, list]], repeats: int) -> tuple[float, tuple[list, list]]:
+    best, out = math.inf, None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = run()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def fmu_points(fmu: RockingFMU, native: NativeTimer, case: Case, rel_tols, repeats: int) -> list[Point]:
+    """The FMU at several tolerances; one doStep over the horizon, events from its log."""
+    events = []
+
+    def log(status, category, message):
+        if category == "logEvents":
+            ev = parse_event(message)
+            if ev:
+                events.append(ev)
+
+    slave, _cb = fmu.instantiate(log, logging_on=True)
+    points = []
+    try:
+        for rtol in rel_tols:
+            params = {**BLOCK_PARAMETERS, **case.fmu_parameters, "solver.relTol": rtol, "solver.absTol": 1e-2 * rtol}
+
+            def run():
+                events.clear()
+                slave.reset()
+                slave.setupExperiment(startTime=0.0)
+                fmu.set_parameters(slave, params)
+                slave.enterInitializationMode()
+                slave.exitInitializationMode()
+                slave.doStep(0.0, case.fmu_stop)
+                return ([e.t for e in events if e.kind == "impact"],
+                        [e.values["theta"] for e in events if e.kind == "peak"])
+
+            seconds, (ti, pk) = _timed(run, repeats)
+            error = case.error(ti, pk)
+            points.append(Point(case.name, "FMU through fmpy", f"rtol {rtol:g}", error, seconds))
+            points.append(Point(case.name, "FMU native (C harness)", f"rtol {rtol:g}", error,
+                                native.seconds(params, case.fmu_stop, 50 * repeats)))
+    finally:
+        slave.freeInstance()
+    return points
+
+
+BLOCK_PARAMETERS = {"block1.halfWidth": BLOCK.b, "block1.halfHeight": BLOCK.h}
+
+SCIPY = {"DOP853": [1e-4, 1e-6, 1e-8, 1e-10, 1e-12], "RK45": [1e-4, 1e-6, 1e-8, 1e-10],
+         "Radau": [1e-4, 1e-6, 1e-8]}
+FIXED = {  # (method, locate): steps in s
+    ("euler", False): [1e-3, 3e-4, 1e-4],
+    ("rk4", False): [3e-3, 1e-3, 3e-4, 1e-4],
+    ("rk4", True): [4e-2, 2e-2, 1e-2, 5e-3, 2e-3],
+    ("newmark", True): [1e-2, 3e-3, 1e-3, 3e-4],
+}
+FIXED_NAMES = {("euler", False): "Euler, sign change (seed 000)", ("rk4", False): "RK4, sign change (seed 000)",
+               ("rk4", True): "RK4, located impacts", ("newmark", True): "Newmark + Newton, located (seed 003)"}
+FMU_TOLS = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12]
+
+
+def python_points(case: Case, quick: bool = False) -> list[Point]:
+    points = []
+    for method, tols in SCIPY.items():
+        for rtol in tols[:2] if quick else tols:
+            seconds, sol = _timed(lambda: solve_event_driven(case.scene, case.t_end, method, rtol, 1e-2 * rtol,
+                                                             max_impacts=N_IMPACTS), 1 if quick else 3)
+            points.append(Point(case.name, f"scipy {method}, event-driven", f"rtol {rtol:g}",
+                                case.error(sol.impact_times, sol.peak_thetas), seconds))
+    for (method, locate), steps in FIXED.items():
+        for h in steps[:2] if quick else steps:
+            seconds, sol = _timed(lambda: solve_fixed_step(case.scene, case.t_end, method, h, locate,
+                                                           max_impacts=N_IMPACTS), 1)
+            points.append(Point(case.name, FIXED_NAMES[(method, locate)], f"h {h:g} s",
+                                case.error(sol.impact_times, sol.peak_thetas), seconds))
+    return points
+
+
+def speedups(points: list[Point]) -> list[str]:
+    """For reference points of other methods, the FMU's cheapest setting at equal or better accuracy."""
+    lines = []
+    for case in sorted({p.case for p in points}):
+        fmu = [p for p in points if p.case == case and p.method.startswith("FMU native")]
+        others = [p for p in points if p.case == case and not p.method.startswith("FMU") and math.isfinite(p.error)]
+        for ref in others:
+            if not (ref.method.startswith("scipy DOP853") or ref.setting == "h 0.0001 s"):
+                continue
+            ok = [p for p in fmu if p.error <= ref.error]
+            if ok:
+                best = min(ok, key=lambda p: p.seconds)
+                lines.append(f"{case}: {ref.method} {ref.setting} (error {ref.error:.1e}, {1e3 * ref.seconds:.2f} ms) "
+                             f"vs FMU native {best.setting} (error {best.error:.1e}, {1e3 * best.seconds:.3f} ms): "
+                             f"{ref.seconds / best.seconds:.0f} times faster")
+    return lines
+
+
+def chart(points: list[Point], out: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = sorted({p.case for p in points})
+    fig, axes = plt.subplots(1, len(cases), figsize=(6.5 * len(cases), 5.5), squeeze=False)
+    methods = list(dict.fromkeys(p.method for p in points))
+    for ax, case in zip(axes[0], cases):
+        for i, method in enumerate(methods):
+            pts = [p for p in points if p.case == case and p.method == method and math.isfinite(p.error)]
+            if not pts:
+                continue
+            ax.loglog([p.seconds for p in pts], [max(p.error, 1e-16) for p in pts], "o-", color=f"C{i}",
+                      lw=2.5 if method.startswith("FMU") else 1.2, label=method)
+        ax.set_title(f"{case}: error of the first {N_IMPACTS} impacts" +
+                     (" and peaks" if case == "free rocking" else ""), fontsize=10)
+        ax.set_xlabel("wall time per simulation (s)")
+        ax.set_ylabel("largest relative error")
+        ax.grid(alpha=0.3, which="both")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def run_work_precision(fmu_path: Path, out_dir: Path, repeats: int = 20, quick: bool = False) -> str:
+    """Compute every point, write work_precision.{png,csv,json} to out_dir, return a text summary."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    points: list[Point] = []
+    with RockingFMU(fmu_path) as fmu, NativeTimer(fmu_path) as native:
+        for case in (free_rocking_case(), sine_pulse_case()):
+            points += fmu_points(fmu, native, case, FMU_TOLS[1::2] if quick else FMU_TOLS, repeats)
+            points += python_points(case, quick)
+    with open(out_dir / "work_precision.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(asdict(points[0])))
+        w.writeheader()
+        w.writerows(asdict(p) for p in points)
+    (out_dir / "work_precision.json").write_text(json.dumps([asdict(p) for p in points], indent=1))
+    chart(points, out_dir / "work_precision.png")
+    lines = [f"| case | method | setting | error | ms / simulation |", "|---|---|---|---:|---:|"]
+    lines += [f"| {p.case} | {p.method} | {p.setting} | {p.error:.1e} | {1e3 * p.seconds:.3f} |" for p in points]
+    return "\n".join(lines + [""] + speedups(points) + [f"", f"written: {out_dir}/work_precision.png, .csv, .json"])
