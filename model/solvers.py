@@ -19,7 +19,7 @@ the ground to +x. Units SI, angles in radians.
 
 with s = +1 on the right corner and -1 on the left one. An impact (theta
 through 0) multiplies the angular velocity by eta and flips s. A block at
-rest lifts when |a_h| > (g + a_v) tan(alpha) and comes to rest when, below
+rest lifts when |a_h| > (g + a_v) tan(alpha) (alpha for the linearised block) and comes to rest when, below
 that threshold, an impact's rebound would peak under rest_ratio * alpha (the
 FMU's rule, docs/model.md).
 """
@@ -93,7 +93,9 @@ class _Model:
         self.s = scene
         blk = scene.block
         self.k = 3.0 / (4.0 * blk.R)  # m R / I0, 1/m
-        self.alpha, self.tan_alpha, self.g = blk.alpha, math.tan(blk.alpha), blk.g
+        self.alpha, self.g = blk.alpha, blk.g
+        # the linearised block lifts where its own equation starts to move: |a_h| > g alpha
+        self.tan_alpha = blk.alpha if scene.linear else math.tan(blk.alpha)
         self.evaluations = 0
 
     def accel(self, t: float, theta: float, side: int) -> float:
