@@ -45,9 +45,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     fmu = _fmu_path(args.fmu)
     if args.chart:
+        from runners.overturning_map import run_overturning_map
         from runners.work_precision import run_work_precision
 
         print(run_work_precision(fmu, Path(args.chart), quick=args.quick))
+        print()
+        print(run_overturning_map(Path(args.chart), quick=args.quick))
         return 0
     print(run_native_bench(fmu, repeats=args.repeats))
     print()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import subprocess
@@ -115,3 +116,9 @@ def test_work_precision_chart_and_tables(fmu_path, tmp_path):
     assert "times faster" in p.stdout
     lines = (tmp_path / "work_precision.csv").read_text().splitlines()
     assert lines[0] == "case,method,setting,error,seconds" and len(lines) == len(rows) + 1
+    # the overturning map: seed 001's boundary against the linearised simulation, within 1%
+    with open(tmp_path / "overturning_map.csv") as fh:
+        boundary = list(csv.DictReader(fh))
+    assert len(boundary) == 2 and (tmp_path / "overturning_map.png").is_file()
+    for row in boundary:
+        assert abs(float(row["linear_gap"])) < 0.01
