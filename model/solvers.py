@@ -189,6 +189,7 @@ def solve_event_driven(scene: Scene, t_end: float, method: str = "DOP853", rtol:
                 continue
             sol.peak_times.append(float(tp))
             sol.peak_thetas.append(float(yp[0]))
+            sol.max_abs_theta = max(sol.max_abs_theta, abs(float(yp[0])))
         sol.max_abs_theta = max([sol.max_abs_theta] + [abs(v) for v in r.y[0]])
         if r.t_events[1].size:
             sol.overturned, sol.overturn_time = True, float(r.t_events[1][0])
@@ -276,8 +277,16 @@ def solve_fixed_step(scene: Scene, t_end: float, method: str = "rk4", h: float =
         hh = h
         if side * th1 < 0:  # crossed the pivot: impact
             if locate:
-                hh = brentq(lambda s: step(m, t, theta, omega, acc, side, s)[0], 0.0, h,
-                            xtol=1e-15, rtol=4 * np.finfo(float).eps) if theta != 0 else h
+                gap = lambda s: side * step(m, t, theta, omega, acc, side, s)[0]  # noqa: E731
+                lo = 0.0
+                if theta == 0.0:  # just after an impact: bracket from where the block is off its pivot
+                    lo = 0.5 * h
+                    while lo > 1e-9 * h and gap(lo) <= 0.0:
+                        lo *= 0.5
+                if gap(lo) > 0.0 or theta != 0.0:
+                    hh = brentq(gap, lo, h, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+                else:
+                    hh = h  # it never leaves the pivot within the step
                 th1, w1, a1 = step(m, t, theta, omega, acc, side, hh)
                 th1 = 0.0
             sol.impact_times.append(t + hh)
@@ -289,6 +298,7 @@ def solve_fixed_step(scene: Scene, t_end: float, method: str = "rk4", h: float =
             tp, thp = _hermite_peak(t, h, theta, omega, th1, w1)
             sol.peak_times.append(tp)
             sol.peak_thetas.append(thp)
+            sol.max_abs_theta = max(sol.max_abs_theta, abs(thp))
         t, theta, omega, acc = t + hh, th1, w1, a1
         sol.max_abs_theta = max(sol.max_abs_theta, abs(theta))
         if abs(theta) >= math.pi / 2:

@@ -46,9 +46,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     fmu = _fmu_path(args.fmu)
     if args.chart:
         from runners.overturning_map import run_overturning_map
+        from runners.stability import run_stability
         from runners.work_precision import run_work_precision
 
         print(run_work_precision(fmu, Path(args.chart), quick=args.quick))
+        print()
+        print(run_stability(fmu, Path(args.chart)))
         print()
         print(run_overturning_map(Path(args.chart), quick=args.quick))
         return 0

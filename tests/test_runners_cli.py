@@ -122,3 +122,9 @@ def test_work_precision_chart_and_tables(fmu_path, tmp_path):
     assert len(boundary) == 2 and (tmp_path / "overturning_map.png").is_file()
     for row in boundary:
         assert abs(float(row["linear_gap"])) < 0.01
+    # the stability chart: the FMU right everywhere, seed 000's sign-change RK4 wrong near the boundary
+    with open(tmp_path / "stability.csv") as fh:
+        stab = list(csv.DictReader(fh))
+    assert {r["right"] for r in stab if r["method"].startswith("FMU")} == {"True"}
+    near = [r for r in stab if r["method"] == "RK4 sign change h 0.0001" and "below" in r["scene"]]
+    assert near and all(r["right"] == "False" for r in near if r["right"] != "")

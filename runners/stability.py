@@ -1,0 +1,173 @@
+"""Stability chart: does each method get the outcome right on scenes of rising difficulty?
+
+Scenes (one block, h/b = 3): a one-sine pulse just below and just above the
+smallest overturning amplitude (1% either side, found with the reference),
+free rocking that ends after many small impacts, and a pulse run by the FMU
+with a communication step longer than the pulse. The reference is scipy's
+DOP853 at rtol 1e-12 (model/solvers.py), independent of the FMU. A method
+gets a scene right if it agrees on overturning, on the number of impacts and
+on the largest |theta| within 1% (if it does not overturn).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from model.reference import Block
+from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
+from runners.fmu import RockingFMU
+
+BLOCK = Block(0.1, 0.3)
+ETA = 0.85
+FREQ = 2.0  # Hz, of the pulses
+T_END = 8.0
+
+
+@dataclass
+class Outcome:
+    overturned: bool
+    impacts: int
+    max_abs_theta: float
+
+
+def reference(scene: Scene) -> Outcome:
+    s = solve_event_driven(scene, T_END, "DOP853", 1e-12, 1e-14)
+    return Outcome(s.overturned, len(s.impact_times), s.max_abs_theta)
+
+
+def pulse_scene(amplitude: float) -> tuple[Scene, dict]:
+    ground, breaks = sine_pulse(amplitude, FREQ)
+    return (Scene(BLOCK, ETA, ground=ground, breaks=breaks),
+            {"excitation.kind": 1, "excitation.amplitude": amplitude, "excitation.frequency": FREQ})
+
+
+def critical_amplitude() -> float:
+    """Smallest overturning amplitude of the pulse (m/s^2), by bisection on the reference."""
+    lo, hi = 1.05 * BLOCK.g * math.tan(BLOCK.alpha), 40.0
+    while hi / lo - 1 > 1e-4:
+        mid = math.sqrt(lo * hi)
+        if reference(pulse_scene(mid)[0]).overturned:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def scenes() -> list[tuple[str, Scene, dict, float]]:
+    """(name, scene, FMU parameters, FMU communication step)."""
+    a_c = critical_amplitude()
+    below, p_below = pulse_scene(0.99 * a_c)
+    above, p_above = pulse_scene(1.01 * a_c)
+    theta0 = 0.6 * BLOCK.alpha
+    free = Scene(BLOCK, 0.95, theta0=theta0)
+    p_free = {"block1.theta0": theta0, "restitution.eta": 0.95}
+    return [
+        ("pulse 1% below overturning", below, p_below, 0.01),
+        ("pulse 1% above overturning", above, p_above, 0.01),
+        ("free rocking to rest (eta 0.95)", free, p_free, 0.01),
+        ("pulse below, communication step 2 s", below, p_below, 2.0),
+    ]
+
+
+def right(got: Outcome, ref: Outcome) -> bool:
+    """Same overturning, same impacts and, if it survives, the same largest |theta| within 1%."""
+    if got.overturned != ref.overturned or got.impacts != ref.impacts:
+        return False
+    return ref.overturned or abs(got.max_abs_theta / ref.max_abs_theta - 1) < 0.01
+
+
+METHODS = [("FMU", {"rtol": r}) for r in (1e-4, 1e-6, 1e-10)] + \
+          [("scipy DOP853", {"rtol": r}) for r in (1e-4, 1e-8)] + \
+          [("RK4 sign change", {"h": h}) for h in (1e-3, 1e-4)] + \
+          [("RK4 located", {"h": h}) for h in (1e-2, 1e-3)] + \
+          [("Newmark located", {"h": h}) for h in (1e-2, 1e-3)] + \
+          [("Euler sign change", {"h": 1e-4})]
+
+
+def run_method(fmu: RockingFMU, method: str, setting: dict, scene: Scene, params: dict, step: float) -> Outcome | None:
+    """The outcome of one method on one scene; None where the scene does not apply to it."""
+    if method == "FMU":
+        p = {"block1.halfWidth": BLOCK.b, "block1.halfHeight": BLOCK.h, "restitution.law": 2,
+             "restitution.eta": ETA, **params, "solver.relTol": setting["rtol"],
+             "solver.absTol": 1e-2 * setting["rtol"]}
+        r = fmu.run(p, T_END, step, outputs=["overturned", "impacts", "block1.maxAbsTheta"], events=False)
+        return Outcome(bool(r.outputs["overturned"][-1]), int(r.outputs["impacts"][-1]),
+                       float(r.outputs["block1.maxAbsTheta"][-1]))
+    if step > 1.0:
+        return None  # communication steps concern the FMU only
+    if method == "scipy DOP853":
+        s = solve_event_driven(scene, T_END, "DOP853", setting["rtol"], 1e-2 * setting["rtol"])
+    else:
+        kind, locate = {"RK4 sign change": ("rk4", False), "RK4 located": ("rk4", True),
+                        "Newmark located": ("newmark", True), "Euler sign change": ("euler", False)}[method]
+        s = solve_fixed_step(scene, T_END, kind, setting["h"], locate)
+    return Outcome(s.overturned, len(s.impact_times), s.max_abs_theta)
+
+
+def run_stability(fmu_path: Path, out_dir: Path) -> str:
+    """Write stability.png and .csv to out_dir; return a Markdown table."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cases = scenes()
+    refs = [reference(sc) for _, sc, _, _ in cases]
+    rows = []
+    with RockingFMU(fmu_path) as fmu:
+        for method, setting in METHODS:
+            label = f"{method} " + ", ".join(f"{k} {v:g}" for k, v in setting.items())
+            for (name, sc, params, step), ref in zip(cases, refs):
+                got = run_method(fmu, method, setting, sc, params, step)
+                rows.append({"method": label, "scene": name,
+                             "right": None if got is None else right(got, ref),
+                             "impacts": None if got is None else got.impacts, "reference_impacts": ref.impacts,
+                             "overturned": None if got is None else got.overturned,
+                             "reference_overturned": ref.overturned,
+                             "max_abs_theta_error": None if got is None else
+                             abs(got.max_abs_theta / ref.max_abs_theta - 1)})
+    with open(out_dir / "stability.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    _draw(rows, [c[0] for c in cases], out_dir / "stability.png")
+    labels = list(dict.fromkeys(r["method"] for r in rows))
+    names = [c[0] for c in cases]
+    lines = ["| method | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+    for lab in labels:
+        cells = []
+        for n in names:
+            r = next(x for x in rows if x["method"] == lab and x["scene"] == n)
+            cells.append("n/a" if r["right"] is None else
+                         ("right" if r["right"] else "**wrong**") + f" ({r['impacts']} impacts"
+                         + (", overturned" if r["overturned"] else
+                            f", max theta off by {100 * r['max_abs_theta_error']:.1f}%") + ")")
+        lines.append(f"| {lab} | " + " | ".join(cells) + " |")
+    ref_line = "reference (DOP853 rtol 1e-12): " + "; ".join(
+        f"{n}: {r.impacts} impacts" + (", overturned" if r.overturned else "") for n, r in zip(names, refs))
+    return "\n".join(lines + ["", ref_line, f"written: {out_dir}/stability.png, .csv"])
+
+
+def _draw(rows, names, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = list(dict.fromkeys(r["method"] for r in rows))
+    fig, ax = plt.subplots(figsize=(2.2 * len(names) + 3, 0.45 * len(labels) + 1.5))
+    for i, lab in enumerate(labels):
+        for j, n in enumerate(names):
+            r = next(x for x in rows if x["method"] == lab and x["scene"] == n)
+            colour = "#eeeeee" if r["right"] is None else ("#b8e0b0" if r["right"] else "#f2a6a6")
+            ax.add_patch(plt.Rectangle((j, i), 1, 1, color=colour, ec="white"))
+            text = "n/a" if r["right"] is None else f"{r['impacts']}" + (" OT" if r["overturned"] else "")
+            ax.text(j + 0.5, i + 0.5, text, ha="center", va="center", fontsize=8)
+    ax.set_xlim(0, len(names))
+    ax.set_ylim(len(labels), 0)
+    ax.set_xticks([j + 0.5 for j in range(len(names))], names, fontsize=8, rotation=12)
+    ax.set_yticks([i + 0.5 for i in range(len(labels))], labels, fontsize=8)
+    ax.set_title("Right (green) or wrong (red) outcome: impacts (OT = overturned), against DOP853 rtol 1e-12",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
