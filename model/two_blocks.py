@@ -216,3 +216,69 @@ def contact_margins(st: Stack, pattern: str, q, w, s1: int, s2: int,
         M, f = _forces(st, q, w, *piv, ah, av)
         out.append(e * (M @ qdd - f)[comp] / scale)
     return np.array(out)
+
+
+# Velocity subspaces of the patterns: q' = L p'
+PATTERN_L = {"both": np.eye(2), "locked": np.array([[1.0], [1.0]]), "upper": np.array([[0.0], [1.0]]),
+             "rest": np.zeros((2, 0))}
+
+
+def pattern_accelerations(st: Stack, pattern: str, q, w, s1: int, s2: int,
+                          ah: float = 0.0, av: float = 0.0) -> np.ndarray:
+    """q'' of a pattern: both, locked (theta1 = theta2), upper (theta1 = 0) or rest."""
+    if pattern == "both":
+        return accelerations(st, q, w, s1, s2, ah, av)
+    if pattern == "locked":
+        return np.full(2, locked_acceleration(st, q[0], w[0], s1, s1, ah, av))
+    if pattern == "upper":
+        return np.array([0.0, upper_acceleration(st, q[1], w[1], s2, ah, av)])
+    return np.zeros(2)
+
+
+def pattern_impact(st: Stack, q, w_minus, old: tuple[int, int], new: tuple[int, int],
+                   pattern: str) -> tuple[np.ndarray, bool]:
+    """Momentum impact map onto the rates a pattern allows, and whether its closed contact pushes.
+
+    The projection of impact_map restricted to q' = L p'. The generalised
+    impulse left on the closed contact, written in the coordinates that pivot
+    about each end e of it, must satisfy e * impulse >= 0 at both ends
+    (the contact pushes); the boolean says whether it does.
+    """
+    q = np.asarray(q, float)
+    w_minus = np.asarray(w_minus, float)
+    L = PATTERN_L[pattern]
+    Vo, D = _velocity_map(st, q, *old)
+
+    def matrices(piv):
+        Vn, _ = _velocity_map(st, q, *piv)
+        return Vn.T @ (D[:, None] * Vn), Vn.T @ (D[:, None] * Vo)
+
+    A, B = matrices(new)
+    if L.shape[1] == 0:
+        w_plus = np.zeros(2)
+    else:
+        w_plus = L @ np.linalg.solve(L.T @ A @ L, L.T @ B @ w_minus)
+    if pattern == "both":
+        return w_plus, True
+    tol = 1e-12 * np.max(np.abs(B @ w_minus))
+    for e in (1, -1):
+        if pattern == "locked":
+            Ae, Be = matrices((new[0], e))
+            impulse = (Ae @ w_plus - Be @ w_minus)[1]
+        elif pattern == "upper":
+            Ae, Be = matrices((e, new[1]))
+            impulse = (Ae @ w_plus - Be @ w_minus)[0]
+        else:  # rest: interface and ground both closed
+            Ae, Be = matrices((e, e))
+            P = Ae @ w_plus - Be @ w_minus
+            if e * P[1] < -tol:
+                return w_plus, False
+            impulse = P[0] + P[1]
+        if e * impulse < -tol:
+            return w_plus, False
+    return w_plus, True
+
+
+def kinetic_energy(st: Stack, q, w, s1: int, s2: int) -> float:
+    """Kinetic energy (J)."""
+    return energy(st, q, w, s1, s2) - energy(st, q, np.zeros(2), s1, s2)
