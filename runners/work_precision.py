@@ -6,7 +6,10 @@ impact times and the 9 peaks between them against the exact reference
 (model/reference.py). Case "sine pulse": the same block, eta 0.85, a one-sine
 pulse of 5 m/s2 at 3 Hz; the error is the largest relative error of the
 first 10 impact times against scipy's DOP853 at rtol 1e-13, an independent
-solver.
+solver. Case "two blocks": the free stack of seed 000 Fig. 14 (opposite tilts,
+momentum law); the error of its first 20 impact times (ground and interface)
+against the event-driven two-block reference at rtol 1e-13
+(model/two_block_solver.py).
 
 Costs are wall seconds per simulation. The FMU appears twice: natively (the
 C harness of runners/bench.py, instantiate to free, mean of many runs) and
@@ -28,8 +31,10 @@ from typing import Callable
 
 import numpy as np
 
+from model import two_blocks as tb
 from model.reference import Block, free_rocking
 from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
+from model.two_block_solver import StackScene, solve_stack
 from runners.bench import NativeTimer
 from runners.fmu import RockingFMU, parse_event
 
@@ -90,6 +95,43 @@ def sine_pulse_case() -> Case:
     return Case("sine pulse", scene, {"excitation.kind": 1, "excitation.amplitude": A,
                                        "excitation.frequency": f, "restitution.law": 2, "restitution.eta": eta},
                 1.5 * ref.impact_times[N_IMPACTS - 1], np.array(ref.impact_times[:N_IMPACTS]), None)
+
+
+TWO_BLOCKS = tb.Stack(0.1, 0.3, 10.0, 0.1, 0.2, 5.0)
+TWO_BLOCK_START = (0.05, -0.08)  # seed 000 Fig. 14's opposite tilts
+N_TWO = 20
+
+
+def two_block_reference() -> np.ndarray:
+    """The first N_TWO impact times of the free stack, by the Python reference at rtol 1e-13."""
+    ref = solve_stack(StackScene(TWO_BLOCKS, theta0=TWO_BLOCK_START), 2.0, rtol=1e-13, atol=1e-15,
+                      max_impacts=N_TWO)
+    return np.array(ref.impacts()[:N_TWO])
+
+
+def two_block_points(fmu: RockingFMU, native: NativeTimer, repeats: int, quick: bool) -> list[Point]:
+    """Free two-block rocking (momentum law): error of the first N_TWO impact times."""
+    ref = two_block_reference()
+    err = lambda times: (float(np.max(np.abs(np.array(times[:N_TWO]) / ref - 1)))  # noqa: E731
+                         if len(times) >= N_TWO else math.inf)
+    stop = float(ref[-1] + 0.2 * (ref[-1] - ref[-2]))
+    st = TWO_BLOCKS
+    base = {"nBlocks": 2, "block1.halfWidth": st.b1, "block1.halfHeight": st.h1, "block1.mass": st.m1,
+            "block2.halfWidth": st.b2, "block2.halfHeight": st.h2, "block2.mass": st.m2,
+            "block1.theta0": TWO_BLOCK_START[0], "block2.theta0": TWO_BLOCK_START[1]}
+    points = []
+    for rtol in FMU_TOLS[1::2] if quick else FMU_TOLS:
+        params = {**base, "solver.relTol": rtol, "solver.absTol": 1e-2 * rtol}
+        r = fmu.run(params, stop, stop)
+        points.append(Point("two blocks", "FMU native (C harness)", f"rtol {rtol:g}",
+                            err(list(r.event_times("impact"))), native.seconds(params, stop, 20 * repeats)))
+    for method, tols in (("DOP853", [1e-6, 1e-8, 1e-10]), ("RK45", [1e-6, 1e-8])):
+        for rtol in tols[:1] if quick else tols:
+            seconds, sol = _timed(lambda: solve_stack(StackScene(TWO_BLOCKS, theta0=TWO_BLOCK_START), stop, method,
+                                                      rtol, 1e-2 * rtol, max_impacts=N_TWO), 1)
+            points.append(Point("two blocks", f"scipy {method}, event-driven", f"rtol {rtol:g}",
+                                err(sol.impacts()), seconds))
+    return points
 
 
 def _timed(run: Callable[[], tuple[list, list]], repeats: int) -> tuple[float, tuple[list, list]]:
@@ -194,8 +236,8 @@ def chart(points: list[Point], out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    cases = sorted({p.case for p in points})
-    fig, axes = plt.subplots(1, len(cases), figsize=(6.5 * len(cases), 5.5), squeeze=False)
+    cases = list(dict.fromkeys(p.case for p in points))
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 5.5), squeeze=False)
     methods = list(dict.fromkeys(p.method for p in points))
     for ax, case in zip(axes[0], cases):
         for i, method in enumerate(methods):
@@ -204,7 +246,7 @@ def chart(points: list[Point], out: Path) -> Path:
                 continue
             ax.loglog([p.seconds for p in pts], [max(p.error, 1e-16) for p in pts], "o-", color=f"C{i}",
                       lw=2.5 if method.startswith("FMU") else 1.2, label=method)
-        ax.set_title(f"{case}: error of the first {N_IMPACTS} impacts" +
+        ax.set_title(f"{case}: error of the first {N_TWO if case == 'two blocks' else N_IMPACTS} impacts" +
                      (" and peaks" if case == "free rocking" else ""), fontsize=10)
         ax.set_xlabel("wall time per simulation (s)")
         ax.set_ylabel("largest relative error")
@@ -225,6 +267,7 @@ def run_work_precision(fmu_path: Path, out_dir: Path, repeats: int = 20, quick: 
         for case in (free_rocking_case(), sine_pulse_case()):
             points += fmu_points(fmu, native, case, FMU_TOLS[1::2] if quick else FMU_TOLS, repeats)
             points += python_points(case, quick)
+        points += two_block_points(fmu, native, repeats, quick)
     with open(out_dir / "work_precision.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(asdict(points[0])))
         w.writeheader()
