@@ -43,6 +43,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from runners.bench import run_fmpy_bench, run_native_bench
 
+    if args.quick and not args.chart:
+        raise ValueError("--quick applies to --chart only")
     fmu = _fmu_path(args.fmu)
     if args.chart:
         from runners.overturning_map import run_overturning_map
