@@ -27,6 +27,10 @@ def _fmu_path(arg: str | None) -> Path:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from runners.least_model import choose_model, closed_form_summary, format_closed_form, one_block_parameters
+
     scene = load_scene(args.scene)
     if args.stop_time is not None:
         scene.stop_time = args.stop_time
@@ -34,8 +38,23 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene.step = args.step
     with RockingFMU(_fmu_path(args.fmu)) as fmu:
         defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        merged = {**defaults, **scene.parameters}
+        if args.method == "fmu":
+            model = "two blocks" if int(merged["nBlocks"]) == 2 else "one block"
+            why = "the model the scene describes (--method fmu)"
+        else:
+            model, why = choose_model(merged, args.accuracy)
+            if args.method == "closed-form" and model != "closed form":
+                raise ValueError(f"--method closed-form does not apply to this scene: {why.removeprefix('no closed form: ')}")
+        if model == "closed form":
+            s = {"scene": scene.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
+            print(json.dumps(s, indent=2) if args.json else format_closed_form(scene.name, why, s))
+            return 0
+        if model == "one block" and int(merged["nBlocks"]) == 2:
+            scene = replace(scene, parameters=one_block_parameters(scene.parameters))
         result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
     summary = summarize(scene, result, defaults)
+    summary["model"], summary["model_reason"] = model, why
     print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
     return 0
 
@@ -80,6 +99,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
     sim.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
     sim.add_argument("--step", type=float, help="override [simulation] step (s)")
+    sim.add_argument("--method", choices=["fmu", "auto", "closed-form"], default="fmu",
+                     help="fmu: the model the scene describes (default); auto: the least model that meets "
+                          "--accuracy (closed form, one block, two blocks; docs/methods.md); closed-form: seed 001's "
+                          "closed forms, or an error if they do not apply")
+    sim.add_argument("--accuracy", type=float, default=1e-2,
+                     help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
     bench = sub.add_parser("bench", help="measure the cost of simulations, natively and through fmpy")
     bench.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")

@@ -103,6 +103,7 @@ def format_summary(s: dict[str, Any]) -> str:
                  f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2")
     lines = [
         f"scene            {s['scene']}",
+        *([f"model            {s['model']}: {s['model_reason']}"] if "model" in s else []),
         block,
         f"restitution      {s['restitution_law']}",
         f"excitation       {s['excitation']}",

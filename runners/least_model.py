@@ -1,0 +1,114 @@
+"""``runners simulate --method auto``: the least model a scene needs.
+
+The rule, cheapest first (docs/methods.md, "The least model a scene needs"):
+
+1. **closed form** (seed 001, model/closed_form.py): one block starting at
+   rest, one horizontal one-sine pulse, and slender enough that the
+   linearisation is within the requested accuracy, 2 alpha^2 <= accuracy (the
+   overturning boundary of a block with alpha = 0.25 rad is off by up to 6.7%,
+   below 2 alpha^2 = 12.5%; docs/BENCHMARKS.md). It answers whether the
+   block overturns, by which mechanism, and the peak after the first impact
+   when that impact follows the pulse;
+2. **one block** (the FMU with nBlocks = 1): a one-block scene, or a stack
+   whose upper block is negligible (mass ratio m2 / m1 <= accuracy / 10,
+   seated on block 1 at the start); the lower block then moves as if alone
+   (tests/test_fmu_two_blocks.py: its error is about 1e-6 rad per 1e-6 of
+   mass ratio);
+3. **two blocks** (the FMU with nBlocks = 2) otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from model import closed_form as cf
+
+TWO_BLOCK_PARAMETERS = ("block2.halfWidth", "block2.halfHeight", "block2.mass", "block2.theta0", "block2.omega0",
+                        "restitution.etaGround", "restitution.etaInterface")
+
+
+def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
+    """("closed form" | "one block" | "two blocks", why) for the merged parameters p (defaults included)."""
+    if not 0 < accuracy < 1:
+        raise ValueError(f"--accuracy must be in (0, 1), got {accuracy}")
+    if int(p["nBlocks"]) == 2:
+        ratio = p["block2.mass"] / p["block1.mass"]
+        seated = p["block2.theta0"] == p["block1.theta0"] and p["block2.omega0"] == p["block1.omega0"]
+        if ratio <= accuracy / 10 and seated:
+            return "one block", (f"the upper block is negligible (mass ratio {ratio:.1e} <= accuracy / 10) "
+                                 "and starts seated")
+        return "two blocks", "a stack of two blocks whose upper block is not negligible"
+    alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
+    reasons = []
+    if not (p["block1.theta0"] == 0 and p["block1.omega0"] == 0):
+        reasons.append("it does not start at rest")
+    if not (int(p["excitation.kind"]) == 1 and p["excitation.cycles"] == 1):
+        reasons.append("the excitation is not a one-sine pulse")
+    if p["excitation.verticalAmplitude"] != 0:
+        reasons.append("the pulse has a vertical part")
+    if 2 * alpha**2 > accuracy:
+        reasons.append(f"the block is not slender enough (2 alpha^2 = {2 * alpha**2:.2g} > accuracy {accuracy:g})")
+    if reasons:
+        return "one block", "no closed form: " + ", ".join(reasons)
+    return "closed form", (f"one block at rest under a one-sine pulse, slender (2 alpha^2 = {2 * alpha**2:.2g} "
+                           f"<= accuracy {accuracy:g})")
+
+
+def one_block_parameters(p: dict[str, Any]) -> dict[str, Any]:
+    """The scene's parameters for the one-block model (drops the upper block)."""
+    return {k: v for k, v in p.items() if k not in TWO_BLOCK_PARAMETERS and k != "nBlocks"}
+
+
+def restitution(p: dict[str, Any], alpha: float) -> float:
+    """The one-block coefficient of restitution of the scene (as the FMU computes it)."""
+    law = int(p["restitution.law"])
+    s2 = math.sin(alpha) ** 2
+    if law == 0:
+        eta = 1 - 1.5 * s2
+    elif law == 1:
+        k = p["restitution.k"]
+        eta = (4 - 3 * s2 * (1 + k * k)) / (4 - 3 * s2 * (1 - k * k))
+    else:
+        eta = p["restitution.eta"]
+    return eta * p["restitution.correction"]
+
+
+def closed_form_summary(p: dict[str, Any]) -> dict[str, Any]:
+    """The closed forms' answer for a scene that choose_model sent to them."""
+    b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
+    alpha, R = math.atan2(b, h), math.hypot(b, h)
+    pf = math.sqrt(3 * g / (4 * R))
+    eta = restitution(p, alpha)
+    a = abs(p["excitation.amplitude"]) / (g * alpha)
+    w = 2 * math.pi * p["excitation.frequency"] / pf
+    out: dict[str, Any] = {"a": a, "omega_over_p": w, "eta": eta, "alpha_rad": alpha}
+    if a <= 1:
+        out.update(outcome="at rest", overturned=False, case="no uplift (a <= 1)", peak_after_first_impact_rad=None)
+        return out
+    overturned, case = cf.overturns(a, w, eta)
+    out.update(outcome="overturned" if overturned else "survives", overturned=overturned, case=case)
+    peak = None
+    if not overturned and cf.first_impact_in_pulse(cf.groups(a, w)) is None:
+        peak = alpha * cf.max_rotation_after_impact(a, w, eta)
+    out["peak_after_first_impact_rad"] = peak
+    return out
+
+
+CASES = {"1.1": "after an impact within the pulse (eqs. 3.20-3.21)",
+         "1.2": "after an impact that follows the pulse (eq. 3.18)",
+         "2": "without any impact (eq. 3.10)"}
+
+
+def format_closed_form(name: str, why: str, s: dict[str, Any]) -> str:
+    lines = [f"scene            {name}",
+             f"model            closed form (seed 001): {why}",
+             f"groups           a = a_g/(g alpha) = {s['a']:.4f}, omega_g/p = {s['omega_over_p']:.4f}, "
+             f"eta = {s['eta']:.4f}"]
+    if s["overturned"]:
+        lines.append(f"outcome          overturns {CASES[s['case']]}")
+    else:
+        lines.append(f"outcome          {s['outcome']} ({s['case']})")
+    if s["peak_after_first_impact_rad"] is not None:
+        lines.append(f"peak            {s['peak_after_first_impact_rad']:.6f} rad after the first impact (eq. 4.13)")
+    return "\n".join(lines)
