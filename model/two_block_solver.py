@@ -192,6 +192,13 @@ def solve_stack(scene: StackScene, t_end: float, method: str = "DOP853", rtol: f
                     return tb.contact_margins(st, pattern, y[:2], y[2:], s1, s2, a_h, a_v)[k] + TOL_OPEN
                 add(margin, -1, "open")
 
+        for j in (0, 1):  # peaks of each block (not terminal): for the largest |theta|
+            def peak(tt, y, j=j):
+                return y[2 + j]
+            peak.terminal = False
+            events.append(peak)
+            kinds.append("peak")
+
         def rhs(tt, y):
             a_h, a_v = scene.ground(tt)
             acc = tb.pattern_accelerations(st, pattern, y[:2], y[2:], s1, s2, a_h, a_v)
@@ -200,7 +207,10 @@ def solve_stack(scene: StackScene, t_end: float, method: str = "DOP853", rtol: f
         r = solve_ivp(rhs, (t, t_stop), np.concatenate([q, w]), method=method, rtol=rtol, atol=atol,
                       events=events)
         mx = [max(mx[0], np.max(np.abs(r.y[0]))), max(mx[1], np.max(np.abs(r.y[1])))]
-        hit = [(te[0], i) for i, te in enumerate(r.t_events) if te.size]
+        for i, kind in enumerate(kinds):
+            if kind == "peak" and r.y_events[i].size:
+                mx = [max(mx[0], np.max(np.abs(r.y_events[i][:, 0]))), max(mx[1], np.max(np.abs(r.y_events[i][:, 1])))]
+        hit = [(te[0], i) for i, te in enumerate(r.t_events) if te.size and kinds[i] != "peak"]
         if not hit:
             t, q, w = float(r.t[-1]), r.y[:2, -1].copy(), r.y[2:, -1].copy()
             continue

@@ -6,7 +6,11 @@ free rocking that ends after many small impacts, and a pulse run by the FMU
 with a communication step longer than the pulse. The reference is scipy's
 DOP853 at rtol 1e-12 (model/solvers.py), independent of the FMU. A method
 gets a scene right if it agrees on overturning, on the number of impacts and
-on the largest |theta| within 1% (if it does not overturn).
+on the largest |theta| within 1% (if it does not overturn). The two-block
+scene (seed 000 Fig. 15's same-direction tilts, which chatter and lock) is
+checked against the two-block reference (model/two_block_solver.py at rtol
+1e-12) on the impacts of both contacts and the largest |theta1|; the
+fixed-step methods exist for one block only.
 """
 
 from __future__ import annotations
@@ -16,8 +20,10 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from model import two_blocks as tb
 from model.reference import Block
 from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
+from model.two_block_solver import StackScene, solve_stack
 from runners.fmu import RockingFMU
 
 BLOCK = Block(0.1, 0.3)
@@ -33,7 +39,17 @@ class Outcome:
     max_abs_theta: float
 
 
-def reference(scene: Scene) -> Outcome:
+STACK = tb.Stack(0.1, 0.3, 10.0, 0.1, 0.2, 5.0)
+STACK_SCENE = StackScene(STACK, theta0=(0.03, 0.09))
+STACK_PARAMS = {"nBlocks": 2, "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.mass": 10.0,
+                "block2.halfWidth": 0.1, "block2.halfHeight": 0.2, "block2.mass": 5.0,
+                "block1.theta0": 0.03, "block2.theta0": 0.09, "restitution.law": 0}
+
+
+def reference(scene) -> Outcome:
+    if isinstance(scene, StackScene):
+        s = solve_stack(scene, T_END, "DOP853", 1e-12, 1e-14)
+        return Outcome(any(s.overturned), len(s.impacts()), s.max_abs_theta[0])
     s = solve_event_driven(scene, T_END, "DOP853", 1e-12, 1e-14)
     return Outcome(s.overturned, len(s.impact_times), s.max_abs_theta)
 
@@ -69,6 +85,7 @@ def scenes() -> list[tuple[str, Scene, dict, float]]:
         ("pulse 1% above overturning", above, p_above, 0.01),
         ("free rocking to rest (eta 0.95)", free, p_free, 0.01),
         ("pulse below, communication step 2 s", below, p_below, 2.0),
+        ("two blocks chattering, then locked", STACK_SCENE, STACK_PARAMS, 0.01),
     ]
 
 
@@ -90,14 +107,19 @@ METHODS = [("FMU", {"rtol": r}) for r in (1e-4, 1e-6, 1e-10)] + \
 def run_method(fmu: RockingFMU, method: str, setting: dict, scene: Scene, params: dict, step: float) -> Outcome | None:
     """The outcome of one method on one scene; None where the scene does not apply to it."""
     if method == "FMU":
-        p = {"block1.halfWidth": BLOCK.b, "block1.halfHeight": BLOCK.h, "restitution.law": 2,
-             "restitution.eta": ETA, **params, "solver.relTol": setting["rtol"],
-             "solver.absTol": 1e-2 * setting["rtol"]}
+        one = {} if isinstance(scene, StackScene) else {
+            "block1.halfWidth": BLOCK.b, "block1.halfHeight": BLOCK.h, "restitution.law": 2, "restitution.eta": ETA}
+        p = {**one, **params, "solver.relTol": setting["rtol"], "solver.absTol": 1e-2 * setting["rtol"]}
         r = fmu.run(p, T_END, step, outputs=["overturned", "impacts", "block1.maxAbsTheta"], events=False)
         return Outcome(bool(r.outputs["overturned"][-1]), int(r.outputs["impacts"][-1]),
                        float(r.outputs["block1.maxAbsTheta"][-1]))
     if step > 1.0:
         return None  # communication steps concern the FMU only
+    if isinstance(scene, StackScene):
+        if method != "scipy DOP853":
+            return None  # the fixed-step methods are one-block methods
+        s = solve_stack(scene, T_END, "DOP853", setting["rtol"], 1e-2 * setting["rtol"])
+        return Outcome(any(s.overturned), len(s.impacts()), s.max_abs_theta[0])
     if method == "scipy DOP853":
         s = solve_event_driven(scene, T_END, "DOP853", setting["rtol"], 1e-2 * setting["rtol"])
     else:
