@@ -11,11 +11,12 @@ momentum law); the error of its first 20 impact times (ground and interface)
 against the event-driven two-block reference at rtol 1e-13
 (model/two_block_solver.py).
 
-Costs are wall seconds per simulation. The FMU appears twice: natively (the
-C harness of runners/bench.py, instantiate to free, mean of many runs) and
-through fmpy with one instance reset between runs (what a Python sweep pays
-per simulation, the minimum over repeats); both compute the same numbers, so
-they share the error. The Python methods are model/solvers.py (minimum over
+Costs are wall seconds per simulation. The FMU appears three times: natively
+(the C harness of runners/bench.py, instantiate to free, mean of many runs),
+through fmpy with one instance reset between runs and one doStep (what a
+Python sweep pays per simulation), and through fmpy with 10 ms communication
+steps reading theta at each (what a co-simulation pays); the error does not
+depend on the communication step (a test), only the cost does. The Python methods are model/solvers.py (minimum over
 repeats).
 """
 
@@ -154,25 +155,36 @@ def fmu_points(fmu: RockingFMU, native: NativeTimer, case: Case, rel_tols, repea
                 events.append(ev)
 
     slave, _cb = fmu.instantiate(log, logging_on=True)
+    theta_vr = fmu.variable("block1.theta").valueReference
     points = []
     try:
         for rtol in rel_tols:
             params = {**BLOCK_PARAMETERS, **case.fmu_parameters, "solver.relTol": rtol, "solver.absTol": 1e-2 * rtol}
 
-            def run():
+            def run(step=None):
+                """One doStep over the horizon, or steps of `step` s reading theta at each."""
                 events.clear()
                 slave.reset()
                 slave.setupExperiment(startTime=0.0)
                 fmu.set_parameters(slave, params)
                 slave.enterInitializationMode()
                 slave.exitInitializationMode()
-                slave.doStep(0.0, case.fmu_stop)
+                if step is None:
+                    slave.doStep(0.0, case.fmu_stop)
+                else:
+                    n = int(math.ceil(case.fmu_stop / step))
+                    for i in range(n):
+                        slave.doStep(i * step, step)
+                        slave.getReal([theta_vr])
                 return ([e.t for e in events if e.kind == "impact"],
                         [e.values["theta"] for e in events if e.kind == "peak"])
 
             seconds, (ti, pk) = _timed(run, repeats)
             error = case.error(ti, pk)
             points.append(Point(case.name, "FMU through fmpy", f"rtol {rtol:g}", error, seconds))
+            seconds, (ti, pk) = _timed(lambda: run(0.01), max(1, repeats // 5))
+            points.append(Point(case.name, "FMU through fmpy, 10 ms communication steps", f"rtol {rtol:g}",
+                                case.error(ti, pk), seconds))
             points.append(Point(case.name, "FMU native (C harness)", f"rtol {rtol:g}", error,
                                 native.seconds(params, case.fmu_stop, 50 * repeats)))
     finally:
