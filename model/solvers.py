@@ -81,6 +81,7 @@ class Solution:
     overturned: bool = False
     overturn_time: float | None = None  # s
     rest_time: float | None = None  # s, last time the block came to rest
+    at_rest: bool = False  # resting at the end
     max_abs_theta: float = 0.0  # rad
     rhs_evaluations: int = 0
     wall_time: float = 0.0  # s
@@ -204,6 +205,7 @@ def solve_event_driven(scene: Scene, t_end: float, method: str = "DOP853", rtol:
                 resting, omega, sol.rest_time = True, 0.0, t
             if max_impacts is not None and len(sol.impact_times) >= max_impacts:
                 break
+    sol.at_rest = resting and not sol.overturned
     sol.rhs_evaluations = m.evaluations
     sol.wall_time = time.perf_counter() - start
     return sol
@@ -306,6 +308,7 @@ def solve_fixed_step(scene: Scene, t_end: float, method: str = "rk4", h: float =
             break
         if max_impacts is not None and len(sol.impact_times) >= max_impacts:
             break
+    sol.at_rest = resting and not sol.overturned
     sol.rhs_evaluations = m.evaluations
     sol.wall_time = time.perf_counter() - start
     return sol

@@ -15,6 +15,8 @@ from runners.fmu import FMUError, RockingFMU
 from runners.scene import SceneError, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
 
+PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
+
 
 def _fmu_path(arg: str | None) -> Path:
     if arg:
@@ -39,6 +41,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     with RockingFMU(_fmu_path(args.fmu)) as fmu:
         defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
         merged = {**defaults, **scene.parameters}
+        if args.method in PYTHON_METHODS:
+            from runners.python_methods import format_python, run_python
+
+            s = {"scene": scene.name, **run_python(args.method, merged, scene.stop_time, args.h, args.rtol)}
+            print(json.dumps(s, indent=2) if args.json else format_python(scene.name, s, scene.stop_time))
+            return 0
         if args.method == "fmu":
             model = "two blocks" if int(merged["nBlocks"]) == 2 else "one block"
             why = "the model the scene describes (--method fmu)"
@@ -99,10 +107,14 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
     sim.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
     sim.add_argument("--step", type=float, help="override [simulation] step (s)")
-    sim.add_argument("--method", choices=["fmu", "auto", "closed-form"], default="fmu",
+    sim.add_argument("--method", choices=["fmu", "auto", "closed-form", *PYTHON_METHODS], default="fmu",
                      help="fmu: the model the scene describes (default); auto: the least model that meets "
                           "--accuracy (closed form, one block, two blocks; docs/methods.md); closed-form: seed 001's "
-                          "closed forms, or an error if they do not apply")
+                          "closed forms, or an error if they do not apply; scipy, rk4, rk4-located, newmark, euler: "
+                          "the independent Python solvers (docs/methods.md)")
+    sim.add_argument("--h", type=float, default=1e-4, help="fixed step (s) of rk4, rk4-located, newmark, euler "
+                                                          "(default 1e-4, seed 000's)")
+    sim.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance of --method scipy")
     sim.add_argument("--accuracy", type=float, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)

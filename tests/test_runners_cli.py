@@ -128,3 +128,33 @@ def test_work_precision_chart_and_tables(fmu_path, tmp_path):
     assert {r["right"] for r in stab if r["method"].startswith("FMU")} == {"True"}
     near = [r for r in stab if r["method"] == "RK4 sign change h 0.0001" and "below" in r["scene"]]
     assert near and all(r["right"] == "False" for r in near if r["right"] != "")
+
+
+@pytest.mark.parametrize("method", ["scipy", "rk4-located", "newmark"])
+def test_python_methods_reproduce_the_fmu_on_an_example(fmu_path, method):
+    fmu = json.loads(runners("simulate", "examples/sine_pulse.toml", "--json", fmu_path=fmu_path).stdout)
+    p = runners("simulate", "examples/sine_pulse.toml", "--method", method, "--h", "1e-3", "--json",
+                fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    s = json.loads(p.stdout)
+    assert s["impacts"] == fmu["impacts"] and s["final_state"] == fmu["final_state"] == "at rest"
+    assert abs(s["rest_time_s"] - fmu["rest_time_s"]) < 1e-3
+    assert abs(s["max_abs_theta_rad"] / fmu["max_abs_theta_rad"] - 1) < 1e-3
+
+
+def test_seed_000_rk4_with_sign_changes_misses_the_rest(fmu_path):
+    s = json.loads(runners("simulate", "examples/sine_pulse.toml", "--method", "rk4", "--h", "1e-3", "--json",
+                           fmu_path=fmu_path).stdout)
+    assert s["impacts"] > 41 and s["final_state"] == "rocking"
+
+
+def test_two_block_scene_through_the_python_reference(fmu_path):
+    fmu = json.loads(runners("simulate", "examples/two_blocks_free.toml", "--json", fmu_path=fmu_path).stdout)
+    ref = json.loads(runners("simulate", "examples/two_blocks_free.toml", "--method", "scipy", "--json",
+                             fmu_path=fmu_path).stdout)
+    assert (ref["impacts_ground"], ref["impacts_interface"]) == (fmu["impacts_ground"], fmu["impacts_interface"])
+    assert abs(ref["rest_time_s"] - fmu["rest_time_s"]) < 1e-6
+    p = runners("simulate", "examples/two_blocks_free.toml", "--method", "rk4", fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "one-block method" in p.stderr
+    p = runners("simulate", "examples/sine_pulse.toml", "--method", "euler", "--h", "0", fmu_path=fmu_path)
+    assert p.returncode == 2 and "--h must be > 0" in p.stderr
