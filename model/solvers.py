@@ -141,6 +141,13 @@ class _Model:
         return None
 
 
+def _finish(sol: Solution, m: _Model, resting: bool, start: float) -> Solution:
+    sol.at_rest = resting and not sol.overturned
+    sol.rhs_evaluations = m.evaluations
+    sol.wall_time = time.perf_counter() - start
+    return sol
+
+
 def _initial_side(scene: Scene) -> int:
     if scene.theta0 != 0.0:
         return 1 if scene.theta0 > 0 else -1
@@ -205,10 +212,7 @@ def solve_event_driven(scene: Scene, t_end: float, method: str = "DOP853", rtol:
                 resting, omega, sol.rest_time = True, 0.0, t
             if max_impacts is not None and len(sol.impact_times) >= max_impacts:
                 break
-    sol.at_rest = resting and not sol.overturned
-    sol.rhs_evaluations = m.evaluations
-    sol.wall_time = time.perf_counter() - start
-    return sol
+    return _finish(sol, m, resting, start)
 
 
 def _euler(m: _Model, t, theta, omega, acc, side, h):
@@ -308,7 +312,4 @@ def solve_fixed_step(scene: Scene, t_end: float, method: str = "rk4", h: float =
             break
         if max_impacts is not None and len(sol.impact_times) >= max_impacts:
             break
-    sol.at_rest = resting and not sol.overturned
-    sol.rhs_evaluations = m.evaluations
-    sol.wall_time = time.perf_counter() - start
-    return sol
+    return _finish(sol, m, resting, start)
