@@ -86,6 +86,10 @@ int model_validate(const Variables *v, char *msg, size_t n) {
             FAIL("excitation.verticalAmplitude = %g must be below g in magnitude (the block would leave the ground)",
                  v->verticalAmplitude);
     }
+    if (v->method != 0 && v->method != 1)
+        FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)) or 1 (Taylor series)", v->method);
+    if (v->method == 1 && v->nBlocks == 2)
+        FAIL("solver.method = 1 (Taylor series) is available for nBlocks = 1 only");
     if (!(v->relTol > 0 && v->relTol <= 0.1)) FAIL("solver.relTol = %g must be in (0, 0.1]", v->relTol);
     if (!(v->absTol > 0)) FAIL("solver.absTol = %g must be > 0", v->absTol);
     if (!(v->restRatio > 0 && v->restRatio < 1))

@@ -78,6 +78,7 @@ typedef enum {
 } EventKind;
 
 #define MAX_STEP_PEAKS 4
+#define TAYLOR_MAX 30 /* highest order of the Taylor-series integrator */
 
 /* Integrator and discrete state. The integrator may run ahead of the last
  * communication point: outputs there are taken from the dense output of the
@@ -97,6 +98,9 @@ typedef struct {
     double tOld, hDense;
     double cont[5][NMAX];
     int denseSide, denseSide2;
+    int denseTaylor;      /* the dense output is the Taylor series tay[0..tayN] */
+    int tayN;
+    double tay[TAYLOR_MAX + 1];
 
     EventKind pending;    /* event located at t, not yet applied */
 

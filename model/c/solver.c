@@ -10,6 +10,10 @@
 #include "events.h"
 #include "integrator.h"
 #include "stack_solver.h"
+#include "taylor.h"
+
+/* Samples per Taylor step when looking for events. */
+#define TAYLOR_SAMPLES 16
 
 typedef struct {
     const Model *M;
@@ -85,9 +89,42 @@ static int apply_event(Model *M, const Logger *log) {
     return 0;
 }
 
+/* Checks after a step, and the early overturn decision. */
+static int finish_step(Model *M, const Logger *log, int piece, int side, EventKind ev) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    {
+        double ah, av;
+        model_ground_piece(M, S->t, piece, &ah, &av);
+        if (!(M->v.g + av > 0)) {
+            say(log, LOG_ERROR,
+                "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)",
+                av, S->t);
+            return -1;
+        }
+    }
+    if (!isfinite(S->y[0]) || !isfinite(S->y[1])) {
+        say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
+        return -1;
+    }
+
+    /* Early overturn decision once nothing drives the block any more: past
+     * alpha it falls if it moves outwards, or if it moves inwards without
+     * the energy to get back over the corner (E < p^2). */
+    if (ev == EVENT_NONE && v->earlyOverturn && excitation_over(M, S->t) &&
+        v->ahIn == 0.0 && v->avIn == 0.0 && fabs(S->y[0]) > M->d.alpha) {
+        double E = 0.5 * S->y[1] * S->y[1] + M->d.p2 * cos(M->d.alpha - fabs(S->y[0]));
+        if (side * S->y[1] > 0 || E < M->d.p2) S->pending = EVENT_OVERTURN;
+    }
+    return 0;
+}
+
+static int take_step_taylor(Model *M, const Logger *log);
+
 static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
+    if (v->method == 1) return take_step_taylor(M, log);
     RhsCtx c = {M, S->side, model_piece(M, S->t)};
     double bp = next_breakpoint(M, S->t);
     double hmax = bp - S->t;
@@ -163,6 +200,7 @@ static int take_step(Model *M, const Logger *log) {
     S->tOld = S->t;
     S->hDense = hStep;
     memcpy(S->cont, cont, sizeof(cont));
+    S->denseTaylor = 0;
     S->denseSide = side;
     S->denseValid = 1;
     S->t = tNew;
@@ -173,31 +211,75 @@ static int take_step(Model *M, const Logger *log) {
     S->fValid = (ev == EVENT_NONE && !hitBp);
     S->h = hNext;
     S->pending = ev;
+    return finish_step(M, log, c.piece, side, ev);
+}
 
-    {
-        double ah, av;
-        model_ground_piece(M, S->t, c.piece, &ah, &av);
-        if (!(M->v.g + av > 0)) {
-            say(log, LOG_ERROR,
-                "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)",
-                av, S->t);
-            return -1;
-        }
+/* One step of the Taylor-series integrator (solver.method = 1). */
+static int take_step_taylor(Model *M, const Logger *log) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    int piece = model_piece(M, S->t), side = S->side, N = taylor_order(v->relTol);
+    double x[TAYLOR_MAX + 1], bp = next_breakpoint(M, S->t);
+    taylor_series(M, S->t, S->y[0], S->y[1], side, piece, N, x);
+    double h = taylor_step(x, N, v->absTol + v->relTol * fabs(S->y[0]));
+    int hitBp = 0;
+    if (S->t + h >= bp) {
+        h = bp - S->t;
+        hitBp = 1;
     }
-    if (!isfinite(S->y[0]) || !isfinite(S->y[1])) {
-        say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
+    if (!(h > 16.0 * DBL_EPSILON * fmax(1.0, fabs(S->t)))) {
+        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
         return -1;
     }
-
-    /* Early overturn decision once nothing drives the block any more: past
-     * alpha it falls if it moves outwards, or if it moves inwards without
-     * the energy to get back over the corner (E < p^2). */
-    if (ev == EVENT_NONE && v->earlyOverturn && excitation_over(M, S->t) &&
-        v->ahIn == 0.0 && v->avIn == 0.0 && fabs(S->y[0]) > M->d.alpha) {
-        double E = 0.5 * S->y[1] * S->y[1] + M->d.p2 * cos(M->d.alpha - fabs(S->y[0]));
-        if (side * S->y[1] > 0 || E < M->d.p2) S->pending = EVENT_OVERTURN;
+    S->steps++;
+    double sImpact = taylor_first_crossing(x, N, h, 0, side, 0.0, -1, TAYLOR_SAMPLES);
+    double sOver = taylor_first_crossing(x, N, h, 0, side, side * M_PI / 2, +1, TAYLOR_SAMPLES);
+    EventKind ev = EVENT_NONE;
+    double hStep = h;
+    if (sImpact <= h || sOver <= h) {
+        ev = sImpact <= sOver ? EVENT_IMPACT : EVENT_OVERTURN;
+        hStep = fmin(sImpact, sOver);
+        hitBp = 0;
     }
-    return 0;
+    /* peaks: omega changes sign inside the step (either way) */
+    S->nStepPeaks = 0;
+    for (int slope = -1; slope <= 1; slope += 2) {
+        double sp = taylor_first_crossing(x, N, hStep, 1, side, 0.0, slope, TAYLOR_SAMPLES);
+        if (sp > hStep || (ev != EVENT_NONE && sp >= hStep)) continue;
+        double thp;
+        taylor_eval(x, N, sp, &thp, NULL);
+        int k = S->nStepPeaks++;
+        if (k == 1 && S->stepPeakTime[0] > S->t + sp) { /* keep them in time order */
+            S->stepPeakTime[1] = S->stepPeakTime[0];
+            S->stepPeakTheta[1] = S->stepPeakTheta[0];
+            k = 0;
+        }
+        S->stepPeakTime[k] = S->t + sp;
+        S->stepPeakTheta[k] = thp;
+    }
+    double th1, om1;
+    taylor_eval(x, N, hStep, &th1, &om1);
+    if (ev == EVENT_IMPACT) th1 = 0.0;
+    if (ev == EVENT_OVERTURN) th1 = side * M_PI / 2;
+    S->tOld = S->t;
+    S->hDense = hStep;
+    memcpy(S->tay, x, sizeof(x));
+    S->tayN = N;
+    S->denseTaylor = 1;
+    S->denseSide = side;
+    S->denseValid = 1;
+    S->t = hitBp ? bp : S->t + hStep;
+    S->y[0] = th1;
+    S->y[1] = om1;
+    S->fValid = 0;
+    S->pending = ev;
+    return finish_step(M, log, piece, side, ev);
+}
+
+/* theta, omega at the fraction s of the last step, from its dense output. */
+static void dense_state(const State *S, double s, double y[2]) {
+    if (S->denseTaylor) taylor_eval(S->tay, S->tayN, s * S->hDense, &y[0], &y[1]);
+    else dense_eval(S->cont, 2, s, y);
 }
 
 /* The ground tips the block resting at time t over its corner on side. */
@@ -238,7 +320,7 @@ void solver_outputs(Model *M, double tc) {
         double s = (tc - S->tOld) / S->hDense;
         if (s < 0) s = 0;
         if (s > 1) s = 1;
-        dense_eval(S->cont, 2, s, y);
+        dense_state(S, s, y);
         side = S->denseSide;
     }
     v->theta = y[0];
@@ -287,7 +369,7 @@ void solver_rollback(Model *M, double tc) {
     double s = (tc - S->tOld) / S->hDense, y[2];
     if (s < 0) s = 0;
     if (s > 1) s = 1;
-    dense_eval(S->cont, 2, s, y);
+    dense_state(S, s, y);
     S->y[0] = y[0];
     S->y[1] = y[1];
     S->t = tc;

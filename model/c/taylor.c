@@ -1,0 +1,143 @@
+/* Taylor-series integration of one rocking block (see taylor.h). */
+#include "taylor.h"
+
+#include <float.h>
+#include <math.h>
+
+int taylor_order(double rtol) {
+    int n = (int)ceil(-0.6 * log(rtol)) + 2;
+    if (n < 10) n = 10;
+    if (n > TAYLOR_MAX) n = TAYLOR_MAX;
+    return n;
+}
+
+/* Coefficients w[0..n] of the excitation waveform about t (0 outside the window). */
+static void wave_series(const Model *M, double t, int piece, int n, double *w) {
+    for (int k = 0; k <= n; k++) w[k] = 0.0;
+    if (!piece) return;
+    double om = M->d.omegaExc, u = om * (t - M->v.startTime);
+    double su = sin(u), cu = cos(u), f = 1.0;
+    for (int k = 0; k <= n; k++) {
+        /* d^k/du^k sin(u) = sin(u + k pi/2), cos(u) likewise */
+        double sk = (k % 4 == 0) ? su : (k % 4 == 1) ? cu : (k % 4 == 2) ? -su : -cu;
+        double ck = (k % 4 == 0) ? cu : (k % 4 == 1) ? -su : (k % 4 == 2) ? -cu : su;
+        double d = M->v.kind == 2 ? ck : M->v.kind == 3 ? -sk : sk;
+        w[k] = d * f;
+        f *= om / (k + 1);
+    }
+}
+
+void taylor_series(const Model *M, double t, double theta, double omega, int side, int piece, int N,
+                   double *x) {
+    double w[TAYLOR_MAX + 1], ah[TAYLOR_MAX + 1], ge[TAYLOR_MAX + 1];
+    double ph[TAYLOR_MAX + 1], S[TAYLOR_MAX + 1], C[TAYLOR_MAX + 1];
+    double kk = M->d.mROverI0;
+    wave_series(M, t, piece, N, w);
+    for (int k = 0; k <= N; k++) {
+        ah[k] = M->d.accAmp * w[k];
+        ge[k] = M->v.verticalAmplitude * w[k];
+    }
+    ah[0] += M->v.ahIn;
+    ge[0] += M->v.g + M->v.avIn;
+    x[0] = theta;
+    x[1] = omega;
+    ph[0] = side * M->d.alpha - theta;
+    S[0] = sin(ph[0]);
+    C[0] = cos(ph[0]);
+    for (int k = 0; k + 2 <= N; k++) {
+        if (k >= 1) {
+            double s = 0.0, c = 0.0;
+            ph[k] = -x[k];
+            for (int j = 1; j <= k; j++) {
+                s += j * ph[j] * C[k - j];
+                c += j * ph[j] * S[k - j];
+            }
+            S[k] = s / k;
+            C[k] = -c / k;
+        }
+        double F = 0.0;
+        for (int j = 0; j <= k; j++) F += ge[j] * S[k - j] + ah[j] * C[k - j];
+        x[k + 2] = -kk * F / ((k + 1.0) * (k + 2.0));
+    }
+}
+
+double taylor_step(const double *x, int N, double eps) {
+    /* The last three terms of theta's series and of omega's (k x[k] s^(k-1))
+     * must each be below eps: one small coefficient cannot fake a long step. */
+    double h = INFINITY;
+    for (int j = N - 2; j <= N; j++) {
+        if (x[j] == 0.0) continue;
+        h = fmin(h, pow(eps / fabs(x[j]), 1.0 / j));
+        h = fmin(h, pow(eps / (j * fabs(x[j])), 1.0 / (j - 1)));
+    }
+    /* Jorba and Zou's safety factor exp(-0.7 / (N - 1)) */
+    return h * exp(-0.7 / (N - 1));
+}
+
+void taylor_eval(const double *x, int N, double s, double *theta, double *omega) {
+    double th = x[N], om = N * x[N];
+    for (int k = N - 1; k >= 0; k--) th = th * s + x[k];
+    for (int k = N - 1; k >= 1; k--) om = om * s + k * x[k];
+    *theta = th;
+    if (omega) *omega = om;
+}
+
+/* sign * (theta(s) - target) (comp 0) or sign * omega(s) (comp 1), by Horner. */
+static double value(const double *x, int N, double s, int comp, double sign, double target) {
+    double v;
+    if (comp == 0) {
+        v = x[N];
+        for (int k = N - 1; k >= 0; k--) v = v * s + x[k];
+        v -= target;
+    } else {
+        v = N * x[N];
+        for (int k = N - 1; k >= 1; k--) v = v * s + k * x[k];
+    }
+    return sign * v;
+}
+
+/* Root of value in [a, b] with value(a) * slope < 0 <= value(b) * slope: the
+ * Illinois variant of regula falsi, to machine precision. */
+static double refine_root(const double *x, int N, double a, double b, int comp, double sign, double target,
+                          int slope) {
+    double fa = value(x, N, a, comp, sign, target), fb = value(x, N, b, comp, sign, target);
+    int side = 0;
+    for (int it = 0; it < 100 && b - a > 2.0 * DBL_EPSILON * fabs(b); it++) {
+        double m = (fa * b - fb * a) / (fa - fb);
+        if (!(m > a && m < b)) m = 0.5 * (a + b);
+        double fm = value(x, N, m, comp, sign, target);
+        if (fm * slope >= 0.0) {
+            b = m, fb = fm;
+            if (side == -1) fa *= 0.5;
+            side = -1;
+        } else {
+            a = m, fa = fm;
+            if (side == 1) fb *= 0.5;
+            side = 1;
+        }
+        if (fm == 0.0) return m;
+    }
+    return b;
+}
+
+double taylor_first_crossing(const double *x, int N, double h, int comp, double sign, double target,
+                             int slope, int samples) {
+    double lo = 0.0, vlo = value(x, N, 0.0, comp, sign, target);
+    for (int i = 1; i <= samples; i++) {
+        double hi = h * i / samples, vhi = value(x, N, hi, comp, sign, target);
+        int crosses = slope < 0 ? (vlo > 0.0 && vhi <= 0.0) || (i == 1 && vlo == 0.0 && vhi < 0.0)
+                                : (vlo < 0.0 && vhi >= 0.0);
+        if (crosses) {
+            double a = lo;
+            if (vlo == 0.0) { /* starting on the surface (just after an impact): find where it leaves */
+                a = 0.5 * hi;
+                while (a > 1e-3 * DBL_EPSILON * h && value(x, N, a, comp, sign, target) * slope >= 0.0) a *= 0.5;
+                if (value(x, N, a, comp, sign, target) * slope >= 0.0) return 2.0 * h;
+            }
+            return refine_root(x, N, a, hi, comp, sign, target, slope);
+        }
+        lo = hi;
+        vlo = vhi;
+    }
+    return 2.0 * h;
+}

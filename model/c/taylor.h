@@ -1,0 +1,37 @@
+/* Taylor-series integration of one rocking block (solver.method = 1).
+ *
+ * Between events the block obeys theta'' = -(m R / I0) [ (g + a_v) sin(phi)
+ * + a_h cos(phi) ], phi = s alpha - theta, with a_h, a_v sines or cosines of
+ * time (or constants). The Taylor coefficients of theta about t follow from
+ * the recurrences of sin and cos of a series (automatic differentiation), so
+ * a step of any order N costs O(N^2) operations and two sincos calls, and
+ * the series itself is the dense output. The step length comes from the
+ * size of the last two coefficients (Jorba and Zou's rule); events are
+ * located on the series.
+ */
+#ifndef ROCKING_TAYLOR_H
+#define ROCKING_TAYLOR_H
+
+#include "model.h"
+
+/* Order used for the tolerance rtol (10 to TAYLOR_MAX). */
+int taylor_order(double rtol);
+
+/* Coefficients x[0..N] of theta(t + s) = sum x[k] s^k for pivot side and
+ * excitation piece, from theta, omega at t. */
+void taylor_series(const Model *M, double t, double theta, double omega, int side, int piece, int N,
+                   double *x);
+
+/* Step length (s) for an error per step of about eps in theta and omega. */
+double taylor_step(const double *x, int N, double eps);
+
+/* theta and omega at s from the coefficients. */
+void taylor_eval(const double *x, int N, double s, double *theta, double *omega);
+
+/* First s in (0, h] where sign * (theta(s) - target) (comp 0) or sign * omega(s)
+ * (comp 1) crosses zero with the given slope (-1 falling, +1 rising), found on
+ * `samples` sub-intervals and refined by bisection; > h if none. */
+double taylor_first_crossing(const double *x, int N, double h, int comp, double sign, double target,
+                             int slope, int samples);
+
+#endif

@@ -1,0 +1,73 @@
+"""The Taylor-series integrator (solver.method = 1) against the exact reference and the
+Dormand-Prince integrator of the same FMU."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from model.reference import Block, free_rocking
+from runners.fmu import FMUError
+
+BLOCK = Block(0.1, 0.3)
+TAYLOR = {"solver.method": 1}
+
+
+@pytest.mark.parametrize("rtol,bound", [(1e-6, 1e-6), (1e-10, 1e-10), (1e-13, 1e-13)])
+def test_free_rocking_meets_the_tolerance(fmu, rtol, bound):
+    theta0 = 0.6 * BLOCK.alpha
+    ref = free_rocking(BLOCK, theta0, 0.9, 10)
+    p = {**TAYLOR, "block1.theta0": theta0, "restitution.law": 2, "restitution.eta": 0.9,
+         "solver.relTol": rtol, "solver.absTol": 1e-2 * rtol}
+    r = fmu.run(p, ref.impact_times[-1] + 0.05, 0.01)
+    ti, pk = r.event_times("impact")[:10], r.event_values("peak", "theta")[:9]
+    assert len(ti) == 10 and len(pk) == 9
+    assert np.max(np.abs(ti / ref.impact_times - 1)) < bound
+    assert np.max(np.abs(pk / ref.peak_thetas[:9] - 1)) < bound
+
+
+SCENES = {
+    "sine pulse to rest": {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0},
+    "cosine pulse with vertical": {"excitation.kind": 2, "excitation.amplitude": 4.0, "excitation.frequency": 2.0,
+                                   "excitation.verticalAmplitude": 3.0, "excitation.startTime": 0.2},
+    "harmonic table": {"excitation.kind": 3, "excitation.displacement": 0.01, "excitation.frequency": 3.5,
+                       "excitation.cycles": 4},
+    "overturning pulse": {"excitation.kind": 1, "excitation.amplitude": 6.0, "excitation.frequency": 2.0},
+}
+
+
+@pytest.mark.parametrize("scene", SCENES, ids=list(SCENES))
+def test_forced_scenes_agree_with_dormand_prince(fmu, scene):
+    outs = ["block1.theta", "impacts", "overturned", "atRest"]
+    p = {**SCENES[scene], "solver.relTol": 1e-12, "solver.absTol": 1e-14}
+    a = fmu.run({**p, **TAYLOR}, 5.0, 0.01, outputs=outs)
+    b = fmu.run(p, 5.0, 0.01, outputs=outs)
+    ta, tb = a.event_times("impact"), b.event_times("impact")
+    assert len(ta) == len(tb) and a.outputs["overturned"][-1] == b.outputs["overturned"][-1]
+    if len(ta):
+        assert np.max(np.abs(ta[:10] - tb[:10])) < 1e-9
+    assert np.max(np.abs(a.outputs["block1.theta"][:150] - b.outputs["block1.theta"][:150])) < 1e-9
+
+
+def test_inputs_and_communication_steps(fmu):
+    """ground.ah from the importer, and results independent of the communication step."""
+    p = {**TAYLOR, "block1.theta0": 0.05}
+    ah = lambda t: (2.0 * math.sin(7.0 * t), 0.0)  # noqa: E731
+    a = fmu.run(p, 3.0, 0.01, outputs=["block1.theta"], inputs=ah, events=False)
+    b = fmu.run({**p, "solver.method": 0}, 3.0, 0.01, outputs=["block1.theta"], inputs=ah, events=False)
+    assert np.max(np.abs(a.outputs["block1.theta"] - b.outputs["block1.theta"])) < 1e-8
+    free = {**TAYLOR, "block1.theta0": 0.15, "excitation.kind": 1, "excitation.amplitude": 5.0,
+            "excitation.frequency": 3.0, "excitation.startTime": 0.4}
+    fine = fmu.run(free, 3.0, 1e-3, outputs=["block1.theta", "block1.omega"], events=False)
+    coarse = fmu.run(free, 3.0, 0.1, outputs=["block1.theta", "block1.omega"], events=False)
+    for k in ("block1.theta", "block1.omega"):
+        np.testing.assert_allclose(coarse.outputs[k], fine.outputs[k][::100], rtol=0, atol=1e-13)
+
+
+def test_invalid_method_settings_are_errors(fmu):
+    with pytest.raises(FMUError, match="solver.method"):
+        fmu.run({"solver.method": 2}, 0.1, 0.1)
+    with pytest.raises(FMUError, match="nBlocks = 1 only"):
+        fmu.run({"solver.method": 1, "nBlocks": 2}, 0.1, 0.1)
