@@ -11,7 +11,9 @@ momentum law); the error of its first 20 impact times (ground and interface)
 against the event-driven two-block reference at rtol 1e-13
 (model/two_block_solver.py).
 
-Costs are wall seconds per simulation. The FMU appears three times: natively
+The FMU runs with both of its integrators (solver.method 0, Dormand-Prince,
+and 1, Taylor series; two blocks have Dormand-Prince only). Costs are wall
+seconds per simulation. The FMU appears three times: natively
 (the C harness of runners/bench.py, instantiate to free, mean of many runs),
 through fmpy with one instance reset between runs and one doStep (what a
 Python sweep pays per simulation), and through fmpy with 10 ms communication
@@ -158,8 +160,10 @@ def fmu_points(fmu: RockingFMU, native: NativeTimer, case: Case, rel_tols, repea
     theta_vr = fmu.variable("block1.theta").valueReference
     points = []
     try:
-        for rtol in rel_tols:
-            params = {**BLOCK_PARAMETERS, **case.fmu_parameters, "solver.relTol": rtol, "solver.absTol": 1e-2 * rtol}
+        for method, rtol in [(0, r) for r in rel_tols] + [(1, r) for r in rel_tols]:
+            params = {**BLOCK_PARAMETERS, **case.fmu_parameters, "solver.relTol": rtol, "solver.absTol": 1e-2 * rtol,
+                      "solver.method": method}
+            suffix = ", Taylor series" if method else ""
 
             def run(step=None):
                 """One doStep over the horizon, or steps of `step` s reading theta at each."""
@@ -181,11 +185,12 @@ def fmu_points(fmu: RockingFMU, native: NativeTimer, case: Case, rel_tols, repea
 
             seconds, (ti, pk) = _timed(run, repeats)
             error = case.error(ti, pk)
-            points.append(Point(case.name, "FMU through fmpy", f"rtol {rtol:g}", error, seconds))
-            seconds, (ti, pk) = _timed(lambda: run(0.01), max(1, repeats // 5))
-            points.append(Point(case.name, "FMU through fmpy, 10 ms communication steps", f"rtol {rtol:g}",
-                                case.error(ti, pk), seconds))
-            points.append(Point(case.name, "FMU native (C harness)", f"rtol {rtol:g}", error,
+            points.append(Point(case.name, "FMU through fmpy" + suffix, f"rtol {rtol:g}", error, seconds))
+            if not method:
+                seconds, (ti, pk) = _timed(lambda: run(0.01), max(1, repeats // 5))
+                points.append(Point(case.name, "FMU through fmpy, 10 ms communication steps", f"rtol {rtol:g}",
+                                    case.error(ti, pk), seconds))
+            points.append(Point(case.name, "FMU native (C harness)" + suffix, f"rtol {rtol:g}", error,
                                 native.seconds(params, case.fmu_stop, 50 * repeats)))
     finally:
         slave.freeInstance()
@@ -229,7 +234,7 @@ def speedups(points: list[Point]) -> list[str]:
     """For reference points of other methods, the FMU's cheapest setting at equal or better accuracy."""
     lines = []
     for case in sorted({p.case for p in points}):
-        fmu = [p for p in points if p.case == case and p.method.startswith("FMU native")]
+        fmu = [p for p in points if p.case == case and p.method.startswith("FMU native")]  # either integrator
         others = [p for p in points if p.case == case and not p.method.startswith("FMU") and math.isfinite(p.error)]
         for ref in others:
             if not (ref.method.startswith("scipy DOP853") or ref.setting == "h 0.0001 s"):
@@ -238,8 +243,8 @@ def speedups(points: list[Point]) -> list[str]:
             if ok:
                 best = min(ok, key=lambda p: p.seconds)
                 lines.append(f"{case}: {ref.method} {ref.setting} (error {ref.error:.1e}, {1e3 * ref.seconds:.2f} ms) "
-                             f"vs FMU native {best.setting} (error {best.error:.1e}, {1e3 * best.seconds:.3f} ms): "
-                             f"{ref.seconds / best.seconds:.0f} times faster")
+                             f"vs {best.method} {best.setting} (error {best.error:.1e}, "
+                             f"{1e3 * best.seconds:.3f} ms): {ref.seconds / best.seconds:.0f} times faster")
     return lines
 
 
