@@ -31,7 +31,8 @@ def _fmu_path(arg: str | None) -> Path:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from runners.least_model import choose_model, closed_form_summary, format_closed_form, one_block_parameters
+    from runners.least_model import (choose_model, closed_form_summary, combined_block_parameters,
+                                     format_closed_form, one_block_parameters)
 
     scene = load_scene(args.scene)
     if args.stop_time is not None:
@@ -60,6 +61,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             return 0
         if model == "one block" and int(merged["nBlocks"]) == 2:
             scene = replace(scene, parameters=one_block_parameters(scene.parameters))
+        if model == "one block (combined)":
+            combined = combined_block_parameters(merged)
+            scene = replace(scene, parameters={k: v for k, v in combined.items()
+                                               if k in scene.parameters or k.startswith("block1.")})
         result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
     summary = summarize(scene, result, defaults)
     summary["model"], summary["model_reason"] = model, why

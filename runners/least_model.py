@@ -9,11 +9,17 @@ The rule, cheapest first (docs/methods.md, "The least model a scene needs"):
    below 2 alpha^2 = 12.5%; docs/BENCHMARKS.md). It answers whether the
    block overturns, by which mechanism, and the peak after the first impact
    when that impact follows the pulse;
-2. **one block** (the FMU with nBlocks = 1): a one-block scene, or a stack
+2. **one block** (the FMU with nBlocks = 1): a one-block scene; a stack
    whose upper block is negligible (mass ratio m2 / m1 <= accuracy / 10,
-   seated on block 1 at the start); the lower block then moves as if alone
+   seated on block 1 at the start), as the lower block then moves as if alone
    (tests/test_fmu_two_blocks.py: its error is about 1e-6 rad per 1e-6 of
-   mass ratio);
+   mass ratio); or a stack that stays locked: one rectangle cut in two (equal
+   widths and densities, 1/12 <= h1/h2 <= 12), seated, rocking freely (no
+   excitation) under the momentum law. It then rocks as the combined
+   rectangle: its interface reactions keep a positive margin at every angle
+   and rate free rocking reaches, and its impacts' impulses can be carried
+   (tests/test_two_blocks_reference.py), and the locked pair reproduces the
+   single block to 1e-15 rad (tests/test_fmu_two_blocks.py);
 3. **two blocks** (the FMU with nBlocks = 2) otherwise.
 """
 
@@ -38,7 +44,10 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
         if ratio <= accuracy / 10 and seated:
             return "one block", (f"the upper block is negligible (mass ratio {ratio:.1e} <= accuracy / 10) "
                                  "and starts seated")
-        return "two blocks", "a stack of two blocks whose upper block is not negligible"
+        if seated and stays_locked(p):
+            return "one block (combined)", ("the stack is one rectangle cut in two, seated and rocking freely "
+                                            "under the momentum law: it stays locked")
+        return "two blocks", "a stack of two blocks that may separate"
     alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
     reasons = []
     if not (p["block1.theta0"] == 0 and p["block1.omega0"] == 0):
@@ -53,6 +62,22 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
         return "one block", "no closed form: " + ", ".join(reasons)
     return "closed form", (f"one block at rest under a one-sine pulse, slender (2 alpha^2 = {2 * alpha**2:.2g} "
                            f"<= accuracy {accuracy:g})")
+
+
+def stays_locked(p: dict[str, Any]) -> bool:
+    """The stack is one rectangle cut in two, rocking freely under the momentum law (see the rule above)."""
+    b1, h1, m1 = p["block1.halfWidth"], p["block1.halfHeight"], p["block1.mass"]
+    b2, h2, m2 = p["block2.halfWidth"], p["block2.halfHeight"], p["block2.mass"]
+    return (b1 == b2 and abs(m1 / h1 - m2 / h2) <= 1e-9 * (m1 / h1) and 1 / 12 <= h1 / h2 <= 12
+            and int(p["excitation.kind"]) == 0 and int(p["restitution.law"]) == 0)
+
+
+def combined_block_parameters(p: dict[str, Any]) -> dict[str, Any]:
+    """One-block parameters of a stack that stays locked: the combined rectangle."""
+    q = one_block_parameters(p)
+    q.update({"block1.halfHeight": p["block1.halfHeight"] + p["block2.halfHeight"],
+              "block1.mass": p["block1.mass"] + p["block2.mass"]})
+    return q
 
 
 def one_block_parameters(p: dict[str, Any]) -> dict[str, Any]:

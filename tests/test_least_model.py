@@ -97,3 +97,27 @@ def test_a_negligible_upper_block_runs_as_one_block(fmu_path, tmp_path):
     assert auto["model"] == "one block" and auto["blocks"] == 1 and two["blocks"] == 2
     assert auto["impacts"] == two["impacts_ground"]
     assert abs(auto["max_abs_theta_rad"] - two["max_abs_theta_rad"]) < 1e-12
+
+
+CUT = ("[block]\nhalf_width = 0.1\nhalf_height = 0.2\nmass = 2.0\ntheta0 = 0.1\n"
+       "[block2]\nhalf_width = 0.1\nhalf_height = 0.3\nmass = 3.0\ntheta0 = 0.1\n"
+       "[simulation]\nstop_time = 4.0\nstep = 0.01\n")
+
+
+def test_a_stack_that_stays_locked_runs_as_the_combined_block(fmu_path, tmp_path):
+    scene = tmp_path / "cut.toml"
+    scene.write_text(CUT)
+    auto = json.loads(runners("simulate", str(scene), "--method", "auto", "--json", fmu_path=fmu_path).stdout)
+    two = json.loads(runners("simulate", str(scene), "--json", fmu_path=fmu_path).stdout)
+    assert auto["model"] == "one block (combined)" and "stays locked" in auto["model_reason"]
+    assert two["impacts_interface"] == 0 and auto["impacts"] == two["impacts_ground"] >= 5
+    assert abs(auto["final_theta_rad"] - two["final_theta_rad"]) < 1e-12
+    # excitation, another law or another density: the stack may separate, so two blocks
+    for extra in ('[excitation]\nkind = "sine-pulse"\namplitude = 1.0\nfrequency = 2.0\n',
+                  '[restitution]\nlaw = "constant"\n'):
+        scene.write_text(CUT + extra)
+        s = json.loads(runners("simulate", str(scene), "--method", "auto", "--json", fmu_path=fmu_path).stdout)
+        assert s["model"] == "two blocks"
+    scene.write_text(CUT.replace("mass = 3.0", "mass = 4.0"))
+    assert json.loads(runners("simulate", str(scene), "--method", "auto", "--json",
+                              fmu_path=fmu_path).stdout)["model"] == "two blocks"

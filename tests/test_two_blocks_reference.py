@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from model import two_blocks as tb
 from model.two_blocks import Stack, accelerations, centres, energy, locked_acceleration, mass_matrix
 
 # seed 000 Table 2: lower block 1 (120 x 29 mm, 1.3 kg) and upper block 4 (100 x 60 mm, 2.3 kg), half dimensions
@@ -150,3 +151,22 @@ def test_impact_map_is_mirror_symmetric():
         a = impact_map(THESIS, q, w, old, new)
         b = impact_map(THESIS, -q, -w, (-old[0], -old[1]), (-new[0], -new[1]))
         np.testing.assert_allclose(b, -a, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("ratio", [1 / 12, 0.5, 1.0, 3.0, 12.0])
+def test_a_rectangle_cut_in_two_stays_locked_in_free_rocking(ratio):
+    """The evidence for --method auto's locked-stack rule: at every angle and rate that free
+    rocking of the combined rectangle reaches, the interface keeps a positive reaction margin, and
+    the impulses of its impacts can be carried (equal widths and densities, h1 / h2 = ratio)."""
+    b, H = 0.1, 0.6
+    h2 = H / (1 + ratio)
+    h1 = H - h2
+    st = tb.Stack(b, h1, 10 * h1, b, h2, 10 * h2)
+    alpha, p2 = math.atan2(b, H), 3 * st.g / (4 * math.hypot(b, H))
+    for th0 in np.linspace(0.02, 0.999, 15) * alpha:
+        for th in np.linspace(0.0, th0, 15):
+            w = math.sqrt(max(0.0, 2 * p2 * (math.cos(alpha - th0) - math.cos(alpha - th))))
+            for sign in (1, -1):
+                assert tb.contact_margins(st, "locked", [th, th], [sign * w] * 2, 1, 1).min() > 0
+        w_minus = -math.sqrt(2 * p2 * (math.cos(alpha - th0) - math.cos(alpha)))
+        assert tb.pattern_impact(st, [0.0, 0.0], [w_minus] * 2, (1, 1), (-1, -1), "locked")[1]
