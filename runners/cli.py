@@ -11,6 +11,7 @@ import os
 import sys
 from pathlib import Path
 
+from db.session import DatabaseError
 from runners.fmu import FMUError, RockingFMU
 from runners.scene import SceneError, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
@@ -39,37 +40,69 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene.stop_time = args.stop_time
     if args.step is not None:
         scene.step = args.step
-    with RockingFMU(_fmu_path(args.fmu)) as fmu:
+    factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
+    fmu_path = _fmu_path(args.fmu)
+    result = None
+    with RockingFMU(fmu_path) as fmu:
         defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
         merged = {**defaults, **scene.parameters}
         if args.method in PYTHON_METHODS:
             from runners.python_methods import format_python, run_python
 
             s = {"scene": scene.name, **run_python(args.method, merged, scene.stop_time, args.h, args.rtol)}
-            print(json.dumps(s, indent=2) if args.json else format_python(scene.name, s, scene.stop_time))
-            return 0
-        if args.method == "fmu":
-            model = "two blocks" if int(merged["nBlocks"]) == 2 else "one block"
-            why = "the model the scene describes (--method fmu)"
+            text_out = format_python(scene.name, s, scene.stop_time)
+            model, method = s["model"], args.method
         else:
-            model, why = choose_model(merged, args.accuracy)
-            if args.method == "closed-form" and model != "closed form":
-                raise ValueError(f"--method closed-form does not apply to this scene: {why.removeprefix('no closed form: ')}")
-        if model == "closed form":
-            s = {"scene": scene.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
-            print(json.dumps(s, indent=2) if args.json else format_closed_form(scene.name, why, s))
-            return 0
-        if model == "one block" and int(merged["nBlocks"]) == 2:
-            scene = replace(scene, parameters=one_block_parameters(scene.parameters))
-        if model == "one block (combined)":
-            combined = combined_block_parameters(merged)
-            scene = replace(scene, parameters={k: v for k, v in combined.items()
-                                               if k in scene.parameters or k.startswith("block1.")})
-        result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
-    summary = summarize(scene, result, defaults)
-    summary["model"], summary["model_reason"] = model, why
-    print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
+            if args.method == "fmu":
+                model = "two blocks" if int(merged["nBlocks"]) == 2 else "one block"
+                why = "the model the scene describes (--method fmu)"
+            else:
+                model, why = choose_model(merged, args.accuracy)
+                if args.method == "closed-form" and model != "closed form":
+                    raise ValueError("--method closed-form does not apply to this scene: "
+                                     f"{why.removeprefix('no closed form: ')}")
+            method = args.method
+            if model == "closed form":
+                s = {"scene": scene.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
+                text_out = format_closed_form(scene.name, why, s)
+            else:
+                if model == "one block" and int(merged["nBlocks"]) == 2:
+                    scene = replace(scene, parameters=one_block_parameters(scene.parameters))
+                if model == "one block (combined)":
+                    combined = combined_block_parameters(merged)
+                    scene = replace(scene, parameters={k: v for k, v in combined.items()
+                                                       if k in scene.parameters or k.startswith("block1.")})
+                result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
+                s = summarize(scene, result, defaults)
+                s["model"], s["model_reason"] = model, why
+                text_out = format_summary(s)
+    if factory is not None:
+        s["run_id"] = _store(factory, scene, {**defaults, **scene.parameters}, s, model, method, fmu_path, result)
+        text_out += f"\nstored           run {s['run_id']} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
+    print(json.dumps(s, indent=2) if args.json else text_out)
     return 0
+
+
+def _database(url: str | None):
+    from db.session import open_database
+
+    return open_database(url)
+
+
+def _store(factory, scene, merged, s, model, method, fmu_path, result) -> int:
+    """The run and everything it refers to, in one transaction."""
+    from db.store import add_run, add_scene
+    from runners.summary import summary_row
+
+    source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
+    with factory.begin() as session:
+        sc = add_scene(session, scene.name, scene.parameters, source)
+        run = add_run(session, sc, merged, summary_row(s, merged), model=model, method=method,
+                      stop_time=scene.stop_time, fmu_path=str(fmu_path) if result is not None else None,
+                      wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
+                      outputs=None if result is None else result.outputs)
+        session.flush()
+        return run.id
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -120,6 +153,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--h", type=float, default=1e-4, help="fixed step (s) of rk4, rk4-located, newmark, euler "
                                                           "(default 1e-4, seed 000's)")
     sim.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance of --method scipy")
+    sim.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--accuracy", type=float, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
@@ -131,6 +166,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="instead: the work-precision comparison of every method, written to DIR")
     bench.add_argument("--quick", action="store_true", help="with --chart: fewer settings (a smoke run)")
     bench.set_defaults(func=cmd_bench)
+    from runners.dbcli import add_parser as add_db_parser
+
+    add_db_parser(sub)
     figs = sub.add_parser("figures", help="draw the figures of docs/ from fresh FMU runs")
     figs.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
     figs.add_argument("--out", default="docs/figures", help="folder for the PNG files (default: docs/figures)")
@@ -142,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, FMUError, FileNotFoundError, ValueError, OSError) as exc:
+    except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError) as exc:
         print(f"error: {exc}".splitlines()[0], file=sys.stderr)
         return 2
     except KeyboardInterrupt:

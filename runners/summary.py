@@ -134,3 +134,31 @@ def format_summary(s: dict[str, Any]) -> str:
         f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad = {s['max_abs_theta_over_alpha']:.4f} alpha",
     ]
     return "\n".join(lines)
+
+
+def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
+    """The database's run summary (db.schema.RunSummary) from a summary dict of any method."""
+    alpha1 = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
+    two = s.get("blocks") == 2
+    peak1 = s.get("max_abs_theta_rad")
+    if peak1 is None and s.get("peak_after_first_impact_rad") is not None:  # closed form
+        peak1 = s["peak_after_first_impact_rad"]
+    row = {
+        "peak1_over_alpha": None if peak1 is None else peak1 / alpha1,
+        "peak2_over_alpha": None,
+        "overturned": bool(s["overturned"]),
+        "overturned_blocks": None,
+        "overturn_time": s.get("overturn_time_s"),
+        "impacts": s.get("impacts"),
+        "impacts_ground": s.get("impacts_ground"),
+        "impacts_interface": s.get("impacts_interface"),
+        "rest_time": s.get("rest_time_s"),
+    }
+    if two:
+        alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
+        row["peak2_over_alpha"] = s["max_abs_theta2_rad"] / alpha2
+        blocks = s.get("overturned_blocks")
+        row["overturned_blocks"] = ",".join(str(i) for i in blocks) if blocks else None
+    elif s["overturned"]:
+        row["overturned_blocks"] = "1"
+    return row

@@ -43,3 +43,9 @@ def build_container(fmu_path: Path, folder: Path, step_size: float, name: str = 
     container = folder / name
     assert container.is_file(), proc.stdout + proc.stderr
     return container
+
+
+@pytest.fixture(autouse=True)
+def _scratch_database(tmp_path_factory, monkeypatch):
+    """Runs stored by the tests go to a scratch SQLite file, never to ./rocking.db."""
+    monkeypatch.setenv("ROCKING_DB", f"sqlite:///{tmp_path_factory.getbasetemp() / 'tests.db'}")

@@ -1,0 +1,135 @@
+"""The database schema (SQLAlchemy 2, declarative). Units SI, angles in radians
+(docs/conventions.md). Every table change goes with an Alembic migration in
+db/migrations/versions."""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+
+from sqlalchemy import JSON, Boolean, DateTime, Float, ForeignKey, Integer, LargeBinary, String, Text, \
+    UniqueConstraint
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+
+def _now() -> datetime:
+    return datetime.now(timezone.utc)
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class Block(Base):
+    """A rectangular block: half width and half height (m), mass (kg), material, restitution."""
+
+    __tablename__ = "blocks"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    half_width: Mapped[float] = mapped_column(Float)
+    half_height: Mapped[float] = mapped_column(Float)
+    mass: Mapped[float] = mapped_column(Float)
+    material: Mapped[str | None] = mapped_column(String(100))
+    restitution_law: Mapped[str] = mapped_column(String(20), default="housner")  # housner, modified, constant
+    k: Mapped[float | None] = mapped_column(Float)  # impact position, modified law
+    k_size_average: Mapped[float | None] = mapped_column(Float)  # seed 003: the average k of its size class
+    eta: Mapped[float | None] = mapped_column(Float)  # constant law
+    correction: Mapped[float] = mapped_column(Float, default=1.0)
+    source: Mapped[str | None] = mapped_column(Text)
+
+
+class Excitation(Base):
+    """A parametric excitation (the FMU's built-in waveforms) or a recorded series."""
+
+    __tablename__ = "excitations"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    kind: Mapped[str] = mapped_column(String(20))  # none, sine-pulse, cosine-pulse, harmonic, recorded
+    amplitude: Mapped[float | None] = mapped_column(Float)  # m/s^2
+    frequency: Mapped[float | None] = mapped_column(Float)  # Hz
+    cycles: Mapped[float | None] = mapped_column(Float)
+    start_time: Mapped[float | None] = mapped_column(Float)  # s
+    vertical_amplitude: Mapped[float | None] = mapped_column(Float)  # m/s^2
+    displacement: Mapped[float | None] = mapped_column(Float)  # m
+    series: Mapped[bytes | None] = mapped_column(LargeBinary)  # recorded: see db.series
+    series_dt: Mapped[float | None] = mapped_column(Float)  # s
+
+
+class Scene(Base):
+    """One block or a stack, its initial state and the FMU parameters that define the run."""
+
+    __tablename__ = "scenes"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))
+    n_blocks: Mapped[int] = mapped_column(Integer, default=1)
+    block1_id: Mapped[int | None] = mapped_column(ForeignKey("blocks.id"))
+    block2_id: Mapped[int | None] = mapped_column(ForeignKey("blocks.id"))
+    parameters: Mapped[dict] = mapped_column(JSON)  # FMU parameter name -> value
+    source: Mapped[str | None] = mapped_column(Text)  # the scene file's text
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
+
+
+class Sweep(Base):
+    """A grid of runs over one scene."""
+
+    __tablename__ = "sweeps"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    scene_id: Mapped[int] = mapped_column(ForeignKey("scenes.id"))
+    grid: Mapped[dict] = mapped_column(JSON)
+    total: Mapped[int] = mapped_column(Integer)
+    done: Mapped[int] = mapped_column(Integer, default=0)
+    status: Mapped[str] = mapped_column(String(20), default="running")
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
+
+
+class Run(Base):
+    """One simulation: what ran (model, method, tolerances, FMU and code versions) and how it went."""
+
+    __tablename__ = "runs"
+    __table_args__ = (UniqueConstraint("sweep_id", "grid_index", name="one_run_per_grid_point"),)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    scene_id: Mapped[int] = mapped_column(ForeignKey("scenes.id"))
+    excitation_id: Mapped[int | None] = mapped_column(ForeignKey("excitations.id"))
+    sweep_id: Mapped[int | None] = mapped_column(ForeignKey("sweeps.id"))
+    grid_index: Mapped[int | None] = mapped_column(Integer)
+    model: Mapped[str] = mapped_column(String(100))
+    method: Mapped[str] = mapped_column(String(50))
+    rel_tol: Mapped[float | None] = mapped_column(Float)
+    abs_tol: Mapped[float | None] = mapped_column(Float)
+    stop_time: Mapped[float] = mapped_column(Float)
+    fmu_sha256: Mapped[str | None] = mapped_column(String(64))
+    code_version: Mapped[str] = mapped_column(String(40))
+    wall_time: Mapped[float | None] = mapped_column(Float)  # s
+    status: Mapped[str] = mapped_column(String(10))  # ok or error
+    error_message: Mapped[str | None] = mapped_column(Text)
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
+    scene: Mapped[Scene] = relationship()
+    excitation: Mapped[Excitation | None] = relationship()
+    summary: Mapped["RunSummary | None"] = relationship(back_populates="run", cascade="all, delete-orphan")
+    series: Mapped["RunSeries | None"] = relationship(back_populates="run", cascade="all, delete-orphan")
+
+
+class RunSummary(Base):
+    """Key results of a run."""
+
+    __tablename__ = "run_summaries"
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), primary_key=True)
+    peak1_over_alpha: Mapped[float | None] = mapped_column(Float)  # max |theta1| / alpha1
+    peak2_over_alpha: Mapped[float | None] = mapped_column(Float)  # max |theta2| / alpha2 (two blocks)
+    overturned: Mapped[bool] = mapped_column(Boolean)
+    overturned_blocks: Mapped[str | None] = mapped_column(String(10))  # "1", "2", "1,2"
+    overturn_time: Mapped[float | None] = mapped_column(Float)  # s
+    impacts: Mapped[int | None] = mapped_column(Integer)  # None: the closed form does not count them
+    impacts_ground: Mapped[int | None] = mapped_column(Integer)
+    impacts_interface: Mapped[int | None] = mapped_column(Integer)
+    rest_time: Mapped[float | None] = mapped_column(Float)  # s
+    run: Mapped[Run] = relationship(back_populates="summary")
+
+
+class RunSeries(Base):
+    """The sampled outputs of a run, compressed and lossless (db.series): one row per run."""
+
+    __tablename__ = "run_series"
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), primary_key=True)
+    names: Mapped[list] = mapped_column(JSON)  # output variable names, in column order
+    n_samples: Mapped[int] = mapped_column(Integer)
+    data: Mapped[bytes] = mapped_column(LargeBinary)  # zlib of float64 time + columns
+    run: Mapped[Run] = relationship(back_populates="series")

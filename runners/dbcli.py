@@ -1,0 +1,105 @@
+"""``runners db init | list | show``: the database from the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from sqlalchemy import func, select
+
+from db.catalogue import load_catalogue
+from db.schema import Block, Run, Scene, Sweep
+from db.session import open_database
+
+TABLES = {"blocks": Block, "runs": Run, "scenes": Scene, "sweeps": Sweep}
+
+
+def _url(factory) -> str:
+    return factory.kw["bind"].url.render_as_string(hide_password=True)
+
+
+def cmd_init(args: argparse.Namespace) -> int:
+    factory = open_database(args.db)
+    with factory.begin() as session:
+        added, updated = load_catalogue(session)
+    print(f"database ready: {_url(factory)}; catalogue: {added} blocks added, {updated} updated")
+    return 0
+
+
+def _row(obj) -> dict[str, Any]:
+    out = {}
+    for col in obj.__table__.columns:
+        v = getattr(obj, col.key)
+        out[col.key] = v.isoformat() if hasattr(v, "isoformat") else v
+    return out
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    factory = open_database(args.db)
+    model = TABLES[args.table]
+    with factory() as session:
+        total = session.scalar(select(func.count()).select_from(model))
+        rows = session.scalars(select(model).order_by(model.id.desc()).limit(args.limit)).all()
+        if args.json:
+            print(json.dumps([_row(r) for r in rows], indent=1, default=str))
+            return 0
+        print(f"{args.table}: {total} in {_url(factory)}" + (f", newest {args.limit}" if total > args.limit else ""))
+        for r in rows:
+            if model is Block:
+                print(f"  {r.id:5d}  {r.name:16s} b = {r.half_width:.5g} m  h = {r.half_height:.5g} m  "
+                      f"m = {r.mass:.4g} kg  {r.restitution_law}"
+                      + (f" k = {r.k:g}" if r.k is not None else "")
+                      + (f" x {r.correction:g}" if r.correction != 1 else ""))
+            elif model is Run:
+                summ = r.summary
+                outcome = "error" if r.status == "error" else (
+                    "overturned" if summ and summ.overturned else "survived")
+                print(f"  {r.id:5d}  scene {r.scene_id:4d}  {r.model:22s} {r.method:12s} {outcome:10s} "
+                      f"impacts {summ.impacts if summ else '-'}")
+            elif model is Scene:
+                print(f"  {r.id:5d}  {r.name}  ({r.n_blocks} block{'s' if r.n_blocks > 1 else ''})")
+            else:
+                print(f"  {r.id:5d}  scene {r.scene_id:4d}  {r.done}/{r.total} {r.status}")
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    factory = open_database(args.db)
+    with factory() as session:
+        if args.what == "block":
+            obj = session.scalar(select(Block).where(Block.name == args.key))
+            if obj is None and args.key.isdigit():
+                obj = session.get(Block, int(args.key))
+        else:
+            if not args.key.isdigit():
+                raise ValueError(f"{args.what} ids are integers, got {args.key!r}")
+            obj = session.get(TABLES[args.what + "s"], int(args.key))
+        if obj is None:
+            raise ValueError(f"no {args.what} {args.key!r} in {_url(factory)}")
+        out = _row(obj)
+        if isinstance(obj, Run):
+            out["summary"] = _row(obj.summary) if obj.summary else None
+            out["series"] = ({"names": obj.series.names, "n_samples": obj.series.n_samples}
+                             if obj.series else None)
+            out["scene"] = {"name": obj.scene.name, "parameters": obj.scene.parameters}
+    print(json.dumps(out, indent=1, default=str))
+    return 0
+
+
+def add_parser(sub) -> None:
+    dbp = sub.add_parser("db", help="the experiment database: init, list, show")
+    dsub = dbp.add_subparsers(dest="db_command", required=True)
+    init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
+    init.set_defaults(func=cmd_init)
+    lst = dsub.add_parser("list", help="list blocks, runs, scenes or sweeps (newest first)")
+    lst.add_argument("table", choices=list(TABLES))
+    lst.add_argument("--limit", type=int, default=20)
+    lst.add_argument("--json", action="store_true")
+    lst.set_defaults(func=cmd_list)
+    show = dsub.add_parser("show", help="one block (by name or id), run, scene or sweep, as JSON")
+    show.add_argument("what", choices=["block", "run", "scene", "sweep"])
+    show.add_argument("key")
+    show.set_defaults(func=cmd_show)
+    for p in (init, lst, show):
+        p.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")

@@ -1,0 +1,131 @@
+"""The experiment database: schema and migrations, catalogue, stored runs (lossless,
+all or nothing), and its command line."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from alembic.migration import MigrationContext
+from alembic.autogenerate import compare_metadata
+from sqlalchemy import func, select, text
+
+from db import series
+from db.catalogue import CATALOGUE
+from db.schema import Base, Block, Run, RunSeries, Scene
+from db.session import DatabaseError, open_database, integrity_ok
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def runners(*args, db, fmu_path):
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    return subprocess.run([sys.executable, "-m", "runners.cli", *args], capture_output=True, text=True, env=env,
+                          cwd=ROOT)
+
+
+def test_schema_migration_matches_the_models_and_sqlite_settings(tmp_path):
+    factory = open_database(f"sqlite:///{tmp_path / 'a.db'}")
+    engine = factory.kw["bind"]
+    with engine.connect() as conn:
+        assert compare_metadata(MigrationContext.configure(conn), Base.metadata) == []
+        assert conn.execute(text("PRAGMA journal_mode")).scalar() == "wal"
+        assert conn.execute(text("PRAGMA foreign_keys")).scalar() == 1
+    open_database(f"sqlite:///{tmp_path / 'a.db'}")  # reopening is a no-op upgrade
+    assert integrity_ok(engine)
+
+
+def test_bad_urls_are_one_line_errors(tmp_path):
+    with pytest.raises(DatabaseError, match="cannot use database URL"):
+        open_database("nope://x")
+    with pytest.raises(DatabaseError, match="cannot open the database"):
+        open_database(f"sqlite:///{tmp_path / 'missing-dir' / 'x.db'}")
+
+
+def test_series_are_stored_bit_for_bit():
+    rng = np.random.default_rng(1)
+    t, cols = np.linspace(0, 1, 1001), {"a": rng.standard_normal(1001), "b": rng.standard_normal(1001) * 1e-300}
+    names, n, blob = series.pack(t, cols)
+    t2, cols2 = series.unpack(names, n, blob)
+    assert np.array_equal(t, t2) and all(np.array_equal(cols[k], cols2[k]) for k in cols)
+    assert len(blob) < 3 * 8 * 1001
+
+
+def test_catalogue_loads_once_with_the_seeds_numbers(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'c.db'}"
+    for _ in range(2):
+        p = runners("db", "init", db=db, fmu_path=fmu_path)
+        assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as s:
+        assert s.scalar(select(func.count()).select_from(Block)) == len(CATALOGUE) == 8
+        b3m = s.scalar(select(Block).where(Block.name == "B3M"))
+        assert (b3m.half_width, b3m.half_height, b3m.k, b3m.k_size_average) == (0.0225, 0.050625, 0.7595, 0.8608)
+        b1 = s.scalar(select(Block).where(Block.name == "seed000-block1"))
+        assert (b1.half_width, b1.half_height, b1.correction) == (0.0145, 0.060, 1.036)
+
+
+def test_simulate_stores_the_run_losslessly(tmp_path, fmu_path, fmu):
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    p = runners("simulate", "examples/sine_pulse.toml", "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    s = json.loads(p.stdout)
+    factory = open_database(db)
+    with factory() as session:
+        run = session.get(Run, s["run_id"])
+        assert run.status == "ok" and run.summary.impacts == s["impacts"] and len(run.fmu_sha256) == 64
+        assert run.summary.peak1_over_alpha == pytest.approx(s["max_abs_theta_over_alpha"], rel=1e-15)
+        t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+        assert session.get(Scene, run.scene_id).source == (ROOT / "examples" / "sine_pulse.toml").read_text()
+    from runners.scene import load_scene
+    from runners.summary import SUMMARY_OUTPUTS
+    scene = load_scene(ROOT / "examples" / "sine_pulse.toml")
+    again = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
+    assert np.array_equal(t, again.time)
+    for k in SUMMARY_OUTPUTS:
+        assert np.array_equal(cols[k], again.outputs[k]), k
+
+
+def test_a_failing_simulation_leaves_no_rows(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'f.db'}"
+    assert runners("simulate", "examples/sine_pulse.toml", db=db, fmu_path=fmu_path).returncode == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[block]\nhalf_width = 0.1\n[excitation]\nkind = \"sine-pulse\"\nfrequency = -1.0\n")
+    p = runners("simulate", str(bad), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "excitation.frequency" in p.stderr
+    factory = open_database(db)
+    with factory() as s:
+        assert s.scalar(select(func.count()).select_from(Run)) == 1
+        assert s.scalar(select(func.count()).select_from(Scene)) == 1
+        assert s.scalar(select(func.count()).select_from(RunSeries)) == 1
+
+
+def test_two_writers_at_once_both_complete(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'w.db'}"
+    open_database(db)
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    procs = [subprocess.Popen([sys.executable, "-m", "runners.cli", "simulate", f"examples/{name}.toml"], cwd=ROOT,
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+             for name in ("sine_pulse", "harmonic", "two_blocks_free", "free_rocking")]
+    assert all(p.wait(timeout=120) == 0 for p in procs)
+    factory = open_database(db)
+    with factory() as s:
+        assert s.scalar(select(func.count()).select_from(Run)) == 4
+    assert integrity_ok(factory.kw["bind"])
+
+
+def test_db_list_and_show(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'l.db'}"
+    runners("db", "init", db=db, fmu_path=fmu_path)
+    runners("simulate", "examples/two_blocks_free.toml", db=db, fmu_path=fmu_path)
+    p = runners("db", "list", "blocks", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "B6L" in p.stdout and "seed000-block2" in p.stdout
+    shown = json.loads(runners("db", "show", "run", "1", db=db, fmu_path=fmu_path).stdout)
+    assert shown["summary"]["impacts_interface"] > 0 and shown["series"]["n_samples"] > 100
+    p = runners("db", "show", "run", "7", db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.startswith("error: no run '7'")
