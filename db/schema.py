@@ -90,6 +90,7 @@ class Run(Base):
     excitation_id: Mapped[int | None] = mapped_column(ForeignKey("excitations.id"))
     sweep_id: Mapped[int | None] = mapped_column(ForeignKey("sweeps.id"))
     grid_index: Mapped[int | None] = mapped_column(Integer)
+    point: Mapped[dict | None] = mapped_column(JSON)  # the grid values of a sweep's run
     model: Mapped[str] = mapped_column(String(100))
     method: Mapped[str] = mapped_column(String(50))
     rel_tol: Mapped[float | None] = mapped_column(Float)

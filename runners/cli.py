@@ -105,6 +105,35 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result) -> int:
         return run.id
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from runners.sweep import create_sweep, parse_axis, run_sweep
+
+    if (args.resume is None) == (args.scene is None):
+        raise ValueError("give a scene file with --grid, or --resume SWEEP_ID")
+    factory = _database(args.db)
+    fmu_path = _fmu_path(args.fmu)
+    if args.resume is None:
+        scene = load_scene(args.scene)
+        if args.stop_time is not None:
+            scene.stop_time = args.stop_time
+        if not args.grid:
+            raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT")
+        with RockingFMU(fmu_path) as fmu:
+            reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
+            defaults = {n: float(v.start) for n, v in fmu.vars.items()
+                        if v.start is not None and v.type in ("Real", "Integer")}
+        axes = [parse_axis(spec, reals) for spec in args.grid]
+        sweep_id = create_sweep(factory, scene, axes, defaults)
+    else:
+        sweep_id = args.resume
+    st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress)
+    n = max(st["ran"], 1)
+    print(f"sweep {sweep_id}: {st['already'] + st['ran']}/{st['total']} points stored ({st['ran']} now, "
+          f"{st['errors']} failed) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
+          f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from runners.bench import run_fmpy_bench, run_native_bench
 
@@ -167,6 +196,18 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="with --chart: fewer settings (a smoke run)")
     bench.set_defaults(func=cmd_bench)
     from runners.dbcli import add_parser as add_db_parser
+
+    sw = sub.add_parser("sweep", help="run a grid of one scene in parallel and store it (resumable)")
+    sw.add_argument("scene", nargs="?", help="scene file (TOML); omit with --resume")
+    sw.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:COUNT",
+                    help="an axis: w (omega_g/p), a (a_g/(g tan alpha)) or a Real FMU parameter; repeatable")
+    sw.add_argument("--resume", type=int, metavar="SWEEP_ID", help="finish an interrupted sweep")
+    sw.add_argument("--workers", type=int, help="worker processes (default: all cores)")
+    sw.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
+    sw.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
+    sw.add_argument("--no-progress", action="store_true", help="no progress bar")
+    sw.set_defaults(func=cmd_sweep)
 
     add_db_parser(sub)
     figs = sub.add_parser("figures", help="draw the figures of docs/ from fresh FMU runs")

@@ -96,17 +96,20 @@ class RockingFMU:
     context manager or call :meth:`close` to remove the extracted files.
     """
 
-    def __init__(self, fmu_path: str | Path):
+    def __init__(self, fmu_path: str | Path, unzipdir: str | None = None):
+        """unzipdir: an extraction another RockingFMU made (shared, e.g. by sweep workers; not removed here)."""
         fmu_path = Path(fmu_path)
         if not fmu_path.is_file():
             raise FileNotFoundError(f"FMU not found: {fmu_path} (run: python -m fmu_build)")
         self.path = fmu_path
         self.model_description = read_model_description(str(fmu_path))
-        self.unzipdir = extract(str(fmu_path))
+        self._owns_dir = unzipdir is None
+        self.unzipdir = extract(str(fmu_path)) if unzipdir is None else unzipdir
         self.vars = {v.name: v for v in self.model_description.modelVariables}
 
     def close(self) -> None:
-        shutil.rmtree(self.unzipdir, ignore_errors=True)
+        if self._owns_dir:
+            shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     def __enter__(self) -> "RockingFMU":
         return self
