@@ -4,11 +4,15 @@ to the newest Alembic revision on opening."""
 
 from __future__ import annotations
 
+import fcntl
 import os
+from contextlib import contextmanager
 from pathlib import Path
 
 from alembic import command
 from alembic.config import Config
+from alembic.migration import MigrationContext
+from alembic.script import ScriptDirectory
 from sqlalchemy import create_engine, event, inspect, text
 from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, OperationalError
@@ -51,11 +55,35 @@ def _alembic_config() -> Config:
     return cfg
 
 
+@contextmanager
+def _migration_lock(engine: Engine):
+    """Processes opening the same SQLite file for the first time migrate one after the other
+    (SQLite's DDL is not transactional through the driver); other databases rely on their own locks."""
+    path = engine.url.database if engine.dialect.name == "sqlite" else None
+    if not path or path == ":memory:":
+        yield
+        return
+    with open(f"{path}.migrate-lock", "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _at_head(engine: Engine) -> bool:
+    head = ScriptDirectory.from_config(_alembic_config()).get_current_head()
+    with engine.connect() as conn:
+        return MigrationContext.configure(conn).get_current_revision() == head
+
+
 def upgrade(engine: Engine) -> None:
     """Create or migrate the schema to the newest revision."""
     cfg = _alembic_config()
     try:
-        with engine.begin() as conn:
+        if _at_head(engine):
+            return
+        with _migration_lock(engine), engine.begin() as conn:
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
     except OperationalError as exc:

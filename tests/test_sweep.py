@@ -1,0 +1,152 @@
+"""runners sweep: grids stored once per point, matching single runs, resumable after SIGKILL,
+two sweeps on one SQLite file at once, failing points stored with their errors."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from sqlalchemy import func, select
+
+from db.schema import Run, RunSummary, Sweep
+from db.session import integrity_ok, open_database
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = ROOT / "examples" / "sweep_sine_pulse.toml"
+
+
+def sweep_cmd(*args, db, fmu_path, **kw):
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    return subprocess.run([sys.executable, "-m", "runners.cli", "sweep", *args, "--no-progress"],
+                          capture_output=True, text=True, env=env, cwd=ROOT, **kw)
+
+
+def counts(db: str, sweep_id: int = 1) -> tuple[int, int, int]:
+    factory = open_database(db)
+    with factory() as s:
+        n = s.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == sweep_id))
+        distinct = s.scalar(select(func.count(func.distinct(Run.grid_index))).where(Run.sweep_id == sweep_id))
+        total = s.get(Sweep, sweep_id).total
+    return n, distinct, total
+
+
+def test_grid_points_match_single_runs(tmp_path, fmu_path, fmu):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = sweep_cmd(str(SCENE), "--grid", "w=2:8:4", "--grid", "a=1.5:6:5", "--workers", "2", db=db,
+                  fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert counts(db) == (20, 20, 20)
+    factory = open_database(db)
+    b, h, g = 0.0225, 0.050625, 9.81
+    pf = math.sqrt(3 * g / (4 * math.hypot(b, h)))
+    with factory() as s:
+        runs = s.scalars(select(Run).where(Run.sweep_id == 1).order_by(Run.grid_index)).all()
+        overturned = {r.grid_index: (r.summary.overturned, r.summary.impacts) for r in runs}
+        points = {r.grid_index: r.point for r in runs}
+    assert {o for o, _ in overturned.values()} == {True, False}  # the grid spans both outcomes
+    for i in (0, 7, 13, 19):
+        w, a = points[i]["w"], points[i]["a"]
+        r = fmu.run({"block1.halfWidth": b, "block1.halfHeight": h, "block1.mass": 0.5444, "excitation.kind": 1,
+                     "excitation.frequency": w * pf / (2 * math.pi), "excitation.amplitude": a * g * b / h},
+                    4.0, 4.0, outputs=["overturned", "impacts"], events=False)
+        assert overturned[i] == (bool(r.outputs["overturned"][-1]), int(r.outputs["impacts"][-1]))
+
+
+def _stored(db: str) -> int:
+    factory = open_database(db)
+    with factory() as s:
+        return s.scalar(select(func.count()).select_from(Run))
+
+
+def test_killed_sweeps_resume_to_every_point_once(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'k.db'}"
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    cmd = [sys.executable, "-m", "runners.cli", "sweep", "--no-progress"]
+    args = [str(SCENE), "--grid", "w=1:12:100", "--grid", "a=1.01:8:100", "--workers", "2"]
+    before = 0
+    for attempt in range(3):  # start (or resume), wait for a batch or more to land, then SIGKILL everything
+        proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if Path(db.removeprefix("sqlite:///")).exists() and _stored(db) > before:
+                break
+            time.sleep(0.02)
+        os.killpg(proc.pid, signal.SIGKILL)  # the runner and its workers, mid-sweep
+        proc.wait()
+        now = _stored(db)
+        assert now > before or attempt > 0
+        before = now
+    n, distinct, total = counts(db)
+    assert n == distinct and n < total  # partial, no duplicates
+    p = sweep_cmd("--resume", "1", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert counts(db) == (10000, 10000, 10000)
+    factory = open_database(db)
+    with factory() as s:
+        assert s.scalar(select(func.count()).select_from(RunSummary)) == 10000
+        assert s.get(Sweep, 1).done == 10000 and s.get(Sweep, 1).status == "done"
+    assert integrity_ok(factory.kw["bind"])
+
+
+def test_two_sweeps_on_one_sqlite_file_at_once(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'c.db'}"
+    open_database(db)
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    procs = [subprocess.Popen([sys.executable, "-m", "runners.cli", "sweep", str(SCENE), "--grid", spec,
+                               "--grid", "a=1.01:8:40", "--workers", "1", "--no-progress"], cwd=ROOT, env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+             for spec in ("w=1:6:40", "w=6:12:40")]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    assert counts(db, 1) == (1600, 1600, 1600) and counts(db, 2) == (1600, 1600, 1600)
+
+
+def test_failing_points_are_stored_and_the_sweep_goes_on(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'e.db'}"
+    p = sweep_cmd(str(SCENE), "--grid", "block1.halfWidth=-0.02:0.02:5", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as s:
+        runs = s.scalars(select(Run).where(Run.sweep_id == 1)).all()
+        errors = [r for r in runs if r.status == "error"]
+        assert len(runs) == 5 and len(errors) == 3  # -0.02, -0.01, 0.0
+        assert all("block1.halfWidth" in r.error_message and r.summary is None for r in errors)
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--grid", "w=1:2"], "expected NAME=START:STOP:COUNT"),
+    (["--grid", "nope=1:2:3"], "unknown name 'nope'"),
+    (["--grid", "w=1:2:0"], "COUNT must be >= 1"),
+    ([], "at least one --grid"),
+])
+def test_bad_grids_are_one_line_errors(tmp_path, fmu_path, args, message):
+    p = sweep_cmd(str(SCENE), *args, db=f"sqlite:///{tmp_path / 'b.db'}", fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and message in p.stderr, p.stderr
+
+
+def test_resuming_an_unknown_sweep_is_an_error(tmp_path, fmu_path):
+    p = sweep_cmd("--resume", "42", db=f"sqlite:///{tmp_path / 'u.db'}", fmu_path=fmu_path)
+    assert p.returncode == 2 and "no sweep 42" in p.stderr
+
+
+def test_a_two_block_map_completes(tmp_path, fmu_path):
+    scene = tmp_path / "stack.toml"
+    scene.write_text((ROOT / "examples" / "two_blocks_harmonic.toml").read_text()
+                     .replace('kind = "harmonic"', 'kind = "sine-pulse"\namplitude = 3.0')
+                     .replace("cycles = 0             # endless", "cycles = 1")
+                     .replace("stop_time = 10.0", "stop_time = 3.0"))
+    db = f"sqlite:///{tmp_path / 't.db'}"
+    p = sweep_cmd(str(scene), "--grid", "w=1:10:12", "--grid", "a=1.01:6:12", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as s:
+        rows = s.scalars(select(RunSummary)).all()
+        assert len(rows) == 144 and all(r.impacts_ground is not None for r in rows)
+        assert {r.overturned for r in rows} == {True, False}
