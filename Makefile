@@ -16,8 +16,12 @@ $(INSTALLED): pyproject.toml
 fmu: $(INSTALLED)
 	$(BIN)/python -m fmu_build
 
+# The main job: a one-sine-pulse overturning map (60 x 60 grid) into the SQLite
+# default (rocking.db here) and its PNG, after one stored single run.
 run: fmu
 	$(BIN)/runners simulate examples/sine_pulse.toml
+	$(BIN)/runners sweep examples/sweep_sine_pulse.toml --grid w=1:12:60 --grid a=1.01:8:60
+	$(BIN)/runners map latest --out overturning_map.png
 
 test: fmu
 	$(BIN)/python -m pytest

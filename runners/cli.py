@@ -134,6 +134,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_map(args: argparse.Namespace) -> int:
+    from runners.sweep_map import draw
+
+    print(draw(_database(args.db), args.sweep, Path(args.out)))
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from runners.bench import run_fmpy_bench, run_native_bench
 
@@ -208,6 +215,11 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
     sw.set_defaults(func=cmd_sweep)
+    mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
+    mp.add_argument("sweep", help="sweep id, or 'latest'")
+    mp.add_argument("--out", default="overturning_map.png", help="PNG file (default: overturning_map.png)")
+    mp.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    mp.set_defaults(func=cmd_map)
 
     add_db_parser(sub)
     figs = sub.add_parser("figures", help="draw the figures of docs/ from fresh FMU runs")

@@ -150,3 +150,23 @@ def test_a_two_block_map_completes(tmp_path, fmu_path):
         rows = s.scalars(select(RunSummary)).all()
         assert len(rows) == 144 and all(r.impacts_ground is not None for r in rows)
         assert {r.overturned for r in rows} == {True, False}
+
+
+def test_map_of_a_sweep(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'm.db'}"
+    assert sweep_cmd(str(SCENE), "--grid", "w=1:10:12", "--grid", "a=1.01:8:12", db=db,
+                     fmu_path=fmu_path).returncode == 0
+    assert sweep_cmd(str(SCENE), "--grid", "excitation.amplitude=2:10:5", db=db, fmu_path=fmu_path).returncode == 0
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    for sweep, out in (("1", "two_d.png"), ("latest", "one_d.png")):
+        p = subprocess.run([sys.executable, "-m", "runners.cli", "map", sweep, "--out", str(tmp_path / out)],
+                           capture_output=True, text=True, env=env, cwd=ROOT)
+        assert p.returncode == 0, p.stderr
+        assert (tmp_path / out).read_bytes()[:4] == b"\x89PNG"
+    counts_line = subprocess.run([sys.executable, "-m", "runners.cli", "map", "1", "--out", str(tmp_path / "x.png")],
+                                 capture_output=True, text=True, env=env, cwd=ROOT).stdout
+    numbers = [int(s.split()[-1]) for s in counts_line.split(";")[0].split(", ")]
+    assert sum(numbers) == 144 and numbers[0] > 0 and numbers[1] + numbers[2] > 0
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "map", "9"], capture_output=True, text=True, env=env,
+                       cwd=ROOT)
+    assert p.returncode == 2 and "no sweep 9" in p.stderr

@@ -1,0 +1,115 @@
+"""``runners map SWEEP_ID --out map.png``: the overturning map of a stored sweep.
+
+Each grid point is safe (rocks and settles, or never lifts), overturns after
+one or more impacts, or overturns without impact (seed 000 Fig. 18's three
+regions), or failed. A (w, a) grid of one block under a one-sine pulse is
+drawn in the seeds' axes omega_g/p and a_g/(g tan alpha), with seed 001's
+closed-form boundaries of the linearised block overlaid (their a_g/(g alpha)
+converted by alpha / tan(alpha)).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from sqlalchemy import select
+
+from db.schema import Run, Scene, Sweep
+from model import closed_form as cf
+
+REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "failed"]
+COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]
+
+
+def region(run: Run) -> int:
+    if run.status != "ok" or run.summary is None:
+        return 3
+    if not run.summary.overturned:
+        return 0
+    return 1 if (run.summary.impacts or 0) > 0 else 2
+
+
+def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
+    with factory() as session:
+        if sweep_id == "latest":
+            sw = session.scalars(select(Sweep).order_by(Sweep.id.desc()).limit(1)).first()
+        else:
+            if not sweep_id.isdigit():
+                raise ValueError(f"SWEEP_ID must be an integer or 'latest', got {sweep_id!r}")
+            sw = session.get(Sweep, int(sweep_id))
+        if sw is None:
+            raise ValueError(f"no sweep {sweep_id} in the database")
+        runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)).all()
+        for r in runs:
+            _ = r.summary  # load while the session is open
+        return sw, session.get(Scene, sw.scene_id), list(runs)
+
+
+def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] | None:
+    """Seed 001's smallest overturning a and its no-impact boundary, in a_g/(g tan alpha); None if they do not apply."""
+    if int(p.get("nBlocks", 1)) != 1 or int(p["excitation.kind"]) != 1 or p["excitation.cycles"] != 1:
+        return None
+    alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
+    law, s2 = int(p["restitution.law"]), math.sin(alpha) ** 2
+    eta = {0: 1 - 1.5 * s2, 2: p["restitution.eta"]}.get(law)
+    if law == 1:
+        k = p["restitution.k"]
+        eta = (4 - 3 * s2 * (1 + k * k)) / (4 - 3 * s2 * (1 - k * k))
+    eta *= p["restitution.correction"]
+    to_tan = alpha / math.tan(alpha)
+    smallest = [cf.smallest_overturning_a(lambda a, w: cf.overturns(a, w, eta)[0], w) for w in ws]
+    no_impact = [cf.smallest_overturning_a(lambda a, w: cf.no_impact_margin(a, w) > 0
+                                           and cf.first_impact_in_pulse(cf.groups(a, w)) is None, w, a_max=200.0)
+                 for w in ws]
+    conv = lambda xs: np.array([x * to_tan if x else np.nan for x in xs])  # noqa: E731
+    return [("seed 001 closed forms: smallest overturning amplitude", conv(smallest)),
+            ("seed 001 closed forms: overturning without impact above", conv(no_impact))]
+
+
+def draw(factory, sweep_id: str, out: Path) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sw, scene, runs = load(factory, sweep_id)
+    axes = [a[0] for a in sw.grid["axes"]]
+    p = {**sw.grid["defaults"], **scene.parameters}
+    counts = [0, 0, 0, 0]
+    for r in runs:
+        counts[region(r)] += 1
+    fig, ax = plt.subplots(figsize=(8, 6))
+    if len(axes) == 2:
+        xs = sorted({r.point[axes[0]] for r in runs})
+        ys = sorted({r.point[axes[1]] for r in runs})
+        field = np.full((len(ys), len(xs)), np.nan)
+        for r in runs:
+            field[ys.index(r.point[axes[1]]), xs.index(r.point[axes[0]])] = region(r)
+        from matplotlib.colors import ListedColormap
+
+        ax.pcolormesh(xs, ys, field, cmap=ListedColormap(COLOURS), vmin=-0.5, vmax=3.5, shading="nearest")
+        if axes == ["w", "a"]:
+            ws = np.linspace(min(xs), max(xs), 25)
+            curves = closed_form_curves(p, ws)
+            for (label, ys_cf), style in zip(curves or [], ["k-", "k--"]):
+                ax.plot(ws, ys_cf, style, lw=1.2, label=label)
+            ax.set_ylim(min(ys), max(ys))
+    else:
+        xs = [r.point[axes[0]] for r in runs]
+        ax.scatter(xs, [region(r) for r in runs], c=[COLOURS[region(r)] for r in runs], edgecolors="k")
+        ax.set_yticks(range(4), REGIONS)
+    names = {"w": "omega_g / p", "a": "a_g / (g tan alpha)"}
+    ax.set_xlabel(names.get(axes[0], axes[0]))
+    if len(axes) == 2:
+        ax.set_ylabel(names.get(axes[1], axes[1]))
+    handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in COLOURS]
+    h2, l2 = ax.get_legend_handles_labels()
+    ax.legend(handles + h2, [f"{n} ({c})" for n, c in zip(REGIONS, counts)] + l2, fontsize=8, loc="upper right")
+    ax.set_title(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))
+            + f"; map written to {out}")
