@@ -130,7 +130,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     n = max(st["ran"], 1)
     print(f"sweep {sweep_id}: {st['already'] + st['ran']}/{st['total']} points stored ({st['ran']} now, "
           f"{st['errors']} failed) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
-          f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms")
+          f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms, Python bookkeeping "
+          f"{1e3 * st['python_seconds'] / n:.3f} ms in the main process")
     return 0
 
 

@@ -198,7 +198,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(tasks))))
     sha, version = file_sha256(str(fmu_path)), code_version()
     stats = {"sweep": sweep_id, "total": total, "already": len(stored), "ran": 0, "errors": 0,
-             "fmu_seconds": 0.0, "db_seconds": 0.0}
+             "fmu_seconds": 0.0, "db_seconds": 0.0, "python_seconds": 0.0}
     t_start = time.perf_counter()
     rows: list[tuple] = []
 
@@ -225,6 +225,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
                           initargs=(str(fmu_path), shared.unzipdir, params, grid["stop_time"], two)) as pool:
         chunk = max(1, min(64, len(tasks) // (workers * 8) or 1))
         for index, out, seconds, error in pool.imap_unordered(_run_point, tasks, chunksize=chunk):
+            t_py = time.perf_counter()
             values, over = point_parameters(axes, index, base)
             merged = {**base, **over}
             run = {"scene_id": scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
@@ -237,6 +238,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
             stats["errors"] += error is not None
             stats["fmu_seconds"] += seconds
             bar.update(1)
+            stats["python_seconds"] += time.perf_counter() - t_py
             if len(rows) >= batch:
                 flush()
         flush()
