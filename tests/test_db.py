@@ -129,3 +129,27 @@ def test_db_list_and_show(tmp_path, fmu_path):
     assert shown["summary"]["impacts_interface"] > 0 and shown["series"]["n_samples"] > 100
     p = runners("db", "show", "run", "7", db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and p.stderr.startswith("error: no run '7'")
+
+
+def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
+    """A file at the first revision gets the newer columns and keeps its rows."""
+    from alembic import command
+
+    from db.session import _alembic_config, make_engine
+
+    url = f"sqlite:///{tmp_path / 'old.db'}"
+    engine = make_engine(url)
+    cfg = _alembic_config()
+    with engine.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "0001")
+    with engine.begin() as conn:
+        conn.execute(text("INSERT INTO scenes (name, n_blocks, parameters, created_at) "
+                          "VALUES ('old', 1, '{}', '2026-01-01')"))
+        conn.execute(text("INSERT INTO runs (scene_id, model, method, stop_time, code_version, status, created_at) "
+                          "VALUES (1, 'one block', 'fmu', 1.0, 'x', 'ok', '2026-01-01')"))
+    factory = open_database(url)
+    with factory() as s:
+        run = s.get(Run, 1)
+        assert run.model == "one block" and run.point is None
+    assert integrity_ok(factory.kw["bind"])
