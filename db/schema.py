@@ -101,6 +101,7 @@ class Run(Base):
     wall_time: Mapped[float | None] = mapped_column(Float)  # s
     status: Mapped[str] = mapped_column(String(10))  # ok or error
     error_message: Mapped[str | None] = mapped_column(Text)
+    recording: Mapped[str | None] = mapped_column(Text)  # path of its Rerun recording (.rrd), if written
     created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
     scene: Mapped[Scene] = relationship()
     excitation: Mapped[Excitation | None] = relationship()

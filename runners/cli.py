@@ -76,8 +76,19 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 s = summarize(scene, result, defaults)
                 s["model"], s["model_reason"] = model, why
                 text_out = format_summary(s)
+    recording = None
+    if args.rrd:
+        if result is None:
+            raise ValueError("--rrd records FMU runs (--method fmu or auto running the FMU)")
+        from runners.recording import write_recording
+
+        recording = write_recording(Path(args.rrd), scene.name, result.time, result.outputs,
+                                    {**defaults, **scene.parameters}, result.events)
+        s["recording"] = str(recording)
+        text_out += f"\nrecording        {recording}"
     if factory is not None:
-        s["run_id"] = _store(factory, scene, {**defaults, **scene.parameters}, s, model, method, fmu_path, result)
+        s["run_id"] = _store(factory, scene, {**defaults, **scene.parameters}, s, model, method, fmu_path, result,
+                             recording)
         text_out += f"\nstored           run {s['run_id']} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
     print(json.dumps(s, indent=2) if args.json else text_out)
     return 0
@@ -89,7 +100,7 @@ def _database(url: str | None):
     return open_database(url)
 
 
-def _store(factory, scene, merged, s, model, method, fmu_path, result) -> int:
+def _store(factory, scene, merged, s, model, method, fmu_path, result, recording=None) -> int:
     """The run and everything it refers to, in one transaction."""
     from db.store import add_run, add_scene
     from runners.summary import summary_row
@@ -101,6 +112,7 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result) -> int:
                       stop_time=scene.stop_time, fmu_path=str(fmu_path) if result is not None else None,
                       wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
                       outputs=None if result is None else result.outputs)
+        run.recording = None if recording is None else str(Path(recording).resolve())
         session.flush()
         return run.id
 
@@ -139,6 +151,30 @@ def cmd_map(args: argparse.Namespace) -> int:
     from runners.sweep_map import draw
 
     print(draw(_database(args.db), args.sweep, Path(args.out)))
+    return 0
+
+
+def cmd_rrd(args: argparse.Namespace) -> int:
+    from db import series
+    from db.schema import Run
+    from runners.recording import write_recording
+
+    factory = _database(args.db)
+    with factory() as session:
+        run = session.get(Run, args.run)
+        if run is None:
+            raise ValueError(f"no run {args.run} in the database")
+        if run.series is None:
+            raise ValueError(f"run {args.run} has no stored series to record (sweep points keep summaries only)")
+        time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+        params, name = dict(run.scene.parameters), run.scene.name
+    with RockingFMU(_fmu_path(args.fmu)) as fmu:
+        defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+    out = Path(args.out or f"recordings/run-{args.run}.rrd")
+    write_recording(out, name, time_, cols, {**defaults, **params})
+    with factory.begin() as session:
+        session.get(Run, args.run).recording = str(out.resolve())
+    print(out)
     return 0
 
 
@@ -192,6 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance of --method scipy")
     sim.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
+    sim.add_argument("--rrd", metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
     sim.add_argument("--accuracy", type=float, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
@@ -216,6 +253,12 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
     sw.set_defaults(func=cmd_sweep)
+    rr_ = sub.add_parser("rrd", help="write the Rerun recording (.rrd) of a stored run")
+    rr_.add_argument("run", type=int, help="run id")
+    rr_.add_argument("--out", help="recording path (default: recordings/run-ID.rrd)")
+    rr_.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    rr_.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
+    rr_.set_defaults(func=cmd_rrd)
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")
     mp.add_argument("--out", default="overturning_map.png", help="PNG file (default: overturning_map.png)")

@@ -27,6 +27,11 @@ SUMMARY_OUTPUTS = (
     "block1.overturned",
     "block2.overturned",
     "pattern",
+    # for recordings (runners.recording)
+    "block2.omega",
+    "block1.alpha_dd",
+    "block2.alpha_dd",
+    "ground.avTotal",
 )
 
 PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking alone",
