@@ -12,6 +12,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import tempfile
+import time
 import zipfile
 from pathlib import Path
 
@@ -124,4 +125,32 @@ def run_fmpy_bench(fmu_path: Path, repeats: int = 20, stop_time: float = 10.0, s
                 walls.append(r.wall_time)
             out.append(f"| {name} | {1e3 * min(walls):.1f} | {1e3 * statistics.median(walls):.1f} | "
                        f"{int(r.outputs['impacts'][-1])} |")
+    return "\n".join(out)
+
+
+RECORDING_CASES = [("examples/harmonic.toml", "one block, 7 Hz table"),
+                   ("examples/two_blocks_harmonic.toml", "stack, 7 Hz table")]
+
+
+def run_recording_bench(fmu_path: Path, repeats: int = 3, stop_time: float = 10.0, step: float = 1e-3) -> str:
+    """Time and size of writing the Rerun recording of a 10 s run sampled at 1 kHz."""
+    from runners.recording import write_recording
+    from runners.scene import load_scene
+    from runners.summary import SUMMARY_OUTPUTS
+
+    root = Path(__file__).resolve().parent.parent
+    out = [f"Rerun recordings: {stop_time:g} s sampled every {step:g} s, write time min of {repeats}", "",
+           "| run | samples | events | write time (s) | size (MB) |", "|---|---:|---:|---:|---:|"]
+    with RockingFMU(fmu_path) as fmu, tempfile.TemporaryDirectory() as tmp:
+        defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        for path, label in RECORDING_CASES:
+            scene = load_scene(root / path)
+            r = fmu.run(scene.parameters, stop_time, step, outputs=SUMMARY_OUTPUTS)
+            best, rrd = float("inf"), Path(tmp) / "bench.rrd"
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                write_recording(rrd, scene.name, r.time, r.outputs, {**defaults, **scene.parameters}, r.events)
+                best = min(best, time.perf_counter() - t0)
+            out.append(f"| {path} ({label}) | {len(r.time)} | {len(r.events)} | {best:.3f} | "
+                       f"{rrd.stat().st_size / 1e6:.2f} |")
     return "\n".join(out)

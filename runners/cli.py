@@ -179,7 +179,7 @@ def cmd_rrd(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from runners.bench import run_fmpy_bench, run_native_bench
+    from runners.bench import run_fmpy_bench, run_native_bench, run_recording_bench
 
     if args.quick and not args.chart:
         raise ValueError("--quick applies to --chart only")
@@ -198,6 +198,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(run_native_bench(fmu, repeats=args.repeats))
     print()
     print(run_fmpy_bench(fmu, repeats=args.fmpy_repeats))
+    print()
+    print(run_recording_bench(fmu))
     return 0
 
 
