@@ -178,6 +178,35 @@ def cmd_rrd(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    """Open a stored run's recording in the Rerun viewer (written first if it has none)."""
+    import shutil
+    import subprocess
+
+    from db.schema import Run
+
+    factory = _database(args.db)
+    with factory() as session:
+        run = session.get(Run, args.run)
+        if run is None:
+            raise ValueError(f"no run {args.run} in the database")
+        path = run.recording
+    if not path or not Path(path).is_file():
+        args.out = None
+        cmd_rrd(args)
+        with factory() as session:
+            path = session.get(Run, args.run).recording
+    viewer = shutil.which("rerun") or str(Path(sys.executable).parent / "rerun")
+    if not Path(viewer).exists():
+        raise OSError("the Rerun viewer (rerun, from pip rerun-sdk) is not installed")
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise OSError(f"no display to open the viewer on; the recording is {path} "
+                      "(open it with the Rerun viewer on a machine with a display)")
+    subprocess.Popen([viewer, path])
+    print(f"opened {path} in the Rerun viewer")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from runners.bench import run_fmpy_bench, run_native_bench, run_recording_bench
 
@@ -261,6 +290,11 @@ def build_parser() -> argparse.ArgumentParser:
     rr_.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
     rr_.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
     rr_.set_defaults(func=cmd_rrd)
+    vw = sub.add_parser("view", help="open a stored run's recording in the Rerun viewer")
+    vw.add_argument("run", type=int, help="run id")
+    vw.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    vw.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
+    vw.set_defaults(func=cmd_view)
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")
     mp.add_argument("--out", default="overturning_map.png", help="PNG file (default: overturning_map.png)")

@@ -90,3 +90,14 @@ def test_rrd_of_a_stored_run_and_errors(tmp_path, fmu_path):
     np.testing.assert_array_equal(np.array([r[1][0] for r in rows]), cols["block1.theta"])
     p = runners("rrd", "5", db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and "no run 5" in p.stderr
+
+
+def test_view_without_a_display_writes_the_recording_and_says_where(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'v.db'}"
+    assert runners("simulate", "examples/sine_pulse.toml", db=db, fmu_path=fmu_path).returncode == 0
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env.update(ROCKING_FMU=str(fmu_path), ROCKING_DB=db)
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "view", "1"], capture_output=True, text=True,
+                       env=env, cwd=tmp_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "no display" in p.stderr
+    assert (tmp_path / "recordings" / "run-1.rrd").is_file()
