@@ -160,6 +160,13 @@ def cmd_rrd(args: argparse.Namespace) -> int:
     from runners.recording import write_recording
 
     factory = _database(args.db)
+    if getattr(args, "sweep", None) is not None:
+        from runners.recording import write_sweep_recording
+
+        print(write_sweep_recording(Path(args.out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep))
+        return 0
+    if args.run is None:
+        raise ValueError("give a RUN_ID, or --sweep SWEEP_ID")
     with factory() as session:
         run = session.get(Run, args.run)
         if run is None:
@@ -284,9 +291,10 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
     sw.set_defaults(func=cmd_sweep)
-    rr_ = sub.add_parser("rrd", help="write the Rerun recording (.rrd) of a stored run")
-    rr_.add_argument("run", type=int, help="run id")
-    rr_.add_argument("--out", help="recording path (default: recordings/run-ID.rrd)")
+    rr_ = sub.add_parser("rrd", help="write the Rerun recording (.rrd) of a stored run or sweep")
+    rr_.add_argument("run", type=int, nargs="?", help="run id")
+    rr_.add_argument("--sweep", type=int, metavar="SWEEP_ID", help="record a sweep: its map and per-point summaries")
+    rr_.add_argument("--out", help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
     rr_.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
     rr_.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
     rr_.set_defaults(func=cmd_rrd)

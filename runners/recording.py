@@ -154,3 +154,44 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     rec.flush()
     rec.disconnect()
     return path
+
+
+def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
+    """One recording of a sweep: its overturning map as an image and, on a `grid_index`
+    sequence, each point's grid values and summary (overturned, impacts, peak / alpha)."""
+    import tempfile
+
+    import matplotlib.image as mpimg
+    import rerun as rr
+
+    from runners.sweep_map import draw, load
+
+    sw, scene, runs = load(factory, str(sweep_id))
+    runs = sorted(runs, key=lambda r: r.grid_index)
+    rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rec.save(str(path))
+    rec.send_property("sweep", rr.AnyValues(id=sw.id, scene=scene.name, total=sw.total))
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "map.png"
+        draw(factory, str(sweep_id), png)
+        rgba = (mpimg.imread(png) * 255).astype(np.uint8)
+    rec.log("/map", rr.Image(rgba), static=True)
+    idx = [rr.TimeColumn("grid_index", sequence=np.array([r.grid_index for r in runs], dtype=np.int64))]
+    ok = [r.summary is not None for r in runs]
+    columns = {
+        "overturned": [float(r.summary.overturned) if r.summary else np.nan for r in runs],
+        "impacts": [float(r.summary.impacts) if r.summary and r.summary.impacts is not None else np.nan
+                    for r in runs],
+        "peak1_over_alpha": [r.summary.peak1_over_alpha if r.summary and r.summary.peak1_over_alpha is not None
+                             else np.nan for r in runs],
+        "failed": [0.0 if good else 1.0 for good in ok],
+    }
+    for axis in (a[0] for a in sw.grid["axes"]):
+        columns[f"grid/{axis}"] = [r.point[axis] for r in runs]
+    for name, values in columns.items():
+        rec.send_columns(f"/points/{name}", indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(values, float)))
+    rec.flush()
+    rec.disconnect()
+    return path

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 from sqlalchemy import select
+from sqlalchemy.orm import selectinload
 
 from db.schema import Run, Scene, Sweep
 from model import closed_form as cf
@@ -41,9 +42,8 @@ def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
             sw = session.get(Sweep, int(sweep_id))
         if sw is None:
             raise ValueError(f"no sweep {sweep_id} in the database")
-        runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)).all()
-        for r in runs:
-            _ = r.summary  # load while the session is open
+        runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)
+                               .options(selectinload(Run.summary))).all()  # one query, not one per run
         return sw, session.get(Scene, sw.scene_id), list(runs)
 
 

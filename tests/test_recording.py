@@ -101,3 +101,28 @@ def test_view_without_a_display_writes_the_recording_and_says_where(tmp_path, fm
                        env=env, cwd=tmp_path)
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "no display" in p.stderr
     assert (tmp_path / "recordings" / "run-1.rrd").is_file()
+
+
+def test_a_sweep_recording_holds_the_map_and_every_point(tmp_path, fmu_path):
+    import rerun as rr
+
+    db = f"sqlite:///{tmp_path / 'w.db'}"
+    scene = ROOT / "examples" / "sweep_sine_pulse.toml"
+    assert runners("sweep", str(scene), "--grid", "w=1:10:6", "--grid", "a=1.01:8:5", "--no-progress",
+                   db=db, fmu_path=fmu_path).returncode == 0
+    out = tmp_path / "sweep.rrd"
+    p = runners("rrd", "--sweep", "1", "--out", str(out), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with rr.server.Server(host="127.0.0.1", datasets={"s": [str(out)]}) as srv:
+        client = srv.client()
+        dataset = client.get_dataset("s")
+        table = dataset.reader(index="grid_index").to_arrow_table()
+        static = dataset.reader(index=None).to_arrow_table()
+    impacts = [v[0] for v in table.column("/points/impacts:Scalars:scalars").to_pylist() if v is not None]
+    grid = table.column("grid_index").to_pylist()
+    assert len(impacts) == 30 and sorted(grid) == list(range(30))
+    factory = open_database(db)
+    with factory() as session:
+        stored = {r.grid_index: r.summary.impacts for r in session.query(Run).filter(Run.sweep_id == 1)}
+    assert {g: int(v) for g, v in zip(grid, impacts)} == stored
+    assert any(name.startswith("/map:Image") for name in static.column_names)
