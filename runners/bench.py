@@ -142,7 +142,7 @@ def run_recording_bench(fmu_path: Path, repeats: int = 3, stop_time: float = 10.
     out = [f"Rerun recordings: {stop_time:g} s sampled every {step:g} s, write time min of {repeats}", "",
            "| run | samples | events | write time (s) | size (MB) |", "|---|---:|---:|---:|---:|"]
     with RockingFMU(fmu_path) as fmu, tempfile.TemporaryDirectory() as tmp:
-        defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        defaults = fmu.defaults()
         for path, label in RECORDING_CASES:
             scene = load_scene(root / path)
             r = fmu.run(scene.parameters, stop_time, step, outputs=SUMMARY_OUTPUTS)

@@ -44,7 +44,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     fmu_path = _fmu_path(args.fmu)
     result = None
     with RockingFMU(fmu_path) as fmu:
-        defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        defaults = fmu.defaults()
         merged = {**defaults, **scene.parameters}
         if args.method in PYTHON_METHODS:
             from runners.python_methods import format_python, run_python
@@ -132,8 +132,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT")
         with RockingFMU(fmu_path) as fmu:
             reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
-            defaults = {n: float(v.start) for n, v in fmu.vars.items()
-                        if v.start is not None and v.type in ("Real", "Integer")}
+            defaults = fmu.defaults()
         axes = [parse_axis(spec, reals) for spec in args.grid]
         sweep_id = create_sweep(factory, scene, axes, defaults)
     else:
@@ -176,7 +175,7 @@ def cmd_rrd(args: argparse.Namespace) -> int:
         time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
         params, name = dict(run.scene.parameters), run.scene.name
     with RockingFMU(_fmu_path(args.fmu)) as fmu:
-        defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        defaults = fmu.defaults()
     out = Path(args.out or f"recordings/run-{args.run}.rrd")
     write_recording(out, name, time_, cols, {**defaults, **params})
     with factory.begin() as session:

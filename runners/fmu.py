@@ -117,6 +117,10 @@ class RockingFMU:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def defaults(self) -> dict[str, float]:
+        """Start values of the Real and Integer variables (the parameters a scene may leave out)."""
+        return {n: float(v.start) for n, v in self.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+
     def variable(self, name: str):
         try:
             return self.vars[name]

@@ -29,6 +29,7 @@ import math
 from typing import Any
 
 from model import closed_form as cf
+from model.reference import housner_restitution, modified_restitution
 
 TWO_BLOCK_PARAMETERS = ("block2.halfWidth", "block2.halfHeight", "block2.mass", "block2.theta0", "block2.omega0",
                         "restitution.etaGround", "restitution.etaInterface")
@@ -88,12 +89,10 @@ def one_block_parameters(p: dict[str, Any]) -> dict[str, Any]:
 def restitution(p: dict[str, Any], alpha: float) -> float:
     """The one-block coefficient of restitution of the scene (as the FMU computes it)."""
     law = int(p["restitution.law"])
-    s2 = math.sin(alpha) ** 2
     if law == 0:
-        eta = 1 - 1.5 * s2
+        eta = housner_restitution(alpha)
     elif law == 1:
-        k = p["restitution.k"]
-        eta = (4 - 3 * s2 * (1 + k * k)) / (4 - 3 * s2 * (1 - k * k))
+        eta = modified_restitution(alpha, p["restitution.k"])
     else:
         eta = p["restitution.eta"]
     return eta * p["restitution.correction"]

@@ -14,7 +14,6 @@ excitation.amplitude) or the dimensionless groups of the seeds:
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 import time
@@ -194,7 +193,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     base = {**grid["defaults"], **params}
     two = int(base.get("nBlocks", 1)) == 2
     pending = [i for i in range(total) if i not in stored]
-    tasks = [(i, point_parameters(axes, i, base)[1]) for i in pending]
+    points = {i: point_parameters(axes, i, base) for i in pending}  # (grid values, overrides), once per point
+    tasks = [(i, points[i][1]) for i in pending]
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(tasks))))
     sha, version = file_sha256(str(fmu_path)), code_version()
     stats = {"sweep": sweep_id, "total": total, "already": len(stored), "ran": 0, "errors": 0,
@@ -226,7 +226,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         chunk = max(1, min(64, len(tasks) // (workers * 8) or 1))
         for index, out, seconds, error in pool.imap_unordered(_run_point, tasks, chunksize=chunk):
             t_py = time.perf_counter()
-            values, over = point_parameters(axes, index, base)
+            values, over = points[index]
             merged = {**base, **over}
             run = {"scene_id": scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
                    "model": "two blocks" if two else "one block", "method": "fmu",

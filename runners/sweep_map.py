@@ -19,6 +19,7 @@ from sqlalchemy.orm import selectinload
 
 from db.schema import Run, Scene, Sweep
 from model import closed_form as cf
+from runners.least_model import restitution
 
 REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "failed"]
 COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]
@@ -52,12 +53,7 @@ def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] 
     if int(p.get("nBlocks", 1)) != 1 or int(p["excitation.kind"]) != 1 or p["excitation.cycles"] != 1:
         return None
     alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
-    law, s2 = int(p["restitution.law"]), math.sin(alpha) ** 2
-    eta = {0: 1 - 1.5 * s2, 2: p["restitution.eta"]}.get(law)
-    if law == 1:
-        k = p["restitution.k"]
-        eta = (4 - 3 * s2 * (1 + k * k)) / (4 - 3 * s2 * (1 - k * k))
-    eta *= p["restitution.correction"]
+    eta = restitution(p, alpha)
     to_tan = alpha / math.tan(alpha)
     smallest = [cf.smallest_overturning_a(lambda a, w: cf.overturns(a, w, eta)[0], w) for w in ws]
     no_impact = [cf.smallest_overturning_a(lambda a, w: cf.no_impact_margin(a, w) > 0

@@ -292,6 +292,6 @@ def run_work_precision(fmu_path: Path, out_dir: Path, repeats: int = 20, quick: 
         w.writerows(asdict(p) for p in points)
     (out_dir / "work_precision.json").write_text(json.dumps([asdict(p) for p in points], indent=1))
     chart(points, out_dir / "work_precision.png")
-    lines = [f"| case | method | setting | error | ms / simulation |", "|---|---|---|---:|---:|"]
+    lines = ["| case | method | setting | error | ms / simulation |", "|---|---|---|---:|---:|"]
     lines += [f"| {p.case} | {p.method} | {p.setting} | {p.error:.1e} | {1e3 * p.seconds:.3f} |" for p in points]
-    return "\n".join(lines + [""] + speedups(points) + [f"", f"written: {out_dir}/work_precision.png, .csv, .json"])
+    return "\n".join(lines + [""] + speedups(points) + ["", f"written: {out_dir}/work_precision.png, .csv, .json"])

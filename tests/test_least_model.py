@@ -20,7 +20,7 @@ SLENDER = {"block1.halfWidth": 0.05, "block1.halfHeight": 1.0}
 
 
 def merged(fmu, **params) -> dict:
-    defaults = {n: float(v.start) for n, v in fmu.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+    defaults = fmu.defaults()
     return {**defaults, **params}
 
 
