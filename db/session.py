@@ -27,8 +27,10 @@ class DatabaseError(RuntimeError):
 
 
 def database_url(arg: str | None = None) -> str:
-    """--db, else ROCKING_DB, else rocking.db in the working folder."""
-    return arg or os.environ.get("ROCKING_DB") or DEFAULT_URL
+    """--db, else ROCKING_DB, else rocking.db in the working folder. A value without
+    "://" is a path to an SQLite file (results.db means sqlite:///results.db)."""
+    url = arg or os.environ.get("ROCKING_DB") or DEFAULT_URL
+    return url if "://" in url else f"sqlite:///{url}"
 
 
 def _sqlite_pragmas(dbapi_connection, _record) -> None:

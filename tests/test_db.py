@@ -47,6 +47,14 @@ def test_bad_urls_are_one_line_errors(tmp_path):
         open_database(f"sqlite:///{tmp_path / 'missing-dir' / 'x.db'}")
 
 
+def test_a_plain_path_is_an_sqlite_file(tmp_path, fmu_path):
+    path = tmp_path / "results.db"
+    p = runners("simulate", "examples/sine_pulse.toml", db=str(path), fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with open_database(f"sqlite:///{path}")() as session:
+        assert session.scalar(select(func.count()).select_from(Run)) == 1
+
+
 def test_series_are_stored_bit_for_bit():
     rng = np.random.default_rng(1)
     t, cols = np.linspace(0, 1, 1001), {"a": rng.standard_normal(1001), "b": rng.standard_normal(1001) * 1e-300}
