@@ -34,8 +34,11 @@ sanitize: $(INSTALLED)
 	ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	$(BIN)/python -m pytest -p no:cacheprovider tests/test_fmu_physics.py tests/test_fmu_interface.py tests/test_fmu_two_blocks.py tests/test_two_block_solver.py tests/test_taylor.py
 
+# The benchmarks, then the tests marked slow (e.g. the viewer screenshot, which
+# needs Debian's chromium and pip install -e '.[docs]'; skipped with a reason without them).
 bench: fmu
 	$(BIN)/runners bench
+	$(BIN)/python -m pytest -m slow
 
 clean:
 	rm -rf build $(VENV)

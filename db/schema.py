@@ -134,4 +134,6 @@ class RunSeries(Base):
     names: Mapped[list] = mapped_column(JSON)  # output variable names, in column order
     n_samples: Mapped[int] = mapped_column(Integer)
     data: Mapped[bytes] = mapped_column(LargeBinary)  # zlib of float64 time + columns
+    # the run's events: [{"kind", "t" (s), "values": {name: float}, "labels": {name: str}}, ...]
+    events: Mapped[list | None] = mapped_column(JSON)
     run: Mapped[Run] = relationship(back_populates="series")

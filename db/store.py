@@ -57,7 +57,8 @@ def add_scene(session: Session, name: str, parameters: dict[str, Any], source: s
 def add_run(session: Session, scene: Scene, merged: dict[str, Any], summary: dict[str, Any] | None, *,
             model: str, method: str, stop_time: float, fmu_path: str | None, wall_time: float | None,
             time: np.ndarray | None = None, outputs: dict[str, np.ndarray] | None = None,
-            error: str | None = None, sweep_id: int | None = None, grid_index: int | None = None) -> Run:
+            events: list[dict[str, Any]] | None = None, error: str | None = None,
+            sweep_id: int | None = None, grid_index: int | None = None) -> Run:
     """One run with its summary (if it succeeded) and series (if sampled)."""
     run = Run(scene=scene, excitation=excitation_of(merged), sweep_id=sweep_id, grid_index=grid_index,
               model=model, method=method, rel_tol=merged.get("solver.relTol"), abs_tol=merged.get("solver.absTol"),
@@ -69,5 +70,5 @@ def add_run(session: Session, scene: Scene, merged: dict[str, Any], summary: dic
         run.summary = RunSummary(**summary)
     if time is not None and outputs:
         names, n, blob = series.pack(time, outputs)
-        run.series = RunSeries(names=names, n_samples=n, data=blob)
+        run.series = RunSeries(names=names, n_samples=n, data=blob, events=events)
     return run

@@ -7,26 +7,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
 from db.session import DatabaseError
-from runners.fmu import FMUError, RockingFMU
+from runners.fmu import FMUError, RockingFMU, fmu_path_from
 from runners.scene import SceneError, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
-
-
-def _fmu_path(arg: str | None) -> Path:
-    if arg:
-        return Path(arg)
-    if os.environ.get("ROCKING_FMU"):
-        return Path(os.environ["ROCKING_FMU"])
-    from fmu_build import build_fmu
-
-    return build_fmu()
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -40,8 +29,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene.stop_time = args.stop_time
     if args.step is not None:
         scene.step = args.step
+    measured = _measured(args.measured, args.rrd)  # fail on a bad file before simulating
     factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
-    fmu_path = _fmu_path(args.fmu)
+    fmu_path = fmu_path_from(args.fmu)
     result = None
     with RockingFMU(fmu_path) as fmu:
         defaults = fmu.defaults()
@@ -83,7 +73,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         from runners.recording import write_recording
 
         recording = write_recording(Path(args.rrd), scene.name, result.time, result.outputs,
-                                    {**defaults, **scene.parameters}, result.events)
+                                    {**defaults, **scene.parameters}, result.events, measured)
         s["recording"] = str(recording)
         text_out += f"\nrecording        {recording}"
     if factory is not None:
@@ -92,6 +82,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         text_out += f"\nstored           run {s['run_id']} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
     print(json.dumps(s, indent=2) if args.json else text_out)
     return 0
+
+
+def _measured(path: str | None, rrd: str | None) -> dict | None:
+    """The measured series to overlay (--measured), read and checked before any work."""
+    if path is None:
+        return None
+    if not rrd:
+        raise ValueError("--measured overlays a measurement on a recording: give --rrd too")
+    from runners.measured import read_measured_csv
+
+    return read_measured_csv(path)
 
 
 def _database(url: str | None):
@@ -111,19 +112,23 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
         run = add_run(session, sc, merged, summary_row(s, merged), model=model, method=method,
                       stop_time=scene.stop_time, fmu_path=str(fmu_path) if result is not None else None,
                       wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
-                      outputs=None if result is None else result.outputs)
+                      outputs=None if result is None else result.outputs,
+                      events=None if result is None else [e.as_dict() for e in result.events])
         run.recording = None if recording is None else str(Path(recording).resolve())
         session.flush()
         return run.id
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from runners.sweep import create_sweep, parse_axis, run_sweep
+    import math
+
+    from db.schema import Sweep
+    from runners.sweep import create_sweep, parse_axis, parse_points, run_sweep
 
     if (args.resume is None) == (args.scene is None):
         raise ValueError("give a scene file with --grid, or --resume SWEEP_ID")
     factory = _database(args.db)
-    fmu_path = _fmu_path(args.fmu)
+    fmu_path = fmu_path_from(args.fmu)
     if args.resume is None:
         scene = load_scene(args.scene)
         if args.stop_time is not None:
@@ -134,15 +139,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
             defaults = fmu.defaults()
         axes = [parse_axis(spec, reals) for spec in args.grid]
+        record = parse_points(args.record, math.prod(a.count for a in axes)) if args.record else None
         sweep_id = create_sweep(factory, scene, axes, defaults)
     else:
         sweep_id = args.resume
-    st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress)
+        with factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            if sw is None:
+                raise ValueError(f"no sweep {sweep_id} in the database")
+            record = parse_points(args.record, sw.total) if args.record else None
+    st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress,
+                   record=record, record_dir=args.record_dir)
     n = max(st["ran"], 1)
     print(f"sweep {sweep_id}: {st['already'] + st['ran']}/{st['total']} points stored ({st['ran']} now, "
           f"{st['errors']} failed) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
           f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms, Python bookkeeping "
           f"{1e3 * st['python_seconds'] / n:.3f} ms in the main process")
+    if st["recorded"]:
+        print(f"recorded {st['recorded']} points in full in {args.record_dir or f'recordings/sweep-{sweep_id}'}")
     return 0
 
 
@@ -153,72 +167,12 @@ def cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_rrd(args: argparse.Namespace) -> int:
-    from db import series
-    from db.schema import Run
-    from runners.recording import write_recording
-
-    factory = _database(args.db)
-    if getattr(args, "sweep", None) is not None:
-        from runners.recording import write_sweep_recording
-
-        print(write_sweep_recording(Path(args.out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep))
-        return 0
-    if args.run is None:
-        raise ValueError("give a RUN_ID, or --sweep SWEEP_ID")
-    with factory() as session:
-        run = session.get(Run, args.run)
-        if run is None:
-            raise ValueError(f"no run {args.run} in the database")
-        if run.series is None:
-            raise ValueError(f"run {args.run} has no stored series to record (sweep points keep summaries only)")
-        time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
-        params, name = dict(run.scene.parameters), run.scene.name
-    with RockingFMU(_fmu_path(args.fmu)) as fmu:
-        defaults = fmu.defaults()
-    out = Path(args.out or f"recordings/run-{args.run}.rrd")
-    write_recording(out, name, time_, cols, {**defaults, **params})
-    with factory.begin() as session:
-        session.get(Run, args.run).recording = str(out.resolve())
-    print(out)
-    return 0
-
-
-def cmd_view(args: argparse.Namespace) -> int:
-    """Open a stored run's recording in the Rerun viewer (written first if it has none)."""
-    import shutil
-    import subprocess
-
-    from db.schema import Run
-
-    factory = _database(args.db)
-    with factory() as session:
-        run = session.get(Run, args.run)
-        if run is None:
-            raise ValueError(f"no run {args.run} in the database")
-        path = run.recording
-    if not path or not Path(path).is_file():
-        args.out = None
-        cmd_rrd(args)
-        with factory() as session:
-            path = session.get(Run, args.run).recording
-    viewer = shutil.which("rerun") or str(Path(sys.executable).parent / "rerun")
-    if not Path(viewer).exists():
-        raise OSError("the Rerun viewer (rerun, from pip rerun-sdk) is not installed")
-    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise OSError(f"no display to open the viewer on; the recording is {path} "
-                      "(open it with the Rerun viewer on a machine with a display)")
-    subprocess.Popen([viewer, path])
-    print(f"opened {path} in the Rerun viewer")
-    return 0
-
-
 def cmd_bench(args: argparse.Namespace) -> int:
-    from runners.bench import run_fmpy_bench, run_native_bench, run_recording_bench
+    from runners.bench import run_fmpy_bench, run_native_bench, run_recording_bench, run_sweep_recording_bench
 
     if args.quick and not args.chart:
         raise ValueError("--quick applies to --chart only")
-    fmu = _fmu_path(args.fmu)
+    fmu = fmu_path_from(args.fmu)
     if args.chart:
         from runners.overturning_map import run_overturning_map
         from runners.stability import run_stability
@@ -235,13 +189,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(run_fmpy_bench(fmu, repeats=args.fmpy_repeats))
     print()
     print(run_recording_bench(fmu))
+    print()
+    print(run_sweep_recording_bench(fmu))
     return 0
 
 
 def cmd_figures(args: argparse.Namespace) -> int:
     from runners.figures import write_figures
 
-    for path in write_figures(_fmu_path(args.fmu), Path(args.out)):
+    for path in write_figures(fmu_path_from(args.fmu), Path(args.out)):
         print(path)
     return 0
 
@@ -266,6 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--rrd", metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
+    sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/measured.py)")
     sim.add_argument("--accuracy", type=float, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
@@ -289,19 +246,14 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
     sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
+    sw.add_argument("--record", metavar="POINTS",
+                    help="grid points to simulate in full and record (.rrd), e.g. 0,17,40-45 or all")
+    sw.add_argument("--record-dir", metavar="DIR", help="where --record writes (default: recordings/sweep-ID)")
     sw.set_defaults(func=cmd_sweep)
-    rr_ = sub.add_parser("rrd", help="write the Rerun recording (.rrd) of a stored run or sweep")
-    rr_.add_argument("run", type=int, nargs="?", help="run id")
-    rr_.add_argument("--sweep", type=int, metavar="SWEEP_ID", help="record a sweep: its map and per-point summaries")
-    rr_.add_argument("--out", help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
-    rr_.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
-    rr_.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
-    rr_.set_defaults(func=cmd_rrd)
-    vw = sub.add_parser("view", help="open a stored run's recording in the Rerun viewer")
-    vw.add_argument("run", type=int, help="run id")
-    vw.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
-    vw.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
-    vw.set_defaults(func=cmd_view)
+    from runners.rrdcli import add_parser as add_rrd_parser
+
+    add_rrd_parser(sub)
+
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")
     mp.add_argument("--out", default="overturning_map.png", help="PNG file (default: overturning_map.png)")

@@ -6,6 +6,7 @@ docs/conventions.md (theta > 0: clockwise, rocking on the right corner).
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import threading
@@ -44,6 +45,17 @@ _LOAD_LOCK = threading.Lock()
 _EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn) (.*)$")
 
 
+def fmu_path_from(arg: str | None) -> Path:
+    """The FMU to use: `arg` (--fmu), else $ROCKING_FMU, else build/RockingBlock.fmu (built if needed)."""
+    if arg:
+        return Path(arg)
+    if os.environ.get("ROCKING_FMU"):
+        return Path(os.environ["ROCKING_FMU"])
+    from fmu_build import build_fmu
+
+    return build_fmu()
+
+
 class FMUError(RuntimeError):
     """The FMU returned an error; the message is the FMU's own log line."""
 
@@ -56,6 +68,15 @@ class Event:
     t: float  # s
     values: dict[str, float] = field(default_factory=dict)
     labels: dict[str, str] = field(default_factory=dict)  # non-numeric fields, e.g. contact=ground
+
+    def as_dict(self) -> dict:
+        """JSON-ready form, as stored with a run's series (db.schema.RunSeries.events)."""
+        return {"kind": self.kind, "t": self.t, "values": dict(self.values), "labels": dict(self.labels)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Event":
+        return cls(d["kind"], float(d["t"]), {k: float(v) for k, v in d.get("values", {}).items()},
+                   dict(d.get("labels", {})))
 
 
 @dataclass

@@ -80,68 +80,160 @@ def pivots(out: dict[str, np.ndarray], two: bool) -> dict[str, np.ndarray]:
     return piv
 
 
-def _blueprint(two: bool):
+def base_motion(time: np.ndarray, ah: np.ndarray, av: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ground displacement (x, y) in m for drawing the moving base.
+
+    The total ground accelerations (m/s^2, at the output samples) integrated twice
+    by the trapezoid rule, then a least-squares line removed from each: that is the
+    same motion seen from an inertial frame moving at constant velocity, so nothing
+    about the block's motion relative to the base changes, and a harmonic table
+    motion stays centred instead of drifting off the picture.
+    """
+    t = np.asarray(time, float)
+    if len(t) < 3:
+        return np.zeros(len(t)), np.zeros(len(t))
+    dt = np.diff(t)
+
+    def twice(a: np.ndarray) -> np.ndarray:
+        a = np.asarray(a, float)
+        v = np.concatenate([[0.0], np.cumsum(0.5 * dt * (a[1:] + a[:-1]))])
+        x = np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
+        return x - np.polyval(np.polyfit(t, x, 1), t)
+
+    return twice(ah), twice(av)
+
+
+def _to_view(pts: np.ndarray) -> np.ndarray:
+    """Rerun's 2D views have y pointing down: flip y for drawing (drawing only)."""
+    return pts * np.array([1.0, -1.0])
+
+
+def _ground_hatch(x0: np.ndarray, y0: np.ndarray, width: float) -> np.ndarray:
+    """The base drawn as a line with slanted hatching, (n, 1 + 2 k, 2) strips per frame, so its motion shows."""
+    d = width / 8
+    offsets = np.arange(-width + d, width, d)
+    n = len(x0)
+    strips = np.empty((n, 1 + len(offsets), 2, 2))
+    strips[:, 0, 0] = np.stack([x0 - width, y0], 1)
+    strips[:, 0, 1] = np.stack([x0 + width, y0], 1)
+    for j, o in enumerate(offsets, start=1):
+        strips[:, j, 0] = np.stack([x0 + o, y0], 1)
+        strips[:, j, 1] = np.stack([x0 + o - 0.5 * d, y0 - 0.5 * d], 1)
+    return strips
+
+
+def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float]):
+    """Scene on the left; angles, velocities and excitation on the right; the run playing in a loop."""
     import rerun.blueprint as rrb
 
     blocks = ["block1", "block2"] if two else ["block1"]
+
+    def plot(name: str, var: str) -> "rrb.TimeSeriesView":
+        extra = [f"/measured/{m}" for m in measured if m.endswith(f"/{var}")]
+        return rrb.TimeSeriesView(name=name, contents=[f"/{b}/{var}" for b in blocks] + extra)
+
+    x0, x1, y0, y1 = bounds
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial2DView(origin="/scene", name="blocks"),
+            rrb.Spatial2DView(origin="/scene", name="blocks (to scale)",
+                              visual_bounds=rrb.VisualBounds2D(x_range=[x0, x1], y_range=[y0, y1])),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="theta (rad)", contents=[f"/{b}/theta" for b in blocks]),
-                rrb.TimeSeriesView(name="omega (rad/s)", contents=[f"/{b}/omega" for b in blocks]),
+                plot("theta (rad)", "theta"),
+                plot("omega (rad/s)", "omega"),
                 rrb.TimeSeriesView(name="ground (m/s2)", contents=["/ground/**"]),
             ),
             column_shares=[2, 3],
         ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline="sim_time", play_state="playing", loop_mode="all"),
     )
+
+
+COLOURS = {"block1": (70, 110, 200), "block2": (200, 90, 70), "ground/ah": (60, 60, 60),
+           "ground/av": (150, 150, 150), "energy": (120, 80, 160)}
+
+
+def _colour(entity: str, shade: float = 1.0) -> tuple[int, int, int]:
+    """The colour of an entity's series: each block keeps its scene colour in every plot."""
+    key = next((k for k in COLOURS if entity.strip("/").startswith(k)), "energy")
+    return tuple(int(round(c * shade)) for c in COLOURS[key])
+
+
+# the series of a recording: entity path -> output variable
+SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/block1/alpha_dd": "block1.alpha_dd",
+          "/block2/theta": "block2.theta", "/block2/omega": "block2.omega", "/block2/alpha_dd": "block2.alpha_dd",
+          "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy"}
 
 
 def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any],
                     events: list | None = None, measured: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
                     ) -> Path:
-    """Write one run to path (.rrd); `measured` maps a simulated series name to (time, values) to overlay."""
+    """Write one run to path (.rrd) and return the path.
+
+    `out` holds output series at `time` (s); `p` the run's FMU parameters; `events` the
+    FMU's events (runners.fmu.Event); `measured` maps an output name (block1.theta,
+    block1.omega, block2.theta, block2.omega) to (time in s, values in rad or rad/s) to
+    overlay as /measured/block1/theta etc. in the same plots.
+
+    Each call writes through its own RecordingStream to its own file, so recordings can
+    be written from several threads or processes at once.
+    """
     import rerun as rr
 
     two = int(p.get("nBlocks", 1)) == 2
+    time = np.asarray(time, float)
+    measured = measured or {}
+    unknown = sorted(set(measured) - {"block1.theta", "block1.omega", "block2.theta", "block2.omega"})
+    if unknown:
+        raise ValueError(f"cannot overlay measured {', '.join(unknown)}: block1/2 .theta and .omega only")
+    measured_paths = ["/".join(k.split(".")) for k in measured]
+    # the scene: outlines at up to MAX_FPS frames per simulated second, on the moving base
+    stride = max(1, int(math.ceil((len(time) - 1) / max(1.0, (time[-1] - time[0]) * MAX_FPS)))) if len(time) > 1 else 1
+    frames = np.arange(0, len(time), stride)
+    at_frames = {k: np.asarray(v)[frames] for k, v in out.items()}
+    zero = np.zeros(len(time))
+    xg, yg = base_motion(time, out.get("ground.ahTotal", zero), out.get("ground.avTotal", zero))
+    xg, yg = xg[frames], yg[frames]
+    offset = np.stack([xg, yg], 1)[:, None, :]
+    shapes = [pts + offset for pts in block_outlines(time[frames], at_frames, p)]
+    b1 = p["block1.halfWidth"]
+    width = 4 * max(b1, p.get("block2.halfWidth", b1) if two else b1)
+    height = 2 * p["block1.halfHeight"] + (2 * p["block2.halfHeight"] if two else 0.0)
+    reach = max(np.abs(xg).max(initial=0.0), np.abs(yg).max(initial=0.0))
+    bounds = (-width - reach, width + reach, -1.15 * height - reach, 0.25 * height + reach)  # y down
+
     rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    rec.save(str(path), default_blueprint=_blueprint(two))
+    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds))
     rec.send_property("run", rr.AnyValues(name=name))
-    idx = [rr.TimeColumn("sim_time", duration=np.asarray(time, float))]
-    series = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/block1/alpha_dd": "block1.alpha_dd",
-              "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy"}
-    if two:
-        series.update({"/block2/theta": "block2.theta", "/block2/omega": "block2.omega",
-                       "/block2/alpha_dd": "block2.alpha_dd"})
-    for entity, var in series.items():
-        if var in out:
+    idx = [rr.TimeColumn("sim_time", duration=time)]
+    for entity, var in SERIES.items():
+        if var in out and (two or not entity.startswith("/block2")):
+            rec.log(entity, rr.SeriesLines(colors=[_colour(entity)], names=[entity.strip("/")]), static=True)
             rec.send_columns(entity, indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(out[var], float)))
     for block, piv in pivots(out, two).items():
         rec.send_columns(f"/{block}/pivot", indexes=idx, columns=rr.Scalars.columns(scalars=piv))
-    for entity, (mt, mv) in (measured or {}).items():
+    for entity, (mt, mv) in zip(measured_paths, measured.values()):
+        rec.log(f"/measured/{entity}", rr.SeriesPoints(colors=[_colour(entity, 0.6)], markers="circle",
+                                                        marker_sizes=3.0, names=[f"measured {entity}"]), static=True)
         rec.send_columns(f"/measured/{entity}", indexes=[rr.TimeColumn("sim_time", duration=np.asarray(mt, float))],
                          columns=rr.Scalars.columns(scalars=np.asarray(mv, float)))
-    # the scene: outlines at up to MAX_FPS frames per simulated second, ground line and pivots
-    stride = max(1, int(math.ceil((len(time) - 1) / max(1.0, (time[-1] - time[0]) * MAX_FPS)))) if len(time) > 1 else 1
-    frames = np.arange(0, len(time), stride)
-    frame_idx = [rr.TimeColumn("sim_time", duration=np.asarray(time, float)[frames])]
-    shapes = block_outlines(time[frames], {k: np.asarray(v)[frames] for k, v in out.items()}, p)
-    colours = [[70, 110, 200], [200, 90, 70]]
+    frame_idx = [rr.TimeColumn("sim_time", duration=time[frames])]
     for i, pts in enumerate(shapes, start=1):
-        rec.log(f"/scene/block{i}", rr.LineStrips2D.from_fields(colors=[colours[i - 1]]), static=True)
+        rec.log(f"/scene/block{i}", rr.LineStrips2D.from_fields(colors=[COLOURS[f"block{i}"]]), static=True)
         rec.send_columns(f"/scene/block{i}", indexes=frame_idx,
-                         columns=rr.LineStrips2D.columns(strips=pts).partition([1] * len(frames)))
-    b1 = p["block1.halfWidth"]
-    width = 4 * max(b1, p.get("block2.halfWidth", b1) if two else b1)
-    rec.log("/scene/ground", rr.LineStrips2D([[[-width, 0.0], [width, 0.0]]], colors=[[90, 90, 90]]), static=True)
-    piv1 = pivots({k: np.asarray(v)[frames] for k, v in out.items()}, False)["block1"]
+                         columns=rr.LineStrips2D.columns(strips=_to_view(pts)).partition([1] * len(frames)))
+    hatch = _ground_hatch(xg, yg, width)
+    rec.log("/scene/ground", rr.LineStrips2D.from_fields(colors=[[90, 90, 90]]), static=True)
+    rec.send_columns("/scene/ground", indexes=frame_idx,
+                     columns=rr.LineStrips2D.columns(strips=_to_view(hatch.reshape(-1, 2, 2)).reshape(-1, 2, 2))
+                     .partition([hatch.shape[1]] * len(frames)))
+    piv1 = pivots(at_frames, False)["block1"]
     rec.send_columns("/scene/pivot", indexes=frame_idx,
-                     columns=rr.Points2D.columns(positions=np.stack([piv1 * b1, np.zeros(len(frames))], 1),
-                                                 radii=np.full(len(frames), 0.15 * b1)))
+                     columns=rr.Points2D.columns(positions=_to_view(np.stack([xg + piv1 * b1, yg], 1)),
+                                                 radii=np.where(piv1 == 0, 0.0, 0.15 * b1)))  # none when flat
     # events at one instant (an impact and the settling it causes, say) share one entry, "; "-separated
     by_time: dict[float, list[str]] = {}
     for ev in events or []:
@@ -158,7 +250,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
 
 def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
     """One recording of a sweep: its overturning map as an image and, on a `grid_index`
-    sequence, each point's grid values and summary (overturned, impacts, peak / alpha)."""
+    sequence, each point's grid values and summary (overturned, impacts, peak / alpha),
+    and whether the point was recorded in full (runners sweep --record)."""
     import tempfile
 
     import matplotlib.image as mpimg
@@ -187,6 +280,7 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
         "peak1_over_alpha": [r.summary.peak1_over_alpha if r.summary and r.summary.peak1_over_alpha is not None
                              else np.nan for r in runs],
         "failed": [0.0 if good else 1.0 for good in ok],
+        "recorded": [1.0 if r.recording else 0.0 for r in runs],  # simulated in full, with its own recording
     }
     for axis in (a[0] for a in sw.grid["axes"]):
         columns[f"grid/{axis}"] = [r.point[axis] for r in runs]

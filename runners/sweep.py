@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 from sqlalchemy import insert, select
 
-from db.schema import Run, RunSummary, Scene, Sweep
+from db.schema import Run, RunSeries, RunSummary, Scene, Sweep
+from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
 from runners.fmu import RockingFMU
 
@@ -89,18 +90,25 @@ def point_parameters(axes: list[Axis], index: int, base: dict[str, Any]) -> tupl
     return values, over
 
 
+def stored_point_parameters(session, run: Run) -> dict[str, Any]:
+    """The FMU parameters (defaults included) that a stored sweep run ran with."""
+    sw = session.get(Sweep, run.sweep_id)
+    base = {**sw.grid["defaults"], **session.get(Scene, sw.scene_id).parameters}
+    return {**base, **point_parameters([Axis(*a) for a in sw.grid["axes"]], run.grid_index, base)[1]}
+
+
 # ------------------------------------------------------------------ workers
 
 _WORKER: dict[str, Any] = {}  # state of one worker process (set by _start_worker)
 
 
-def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, two: bool) -> None:
+def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, step: float, two: bool) -> None:
     fmu = RockingFMU(fmu_path, unzipdir)
     errors: list[str] = []
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
     names = ONE + (TWO if two else [])
-    _WORKER.update(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, stop=stop_time,
+    _WORKER.update(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, stop=stop_time, step=step,
                    names=names, vrs={n: fmu.variable(n) for n in names})
 
 
@@ -120,13 +128,43 @@ def _set_all(fmu: RockingFMU, slave, params: dict) -> None:
         slave.setBoolean(*by_type["Boolean"])
 
 
-def _run_point(task: tuple[int, dict]) -> tuple[int, dict | None, float, str | None]:
-    index, over = task
+@dataclass
+class Recorded:
+    """A grid point simulated in full: its series, events and the recording written by the worker."""
+
+    time: np.ndarray
+    outputs: dict[str, np.ndarray]
+    events: list[dict]
+    path: str
+
+
+def _record_point(over: dict, path: str, name: str) -> tuple[dict, Recorded]:
+    """Simulate one point with output at every communication step and write its recording
+    (in this worker process, to its own file: recordings never wait for each other)."""
+    from runners.recording import write_recording
+    from runners.summary import SUMMARY_OUTPUTS
+
+    w = _WORKER
+    fmu = w["fmu"]
+    params = {**w["base"], **over}
+    res = fmu.run(params, w["stop"], w["step"], outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *w["names"]])))
+    write_recording(Path(path), name, res.time, res.outputs, {**fmu.defaults(), **params}, res.events)
+    out = {n: res.outputs[n][-1] for n in w["names"]}
+    return out, Recorded(res.time, res.outputs, [e.as_dict() for e in res.events], str(Path(path).resolve()))
+
+
+def _run_point(task: tuple) -> tuple[int, dict | None, float, str | None, Recorded | None]:
+    """One grid point: (index, FMU overrides, None or (recording path, name)) ->
+    (index, final outputs or None, seconds, error or None, Recorded or None)."""
+    index, over, record = task
     w = _WORKER
     s, fmu = w["slave"], w["fmu"]
     w["errors"].clear()
     t0 = time.perf_counter()
     try:
+        if record is not None:
+            out, rec = _record_point(over, *record)
+            return index, out, time.perf_counter() - t0, None, rec
         s.reset()
         s.setupExperiment(startTime=0.0, stopTime=w["stop"])
         _set_all(fmu, s, {**w["base"], **over})
@@ -138,10 +176,27 @@ def _run_point(task: tuple[int, dict]) -> tuple[int, dict | None, float, str | N
             names = [n for n, v in w["vrs"].items() if v.type == typ]
             if names:
                 out.update(zip(names, get([w["vrs"][n].valueReference for n in names])))
-        return index, out, time.perf_counter() - t0, None
+        return index, out, time.perf_counter() - t0, None, None
     except Exception as exc:  # the point fails, the sweep goes on
         message = w["errors"][-1] if w["errors"] else str(exc)
-        return index, None, time.perf_counter() - t0, message.splitlines()[0] if message else "error"
+        return index, None, time.perf_counter() - t0, message.splitlines()[0] if message else "error", None
+
+
+def parse_points(spec: str, total: int) -> list[int]:
+    """Grid indices from "3,17,40-45" or "all"; ValueError on anything outside 0..total-1."""
+    if spec.strip() == "all":
+        return list(range(total))
+    points: set[int] = set()
+    for part in spec.split(","):
+        lo, dash, hi = part.strip().partition("-")
+        try:
+            a, b = int(lo), int(hi) if dash else int(lo)
+        except ValueError:
+            raise ValueError(f"points {spec!r}: expected grid indices like 3,17,40-45 or 'all'") from None
+        if not 0 <= a <= b < total:
+            raise ValueError(f"points {spec!r}: {part.strip()} is outside the grid's indices 0..{total - 1}")
+        points.update(range(a, b + 1))
+    return sorted(points)
 
 
 # ------------------------------------------------------------------ driver
@@ -166,7 +221,7 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
 def create_sweep(factory, scene, axes: list[Axis], defaults: dict) -> int:
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
     grid = {"axes": [[a.name, a.start, a.stop, a.count] for a in axes], "stop_time": scene.stop_time,
-            "defaults": defaults}
+            "step": scene.step, "defaults": defaults}
     with factory.begin() as session:
         sc = add_scene(session, scene.name, scene.parameters, source)
         session.flush()
@@ -176,29 +231,75 @@ def create_sweep(factory, scene, axes: list[Axis], defaults: dict) -> int:
         return sw.id
 
 
-def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None, batch: int = 500,
-              progress: bool = True) -> dict[str, Any]:
-    """Run the grid points of a sweep that are not stored yet; returns counts and timings."""
-    from tqdm import tqdm
+@dataclass
+class _Plan:
+    """What a sweep's workers need to know, read from the database once."""
 
+    sweep_id: int
+    scene_id: int
+    scene_name: str
+    total: int
+    stop_time: float
+    step: float  # s, output step of recorded points
+    params: dict  # the scene's parameters (without defaults)
+    base: dict  # defaults + scene parameters
+    axes: list[Axis]
+    stored: set[int]
+
+    @property
+    def two(self) -> bool:
+        return int(self.base.get("nBlocks", 1)) == 2
+
+
+def _plan(factory, sweep_id: int) -> _Plan:
     with factory() as session:
         sw = session.get(Sweep, sweep_id)
         if sw is None:
             raise ValueError(f"no sweep {sweep_id} in the database")
         scene = session.get(Scene, sw.scene_id)
-        grid, total, scene_id = sw.grid, sw.total, sw.scene_id
         params = dict(scene.parameters)
         stored = set(session.scalars(select(Run.grid_index).where(Run.sweep_id == sweep_id)))
-    axes = [Axis(*a) for a in grid["axes"]]
-    base = {**grid["defaults"], **params}
-    two = int(base.get("nBlocks", 1)) == 2
-    pending = [i for i in range(total) if i not in stored]
-    points = {i: point_parameters(axes, i, base) for i in pending}  # (grid values, overrides), once per point
-    tasks = [(i, points[i][1]) for i in pending]
+        return _Plan(sweep_id, sw.scene_id, scene.name, sw.total, sw.grid["stop_time"],
+                     sw.grid.get("step", 0.01), params, {**sw.grid["defaults"], **params},
+                     [Axis(*a) for a in sw.grid["axes"]], stored)
+
+
+def _pool(plan: _Plan, fmu_path: Path, shared: RockingFMU, workers: int):
+    ctx = get_context("fork") if hasattr(os, "fork") else get_context()
+    return ctx.Pool(workers, initializer=_start_worker,
+                    initargs=(str(fmu_path), shared.unzipdir, plan.params, plan.stop_time, plan.step, plan.two))
+
+
+def _recording_task(plan: _Plan, index: int, record_dir: Path) -> tuple[str, str]:
+    return (str(Path(record_dir) / f"point-{index}.rrd"),
+            f"{plan.scene_name} (sweep {plan.sweep_id}, point {index})")
+
+
+def _series_row(run_id: int, rec: Recorded) -> dict:
+    names, n, blob = pack_series(rec.time, rec.outputs)
+    return {"run_id": run_id, "names": names, "n_samples": n, "data": blob, "events": rec.events}
+
+
+def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None, batch: int = 500,
+              progress: bool = True, record: list[int] | None = None, record_dir: Path | None = None
+              ) -> dict[str, Any]:
+    """Run the grid points of a sweep that are not stored yet; returns counts and timings.
+
+    Points in `record` (grid indices) are simulated in full: their workers write a
+    recording to record_dir/point-INDEX.rrd and their series and events are stored.
+    """
+    from tqdm import tqdm
+
+    plan = _plan(factory, sweep_id)
+    record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
+    recorded = set(record or ())
+    pending = [i for i in range(plan.total) if i not in plan.stored]
+    points = {i: point_parameters(plan.axes, i, plan.base) for i in pending}  # (grid values, overrides), once
+    tasks = [(i, points[i][1], _recording_task(plan, i, record_dir) if i in recorded else None) for i in pending]
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(tasks))))
     sha, version = file_sha256(str(fmu_path)), code_version()
-    stats = {"sweep": sweep_id, "total": total, "already": len(stored), "ran": 0, "errors": 0,
-             "fmu_seconds": 0.0, "db_seconds": 0.0, "python_seconds": 0.0}
+    stats = {"sweep": sweep_id, "total": plan.total, "already": len(plan.stored), "ran": 0, "errors": 0,
+             "recorded": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "python_seconds": 0.0}
     t_start = time.perf_counter()
     rows: list[tuple] = []
 
@@ -212,30 +313,33 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
             summaries = [{"run_id": by_index[r[0]["grid_index"]], **r[1]} for r in rows if r[1] is not None]
             if summaries:
                 session.execute(insert(RunSummary), summaries)
+            full = [_series_row(by_index[r[0]["grid_index"]], r[2]) for r in rows if r[2] is not None]
+            if full:
+                session.execute(insert(RunSeries), full)
             sw = session.get(Sweep, sweep_id)
             sw.done = sw.done + len(rows)
             sw.status = "done" if sw.done >= sw.total else "running"
         stats["db_seconds"] += time.perf_counter() - t0
         rows.clear()
 
-    bar = tqdm(total=total, initial=len(stored), disable=not progress, unit="run", desc=f"sweep {sweep_id}")
-    ctx = get_context("fork") if hasattr(os, "fork") else get_context()
+    bar = tqdm(total=plan.total, initial=len(plan.stored), disable=not progress, unit="run", desc=f"sweep {sweep_id}")
     shared = RockingFMU(fmu_path)  # one extraction for every worker
-    with shared, ctx.Pool(workers, initializer=_start_worker,
-                          initargs=(str(fmu_path), shared.unzipdir, params, grid["stop_time"], two)) as pool:
+    with shared, _pool(plan, fmu_path, shared, workers) as pool:
         chunk = max(1, min(64, len(tasks) // (workers * 8) or 1))
-        for index, out, seconds, error in pool.imap_unordered(_run_point, tasks, chunksize=chunk):
+        for index, out, seconds, error, rec in pool.imap_unordered(_run_point, tasks, chunksize=chunk):
             t_py = time.perf_counter()
             values, over = points[index]
-            merged = {**base, **over}
-            run = {"scene_id": scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
-                   "model": "two blocks" if two else "one block", "method": "fmu",
+            merged = {**plan.base, **over}
+            run = {"scene_id": plan.scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
+                   "model": "two blocks" if plan.two else "one block", "method": "fmu",
                    "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
-                   "stop_time": grid["stop_time"], "fmu_sha256": sha, "code_version": version,
-                   "wall_time": seconds, "status": "error" if error else "ok", "error_message": error}
-            rows.append((run, None if out is None else _summary(out, merged, two)))
+                   "stop_time": plan.stop_time, "fmu_sha256": sha, "code_version": version,
+                   "wall_time": seconds, "status": "error" if error else "ok", "error_message": error,
+                   "recording": rec.path if rec else None}
+            rows.append((run, None if out is None else _summary(out, merged, plan.two), rec))
             stats["ran"] += 1
             stats["errors"] += error is not None
+            stats["recorded"] += rec is not None
             stats["fmu_seconds"] += seconds
             bar.update(1)
             stats["python_seconds"] += time.perf_counter() - t_py
@@ -245,3 +349,42 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     bar.close()
     stats["wall_seconds"] = time.perf_counter() - t_start
     return stats
+
+
+def record_points(factory, sweep_id: int, indices: list[int], fmu_path: Path, record_dir: Path | None = None,
+                  workers: int | None = None, progress: bool = True) -> list[tuple[int, str]]:
+    """Simulate stored grid points of a sweep again in full, write their recordings
+    (record_dir/point-INDEX.rrd) and store their series and events with their runs.
+
+    Returns (grid index, recording path) pairs. Points not stored yet are an error
+    (finish the sweep with --resume first).
+    """
+    from tqdm import tqdm
+
+    plan = _plan(factory, sweep_id)
+    missing = sorted(set(indices) - plan.stored)
+    if missing:
+        raise ValueError(f"sweep {sweep_id} has no stored point {missing[0]} (finish it with runners sweep --resume)")
+    record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
+    tasks = [(i, point_parameters(plan.axes, i, plan.base)[1], _recording_task(plan, i, record_dir))
+             for i in indices]
+    workers = max(1, min(workers or os.cpu_count() or 1, len(tasks)))
+    done: list[tuple[int, str]] = []
+    shared = RockingFMU(fmu_path)
+    with shared, _pool(plan, fmu_path, shared, workers) as pool, \
+            tqdm(total=len(tasks), disable=not progress, unit="point", desc=f"recording sweep {sweep_id}") as bar:
+        for index, _out, _seconds, error, rec in pool.imap_unordered(_run_point, tasks):
+            if error is not None:
+                raise ValueError(f"sweep {sweep_id} point {index}: {error}")
+            with factory.begin() as session:
+                run = session.scalars(select(Run).where(Run.sweep_id == sweep_id, Run.grid_index == index)).one()
+                run.recording = rec.path
+                row = _series_row(run.id, rec)
+                if run.series is None:
+                    run.series = RunSeries(**{k: v for k, v in row.items() if k != "run_id"})
+                else:
+                    for k, v in row.items():
+                        setattr(run.series, k, v)
+            done.append((index, rec.path))
+            bar.update(1)
+    return sorted(done)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -126,3 +127,193 @@ def test_a_sweep_recording_holds_the_map_and_every_point(tmp_path, fmu_path):
         stored = {r.grid_index: r.summary.impacts for r in session.query(Run).filter(Run.sweep_id == 1)}
     assert {g: int(v) for g, v in zip(grid, impacts)} == stored
     assert any(name.startswith("/map:Image") for name in static.column_names)
+
+
+def test_base_motion_is_the_table_displacement_in_a_centred_inertial_frame(fmu):
+    """Seed 000's shaking table: a = -D w^2 sin(w t) is the second derivative of D sin(w t).
+    Integrated twice from rest it drifts at the constant velocity D w; base_motion removes
+    a line, so it must match D sin(w t) with its own least-squares line removed."""
+    from runners.recording import base_motion
+
+    D, f = 0.003, 7.0
+    res = fmu.run({"block1.halfWidth": 0.03, "block1.halfHeight": 0.0675, "excitation.kind": 3,
+                   "excitation.displacement": D, "excitation.frequency": f, "excitation.cycles": 0},
+                  2.0, 1e-3, outputs=["ground.ahTotal", "ground.avTotal"], events=False)
+    t = res.time
+    x, y = base_motion(t, res.outputs["ground.ahTotal"], res.outputs["ground.avTotal"])
+    exact = D * np.sin(2 * np.pi * f * t)
+    exact -= np.polyval(np.polyfit(t, exact, 1), t)
+    assert np.max(np.abs(x - exact)) < 1e-3 * D  # trapezoid error ~ (h w)^2 / 12 = 1.6e-4
+    assert np.max(np.abs(y)) == 0.0
+
+
+def test_the_animated_scene_stands_on_the_moving_base(tmp_path, fmu_path):
+    """Every frame: block 1 has its true size, its lowest corner is on the base, at the
+    pivot in use (theta > 0: the right corner), and the base's hatching moves with it."""
+    from runners.recording import base_motion
+
+    db = f"sqlite:///{tmp_path / 'b.db'}"
+    rrd = tmp_path / "h.rrd"
+    p = runners("simulate", "examples/harmonic.toml", "--rrd", str(rrd), "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as session:
+        run = session.get(Run, json.loads(p.stdout)["run_id"])
+        time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+    xg, yg = base_motion(time_, cols["ground.ahTotal"], cols["ground.avTotal"])
+    assert np.ptp(xg) > 5e-3  # the 3 mm table visibly moves
+    table = read_back(rrd)
+    t, frames = column(table, "/scene/block1", "LineStrips2D:strips")
+    _, ground = column(table, "/scene/ground", "LineStrips2D:strips")
+    k = np.searchsorted(time_, t - 1e-9)
+    assert np.max(np.abs(time_[k] - t)) < 1e-8
+    b, h = 0.030, 0.0675
+    for j, (_, value) in zip(k, frames):
+        # Rerun keeps positions as float32 (about 1e-8 m here); the recording draws y down
+        pts = np.array(value[0], float)[:4] * [1, -1]
+        edges = np.linalg.norm(np.diff(np.vstack([pts, pts[:1]]), axis=0), axis=1)
+        np.testing.assert_allclose(sorted(edges), [2 * b, 2 * b, 2 * h, 2 * h], rtol=1e-6)
+        lowest = pts[np.argmin(pts[:, 1])]
+        assert abs(lowest[1] - yg[j]) < 1e-7
+        side = 1.0 if cols["block1.theta"][j] > 0 else -1.0
+        if cols["block1.theta"][j] != 0:
+            assert abs(lowest[0] - (xg[j] + side * b)) < 1e-7
+    for j, (_, value) in zip(k, ground):
+        base_line = np.array(value[0], float) * [1, -1]
+        assert abs(base_line.mean(axis=0)[0] - xg[j]) < 1e-7 and abs(base_line[0, 1] - yg[j]) < 1e-7
+
+
+def test_measured_series_are_overlaid_and_bad_files_are_refused(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'm.db'}"
+    assert runners("simulate", "examples/free_rocking.toml", db=db, fmu_path=fmu_path).returncode == 0
+    factory = open_database(db)
+    with factory() as session:
+        time_, cols = series.unpack(*(lambda s: (s.names, s.n_samples, s.data))(session.get(Run, 1).series))
+    rng = np.random.default_rng(7)
+    tm = time_[::50]
+    thm = cols["block1.theta"][::50] + rng.normal(0, 0.5 * np.pi / 180, len(tm))  # the thesis's +-0.5 deg
+    csv = tmp_path / "measured.csv"
+    csv.write_text("# free rocking, read from video\ntime,block1.theta\n"
+                   + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(tm, thm)))
+    out = tmp_path / "m.rrd"
+    p = runners("rrd", "1", "--out", str(out), "--measured", str(csv), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    t, rows = column(read_back(out), "/measured/block1/theta")
+    np.testing.assert_allclose(t, tm, atol=1.5e-9)
+    np.testing.assert_array_equal([r[1][0] for r in rows], thm)
+    bad = {
+        "time,block1.theta\n0,0\n0,0.1\n": "does not increase",
+        "time,block1.theta\n0,0\n0.1,abc\n": "not a number",
+        "time,block3.theta\n0,0\n0.1,0\n": "block3.theta",
+        "t,block1.theta\n0,0\n0.1,0\n": "first column must be 'time'",
+        "time,block1.theta\n0,0\n0.1\n": "fields",
+        "time,block1.theta\n0,0\n": "at least two data rows",
+    }
+    for text, reason in bad.items():
+        csv.write_text(text)
+        p = runners("rrd", "1", "--out", str(tmp_path / "x.rrd"), "--measured", str(csv), db=db, fmu_path=fmu_path)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1 and reason in p.stderr, (text, p.stderr)
+        assert not (tmp_path / "x.rrd").exists()
+    with factory() as session:
+        assert session.get(Run, 1).recording == str(out.resolve())  # a refused file changes nothing stored
+    p = runners("simulate", "examples/free_rocking.toml", "--measured", str(csv), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "--rrd" in p.stderr
+    p = runners("rrd", "1", "--measured", str(tmp_path / "none.csv"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "does not exist" in p.stderr
+
+
+def test_recordings_written_at_once_from_threads_stay_apart(tmp_path, fmu):
+    """Each recording has its own stream and file: two written concurrently hold only their own data."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from runners.recording import write_recording
+
+    p = fmu.defaults()
+    t = np.linspace(0.0, 1.0, 1001)
+    jobs = {i: (tmp_path / f"t{i}.rrd", {"block1.theta": np.full_like(t, 1e-3 * (i + 1)),
+                                         "block1.omega": np.zeros_like(t)}) for i in range(4)}
+    with ThreadPoolExecutor(4) as pool:
+        list(pool.map(lambda i: write_recording(jobs[i][0], f"run {i}", t, jobs[i][1], p), jobs))
+    for i, (path, out) in jobs.items():
+        _, rows = column(read_back(path), "/block1/theta")
+        assert len(rows) == len(t) and {r[1][0] for r in rows} == {1e-3 * (i + 1)}
+
+
+def test_a_sweep_records_chosen_points_in_its_workers_and_later(tmp_path, fmu_path):
+    """sweep --record: worker processes write full recordings of the chosen points and
+    their series and events are stored; rrd --sweep --points records stored points later.
+    The single-step summary of every point agrees with its full recording's events."""
+    db = f"sqlite:///{tmp_path / 'rs.db'}"
+    scene = ROOT / "examples" / "sweep_sine_pulse.toml"
+    rec_dir = tmp_path / "rec"
+    p = runners("sweep", str(scene), "--grid", "w=1:10:6", "--grid", "a=1.01:8:5", "--no-progress",
+                "--workers", "2", "--record", "0,7,20-22", "--record-dir", str(rec_dir), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert "recorded 5 points" in p.stdout
+    p = runners("rrd", "--sweep", "1", "--points", "3,4", "--record-dir", str(rec_dir), "--no-progress",
+                db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as session:
+        runs = {r.grid_index: r for r in session.query(Run).filter(Run.sweep_id == 1)}
+        recorded = {i: (r.recording, r.summary.impacts, r.series.events,
+                        series.unpack(r.series.names, r.series.n_samples, r.series.data))
+                    for i, r in runs.items() if r.recording}
+        assert all(r.series is None for i, r in runs.items() if i not in recorded)
+    assert sorted(recorded) == [0, 3, 4, 7, 20, 21, 22]
+    for i, (path, impacts, events, (time_, cols)) in recorded.items():
+        assert path == str((rec_dir / f"point-{i}.rrd").resolve())
+        assert sum(e["kind"] == "impact" for e in events) == impacts  # stored summary, one doStep
+        table = read_back(Path(path))
+        t, rows = column(table, "/block1/theta")
+        np.testing.assert_array_equal([r[1][0] for r in rows], cols["block1.theta"])
+        _, texts = column(table, "/events", "TextLog:text")
+        assert sum(x.startswith("impact") for e in texts for x in e[1][0].split("; ")) == impacts
+    # a stored sweep point's recording can be written again from the database, with its events
+    out = tmp_path / "again.rrd"
+    p = runners("rrd", str(runs[21].id), "--out", str(out), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    _, texts = column(read_back(out), "/events", "TextLog:text")
+    assert sum(x.startswith("impact") for e in texts for x in e[1][0].split("; ")) == recorded[21][1]
+    for bad, reason in (("30", "outside"), ("5-2", "outside"), ("x", "expected grid indices")):
+        p = runners("rrd", "--sweep", "1", "--points", bad, db=db, fmu_path=fmu_path)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1 and reason in p.stderr, p.stderr
+    p = runners("rrd", str(runs[1].id), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "--points 1" in p.stderr
+
+
+def test_screenshot_without_a_browser_is_a_one_line_error(tmp_path, fmu_path):
+    db = f"sqlite:///{tmp_path / 'n.db'}"
+    assert runners("simulate", "examples/sine_pulse.toml", db=db, fmu_path=fmu_path).returncode == 0
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db, "PATH": str(tmp_path)}
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "screenshot", "1", "--out", str(tmp_path / "s.png")],
+                       capture_output=True, text=True, env=env, cwd=ROOT)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "Chromium" in p.stderr, p.stderr
+    assert not (tmp_path / "s.png").exists()
+
+
+def _can_screenshot() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("playwright") is not None and any(
+        shutil.which(b) for b in ("chromium", "chromium-browser", "google-chrome"))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _can_screenshot(), reason="needs Chromium (Debian: apt-get install chromium) and "
+                                                   "Playwright (pip install -e '.[docs]') to draw Rerun's web viewer")
+def test_screenshot_shows_the_viewer_with_the_recording(tmp_path, fmu_path):
+    """Rerun's own (web) viewer draws the recording: the PNG shows the blocks' colours."""
+    import matplotlib.image as mpimg
+
+    from runners.recording import COLOURS
+
+    db = f"sqlite:///{tmp_path / 'sh.db'}"
+    assert runners("simulate", "examples/two_blocks_harmonic.toml", db=db, fmu_path=fmu_path).returncode == 0
+    png = tmp_path / "viewer.png"
+    p = runners("screenshot", "1", "--out", str(png), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    img = (mpimg.imread(png)[..., :3] * 255).astype(int)
+    for block in ("block1", "block2"):
+        near = np.abs(img - np.array(COLOURS[block])).max(axis=-1) < 30
+        assert near.sum() > 500, block  # outlines and curves in the block's colour

@@ -1,0 +1,140 @@
+"""``runners rrd | view | screenshot``: Rerun recordings of stored runs and sweeps."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from db.session import open_database
+from runners.fmu import Event, RockingFMU, fmu_path_from
+
+
+def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: dict | None = None,
+               remember: bool = True) -> Path:
+    """Write the recording of stored run `run_id` (its series, events and parameters) to `out`;
+    with `remember`, store the path with the run."""
+    from db import series
+    from db.schema import Run
+    from runners.recording import write_recording
+
+    with factory() as session:
+        run = session.get(Run, run_id)
+        if run is None:
+            raise ValueError(f"no run {run_id} in the database")
+        if run.series is None:
+            raise ValueError(f"run {run_id} has no stored series to record (sweep points keep summaries only; "
+                             f"record them with runners rrd --sweep {run.sweep_id} --points {run.grid_index})"
+                             if run.sweep_id is not None else f"run {run_id} has no stored series to record")
+        time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+        events = [Event.from_dict(e) for e in run.series.events or []]
+        params, name = dict(run.scene.parameters), run.scene.name
+        if run.sweep_id is not None:
+            from runners.sweep import stored_point_parameters
+
+            params = stored_point_parameters(session, run)
+            name = f"{name} (sweep {run.sweep_id}, point {run.grid_index})"
+    with RockingFMU(fmu_path_from(fmu_arg)) as fmu:
+        defaults = fmu.defaults()
+    write_recording(out, name, time_, cols, {**defaults, **params}, events, measured)
+    if remember:
+        with factory.begin() as session:
+            session.get(Run, run_id).recording = str(Path(out).resolve())
+    return Path(out)
+
+
+def cmd_rrd(args: argparse.Namespace) -> int:
+    factory = open_database(args.db)
+    if args.points is not None:
+        if args.sweep is None:
+            raise ValueError("--points records grid points of a sweep: give --sweep SWEEP_ID too")
+        from db.schema import Sweep
+        from runners.sweep import parse_points, record_points
+
+        with factory() as session:
+            sw = session.get(Sweep, args.sweep)
+            if sw is None:
+                raise ValueError(f"no sweep {args.sweep} in the database")
+            indices = parse_points(args.points, sw.total)
+        for index, path in record_points(factory, args.sweep, indices, fmu_path_from(args.fmu), args.record_dir,
+                                         progress=not args.no_progress):
+            print(f"point {index}: {path}")
+        return 0
+    if args.sweep is not None:
+        from runners.recording import write_sweep_recording
+
+        print(write_sweep_recording(Path(args.out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep))
+        return 0
+    if args.run is None:
+        raise ValueError("give a RUN_ID, or --sweep SWEEP_ID")
+    measured = None
+    if args.measured:
+        from runners.measured import read_measured_csv
+
+        measured = read_measured_csv(args.measured)
+    print(record_run(factory, args.run, Path(args.out or f"recordings/run-{args.run}.rrd"), args.fmu, measured))
+    return 0
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """Open a stored run's recording in the Rerun viewer (written first if it has none)."""
+    from db.schema import Run
+
+    factory = open_database(args.db)
+    with factory() as session:
+        run = session.get(Run, args.run)
+        if run is None:
+            raise ValueError(f"no run {args.run} in the database")
+        path = run.recording
+    if not path or not Path(path).is_file():
+        path = str(record_run(factory, args.run, Path(f"recordings/run-{args.run}.rrd"), args.fmu).resolve())
+    viewer = shutil.which("rerun") or str(Path(sys.executable).parent / "rerun")
+    if not Path(viewer).exists():
+        raise OSError("the Rerun viewer (rerun, from pip rerun-sdk) is not installed")
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise OSError(f"no display to open the viewer on; the recording is {path} "
+                      "(open it with the Rerun viewer on a machine with a display)")
+    subprocess.Popen([viewer, path])
+    print(f"opened {path} in the Rerun viewer")
+    return 0
+
+
+def cmd_screenshot(args: argparse.Namespace) -> int:
+    """A stored run in Rerun's web viewer, drawn by headless Chromium, as a PNG (the viewer
+    starts playing the run when it opens, so the scene shows it a fraction of a second in)."""
+    from runners.screenshot import screenshot
+
+    factory = open_database(args.db)
+    with tempfile.TemporaryDirectory() as tmp:
+        rrd = record_run(factory, args.run, Path(tmp) / f"run-{args.run}.rrd", args.fmu, remember=False)
+        print(screenshot(rrd, Path(args.out)))
+    return 0
+
+
+def add_parser(sub) -> None:
+    rr_ = sub.add_parser("rrd", help="write the Rerun recording (.rrd) of a stored run or sweep")
+    rr_.add_argument("run", type=int, nargs="?", help="run id")
+    rr_.add_argument("--sweep", type=int, metavar="SWEEP_ID", help="record a sweep: its map and per-point summaries")
+    rr_.add_argument("--points", metavar="POINTS",
+                     help="with --sweep: simulate these stored grid points again in full and record each "
+                          "(e.g. 0,17,40-45), storing their series")
+    rr_.add_argument("--record-dir", metavar="DIR", help="where --points writes (default: recordings/sweep-ID)")
+    rr_.add_argument("--out", help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
+    rr_.add_argument("--measured", metavar="CSV", help="overlay a measured series on a run's recording "
+                                                        "(format: runners/measured.py)")
+    rr_.add_argument("--no-progress", action="store_true", help="no progress bar")
+    rr_.set_defaults(func=cmd_rrd)
+    vw = sub.add_parser("view", help="open a stored run's recording in the Rerun viewer")
+    vw.add_argument("run", type=int, help="run id")
+    vw.set_defaults(func=cmd_view)
+    sh = sub.add_parser("screenshot", help="a PNG of Rerun's viewer showing a stored run (needs Chromium)")
+    sh.add_argument("run", type=int, help="run id")
+    sh.add_argument("--out", default="docs/figures/rerun_viewer.png", help="PNG file")
+    sh.set_defaults(func=cmd_screenshot)
+    for p in (rr_, vw, sh):
+        p.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+        p.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
