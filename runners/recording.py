@@ -9,8 +9,8 @@ A recording holds, on the ``sim_time`` timeline (s):
 - ``/events``: impacts, uplift, rest, settling (lock), opening (unlock) and
   overturn as text entries with their values, at their times (events at
   one instant share an entry, separated by "; ");
-- ``/scene``: the blocks drawn to scale (outlines and the pivot in use),
-  animated at up to 100 frames per simulated second, on the ground line;
+- ``/scene``: the blocks drawn to scale (outlines and each block's pivot in use)
+  on the moving base, animated at up to 100 frames per simulated second;
 - a blueprint that opens on the scene, the angles, the velocities and the
   excitation.
 
@@ -37,12 +37,15 @@ def _rot(theta: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return np.stack([c * x + s * y, -s * x + c * y], axis=-1)
 
 
-def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any]) -> list[np.ndarray]:
-    """Closed outlines (n, 5, 2) of each block in the ground frame (m), origin at block 1's bottom centre."""
+def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any]
+                   ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Closed outlines (n, 5, 2) of each block in the ground frame (m), origin at block 1's
+    bottom centre, and each block's pivot (n, 2): block 1's corner on the ground, block 2's
+    end of the contact on block 1."""
     b1, h1 = p["block1.halfWidth"], p["block1.halfHeight"]
     th1 = out["block1.theta"]
     s1 = np.where(th1 >= 0, 1.0, -1.0)
-    shapes = []
+    shapes, pivot_points = [], [np.stack([s1 * b1, np.zeros(len(time))], 1)]
     rect1 = np.array([[-b1, 0], [b1, 0], [b1, 2 * h1], [-b1, 2 * h1], [-b1, 0]])
     # rotate about the pivot (s1 b1, 0): P + R (x - P)
     pts = np.empty((len(time), 5, 2))
@@ -58,7 +61,7 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
         th2 = out["block2.theta"]
         s2 = np.where(th2 - th1 >= 0, 1.0, -1.0)
         rect2 = np.array([[-b2, 0], [b2, 0], [b2, 2 * h2], [-b2, 2 * h2], [-b2, 0]])
-        pts2 = np.empty((len(time), 5, 2))
+        pts2, K2 = np.empty((len(time), 5, 2)), np.empty((len(time), 2))
         for side1 in (1.0, -1.0):
             for side2 in (1.0, -1.0):
                 m = (s1 == side1) & (s2 == side2)
@@ -68,8 +71,10 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
                 K = P1 + _rot(th1[m], np.array([[side2 * c, 2 * h1]]) - P1)[:, 0, :]  # pivot of block 2
                 body = rect2 - np.array([side2 * c, 0.0])  # block 2's outline about its pivot
                 pts2[m] = K[:, None, :] + _rot(th2[m], body)
+                K2[m] = K
         shapes.append(pts2)
-    return shapes
+        pivot_points.append(K2)
+    return shapes, pivot_points
 
 
 def pivots(out: dict[str, np.ndarray], two: bool) -> dict[str, np.ndarray]:
@@ -196,7 +201,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     xg, yg = base_motion(time, out.get("ground.ahTotal", zero), out.get("ground.avTotal", zero))
     xg, yg = xg[frames], yg[frames]
     offset = np.stack([xg, yg], 1)[:, None, :]
-    shapes = [pts + offset for pts in block_outlines(time[frames], at_frames, p)]
+    outlines, pivot_points = block_outlines(time[frames], at_frames, p)
+    shapes = [pts + offset for pts in outlines]
     b1 = p["block1.halfWidth"]
     width = 4 * max(b1, p.get("block2.halfWidth", b1) if two else b1)
     height = 2 * p["block1.halfHeight"] + (2 * p["block2.halfHeight"] if two else 0.0)
@@ -230,10 +236,11 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     rec.send_columns("/scene/ground", indexes=frame_idx,
                      columns=rr.LineStrips2D.columns(strips=_to_view(hatch.reshape(-1, 2, 2)).reshape(-1, 2, 2))
                      .partition([hatch.shape[1]] * len(frames)))
-    piv1 = pivots(at_frames, False)["block1"]
-    rec.send_columns("/scene/pivot", indexes=frame_idx,
-                     columns=rr.Points2D.columns(positions=_to_view(np.stack([xg + piv1 * b1, yg], 1)),
-                                                 radii=np.where(piv1 == 0, 0.0, 0.15 * b1)))  # none when flat
+    for (block, piv), where in zip(pivots(at_frames, two).items(), pivot_points):
+        rec.log(f"/scene/pivot/{block}", rr.Points2D.from_fields(colors=[(170, 40, 170)]), static=True)
+        rec.send_columns(f"/scene/pivot/{block}", indexes=frame_idx,
+                         columns=rr.Points2D.columns(positions=_to_view(where + offset[:, 0, :]),
+                                                     radii=np.where(piv == 0, 0.0, 0.12 * b1)))  # none when flat
     # events at one instant (an impact and the settling it causes, say) share one entry, "; "-separated
     by_time: dict[float, list[str]] = {}
     for ev in events or []:

@@ -74,6 +74,18 @@ def test_recording_holds_the_stored_run(tmp_path, fmu_path, example):
     _, frames = column(table, "/scene/block1", "LineStrips2D:strips")
     assert 0 < len(frames) <= 100 * time_[-1] + 1
     assert len(frames[0][1][0]) == 5  # a closed rectangle
+    if len(blocks) == 2:  # block 2's pivot lies on block 1's top edge and on block 2's bottom edge
+        _, outline2 = column(table, "/scene/block2", "LineStrips2D:strips")
+        _, pivot2 = column(table, "/scene/pivot/block2", "Points2D:positions")
+        assert len(pivot2) == len(frames)
+
+        def off_segment(q, a, b):
+            u = np.clip(np.dot(q - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+            return np.linalg.norm(q - (a + u * (b - a)))
+
+        for f1, f2, k in zip(frames, outline2, pivot2):
+            r1, r2, q = np.array(f1[1][0], float), np.array(f2[1][0], float), np.array(k[1][0], float)
+            assert off_segment(q, r1[2], r1[3]) < 1e-7 and off_segment(q, r2[0], r2[1]) < 1e-7
 
 
 def test_rrd_of_a_stored_run_and_errors(tmp_path, fmu_path):
