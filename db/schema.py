@@ -137,3 +137,35 @@ class RunSeries(Base):
     # the run's events: [{"kind", "t" (s), "values": {name: float}, "labels": {name: str}}, ...]
     events: Mapped[list | None] = mapped_column(JSON)
     run: Mapped[Run] = relationship(back_populates="series")
+
+
+class Measurement(Base):
+    """A measured series: a free-rocking peak table, a rotation history, a shaking-table
+    record or a recorded ground motion. Stored in SI units and the sign convention of
+    docs/conventions.md, whatever the file declared (kept in `units` and `sign`)."""
+
+    __tablename__ = "measurements"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))
+    # peaks, rotation, table-displacement, table-acceleration, ground-acceleration
+    kind: Mapped[str] = mapped_column(String(30))
+    block1_id: Mapped[int | None] = mapped_column(ForeignKey("blocks.id"))
+    block2_id: Mapped[int | None] = mapped_column(ForeignKey("blocks.id"))
+    excitation_id: Mapped[int | None] = mapped_column(ForeignKey("excitations.id"))
+    source: Mapped[str | None] = mapped_column(Text)  # who measured it, where it was published
+    instrument: Mapped[str | None] = mapped_column(String(200))
+    sampling_rate: Mapped[float | None] = mapped_column(Float)  # Hz
+    uncertainty_angle: Mapped[float | None] = mapped_column(Float)  # rad
+    uncertainty_time: Mapped[float | None] = mapped_column(Float)  # s
+    uncertainty_value: Mapped[float | None] = mapped_column(Float)  # m or m/s^2, for motions
+    units: Mapped[dict] = mapped_column(JSON)  # as the file declared them, e.g. {"time": "s", "theta": "deg"}
+    sign: Mapped[str] = mapped_column(String(40))  # as the file declared it
+    file_name: Mapped[str | None] = mapped_column(Text)
+    file_sha256: Mapped[str | None] = mapped_column(String(64))
+    names: Mapped[list] = mapped_column(JSON)  # column names (db.series), after time
+    n_samples: Mapped[int] = mapped_column(Integer)
+    data: Mapped[bytes] = mapped_column(LargeBinary)  # db.series: time then columns, SI, our signs
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
+    block1: Mapped[Block | None] = relationship(foreign_keys=[block1_id])
+    block2: Mapped[Block | None] = relationship(foreign_keys=[block2_id])
+    excitation: Mapped[Excitation | None] = relationship()

@@ -17,3 +17,9 @@ def pack(time: np.ndarray, columns: dict[str, np.ndarray]) -> tuple[list[str], i
 def unpack(names: list[str], n_samples: int, blob: bytes) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     data = np.frombuffer(zlib.decompress(blob), "<f8").reshape(len(names) + 1, n_samples)
     return data[0].copy(), {n: data[i + 1].copy() for i, n in enumerate(names)}
+
+
+def unpack_blob(names: list[str], blob: bytes) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """As unpack, with the number of samples taken from the blob's size."""
+    raw = zlib.decompress(blob)
+    return unpack(names, len(raw) // (8 * (len(names) + 1)), blob)

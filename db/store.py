@@ -14,7 +14,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from db import series
-from db.schema import Excitation, Run, RunSeries, RunSummary, Scene
+from db.schema import Block, Excitation, Measurement, Run, RunSeries, RunSummary, Scene
 
 KINDS = {0: "none", 1: "sine-pulse", 2: "cosine-pulse", 3: "harmonic"}
 
@@ -58,9 +58,10 @@ def add_run(session: Session, scene: Scene, merged: dict[str, Any], summary: dic
             model: str, method: str, stop_time: float, fmu_path: str | None, wall_time: float | None,
             time: np.ndarray | None = None, outputs: dict[str, np.ndarray] | None = None,
             events: list[dict[str, Any]] | None = None, error: str | None = None,
-            sweep_id: int | None = None, grid_index: int | None = None) -> Run:
-    """One run with its summary (if it succeeded) and series (if sampled)."""
-    run = Run(scene=scene, excitation=excitation_of(merged), sweep_id=sweep_id, grid_index=grid_index,
+            sweep_id: int | None = None, grid_index: int | None = None, excitation: Excitation | None = None) -> Run:
+    """One run with its summary (if it succeeded) and series (if sampled); its excitation is
+    `excitation` (a recorded one, say) or the built-in one its parameters describe."""
+    run = Run(scene=scene, excitation=excitation if excitation is not None else excitation_of(merged), sweep_id=sweep_id, grid_index=grid_index,
               model=model, method=method, rel_tol=merged.get("solver.relTol"), abs_tol=merged.get("solver.absTol"),
               stop_time=stop_time, fmu_sha256=file_sha256(str(fmu_path)) if fmu_path else None,
               code_version=code_version(), wall_time=wall_time, status="error" if error else "ok",
@@ -72,3 +73,27 @@ def add_run(session: Session, scene: Scene, merged: dict[str, Any], summary: dic
         names, n, blob = series.pack(time, outputs)
         run.series = RunSeries(names=names, n_samples=n, data=blob, events=events)
     return run
+
+
+def add_measurement(session: Session, *, name: str, kind: str, time: np.ndarray, columns: dict[str, np.ndarray],
+                    units: dict[str, str], sign: str, block1: Block | None = None, block2: Block | None = None,
+                    source: str | None = None, instrument: str | None = None, sampling_rate: float | None = None,
+                    uncertainty: dict[str, float] | None = None, file_name: str | None = None,
+                    file_sha256: str | None = None,
+                    ground: tuple[np.ndarray, np.ndarray] | None = None) -> Measurement:
+    """One measurement (SI, our signs); with `ground` = (time in s, horizontal ground
+    acceleration in m/s^2) also its recorded excitation, which runs can be driven by."""
+    u = uncertainty or {}
+    names, n, blob = series.pack(time, columns)
+    m = Measurement(name=name, kind=kind, block1=block1, block2=block2, source=source, instrument=instrument,
+                    sampling_rate=sampling_rate, uncertainty_angle=u.get("theta"), uncertainty_time=u.get("time"),
+                    uncertainty_value=u.get("value"), units=dict(units), sign=sign, file_name=file_name,
+                    file_sha256=file_sha256, names=names, n_samples=n, data=blob)
+    if ground is not None:
+        t, a = ground
+        dt = float(np.mean(np.diff(t))) if len(t) > 1 else None
+        _, _, ablob = series.pack(t, {"ah": a})
+        m.excitation = Excitation(kind="recorded", amplitude=float(np.max(np.abs(a))), start_time=float(t[0]),
+                                  series=ablob, series_dt=dt)
+    session.add(m)
+    return m

@@ -32,6 +32,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     measured = _measured(args.measured, args.rrd)  # fail on a bad file before simulating
     factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
     fmu_path = fmu_path_from(args.fmu)
+    motion = None
+    if args.motion is not None:
+        if args.method != "fmu":
+            raise ValueError("--motion drives the FMU through its inputs: use it with --method fmu")
+        motion = _motion(factory or _database(args.db), args.motion)
+        scene = replace(scene, parameters={**scene.parameters, "excitation.kind": 0})  # the record replaces it
+        scene.step = min(scene.step, motion["dt"])
     result = None
     with RockingFMU(fmu_path) as fmu:
         defaults = fmu.defaults()
@@ -62,9 +69,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                     combined = combined_block_parameters(merged)
                     scene = replace(scene, parameters={k: v for k, v in combined.items()
                                                        if k in scene.parameters or k.startswith("block1.")})
-                result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
+                result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS,
+                                 inputs=None if motion is None else motion["inputs"])
                 s = summarize(scene, result, defaults)
                 s["model"], s["model_reason"] = model, why
+                if motion is not None:
+                    s["excitation"] = (f"recorded ground motion: measurement {args.motion} ({motion['name']}), "
+                                       f"through ground.ah at a {scene.step:g} s communication step")
                 text_out = format_summary(s)
     recording = None
     if args.rrd:
@@ -78,7 +89,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         text_out += f"\nrecording        {recording}"
     if factory is not None:
         s["run_id"] = _store(factory, scene, {**defaults, **scene.parameters}, s, model, method, fmu_path, result,
-                             recording)
+                             recording, None if motion is None else motion["excitation_id"])
         text_out += f"\nstored           run {s['run_id']} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
     print(json.dumps(s, indent=2) if args.json else text_out)
     return 0
@@ -95,14 +106,37 @@ def _measured(path: str | None, rrd: str | None) -> dict | None:
     return read_measured_csv(path)
 
 
+def _motion(factory, measurement_id: int) -> dict:
+    """A stored recorded excitation as FMU inputs: ground.ah(t) linearly interpolated between
+    the record's samples (zero outside it), held over each communication step."""
+    import numpy as np
+
+    from db import series
+    from db.schema import Measurement
+
+    with factory() as session:
+        m = session.get(Measurement, measurement_id)
+        if m is None:
+            raise ValueError(f"no measurement {measurement_id} in the database")
+        if m.excitation is None or m.excitation.series is None:
+            raise ValueError(f"measurement {measurement_id} is a {m.kind}, not a ground or table motion")
+        t, cols = series.unpack_blob(["ah"], m.excitation.series)
+        name, eid = m.name, m.excitation_id
+    a = cols["ah"]
+    return {"name": name, "excitation_id": eid, "dt": float(np.min(np.diff(t))),
+            "inputs": lambda time: (float(np.interp(time, t, a, left=0.0, right=0.0)), 0.0)}
+
+
 def _database(url: str | None):
     from db.session import open_database
 
     return open_database(url)
 
 
-def _store(factory, scene, merged, s, model, method, fmu_path, result, recording=None) -> int:
+def _store(factory, scene, merged, s, model, method, fmu_path, result, recording=None,
+           excitation_id: int | None = None) -> int:
     """The run and everything it refers to, in one transaction."""
+    from db.schema import Excitation
     from db.store import add_run, add_scene
     from runners.summary import summary_row
 
@@ -113,7 +147,8 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
                       stop_time=scene.stop_time, fmu_path=str(fmu_path) if result is not None else None,
                       wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
                       outputs=None if result is None else result.outputs,
-                      events=None if result is None else [e.as_dict() for e in result.events])
+                      events=None if result is None else [e.as_dict() for e in result.events],
+                      excitation=None if excitation_id is None else session.get(Excitation, excitation_id))
         run.recording = None if recording is None else str(Path(recording).resolve())
         session.flush()
         return run.id
@@ -223,6 +258,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--rrd", metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
     sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/measured.py)")
+    sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
+                     help="drive the block with a stored ground or table motion (runners import-measured) "
+                          "through the FMU's ground.ah input, instead of the scene's excitation")
     sim.add_argument("--accuracy", type=float, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
@@ -250,9 +288,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="grid points to simulate in full and record (.rrd), e.g. 0,17,40-45 or all")
     sw.add_argument("--record-dir", metavar="DIR", help="where --record writes (default: recordings/sweep-ID)")
     sw.set_defaults(func=cmd_sweep)
+    from runners.measuredcli import add_parser as add_measured_parser
     from runners.rrdcli import add_parser as add_rrd_parser
 
     add_rrd_parser(sub)
+    add_measured_parser(sub)
 
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")

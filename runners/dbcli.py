@@ -31,7 +31,8 @@ def _row(obj) -> dict[str, Any]:
     out = {}
     for col in obj.__table__.columns:
         v = getattr(obj, col.key)
-        out[col.key] = v.isoformat() if hasattr(v, "isoformat") else v
+        out[col.key] = (v.isoformat() if hasattr(v, "isoformat") else
+                        f"<{len(v)} bytes>" if isinstance(v, bytes) else v)
     return out
 
 
@@ -57,6 +58,9 @@ def cmd_list(args: argparse.Namespace) -> int:
                     "overturned" if summ and summ.overturned else "survived")
                 print(f"  {r.id:5d}  scene {r.scene_id:4d}  {r.model:22s} {r.method:12s} {outcome:10s} "
                       f"impacts {summ.impacts if summ else '-'}")
+            elif model is Measurement:
+                blocks = ", ".join(b.name for b in (r.block1, r.block2) if b is not None) or "-"
+                print(f"  {r.id:5d}  {r.kind:20s} {r.n_samples:7d} rows  block {blocks:20s} {r.name}")
             elif model is Scene:
                 print(f"  {r.id:5d}  {r.name}  ({r.n_blocks} block{'s' if r.n_blocks > 1 else ''})")
             else:
@@ -92,13 +96,13 @@ def add_parser(sub) -> None:
     dsub = dbp.add_subparsers(dest="db_command", required=True)
     init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
     init.set_defaults(func=cmd_init)
-    lst = dsub.add_parser("list", help="list blocks, runs, scenes or sweeps (newest first)")
+    lst = dsub.add_parser("list", help="list blocks, runs, scenes, sweeps or measurements (newest first)")
     lst.add_argument("table", choices=list(TABLES))
     lst.add_argument("--limit", type=int, default=20)
     lst.add_argument("--json", action="store_true")
     lst.set_defaults(func=cmd_list)
-    show = dsub.add_parser("show", help="one block (by name or id), run, scene or sweep, as JSON")
-    show.add_argument("what", choices=["block", "run", "scene", "sweep"])
+    show = dsub.add_parser("show", help="one block (by name or id), run, scene, sweep or measurement, as JSON")
+    show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement"])
     show.add_argument("key")
     show.set_defaults(func=cmd_show)
     for p in (init, lst, show):

@@ -1,67 +1,312 @@
-"""Measured time series read from CSV files, to overlay on simulated runs.
+"""Measured series read from files, converted to SI units and our sign convention.
 
-A file starts with a header row naming its columns: ``time`` (s) first, then any
-of ``block1.theta``, ``block2.theta`` (rad) and ``block1.omega``, ``block2.omega``
-(rad/s), in the sign convention of docs/conventions.md (theta > 0 clockwise).
-Lines starting with ``#`` are comments. An empty cell means "not measured at this
-time" for that column only. Time must increase strictly.
+Two formats:
+
+- **CSV** with a header of ``# key: value`` lines, then a row of column names,
+  then data rows. Keys (each can also be given on the command line, which wins):
+
+  ``kind``
+      ``peaks`` (free-rocking peak table: time, peak angle, as read from video),
+      ``rotation`` (rotation history: time, theta per block),
+      ``table-displacement`` / ``table-acceleration`` (shaking-table record),
+      ``ground-acceleration`` (recorded ground motion).
+  ``units``
+      e.g. ``time=s, theta=deg``: time in s or ms; theta in rad or deg;
+      displacement in m, cm or mm; acceleration in m/s2, cm/s2, gal or g.
+  ``sign``
+      angles: ``clockwise`` (ours: theta > 0 clockwise, rocking on the right
+      corner) or ``counterclockwise``; motions: ``+x`` (ours: positive moves
+      the ground to the right) or ``-x``.
+  ``block``, ``block2``, ``name``, ``source``, ``instrument``,
+  ``sampling_rate`` (Hz), ``uncertainty`` (e.g. ``theta=0.5 deg, time=0.1 s``).
+
+  Columns: ``time`` first, then ``theta`` (same as ``block1.theta``) and/or
+  ``block2.theta`` for peaks and rotations (``block1.omega``/``block2.omega``
+  in rad/s or deg/s may follow, for overlays), ``displacement`` or
+  ``acceleration`` for motions. An empty cell means "not measured at this
+  time" for that column. Time must increase strictly.
+
+- **PEER NGA .AT2** (recorded ground acceleration): four header lines, the
+  third naming the units (G), the fourth NPTS and DT, then the values. The
+  record's positive direction becomes +x unless ``--sign -x`` is given.
+
+Every problem raises ValueError (or FileNotFoundError) with one line naming
+the file, the line and what is wrong; nothing is returned half-read.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
+import re
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-COLUMNS = ("block1.theta", "block1.omega", "block2.theta", "block2.omega")
+G0 = 9.80665  # m/s^2, standard gravity (the "g" of accelerograms)
+
+KINDS: dict[str, str] = {  # kind -> the quantity of its value columns
+    "peaks": "theta",
+    "rotation": "theta",
+    "table-displacement": "displacement",
+    "table-acceleration": "acceleration",
+    "ground-acceleration": "acceleration",
+}
+UNITS: dict[str, dict[str, float]] = {  # quantity -> unit -> factor to SI
+    "time": {"s": 1.0, "ms": 1e-3},
+    "theta": {"rad": 1.0, "deg": math.pi / 180},
+    "omega": {"rad/s": 1.0, "deg/s": math.pi / 180},
+    "displacement": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
+    "acceleration": {"m/s2": 1.0, "m/s^2": 1.0, "cm/s2": 1e-2, "cm/s^2": 1e-2, "gal": 1e-2, "g": G0},
+}
+SIGNS: dict[str, dict[str, float]] = {
+    "theta": {"clockwise": 1.0, "counterclockwise": -1.0},
+    "motion": {"+x": 1.0, "-x": -1.0},
+}
+COLUMNS: dict[str, tuple[str, ...]] = {
+    "theta": ("block1.theta", "block2.theta", "block1.omega", "block2.omega"),
+    "displacement": ("displacement",),
+    "acceleration": ("acceleration",),
+}
+ALIASES = {"theta": "block1.theta", "omega": "block1.omega"}
+META_KEYS = ("kind", "units", "sign", "block", "block2", "name", "source", "instrument", "sampling_rate",
+             "uncertainty")
 
 
-def read_measured_csv(path: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """{column: (time in s, values)} of a measured CSV file; ValueError naming the line on bad input."""
+@dataclass
+class Measured:
+    """A measurement in SI units and our sign convention (docs/conventions.md)."""
+
+    kind: str
+    time: np.ndarray  # s
+    columns: dict[str, np.ndarray]  # rad, rad/s, m or m/s^2; NaN where not measured
+    units: dict[str, str]  # as declared
+    sign: str  # as declared
+    meta: dict[str, Any] = field(default_factory=dict)  # name, block, block2, source, instrument, sampling_rate
+    uncertainty: dict[str, float] = field(default_factory=dict)  # theta (rad), time (s), value (m or m/s^2)
+    file_name: str | None = None
+    sha256: str | None = None
+
+    def series(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """(time, values) of one column where it was measured."""
+        v = self.columns[name]
+        ok = ~np.isnan(v)
+        return self.time[ok], v[ok]
+
+
+def _quantity_of(column: str) -> str:
+    return "omega" if column.endswith(".omega") else "theta" if column.endswith(".theta") else column
+
+
+def parse_units(spec: str, where: str) -> dict[str, str]:
+    """'time=s, theta=deg' -> {'time': 's', 'theta': 'deg'}, each unit checked against its quantity."""
+    out: dict[str, str] = {}
+    for part in filter(None, (p.strip() for p in spec.split(","))):
+        q, eq, unit = (x.strip() for x in part.partition("="))
+        if not eq or q not in UNITS:
+            raise ValueError(f"{where}: units {spec!r}: expected QUANTITY=UNIT with QUANTITY in {', '.join(UNITS)}")
+        if unit not in UNITS[q]:
+            raise ValueError(f"{where}: units: {unit!r} is not a unit of {q} ({', '.join(UNITS[q])})")
+        out[q] = unit
+    return out
+
+
+def parse_uncertainty(spec: str, where: str) -> dict[str, float]:
+    """'theta=0.5 deg, time=0.1 s' -> {'theta': rad, 'time': s}; motions: 'acceleration=0.01 g'."""
+    out: dict[str, float] = {}
+    for part in filter(None, (p.strip() for p in spec.split(","))):
+        q, eq, rest = (x.strip() for x in part.partition("="))
+        value, _, unit = rest.partition(" ")
+        unit = unit.strip()
+        try:
+            v = float(value)
+        except ValueError:
+            v = math.nan
+        if not eq or q not in UNITS or unit not in UNITS[q] or not (v >= 0 and math.isfinite(v)):
+            raise ValueError(f"{where}: uncertainty {part!r}: expected QUANTITY=VALUE UNIT, e.g. theta=0.5 deg")
+        out["value" if q in ("displacement", "acceleration") else q] = v * UNITS[q][unit]
+    return out
+
+
+def _header_and_rows(path: Path) -> tuple[dict[str, tuple[int, str]], list[tuple[int, list[str]]]]:
+    meta: dict[str, tuple[int, str]] = {}
+    rows: list[tuple[int, list[str]]] = []
+    with path.open(newline="") as f:
+        for n, row in enumerate(csv.reader(f), start=1):
+            if not row or not any(c.strip() for c in row):
+                continue
+            first = row[0].lstrip()
+            if first.startswith("#"):
+                text = ",".join(row).lstrip()[1:].strip()
+                key, colon, value = text.partition(":")
+                key = key.strip().lower().replace(" ", "_")
+                if colon and key in META_KEYS:
+                    meta[key] = (n, value.strip())
+                continue
+            rows.append((n, row))
+    return meta, rows
+
+
+def read_csv(path: str | Path, given: dict[str, str] | None = None,
+             defaults: dict[str, str] | None = None) -> Measured:
+    """A measured CSV file. `given` (command line) wins over the file's header, which wins
+    over `defaults`; kind, units and sign must be declared by one of them."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"measured file {path} does not exist")
-    with path.open(newline="") as f:
-        rows = [(n, r) for n, r in enumerate(csv.reader(f), start=1)
-                if r and not r[0].lstrip().startswith("#") and any(c.strip() for c in r)]
+    header, rows = _header_and_rows(path)
+    meta = {**(defaults or {}), **{k: v for k, (_, v) in header.items()},
+            **{k: v for k, v in (given or {}).items() if v is not None}}
+    where = str(path)
+    kind = meta.get("kind")
+    if kind not in KINDS:
+        raise ValueError(f"{where}: declare the kind (# kind: or --kind) as one of {', '.join(KINDS)}"
+                         + (f", not {kind!r}" if kind else ""))
     if not rows:
-        raise ValueError(f"{path}: no header row (time, then any of {', '.join(COLUMNS)})")
-    _, header = rows[0]
-    header = [h.strip() for h in header]
-    if header[0] != "time":
-        raise ValueError(f"{path}: the first column must be 'time' (s), not {header[0]!r}")
-    bad = [h for h in header[1:] if h not in COLUMNS]
-    if bad or len(header) < 2 or len(set(header)) != len(header):
-        raise ValueError(f"{path}: columns after 'time' must be distinct names among {', '.join(COLUMNS)}"
-                         + (f" (got {', '.join(bad)})" if bad else ""))
+        raise ValueError(f"{where}: no column names row (time, then the measured columns)")
+    line, names = rows[0]
+    names = [ALIASES.get(h.strip(), h.strip()) for h in names]
+    quantity = KINDS[kind]
+    allowed = COLUMNS[quantity]
+    if names[0] != "time":
+        raise ValueError(f"{where}, line {line}: the first column must be 'time', not {names[0]!r}")
+    bad = [h for h in names[1:] if h not in allowed]
+    if bad or len(names) < 2 or len(set(names)) != len(names):
+        raise ValueError(f"{where}, line {line}: columns after 'time' must be distinct names among "
+                         f"{', '.join(allowed)} for kind {kind}" + (f" (got {', '.join(bad)})" if bad else ""))
+    if "units" not in meta:
+        raise ValueError(f"{where}: declare the units (# units: or --units), e.g. time=s, "
+                         f"{_quantity_of(names[1])}={next(iter(UNITS[_quantity_of(names[1])]))}")
+    units = parse_units(meta["units"], where)
+    needed = {"time"} | {_quantity_of(h) for h in names[1:]}
+    missing = sorted(needed - set(units))
+    if missing:
+        raise ValueError(f"{where}: units: no unit declared for {', '.join(missing)}")
+    sign_kind = "theta" if quantity == "theta" else "motion"
+    sign = meta.get("sign")
+    if sign not in SIGNS[sign_kind]:
+        raise ValueError(f"{where}: declare the sign convention (# sign: or --sign) as one of "
+                         f"{', '.join(SIGNS[sign_kind])}" + (f", not {sign!r}" if sign else ""))
     if len(rows) < 3:
-        raise ValueError(f"{path}: needs at least two data rows")
-    t: list[float] = []
-    cols: dict[str, list[tuple[float, float]]] = {h: [] for h in header[1:]}
-    for line, row in rows[1:]:
-        if len(row) != len(header):
-            raise ValueError(f"{path}, line {line}: {len(row)} fields, the header has {len(header)}")
+        raise ValueError(f"{where}: needs at least two data rows")
+    data = np.empty((len(rows) - 1, len(names)))
+    for i, (line, row) in enumerate(rows[1:]):
+        if len(row) != len(names):
+            raise ValueError(f"{where}, line {line}: {len(row)} fields, the column names row has {len(names)}")
         try:
-            values = [float(c) if c.strip() else math.nan for c in row]
+            data[i] = [float(c) if c.strip() else math.nan for c in row]
         except ValueError:
-            raise ValueError(f"{path}, line {line}: not a number in {','.join(row)!r}") from None
-        if not math.isfinite(values[0]):
-            raise ValueError(f"{path}, line {line}: time must be a finite number")
-        if t and values[0] <= t[-1]:
-            raise ValueError(f"{path}, line {line}: time {values[0]:g} s does not increase (previous {t[-1]:g} s)")
-        if any(math.isinf(v) for v in values[1:]):
-            raise ValueError(f"{path}, line {line}: values must be finite")
-        t.append(values[0])
-        for h, v in zip(header[1:], values[1:]):
-            if not math.isnan(v):
-                cols[h].append((values[0], v))
-    out = {}
-    for h, pairs in cols.items():
-        if pairs:
-            a = np.array(pairs)
-            out[h] = (a[:, 0], a[:, 1])
-    if not out:
-        raise ValueError(f"{path}: no measured values")
+            raise ValueError(f"{where}, line {line}: not a number in {','.join(row)!r}") from None
+        if not math.isfinite(data[i, 0]):
+            raise ValueError(f"{where}, line {line}: time must be a finite number")
+        if i and data[i, 0] <= data[i - 1, 0]:
+            raise ValueError(f"{where}, line {line}: time {data[i, 0]:g} does not increase "
+                             f"(previous {data[i - 1, 0]:g})")
+        if np.isinf(data[i, 1:]).any():
+            raise ValueError(f"{where}, line {line}: values must be finite")
+    time = data[:, 0] * UNITS["time"][units["time"]]
+    columns = {h: data[:, j + 1] * UNITS[_quantity_of(h)][units[_quantity_of(h)]] * SIGNS[sign_kind][sign]
+               for j, h in enumerate(names[1:])}
+    if all(np.isnan(v).all() for v in columns.values()):
+        raise ValueError(f"{where}: no measured values")
+    out = Measured(kind, time, columns, units, sign, file_name=path.name,
+                   sha256=hashlib.sha256(path.read_bytes()).hexdigest())
+    _finish(out, meta, where)
     return out
+
+
+_NPTS_DT = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([0-9.Ee+-]+)", re.I)
+_OLD_NPTS_DT = re.compile(r"^\s*(\d+)\s+([0-9.Ee+-]+)\s+NPTS", re.I)
+_AT2_UNITS = {"G": "g", "CM/S/S": "cm/s2", "CM/S^2": "cm/s2", "CM/SEC/SEC": "cm/s2", "M/S/S": "m/s2"}
+
+
+def read_at2(path: str | Path, given: dict[str, str] | None = None) -> Measured:
+    """A PEER NGA .AT2 accelerogram as a ground-acceleration measurement (m/s^2)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"measured file {path} does not exist")
+    where = str(path)
+    lines = path.read_text(errors="replace").splitlines()
+    if len(lines) < 5:
+        raise ValueError(f"{where}: an .AT2 file has four header lines and then values")
+    m = re.search(r"UNITS\s+OF\s+(\S+)", lines[2], re.I)
+    unit = _AT2_UNITS.get(m.group(1).upper()) if m else None
+    if unit is None:
+        raise ValueError(f"{where}, line 3: expected 'ACCELERATION TIME SERIES IN UNITS OF G' (or CM/S/S)")
+    m = _NPTS_DT.search(lines[3]) or _OLD_NPTS_DT.search(lines[3])
+    if m is None:
+        raise ValueError(f"{where}, line 4: expected 'NPTS= N, DT= dt SEC'")
+    npts, dt = int(m.group(1)), float(m.group(2))
+    if npts < 2 or not (dt > 0 and math.isfinite(dt)):
+        raise ValueError(f"{where}, line 4: NPTS must be at least 2 and DT positive (got {npts}, {dt:g})")
+    values: list[float] = []
+    for n, text in enumerate(lines[4:], start=5):
+        for item in text.replace(",", " ").split():
+            try:
+                v = float(item)
+            except ValueError:
+                raise ValueError(f"{where}, line {n}: not a number: {item!r}") from None
+            if not math.isfinite(v):
+                raise ValueError(f"{where}, line {n}: values must be finite")
+            values.append(v)
+    if len(values) != npts:
+        raise ValueError(f"{where}: the header says NPTS={npts} but the file has {len(values)} values")
+    meta = {"kind": "ground-acceleration", "sign": "+x", "name": lines[1].strip()[:200] or path.stem,
+            "source": f"PEER NGA record: {lines[1].strip()}", "sampling_rate": str(1.0 / dt),
+            **{k: v for k, v in (given or {}).items() if v is not None}}
+    if meta["kind"] not in ("ground-acceleration", "table-acceleration"):
+        raise ValueError(f"{where}: an .AT2 file is an acceleration record, not kind {meta['kind']!r}")
+    if meta["sign"] not in SIGNS["motion"]:
+        raise ValueError(f"{where}: --sign must be one of {', '.join(SIGNS['motion'])} for an accelerogram")
+    a = np.asarray(values) * UNITS["acceleration"][unit] * SIGNS["motion"][meta["sign"]]
+    out = Measured(meta["kind"], dt * np.arange(npts), {"acceleration": a}, {"time": "s", "acceleration": unit},
+                   meta["sign"], file_name=path.name, sha256=hashlib.sha256(path.read_bytes()).hexdigest())
+    _finish(out, meta, where)
+    return out
+
+
+def _finish(out: Measured, meta: dict[str, str], where: str) -> None:
+    """Provenance, uncertainty and plausibility checks that catch wrong units."""
+    for key in ("name", "block", "block2", "source", "instrument"):
+        if meta.get(key):
+            out.meta[key] = meta[key]
+    out.meta.setdefault("name", Path(where).stem)
+    if meta.get("sampling_rate"):
+        try:
+            rate = float(meta["sampling_rate"])
+        except ValueError:
+            rate = math.nan
+        if not (rate > 0 and math.isfinite(rate)):
+            raise ValueError(f"{where}: sampling_rate must be a positive number of Hz, not {meta['sampling_rate']!r}")
+        out.meta["sampling_rate"] = rate
+    if meta.get("uncertainty"):
+        out.uncertainty = parse_uncertainty(meta["uncertainty"], where)
+    for name, v in out.columns.items():
+        top = float(np.nanmax(np.abs(v)))
+        if name.endswith(".theta") and top > math.pi / 2:
+            raise ValueError(f"{where}: |{name}| reaches {top:.3g} rad, beyond a fallen block (pi/2): "
+                             f"are the units right (declared {out.units.get('theta')})?")
+        if name == "acceleration" and top > 10 * G0:
+            raise ValueError(f"{where}: |acceleration| reaches {top / G0:.3g} g: are the units right "
+                             f"(declared {out.units.get('acceleration')})?")
+        if name == "displacement" and top > 5.0:
+            raise ValueError(f"{where}: |displacement| reaches {top:.3g} m: are the units right "
+                             f"(declared {out.units.get('displacement')})?")
+
+
+def read_measured(path: str | Path, given: dict[str, str] | None = None) -> Measured:
+    """A measured file, CSV or .AT2 (by its suffix)."""
+    if Path(path).suffix.lower() == ".at2":
+        return read_at2(path, given)
+    return read_csv(path, given)
+
+
+def read_measured_csv(path: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """A rotation CSV to overlay on a recording: {column: (time in s, values)}. Without a
+    header it is taken as SI units and our sign convention."""
+    m = read_csv(path, defaults={"kind": "rotation", "units": "time=s, theta=rad, omega=rad/s",
+                                 "sign": "clockwise"})
+    return {name: m.series(name) for name in m.columns if not np.isnan(m.columns[name]).all()}

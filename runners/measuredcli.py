@@ -1,0 +1,236 @@
+"""``runners import-measured | compare | calibrate``: measured experiments in the database."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+from sqlalchemy import select
+
+from db import series
+from db.schema import Block, Excitation, Measurement, Run
+from db.session import open_database
+from runners.fmu import Event, RockingFMU, fmu_path_from
+
+DB_HELP = "database URL or SQLite file (default: ROCKING_DB, else sqlite:///rocking.db)"
+
+
+def find_block(session, key: str) -> Block:
+    """A block by name (or id)."""
+    block = session.scalar(select(Block).where(Block.name == key))
+    if block is None and key.isdigit():
+        block = session.get(Block, int(key))
+    if block is None:
+        raise ValueError(f"no block {key!r} in the database (runners db init loads the catalogue; "
+                         "runners db list blocks shows them)")
+    return block
+
+
+def ground_acceleration(kind: str, time: np.ndarray, columns: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(time, horizontal ground acceleration in m/s^2) of a motion record; a table
+    displacement is differentiated twice (np.gradient: central differences inside)."""
+    if kind == "table-displacement":
+        t, x = time, columns["displacement"]
+        if np.isnan(x).any():
+            raise ValueError("a table displacement record needs a value at every time to be differentiated")
+        return t, np.gradient(np.gradient(x, t), t)
+    a = columns["acceleration"]
+    ok = ~np.isnan(a)
+    return time[ok], a[ok]
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    from db.store import add_measurement
+    from runners.measured import read_measured
+
+    given = {"kind": args.kind, "units": args.units, "sign": args.sign, "block": args.block, "block2": args.block2,
+             "name": args.name, "source": args.source, "instrument": args.instrument,
+             "sampling_rate": None if args.sampling_rate is None else str(args.sampling_rate),
+             "uncertainty": args.uncertainty}
+    m = read_measured(args.file, given)  # everything is checked before the database is touched
+    factory = open_database(args.db)
+    motion = m.kind not in ("peaks", "rotation")
+    with factory.begin() as session:  # one transaction: all of it or nothing
+        b1 = find_block(session, m.meta["block"]) if m.meta.get("block") else None
+        b2 = find_block(session, m.meta["block2"]) if m.meta.get("block2") else None
+        if not motion and b1 is None:
+            raise ValueError(f"a {m.kind} measurement needs its block (# block: or --block NAME)")
+        if "block2.theta" in m.columns and b2 is None:
+            raise ValueError("block2.theta is measured: name the upper block (# block2: or --block2 NAME)")
+        excitation = None
+        if args.excitation is not None:
+            if motion:
+                raise ValueError("--excitation links a rotation or peak table to the motion that drove it; "
+                                 "a motion record is its own excitation")
+            excitation = session.get(Excitation, args.excitation)
+            if excitation is None:
+                raise ValueError(f"no excitation {args.excitation} in the database")
+        row = add_measurement(session, name=m.meta["name"], kind=m.kind, time=m.time, columns=m.columns,
+                              units=m.units, sign=m.sign, block1=b1, block2=b2, source=m.meta.get("source"),
+                              instrument=m.meta.get("instrument"), sampling_rate=m.meta.get("sampling_rate"),
+                              uncertainty=m.uncertainty, file_name=m.file_name, file_sha256=m.sha256,
+                              ground=ground_acceleration(m.kind, m.time, m.columns) if motion else None)
+        if excitation is not None:
+            row.excitation = excitation
+        session.flush()
+        mid, eid = row.id, row.excitation_id
+    blocks = ", ".join(b.name for b in (b1, b2) if b is not None)
+    print(f"imported measurement {mid}: {m.kind}, {len(m.time)} rows ({m.time[0]:g} to {m.time[-1]:g} s)"
+          + (f", block {blocks}" if blocks else "")
+          + (f", recorded excitation {eid}" if motion else f", excitation {eid}" if eid else ", free rocking"))
+    return 0
+
+
+def load_measurement(session, mid: int) -> tuple[Measurement, np.ndarray, dict[str, np.ndarray]]:
+    m = session.get(Measurement, mid)
+    if m is None:
+        raise ValueError(f"no measurement {mid} in the database (runners db list measurements)")
+    t, cols = series.unpack(m.names, m.n_samples, m.data)
+    return m, t, cols
+
+
+def _theta(t: np.ndarray, cols: dict[str, np.ndarray], column: str) -> tuple[np.ndarray, np.ndarray]:
+    if column not in cols:
+        raise ValueError(f"the measurement has no {column} (it has {', '.join(cols)})")
+    ok = ~np.isnan(cols[column])
+    return t[ok], cols[column][ok]
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from runners.compare import compare_peaks, compare_rotation, decay_from_peaks, format_comparison, plot_comparison
+
+    factory = open_database(args.db)
+    with factory() as session:
+        run = session.get(Run, args.run)
+        if run is None:
+            raise ValueError(f"no run {args.run} in the database")
+        if run.series is None:
+            raise ValueError(f"run {args.run} has no stored series to compare (simulate it without --no-store)")
+        m, tm, mcols = load_measurement(session, args.measurement)
+        if m.kind not in ("peaks", "rotation"):
+            raise ValueError(f"measurement {m.id} is a {m.kind} record, not a rotation to compare with")
+        t_sim, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+        events = [Event.from_dict(e) for e in run.series.events or []]
+        sigma_theta, sigma_time, kind, name = m.uncertainty_angle, m.uncertainty_time, m.kind, m.name
+    column = f"block{args.block}.theta"
+    if column not in cols:
+        raise ValueError(f"run {args.run} has no {column}")
+    t_meas, th_meas = _theta(tm, mcols, column)
+    peaks = [e for e in events if e.kind == "peak" and (args.block == 1 or "theta2" in e.values)]
+    p_t = np.array([e.t for e in peaks])
+    p_th = np.array([e.values.get("theta", e.values.get(f"theta{args.block}", math.nan)) for e in peaks])
+    if kind == "peaks":
+        c = compare_peaks(decay_from_peaks(t_meas, th_meas), p_t, p_th)
+    else:
+        impacts = np.array([e.t for e in events if e.kind == "impact"
+                            and (args.block == 1 or e.labels.get("contact") != "ground")])
+        c = compare_rotation(t_meas, th_meas, t_sim, cols[column], impacts, p_t, p_th, sigma_theta or 0.0)
+    print(f"run {args.run} against measurement {args.measurement} ({name}, {kind}), {column}")
+    print(format_comparison(c, sigma_theta, sigma_time))
+    if args.plot:
+        shift = t_meas[0] if kind == "peaks" else 0.0  # a peak table's first row is the run's time 0
+        plot_comparison(Path(args.plot), f"run {args.run} against measurement {args.measurement}: {name}",
+                        t_sim, cols[column], t_meas - shift, th_meas, sigma_theta, sigma_time,
+                        kind == "peaks" and bool(np.all(th_meas >= 0)))
+        print(f"plot             {args.plot}")
+    if args.rrd:
+        from runners.rrdcli import record_run
+
+        shift = t_meas[0] if kind == "peaks" else 0.0
+        path = record_run(factory, args.run, Path(args.rrd), args.fmu, {column: (t_meas - shift, th_meas)},
+                          remember=False)
+        print(f"recording        {path}")
+    return 0
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from db.catalogue import block_parameters
+    from runners.calibrate import calibrate
+    from runners.compare import decay_from_peaks, decay_from_rotation
+
+    factory = open_database(args.db)
+    with factory() as session:
+        m, tm, mcols = load_measurement(session, args.measurement)
+        if m.kind not in ("peaks", "rotation"):
+            raise ValueError(f"measurement {m.id} is a {m.kind} record; calibration needs a free-rocking "
+                             "peak table or rotation history")
+        if m.block1 is None:
+            raise ValueError(f"measurement {m.id} names no block")
+        block = m.block1
+        base = block_parameters(block)
+        t, th = _theta(tm, mcols, "block1.theta")
+        decay = (decay_from_peaks(t, th) if m.kind == "peaks" else
+                 decay_from_rotation(t, th, m.uncertainty_angle or 0.0))
+        sig = (m.uncertainty_angle, m.uncertainty_time)
+        block_fields = {c.key: getattr(block, c.key) for c in Block.__table__.columns if c.key != "id"}
+    with RockingFMU(fmu_path_from(args.fmu)) as fmu:
+        fit = calibrate(fmu, {**fmu.defaults(), **base}, decay, args.law, *sig)
+    name = {"constant": "eta", "modified": "k", "correction": "correction factor"}[args.law]
+    text = (f"{name} = {fit.value:.4f}, 95% interval [{fit.low:.4f}, {fit.high:.4f}] "
+            f"(theta0 {fit.theta0:.4f} rad, chi2/dof {fit.chi2_per_dof:.3g}, {fit.dof} dof, "
+            f"{fit.evaluations} simulations"
+            + ("; uncertainty not stated, seed 000's 0.5 deg and 0.1 s assumed" if fit.sigma_assumed else "") + ")")
+    out = {"measurement": args.measurement, "law": args.law, "value": fit.value, "low": fit.low, "high": fit.high,
+           "theta0": fit.theta0, "chi2_per_dof": fit.chi2_per_dof, "dof": fit.dof}
+    if not args.no_store:
+        fields = dict(block_fields)
+        fields["restitution_law"] = {"constant": "constant", "modified": "modified", "correction": "housner"}[args.law]
+        fields.update({"constant": {"eta": fit.value, "correction": 1.0}, "modified": {"k": fit.value, "correction": 1.0},
+                       "correction": {"correction": fit.value}}[args.law])
+        fields["source"] = f"calibrated from measurement {args.measurement} ({m.name}): {text}"
+        with factory.begin() as session:
+            stem = f"{block_fields['name']}-cal-m{args.measurement}-{args.law}"
+            taken = set(session.scalars(select(Block.name).where(Block.name.like(f"{stem}%"))))
+            fields["name"] = next(n for n in (stem, *(f"{stem}-{i}" for i in range(2, 10000))) if n not in taken)
+            new = Block(**fields)
+            session.add(new)
+            session.flush()
+            out["block"], out["block_id"] = new.name, new.id
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        print(f"measurement {args.measurement}, block {block_fields['name']}, law {args.law}: {text}")
+        if "block" in out:
+            print(f"stored block     {out['block']} (id {out['block_id']})")
+    return 0
+
+
+def add_parser(sub) -> None:
+    imp = sub.add_parser("import-measured", help="import a measured file (CSV or PEER .AT2) into the database")
+    imp.add_argument("file", help="CSV with '# key: value' header lines, or a PEER NGA .AT2 record "
+                                  "(format: docs/measured.md)")
+    imp.add_argument("--kind", help="peaks, rotation, table-displacement, table-acceleration or ground-acceleration")
+    imp.add_argument("--units", help="e.g. 'time=s, theta=deg' (overrides the file's header)")
+    imp.add_argument("--sign", help="clockwise or counterclockwise (angles); +x or -x (motions)")
+    imp.add_argument("--block", help="block name in the database (the lower block of a stack)")
+    imp.add_argument("--block2", help="upper block name, for a stack")
+    imp.add_argument("--name", help="a name for the measurement (default: the file's)")
+    imp.add_argument("--source", help="where it comes from (lab, paper, figure)")
+    imp.add_argument("--instrument", help="e.g. video 25 fps, LVDT, accelerometer")
+    imp.add_argument("--sampling-rate", type=float, help="Hz")
+    imp.add_argument("--uncertainty", help="e.g. 'theta=0.5 deg, time=0.1 s' or 'acceleration=0.01 g'")
+    imp.add_argument("--excitation", type=int, metavar="EXCITATION_ID",
+                     help="for a forced-rocking rotation or peak table: the stored excitation that drove it "
+                          "(e.g. the one a table record's import printed); none means free rocking")
+    imp.set_defaults(func=cmd_import)
+    cmp_ = sub.add_parser("compare", help="a stored run against a measurement: aligned errors, plot, recording")
+    cmp_.add_argument("run", type=int, help="run id")
+    cmp_.add_argument("measurement", type=int, help="measurement id")
+    cmp_.add_argument("--block", type=int, choices=[1, 2], default=1, help="which block's theta (default 1)")
+    cmp_.add_argument("--plot", metavar="PNG", help="draw both, with the measurement's uncertainty")
+    cmp_.add_argument("--rrd", metavar="PATH", help="the run's Rerun recording with the measurement overlaid")
+    cmp_.set_defaults(func=cmd_compare)
+    cal = sub.add_parser("calibrate", help="fit the restitution to a measured free-rocking decay")
+    cal.add_argument("measurement", type=int, help="measurement id (a peak table or rotation history)")
+    cal.add_argument("--law", required=True, choices=["constant", "modified", "correction"],
+                     help="fit eta (constant), k (modified) or Housner's correction factor")
+    cal.add_argument("--no-store", action="store_true", help="do not store the calibrated block")
+    cal.add_argument("--json", action="store_true")
+    cal.set_defaults(func=cmd_calibrate)
+    for p in (imp, cmp_, cal):
+        p.add_argument("--db", help=DB_HELP)
+    for p in (cmp_, cal):
+        p.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
