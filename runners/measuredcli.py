@@ -198,6 +198,48 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    """A stored run written as a measured file, optionally with reading noise: a synthetic
+    experiment with known parameters, for checking import, compare and calibrate."""
+    factory = open_database(args.db)
+    with factory() as session:
+        run = session.get(Run, args.run)
+        if run is None:
+            raise ValueError(f"no run {args.run} in the database")
+        if run.series is None:
+            raise ValueError(f"run {args.run} has no stored series to export")
+        t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+        events = [Event.from_dict(e) for e in run.series.events or []]
+        block, scene_name = args.block, run.scene.name
+    if args.noise_theta < 0 or args.noise_time < 0 or args.every < 1:
+        raise ValueError("--noise-theta and --noise-time must be >= 0 and --every >= 1")
+    rng = np.random.default_rng(args.seed)
+    if args.kind == "peaks":
+        peaks = [e for e in events if e.kind == "peak"][: args.max_peaks]
+        if not peaks:
+            raise ValueError(f"run {args.run} has no peak events")
+        times = np.array([0.0] + [e.t for e in peaks])
+        theta = np.array([cols["block1.theta"][0]] + [e.values["theta"] for e in peaks])
+    else:
+        times, theta = t[:: args.every], cols["block1.theta"][:: args.every]
+    times = times + rng.normal(0, args.noise_time, len(times)) * (np.arange(len(times)) > 0)
+    theta = theta + rng.normal(0, args.noise_theta * math.pi / 180, len(theta))
+    if np.any(np.diff(times) <= 0):
+        raise ValueError(f"--noise-time {args.noise_time:g} s reorders the samples; lower it or use --seed")
+    out = Path(args.out)
+    header = [f"# kind: {args.kind}", "# units: time=s, theta=deg", "# sign: clockwise",
+              f"# source: synthetic: run {args.run} ({scene_name}) exported by runners export-measured, "
+              f"normal noise of {args.noise_theta:g} deg and {args.noise_time:g} s, seed {args.seed}"]
+    if block:
+        header.append(f"# block: {block}")
+    if args.noise_theta or args.noise_time:
+        header.append(f"# uncertainty: theta={args.noise_theta:g} deg, time={args.noise_time:g} s")
+    lines = header + ["time,theta"] + [f"{a:.6f},{b * 180 / math.pi:.6f}" for a, b in zip(times, theta)]
+    out.write_text("\n".join(lines) + "\n")
+    print(f"{out}: {args.kind}, {len(times)} rows")
+    return 0
+
+
 def add_parser(sub) -> None:
     imp = sub.add_parser("import-measured", help="import a measured file (CSV or PEER .AT2) into the database")
     imp.add_argument("file", help="CSV with '# key: value' header lines, or a PEER NGA .AT2 record "
@@ -223,6 +265,18 @@ def add_parser(sub) -> None:
     cmp_.add_argument("--plot", metavar="PNG", help="draw both, with the measurement's uncertainty")
     cmp_.add_argument("--rrd", metavar="PATH", help="the run's Rerun recording with the measurement overlaid")
     cmp_.set_defaults(func=cmd_compare)
+    exp = sub.add_parser("export-measured", help="write a stored run as a measured CSV file, with optional noise")
+    exp.add_argument("run", type=int, help="run id")
+    exp.add_argument("--out", required=True, help="CSV file to write")
+    exp.add_argument("--kind", choices=["peaks", "rotation"], default="peaks",
+                     help="peaks: the release and the peak events; rotation: block 1's theta")
+    exp.add_argument("--block", help="block name to declare in the file's header")
+    exp.add_argument("--noise-theta", type=float, default=0.0, help="standard deviation of angle noise (deg)")
+    exp.add_argument("--noise-time", type=float, default=0.0, help="standard deviation of time noise (s)")
+    exp.add_argument("--seed", type=int, default=0, help="random seed of the noise")
+    exp.add_argument("--every", type=int, default=1, help="rotation: keep every Nth output sample")
+    exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many")
+    exp.set_defaults(func=cmd_export)
     cal = sub.add_parser("calibrate", help="fit the restitution to a measured free-rocking decay")
     cal.add_argument("measurement", type=int, help="measurement id (a peak table or rotation history)")
     cal.add_argument("--law", required=True, choices=["constant", "modified", "correction"],
@@ -230,7 +284,7 @@ def add_parser(sub) -> None:
     cal.add_argument("--no-store", action="store_true", help="do not store the calibrated block")
     cal.add_argument("--json", action="store_true")
     cal.set_defaults(func=cmd_calibrate)
-    for p in (imp, cmp_, cal):
+    for p in (imp, cmp_, cal, exp):
         p.add_argument("--db", help=DB_HELP)
     for p in (cmp_, cal):
         p.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")

@@ -67,32 +67,66 @@ def db(tmp_path, fmu_path):
     return url
 
 
-@pytest.mark.parametrize("law, value, sign", [("constant", 0.9, "clockwise"), ("modified", 0.85, "counterclockwise")])
-def test_round_trip_simulate_export_import_calibrate(tmp_path, fmu, fmu_path, db, law, value, sign):
-    block = catalogue_block("seed000-block2")
-    alpha = math.atan2(block["block1.halfWidth"], block["block1.halfHeight"])
-    params = {"constant": {"restitution.law": 2, "restitution.eta": value},
-              "modified": {"restitution.law": 1, "restitution.k": value}}[law]
-    t, th = decay(fmu, {**fmu.defaults(), **block}, params, 0.8 * alpha, 8)
-    csv = tmp_path / "peaks.csv"
-    noisy_peak_table(csv, t, th, 0.8 * alpha, seed=3, block="seed000-block2", sign=sign)
+def export_with_noise(tmp_path: Path, db: str, fmu_path, run: int, block: str, max_peaks: int = 8) -> Path:
+    """runners export-measured with the thesis's reading noise (0.5 deg; 0.05 s so that
+    the peaks stay in time order), from the first seed that keeps them in order."""
+    out = tmp_path / "exported.csv"
+    for seed in range(20):
+        p = runners("export-measured", str(run), "--out", str(out), "--block", block, "--noise-theta", "0.5",
+                    "--noise-time", "0.05", "--seed", str(seed), "--max-peaks", str(max_peaks), db=db,
+                    fmu_path=fmu_path)
+        if p.returncode == 0:
+            return out
+        assert "reorders" in p.stderr, p.stderr
+    raise AssertionError("no seed kept the peaks in order")
+
+
+@pytest.mark.parametrize("law, value", [("constant", 0.9), ("modified", 0.85)])
+def test_round_trip_simulate_export_import_calibrate(tmp_path, fmu_path, db, law, value):
+    """All through the command line: simulate a free decay with known restitution, export it
+    as a measured peak table with noise, import it, calibrate, and recover the parameter."""
+    b = next(c for c in CATALOGUE if c["name"] == "seed000-block2")
+    scene = tmp_path / "decay.toml"
+    scene.write_text(f"name = 'synthetic decay'\n[block]\nhalf_width = {b['half_width']}\n"
+                     f"half_height = {b['half_height']}\nmass = {b['mass']}\ntheta0 = 0.33\n"
+                     f"[restitution]\nlaw = '{law}'\n{'eta' if law == 'constant' else 'k'} = {value}\n"
+                     "[simulation]\nstop_time = 4.0\nstep = 0.01\n")
+    assert runners("simulate", str(scene), db=db, fmu_path=fmu_path).returncode == 0
+    csv = export_with_noise(tmp_path, db, fmu_path, 1, "seed000-block2")
     p = runners("import-measured", str(csv), db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     factory = open_database(db)
     with factory() as session:
         m = session.get(Measurement, 1)
-        assert (m.block1.name, m.kind, m.units["theta"], m.sign) == ("seed000-block2", "peaks", "deg", sign)
-        assert m.uncertainty_angle == pytest.approx(0.5 * DEG) and m.uncertainty_time == 0.1
-        tm, cols = series.unpack(m.names, m.n_samples, m.data)
-        assert np.sign(cols["block1.theta"][0]) == 1.0  # stored in our convention whatever the file's
+        assert (m.block1.name, m.kind, m.units["theta"], m.sign) == ("seed000-block2", "peaks", "deg", "clockwise")
+        assert m.uncertainty_angle == pytest.approx(0.5 * DEG) and m.uncertainty_time == 0.05
     p = runners("calibrate", "1", "--law", law, "--json", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     fit = json.loads(p.stdout)
     assert fit["low"] <= value <= fit["high"] and fit["high"] - fit["low"] < 0.2  # informative on [0, 1]
+    assert abs(fit["theta0"] - 0.33) < 2 * 0.5 * DEG
     with factory() as session:
         stored = session.get(Block, fit["block_id"])
         assert stored.restitution_law == law and getattr(stored, "eta" if law == "constant" else "k") == fit["value"]
         assert "measurement 1" in stored.source
+
+
+def test_a_file_in_other_units_and_signs_is_stored_in_ours(tmp_path, fmu_path, db):
+    """The same peaks declared in deg/counterclockwise/ms and in rad/clockwise/s store alike."""
+    ours = tmp_path / "ours.csv"
+    theirs = tmp_path / "theirs.csv"
+    rows = [(0.0, 0.3), (0.41, -0.2), (0.72, 0.15)]
+    ours.write_text("# kind: peaks\n# units: time=s, theta=rad\n# sign: clockwise\n# block: B3L\ntime,theta\n"
+                    + "".join(f"{t!r},{th!r}\n" for t, th in rows))
+    theirs.write_text("# kind: peaks\n# units: time=ms, theta=deg\n# sign: counterclockwise\n# block: B3L\n"
+                      "time,theta\n" + "".join(f"{t * 1e3!r},{-th / DEG!r}\n" for t, th in rows))
+    for f in (ours, theirs):
+        assert runners("import-measured", str(f), db=db, fmu_path=fmu_path).returncode == 0
+    with open_database(db)() as session:
+        a, b = (series.unpack(m.names, m.n_samples, m.data) for m in (session.get(Measurement, 1),
+                                                                       session.get(Measurement, 2)))
+    np.testing.assert_allclose(b[0], a[0], rtol=1e-15)
+    np.testing.assert_allclose(b[1]["block1.theta"], a[1]["block1.theta"], rtol=1e-14)
 
 
 @pytest.mark.parametrize("name", ["seed000-block1", "seed000-block2", "seed000-block3"])
@@ -255,6 +289,7 @@ def test_every_bad_input_is_one_line_and_stores_nothing(tmp_path, fmu_path, db):
                          (["import-measured", str(good), "--excitation", "99"], "no excitation 99"),
                          (["calibrate", "7", "--law", "constant"], "no measurement 7"),
                          (["compare", "1", "1"], "no run 1"),
+                         (["export-measured", "5", "--out", str(tmp_path / "e.csv")], "no run 5"),
                          (["simulate", "examples/sine_pulse.toml", "--motion", "1"], "not a ground or table motion")):
         p = runners(*args, db=db, fmu_path=fmu_path)
         assert p.returncode == 2 and p.stderr.count("\n") == 1 and reason in p.stderr, (args, p.stderr)
