@@ -97,3 +97,16 @@ def add_measurement(session: Session, *, name: str, kind: str, time: np.ndarray,
                                   series=ablob, series_dt=dt)
     session.add(m)
     return m
+
+
+def load_run_series(session: Session, run_id: int, hint: str = "") -> tuple[Run, np.ndarray, dict[str, np.ndarray],
+                                                                              list[dict[str, Any]]]:
+    """(run, time, columns, events) of a stored run; ValueError if it is missing or was not
+    sampled (`hint` says what to do then)."""
+    run = session.get(Run, run_id)
+    if run is None:
+        raise ValueError(f"no run {run_id} in the database")
+    if run.series is None:
+        raise ValueError(f"run {run_id} has no stored series" + (f" ({hint})" if hint else ""))
+    t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+    return run, t, cols, list(run.series.events or [])

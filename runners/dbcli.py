@@ -9,10 +9,10 @@ from typing import Any
 from sqlalchemy import func, select
 
 from db.catalogue import load_catalogue
-from db.schema import Block, Run, Scene, Sweep
+from db.schema import Block, Measurement, Run, Scene, Sweep
 from db.session import open_database
 
-TABLES = {"blocks": Block, "runs": Run, "scenes": Scene, "sweeps": Sweep}
+TABLES = {"blocks": Block, "runs": Run, "scenes": Scene, "sweeps": Sweep, "measurements": Measurement}
 
 
 def _url(factory) -> str:

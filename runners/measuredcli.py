@@ -11,8 +11,9 @@ import numpy as np
 from sqlalchemy import select
 
 from db import series
-from db.schema import Block, Excitation, Measurement, Run
+from db.schema import Block, Excitation, Measurement
 from db.session import open_database
+from db.store import load_run_series
 from runners.fmu import Event, RockingFMU, fmu_path_from
 
 DB_HELP = "database URL or SQLite file (default: ROCKING_DB, else sqlite:///rocking.db)"
@@ -104,16 +105,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     factory = open_database(args.db)
     with factory() as session:
-        run = session.get(Run, args.run)
-        if run is None:
-            raise ValueError(f"no run {args.run} in the database")
-        if run.series is None:
-            raise ValueError(f"run {args.run} has no stored series to compare (simulate it without --no-store)")
+        _, t_sim, cols, stored_events = load_run_series(session, args.run, "simulate it without --no-store")
         m, tm, mcols = load_measurement(session, args.measurement)
         if m.kind not in ("peaks", "rotation"):
             raise ValueError(f"measurement {m.id} is a {m.kind} record, not a rotation to compare with")
-        t_sim, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
-        events = [Event.from_dict(e) for e in run.series.events or []]
+        events = [Event.from_dict(e) for e in stored_events]
         sigma_theta, sigma_time, kind, name = m.uncertainty_angle, m.uncertainty_time, m.kind, m.name
     column = f"block{args.block}.theta"
     if column not in cols:
@@ -203,13 +199,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     experiment with known parameters, for checking import, compare and calibrate."""
     factory = open_database(args.db)
     with factory() as session:
-        run = session.get(Run, args.run)
-        if run is None:
-            raise ValueError(f"no run {args.run} in the database")
-        if run.series is None:
-            raise ValueError(f"run {args.run} has no stored series to export")
-        t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
-        events = [Event.from_dict(e) for e in run.series.events or []]
+        run, t, cols, stored_events = load_run_series(session, args.run)
+        events = [Event.from_dict(e) for e in stored_events]
         block, scene_name = args.block, run.scene.name
     if args.noise_theta < 0 or args.noise_time < 0 or args.every < 1:
         raise ValueError("--noise-theta and --noise-time must be >= 0 and --every >= 1")

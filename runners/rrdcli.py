@@ -18,20 +18,16 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
                remember: bool = True) -> Path:
     """Write the recording of stored run `run_id` (its series, events and parameters) to `out`;
     with `remember`, store the path with the run."""
-    from db import series
     from db.schema import Run
+    from db.store import load_run_series
     from runners.recording import write_recording
 
     with factory() as session:
         run = session.get(Run, run_id)
-        if run is None:
-            raise ValueError(f"no run {run_id} in the database")
-        if run.series is None:
-            raise ValueError(f"run {run_id} has no stored series to record (sweep points keep summaries only; "
-                             f"record them with runners rrd --sweep {run.sweep_id} --points {run.grid_index})"
-                             if run.sweep_id is not None else f"run {run_id} has no stored series to record")
-        time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
-        events = [Event.from_dict(e) for e in run.series.events or []]
+        hint = (f"sweep points keep summaries only; record them with runners rrd --sweep {run.sweep_id} "
+                f"--points {run.grid_index}" if run is not None and run.sweep_id is not None else "")
+        run, time_, cols, stored_events = load_run_series(session, run_id, hint)
+        events = [Event.from_dict(e) for e in stored_events]
         params, name = dict(run.scene.parameters), run.scene.name
         if run.sweep_id is not None:
             from runners.sweep import stored_point_parameters

@@ -20,7 +20,6 @@ import time
 import urllib.parse
 from pathlib import Path
 
-import numpy as np
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 

@@ -100,6 +100,10 @@ def test_round_trip_simulate_export_import_calibrate(tmp_path, fmu_path, db, law
         m = session.get(Measurement, 1)
         assert (m.block1.name, m.kind, m.units["theta"], m.sign) == ("seed000-block2", "peaks", "deg", "clockwise")
         assert m.uncertainty_angle == pytest.approx(0.5 * DEG) and m.uncertainty_time == 0.05
+    p = runners("db", "list", "measurements", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "exported" in p.stdout and "seed000-block2" in p.stdout, p.stderr
+    shown = json.loads(runners("db", "show", "measurement", "1", db=db, fmu_path=fmu_path).stdout)
+    assert shown["kind"] == "peaks" and shown["data"].endswith("bytes>")
     p = runners("calibrate", "1", "--law", law, "--json", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     fit = json.loads(p.stdout)
