@@ -49,3 +49,26 @@ def build_container(fmu_path: Path, folder: Path, step_size: float, name: str = 
 def _scratch_database(tmp_path_factory, monkeypatch):
     """Runs stored by the tests go to a scratch SQLite file, never to ./rocking.db."""
     monkeypatch.setenv("ROCKING_DB", f"sqlite:///{tmp_path_factory.getbasetemp() / 'tests.db'}")
+
+
+def run_cli(*args: str, db: str, fmu_path: Path) -> subprocess.CompletedProcess:
+    """The runners command line in this process (runners.cli.main, as the console script
+    calls it): exit status and what it printed, without a Python start-up per call."""
+    import contextlib
+    import io
+
+    from runners.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    old = {k: os.environ.get(k) for k in ("ROCKING_FMU", "ROCKING_DB")}
+    os.environ.update(ROCKING_FMU=str(fmu_path), ROCKING_DB=db)
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = main(list(args))
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    return subprocess.CompletedProcess(["runners", *args], code, out.getvalue(), err.getvalue())

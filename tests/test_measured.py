@@ -20,6 +20,7 @@ from db import series
 from db.catalogue import CATALOGUE
 from db.schema import Block, Measurement, Run
 from db.session import open_database
+from conftest import run_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 DEG = math.pi / 180
@@ -286,7 +287,7 @@ def test_every_bad_input_is_one_line_and_stores_nothing(tmp_path, fmu_path, db):
     for i, (text, reason, suffix) in enumerate(cases):
         path = tmp_path / f"bad{i}{suffix}"
         path.write_text(text)
-        p = runners("import-measured", str(path), db=db, fmu_path=fmu_path)
+        p = run_cli("import-measured", str(path), db=db, fmu_path=fmu_path)
         assert p.returncode == 2 and p.stderr.count("\n") == 1 and reason in p.stderr, (text, p.stderr)
     for args, reason in ((["import-measured", str(tmp_path / "none.csv")], "does not exist"),
                          (["import-measured", str(good), "--units", "time=s"], "no unit declared for theta"),
@@ -295,9 +296,9 @@ def test_every_bad_input_is_one_line_and_stores_nothing(tmp_path, fmu_path, db):
                          (["compare", "1", "1"], "no run 1"),
                          (["export-measured", "5", "--out", str(tmp_path / "e.csv")], "no run 5"),
                          (["simulate", "examples/sine_pulse.toml", "--motion", "1"], "not a ground or table motion")):
-        p = runners(*args, db=db, fmu_path=fmu_path)
+        p = run_cli(*args, db=db, fmu_path=fmu_path)
         assert p.returncode == 2 and p.stderr.count("\n") == 1 and reason in p.stderr, (args, p.stderr)
-    p = runners("calibrate", "1", "--law", "constant", db=db, fmu_path=fmu_path)
+    p = run_cli("calibrate", "1", "--law", "constant", db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and "at least 3 measured peaks" in p.stderr
     with factory() as session:
         assert session.scalar(select(func.count()).select_from(Measurement)) == 1

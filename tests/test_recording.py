@@ -16,6 +16,7 @@ import pytest
 from db import series
 from db.schema import Run
 from db.session import open_database
+from conftest import run_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -223,7 +224,7 @@ def test_measured_series_are_overlaid_and_bad_files_are_refused(tmp_path, fmu_pa
     }
     for text, reason in bad.items():
         csv.write_text(text)
-        p = runners("rrd", "1", "--out", str(tmp_path / "x.rrd"), "--measured", str(csv), db=db, fmu_path=fmu_path)
+        p = run_cli("rrd", "1", "--out", str(tmp_path / "x.rrd"), "--measured", str(csv), db=db, fmu_path=fmu_path)
         assert p.returncode == 2 and p.stderr.count("\n") == 1 and reason in p.stderr, (text, p.stderr)
         assert not (tmp_path / "x.rrd").exists()
     with factory() as session:
