@@ -183,8 +183,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             if sw is None:
                 raise ValueError(f"no sweep {sweep_id} in the database")
             record = parse_points(args.record, sw.total) if args.record else None
-    st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress,
-                   record=record, record_dir=args.record_dir)
+    client = None
+    if args.executor == "dask":
+        from runners.sweep import dask_client
+
+        if not args.scheduler:
+            raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
+        client = dask_client(args.scheduler)
+    elif args.scheduler or args.chunk:
+        raise ValueError("--scheduler and --chunk apply to --executor dask")
+    try:
+        st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress,
+                       record=record, record_dir=args.record_dir, client=client, chunk=args.chunk)
+    finally:
+        if client is not None:
+            cluster = client.cluster
+            client.close()
+            if cluster is not None and args.scheduler.startswith("local:"):
+                cluster.close()
     n = max(st["ran"], 1)
     print(f"sweep {sweep_id}: {st['already'] + st['ran']}/{st['total']} points stored ({st['ran']} now, "
           f"{st['errors']} failed) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
@@ -208,6 +224,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.quick and not args.chart:
         raise ValueError("--quick applies to --chart only")
     fmu = fmu_path_from(args.fmu)
+    if args.dask:
+        from runners.bench import run_dask_bench
+
+        print(run_dask_bench(fmu))
+        return 0
     if args.chart:
         from runners.overturning_map import run_overturning_map
         from runners.stability import run_stability
@@ -271,6 +292,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--chart", metavar="DIR",
                        help="instead: the work-precision comparison of every method, written to DIR")
     bench.add_argument("--quick", action="store_true", help="with --chart: fewer settings (a smoke run)")
+    bench.add_argument("--dask", action="store_true",
+                       help="sweep executors: local against a local Dask cluster, 1 and 2 workers")
     bench.set_defaults(func=cmd_bench)
     from runners.dbcli import add_parser as add_db_parser
 
@@ -287,6 +310,12 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--record", metavar="POINTS",
                     help="grid points to simulate in full and record (.rrd), e.g. 0,17,40-45 or all")
     sw.add_argument("--record-dir", metavar="DIR", help="where --record writes (default: recordings/sweep-ID)")
+    sw.add_argument("--executor", choices=["local", "dask"], default="local",
+                    help="local: worker processes on this machine (default); dask: a Dask cluster")
+    sw.add_argument("--scheduler", metavar="ADDRESS",
+                    help="with --executor dask: tcp://HOST:PORT of the scheduler, or local:N for N local workers")
+    sw.add_argument("--chunk", type=int, metavar="N",
+                    help="with --executor dask: grid points per task (default: about 4 tasks per worker)")
     sw.set_defaults(func=cmd_sweep)
     from runners.measuredcli import add_parser as add_measured_parser
     from runners.rrdcli import add_parser as add_rrd_parser

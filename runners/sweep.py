@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import math
 import os
+import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -99,17 +101,22 @@ def stored_point_parameters(session, run: Run) -> dict[str, Any]:
 
 # ------------------------------------------------------------------ workers
 
-_WORKER: dict[str, Any] = {}  # state of one worker process (set by _start_worker)
+_LOCAL = threading.local()  # one worker state per thread (a Dask worker may run several threads)
+
+
+def _worker() -> dict[str, Any]:
+    return _LOCAL.state
 
 
 def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, step: float, two: bool) -> None:
+    """Set up this thread's FMU instance for the points of one sweep."""
     fmu = RockingFMU(fmu_path, unzipdir)
     errors: list[str] = []
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
     names = ONE + (TWO if two else [])
-    _WORKER.update(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, stop=stop_time, step=step,
-                   names=names, vrs={n: fmu.variable(n) for n in names})
+    _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, stop=stop_time, step=step,
+                        names=names, vrs={n: fmu.variable(n) for n in names})
 
 
 def _set_all(fmu: RockingFMU, slave, params: dict) -> None:
@@ -144,7 +151,7 @@ def _record_point(over: dict, path: str, name: str) -> tuple[dict, Recorded]:
     from runners.recording import write_recording
     from runners.summary import SUMMARY_OUTPUTS
 
-    w = _WORKER
+    w = _worker()
     fmu = w["fmu"]
     params = {**w["base"], **over}
     res = fmu.run(params, w["stop"], w["step"], outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *w["names"]])))
@@ -157,7 +164,7 @@ def _run_point(task: tuple) -> tuple[int, dict | None, float, str | None, Record
     """One grid point: (index, FMU overrides, None or (recording path, name)) ->
     (index, final outputs or None, seconds, error or None, Recorded or None)."""
     index, over, record = task
-    w = _WORKER
+    w = _worker()
     s, fmu = w["slave"], w["fmu"]
     w["errors"].clear()
     t0 = time.perf_counter()
@@ -280,13 +287,82 @@ def _series_row(run_id: int, rec: Recorded) -> dict:
     return {"run_id": run_id, "names": names, "n_samples": n, "data": blob, "events": rec.events}
 
 
+def _local_results(plan: _Plan, fmu_path: Path, tasks: list, workers: int):
+    """Results of the tasks from a pool of forked worker processes on this machine."""
+    shared = RockingFMU(fmu_path)  # one extraction for every worker
+    with shared, _pool(plan, fmu_path, shared, workers) as pool:
+        chunk = max(1, min(64, len(tasks) // (workers * 8) or 1))
+        yield from pool.imap_unordered(_run_point, tasks, chunksize=chunk)
+
+
+_DASK_FMUS: dict[str, RockingFMU] = {}  # FMU sha256 -> its extraction, once per Dask worker process
+_DASK_LOCK = threading.Lock()
+
+
+def _dask_chunk(fmu_bytes: bytes, sha: str, params: dict, stop: float, step: float, two: bool,
+                tasks: list) -> list[tuple]:
+    """Run a chunk of grid points on a Dask worker. The FMU arrives as bytes (the workers
+    need this package, not a build of the FMU) and is extracted once per worker process."""
+    with _DASK_LOCK:
+        if sha not in _DASK_FMUS:
+            folder = Path(tempfile.mkdtemp(prefix="rocking-fmu-"))
+            (folder / "RockingBlock.fmu").write_bytes(fmu_bytes)
+            _DASK_FMUS[sha] = RockingFMU(folder / "RockingBlock.fmu")
+    fmu = _DASK_FMUS[sha]
+    key = (sha, repr(sorted(params.items())), stop, step, two)
+    if getattr(_LOCAL, "key", None) != key:  # this thread's instance, set up once per sweep
+        _start_worker(str(fmu.path), fmu.unzipdir, params, stop, step, two)
+        _LOCAL.key = key
+    return [_run_point(t) for t in tasks]
+
+
+def dask_client(scheduler: str):
+    """A Dask client: 'tcp://HOST:PORT' of a running scheduler, or 'local:N' for a cluster of
+    N single-threaded worker processes on this machine (to try it out and to measure)."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise OSError("--executor dask needs dask.distributed: pip install -e '.[dask]'") from None
+    if scheduler.startswith("local:"):
+        try:
+            n = int(scheduler.removeprefix("local:"))
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ValueError(f"--scheduler {scheduler!r}: expected local:N with N >= 1 workers")
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0")
+        return Client(cluster)
+    try:
+        return Client(scheduler, timeout=20)
+    except (OSError, TimeoutError) as exc:
+        raise OSError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+
+
+def _dask_results(plan: _Plan, fmu_path: Path, tasks: list, client, chunk: int | None):
+    """Results of the tasks from a Dask cluster, in chunks. A chunk whose worker dies is run
+    again elsewhere (retries); results are stored only here, in one slot per grid point,
+    so a rerun chunk cannot store a point twice."""
+    from distributed import as_completed
+
+    n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+    size = chunk or max(1, min(1000, math.ceil(len(tasks) / (4 * n_workers))))
+    blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
+    sha = file_sha256(str(fmu_path))
+    futures = [client.submit(_dask_chunk, blob, sha, plan.params, plan.stop_time, plan.step, plan.two,
+                             tasks[i:i + size], pure=False, retries=3) for i in range(0, len(tasks), size)]
+    for future in as_completed(futures):
+        yield from future.result()
+
+
 def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None, batch: int = 500,
-              progress: bool = True, record: list[int] | None = None, record_dir: Path | None = None
-              ) -> dict[str, Any]:
+              progress: bool = True, record: list[int] | None = None, record_dir: Path | None = None,
+              client=None, chunk: int | None = None) -> dict[str, Any]:
     """Run the grid points of a sweep that are not stored yet; returns counts and timings.
 
     Points in `record` (grid indices) are simulated in full: their workers write a
     recording to record_dir/point-INDEX.rrd and their series and events are stored.
+    With a Dask `client` the points run on its cluster in chunks of `chunk` points
+    (default: about four chunks per worker); results are stored here as they arrive.
     """
     from tqdm import tqdm
 
@@ -323,10 +399,17 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         rows.clear()
 
     bar = tqdm(total=plan.total, initial=len(plan.stored), disable=not progress, unit="run", desc=f"sweep {sweep_id}")
-    shared = RockingFMU(fmu_path)  # one extraction for every worker
-    with shared, _pool(plan, fmu_path, shared, workers) as pool:
-        chunk = max(1, min(64, len(tasks) // (workers * 8) or 1))
-        for index, out, seconds, error, rec in pool.imap_unordered(_run_point, tasks, chunksize=chunk):
+    if client is not None and recorded:
+        raise ValueError("--record writes recordings where the point runs: use the local executor, or record "
+                         "points after the sweep with runners rrd --sweep ID --points")
+    results = (_dask_results(plan, fmu_path, tasks, client, chunk) if client is not None else
+               _local_results(plan, fmu_path, tasks, workers))
+    seen: set[int] = set()
+    if tasks:
+        for index, out, seconds, error, rec in results:
+            if index in seen:  # a chunk run twice (its worker died after sending): keep the first
+                continue
+            seen.add(index)
             t_py = time.perf_counter()
             values, over = points[index]
             merged = {**plan.base, **over}

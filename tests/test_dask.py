@@ -1,0 +1,95 @@
+"""runners sweep on a Dask cluster (a LocalCluster of worker processes here): the same
+results as the local executor, every grid point stored once even when a worker is killed
+mid-sweep, and one-line errors for a bad executor set-up."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+from sqlalchemy import func, select
+
+from conftest import run_cli
+from db.schema import Run, RunSummary, Sweep
+from db.session import integrity_ok, open_database
+from runners.scene import load_scene
+from runners.sweep import Axis, create_sweep, run_sweep
+
+distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install -e '.[dask]')")
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCENE = os.path.join(ROOT, "examples", "sweep_sine_pulse.toml")
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0")
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def new_sweep(factory, fmu, counts=(20, 20)) -> int:
+    axes = [Axis("w", 1.0, 12.0, counts[0]), Axis("a", 1.01, 8.0, counts[1])]
+    return create_sweep(factory, load_scene(SCENE), axes, fmu.defaults())
+
+
+def summaries(factory, sweep_id: int) -> dict[int, tuple]:
+    with factory() as s:
+        rows = s.execute(select(Run.grid_index, RunSummary.overturned, RunSummary.impacts,
+                                RunSummary.peak1_over_alpha, RunSummary.rest_time)
+                         .join(RunSummary, RunSummary.run_id == Run.id).where(Run.sweep_id == sweep_id)).all()
+    return {r[0]: tuple(r[1:]) for r in rows}
+
+
+def test_a_dask_sweep_stores_what_the_local_one_does(tmp_path, fmu, fmu_path, client):
+    factory = open_database(f"sqlite:///{tmp_path / 'd.db'}")
+    local, dask = new_sweep(factory, fmu), new_sweep(factory, fmu)
+    run_sweep(factory, local, fmu_path, workers=2, progress=False)
+    st = run_sweep(factory, dask, fmu_path, progress=False, client=client, chunk=37)
+    assert st["ran"] == 400 and st["errors"] == 0
+    a, b = summaries(factory, local), summaries(factory, dask)
+    assert len(a) == 400 and a == b  # bit for bit: the same FMU on the same parameters
+
+
+def test_a_killed_dask_worker_loses_and_duplicates_no_point(tmp_path, fmu, fmu_path, client):
+    factory = open_database(f"sqlite:///{tmp_path / 'k.db'}")
+    sweep_id = new_sweep(factory, fmu, (120, 100))
+    done: dict = {}
+    worker = threading.Thread(target=lambda: done.update(run_sweep(factory, sweep_id, fmu_path, progress=False,
+                                                                   client=client, chunk=150, batch=300)))
+    worker.start()
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:  # kill one worker once the first batch has landed
+        with factory() as s:
+            if s.get(Sweep, sweep_id).done > 0:
+                break
+        time.sleep(0.05)
+    pids = client.run(os.getpid)
+    victim = sorted(pids.values())[0]
+    os.kill(victim, signal.SIGKILL)
+    worker.join(timeout=180)
+    assert not worker.is_alive()
+    with factory() as s:
+        n = s.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == sweep_id))
+        distinct = s.scalar(select(func.count(func.distinct(Run.grid_index))).where(Run.sweep_id == sweep_id))
+        sw = s.get(Sweep, sweep_id)
+        assert (n, distinct, sw.done, sw.status) == (12000, 12000, 12000, "done")
+    assert victim not in client.run(os.getpid).values()  # the worker really died (and was replaced)
+    assert integrity_ok(factory.kw["bind"])
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--executor", "dask"], "needs --scheduler"),
+    (["--executor", "dask", "--scheduler", "local:x"], "expected local:N"),
+    (["--scheduler", "tcp://127.0.0.1:8786"], "apply to --executor dask"),
+    (["--executor", "dask", "--scheduler", "local:1", "--record", "0"], "--record writes recordings"),
+])
+def test_bad_executor_settings_are_one_line_errors(tmp_path, fmu_path, args, message):
+    p = run_cli("sweep", SCENE, "--grid", "w=1:2:2", "--no-progress", *args,
+                db=f"sqlite:///{tmp_path / 'e.db'}", fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and message in p.stderr, p.stderr
