@@ -46,8 +46,8 @@ def summaries(factory, sweep_id: int) -> dict[int, tuple]:
     return {r[0]: tuple(r[1:]) for r in rows}
 
 
-def test_a_dask_sweep_stores_what_the_local_one_does(tmp_path, fmu, fmu_path, client):
-    factory = open_database(f"sqlite:///{tmp_path / 'd.db'}")
+def test_a_dask_sweep_stores_what_the_local_one_does(db_url, fmu, fmu_path, client):
+    factory = open_database(db_url)
     local, dask = new_sweep(factory, fmu), new_sweep(factory, fmu)
     run_sweep(factory, local, fmu_path, workers=2, progress=False)
     st = run_sweep(factory, dask, fmu_path, progress=False, client=client, chunk=37)

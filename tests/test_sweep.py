@@ -3,6 +3,7 @@ two sweeps on one SQLite file at once, failing points stored with their errors."
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import signal
@@ -58,14 +59,19 @@ def test_grid_points_match_single_runs(tmp_path, fmu_path, fmu):
         assert overturned[i] == (bool(r.outputs["overturned"][-1]), int(r.outputs["impacts"][-1]))
 
 
+@functools.lru_cache(maxsize=None)
+def _factory(db: str):
+    return open_database(db)
+
+
 def _stored(db: str) -> int:
-    factory = open_database(db)
-    with factory() as s:
+    with _factory(db)() as s:
         return s.scalar(select(func.count()).select_from(Run))
 
 
-def test_killed_sweeps_resume_to_every_point_once(tmp_path, fmu_path):
-    db = f"sqlite:///{tmp_path / 'k.db'}"
+def test_killed_sweeps_resume_to_every_point_once(db_url, fmu_path):
+    db = db_url
+    open_database(db)
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
     cmd = [sys.executable, "-m", "runners.cli", "sweep", "--no-progress"]
     args = [str(SCENE), "--grid", "w=1:12:100", "--grid", "a=1.01:8:100", "--workers", "2"]
@@ -75,7 +81,7 @@ def test_killed_sweeps_resume_to_every_point_once(tmp_path, fmu_path):
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and proc.poll() is None:
-            if Path(db.removeprefix("sqlite:///")).exists() and _stored(db) > before:
+            if _stored(db) > before:
                 break
             time.sleep(0.02)
         os.killpg(proc.pid, signal.SIGKILL)  # the runner and its workers, mid-sweep
@@ -95,8 +101,8 @@ def test_killed_sweeps_resume_to_every_point_once(tmp_path, fmu_path):
     assert integrity_ok(factory.kw["bind"])
 
 
-def test_two_sweeps_on_one_sqlite_file_at_once(tmp_path, fmu_path):
-    db = f"sqlite:///{tmp_path / 'c.db'}"
+def test_two_sweeps_on_one_database_at_once(db_url, fmu_path):
+    db = db_url
     open_database(db)
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
     procs = [subprocess.Popen([sys.executable, "-m", "runners.cli", "sweep", str(SCENE), "--grid", spec,
