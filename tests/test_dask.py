@@ -56,8 +56,8 @@ def test_a_dask_sweep_stores_what_the_local_one_does(db_url, fmu, fmu_path, clie
     assert len(a) == 400 and a == b  # bit for bit: the same FMU on the same parameters
 
 
-def test_a_killed_dask_worker_loses_and_duplicates_no_point(tmp_path, fmu, fmu_path, client):
-    factory = open_database(f"sqlite:///{tmp_path / 'k.db'}")
+def test_a_killed_dask_worker_loses_and_duplicates_no_point(db_url, fmu, fmu_path, client):
+    factory = open_database(db_url)
     sweep_id = new_sweep(factory, fmu, (120, 100))
     done: dict = {}
     worker = threading.Thread(target=lambda: done.update(run_sweep(factory, sweep_id, fmu_path, progress=False,
@@ -81,6 +81,22 @@ def test_a_killed_dask_worker_loses_and_duplicates_no_point(tmp_path, fmu, fmu_p
         assert (n, distinct, sw.done, sw.status) == (12000, 12000, 12000, "done")
     assert victim not in client.run(os.getpid).values()  # the worker really died (and was replaced)
     assert integrity_ok(factory.kw["bind"])
+
+
+def test_the_command_line_sweeps_on_a_running_scheduler(tmp_path, fmu_path, client):
+    """runners sweep in its own process, connecting to the cluster's scheduler by address."""
+    import subprocess
+    import sys
+
+    db = f"sqlite:///{tmp_path / 'cli.db'}"
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "sweep", SCENE, "--grid", "w=1:12:30", "--grid",
+                        "a=1.01:8:30", "--executor", "dask", "--scheduler", client.scheduler.address, "--no-progress"],
+                       capture_output=True, text=True, env=env, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    assert "900/900 points stored" in p.stdout
+    with open_database(db)() as s:
+        assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 900
 
 
 @pytest.mark.parametrize("args, message", [
