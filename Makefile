@@ -23,8 +23,9 @@ run: fmu
 	$(BIN)/runners sweep examples/sweep_sine_pulse.toml --grid w=1:12:60 --grid a=1.01:8:60
 	$(BIN)/runners map latest --out overturning_map.png
 
+# --durations: the slowest tests, to keep the suite inside its 10 minutes
 test: fmu
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest --durations=15
 
 # The FMU tests again, against an FMU built with AddressSanitizer and UBSan.
 sanitize: $(INSTALLED)

@@ -189,6 +189,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
         if not args.scheduler:
             raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
+        if args.workers:
+            raise ValueError("--workers applies to the local executor; a Dask cluster has its own workers")
         client = dask_client(args.scheduler)
     elif args.scheduler or args.chunk:
         raise ValueError("--scheduler and --chunk apply to --executor dask")

@@ -103,6 +103,7 @@ def test_the_command_line_sweeps_on_a_running_scheduler(tmp_path, fmu_path, clie
     (["--executor", "dask"], "needs --scheduler"),
     (["--executor", "dask", "--scheduler", "local:x"], "expected local:N"),
     (["--scheduler", "tcp://127.0.0.1:8786"], "apply to --executor dask"),
+    (["--executor", "dask", "--scheduler", "local:1", "--workers", "2"], "--workers applies to the local"),
     (["--executor", "dask", "--scheduler", "local:1", "--record", "0"], "--record writes recordings"),
 ])
 def test_bad_executor_settings_are_one_line_errors(tmp_path, fmu_path, args, message):
