@@ -83,6 +83,7 @@ def test_bad_two_block_scene_is_a_one_line_error(fmu_path, tmp_path):
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "block2.mass" in p.stderr
 
 
+@pytest.mark.slow  # a benchmark run: make bench
 def test_bench_prints_native_and_fmpy_tables(fmu_path):
     p = runners("bench", "--repeats", "1", "--fmpy-repeats", "1", fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
@@ -100,6 +101,7 @@ def test_figures_are_drawn_into_the_given_folder(fmu_path, tmp_path):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
 
 
+@pytest.mark.slow  # a benchmark run: make bench
 def test_work_precision_chart_and_tables(fmu_path, tmp_path):
     """runners bench --chart: every method on both cases, and the FMU meets its accuracy target."""
     p = runners("bench", "--chart", str(tmp_path), "--quick", fmu_path=fmu_path)
