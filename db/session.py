@@ -26,6 +26,9 @@ class DatabaseError(RuntimeError):
     """The database cannot be opened or used; str() is a one-line message."""
 
 
+DB_HELP = "database URL or SQLite file (default: ROCKING_DB, else sqlite:///rocking.db)"  # for --db
+
+
 def database_url(arg: str | None = None) -> str:
     """--db, else ROCKING_DB, else rocking.db in the working folder. A value without
     "://" is a path to an SQLite file (results.db means sqlite:///results.db)."""

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from model.reference import housner_restitution
 from runners.compare import Decay
 from runners.fmu import RockingFMU
 
@@ -53,12 +54,6 @@ class Fit:
     sigma_theta: float
     sigma_time: float
     sigma_assumed: bool
-
-
-def housner_r(half_width: float, half_height: float) -> float:
-    """Housner's ratio of angular velocities after/before impact, 1 - 3/2 sin^2(alpha)."""
-    alpha = math.atan2(half_width, half_height)
-    return 1.0 - 1.5 * math.sin(alpha) ** 2
 
 
 def simulate_peaks(fmu: RockingFMU, base: dict, law: str, value: float, theta0: float, stop_time: float
@@ -87,7 +82,7 @@ def calibrate(fmu: RockingFMU, base: dict, decay: Decay, law: str, sigma_theta: 
     side = 1.0 if decay.theta0 >= 0 else -1.0
     _, _, lo, hi, start = LAW_PARAMETERS[law]
     if law == "correction":  # the corrected coefficient must stay below 1
-        hi = 1.0 / housner_r(base["block1.halfWidth"], base["block1.halfHeight"])
+        hi = 1.0 / housner_restitution(alpha)
         start = min(start, 0.5 * (1 + hi))
     stop = float(decay.times[-1] + 2.0)
     n = len(decay.times)

@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from db.session import DatabaseError
+from db.session import DB_HELP, DatabaseError
 from runners.fmu import FMUError, RockingFMU, fmu_path_from
 from runners.scene import SceneError, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
@@ -36,7 +36,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.motion is not None:
         if args.method != "fmu":
             raise ValueError("--motion drives the FMU through its inputs: use it with --method fmu")
-        motion = _motion(factory or _database(args.db), args.motion)
+        from runners.measuredcli import motion_inputs
+
+        motion = motion_inputs(factory or _database(args.db), args.motion)
         scene = replace(scene, parameters={**scene.parameters, "excitation.kind": 0})  # the record replaces it
         scene.step = min(scene.step, motion["dt"])
     result = None
@@ -104,27 +106,6 @@ def _measured(path: str | None, rrd: str | None) -> dict | None:
     from runners.measured import read_measured_csv
 
     return read_measured_csv(path)
-
-
-def _motion(factory, measurement_id: int) -> dict:
-    """A stored recorded excitation as FMU inputs: ground.ah(t) linearly interpolated between
-    the record's samples (zero outside it), held over each communication step."""
-    import numpy as np
-
-    from db import series
-    from db.schema import Measurement
-
-    with factory() as session:
-        m = session.get(Measurement, measurement_id)
-        if m is None:
-            raise ValueError(f"no measurement {measurement_id} in the database")
-        if m.excitation is None or m.excitation.series is None:
-            raise ValueError(f"measurement {measurement_id} is a {m.kind}, not a ground or table motion")
-        t, cols = series.unpack_blob(["ah"], m.excitation.series)
-        name, eid = m.name, m.excitation_id
-    a = cols["ah"]
-    return {"name": name, "excitation_id": eid, "dt": float(np.min(np.diff(t))),
-            "inputs": lambda time: (float(np.interp(time, t, a, left=0.0, right=0.0)), 0.0)}
 
 
 def _database(url: str | None):
@@ -277,7 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--h", type=float, default=1e-4, help="fixed step (s) of rk4, rk4-located, newmark, euler "
                                                           "(default 1e-4, seed 000's)")
     sim.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance of --method scipy")
-    sim.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    sim.add_argument("--db", help=DB_HELP)
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--rrd", metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
     sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/measured.py)")
@@ -306,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--resume", type=int, metavar="SWEEP_ID", help="finish an interrupted sweep")
     sw.add_argument("--workers", type=int, help="worker processes (default: all cores)")
     sw.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
-    sw.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    sw.add_argument("--db", help=DB_HELP)
     sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
     sw.add_argument("--record", metavar="POINTS",
@@ -328,7 +309,7 @@ def build_parser() -> argparse.ArgumentParser:
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")
     mp.add_argument("--out", default="overturning_map.png", help="PNG file (default: overturning_map.png)")
-    mp.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+    mp.add_argument("--db", help=DB_HELP)
     mp.set_defaults(func=cmd_map)
 
     add_db_parser(sub)

@@ -10,7 +10,7 @@ from sqlalchemy import func, select
 
 from db.catalogue import load_catalogue
 from db.schema import Block, Measurement, Run, Scene, Sweep
-from db.session import open_database
+from db.session import DB_HELP, open_database
 
 TABLES = {"blocks": Block, "runs": Run, "scenes": Scene, "sweeps": Sweep, "measurements": Measurement}
 
@@ -106,4 +106,4 @@ def add_parser(sub) -> None:
     show.add_argument("key")
     show.set_defaults(func=cmd_show)
     for p in (init, lst, show):
-        p.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+        p.add_argument("--db", help=DB_HELP)

@@ -12,11 +12,9 @@ from sqlalchemy import select
 
 from db import series
 from db.schema import Block, Excitation, Measurement
-from db.session import open_database
+from db.session import DB_HELP, open_database
 from db.store import load_run_series
 from runners.fmu import Event, RockingFMU, fmu_path_from
-
-DB_HELP = "database URL or SQLite file (default: ROCKING_DB, else sqlite:///rocking.db)"
 
 
 def find_block(session, key: str) -> Block:
@@ -85,12 +83,32 @@ def cmd_import(args: argparse.Namespace) -> int:
     return 0
 
 
-def load_measurement(session, mid: int) -> tuple[Measurement, np.ndarray, dict[str, np.ndarray]]:
+def get_measurement(session, mid: int) -> Measurement:
     m = session.get(Measurement, mid)
     if m is None:
         raise ValueError(f"no measurement {mid} in the database (runners db list measurements)")
+    return m
+
+
+def load_measurement(session, mid: int) -> tuple[Measurement, np.ndarray, dict[str, np.ndarray]]:
+    m = get_measurement(session, mid)
     t, cols = series.unpack(m.names, m.n_samples, m.data)
     return m, t, cols
+
+
+def motion_inputs(factory, mid: int) -> dict:
+    """A stored recorded excitation as FMU inputs (runners simulate --motion): ground.ah(t)
+    linearly interpolated between the record's samples (zero outside it), held over each
+    communication step; with the record's name, excitation id and smallest sampling interval."""
+    with factory() as session:
+        m = get_measurement(session, mid)
+        if m.excitation is None or m.excitation.series is None:
+            raise ValueError(f"measurement {mid} is a {m.kind}, not a ground or table motion")
+        t, cols = series.unpack_blob(["ah"], m.excitation.series)
+        name, eid = m.name, m.excitation_id
+    a = cols["ah"]
+    return {"name": name, "excitation_id": eid, "dt": float(np.min(np.diff(t))),
+            "inputs": lambda time: (float(np.interp(time, t, a, left=0.0, right=0.0)), 0.0)}
 
 
 def _theta(t: np.ndarray, cols: dict[str, np.ndarray], column: str) -> tuple[np.ndarray, np.ndarray]:

@@ -10,7 +10,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from db.session import open_database
+from db.session import DB_HELP, open_database
 from runners.fmu import Event, RockingFMU, fmu_path_from
 
 
@@ -132,5 +132,5 @@ def add_parser(sub) -> None:
     sh.add_argument("--out", default="docs/figures/rerun_viewer.png", help="PNG file")
     sh.set_defaults(func=cmd_screenshot)
     for p in (rr_, vw, sh):
-        p.add_argument("--db", help="database URL (default: ROCKING_DB, else sqlite:///rocking.db)")
+        p.add_argument("--db", help=DB_HELP)
         p.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")

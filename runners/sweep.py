@@ -338,7 +338,7 @@ def dask_client(scheduler: str):
         raise OSError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
 
 
-def _dask_results(plan: _Plan, fmu_path: Path, tasks: list, client, chunk: int | None):
+def _dask_results(plan: _Plan, fmu_path: Path, sha: str, tasks: list, client, chunk: int | None):
     """Results of the tasks from a Dask cluster, in chunks. A chunk whose worker dies is run
     again elsewhere (retries); results are stored only here, in one slot per grid point,
     so a rerun chunk cannot store a point twice."""
@@ -347,7 +347,6 @@ def _dask_results(plan: _Plan, fmu_path: Path, tasks: list, client, chunk: int |
     n_workers = max(1, len(client.scheduler_info().get("workers", {})))
     size = chunk or max(1, min(1000, math.ceil(len(tasks) / (4 * n_workers))))
     blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
-    sha = file_sha256(str(fmu_path))
     futures = [client.submit(_dask_chunk, blob, sha, plan.params, plan.stop_time, plan.step, plan.two,
                              tasks[i:i + size], pure=False, retries=3) for i in range(0, len(tasks), size)]
     for future in as_completed(futures):
@@ -402,7 +401,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     if client is not None and recorded:
         raise ValueError("--record writes recordings where the point runs: use the local executor, or record "
                          "points after the sweep with runners rrd --sweep ID --points")
-    results = (_dask_results(plan, fmu_path, tasks, client, chunk) if client is not None else
+    results = (_dask_results(plan, fmu_path, sha, tasks, client, chunk) if client is not None else
                _local_results(plan, fmu_path, tasks, workers))
     seen: set[int] = set()
     if tasks:
