@@ -139,10 +139,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import math
 
     from db.schema import Sweep
-    from runners.sweep import create_sweep, parse_axis, parse_points, run_sweep
+    from runners.sweep import create_sweep, local_workers, parse_axis, parse_points, run_sweep
 
     if (args.resume is None) == (args.scene is None):
         raise ValueError("give a scene file with --grid, or --resume SWEEP_ID")
+    # the executor's settings are checked before anything is stored
+    if (args.chunk is not None and args.chunk < 1) or (args.workers is not None and args.workers < 1):
+        raise ValueError("--chunk and --workers must be at least 1")
+    if args.executor == "dask":
+        if not args.scheduler:
+            raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
+        if args.workers:
+            raise ValueError("--workers applies to the local executor; a Dask cluster has its own workers")
+        if args.record:
+            raise ValueError("--record writes recordings where the point runs: use the local executor, or "
+                             "record points after the sweep with runners rrd --sweep ID --points")
+        local_workers(args.scheduler)
+    elif args.scheduler or args.chunk:
+        raise ValueError("--scheduler and --chunk apply to --executor dask")
     factory = _database(args.db)
     fmu_path = fmu_path_from(args.fmu)
     if args.resume is None:
@@ -168,13 +182,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.executor == "dask":
         from runners.sweep import dask_client
 
-        if not args.scheduler:
-            raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
-        if args.workers:
-            raise ValueError("--workers applies to the local executor; a Dask cluster has its own workers")
         client = dask_client(args.scheduler)
-    elif args.scheduler or args.chunk:
-        raise ValueError("--scheduler and --chunk apply to --executor dask")
     try:
         st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress,
                        record=record, record_dir=args.record_dir, client=client, chunk=args.chunk)

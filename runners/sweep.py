@@ -316,6 +316,19 @@ def _dask_chunk(fmu_bytes: bytes, sha: str, params: dict, stop: float, step: flo
     return [_run_point(t) for t in tasks]
 
 
+def local_workers(scheduler: str) -> int | None:
+    """N of a 'local:N' scheduler (None for an address); ValueError when N is not a count."""
+    if not scheduler.startswith("local:"):
+        return None
+    try:
+        n = int(scheduler.removeprefix("local:"))
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ValueError(f"--scheduler {scheduler!r}: expected local:N with N >= 1 workers")
+    return n
+
+
 def dask_client(scheduler: str):
     """A Dask client: 'tcp://HOST:PORT' of a running scheduler, or 'local:N' for a cluster of
     N single-threaded worker processes on this machine (to try it out and to measure)."""
@@ -323,13 +336,8 @@ def dask_client(scheduler: str):
         from distributed import Client, LocalCluster
     except ImportError:
         raise OSError("--executor dask needs dask.distributed: pip install -e '.[dask]'") from None
-    if scheduler.startswith("local:"):
-        try:
-            n = int(scheduler.removeprefix("local:"))
-        except ValueError:
-            n = 0
-        if n < 1:
-            raise ValueError(f"--scheduler {scheduler!r}: expected local:N with N >= 1 workers")
+    n = local_workers(scheduler)
+    if n is not None:
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0")
         return Client(cluster)
     try:

@@ -104,9 +104,13 @@ def test_the_command_line_sweeps_on_a_running_scheduler(tmp_path, fmu_path, clie
     (["--executor", "dask", "--scheduler", "local:x"], "expected local:N"),
     (["--scheduler", "tcp://127.0.0.1:8786"], "apply to --executor dask"),
     (["--executor", "dask", "--scheduler", "local:1", "--workers", "2"], "--workers applies to the local"),
+    (["--executor", "dask", "--scheduler", "local:1", "--chunk", "-5"], "must be at least 1"),
+    (["--workers", "0"], "must be at least 1"),
     (["--executor", "dask", "--scheduler", "local:1", "--record", "0"], "--record writes recordings"),
 ])
 def test_bad_executor_settings_are_one_line_errors(tmp_path, fmu_path, args, message):
     p = run_cli("sweep", SCENE, "--grid", "w=1:2:2", "--no-progress", *args,
                 db=f"sqlite:///{tmp_path / 'e.db'}", fmu_path=fmu_path)
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and message in p.stderr, p.stderr
+    with open_database(f"sqlite:///{tmp_path / 'e.db'}")() as s:
+        assert s.scalar(select(func.count()).select_from(Sweep)) == 0  # refused before a sweep is created
