@@ -22,6 +22,8 @@ UNITS: dict[str, dict[str, int]] = {
 
 
 def _start(v: Variable) -> str:
+    if v.type == "String":
+        return v.start
     if v.type == "Boolean":
         return "true" if float(v.start) != 0 else "false"
     if v.type == "Integer":
@@ -84,7 +86,7 @@ def model_description(
             outputs.append(index)
             inner = f"<{v.type}" + (f' unit="{v.unit}"' if v.type == "Real" and v.unit else "") + "/>"
         else:
-            inner = f'<{v.type} start="{_start(v)}"' + (
+            inner = f'<{v.type} start={quoteattr(_start(v))}' + (
                 f' unit="{v.unit}"' if v.type == "Real" and v.unit else ""
             ) + "/>"
         w(f"    <ScalarVariable {attrs}>{inner}</ScalarVariable>")

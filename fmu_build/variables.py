@@ -8,9 +8,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 _LINE = re.compile(
-    r'^VAR\(\s*(?P<type>REAL|INTEGER|BOOLEAN)\s*,\s*(?P<vr>\d+)\s*,\s*(?P<field>\w+)\s*,'
+    r'^VAR\(\s*(?P<type>REAL|INTEGER|BOOLEAN|STRING)\s*,\s*(?P<vr>\d+)\s*,\s*(?P<field>\w+)\s*,'
     r'\s*"(?P<name>[^"]+)"\s*,\s*(?P<causality>\w+)\s*,\s*(?P<variability>\w+)\s*,'
-    r'\s*(?P<start>[-+0-9.eE]+)\s*,\s*"(?P<unit>[^"]*)"\s*,\s*"(?P<description>[^"]*)"\s*\)\s*$'
+    r'\s*(?P<start>[-+0-9.eE]+|"[^"]*")\s*,\s*"(?P<unit>[^"]*)"\s*,\s*"(?P<description>[^"]*)"\s*\)\s*$'
 )
 
 
@@ -18,13 +18,13 @@ _LINE = re.compile(
 class Variable:
     """One FMI scalar variable as declared in variables.def."""
 
-    type: str  # "Real", "Integer" or "Boolean"
+    type: str  # "Real", "Integer", "Boolean" or "String"
     value_reference: int
     field: str
     name: str
     causality: str
     variability: str
-    start: str
+    start: str  # a number, or a String's text without its quotes
     unit: str
     description: str
 
@@ -47,7 +47,7 @@ def read_variables(path: Path) -> list[Variable]:
                 name=d["name"],
                 causality=d["causality"],
                 variability=d["variability"],
-                start=d["start"],
+                start=d["start"][1:-1] if d["type"] == "STRING" else d["start"],
                 unit=d["unit"],
                 description=d["description"],
             )

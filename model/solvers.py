@@ -26,6 +26,7 @@ FMU's rule, docs/model.md).
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from dataclasses import dataclass, field
@@ -131,10 +132,12 @@ class _Model:
         return c < 1.0 and self.alpha - math.acos(c) < self.s.rest_ratio * self.alpha
 
     def find_uplift(self, t0: float, t1: float, dt: float) -> float | None:
-        """First time in [t0, t1] the ground tips the block: samples every dt, then Brent's method."""
+        """First time in [t0, t1] the ground tips the block: samples every dt and at the scene's
+        breaks (a record's samples, where |a_h| of a piecewise-linear record peaks), then Brent's method."""
         if self.uplift_indicator(t0) > 0:
             return t0
-        grid = np.append(np.arange(t0, t1, dt), t1)
+        breaks = np.asarray(self.s.breaks, dtype=float)
+        grid = np.union1d(np.append(np.arange(t0, t1, dt), t1), breaks[(breaks > t0) & (breaks < t1)])
         for a, b in zip(grid[:-1], grid[1:]):
             if self.uplift_indicator(b) > 0:
                 return brentq(self.uplift_indicator, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
@@ -171,7 +174,8 @@ def solve_event_driven(scene: Scene, t_end: float, method: str = "DOP853", rtol:
             if tu is None:
                 break
             t, theta, omega, side, resting = tu, 0.0, 0.0, m.uplift_side(tu), False
-        t_stop = min([b for b in breaks if b > t] + [t_end])
+        k = bisect.bisect_right(breaks, t)
+        t_stop = min(breaks[k], t_end) if k < len(breaks) else t_end
 
         def rhs(tt, y, s=side):
             return [y[1], m.accel(tt, y[0], s)]

@@ -178,6 +178,8 @@ class RockingFMU:
                 slave.setInteger([v.valueReference], [int(value)])
             elif v.type == "Boolean":
                 slave.setBoolean([v.valueReference], [bool(value)])
+            elif v.type == "String":
+                slave.setString([v.valueReference], [str(value)])
             else:
                 raise TypeError(f"unsupported variable type {v.type} of '{name}'")
 

@@ -121,18 +121,19 @@ def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, st
 
 def _set_all(fmu: RockingFMU, slave, params: dict) -> None:
     """All parameters in one call per type (each call through ctypes costs microseconds)."""
-    by_type: dict[str, tuple[list, list]] = {"Real": ([], []), "Integer": ([], []), "Boolean": ([], [])}
+    by_type: dict[str, tuple[list, list]] = {"Real": ([], []), "Integer": ([], []), "Boolean": ([], []),
+                                             "String": ([], [])}
+    cast = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
     for name, value in params.items():
         v = fmu.variable(name)
         vrs, vals = by_type[v.type]
         vrs.append(v.valueReference)
-        vals.append(float(value) if v.type == "Real" else int(value) if v.type == "Integer" else bool(value))
-    if by_type["Real"][0]:
-        slave.setReal(*by_type["Real"])
-    if by_type["Integer"][0]:
-        slave.setInteger(*by_type["Integer"])
-    if by_type["Boolean"][0]:
-        slave.setBoolean(*by_type["Boolean"])
+        vals.append(cast[v.type](value))
+    setters = {"Real": slave.setReal, "Integer": slave.setInteger, "Boolean": slave.setBoolean,
+               "String": slave.setString}
+    for typ, (vrs, vals) in by_type.items():
+        if vrs:
+            setters[typ](vrs, vals)
 
 
 @dataclass

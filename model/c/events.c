@@ -1,5 +1,6 @@
 /* Event location shared by the solvers (see events.h). */
 #include "events.h"
+#include "ground.h"
 
 #include <float.h>
 #include <math.h>
@@ -14,17 +15,6 @@ void say(const Logger *log, int category, const char *fmt, ...) {
     vsnprintf(buf, sizeof(buf), fmt, ap);
     va_end(ap);
     log->fn(log->ctx, category, buf);
-}
-
-int excitation_over(const Model *M, double t) {
-    return M->v.kind == 0 || t >= M->d.excEnd;
-}
-
-double next_breakpoint(const Model *M, double t) {
-    if (M->v.kind == 0) return INFINITY;
-    if (t < M->d.excStart) return M->d.excStart;
-    if (t < M->d.excEnd) return M->d.excEnd;
-    return INFINITY;
 }
 
 int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
@@ -105,41 +95,21 @@ double first_crossing(const double *c, int slope) {
     return 2.0;
 }
 
-/* Next edge of a cell on which the excitation waveform is monotone. */
-static double next_cell_edge(const Model *M, double a) {
-    if (M->v.kind == 0) return INFINITY;
-    if (a < M->d.excStart) return M->d.excStart;
-    if (a >= M->d.excEnd) return INFINITY;
-    double T4 = 0.25 / M->v.frequency;
-    double j = floor((a - M->d.excStart) / T4) + 1.0;
-    double b = M->d.excStart + j * T4;
-    if (b <= a) b = M->d.excStart + (j + 1.0) * T4;
-    return fmin(b, M->d.excEnd);
-}
-
-/* Start of the cell that contains a (a itself outside the excitation). */
-static double cell_start(const Model *M, double a) {
-    if (M->v.kind == 0 || a < M->d.excStart || a >= M->d.excEnd) return a;
-    double T4 = 0.25 / M->v.frequency;
-    double lo = M->d.excStart + floor((a - M->d.excStart) / T4) * T4;
-    return lo <= a ? lo : a;
-}
-
 int find_uplift(const Model *M, double t, double tc, double *tu) {
     double a = t;
+    int piece = model_piece(M, a);
     for (int first = 1;; first = 0) {
-        int piece = model_piece(M, a);
         for (int side = 1; side >= -1; side -= 2)
             if (model_uplift_indicator_piece(M, a, side, piece) > 0) {
                 *tu = a;
                 return side;
             }
-        double b = next_cell_edge(M, a);
+        double b = next_cell_edge(M, a, piece);
         if (!isfinite(b)) return 0; /* no waveform left: the indicator stays put */
         /* Bisect on the whole cell (where the indicator is still <= 0 at its
          * start), not from a: the root then does not depend on where the
          * previous call stopped, i.e. on the communication points. */
-        double best = INFINITY, c0 = first ? cell_start(M, a) : a;
+        double best = INFINITY, c0 = first ? cell_start(M, a, piece) : a;
         for (int side = 1; side >= -1; side -= 2) {
             if (!(model_uplift_indicator_piece(M, b, side, piece) > 0)) continue;
             double lo = (c0 < a && model_uplift_indicator_piece(M, c0, side, piece) <= 0) ? c0 : a;
@@ -158,6 +128,7 @@ int find_uplift(const Model *M, double t, double tc, double *tu) {
             return model_uplift_indicator_piece(M, best, 1, piece) > 0 ? 1 : -1;
         }
         if (b >= tc) return 0;
+        piece = next_piece(M, piece, b);
         a = b;
     }
 }

@@ -5,6 +5,7 @@
 #define ROCKING_EVENTS_H
 
 #include "integrator.h"
+#include "ground.h"
 #include "model.h"
 
 #define LOG_EVENTS 0
@@ -12,12 +13,6 @@
 
 /* printf-style message to the solver's logger (events only if enabled). */
 void say(const Logger *log, int category, const char *fmt, ...);
-
-/* True once the built-in excitation is over (or there is none). */
-int excitation_over(const Model *M, double t);
-
-/* Next window edge of the built-in excitation after t (a step stops there). */
-double next_breakpoint(const Model *M, double t);
 
 /* One accepted adaptive step from (t, y) with f0 = f(t, y): tries *h
  * (capped at hmax, in which case *hitMax is set), shrinking it until the
@@ -44,8 +39,8 @@ double first_crossing(const double *c, int slope);
 int may_have_root(const double *c);
 
 /* At rest: the first time in [t, tc] at which |ah| exceeds
- * M->d.upliftSlope * (g + av), found cell by cell (the waveform is monotone
- * on quarter periods) and by bisection. Returns the tipping side (+1, -1)
+ * M->d.upliftSlope * (g + av), found cell by cell (the excitation is
+ * monotone on each cell, ground.h) and by bisection. Returns the tipping side (+1, -1)
  * and the time in *tu, or 0 if the ground does not tip the body before tc. */
 int find_uplift(const Model *M, double t, double tc, double *tu);
 

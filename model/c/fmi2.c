@@ -1,15 +1,23 @@
 /* FMI 2.0 Co-Simulation interface of RockingBlock: instance life cycle, call
  * sequence checks, variable access, FMU state and stepping. All physics is in
  * model.c and solver.c; this file holds no global state. */
+#if defined(__linux__) && !defined(_POSIX_C_SOURCE)
+#define _POSIX_C_SOURCE 200809L /* struct stat's st_mtim */
+#endif
+#include <ctype.h>
 #include <float.h>
+#include <locale.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "fmi2Functions.h"
 #include "config.h" /* MODEL_GUID, written by fmu_build */
+#include "ground.h"
 #include "model.h"
+#include "record.h"
 #include "solver.h"
 
 typedef enum {
@@ -32,26 +40,45 @@ typedef struct {
     int dirty;
 } Snapshot;
 
+/* The file a record was read from, to read it again only when it changed. */
+typedef struct {
+    char path[STRING_CAPACITY];
+    double size, mtime, mtimeNs, inode;
+} FileStamp;
+
 typedef struct {
     Snapshot s; /* everything that makes up the FMU state */
     fmi2CallbackFunctions cb;
     char *name;
+    char *resourceDir; /* local path of the FMU's resources folder, or NULL */
     int loggingOn;
     int logEvents;
+    Record rec;        /* the record of excitation.kind = 4, read once per file */
+    FileStamp recFile;
 } Instance;
+
+#define MSG_LEN (STRING_CAPACITY + 512)
 
 /* ---------------------------------------------------------------- logging */
 
 static void log_message(Instance *I, fmi2Status status, const char *category,
                         const char *fmt, ...) {
-    char buf[600];
+    char buf[MSG_LEN];
     va_list ap;
     if (!I || !I->cb.logger) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof(buf), fmt, ap);
     va_end(ap);
-    for (char *p = buf; *p; p++) /* the logger treats the message as a format */
-        if (*p == '%') *p = ' ';
+    /* Numbers are written with '.' whatever the importer's locale: event lines
+     * are read by programs, and printf follows LC_NUMERIC (',' in German). */
+    const struct lconv *lc = localeconv();
+    char point = (lc && lc->decimal_point && lc->decimal_point[0]) ? lc->decimal_point[0] : '.';
+    for (char *p = buf; *p; p++) {
+        if (*p == '%') *p = ' '; /* the logger treats the message as a format */
+        if (point != '.' && *p == point && p > buf && isdigit((unsigned char)p[-1]) &&
+            isdigit((unsigned char)p[1]))
+            *p = '.';
+    }
     I->cb.logger(I->cb.componentEnvironment, I->name, status, category, buf);
 }
 
@@ -81,16 +108,63 @@ static int bad_call(Instance *I, int allowed, const char *fn) {
 #define ANY_PHASE (PHASE_INSTANTIATED | PHASE_INITIALIZATION | PHASE_STEP_COMPLETE | PHASE_TERMINATED | PHASE_ERROR)
 #define GET_PHASES (PHASE_INITIALIZATION | PHASE_STEP_COMPLETE | PHASE_TERMINATED | PHASE_ERROR)
 
+/* ---------------------------------------------------------------- records */
+
+static void stamp_of(const struct stat *st, const char *path, FileStamp *f) {
+    snprintf(f->path, sizeof(f->path), "%s", path);
+    f->size = (double)st->st_size;
+    f->mtime = (double)st->st_mtime;
+    f->inode = (double)st->st_ino;
+#if defined(__linux__)
+    f->mtimeNs = (double)st->st_mtim.tv_nsec;
+#else
+    f->mtimeNs = 0.0;
+#endif
+}
+
+/* Read the record named by excitation.file into the instance, unless the
+ * same file (path, size, modification time) was read before. */
+static int load_record(Instance *I, char *msg, size_t n) {
+    char path[STRING_CAPACITY];
+    struct stat st;
+    FileStamp now;
+    if (record_path(I->s.model.v.file, I->resourceDir, path, sizeof(path), msg, n)) return 1;
+    if (stat(path, &st) == 0) {
+        stamp_of(&st, path, &now);
+        if (I->rec.n > 0 && memcmp(&now, &I->recFile, sizeof(now)) == 0) return 0;
+    } else {
+        memset(&now, 0, sizeof(now));
+    }
+    Record r;
+    if (record_read(path, &r, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
+    record_free(&I->rec, I->cb.freeMemory);
+    I->rec = r;
+    I->recFile = now;
+    return 0;
+}
+
 /* Validate, derive and initialise if parameters changed; write outputs. */
 static fmi2Status ensure_initialized(Instance *I) {
     Model *M = &I->s.model;
     if (!I->s.dirty) return fmi2OK;
-    char msg[400];
+    char msg[MSG_LEN];
     if (model_validate(&M->v, msg, sizeof(msg))) {
         LOG_ERROR(I, "invalid parameter: %s", msg);
         return fmi2Error;
     }
-    model_derive(&M->v, &M->d);
+    M->rec = NULL;
+    if (M->v.kind == KIND_RECORD) {
+        if (load_record(I, msg, sizeof(msg))) {
+            LOG_ERROR(I, "excitation.file: %s", msg);
+            return fmi2Error;
+        }
+        M->rec = &I->rec;
+        if (ground_validate_record(M, msg, sizeof(msg))) {
+            LOG_ERROR(I, "invalid parameter: %s", msg);
+            return fmi2Error;
+        }
+    }
+    model_derive(M);
     solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
     solver_outputs(M, I->s.tc);
@@ -141,7 +215,6 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
                               fmi2String fmuGUID, fmi2String fmuResourceLocation,
                               const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn) {
-    (void)fmuResourceLocation;
     (void)visible;
     if (!functions || !functions->allocateMemory || !functions->freeMemory) return NULL;
     Instance tmp;
@@ -172,6 +245,14 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
         return NULL;
     }
     memcpy(I->name, instanceName, len);
+    /* record files named by a relative excitation.file live in resources/ */
+    char dir[STRING_CAPACITY];
+    if (fmuResourceLocation && fmuResourceLocation[0] &&
+        record_uri_to_path(fmuResourceLocation, dir, sizeof(dir)) == 0) {
+        size_t dlen = strlen(dir) + 1;
+        I->resourceDir = (char *)functions->allocateMemory(dlen, 1);
+        if (I->resourceDir) memcpy(I->resourceDir, dir, dlen);
+    }
     I->loggingOn = loggingOn;
     I->logEvents = 1;
     reset_instance(I);
@@ -182,6 +263,8 @@ void fmi2FreeInstance(fmi2Component c) {
     Instance *I = (Instance *)c;
     if (!I) return;
     fmi2CallbackFreeMemory freeMemory = I->cb.freeMemory;
+    record_free(&I->rec, freeMemory);
+    if (I->resourceDir) freeMemory(I->resourceDir);
     freeMemory(I->name);
     freeMemory(I);
 }
@@ -251,10 +334,11 @@ static fmi2Status check_array(Instance *I, const void *vr, size_t nvr, const voi
 
 /* ---------------------------------------------------- the variable table */
 
-typedef enum { TYPE_REAL, TYPE_INTEGER, TYPE_BOOLEAN } VarType;
+typedef enum { TYPE_REAL, TYPE_INTEGER, TYPE_BOOLEAN, TYPE_STRING } VarType;
 #define TYPE_OF_REAL TYPE_REAL
 #define TYPE_OF_INTEGER TYPE_INTEGER
 #define TYPE_OF_BOOLEAN TYPE_BOOLEAN
+#define TYPE_OF_STRING TYPE_STRING
 typedef enum { CAUSALITY_parameter, CAUSALITY_input, CAUSALITY_output } Causality;
 
 typedef struct {
@@ -293,7 +377,7 @@ static fmi2Status settable(Instance *I, const VarInfo *info, const char *fn) {
     return fmi2OK;
 }
 
-static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean"};
+static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean", "String"};
 
 /* Common checks of the getters and setters; returns the variable's address
  * or NULL after logging an error. A parameter about to be set marks the
@@ -367,12 +451,24 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          const fmi2String value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, SET_PHASES, "fmi2SetString");
-    (void)value;
-    if (nvr == 0) return fmi2OK;
-    LOG_ERROR(I, "fmi2SetString: the model has no String variables (value reference %u)",
-              vr ? vr[0] : 0u);
-    return fmi2Error;
+    if (begin_access(I, 1, vr, nvr, value, "fmi2SetString")) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) {
+        const char *name;
+        char *p = (char *)lookup(I, vr[i], TYPE_STRING, 1, "fmi2SetString", &name);
+        if (!p) return fmi2Error;
+        if (!value[i]) {
+            LOG_ERROR(I, "fmi2SetString: '%s' = NULL (give an empty string instead)", name);
+            return fmi2Error;
+        }
+        size_t len = strlen(value[i]);
+        if (len >= STRING_CAPACITY) {
+            LOG_ERROR(I, "fmi2SetString: '%s' is %zu bytes long, at most %d are allowed", name, len,
+                      STRING_CAPACITY - 1);
+            return fmi2Error;
+        }
+        memcpy(p, value[i], len + 1);
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -414,12 +510,13 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
     Instance *I = (Instance *)c;
-    CHECK(I, GET_PHASES, "fmi2GetString");
-    (void)value;
-    if (nvr == 0) return fmi2OK;
-    LOG_ERROR(I, "fmi2GetString: the model has no String variables (value reference %u)",
-              vr ? vr[0] : 0u);
-    return fmi2Error;
+    if (begin_access(I, 0, vr, nvr, value, "fmi2GetString")) return fmi2Error;
+    for (size_t i = 0; i < nvr; i++) {
+        const char *p = (const char *)lookup(I, vr[i], TYPE_STRING, 0, "fmi2GetString", NULL);
+        if (!p) return fmi2Error;
+        value[i] = p; /* valid until the variable is set again or the instance is freed */
+    }
+    return fmi2OK;
 }
 
 /* -------------------------------------------------------------- FMU state */
@@ -455,7 +552,26 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
         LOG_ERROR(I, "fmi2SetFMUstate: not a state of this FMU");
         return fmi2Error;
     }
+    const Model *sm = &snap->model;
+    if (!snap->dirty && sm->v.kind == KIND_RECORD) {
+        /* the state ran on a record: this instance must hold the same samples */
+        char msg[MSG_LEN];
+        Snapshot keep = I->s;
+        I->s.model.v = sm->v; /* load_record reads excitation.file from here */
+        int failed = load_record(I, msg, sizeof(msg));
+        I->s = keep;
+        if (failed) {
+            LOG_ERROR(I, "fmi2SetFMUstate: excitation.file: %s", msg);
+            return fmi2Error;
+        }
+        if (I->rec.n != sm->d.recN || I->rec.hash != sm->d.recHash) {
+            LOG_ERROR(I, "fmi2SetFMUstate: the record file '%s' changed since the state was saved "
+                      "(%d samples then, %d now)", sm->v.file, sm->d.recN, I->rec.n);
+            return fmi2Error;
+        }
+    }
     I->s = *snap;
+    I->s.model.rec = (!snap->dirty && sm->v.kind == KIND_RECORD) ? &I->rec : NULL;
     return fmi2OK;
 }
 
@@ -557,6 +673,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     Instance *I = (Instance *)c;
     (void)noSetFMUStatePriorToCurrentPoint;
     CHECK(I, PHASE_STEP_COMPLETE, "fmi2DoStep");
+    if (ensure_initialized(I) != fmi2OK) return fmi2Error;
     double tc = I->s.tc;
     if (!isfinite(currentCommunicationPoint) || !isfinite(communicationStepSize) ||
         communicationStepSize < 0) {

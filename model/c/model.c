@@ -1,6 +1,7 @@
 /* Rocking rigid block: parameters, excitation, equation of motion, energy.
  * Conventions in model.h and docs/conventions.md. */
 #include "model.h"
+#include "ground.h"
 #include "stack.h"
 
 #include <math.h>
@@ -9,8 +10,16 @@
 
 void model_set_defaults(Model *M) {
     memset(M, 0, sizeof(*M));
-#define VAR(T, vr, field, name, caus, var, start, unit, desc) M->v.field = start;
+#define VAR(T, vr, field, name, caus, var, start, unit, desc) DEFAULT_##T(field, start)
+#define DEFAULT_REAL(field, start) M->v.field = start;
+#define DEFAULT_INTEGER(field, start) M->v.field = start;
+#define DEFAULT_BOOLEAN(field, start) M->v.field = start;
+#define DEFAULT_STRING(field, start) snprintf(M->v.field, sizeof(M->v.field), "%s", start);
 #include "variables.def"
+#undef DEFAULT_REAL
+#undef DEFAULT_INTEGER
+#undef DEFAULT_BOOLEAN
+#undef DEFAULT_STRING
 #undef VAR
 }
 
@@ -27,10 +36,13 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     if (!isfinite(v->field)) FAIL("%s = %g is not a finite number", name, v->field);
 #define CHECK_INTEGER(field, name)
 #define CHECK_BOOLEAN(field, name)
+#define CHECK_STRING(field, name) \
+    if (!memchr(v->field, '\0', sizeof(v->field))) FAIL("%s is not terminated", name);
 #include "variables.def"
 #undef CHECK_REAL
 #undef CHECK_INTEGER
 #undef CHECK_BOOLEAN
+#undef CHECK_STRING
 #undef VAR
     if (v->nBlocks != 1 && v->nBlocks != 2)
         FAIL("nBlocks = %d must be 1 (one block) or 2 (two stacked blocks)", v->nBlocks);
@@ -73,19 +85,7 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (v->earlyOverturn)
             FAIL("solver.earlyOverturn is available for nBlocks = 1 only");
     }
-    if (v->kind < 0 || v->kind > 3)
-        FAIL("excitation.kind = %d must be 0 (none), 1 (sine pulse), 2 (cosine pulse) or 3 (harmonic)",
-             v->kind);
-    if (v->kind != 0) {
-        if (!(v->frequency > 0)) FAIL("excitation.frequency = %g must be > 0 Hz", v->frequency);
-        if (v->kind != 3 && !(v->cycles > 0))
-            FAIL("excitation.cycles = %g must be > 0 for a pulse", v->cycles);
-        if (v->kind == 3 && !(v->cycles >= 0))
-            FAIL("excitation.cycles = %g must be >= 0 (0: endless harmonic)", v->cycles);
-        if (!(fabs(v->verticalAmplitude) < v->g))
-            FAIL("excitation.verticalAmplitude = %g must be below g in magnitude (the block would leave the ground)",
-                 v->verticalAmplitude);
-    }
+    if (ground_validate(v, msg, n)) return 1;
     if (v->method != 0 && v->method != 1)
         FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)) or 1 (Taylor series)", v->method);
     if (v->method == 1 && v->nBlocks == 2)
@@ -111,7 +111,9 @@ double model_law_restitution(const Variables *v, double alpha) {
     }
 }
 
-void model_derive(const Variables *v, Derived *d) {
+void model_derive(Model *M) {
+    const Variables *v = &M->v;
+    Derived *d = &M->d;
     double b = v->halfWidth, h = v->halfHeight;
     d->R = sqrt(b * b + h * h);
     d->alpha = atan(b / h);
@@ -120,44 +122,9 @@ void model_derive(const Variables *v, Derived *d) {
     d->mROverI0 = 3.0 / (4.0 * d->R);
     d->p2 = 3.0 * v->g / (4.0 * d->R);
     d->eta = model_law_restitution(v, d->alpha) * v->correction;
-    d->omegaExc = 2.0 * M_PI * v->frequency;
-    d->accAmp = v->kind == 3 ? v->displacement * d->omegaExc * d->omegaExc : v->amplitude;
-    if (v->kind == 0) {
-        d->excStart = INFINITY;
-        d->excEnd = INFINITY;
-    } else {
-        d->excStart = v->startTime;
-        d->excEnd = (v->kind == 3 && v->cycles == 0) ? INFINITY
-                                                     : v->startTime + v->cycles / v->frequency;
-    }
+    ground_derive(M);
     d->upliftSlope = d->tanAlpha;
     if (v->nBlocks == 2) stack_derive(v, d);
-}
-
-/* Waveform on the window, evaluated as the analytic piece (no window test). */
-static double wave_inside(const Model *M, double t) {
-    double ph = M->d.omegaExc * (t - M->v.startTime);
-    switch (M->v.kind) {
-    case 1: return sin(ph);
-    case 2: return cos(ph);
-    case 3: return -sin(ph); /* table displacement D sin(ph) */
-    default: return 0.0;
-    }
-}
-
-int model_piece(const Model *M, double tStart) {
-    if (tStart < M->d.excStart || tStart >= M->d.excEnd) return 0;
-    return 1;
-}
-
-void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
-    double s = piece ? wave_inside(M, t) : 0.0;
-    *ah = M->d.accAmp * s + M->v.ahIn;
-    *av = M->v.verticalAmplitude * s + M->v.avIn;
-}
-
-void model_ground(const Model *M, double t, double *ah, double *av) {
-    model_ground_piece(M, t, model_piece(M, t), ah, av);
 }
 
 void model_rhs_piece(const Model *M, double t, const double y[2], int side,

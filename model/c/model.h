@@ -17,14 +17,37 @@
 #include <stddef.h>
 
 #include "integrator.h" /* NMAX */
+#include "record.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
 
+/* String parameters (excitation.file) live in the struct as fixed buffers,
+ * so that a Model stays free of pointers into variable data. */
+#define STRING_CAPACITY 4096
+typedef char FixedString[STRING_CAPACITY];
+
 #define REAL_TYPE double
 #define INTEGER_TYPE int
 #define BOOLEAN_TYPE int
+#define STRING_TYPE FixedString
+
+/* excitation.kind */
+typedef enum {
+    KIND_NONE = 0,
+    KIND_SINE_PULSE = 1,
+    KIND_COSINE_PULSE = 2,
+    KIND_HARMONIC = 3,
+    KIND_RECORD = 4,
+    KIND_RICKER = 5,
+    KIND_RICKER_ANTISYMMETRIC = 6,
+    KIND_MP_PULSE = 7,
+    KIND_COUNT = 8
+} ExcitationKind;
+
+/* most edges of the cells on which a built-in pulse is monotone (ground.c) */
+#define MAX_CELLS 64
 
 /* All FMI variables: parameters, inputs and outputs, generated from the table. */
 typedef struct {
@@ -46,6 +69,18 @@ typedef struct {
     double accAmp;     /* horizontal acceleration amplitude, m/s^2 */
     double excStart;   /* excitation window [excStart, excEnd), s */
     double excEnd;     /* +inf for an endless harmonic */
+
+    /* built-in pulses (kinds 5 to 7, ground.c): the waveform is divided by
+     * pulseNorm so that its peak is 1 */
+    double pulseCentre; /* Ricker centre, Mavroeidis-Papageorgiou t0, s */
+    double pulseRate;   /* Ricker: kappa of x = kappa (t - centre), 1/s */
+    double pulseNorm;
+    double mpOmega[3], mpCoef[3]; /* Mavroeidis-Papageorgiou: three sines */
+    int nCells;                   /* cells on which the pulse is monotone */
+    double cell[MAX_CELLS];
+    /* record (kind 4): its samples and content, to check a restored state */
+    int recN;
+    unsigned long long recHash;
     double upliftSlope; /* at rest the ground tips the body once |ah| > upliftSlope (g + av) */
 
     /* two stacked blocks (nBlocks = 2), see stack.h */
@@ -128,6 +163,10 @@ typedef struct {
     Variables v;
     Derived d;
     State s;
+    /* The samples of a record excitation (kind 4): owned by the FMU instance,
+     * read once per file, not part of the FMU state (a restored state is
+     * re-attached to its instance's record, checked by recN and recHash). */
+    const Record *rec;
 } Model;
 
 /* Logging callback used by the solver; ctx is opaque. category: 0 events,
@@ -143,18 +182,16 @@ typedef struct {
 void model_set_defaults(Model *M);
 
 /* Validate the parameters; on failure write a one-line reason to msg and
- * return nonzero. */
+ * return nonzero. A record (kind 4) is checked by ground_validate_record once
+ * it is attached. */
 int model_validate(const Variables *v, char *msg, size_t n);
 
-/* Compute the derived quantities (parameters must be valid). */
-void model_derive(const Variables *v, Derived *d);
+/* Compute the derived quantities (parameters valid, record attached). */
+void model_derive(Model *M);
 
 /* Restitution coefficient of the law selected by the parameters (before the
  * correction factor). */
 double model_law_restitution(const Variables *v, double alpha);
-
-/* Total ground accelerations (built-in plus inputs), m/s^2. */
-void model_ground(const Model *M, double t, double *ah, double *av);
 
 /* Equation of motion: dy = (omega, theta'') for pivot side (+1 right, -1 left):
  *   theta'' = -(m R / I0) [ (g + a_v) sin(side*alpha - theta)
@@ -164,12 +201,6 @@ void model_rhs(const Model *M, double t, const double y[2], int side, double dy[
 /* Energy (J): 0.5 I0 omega^2 + m g R (cos(alpha - |theta|) - cos(alpha)). */
 double model_energy(const Model *M, double theta, double omega);
 
-/* Piece of the excitation active on a step starting at tStart (0 outside
- * the excitation window, 1 inside). A step never crosses a window edge, so
- * evaluating the piece's analytic formula at the step's end points gives the
- * correct one-sided limits at discontinuities (cosine pulse). */
-int model_piece(const Model *M, double tStart);
-void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av);
 void model_rhs_piece(const Model *M, double t, const double y[2], int side,
                      int piece, double dy[2]);
 /* Uplift indicator of a block at rest for tipping towards side: positive

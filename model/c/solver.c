@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "events.h"
+#include "ground.h"
 #include "integrator.h"
 #include "stack_solver.h"
 #include "taylor.h"

