@@ -37,20 +37,58 @@ class Block(Base):
     source: Mapped[str | None] = mapped_column(Text)
 
 
+class Record(Base):
+    """A ground-motion record: its samples (time in s, horizontal and optionally vertical ground
+    acceleration in m/s^2, our signs; db.series), where it comes from, and its intensity
+    measures, computed once from the samples joined by straight lines (runners.intensity)."""
+
+    __tablename__ = "records"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), unique=True)  # e.g. fema-p695/nearfield_pulse/1a
+    suite: Mapped[str | None] = mapped_column(String(100), index=True)  # e.g. fema-p695/nearfield_pulse
+    event: Mapped[str | None] = mapped_column(String(200))  # e.g. Imperial Valley-06
+    year: Mapped[int | None] = mapped_column(Integer)
+    magnitude: Mapped[float | None] = mapped_column(Float)  # moment magnitude
+    station: Mapped[str | None] = mapped_column(String(200))
+    distance_km: Mapped[float | None] = mapped_column(Float)  # closest distance to the rupture plane, km
+    component: Mapped[str | None] = mapped_column(String(100))  # e.g. IMPVALL/H-E06_233
+    source: Mapped[str | None] = mapped_column(Text)  # provenance: who recorded, processed and published it
+    meta: Mapped[dict | None] = mapped_column(JSON)  # everything else the source states
+    file_name: Mapped[str | None] = mapped_column(Text)
+    names: Mapped[list] = mapped_column(JSON)  # ["ah"] or ["ah", "av"] (db.series, after time)
+    n_samples: Mapped[int] = mapped_column(Integer)
+    data: Mapped[bytes] = mapped_column(LargeBinary)  # db.series: time then columns
+    sha256: Mapped[str] = mapped_column(String(64))  # of the samples (little-endian float64 time, then columns)
+    dt: Mapped[float] = mapped_column(Float)  # s, smallest sample interval
+    duration: Mapped[float] = mapped_column(Float)  # s, last sample time minus the first
+    # intensity measures of the horizontal component (runners.intensity); None until computed
+    pga: Mapped[float | None] = mapped_column(Float)  # m/s^2
+    pgv: Mapped[float | None] = mapped_column(Float)  # m/s
+    pgd: Mapped[float | None] = mapped_column(Float)  # m
+    arias: Mapped[float | None] = mapped_column(Float)  # m/s, Arias intensity
+    d5_95: Mapped[float | None] = mapped_column(Float)  # s, significant duration
+    mean_period: Mapped[float | None] = mapped_column(Float)  # s
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
+
+
 class Excitation(Base):
-    """A parametric excitation (the FMU's built-in waveforms) or a recorded series."""
+    """A parametric excitation (the FMU's built-in waveforms) or a stored record times a scale."""
 
     __tablename__ = "excitations"
     id: Mapped[int] = mapped_column(primary_key=True)
-    kind: Mapped[str] = mapped_column(String(20))  # none, sine-pulse, cosine-pulse, harmonic, recorded
+    # none, sine-pulse, cosine-pulse, harmonic, record, ricker, ricker-antisymmetric, mavroeidis-papageorgiou
+    kind: Mapped[str] = mapped_column(String(30))
     amplitude: Mapped[float | None] = mapped_column(Float)  # m/s^2
     frequency: Mapped[float | None] = mapped_column(Float)  # Hz
     cycles: Mapped[float | None] = mapped_column(Float)
     start_time: Mapped[float | None] = mapped_column(Float)  # s
     vertical_amplitude: Mapped[float | None] = mapped_column(Float)  # m/s^2
     displacement: Mapped[float | None] = mapped_column(Float)  # m
-    series: Mapped[bytes | None] = mapped_column(LargeBinary)  # recorded: see db.series
-    series_dt: Mapped[float | None] = mapped_column(Float)  # s
+    gamma: Mapped[float | None] = mapped_column(Float)  # Mavroeidis-Papageorgiou gamma
+    phase: Mapped[float | None] = mapped_column(Float)  # rad, Mavroeidis-Papageorgiou nu
+    record_id: Mapped[int | None] = mapped_column(ForeignKey("records.id"), index=True)
+    scale: Mapped[float | None] = mapped_column(Float)  # multiplier of the record's accelerations
+    record: Mapped[Record | None] = relationship()
 
 
 class Scene(Base):

@@ -88,9 +88,18 @@ def upgrade(engine: Engine) -> None:
     try:
         if _at_head(engine):
             return
+        sqlite = engine.dialect.name == "sqlite"
         with _migration_lock(engine), engine.begin() as conn:
+            if sqlite:  # a batch migration rebuilds tables others refer to: check the keys after, not during
+                conn.exec_driver_sql("PRAGMA foreign_keys=OFF")
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
+            if sqlite:
+                broken = conn.exec_driver_sql("PRAGMA foreign_key_check").fetchall()
+                if broken:
+                    raise DatabaseError(f"migrating {engine.url!r} would break foreign keys: {broken[:3]}")
+        if sqlite:
+            engine.dispose()  # new connections get foreign_keys=ON again (_sqlite_pragmas)
     except OperationalError as exc:
         raise DatabaseError(f"cannot open the database {engine.url!r}: {str(exc.orig).splitlines()[0]}") from None
 

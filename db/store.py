@@ -14,9 +14,10 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from db import series
-from db.schema import Block, Excitation, Measurement, Run, RunSeries, RunSummary, Scene
+from db.schema import Block, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene
 
-KINDS = {0: "none", 1: "sine-pulse", 2: "cosine-pulse", 3: "harmonic"}
+KINDS = {0: "none", 1: "sine-pulse", 2: "cosine-pulse", 3: "harmonic", 4: "record", 5: "ricker",
+         6: "ricker-antisymmetric", 7: "mavroeidis-papageorgiou"}
 
 
 @lru_cache(maxsize=None)
@@ -40,11 +41,18 @@ def file_sha256(path: str) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def excitation_of(p: dict[str, Any]) -> Excitation:
-    return Excitation(kind=KINDS[int(p["excitation.kind"])], amplitude=p["excitation.amplitude"],
+def excitation_of(p: dict[str, Any], record: Record | None = None) -> Excitation:
+    """The excitation the FMU parameters p describe (a record's samples are `record`)."""
+    kind = int(p["excitation.kind"])
+    if kind == 4:
+        return Excitation(kind="record", record=record, scale=p.get("excitation.scale", 1.0),
+                          start_time=p["excitation.startTime"])
+    mp = kind == 7
+    return Excitation(kind=KINDS[kind], amplitude=p["excitation.amplitude"],
                       frequency=p["excitation.frequency"], cycles=p["excitation.cycles"],
                       start_time=p["excitation.startTime"], vertical_amplitude=p["excitation.verticalAmplitude"],
-                      displacement=p["excitation.displacement"])
+                      displacement=p["excitation.displacement"], gamma=p.get("excitation.gamma") if mp else None,
+                      phase=p.get("excitation.phase") if mp else None)
 
 
 def add_scene(session: Session, name: str, parameters: dict[str, Any], source: str | None = None) -> Scene:
@@ -79,22 +87,17 @@ def add_measurement(session: Session, *, name: str, kind: str, time: np.ndarray,
                     units: dict[str, str], sign: str, block1: Block | None = None, block2: Block | None = None,
                     source: str | None = None, instrument: str | None = None, sampling_rate: float | None = None,
                     uncertainty: dict[str, float] | None = None, file_name: str | None = None,
-                    file_sha256: str | None = None,
-                    ground: tuple[np.ndarray, np.ndarray] | None = None) -> Measurement:
-    """One measurement (SI, our signs); with `ground` = (time in s, horizontal ground
-    acceleration in m/s^2) also its recorded excitation, which runs can be driven by."""
+                    file_sha256: str | None = None, record: Record | None = None) -> Measurement:
+    """One measurement (SI, our signs); with `record` (the ground motion a motion measurement
+    amounts to, runners.records.store_record) also its excitation, which runs can be driven by."""
     u = uncertainty or {}
     names, n, blob = series.pack(time, columns)
     m = Measurement(name=name, kind=kind, block1=block1, block2=block2, source=source, instrument=instrument,
                     sampling_rate=sampling_rate, uncertainty_angle=u.get("theta"), uncertainty_time=u.get("time"),
                     uncertainty_value=u.get("value"), units=dict(units), sign=sign, file_name=file_name,
                     file_sha256=file_sha256, names=names, n_samples=n, data=blob)
-    if ground is not None:
-        t, a = ground
-        dt = float(np.mean(np.diff(t))) if len(t) > 1 else None
-        _, _, ablob = series.pack(t, {"ah": a})
-        m.excitation = Excitation(kind="recorded", amplitude=float(np.max(np.abs(a))), start_time=float(t[0]),
-                                  series=ablob, series_dt=dt)
+    if record is not None:
+        m.excitation = Excitation(kind="record", record=record, scale=1.0, start_time=0.0)
     session.add(m)
     return m
 

@@ -24,23 +24,32 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from runners.least_model import (choose_model, closed_form_summary, combined_block_parameters,
                                      format_closed_form, one_block_parameters)
 
+    from runners.records import prepare_scene
+
     scene = load_scene(args.scene)
     if args.stop_time is not None:
-        scene.stop_time = args.stop_time
+        scene.stop_time, scene.stop_time_given = args.stop_time, True
     if args.step is not None:
-        scene.step = args.step
+        scene.step, scene.step_given = args.step, True
     measured = _measured(args.measured, args.rrd)  # fail on a bad file before simulating
     factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
     fmu_path = fmu_path_from(args.fmu)
-    motion = None
-    if args.motion is not None:
-        if args.method != "fmu":
-            raise ValueError("--motion drives the FMU through its inputs: use it with --method fmu")
-        from runners.measuredcli import motion_inputs
+    if args.record is not None and args.motion is not None:
+        raise ValueError("give --record or --motion, not both")
+    if args.motion is not None:  # the record a stored ground or table motion amounts to
+        from runners.measuredcli import motion_record
 
-        motion = motion_inputs(factory or _database(args.db), args.motion)
-        scene = replace(scene, parameters={**scene.parameters, "excitation.kind": 0})  # the record replaces it
-        scene.step = min(scene.step, motion["dt"])
+        args.record = str(motion_record(factory or _database(args.db), args.motion))
+    if args.record is not None:  # the record replaces the scene's excitation
+        scene = replace(scene, record=args.record, file=None,
+                        parameters={**{k: v for k, v in scene.parameters.items()
+                                       if not k.startswith("excitation.") or k == "excitation.startTime"},
+                                    "excitation.kind": 4})
+    if args.scale is not None:
+        if not scene.is_record:
+            raise ValueError("--scale multiplies a record: give a record scene or --record")
+        scene.parameters["excitation.scale"] = args.scale
+    rec = prepare_scene(scene, factory if factory is not None or scene.record is None else _database(args.db))
     result = None
     with RockingFMU(fmu_path) as fmu:
         defaults = fmu.defaults()
@@ -71,13 +80,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                     combined = combined_block_parameters(merged)
                     scene = replace(scene, parameters={k: v for k, v in combined.items()
                                                        if k in scene.parameters or k.startswith("block1.")})
-                result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS,
-                                 inputs=None if motion is None else motion["inputs"])
+                result = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
                 s = summarize(scene, result, defaults)
                 s["model"], s["model_reason"] = model, why
-                if motion is not None:
-                    s["excitation"] = (f"recorded ground motion: measurement {args.motion} ({motion['name']}), "
-                                       f"through ground.ah at a {scene.step:g} s communication step")
+                if rec is not None:
+                    s["excitation"] = rec.describe(float(merged["excitation.scale"]))
+                    s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end}
                 text_out = format_summary(s)
     recording = None
     if args.rrd:
@@ -86,12 +94,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         from runners.recording import write_recording
 
         recording = write_recording(Path(args.rrd), scene.name, result.time, result.outputs,
-                                    {**defaults, **scene.parameters}, result.events, measured)
+                                    {**defaults, **scene.parameters}, result.events, measured,
+                                    record=None if rec is None else rec.info)
         s["recording"] = str(recording)
         text_out += f"\nrecording        {recording}"
     if factory is not None:
         s["run_id"] = _store(factory, scene, {**defaults, **scene.parameters}, s, model, method, fmu_path, result,
-                             recording, None if motion is None else motion["excitation_id"])
+                             recording, None if rec is None else rec.record_id)
         text_out += f"\nstored           run {s['run_id']} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
     print(json.dumps(s, indent=2) if args.json else text_out)
     return 0
@@ -115,10 +124,10 @@ def _database(url: str | None):
 
 
 def _store(factory, scene, merged, s, model, method, fmu_path, result, recording=None,
-           excitation_id: int | None = None) -> int:
+           record_id: int | None = None) -> int:
     """The run and everything it refers to, in one transaction."""
-    from db.schema import Excitation
-    from db.store import add_run, add_scene
+    from db.schema import Record
+    from db.store import add_run, add_scene, excitation_of
     from runners.summary import summary_row
 
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
@@ -129,7 +138,7 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
                       wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
                       outputs=None if result is None else result.outputs,
                       events=None if result is None else [e.as_dict() for e in result.events],
-                      excitation=None if excitation_id is None else session.get(Excitation, excitation_id))
+                      excitation=excitation_of(merged, None if record_id is None else session.get(Record, record_id)))
         run.recording = None if recording is None else str(Path(recording).resolve())
         session.flush()
         return run.id
@@ -157,20 +166,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         local_workers(args.scheduler)
     elif args.scheduler or args.chunk:
         raise ValueError("--scheduler and --chunk apply to --executor dask")
+    if args.resume is not None and (args.records or args.im):
+        raise ValueError("--records and --im define a new sweep; --resume finishes a stored one")
     factory = _database(args.db)
     fmu_path = fmu_path_from(args.fmu)
     if args.resume is None:
         scene = load_scene(args.scene)
         if args.stop_time is not None:
-            scene.stop_time = args.stop_time
-        if not args.grid:
-            raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT")
+            scene.stop_time, scene.stop_time_given = args.stop_time, True
         with RockingFMU(fmu_path) as fmu:
             reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
             defaults = fmu.defaults()
         axes = [parse_axis(spec, reals) for spec in args.grid]
-        record = parse_points(args.record, math.prod(a.count for a in axes)) if args.record else None
-        sweep_id = create_sweep(factory, scene, axes, defaults)
+        records, intensity = _sweep_records(factory, scene, axes, args.records, args.im)
+        if not axes and not records:
+            raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
+        total = math.prod([len(records or ()) or 1, intensity.count if intensity else 1, *(a.count for a in axes)])
+        record = parse_points(args.record, total) if args.record else None
+        sweep_id = create_sweep(factory, scene, axes, defaults, records, intensity)
     else:
         sweep_id = args.resume
         with factory() as session:
@@ -200,6 +213,52 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if st["recorded"]:
         print(f"recorded {st['recorded']} points in full in {args.record_dir or f'recordings/sweep-{sweep_id}'}")
     return 0
+
+
+# parameters of the built-in waveforms: a record ignores them, so a record sweep may not vary them
+BUILT_IN = {"w", "a", "excitation.amplitude", "excitation.frequency", "excitation.cycles",
+            "excitation.verticalAmplitude", "excitation.displacement", "excitation.gamma", "excitation.phase"}
+
+
+def _sweep_records(factory, scene, axes, records_spec: str | None, im_spec: str | None):
+    """(records, intensity) of a new sweep, checked against its axes and scene."""
+    from runners.records import prepare_scene, select_records
+    from runners.sweep import parse_intensity, record_refs
+
+    names = [a.name for a in axes]
+    if len(set(names)) != len(names):
+        raise ValueError(f"--grid {names[[names.count(n) > 1 for n in names].index(True)]} is given twice")
+    intensity = parse_intensity(im_spec) if im_spec else None
+    chosen = None
+    if records_spec:
+        chosen = select_records(factory, records_spec)
+        scene.parameters = {k: v for k, v in scene.parameters.items()  # the records replace the excitation
+                            if not k.startswith("excitation.") or k in ("excitation.startTime", "excitation.scale")}
+        scene.parameters["excitation.kind"] = 4
+    elif scene.is_record:
+        rec = prepare_scene(scene, factory)
+        from db.records import find_record
+
+        with factory() as session:
+            chosen = [find_record(session, rec.record_id)]
+    if chosen is None:
+        if intensity is not None or "excitation.scale" in names:
+            raise ValueError(f"{'--im' if intensity else '--grid scale'} scales records: give --records SUITE "
+                             "(or a record scene)")
+        return None, None
+    ignored = [n for n in names if n in BUILT_IN]
+    if ignored:
+        raise ValueError(f"--grid {ignored[0]} sets a built-in waveform, which a record sweep does not use: "
+                         "scale records with --im or --grid scale")
+    if intensity is not None and "excitation.scale" in names:
+        raise ValueError("--im already sets each record's scale: drop --grid scale")
+    if intensity is not None:
+        bad = [r.name for r in chosen if not (r.pga or 0) > 0 or (intensity.measure == "pgv" and not (r.pgv or 0) > 0)]
+        if bad:
+            raise ValueError(f"record {bad[0]} has no {intensity.measure}: it cannot be scaled to a level of it")
+    with factory.begin() as session:
+        refs = record_refs(session, [r.id for r in chosen])
+    return refs, intensity
 
 
 def cmd_map(args: argparse.Namespace) -> int:
@@ -270,9 +329,13 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--rrd", metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
     sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/measured.py)")
+    sim.add_argument("--record", metavar="NAME|ID",
+                     help="drive the block with a stored record (runners records list) instead of the scene's "
+                          "excitation")
+    sim.add_argument("--scale", type=float, help="multiply the record's accelerations (excitation.scale)")
     sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
-                     help="drive the block with a stored ground or table motion (runners import-measured) "
-                          "through the FMU's ground.ah input, instead of the scene's excitation")
+                     help="drive the block with the record of a stored ground or table motion "
+                          "(runners import-measured), instead of the scene's excitation")
     sim.add_argument("--accuracy", type=float, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
@@ -291,7 +354,13 @@ def build_parser() -> argparse.ArgumentParser:
     sw = sub.add_parser("sweep", help="run a grid of one scene in parallel and store it (resumable)")
     sw.add_argument("scene", nargs="?", help="scene file (TOML); omit with --resume")
     sw.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:COUNT",
-                    help="an axis: w (omega_g/p), a (a_g/(g tan alpha)) or a Real FMU parameter; repeatable")
+                    help="an axis: w (omega_g/p), a (a_g/(g tan alpha)), scale (a record's multiplier) or a Real "
+                         "FMU parameter; repeatable")
+    sw.add_argument("--records", metavar="SUITE|NAMES|FOLDER",
+                    help="run every record of a suite (e.g. fema-p695/nearfield_pulse), of a comma-separated list "
+                         "of record names or ids, or of a folder of record files (docs/records.md)")
+    sw.add_argument("--im", metavar="pga=START:STOP:COUNT",
+                    help="scale each record so that its PGA (in g) or PGV (pgv=..., in m/s) takes COUNT levels")
     sw.add_argument("--resume", type=int, metavar="SWEEP_ID", help="finish an interrupted sweep")
     sw.add_argument("--workers", type=int, help="worker processes (default: all cores)")
     sw.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
@@ -309,10 +378,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --executor dask: grid points per task (default: about 4 tasks per worker)")
     sw.set_defaults(func=cmd_sweep)
     from runners.measuredcli import add_parser as add_measured_parser
+    from runners.recordscli import add_parser as add_records_parser
     from runners.rrdcli import add_parser as add_rrd_parser
 
     add_rrd_parser(sub)
     add_measured_parser(sub)
+    add_records_parser(sub)
 
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")

@@ -53,6 +53,13 @@ def cmd_import(args: argparse.Namespace) -> int:
     factory = open_database(args.db)
     motion = m.kind not in ("peaks", "rotation")
     with factory.begin() as session:  # one transaction: all of it or nothing
+        record = None
+        if motion:  # the ground motion it amounts to becomes a record (runners records list)
+            from runners.records import store_record
+
+            t, a = ground_acceleration(m.kind, m.time, m.columns)
+            record = store_record(session, _free_record_name(session, m.meta["name"]), t, a,
+                                  source=m.meta.get("source"), file_name=m.file_name)
         b1 = find_block(session, m.meta["block"]) if m.meta.get("block") else None
         b2 = find_block(session, m.meta["block2"]) if m.meta.get("block2") else None
         if not motion and b1 is None:
@@ -71,16 +78,25 @@ def cmd_import(args: argparse.Namespace) -> int:
                               units=m.units, sign=m.sign, block1=b1, block2=b2, source=m.meta.get("source"),
                               instrument=m.meta.get("instrument"), sampling_rate=m.meta.get("sampling_rate"),
                               uncertainty=m.uncertainty, file_name=m.file_name, file_sha256=m.sha256,
-                              ground=ground_acceleration(m.kind, m.time, m.columns) if motion else None)
+                              record=record)
         if excitation is not None:
             row.excitation = excitation
         session.flush()
         mid, eid = row.id, row.excitation_id
+        rname = record.name if record is not None else None
     blocks = ", ".join(b.name for b in (b1, b2) if b is not None)
     print(f"imported measurement {mid}: {m.kind}, {len(m.time)} rows ({m.time[0]:g} to {m.time[-1]:g} s)"
           + (f", block {blocks}" if blocks else "")
-          + (f", recorded excitation {eid}" if motion else f", excitation {eid}" if eid else ", free rocking"))
+          + (f", record {rname!r} (excitation {eid})" if motion else f", excitation {eid}" if eid else ", free rocking"))
     return 0
+
+
+def _free_record_name(session, name: str) -> str:
+    """name, or name-2, name-3, ... if records take it."""
+    from db.schema import Record
+
+    taken = set(session.scalars(select(Record.name).where(Record.name.like(f"{name}%"))))
+    return next(n for n in (name, *(f"{name}-{i}" for i in range(2, 100000))) if n not in taken)
 
 
 def get_measurement(session, mid: int) -> Measurement:
@@ -96,19 +112,13 @@ def load_measurement(session, mid: int) -> tuple[Measurement, np.ndarray, dict[s
     return m, t, cols
 
 
-def motion_inputs(factory, mid: int) -> dict:
-    """A stored recorded excitation as FMU inputs (runners simulate --motion): ground.ah(t)
-    linearly interpolated between the record's samples (zero outside it), held over each
-    communication step; with the record's name, excitation id and smallest sampling interval."""
+def motion_record(factory, mid: int) -> int:
+    """The id of the record a stored ground or table motion amounts to (runners simulate --motion)."""
     with factory() as session:
         m = get_measurement(session, mid)
-        if m.excitation is None or m.excitation.series is None:
+        if m.excitation is None or m.excitation.record_id is None:
             raise ValueError(f"measurement {mid} is a {m.kind}, not a ground or table motion")
-        t, cols = series.unpack_blob(["ah"], m.excitation.series)
-        name, eid = m.name, m.excitation_id
-    a = cols["ah"]
-    return {"name": name, "excitation_id": eid, "dt": float(np.min(np.diff(t))),
-            "inputs": lambda time: (float(np.interp(time, t, a, left=0.0, right=0.0)), 0.0)}
+        return m.excitation.record_id
 
 
 def _theta(t: np.ndarray, cols: dict[str, np.ndarray], column: str) -> tuple[np.ndarray, np.ndarray]:

@@ -2,8 +2,8 @@
 independent Python solvers (model/solvers.py, model/two_block_solver.py) instead of the FMU.
 
 The scene's FMU parameters (defaults included) are turned into the solvers'
-scenes here, with the FMU's excitation waveforms (model/c/model.c) written
-out again in Python.
+scenes here, with the FMU's excitations (model/c/ground.c) written out again in
+Python (here and in model/ground_motions.py).
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from model import ground_motions as gm
 from model import two_blocks as tb
 from model.reference import Block
 from model.solvers import Scene, solve_event_driven, solve_fixed_step
@@ -23,11 +24,23 @@ METHODS = ["scipy", *FIXED]
 
 
 def ground_of(p: dict[str, Any]):
-    """(a_h, a_v)(t) of the built-in excitation, and its break points."""
+    """(a_h, a_v)(t) of the excitation, and its break points (pulses and records: model.ground_motions)."""
     kind = int(p["excitation.kind"])
     if kind == 0:
         return (lambda t: (0.0, 0.0)), ()
     f, t0 = p["excitation.frequency"], p["excitation.startTime"]
+    amp, vert = p["excitation.amplitude"], p["excitation.verticalAmplitude"]
+    if kind == 4:
+        from runners.record_files import read_record_file
+
+        t, ah, av = read_record_file(p["excitation.file"])
+        return gm.record(t, ah, av, p["excitation.scale"], t0)
+    if kind == 5:
+        return gm.ricker(amp, f, t0, vert)
+    if kind == 6:
+        return gm.ricker_antisymmetric(amp, f, t0, vert)
+    if kind == 7:
+        return gm.mp_pulse(amp, f, p["excitation.gamma"], p["excitation.phase"], t0, vert)
     w = 2 * math.pi * f
     cycles = p["excitation.cycles"]
     t1 = math.inf if (kind == 3 and cycles == 0) else t0 + cycles / f

@@ -11,8 +11,11 @@ A recording holds, on the ``sim_time`` timeline (s):
   one instant share an entry, separated by "; ");
 - ``/scene``: the blocks drawn to scale (outlines and each block's pivot in use)
   on the moving base, animated at up to 100 frames per simulated second;
+- for a run driven by a record: ``/record/ah`` (and ``/record/av``), the
+  record's own samples times its scale (m/s^2), and ``/record/about``, a text
+  with its name, provenance, scale and intensity measures;
 - a blueprint that opens on the scene, the angles, the velocities and the
-  excitation.
+  excitation (and the record's text).
 
 Time series go through the columnar API (``send_columns``). Conventions:
 docs/conventions.md (theta > 0 clockwise about the right corner).
@@ -127,8 +130,9 @@ def _ground_hatch(x0: np.ndarray, y0: np.ndarray, width: float) -> np.ndarray:
     return strips
 
 
-def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float]):
-    """Scene on the left; angles, velocities and excitation on the right; the run playing in a loop."""
+def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float], record: bool = False):
+    """Scene on the left (over the record's text, if any); angles, velocities and excitation on the
+    right; the run playing in a loop."""
     import rerun.blueprint as rrb
 
     blocks = ["block1", "block2"] if two else ["block1"]
@@ -138,14 +142,17 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
         return rrb.TimeSeriesView(name=name, contents=[f"/{b}/{var}" for b in blocks] + extra)
 
     x0, x1, y0, y1 = bounds
+    scene = rrb.Spatial2DView(origin="/scene", name="blocks (to scale)",
+                              visual_bounds=rrb.VisualBounds2D(x_range=[x0, x1], y_range=[y0, y1]))
+    if record:
+        scene = rrb.Vertical(scene, rrb.TextDocumentView(origin="/record/about", name="record"), row_shares=[3, 1])
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial2DView(origin="/scene", name="blocks (to scale)",
-                              visual_bounds=rrb.VisualBounds2D(x_range=[x0, x1], y_range=[y0, y1])),
+            scene,
             rrb.Vertical(
                 plot("theta (rad)", "theta"),
                 plot("omega (rad/s)", "omega"),
-                rrb.TimeSeriesView(name="ground (m/s2)", contents=["/ground/**"]),
+                rrb.TimeSeriesView(name="ground (m/s2)", contents=["/ground/**", "/record/ah", "/record/av"]),
             ),
             column_shares=[2, 3],
         ),
@@ -156,7 +163,7 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
 
 
 COLOURS = {"block1": (70, 110, 200), "block2": (200, 90, 70), "ground/ah": (60, 60, 60),
-           "ground/av": (150, 150, 150), "energy": (120, 80, 160)}
+           "ground/av": (150, 150, 150), "record": (220, 150, 40), "energy": (120, 80, 160)}
 
 
 def _colour(entity: str, shade: float = 1.0) -> tuple[int, int, int]:
@@ -171,15 +178,33 @@ SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/bl
           "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy"}
 
 
+def record_text(info: dict[str, Any], scale: float) -> str:
+    """Markdown about the record of a run: name, provenance, scale, measures of the scaled record."""
+    g0 = 9.80665
+    lines = [f"**{info['name']}** x {scale:g}"]
+    if info.get("event"):
+        lines.append(f"{info['event']} {info.get('year') or ''}, M {info.get('magnitude')}, station "
+                     f"{info.get('station')}, {info.get('distance_km')} km")
+    if info.get("source"):
+        lines.append(str(info["source"]))
+    if info.get("pga") is not None:
+        lines.append(f"scaled: PGA {abs(scale) * info['pga'] / g0:.3f} g, PGV {abs(scale) * info['pgv']:.3f} m/s, "
+                     f"PGD {abs(scale) * info['pgd']:.3f} m, Arias {scale * scale * info['arias']:.3f} m/s, "
+                     f"D5-95 {info['d5_95']:.2f} s")
+    return "\n\n".join(lines)
+
+
 def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any],
-                    events: list | None = None, measured: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
-                    ) -> Path:
+                    events: list | None = None, measured: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+                    record: dict[str, Any] | None = None) -> Path:
     """Write one run to path (.rrd) and return the path.
 
     `out` holds output series at `time` (s); `p` the run's FMU parameters; `events` the
     FMU's events (runners.fmu.Event); `measured` maps an output name (block1.theta,
     block1.omega, block2.theta, block2.omega) to (time in s, values in rad or rad/s) to
-    overlay as /measured/block1/theta etc. in the same plots.
+    overlay as /measured/block1/theta etc. in the same plots; `record` describes the
+    record of a record-driven run (runners.records.row, with "source"); its samples are
+    read from the run's excitation.file.
 
     Each call writes through its own RecordingStream to its own file, so recordings can
     be written from several threads or processes at once.
@@ -212,8 +237,22 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds))
+    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None))
     rec.send_property("run", rr.AnyValues(name=name))
+    if record is not None:
+        from runners.record_files import read_record_file
+
+        scale, start = float(p.get("excitation.scale", 1.0)), float(p.get("excitation.startTime", 0.0))
+        rt, rah, rav = read_record_file(p["excitation.file"])
+        rec.send_property("record", rr.AnyValues(name=record["name"], scale=scale))
+        rec.log("/record/about", rr.TextDocument(record_text(record, scale), media_type="text/markdown"),
+                static=True)
+        for entity, values in (("/record/ah", rah), ("/record/av", rav)):
+            if values is not None:
+                rec.log(entity, rr.SeriesPoints(colors=[_colour("record")], marker_sizes=1.5,
+                                                names=[f"record samples {entity[-2:]} x {scale:g}"]), static=True)
+                rec.send_columns(entity, indexes=[rr.TimeColumn("sim_time", duration=start + rt)],
+                                 columns=rr.Scalars.columns(scalars=scale * values))
     idx = [rr.TimeColumn("sim_time", duration=time)]
     for entity, var in SERIES.items():
         if var in out and (two or not entity.startswith("/block2")):

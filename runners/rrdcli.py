@@ -34,9 +34,17 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
 
             params = stored_point_parameters(session, run)
             name = f"{name} (sweep {run.sweep_id}, point {run.grid_index})"
+        record = None
+        if run.excitation is not None and run.excitation.record is not None:
+            from runners.records import file_of, row
+
+            r = run.excitation.record
+            record = row(r) | {"source": r.source}
+            params.update({"excitation.kind": 4, "excitation.file": str(file_of(r)),
+                           "excitation.scale": run.excitation.scale if run.excitation.scale is not None else 1.0})
     with RockingFMU(fmu_path_from(fmu_arg)) as fmu:
         defaults = fmu.defaults()
-    write_recording(out, name, time_, cols, {**defaults, **params}, events, measured)
+    write_recording(out, name, time_, cols, {**defaults, **params}, events, measured, record)
     if remember:
         with factory.begin() as session:
             session.get(Run, run_id).recording = str(Path(out).resolve())

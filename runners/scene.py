@@ -5,6 +5,12 @@ and [block2] for a second block standing on the first (which makes it a
 two-block scene, nBlocks = 2). Every key is optional and falls back to the
 FMU's default. Units are SI and angles radians (docs/conventions.md). See
 examples/*.toml.
+
+A recorded earthquake is ``[excitation] kind = "record"`` with ``record = NAME``
+(or a database id) of a stored record, or ``file = PATH`` (a record file, PEER
+.AT2 or measured .csv, relative to the scene file), and ``scale``; runners.records
+turns it into the FMU's excitation.file. Without ``stop_time`` a record scene runs
+until its record ends plus a few seconds (runners.records.TAIL).
 """
 
 from __future__ import annotations
@@ -18,7 +24,8 @@ from typing import Any
 # "housner" is the momentum law: Housner's coefficient for one block, the
 # projection of docs/two_blocks.md for two ("momentum" is its other name).
 LAWS = {"housner": 0, "momentum": 0, "modified": 1, "constant": 2}
-KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3}
+KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3, "record": 4, "ricker": 5,
+         "ricker-antisymmetric": 6, "mavroeidis-papageorgiou": 7}
 
 # table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
 SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
@@ -52,6 +59,11 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "start_time": ("excitation.startTime", "real"),
         "vertical_amplitude": ("excitation.verticalAmplitude", "real"),
         "displacement": ("excitation.displacement", "real"),
+        "scale": ("excitation.scale", "real"),
+        "gamma": ("excitation.gamma", "real"),
+        "phase": ("excitation.phase", "real"),
+        "record": (None, "record"),
+        "file": (None, "text"),
     },
     "simulation": {
         "stop_time": (None, "real"),
@@ -72,14 +84,22 @@ class SceneError(ValueError):
 @dataclass
 class Scene:
     name: str
-    parameters: dict[str, float | int | bool] = field(default_factory=dict)
+    parameters: dict[str, float | int | bool | str] = field(default_factory=dict)
     stop_time: float = 5.0  # s
     step: float = 1e-3  # s, communication step
     source: str = ""
+    record: str | None = None  # a stored record's name or id ([excitation] record)
+    file: str | None = None  # a record file ([excitation] file), absolute once loaded
+    stop_time_given: bool = False  # [simulation] stop_time was set (else records set it)
+    step_given: bool = False  # [simulation] step was set (else a record's sample interval is used)
 
     @property
     def n_blocks(self) -> int:
         return int(self.parameters.get("nBlocks", 1))
+
+    @property
+    def is_record(self) -> bool:
+        return int(self.parameters.get("excitation.kind", 0)) == KINDS["record"]
 
 
 def _value(where: str, value: Any, kind: Any) -> float | int | bool:
@@ -93,6 +113,14 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
         if not isinstance(value, bool):
             raise SceneError(f"{where}: expected true or false, got {value!r}")
         return value
+    if kind == "text":
+        if not isinstance(value, str) or not value.strip():
+            raise SceneError(f"{where}: expected a non-empty text, got {value!r}")
+        return value
+    if kind == "record":
+        if isinstance(value, bool) or not isinstance(value, (str, int)) or not str(value).strip():
+            raise SceneError(f"{where}: expected a record name or database id, got {value!r}")
+        return str(value).strip()
     if not isinstance(value, str) or value not in kind:
         raise SceneError(f"{where}: expected one of {', '.join(kind)}, got {value!r}")
     return kind[value]
@@ -115,15 +143,35 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
             v = _value(f"{source}: [{table}] {key}", value, kind)
             if fmu_name is None:
                 setattr(scene, key, v)
+                scene.stop_time_given |= key == "stop_time"
+                scene.step_given |= key == "step"
             else:
                 scene.parameters[fmu_name] = v
         if table == "block2":
             scene.parameters["nBlocks"] = 2
+    _check_record(scene, source)
     if not scene.stop_time > 0:
         raise SceneError(f"{source}: [simulation] stop_time must be > 0 s, got {scene.stop_time}")
     if not 0 < scene.step <= scene.stop_time:
         raise SceneError(f"{source}: [simulation] step must be in (0, stop_time], got {scene.step}")
     return scene
+
+
+def _check_record(scene: Scene, source: str) -> None:
+    """record and file name the excitation of kind "record" (which they imply), one of them."""
+    if scene.record is not None and scene.file is not None:
+        raise SceneError(f"{source}: [excitation] give record (a stored record) or file (a record file), not both")
+    given = scene.record is not None or scene.file is not None
+    if given and "excitation.kind" not in scene.parameters:
+        scene.parameters["excitation.kind"] = KINDS["record"]
+    if given and not scene.is_record:
+        raise SceneError(f"{source}: [excitation] record and file apply to kind = \"record\"")
+    if scene.is_record and not given:
+        raise SceneError(f"{source}: [excitation] kind = \"record\" needs record = NAME (a stored record, "
+                         "runners records list) or file = PATH (a record file)")
+    if scene.file is not None:
+        base = Path(source).parent if source and not source.startswith("<") else Path.cwd()
+        scene.file = str((base / scene.file).resolve()) if not Path(scene.file).is_absolute() else scene.file
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -9,7 +9,15 @@ excitation.amplitude) or the dimensionless groups of the seeds:
   p = sqrt(3 g / (4 R)) of block 1;
 - ``a`` (or ``a_g/(g tan alpha)``): excitation.amplitude = a g tan(alpha) for
   one block, a g kappa for two (kappa = min(b1 / yG, c / h2), the stack's
-  uplift threshold, docs/two_blocks.md).
+  uplift threshold, docs/two_blocks.md);
+- ``scale``: excitation.scale, the multiplier of a record.
+
+A sweep over records (``--records``, docs/records.md) runs every record of a list with
+each point of the grid; ``--im pga=START:STOP:COUNT`` (in g; or ``pgv=`` in m/s) scales
+each record so that its PGA (PGV) takes each of COUNT values. The flat grid index runs
+over records first, then intensity levels, then the --grid axes (last fastest). Each
+point stores its record, scale and the scaled record's intensity measures; workers get
+each record's samples once and read them as a file (runners.record_files).
 """
 
 from __future__ import annotations
@@ -27,12 +35,14 @@ from typing import Any
 import numpy as np
 from sqlalchemy import insert, select
 
-from db.schema import Run, RunSeries, RunSummary, Scene, Sweep
+from db.schema import Excitation, Run, RunSeries, RunSummary, Scene, Sweep
 from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
 from runners.fmu import RockingFMU
+from runners.intensity import G0, SCALING
 
-ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a"}
+ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
+TAIL = 5.0  # s simulated after a record ends, unless the scene sets stop_time (runners.records.TAIL)
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest"]
 TWO = ["block2.maxAbsTheta", "impactsGround", "impactsInterface", "block1.overturned", "block2.overturned"]
 
@@ -78,25 +88,151 @@ def scales(p: dict[str, Any]) -> tuple[float, float]:
     return pf, g * b / h
 
 
-def point_parameters(axes: list[Axis], index: int, base: dict[str, Any]) -> tuple[dict, dict]:
-    """(grid values, FMU parameter overrides) of the flat grid index (row-major, last axis fastest)."""
-    idx = np.unravel_index(index, [ax.count for ax in axes])
-    values = {ax.name: float(ax.values[i]) for ax, i in zip(axes, idx)}
-    over = {k: v for k, v in values.items() if k not in ("w", "a")}
-    merged = {**base, **over}
-    pf, acc = scales(merged)
-    if "w" in values:
-        over["excitation.frequency"] = values["w"] * pf / (2 * math.pi)
-    if "a" in values:
-        over["excitation.amplitude"] = values["a"] * acc
-    return values, over
+IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0)}  # --im measure: unit of its levels, factor to SI
+
+
+@dataclass(frozen=True)
+class Intensity:
+    """--im MEASURE=START:STOP:COUNT: each record scaled so that MEASURE takes COUNT values."""
+
+    measure: str  # pga (levels in g) or pgv (m/s)
+    start: float
+    stop: float
+    count: int
+
+    @property
+    def unit(self) -> str:
+        return IM_UNITS[self.measure][0]
+
+    @property
+    def values(self) -> np.ndarray:
+        """The levels, in self.unit."""
+        return np.linspace(self.start, self.stop, self.count)
+
+    def si(self, level: float) -> float:
+        return level * IM_UNITS[self.measure][1]
+
+
+def parse_intensity(spec: str) -> Intensity:
+    """pga=START:STOP:COUNT (g) or pgv=START:STOP:COUNT (m/s), levels above zero."""
+    name, eq, rng = spec.partition("=")
+    parts = rng.split(":")
+    name = name.strip().lower()
+    if not eq or len(parts) != 3 or name not in IM_UNITS:
+        raise ValueError(f"--im {spec!r}: expected pga=START:STOP:COUNT (in g) or pgv=START:STOP:COUNT (in m/s)")
+    try:
+        start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise ValueError(f"--im {spec!r}: START and STOP must be numbers and COUNT an integer") from None
+    if count < 1 or not (math.isfinite(start) and math.isfinite(stop) and start > 0 and stop > 0):
+        raise ValueError(f"--im {spec!r}: levels must be finite and above zero, COUNT at least 1")
+    return Intensity(name, start, stop, count)
+
+
+@dataclass(frozen=True)
+class RecordRef:
+    """A record of a sweep, as the runner and its workers need it."""
+
+    id: int
+    name: str
+    sha256: str  # of its samples: workers read the file cached under this name
+    end: float  # s, time of its last sample
+    measures: dict  # intensity measures of the unscaled record (SI; runners.intensity)
+
+
+@dataclass
+class Grid:
+    """The points of a sweep: records (optional), intensity levels (optional), then --grid axes."""
+
+    axes: list[Axis]
+    records: list[RecordRef] | None = None
+    intensity: Intensity | None = None
+
+    @property
+    def counts(self) -> list[int]:
+        return ([len(self.records)] if self.records else []) + ([self.intensity.count] if self.intensity else []) \
+            + [ax.count for ax in self.axes]
+
+    @property
+    def total(self) -> int:
+        return math.prod(self.counts)
+
+    def point(self, index: int, base: dict[str, Any]) -> tuple[dict, dict, RecordRef | None]:
+        """(grid values, FMU parameter overrides, record) of the flat grid index (last axis fastest).
+        A record's file is given as "@SHA256" (each worker knows where it keeps that file)."""
+        idx = list(np.unravel_index(index, self.counts))
+        values: dict[str, Any] = {}
+        over: dict[str, Any] = {}
+        rec = None
+        if self.records:
+            rec = self.records[idx.pop(0)]
+            values.update(record=rec.name, record_id=rec.id)
+            over.update({"excitation.kind": 4, "excitation.file": f"@{rec.sha256}"})
+        if self.intensity:
+            level = float(self.intensity.values[idx.pop(0)])
+            values[f"{self.intensity.measure}_level"] = level
+            over["excitation.scale"] = self.intensity.si(level) / rec.measures[self.intensity.measure]
+        on_axes = {ax.name: float(ax.values[i]) for ax, i in zip(self.axes, idx)}
+        values.update(on_axes)
+        over.update({k: v for k, v in on_axes.items() if k not in ("w", "a")})
+        merged = {**base, **over}
+        pf, acc = scales(merged)
+        if "w" in values:
+            over["excitation.frequency"] = values["w"] * pf / (2 * math.pi)
+        if "a" in values:
+            over["excitation.amplitude"] = values["a"] * acc
+        if rec is not None:  # the scaled record's measures, for fragility and IDA
+            scale = float(merged.get("excitation.scale", 1.0))
+            values["scale"] = scale
+            for k, v in rec.measures.items():
+                if v is not None and SCALING.get(k, 0):
+                    values[k] = abs(scale) ** SCALING[k] * v
+        return values, over, rec
+
+    def as_json(self) -> dict[str, Any]:
+        return {"axes": [[a.name, a.start, a.stop, a.count] for a in self.axes],
+                "records": [r.id for r in self.records] if self.records else None,
+                "intensity": None if self.intensity is None else
+                [self.intensity.measure, self.intensity.start, self.intensity.stop, self.intensity.count]}
+
+
+def record_refs(session, ids: list[int]) -> list[RecordRef]:
+    """The RecordRefs of stored records, in the given order (their measures computed if missing)."""
+    from db.records import MEASURES, samples
+    from db.schema import Record
+    from runners.records import fill_missing_measures
+
+    fill_missing_measures(session)
+    by_id = {r.id: r for r in session.scalars(select(Record).where(Record.id.in_(ids)))}
+    missing = [i for i in ids if i not in by_id]
+    if missing:
+        raise ValueError(f"record {missing[0]} of the sweep is no longer in the database")
+    out = []
+    for i in ids:
+        r = by_id[i]
+        t, _, _ = samples(r)
+        out.append(RecordRef(r.id, r.name, r.sha256, float(t[-1]), {k: getattr(r, k) for k in MEASURES}))
+    return out
+
+
+def grid_of(session, sw: Sweep) -> Grid:
+    g = sw.grid
+    recs = record_refs(session, g["records"]) if g.get("records") else None
+    return Grid([Axis(*a) for a in g["axes"]], recs, Intensity(*g["intensity"]) if g.get("intensity") else None)
 
 
 def stored_point_parameters(session, run: Run) -> dict[str, Any]:
-    """The FMU parameters (defaults included) that a stored sweep run ran with."""
+    """The FMU parameters (defaults included) that a stored sweep run ran with; a record's file
+    is the record cache's (runners.records.file_of)."""
     sw = session.get(Sweep, run.sweep_id)
     base = {**sw.grid["defaults"], **session.get(Scene, sw.scene_id).parameters}
-    return {**base, **point_parameters([Axis(*a) for a in sw.grid["axes"]], run.grid_index, base)[1]}
+    _, over, rec = grid_of(session, sw).point(run.grid_index, base)
+    if rec is not None:
+        from db.schema import Record
+        from runners.records import file_of
+
+        over["excitation.file"] = str(file_of(session.get(Record, rec.id)))
+    return {**base, **over}
 
 
 # ------------------------------------------------------------------ workers
@@ -108,15 +244,25 @@ def _worker() -> dict[str, Any]:
     return _LOCAL.state
 
 
-def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, step: float, two: bool) -> None:
-    """Set up this thread's FMU instance for the points of one sweep."""
+def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, step: float, two: bool,
+                  files: dict[str, str] | None = None) -> None:
+    """Set up this thread's FMU instance for the points of one sweep; `files` maps a record's
+    sha256 to the file this worker reads it from."""
     fmu = RockingFMU(fmu_path, unzipdir)
     errors: list[str] = []
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
     names = ONE + (TWO if two else [])
     _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, stop=stop_time, step=step,
-                        names=names, vrs={n: fmu.variable(n) for n in names})
+                        names=names, vrs={n: fmu.variable(n) for n in names}, files=files or {})
+
+
+def _local_files(over: dict) -> dict:
+    """The overrides with a record's "@SHA256" replaced by this worker's file of it."""
+    f = over.get("excitation.file")
+    if isinstance(f, str) and f.startswith("@"):
+        return {**over, "excitation.file": _worker()["files"][f[1:]]}
+    return over
 
 
 def _set_all(fmu: RockingFMU, slave, params: dict) -> None:
@@ -146,7 +292,7 @@ class Recorded:
     path: str
 
 
-def _record_point(over: dict, path: str, name: str) -> tuple[dict, Recorded]:
+def _record_point(over: dict, stop: float, path: str, name: str, record: dict | None) -> tuple[dict, Recorded]:
     """Simulate one point with output at every communication step and write its recording
     (in this worker process, to its own file: recordings never wait for each other)."""
     from runners.recording import write_recording
@@ -155,30 +301,34 @@ def _record_point(over: dict, path: str, name: str) -> tuple[dict, Recorded]:
     w = _worker()
     fmu = w["fmu"]
     params = {**w["base"], **over}
-    res = fmu.run(params, w["stop"], w["step"], outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *w["names"]])))
-    write_recording(Path(path), name, res.time, res.outputs, {**fmu.defaults(), **params}, res.events)
+    res = fmu.run(params, stop, min(w["step"], stop), outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *w["names"]])))
+    write_recording(Path(path), name, res.time, res.outputs, {**fmu.defaults(), **params}, res.events,
+                    record=record)
     out = {n: res.outputs[n][-1] for n in w["names"]}
     return out, Recorded(res.time, res.outputs, [e.as_dict() for e in res.events], str(Path(path).resolve()))
 
 
 def _run_point(task: tuple) -> tuple[int, dict | None, float, str | None, Recorded | None]:
-    """One grid point: (index, FMU overrides, None or (recording path, name)) ->
-    (index, final outputs or None, seconds, error or None, Recorded or None)."""
-    index, over, record = task
+    """One grid point: (index, FMU overrides, None or (recording path, name, record info),
+    stop time or None for the sweep's) -> (index, final outputs or None, seconds, error or
+    None, Recorded or None)."""
+    index, over, record, stop = task
     w = _worker()
     s, fmu = w["slave"], w["fmu"]
+    stop = w["stop"] if stop is None else stop
     w["errors"].clear()
     t0 = time.perf_counter()
     try:
+        over = _local_files(over)
         if record is not None:
-            out, rec = _record_point(over, *record)
+            out, rec = _record_point(over, stop, *record)
             return index, out, time.perf_counter() - t0, None, rec
         s.reset()
-        s.setupExperiment(startTime=0.0, stopTime=w["stop"])
+        s.setupExperiment(startTime=0.0, stopTime=stop)
         _set_all(fmu, s, {**w["base"], **over})
         s.enterInitializationMode()
         s.exitInitializationMode()
-        s.doStep(0.0, w["stop"])
+        s.doStep(0.0, stop)
         out = {}
         for typ, get in (("Real", s.getReal), ("Integer", s.getInteger), ("Boolean", s.getBoolean)):
             names = [n for n, v in w["vrs"].items() if v.type == typ]
@@ -226,14 +376,18 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
     return row
 
 
-def create_sweep(factory, scene, axes: list[Axis], defaults: dict) -> int:
+def create_sweep(factory, scene, axes: list[Axis], defaults: dict, records: list[RecordRef] | None = None,
+                 intensity: Intensity | None = None) -> int:
+    """A new sweep of `scene` over the grid (records, intensity levels, axes); returns its id."""
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
-    grid = {"axes": [[a.name, a.start, a.stop, a.count] for a in axes], "stop_time": scene.stop_time,
+    g = Grid(axes, records, intensity)
+    grid = {**g.as_json(), "stop_time": scene.stop_time, "stop_time_given": bool(scene.stop_time_given),
             "step": scene.step, "defaults": defaults}
+    params = {k: v for k, v in scene.parameters.items() if k != "excitation.file" or not records}
     with factory.begin() as session:
-        sc = add_scene(session, scene.name, scene.parameters, source)
+        sc = add_scene(session, scene.name, params, source)
         session.flush()
-        sw = Sweep(scene_id=sc.id, grid=grid, total=int(np.prod([a.count for a in axes])), done=0, status="running")
+        sw = Sweep(scene_id=sc.id, grid=grid, total=g.total, done=0, status="running")
         session.add(sw)
         session.flush()
         return sw.id
@@ -251,36 +405,74 @@ class _Plan:
     step: float  # s, output step of recorded points
     params: dict  # the scene's parameters (without defaults)
     base: dict  # defaults + scene parameters
-    axes: list[Axis]
+    grid: Grid
     stored: set[int]
+    stop_given: bool = True  # the scene's stop time applies to every point (else: each record's end + TAIL)
+    infos: dict[int, dict] | None = None  # record id -> provenance and measures, for recordings
+    record_data: dict[int, tuple] | None = None  # record id -> (names, n_samples, data) of db.series
 
     @property
     def two(self) -> bool:
         return int(self.base.get("nBlocks", 1)) == 2
 
+    @property
+    def axes(self) -> list[Axis]:
+        return self.grid.axes
+
+    def stop_of(self, rec: RecordRef | None) -> float | None:
+        """Stop time of a point on record `rec` (None: the sweep's)."""
+        if rec is None or self.stop_given:
+            return None
+        return float(self.base.get("excitation.startTime", 0.0)) + rec.end + TAIL
+
+    def files(self) -> dict[str, str]:
+        """sha256 -> the record's file in this machine's record cache (written if missing)."""
+        if not self.grid.records:
+            return {}
+        from db.schema import Record
+        from runners.records import file_of
+
+        out = {}
+        for r in self.grid.records:
+            if r.sha256 not in out:
+                names, n, data = self.record_data[r.id]
+                out[r.sha256] = str(file_of(Record(name=r.name, names=names, n_samples=n, data=data)))
+        return out
+
 
 def _plan(factory, sweep_id: int) -> _Plan:
-    with factory() as session:
+    from db.schema import Record
+    from runners.records import row
+
+    with factory.begin() as session:
         sw = session.get(Sweep, sweep_id)
         if sw is None:
             raise ValueError(f"no sweep {sweep_id} in the database")
         scene = session.get(Scene, sw.scene_id)
         params = dict(scene.parameters)
         stored = set(session.scalars(select(Run.grid_index).where(Run.sweep_id == sweep_id)))
-        return _Plan(sweep_id, sw.scene_id, scene.name, sw.total, sw.grid["stop_time"],
-                     sw.grid.get("step", 0.01), params, {**sw.grid["defaults"], **params},
-                     [Axis(*a) for a in sw.grid["axes"]], stored)
+        grid = grid_of(session, sw)
+        plan = _Plan(sweep_id, sw.scene_id, scene.name, sw.total, sw.grid["stop_time"], sw.grid.get("step", 0.01),
+                     params, {**sw.grid["defaults"], **params}, grid, stored,
+                     sw.grid.get("stop_time_given", True) or not grid.records)
+        if grid.records:
+            recs = {r.id: r for r in session.scalars(select(Record).where(Record.id.in_([x.id for x in grid.records])))}
+            plan.infos = {i: row(r) | {"source": r.source} for i, r in recs.items()}
+            plan.record_data = {i: (r.names, r.n_samples, r.data) for i, r in recs.items()}
+        return plan
 
 
 def _pool(plan: _Plan, fmu_path: Path, shared: RockingFMU, workers: int):
     ctx = get_context("fork") if hasattr(os, "fork") else get_context()
     return ctx.Pool(workers, initializer=_start_worker,
-                    initargs=(str(fmu_path), shared.unzipdir, plan.params, plan.stop_time, plan.step, plan.two))
+                    initargs=(str(fmu_path), shared.unzipdir, plan.params, plan.stop_time, plan.step, plan.two,
+                              plan.files()))
 
 
-def _recording_task(plan: _Plan, index: int, record_dir: Path) -> tuple[str, str]:
+def _recording_task(plan: _Plan, index: int, record_dir: Path, rec: RecordRef | None) -> tuple:
     return (str(Path(record_dir) / f"point-{index}.rrd"),
-            f"{plan.scene_name} (sweep {plan.sweep_id}, point {index})")
+            f"{plan.scene_name} (sweep {plan.sweep_id}, point {index})",
+            None if rec is None else plan.infos[rec.id])
 
 
 def _series_row(run_id: int, rec: Recorded) -> dict:
@@ -297,22 +489,30 @@ def _local_results(plan: _Plan, fmu_path: Path, tasks: list, workers: int):
 
 
 _DASK_FMUS: dict[str, RockingFMU] = {}  # FMU sha256 -> its extraction, once per Dask worker process
+_DASK_FILES: dict[str, str] = {}  # record sha256 -> its file, written once per Dask worker process
 _DASK_LOCK = threading.Lock()
 
 
 def _dask_chunk(fmu_bytes: bytes, sha: str, params: dict, stop: float, step: float, two: bool,
-                tasks: list) -> list[tuple]:
+                tasks: list, record_files: dict[str, bytes] | None = None) -> list[tuple]:
     """Run a chunk of grid points on a Dask worker. The FMU arrives as bytes (the workers
-    need this package, not a build of the FMU) and is extracted once per worker process."""
+    need this package, not a build of the FMU) and is extracted once per worker process;
+    so do the sweep's record files (sha256 -> their bytes), written once per process."""
     with _DASK_LOCK:
         if sha not in _DASK_FMUS:
             folder = Path(tempfile.mkdtemp(prefix="rocking-fmu-"))
             (folder / "RockingBlock.fmu").write_bytes(fmu_bytes)
             _DASK_FMUS[sha] = RockingFMU(folder / "RockingBlock.fmu")
+        for rsha, data in (record_files or {}).items():
+            if rsha not in _DASK_FILES:
+                path = Path(tempfile.mkdtemp(prefix="rocking-record-")) / f"{rsha}.txt"
+                path.write_bytes(data)
+                _DASK_FILES[rsha] = str(path)
     fmu = _DASK_FMUS[sha]
-    key = (sha, repr(sorted(params.items())), stop, step, two)
+    key = (sha, repr(sorted(params.items())), stop, step, two, tuple(sorted(record_files or ())))
     if getattr(_LOCAL, "key", None) != key:  # this thread's instance, set up once per sweep
-        _start_worker(str(fmu.path), fmu.unzipdir, params, stop, step, two)
+        _start_worker(str(fmu.path), fmu.unzipdir, params, stop, step, two,
+                      {k: _DASK_FILES[k] for k in record_files or ()})
         _LOCAL.key = key
     return [_run_point(t) for t in tasks]
 
@@ -356,8 +556,10 @@ def _dask_results(plan: _Plan, fmu_path: Path, sha: str, tasks: list, client, ch
     n_workers = max(1, len(client.scheduler_info().get("workers", {})))
     size = chunk or max(1, min(1000, math.ceil(len(tasks) / (4 * n_workers))))
     blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
+    local = plan.files()
+    files = client.scatter({k: Path(v).read_bytes() for k, v in local.items()}, broadcast=True) if local else None
     futures = [client.submit(_dask_chunk, blob, sha, plan.params, plan.stop_time, plan.step, plan.two,
-                             tasks[i:i + size], pure=False, retries=3) for i in range(0, len(tasks), size)]
+                             tasks[i:i + size], files, pure=False, retries=3) for i in range(0, len(tasks), size)]
     for future in as_completed(futures):
         yield from future.result()
 
@@ -378,8 +580,9 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
     recorded = set(record or ())
     pending = [i for i in range(plan.total) if i not in plan.stored]
-    points = {i: point_parameters(plan.axes, i, plan.base) for i in pending}  # (grid values, overrides), once
-    tasks = [(i, points[i][1], _recording_task(plan, i, record_dir) if i in recorded else None) for i in pending]
+    points = {i: plan.grid.point(i, plan.base) for i in pending}  # (grid values, overrides, record), once
+    tasks = [(i, points[i][1], _recording_task(plan, i, record_dir, points[i][2]) if i in recorded else None,
+              plan.stop_of(points[i][2])) for i in pending]
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(tasks))))
     sha, version = file_sha256(str(fmu_path)), code_version()
     stats = {"sweep": sweep_id, "total": plan.total, "already": len(plan.stored), "ran": 0, "errors": 0,
@@ -392,6 +595,12 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
             return
         t0 = time.perf_counter()
         with factory.begin() as session:
+            excited = [r for r in rows if r[3] is not None]  # points on records: their excitation first
+            if excited:
+                eids = session.scalars(insert(Excitation).returning(Excitation.id, sort_by_parameter_order=True),
+                                       [r[3] for r in excited]).all()
+                for r, eid in zip(excited, eids):
+                    r[0]["excitation_id"] = eid
             ids = session.execute(insert(Run).returning(Run.id, Run.grid_index), [r[0] for r in rows]).all()
             by_index = {gi: rid for rid, gi in ids}
             summaries = [{"run_id": by_index[r[0]["grid_index"]], **r[1]} for r in rows if r[1] is not None]
@@ -419,15 +628,19 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
                 continue
             seen.add(index)
             t_py = time.perf_counter()
-            values, over = points[index]
+            values, over, record_ref = points[index]
             merged = {**plan.base, **over}
+            stop = plan.stop_of(record_ref)
             run = {"scene_id": plan.scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
                    "model": "two blocks" if plan.two else "one block", "method": "fmu",
                    "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
-                   "stop_time": plan.stop_time, "fmu_sha256": sha, "code_version": version,
+                   "stop_time": plan.stop_time if stop is None else stop, "fmu_sha256": sha, "code_version": version,
                    "wall_time": seconds, "status": "error" if error else "ok", "error_message": error,
                    "recording": rec.path if rec else None}
-            rows.append((run, None if out is None else _summary(out, merged, plan.two), rec))
+            excitation = None if record_ref is None else {
+                "kind": "record", "record_id": record_ref.id, "scale": float(merged.get("excitation.scale", 1.0)),
+                "start_time": float(merged.get("excitation.startTime", 0.0))}
+            rows.append((run, None if out is None else _summary(out, merged, plan.two), rec, excitation))
             stats["ran"] += 1
             stats["errors"] += error is not None
             stats["recorded"] += rec is not None
@@ -457,7 +670,8 @@ def record_points(factory, sweep_id: int, indices: list[int], fmu_path: Path, re
     if missing:
         raise ValueError(f"sweep {sweep_id} has no stored point {missing[0]} (finish it with runners sweep --resume)")
     record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
-    tasks = [(i, point_parameters(plan.axes, i, plan.base)[1], _recording_task(plan, i, record_dir))
+    points = {i: plan.grid.point(i, plan.base) for i in indices}
+    tasks = [(i, points[i][1], _recording_task(plan, i, record_dir, points[i][2]), plan.stop_of(points[i][2]))
              for i in indices]
     workers = max(1, min(workers or os.cpu_count() or 1, len(tasks)))
     done: list[tuple[int, str]] = []

@@ -71,6 +71,9 @@ def draw(factory, sweep_id: str, out: Path) -> str:
     import matplotlib.pyplot as plt
 
     sw, scene, runs = load(factory, sweep_id)
+    if sw.grid.get("records"):
+        raise ValueError(f"sweep {sw.id} runs over records: draw it with runners fragility {sw.id} or "
+                         f"runners ida {sw.id}")
     axes = [a[0] for a in sw.grid["axes"]]
     p = {**sw.grid["defaults"], **scene.parameters}
     counts = [0, 0, 0, 0]

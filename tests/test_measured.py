@@ -17,6 +17,7 @@ import pytest
 from sqlalchemy import func, select
 
 from db import series
+from db.records import samples as record_samples
 from db.catalogue import CATALOGUE
 from db.schema import Block, Measurement, Run
 from db.session import open_database
@@ -203,8 +204,8 @@ def test_compare_a_rotation_history_with_its_run(tmp_path, fmu_path, db):
 
 
 def test_a_recorded_ground_motion_drives_the_fmu_like_the_builtin_pulse(tmp_path, fmu_path, db):
-    """seed-style one-sine pulse written as a PEER .AT2 file (in g) and driven through the
-    FMU's ground.ah input gives the built-in pulse's response (input held per 1e-4 s step)."""
+    """A one-sine pulse written as a PEER .AT2 file (in g, sampled every 1e-4 s) becomes a
+    record; the FMU reads it (excitation.kind 4) and gives the built-in pulse's response."""
     dt, amp, f = 1e-4, 5.0, 3.0
     n = int(round(1 / f / dt)) + 1
     a = amp * np.sin(2 * np.pi * f * dt * np.arange(n)) / 9.80665
@@ -213,18 +214,19 @@ def test_a_recorded_ground_motion_drives_the_fmu_like_the_builtin_pulse(tmp_path
                    f"ACCELERATION TIME SERIES IN UNITS OF G\nNPTS= {n}, DT= {dt:.4f} SEC\n"
                    + "".join("  ".join(f"{v: .8E}" for v in a[i:i + 5]) + "\n" for i in range(0, n, 5)))
     p = runners("import-measured", str(at2), db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "recorded excitation" in p.stdout, p.stderr
+    assert p.returncode == 0 and "record 'synthetic one-sine pulse'" in p.stdout, p.stderr
     rec = json.loads(runners("simulate", "examples/sine_pulse.toml", "--motion", "1", "--stop-time", "3", "--json",
                              db=db, fmu_path=fmu_path).stdout)
     ref = json.loads(runners("simulate", "examples/sine_pulse.toml", "--stop-time", "3", "--json",
                              db=db, fmu_path=fmu_path).stdout)
-    assert rec["excitation"].startswith("recorded ground motion")
-    assert rec["max_abs_theta_rad"] == pytest.approx(ref["max_abs_theta_rad"], rel=2e-3)
-    assert rec["overturned"] == ref["overturned"]
+    assert rec["excitation"] == "record synthetic one-sine pulse x 1"
+    assert rec["max_abs_theta_rad"] == pytest.approx(ref["max_abs_theta_rad"], rel=1e-4)
+    assert rec["overturned"] == ref["overturned"] and rec["impacts"] == ref["impacts"]
     factory = open_database(db)
     with factory() as session:
         run = session.get(Run, rec["run_id"])
-        assert run.excitation.kind == "recorded" and run.excitation.amplitude == pytest.approx(amp, rel=1e-7)
+        assert run.excitation.kind == "record" and run.excitation.scale == 1.0
+        assert run.excitation.record.pga == pytest.approx(amp, rel=1e-7)
 
 
 def test_a_table_displacement_record_becomes_its_acceleration(tmp_path, fmu_path, db):
@@ -237,10 +239,10 @@ def test_a_table_displacement_record_becomes_its_acceleration(tmp_path, fmu_path
     assert runners("import-measured", str(csv), db=db, fmu_path=fmu_path).returncode == 0
     with open_database(db)() as session:
         m = session.get(Measurement, 1)
-        te, cols = series.unpack_blob(["ah"], m.excitation.series)
+        te, ah, _ = record_samples(m.excitation.record)
     w = 2 * math.pi * f
     exact = -(-1e-3 * D) * w ** 2 * np.sin(w * te)  # "-x": the file's positive is our negative
-    assert np.max(np.abs(cols["ah"][2:-2] - exact[2:-2])) < 2e-3 * 1e-3 * D * w ** 2
+    assert np.max(np.abs(ah[2:-2] - exact[2:-2])) < 2e-3 * 1e-3 * D * w ** 2
 
 
 BAD = {  # file text -> what the one-line error must say

@@ -114,7 +114,7 @@ static void mp_derive(const Variables *v, Derived *d) {
     add_cell(d, d->excStart);
     for (int i = 1; i <= samples; i++) {
         double hi = -half + 2.0 * half * i / samples, fhi = mp_raw_dot(d, nu, hi);
-        if (i < samples && (flo == 0.0 || flo * fhi < 0.0)) {
+        if (flo == 0.0 || flo * fhi < 0.0) { /* every interval, the last one included */
             double a = lo, b = hi, fa = flo;
             if (flo != 0.0) {
                 for (int it = 0; it < 80 && b - a > 4e-16 * half; it++) {
@@ -124,7 +124,7 @@ static void mp_derive(const Variables *v, Derived *d) {
                 }
             }
             double root = flo == 0.0 ? lo : 0.5 * (a + b);
-            if (root > -half) add_cell(d, d->pulseCentre + root);
+            if (root > -half && root < half) add_cell(d, d->pulseCentre + root);
             peak = fmax(peak, fabs(mp_raw(d, nu, root)));
         }
         lo = hi, flo = fhi;

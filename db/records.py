@@ -1,0 +1,69 @@
+"""Stored ground-motion records: add, find, select a suite, read the samples.
+
+A record's samples are time (s), horizontal and optionally vertical ground acceleration
+(m/s^2) in the sign convention of docs/conventions.md, packed by db.series. Its intensity
+measures are computed by runners.intensity when it is stored (runners.records)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from sqlalchemy import or_, select
+from sqlalchemy.orm import Session
+
+from db import series
+from db.schema import Record
+
+MEASURES = ("pga", "pgv", "pgd", "arias", "d5_95", "mean_period")
+PROVENANCE = ("suite", "event", "year", "magnitude", "station", "distance_km", "component", "source", "meta",
+              "file_name")
+
+
+def add_record(session: Session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None, sha256: str,
+               measures: dict[str, float] | None = None, **provenance: Any) -> Record:
+    """A new record (the name must be free); `provenance` takes the keys of PROVENANCE."""
+    unknown = set(provenance) - set(PROVENANCE)
+    if unknown:
+        raise TypeError(f"unknown record fields {sorted(unknown)}")
+    cols = {"ah": np.asarray(ah, float)} | ({} if av is None else {"av": np.asarray(av, float)})
+    names, n, blob = series.pack(np.asarray(time, float), cols)
+    t = np.asarray(time, float)
+    rec = Record(name=name, names=names, n_samples=n, data=blob, sha256=sha256, dt=float(np.min(np.diff(t))),
+                 duration=float(t[-1] - t[0]), **provenance, **(measures or {}))
+    session.add(rec)
+    return rec
+
+
+def samples(rec: Record) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(time in s, horizontal acceleration, vertical acceleration or None) in m/s^2."""
+    t, cols = series.unpack(rec.names, rec.n_samples, rec.data)
+    return t, cols["ah"], cols.get("av")
+
+
+def find_record(session: Session, key: str | int) -> Record:
+    """A record by name or id; ValueError with a hint when there is none."""
+    rec = session.scalar(select(Record).where(Record.name == str(key)))
+    if rec is None and str(key).strip().isdigit():
+        rec = session.get(Record, int(str(key).strip()))
+    if rec is None:
+        raise ValueError(f"no record {key!r} in the database (runners records list shows them; "
+                         "runners records import adds them)")
+    return rec
+
+
+def suite_records(session: Session, suite: str) -> list[Record]:
+    """The records of a suite, in id order: its exact name or any suite under it
+    ("fema-p695" holds "fema-p695/farfield", ...)."""
+    suite = suite.strip().rstrip("/")
+    return list(session.scalars(select(Record).where(or_(Record.suite == suite, Record.suite.like(f"{suite}/%")))
+                                .order_by(Record.id)))
+
+
+def suites(session: Session) -> list[tuple[str, int]]:
+    """(suite, number of records) of every suite."""
+    from sqlalchemy import func
+
+    rows = session.execute(select(Record.suite, func.count()).where(Record.suite.is_not(None))
+                           .group_by(Record.suite).order_by(Record.suite))
+    return [(s, int(n)) for s, n in rows]

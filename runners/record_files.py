@@ -1,0 +1,154 @@
+"""Record files: the plain-text format the FMU reads (excitation.kind = 4, excitation.file).
+
+One sample per line: time (s), horizontal ground acceleration (m/s^2), and optionally the
+vertical one (m/s^2), separated by spaces, tabs or one comma; '#' starts a comment line. The
+FMU joins the samples by straight lines and takes the acceleration as zero before the first
+and after the last (docs/records.md). Signs follow docs/conventions.md: a_h > 0 accelerates
+the ground towards +x, a_v > 0 upwards.
+
+:func:`read_record_file` applies the same checks as the FMU's own reader (model/c/record.c),
+with the same one-line messages naming the file and the line, so the command line refuses a
+bad file before anything is stored. :func:`cached_record_file` writes a stored record where
+the FMU can read it: one file per content (its sha256), written once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+MAX_SAMPLES = 10_000_000
+MIN_INTERVAL, MAX_INTERVAL = 1e-6, 100.0  # s
+MAX_TIME = 1e6  # s
+MAX_ACCELERATION = 10 * 9.80665  # m/s^2
+_SPLIT = re.compile(r"[ \t\r\v\f]*[,;][ \t\r\v\f]*|[ \t\r\v\f]+")
+
+
+class RecordFileError(ValueError):
+    """A record file the FMU would refuse; str() is one line naming the file and the line."""
+
+
+def write_record_file(path: str | Path, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
+                      comments: list[str] | tuple[str, ...] = ()) -> Path:
+    """Write samples (s, m/s^2) in the FMU's format, every number to 17 significant digits (read
+    back bit for bit); `comments` become '#' lines at the top. Written atomically."""
+    path = Path(path)
+    cols = [np.asarray(time, float), np.asarray(ah, float)] + ([] if av is None else [np.asarray(av, float)])
+    head = [f"# {c}" for line in comments for c in str(line).splitlines()]
+    head.append("# time (s), horizontal acceleration (m/s2)" + ("" if av is None else ", vertical acceleration (m/s2)"))
+    body = "\n".join(" ".join(repr(float(x)) for x in row) for row in zip(*cols))
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    with os.fdopen(fd, "w") as fh:
+        fh.write("\n".join(head) + "\n" + body + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+def _number(token: str) -> float:
+    if not re.fullmatch(r"[0-9.+\-eEnNaAiIfFtTyY]+", token):
+        raise ValueError(token)
+    return float(token)
+
+
+def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(time in s, horizontal acceleration in m/s^2, vertical acceleration or None) of a record
+    file; RecordFileError with the FMU's message for anything the FMU would refuse."""
+    path = Path(path)
+    where = f"record file '{path}'"
+    try:
+        raw = path.read_bytes()
+    except IsADirectoryError:
+        raise RecordFileError(f"{where} is not a regular file") from None
+    except OSError as exc:
+        raise RecordFileError(f"{where} cannot be opened: {exc.strerror or exc}") from None
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    rows: list[list[float]] = []
+    columns, first_line = 0, 0
+    for n, line in enumerate(raw.split(b"\n"), start=1):
+        if b"\0" in line:
+            raise RecordFileError(f"{where}, line {n}: contains a NUL byte: this is not a text record file")
+        text = line.decode("latin-1").strip(" \t\r\v\f")
+        if not text or text.startswith("#"):
+            continue
+        if re.search(r"[,;][ \t\r\v\f]*([,;]|$)", text) or text[0] in ",;":
+            raise RecordFileError(f"{where}, line {n}: an empty value between separators")
+        tokens = _SPLIT.split(text)
+        try:
+            values = [_number(tok) for tok in tokens[:4]]
+        except ValueError as exc:
+            shown = "".join(c if c.isprintable() else "?" for c in str(exc.args[0])[:23])
+            raise RecordFileError(f"{where}, line {n}: '{shown}' is not a number") from None
+        c = len(tokens)
+        if c not in (2, 3):
+            raise RecordFileError(f"{where}, line {n}: {c} values, expected 2 or 3 (time in s, horizontal "
+                                  "acceleration in m/s2, optional vertical acceleration in m/s2)")
+        if not columns:
+            columns, first_line = c, n
+        elif c != columns:
+            raise RecordFileError(f"{where}, line {n}: {c} values, but line {first_line} has {columns} "
+                                  "(every line needs the same columns)")
+        for j, v in enumerate(values):
+            if not math.isfinite(v):
+                what = "the time" if j == 0 else "an acceleration"
+                raise RecordFileError(f"{where}, line {n}: {what} is not a finite number")
+        if abs(values[0]) > MAX_TIME:
+            raise RecordFileError(f"{where}, line {n}: time {values[0]:g} s is beyond {MAX_TIME:g} s: "
+                                  "is the first column the time in seconds?")
+        for j in range(1, c):
+            if abs(values[j]) > MAX_ACCELERATION:
+                raise RecordFileError(f"{where}, line {n}: |{'horizontal' if j == 1 else 'vertical'} acceleration| "
+                                      f"= {abs(values[j]):g} m/s2 exceeds 10 g: are the values in m/s2?")
+        if rows:
+            dt = values[0] - rows[-1][0]
+            if not dt > 0:
+                raise RecordFileError(f"{where}, line {n}: time {values[0]:.17g} s does not increase "
+                                      f"(previous sample {rows[-1][0]:.17g} s)")
+            if dt < MIN_INTERVAL:
+                raise RecordFileError(f"{where}, line {n}: sample interval {dt:g} s is below {MIN_INTERVAL:g} s: "
+                                      "absurd sampling (is time in seconds?)")
+            if dt > MAX_INTERVAL:
+                raise RecordFileError(f"{where}, line {n}: sample interval {dt:g} s is above {MAX_INTERVAL:g} s: "
+                                      "absurd sampling (is time in seconds?)")
+        rows.append(values)
+        if len(rows) > MAX_SAMPLES:
+            raise RecordFileError(f"{where} has more than {MAX_SAMPLES} samples (the most a record may have)")
+    if not rows:
+        raise RecordFileError(f"{where} has no samples (expected lines of: time in s, horizontal acceleration in m/s2)")
+    if len(rows) < 2:
+        raise RecordFileError(f"{where} has only one sample: a record needs at least two")
+    data = np.array(rows)
+    return data[:, 0].copy(), data[:, 1].copy(), (data[:, 2].copy() if columns == 3 else None)
+
+
+def samples_sha256(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None) -> str:
+    """sha256 of the samples as little-endian float64: time, then ah, then av (db.schema.Record.sha256)."""
+    cols = [time, ah] + ([] if av is None else [av])
+    return hashlib.sha256(np.vstack([np.asarray(c, "<f8") for c in cols]).tobytes()).hexdigest()
+
+
+def cache_folder() -> Path:
+    """Where record files for the FMU are written: $ROCKING_CACHE/records, else
+    $XDG_CACHE_HOME/rocking/records, else ~/.cache/rocking/records."""
+    base = os.environ.get("ROCKING_CACHE")
+    if base:
+        return Path(base) / "records"
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rocking" / "records"
+
+
+def cached_record_file(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
+                       comments: list[str] | tuple[str, ...] = (), folder: Path | None = None) -> Path:
+    """The samples as a record file named by their sha256, written only if it is not there yet.
+    Returns its absolute path (what excitation.file should name)."""
+    folder = Path(folder or cache_folder())
+    folder.mkdir(parents=True, exist_ok=True)
+    path = (folder / f"{samples_sha256(time, ah, av)}.txt").resolve()
+    if not path.is_file():
+        write_record_file(path, time, ah, av, comments)
+    return path

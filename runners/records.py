@@ -1,0 +1,256 @@
+"""Ground-motion records as excitations: store them with their intensity measures, import the
+FEMA P695 sets and record files, and hand a stored record to the FMU as a file.
+
+Python API (the ``runners records`` commands are a thin layer over it)::
+
+    from db.session import open_database
+    from runners import records
+    factory = open_database()                                  # rocking.db by default
+    records.import_fema(factory, ["nearfield_pulse"])          # 28 components
+    rec = records.import_file(factory, "my_record.AT2")        # PEER NGA .AT2, CSV or our text format
+    rows = records.table(factory, "fema-p695/nearfield_pulse")  # names, provenance, measures
+    path = records.file_of(factory, "fema-p695/nearfield_pulse/1a")  # for excitation.file
+
+Units SI (time in s, accelerations in m/s^2), signs as docs/conventions.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+from sqlalchemy import select
+
+from db.records import MEASURES, add_record, find_record, samples, suite_records
+from db.schema import Record
+from runners.intensity import G0, measures
+from runners.record_files import cached_record_file, read_record_file, samples_sha256
+from runners.scene import Scene
+
+TAIL = 5.0  # s simulated after a record ends, unless a scene says otherwise
+
+
+def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
+                 **provenance: Any) -> Record:
+    """A new record with its intensity measures (runners.intensity)."""
+    m = measures(time, ah)
+    return add_record(session, name, time, ah, av, samples_sha256(time, ah, av), measures=m.as_dict(),
+                      **provenance)
+
+
+def fill_missing_measures(session) -> int:
+    """Compute the measures of records stored without them (records migrated from older
+    databases); returns how many were filled."""
+    todo = list(session.scalars(select(Record).where(Record.pga.is_(None))))
+    for rec in todo:
+        t, ah, _ = samples(rec)
+        for k, v in measures(t, ah).as_dict().items():
+            setattr(rec, k, v)
+    return len(todo)
+
+
+def import_fema(factory, sets: Iterable[str], progress: bool = False) -> dict[str, int]:
+    """Store the components of FEMA P695 sets (farfield, nearfield_pulse, nearfield_no_pulse);
+    components already stored (by name) are skipped. One transaction per set."""
+    from tqdm import tqdm
+
+    from runners.fema import components
+
+    counts = {"added": 0, "already": 0}
+    for s in sets:
+        comps = list(components(s))
+        with factory.begin() as session:
+            have = set(session.scalars(select(Record.name).where(Record.name.in_([c.name for c in comps]))))
+            for c in tqdm(comps, desc=f"FEMA P695 {s}", unit="component", disable=not progress):
+                if c.name in have:
+                    counts["already"] += 1
+                    continue
+                store_record(session, c.name, c.time, c.ah, None, **c.provenance)
+                counts["added"] += 1
+    return counts
+
+
+def read_any(path: str | Path, units: str | None = None, sign: str | None = None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, Any]]:
+    """(time, ah, av or None, provenance) of a record file: PEER NGA .AT2, a measured CSV
+    (runners.measured, kind ground-acceleration) or our text format (anything else)."""
+    from runners.measured import read_at2, read_csv
+
+    path = Path(path)
+    given = {"units": units, "sign": sign}
+    suffix = path.suffix.lower()
+    if suffix in (".at2", ".csv"):
+        if suffix == ".at2":
+            if units:
+                raise ValueError(f"{path}: an .AT2 file states its own units")
+            m = read_at2(path, {"sign": sign})
+        else:
+            m = read_csv(path, given, defaults={"kind": "ground-acceleration"})
+            if m.kind != "ground-acceleration":
+                raise ValueError(f"{path}: a record is a ground-acceleration series, not {m.kind}")
+        t, a = m.series("acceleration")
+        return t, a, None, {"source": m.meta.get("source"), "file_name": path.name}
+    if units or sign:
+        raise ValueError(f"{path}: a record file is in s and m/s2 with our signs; --units and --sign apply to "
+                         ".AT2 and .csv files")
+    t, ah, av = read_record_file(path)
+    return t, ah, av, {"file_name": path.name}
+
+
+def ensure_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
+                  **provenance: Any) -> Record:
+    """The stored record with these samples (by their sha256), or a new one under `name` (made
+    unique with -2, -3, ... if another record holds it)."""
+    old = session.scalar(select(Record).where(Record.sha256 == samples_sha256(time, ah, av)))
+    if old is not None:
+        return old
+    taken = set(session.scalars(select(Record.name).where(Record.name.like(f"{name}%"))))
+    free = next(n for n in (name, *(f"{name}-{i}" for i in range(2, 100000))) if n not in taken)
+    return store_record(session, free, time, ah, av, **provenance)
+
+
+def import_file(factory, path: str | Path, name: str | None = None, suite: str | None = None,
+                source: str | None = None, units: str | None = None, sign: str | None = None) -> tuple[Record, bool]:
+    """Store a record file; returns (record, True if new). Importing the same samples under the
+    same name again is a no-op; another record under a taken name is an error."""
+    path = Path(path)
+    t, ah, av, prov = read_any(path, units, sign)
+    name = name or (f"{suite}/{path.stem}" if suite else path.stem)
+    sha = samples_sha256(t, ah, av)
+    if source:
+        prov["source"] = source
+    with factory.begin() as session:
+        old = session.scalar(select(Record).where(Record.name == name))
+        if old is not None:
+            if old.sha256 != sha:
+                raise ValueError(f"a record named {name!r} already exists with other samples: give another --name")
+            return old, False
+        rec = store_record(session, name, t, ah, av, suite=suite, **prov)
+        session.flush()
+        session.expunge(rec)
+        return rec, True
+
+
+def import_folder(factory, folder: str | Path, suite: str | None = None) -> list[tuple[Record, bool]]:
+    """Every file of a folder (sorted by name, hidden files skipped) as a suite (default: the folder's name)."""
+    folder = Path(folder)
+    files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
+    if not files:
+        raise ValueError(f"{folder}: no record files in the folder")
+    suite = suite or folder.resolve().name
+    return [import_file(factory, p, suite=suite) for p in files]
+
+
+def select_records(factory, spec: str) -> list[Record]:
+    """Records from a suite name ("fema-p695/nearfield_pulse", or a prefix such as "fema-p695"), a
+    comma-separated list of names or ids, or a folder of record files (imported first)."""
+    spec = spec.strip()
+    if not spec:
+        raise ValueError("--records: name a suite, a list of record names or ids, or a folder")
+    if Path(spec).is_dir():
+        return [r for r, _ in import_folder(factory, spec)]
+    with factory() as session:
+        found = suite_records(session, spec)
+        if not found:
+            found = [find_record(session, key.strip()) for key in spec.split(",") if key.strip()]
+        if len({r.id for r in found}) != len(found):
+            raise ValueError(f"--records {spec!r} names a record twice")
+        for r in found:
+            session.expunge(r)
+    if not found:
+        raise ValueError(f"--records {spec!r}: no records")
+    return found
+
+
+def file_of(factory_or_record, key: str | int | None = None) -> Path:
+    """The record (a Record, or a name or id looked up in the factory's database) as a file
+    the FMU reads, in the record cache (runners.record_files.cache_folder)."""
+    if isinstance(factory_or_record, Record):
+        rec = factory_or_record
+    else:
+        with factory_or_record() as session:
+            rec = find_record(session, key)
+            session.expunge(rec)
+    t, ah, av = samples(rec)
+    return cached_record_file(t, ah, av, comments=[f"record {rec.name}", *([rec.source] if rec.source else [])])
+
+
+def table(factory, suite: str | None = None) -> list[dict[str, Any]]:
+    """One dict per record (id, name, suite, event, year, magnitude, station, distance_km,
+    component, dt, n_samples, duration, vertical, and the measures in SI units)."""
+    with factory.begin() as session:
+        fill_missing_measures(session)
+        recs = suite_records(session, suite) if suite else list(session.scalars(select(Record).order_by(Record.id)))
+        if suite and not recs:
+            raise ValueError(f"no records in suite {suite!r} (runners records list shows the suites)")
+        return [row(r) for r in recs]
+
+
+def row(r: Record) -> dict[str, Any]:
+    out = {k: getattr(r, k) for k in ("id", "name", "suite", "event", "year", "magnitude", "station",
+                                      "distance_km", "component", "dt", "n_samples", "duration")}
+    out["vertical"] = "av" in r.names
+    out.update({k: getattr(r, k) for k in MEASURES})
+    out["pga_g"] = r.pga / G0 if r.pga is not None else None
+    out["pgv_pga"] = r.pgv / r.pga if r.pga else None
+    return out
+
+
+@dataclass
+class SceneRecord:
+    """The record a scene runs on."""
+
+    record_id: int | None  # None when not stored (runners simulate --no-store of a scene's file)
+    name: str
+    path: Path  # the file the FMU reads (excitation.file)
+    end: float  # s, time of the last sample
+    info: dict[str, Any]  # provenance and measures (row())
+
+    def describe(self, scale: float) -> str:
+        i = self.info
+        where = f" ({i['event']} {i['year'] or ''}, {i['station']})" if i.get("event") else ""
+        return f"record {self.name}{where} x {scale:g}"
+
+
+def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
+    """For a record scene: find its stored record (or read its file, storing it when a
+    database is given), point excitation.file at a file the FMU reads and, without a
+    [simulation] stop_time, run until the record ends plus TAIL seconds. None otherwise."""
+    if not scene.is_record:
+        return None
+    if scene.record is not None:
+        if factory is None:
+            from db.session import open_database
+
+            factory = open_database()
+        with factory.begin() as session:
+            fill_missing_measures(session)
+            rec = find_record(session, scene.record)
+            session.expunge(rec)
+    else:
+        t, ah, av, prov = read_any(scene.file)
+        if factory is None:
+            m = measures(t, ah)
+            rec = Record(id=None, name=Path(scene.file).stem, names=["ah"] + (["av"] if av is not None else []),
+                         n_samples=len(t), dt=float(np.min(np.diff(t))), duration=float(t[-1] - t[0]),
+                         **m.as_dict(), **prov)
+            path = cached_record_file(t, ah, av, comments=[f"record file {scene.file}"])
+            return _finish(scene, rec, path, float(t[-1]))
+        with factory.begin() as session:
+            rec = ensure_record(session, Path(scene.file).stem, t, ah, av,
+                                **{"source": f"record file {scene.file}", **prov})
+            session.flush()
+            session.expunge(rec)
+    t, _, _ = samples(rec)
+    return _finish(scene, rec, file_of(rec), float(t[-1]))
+
+
+def _finish(scene: Scene, rec: Record, path: Path, end: float) -> SceneRecord:
+    scene.parameters["excitation.file"] = str(path)
+    if not scene.stop_time_given:
+        scene.stop_time = float(scene.parameters.get("excitation.startTime", 0.0)) + end + TAIL
+    if not scene.step_given:  # outputs at the record's own sampling (at most 1 kHz)
+        scene.step = min(max(float(rec.dt), 1e-3), scene.stop_time)
+    return SceneRecord(rec.id, rec.name, path, end, row(rec) | {"source": rec.source})

