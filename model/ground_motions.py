@@ -131,3 +131,31 @@ def record(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None, scale
                 0.0 if v is None else (1.0 - s) * v[i] + s * v[i + 1])
 
     return ground, tuple(float(x) for x in t)
+
+
+def sampled_sine_bound(t: np.ndarray, amplitude: float, frequency: float, dt: float, b: float, h: float,
+                       g: float = 9.81) -> np.ndarray:
+    """Bound (rad) on |theta_record(t) - theta_pulse(t)| up to the first impact, when the one-sine
+    pulse A sin(2 pi f t) is replaced by its samples every dt joined by straight lines, for a
+    block of half width b and half height h at rest until the pulse lifts it (A > g b / h).
+
+    Derivation (docs/records.md, "How exact is a record?"): the interpolant differs from the
+    pulse by at most eps = A w^2 dt^2 / 8; theta'' = -k [g sin(phi) + a cos(phi)], k = 3 / (4 R),
+    changes by at most L^2 |d theta| + k |d a| with L^2 = k sqrt(g^2 + A^2); the uplift moves by
+    at most du, where the pulse climbs through eps above the threshold; over du the first block to
+    lift gains at most J du^3 / 6 in angle and J du^2 / 2 in rate (J = k A w bounds the rate of
+    change of theta''). Comparing |d theta|'' <= L^2 |d theta| + k eps with its equality case gives
+    (d0 + d1 / L) cosh(L s) + k eps / L^2 (cosh(L s) - 1), s the time since the earlier uplift.
+    """
+    w, R = 2 * math.pi * frequency, math.hypot(b, h)
+    k = 3 / (4 * R)
+    eps = amplitude * w * w * dt * dt / 8
+    L = math.sqrt(k * math.hypot(g, amplitude))
+    thr = g * b / h
+    tu = math.asin(thr / amplitude) / w
+    du = (math.asin(min((thr + eps) / amplitude, 1.0)) - math.asin(thr / amplitude)) / w
+    J = k * amplitude * w
+    d0, d1 = J * du**3 / 6, J * du**2 / 2
+    s = np.asarray(t, dtype=float) - (tu - du)
+    bound = (d0 + d1 / L) * np.cosh(L * s) + k * eps / L**2 * (np.cosh(L * s) - 1)
+    return np.where(s < 0, 0.0, bound)  # both rest until the earlier uplift

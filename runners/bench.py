@@ -59,7 +59,8 @@ class NativeTimer:
         args = []
         for name, value in parameters.items():
             v = self.vars[name]
-            args.append(f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean")
+            args.append(f"s{v.valueReference}={value}" if v.type == "String"
+                        else f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean")
                         else f"{v.valueReference}={float(value)!r}")
         proc = subprocess.run([str(self.exe), str(self.lib), self.guid, str(repeats), "custom", repr(float(stop_time)),
                                *args], capture_output=True, text=True)

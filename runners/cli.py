@@ -279,6 +279,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         print(run_dask_bench(fmu))
         return 0
+    from runners.bench_records import run_record_bench, run_study_bench
+
+    if args.records:
+        print(run_record_bench(fmu, repeats=args.fmpy_repeats))
+        print()
+        print(run_study_bench(fmu))
+        return 0
     if args.chart:
         from runners.overturning_map import run_overturning_map
         from runners.stability import run_stability
@@ -297,6 +304,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(run_recording_bench(fmu))
     print()
     print(run_sweep_recording_bench(fmu))
+    print()
+    print(run_record_bench(fmu, repeats=args.fmpy_repeats))
+    print()
+    print(run_study_bench(fmu))
     return 0
 
 
@@ -348,6 +359,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="with --chart: fewer settings (a smoke run)")
     bench.add_argument("--dask", action="store_true",
                        help="sweep executors: local against a local Dask cluster, 1 and 2 workers")
+    bench.add_argument("--records", action="store_true",
+                       help="only the record benchmarks: one record-driven run, and a 560-run fragility study")
     bench.set_defaults(func=cmd_bench)
     from runners.dbcli import add_parser as add_db_parser
 

@@ -111,7 +111,14 @@ FIGURES = {
 
 
 def write_figures(fmu_path: Path, out_dir: Path) -> list[Path]:
-    """Write every figure of docs/ into out_dir; returns their paths."""
+    """Write every figure of docs/ drawn here and in runners.record_figures into out_dir; returns
+    their paths (a drawing may write more than one file)."""
+    from runners.record_figures import FIGURES as RECORD_FIGURES
+
     out_dir.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
     with RockingFMU(fmu_path) as fmu:
-        return [draw(fmu, out_dir / name) for name, draw in FIGURES.items()]
+        for name, draw in {**FIGURES, **RECORD_FIGURES}.items():
+            made = draw(fmu, out_dir / name)
+            paths.extend(made if isinstance(made, list) else [made])
+    return paths

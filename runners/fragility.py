@@ -106,13 +106,24 @@ def _mle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
             f"the outcomes separate completely: every run up to {math.exp(stand.max()):.4g} stands and every run "
             f"from {math.exp(fall.min()):.4g} falls, so the dispersion is below what these levels resolve "
             "(the median lies between them); add intensity levels in between")
+    if stand.max() == fall.min():  # quasi-complete separation: the likelihood grows as beta goes to 0
+        below, above = lx[lx < stand.max()], lx[lx > stand.max()]
+        raise FragilityError(
+            f"the outcomes change at one level only: every run below {math.exp(stand.max()):.4g} stands, every run "
+            f"above it falls, so the dispersion is below what these levels resolve; add intensity levels between "
+            f"{math.exp(below.max()) if below.size else math.exp(stand.max()):.4g} and "
+            f"{math.exp(above.min()) if above.size else math.exp(stand.max()):.4g}")
     X = np.column_stack([np.ones(n), lx])
     b = 1.0 / max(np.std(lx), 1e-3)  # start: unit dispersion of the data about its mean
     params = np.array([-b * np.mean(lx), b])
     ll_old = _terms(X @ params, y)[0].sum()
     for _ in range(100):
         _, u, w = _terms(X @ params, y)
-        step = np.linalg.solve(X.T @ (X * w[:, None]), X.T @ u)
+        try:
+            step = np.linalg.solve(X.T @ (X * w[:, None]), X.T @ u)
+        except np.linalg.LinAlgError:
+            raise FragilityError("the likelihood has no maximum here (its curvature vanished): the outcomes "
+                                 "barely overlap; add intensity levels where they change") from None
         t = 1.0
         while t > 1e-8:  # Newton with step halving: the log-likelihood is concave
             trial = params + t * step

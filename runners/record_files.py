@@ -108,8 +108,8 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
         if rows:
             dt = values[0] - rows[-1][0]
             if not dt > 0:
-                raise RecordFileError(f"{where}, line {n}: time {values[0]:.17g} s does not increase "
-                                      f"(previous sample {rows[-1][0]:.17g} s)")
+                raise RecordFileError(f"{where}, line {n}: time {values[0]!r} s does not increase "
+                                      f"(previous sample {rows[-1][0]!r} s)")
             if dt < MIN_INTERVAL:
                 raise RecordFileError(f"{where}, line {n}: sample interval {dt:g} s is below {MIN_INTERVAL:g} s: "
                                       "absurd sampling (is time in seconds?)")

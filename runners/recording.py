@@ -295,9 +295,10 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
 
 
 def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
-    """One recording of a sweep: its overturning map as an image and, on a `grid_index`
-    sequence, each point's grid values and summary (overturned, impacts, peak / alpha),
-    and whether the point was recorded in full (runners sweep --record)."""
+    """One recording of a sweep: its overturning map as an image (a sweep over records: its
+    IDA curves) and, on a `grid_index` sequence, each point's grid values (and record,
+    scale and intensity measures) and summary (overturned, impacts, peak / alpha), and
+    whether the point was recorded in full (runners sweep --record)."""
     import tempfile
 
     import matplotlib.image as mpimg
@@ -312,11 +313,17 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     rec.save(str(path))
     rec.send_property("sweep", rr.AnyValues(id=sw.id, scene=scene.name, total=sw.total))
+    on_records = bool(sw.grid.get("records"))
     with tempfile.TemporaryDirectory() as tmp:
         png = Path(tmp) / "map.png"
-        draw(factory, str(sweep_id), png)
+        if on_records:  # a sweep over records has no map: its IDA curves instead
+            from runners.study import outcomes, plot_ida
+
+            plot_ida(png, outcomes(factory, sweep_id, "pga"))
+        else:
+            draw(factory, str(sweep_id), png)
         rgba = (mpimg.imread(png) * 255).astype(np.uint8)
-    rec.log("/map", rr.Image(rgba), static=True)
+    rec.log("/ida" if on_records else "/map", rr.Image(rgba), static=True)
     idx = [rr.TimeColumn("grid_index", sequence=np.array([r.grid_index for r in runs], dtype=np.int64))]
     ok = [r.summary is not None for r in runs]
     columns = {
@@ -330,6 +337,9 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
     }
     for axis in (a[0] for a in sw.grid["axes"]):
         columns[f"grid/{axis}"] = [r.point[axis] for r in runs]
+    if on_records:  # each point's record (its id), scale and the scaled record's measures
+        for key in ("record_id", "scale", "pga", "pgv", "pgd", "arias"):
+            columns[f"grid/{key}"] = [r.point.get(key, np.nan) for r in runs]
     for name, values in columns.items():
         rec.send_columns(f"/points/{name}", indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(values, float)))
     rec.flush()

@@ -111,36 +111,50 @@ def ensure_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.n
     return store_record(session, free, time, ah, av, **provenance)
 
 
+def _store_read(session, path: Path, read: tuple, name: str | None, suite: str | None,
+                source: str | None) -> tuple[Record, bool]:
+    """Store one record read by read_any (unless the same samples are stored under its name)."""
+    t, ah, av, prov = read
+    name = name or (f"{suite}/{path.stem}" if suite else path.stem)
+    if source:
+        prov["source"] = source
+    old = session.scalar(select(Record).where(Record.name == name))
+    if old is not None:
+        if old.sha256 != samples_sha256(t, ah, av):
+            raise ValueError(f"a record named {name!r} already exists with other samples: give another --name")
+        return old, False
+    rec = store_record(session, name, t, ah, av, suite=suite, **prov)
+    session.flush()
+    return rec, True
+
+
 def import_file(factory, path: str | Path, name: str | None = None, suite: str | None = None,
                 source: str | None = None, units: str | None = None, sign: str | None = None) -> tuple[Record, bool]:
     """Store a record file; returns (record, True if new). Importing the same samples under the
     same name again is a no-op; another record under a taken name is an error."""
     path = Path(path)
-    t, ah, av, prov = read_any(path, units, sign)
-    name = name or (f"{suite}/{path.stem}" if suite else path.stem)
-    sha = samples_sha256(t, ah, av)
-    if source:
-        prov["source"] = source
+    read = read_any(path, units, sign)  # checked before the database is touched
     with factory.begin() as session:
-        old = session.scalar(select(Record).where(Record.name == name))
-        if old is not None:
-            if old.sha256 != sha:
-                raise ValueError(f"a record named {name!r} already exists with other samples: give another --name")
-            return old, False
-        rec = store_record(session, name, t, ah, av, suite=suite, **prov)
-        session.flush()
+        rec, new = _store_read(session, path, read, name, suite, source)
         session.expunge(rec)
-        return rec, True
+        return rec, new
 
 
 def import_folder(factory, folder: str | Path, suite: str | None = None) -> list[tuple[Record, bool]]:
-    """Every file of a folder (sorted by name, hidden files skipped) as a suite (default: the folder's name)."""
+    """Every file of a folder (sorted by name, hidden files skipped) as a suite (default: the
+    folder's name): all files are read and checked first, then stored in one transaction, so a
+    bad file stores nothing."""
     folder = Path(folder)
     files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
     if not files:
         raise ValueError(f"{folder}: no record files in the folder")
     suite = suite or folder.resolve().name
-    return [import_file(factory, p, suite=suite) for p in files]
+    reads = [(p, read_any(p)) for p in files]
+    with factory.begin() as session:
+        done = [_store_read(session, p, read, None, suite, None) for p, read in reads]
+        for rec, _ in done:
+            session.expunge(rec)
+        return done
 
 
 def select_records(factory, spec: str) -> list[Record]:

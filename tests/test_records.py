@@ -126,6 +126,22 @@ def test_the_python_reader_refuses_what_the_fmu_refuses_and_nothing_is_stored(db
         assert session.scalar(select(func.count()).select_from(Record)) == 0
 
 
+def test_a_folder_with_one_bad_file_stores_nothing(db, fmu_path, tmp_path):
+    folder = tmp_path / "suite"
+    folder.mkdir()
+    t = np.arange(0, 1.0001, 0.01)
+    for i in range(3):
+        write_record_file(folder / f"r{i}.txt", t, (i + 1) * np.sin(2 * math.pi * t))
+    (folder / "r3.txt").write_text("0 0\n0.01 1\n0.005 2\n")
+    p = cli("records", "import", str(folder), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "r3.txt', line 3: time 0.005 s does not increase" in p.stderr
+    with open_database(db)() as session:
+        assert session.scalar(select(func.count()).select_from(Record)) == 0
+    (folder / "r3.txt").unlink()
+    p = cli("records", "import", str(folder), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "3 records stored" in p.stdout and "suite suite" in p.stdout
+
+
 def test_bad_record_commands_are_one_line_errors(db, fmu_path, tmp_path):
     for args, expected in ((("records", "import", "fema-p695", "midfield"), "unknown FEMA P695 set"),
                            (("records", "import", str(tmp_path / "missing.txt")), "no such record file"),

@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from model.ground_motions import mp_peak_acceleration, mp_pulse, record, ricker, ricker_antisymmetric
+from model.ground_motions import (mp_peak_acceleration, mp_pulse, record, ricker, ricker_antisymmetric,
+                                  sampled_sine_bound)
 from model.reference import Block, housner_restitution
 from model.solvers import Scene, solve_event_driven
 from runners.fmu import FMUError
@@ -104,23 +105,6 @@ def test_a_record_run_does_not_depend_on_the_communication_step(fmu, near_field)
                                                                          abs=1e-9)
 
 
-def interpolation_bound(t: np.ndarray, A: float, f: float, dt: float, b: float, h: float, g: float = 9.81):
-    """Bound on |theta_record - theta_pulse| up to the first impact when a one-sine pulse
-    A sin(2 pi f t) is replaced by its samples every dt joined by straight lines
-    (derivation in docs/records.md, "How exact is a record?")."""
-    w, R = 2 * math.pi * f, math.hypot(b, h)
-    k = 3 / (4 * R)
-    eps = A * w * w * dt * dt / 8  # largest |interpolant - pulse|
-    L = math.sqrt(k * math.hypot(g, A))  # L^2 is the Lipschitz constant of theta'' in theta
-    thr = g * b / h
-    tu = math.asin(thr / A) / w  # uplift of the pulse
-    du = (math.asin(min((thr + eps) / A, 1.0)) - math.asin(thr / A)) / w  # largest shift of the uplift
-    J = k * A * w  # largest rate of change of theta'' just after uplift
-    d0, d1 = J * du**3 / 6, J * du**2 / 2  # state gap once both have lifted
-    s = np.clip(t - (tu - du), 0.0, None)
-    return (d0 + d1 / L) * np.cosh(L * s) + k * eps / L**2 * (np.cosh(L * s) - 1)
-
-
 def test_a_finely_sampled_sine_pulse_reproduces_the_builtin_pulse_within_the_interpolation_bound(fmu, tmp_path):
     A, f = 5.0, 3.0
     pulse = fmu.run({"excitation.kind": 1, "excitation.amplitude": A, "excitation.frequency": f, **TIGHT}, 2.0,
@@ -135,7 +119,7 @@ def test_a_finely_sampled_sine_pulse_reproduces_the_builtin_pulse_within_the_int
                       outputs=["block1.theta"])
         before = pulse.time < min(first_impact, rec.event_times("impact")[0])
         gap = np.abs(rec.outputs["block1.theta"] - pulse.outputs["block1.theta"])[before]
-        bound = interpolation_bound(pulse.time[before], A, f, dt, 0.1, 0.3)
+        bound = sampled_sine_bound(pulse.time[before], A, f, dt, 0.1, 0.3)
         assert np.all(gap <= bound), f"dt {dt}: gap exceeds the bound by {np.max(gap - bound)}"
         errors[n] = gap.max()
         assert len(rec.event_times("impact")) == len(pulse.event_times("impact"))

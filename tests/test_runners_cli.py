@@ -96,9 +96,21 @@ def test_bench_prints_native_and_fmpy_tables(fmu_path):
 def test_figures_are_drawn_into_the_given_folder(fmu_path, tmp_path):
     p = runners("figures", "--out", str(tmp_path), fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
-    for name in ("two_blocks_fig17.png", "two_blocks_mirror.png"):
+    for name in ("two_blocks_fig17.png", "two_blocks_mirror.png", "records_pulses.png", "records_interpolation.png",
+                 "records_imperial_valley.png", "records_statue_fragility.png", "records_statue_ida.png"):
         png = tmp_path / name
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
+
+
+@pytest.mark.slow  # a benchmark run: make bench
+def test_bench_records_times_a_record_run_and_the_study(fmu_path):
+    p = runners("bench", "--records", "--fmpy-repeats", "2", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    rows = [line for line in p.stdout.splitlines() if line.startswith("| ")]
+    assert any(r.startswith("| native: record file in the FMU") for r in rows)
+    assert any(r.startswith("| fmpy feeding the record through ground.ah") for r in rows)
+    study = next(r for r in rows if r.startswith("| sweep: 560 runs"))
+    assert float(study.split("|")[2]) > 0 and "Fragility: median" in p.stdout
 
 
 @pytest.mark.slow  # a benchmark run: make bench

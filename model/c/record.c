@@ -98,6 +98,15 @@ static int split_values(const char *p, const char *e, double *vals, char *bad, s
     return count;
 }
 
+/* x with the fewest significant digits (15 to 17) that read back as x. */
+static const char *shortest(double x, char *buf, size_t n) {
+    for (int digits = 15; digits <= 17; digits++) {
+        snprintf(buf, n, "%.*g", digits, x);
+        if (strtod(buf, NULL) == x) break;
+    }
+    return buf;
+}
+
 static const char *line_end(const char *p, const char *end) {
     const char *q = memchr(p, '\n', (size_t)(end - p));
     return q ? q : end;
@@ -196,8 +205,10 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
                           j == 1 ? "horizontal" : "vertical", fabs(v[j]));
         if (k > 0) {
             double dt = v[0] - r->t[k - 1];
+            char now[32], before[32];
             if (!(dt > 0))
-                FAIL_LINE("time %.17g s does not increase (previous sample %.17g s)", v[0], r->t[k - 1]);
+                FAIL_LINE("time %s s does not increase (previous sample %s s)", shortest(v[0], now, sizeof(now)),
+                          shortest(r->t[k - 1], before, sizeof(before)));
             if (dt < RECORD_MIN_INTERVAL)
                 FAIL_LINE("sample interval %g s is below %g s: absurd sampling (is time in seconds?)", dt,
                           RECORD_MIN_INTERVAL);

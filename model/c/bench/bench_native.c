@@ -6,8 +6,8 @@
  * usage: bench_native LIBRARY GUID REPEATS [CASE]   (CASE: run only that row, from 0)
  *        bench_native LIBRARY GUID REPEATS custom STOP VR=VALUE ...
  * The second form times one scene given by value references (a VR written
- * iVR=VALUE is an Integer) up to STOP seconds and prints microseconds per
- * simulation and the number of impacts.
+ * iVR=VALUE is an Integer, sVR=VALUE a String) up to STOP seconds and prints
+ * microseconds per simulation and the number of impacts.
  */
 #define _POSIX_C_SOURCE 200809L
 #include <dlfcn.h>
@@ -44,7 +44,7 @@ static double now(void) {
 /* The "custom" form: one scene from the command line. */
 static int run_custom(void *lib, const char *guid, int repeats, int argc, char **argv) {
     LOAD(fmi2Instantiate) LOAD(fmi2SetupExperiment) LOAD(fmi2SetReal) LOAD(fmi2SetInteger)
-    LOAD(fmi2EnterInitializationMode) LOAD(fmi2ExitInitializationMode) LOAD(fmi2DoStep)
+    LOAD(fmi2SetString) LOAD(fmi2EnterInitializationMode) LOAD(fmi2ExitInitializationMode) LOAD(fmi2DoStep)
     LOAD(fmi2GetInteger) LOAD(fmi2FreeInstance)
     fmi2CallbackFunctions cb = {quiet, xcalloc, free, NULL, NULL};
     double stop = atof(argv[0]);
@@ -56,11 +56,14 @@ static int run_custom(void *lib, const char *guid, int repeats, int argc, char *
         if (!m) return 1;
         for (int i = 1; i < argc; i++) {
             const char *a = argv[i];
-            int integer = a[0] == 'i';
+            int integer = a[0] == 'i', string = a[0] == 's';
             char *eq = strchr(a, '=');
             if (!eq) return 2;
-            fmi2ValueReference vr = (fmi2ValueReference)atoi(a + integer);
-            if (integer) {
+            fmi2ValueReference vr = (fmi2ValueReference)atoi(a + integer + string);
+            if (string) {
+                fmi2String value = eq + 1;
+                if (fmi2SetString(m, &vr, 1, &value) != fmi2OK) return 1;
+            } else if (integer) {
                 int value = atoi(eq + 1);
                 if (fmi2SetInteger(m, &vr, 1, &value) != fmi2OK) return 1;
             } else {

