@@ -40,15 +40,29 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         from runners.measuredcli import motion_record
 
         args.record = str(motion_record(factory or _database(args.db), args.motion))
-    if args.record is not None:  # the record replaces the scene's excitation
+    notes = []
+    if args.record is not None:  # the record replaces the scene's excitation, and the times set for it
+        from runners.scene import KINDS
+
+        kind = int(scene.parameters.get("excitation.kind", 0))
+        if kind not in (0, 4):
+            notes.append(f"the record replaces the scene's {next(k for k, v in KINDS.items() if v == kind)}")
         scene = replace(scene, record=args.record, file=None,
+                        stop_time_given=args.stop_time is not None, step_given=args.step is not None,
                         parameters={**{k: v for k, v in scene.parameters.items()
                                        if not k.startswith("excitation.") or k == "excitation.startTime"},
                                     "excitation.kind": 4})
-    if args.scale is not None:
+    if args.scale is not None or args.pga is not None:
         if not scene.is_record:
-            raise ValueError("--scale multiplies a record: give a record scene or --record")
-        scene.parameters["excitation.scale"] = args.scale
+            raise ValueError("--scale and --pga scale a record: give a record scene or --record")
+        if args.scale is not None and args.pga is not None:
+            raise ValueError("give --scale or --pga, not both")
+        if args.pga is not None and not 0 < args.pga <= 5:
+            raise ValueError(f"--pga {args.pga:g} must be in (0, 5] g (it is in g)")
+        scene.parameters.pop("excitation.scale", None)
+        scene.pga = args.pga
+        if args.scale is not None:
+            scene.parameters["excitation.scale"] = args.scale
     rec = prepare_scene(scene, factory if factory is not None or scene.record is None else _database(args.db))
     result = None
     with RockingFMU(fmu_path) as fmu:
@@ -85,7 +99,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 s["model"], s["model_reason"] = model, why
                 if rec is not None:
                     s["excitation"] = rec.describe(float(merged["excitation.scale"]))
-                    s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end}
+                    s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end,
+                                   "scale": float(merged["excitation.scale"]),
+                                   "pga_g": abs(float(merged["excitation.scale"])) * rec.info["pga_g"]}
+                    notes += rec.notes
+                if notes:
+                    s["notes"] = notes
                 text_out = format_summary(s)
     recording = None
     if args.rrd:
@@ -148,7 +167,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import math
 
     from db.schema import Sweep
-    from runners.sweep import create_sweep, local_workers, parse_axis, parse_points, run_sweep
+    from runners.sweep import create_sweep, local_workers, parse_axis, parse_points, record_axes, run_sweep
 
     if (args.resume is None) == (args.scene is None):
         raise ValueError("give a scene file with --grid, or --resume SWEEP_ID")
@@ -178,7 +197,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
             defaults = fmu.defaults()
         axes = [parse_axis(spec, reals) for spec in args.grid]
-        records, intensity = _sweep_records(factory, scene, axes, args.records, args.im)
+        records, intensity, notes = record_axes(factory, scene, axes, args.records, args.im,
+                                                args.stop_time is not None)
+        for note in notes:
+            print(f"note: {note}")
         if not axes and not records:
             raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
         total = math.prod([len(records or ()) or 1, intensity.count if intensity else 1, *(a.count for a in axes)])
@@ -213,52 +235,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if st["recorded"]:
         print(f"recorded {st['recorded']} points in full in {args.record_dir or f'recordings/sweep-{sweep_id}'}")
     return 0
-
-
-# parameters of the built-in waveforms: a record ignores them, so a record sweep may not vary them
-BUILT_IN = {"w", "a", "excitation.amplitude", "excitation.frequency", "excitation.cycles",
-            "excitation.verticalAmplitude", "excitation.displacement", "excitation.gamma", "excitation.phase"}
-
-
-def _sweep_records(factory, scene, axes, records_spec: str | None, im_spec: str | None):
-    """(records, intensity) of a new sweep, checked against its axes and scene."""
-    from runners.records import prepare_scene, select_records
-    from runners.sweep import parse_intensity, record_refs
-
-    names = [a.name for a in axes]
-    if len(set(names)) != len(names):
-        raise ValueError(f"--grid {names[[names.count(n) > 1 for n in names].index(True)]} is given twice")
-    intensity = parse_intensity(im_spec) if im_spec else None
-    chosen = None
-    if records_spec:
-        chosen = select_records(factory, records_spec)
-        scene.parameters = {k: v for k, v in scene.parameters.items()  # the records replace the excitation
-                            if not k.startswith("excitation.") or k in ("excitation.startTime", "excitation.scale")}
-        scene.parameters["excitation.kind"] = 4
-    elif scene.is_record:
-        rec = prepare_scene(scene, factory)
-        from db.records import find_record
-
-        with factory() as session:
-            chosen = [find_record(session, rec.record_id)]
-    if chosen is None:
-        if intensity is not None or "excitation.scale" in names:
-            raise ValueError(f"{'--im' if intensity else '--grid scale'} scales records: give --records SUITE "
-                             "(or a record scene)")
-        return None, None
-    ignored = [n for n in names if n in BUILT_IN]
-    if ignored:
-        raise ValueError(f"--grid {ignored[0]} sets a built-in waveform, which a record sweep does not use: "
-                         "scale records with --im or --grid scale")
-    if intensity is not None and "excitation.scale" in names:
-        raise ValueError("--im already sets each record's scale: drop --grid scale")
-    if intensity is not None:
-        bad = [r.name for r in chosen if not (r.pga or 0) > 0 or (intensity.measure == "pgv" and not (r.pgv or 0) > 0)]
-        if bad:
-            raise ValueError(f"record {bad[0]} has no {intensity.measure}: it cannot be scaled to a level of it")
-    with factory.begin() as session:
-        refs = record_refs(session, [r.id for r in chosen])
-    return refs, intensity
 
 
 def cmd_map(args: argparse.Namespace) -> int:
@@ -344,6 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="drive the block with a stored record (runners records list) instead of the scene's "
                           "excitation")
     sim.add_argument("--scale", type=float, help="multiply the record's accelerations (excitation.scale)")
+    sim.add_argument("--pga", type=float, metavar="G", help="scale the record so that its PGA is G (in g)")
     sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")
@@ -416,6 +393,11 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
+    except BrokenPipeError:  # the reader stopped (runners records list | head): nothing more to say
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError) as exc:
         print(f"error: {exc}".splitlines()[0], file=sys.stderr)
         return 2

@@ -24,7 +24,24 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
-from fmpy.fmi2 import calloc, free  # the C runtime's allocator, as fmpy uses it
+
+def _allocator():
+    """calloc and free for the FMU's callbacks. On POSIX from the process's global symbol
+    namespace, so that an AddressSanitizer preloaded by make sanitize sees (and guards) the
+    FMU's heap; fmpy's own pair comes straight from libc and would bypass it."""
+    if os.name == "posix":
+        import ctypes
+
+        lib = ctypes.CDLL(None)
+        lib.calloc.restype, lib.calloc.argtypes = ctypes.c_void_p, [ctypes.c_size_t, ctypes.c_size_t]
+        lib.free.restype, lib.free.argtypes = None, [ctypes.c_void_p]
+        return lib.calloc, lib.free
+    from fmpy.fmi2 import calloc, free  # the C runtime's allocator, as fmpy uses it
+
+    return calloc, free
+
+
+calloc, free = _allocator()
 
 DEFAULT_OUTPUTS = (
     "block1.theta",
@@ -153,7 +170,8 @@ class RockingFMU:
         """Instantiate a slave whose log lines go to ``log(status, category, message)``."""
 
         def logger(env, name, status, category, message):
-            log(status, (category or b"").decode(), (message or b"").decode())
+            # the FMU writes a message as a printf format (FMI 2.0): a literal % is "%%"
+            log(status, (category or b"").decode(), (message or b"").decode(errors="replace").replace("%%", "%"))
 
         callbacks = fmi2CallbackFunctions()
         callbacks.logger = fmi2CallbackLoggerTYPE(logger)

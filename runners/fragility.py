@@ -93,8 +93,10 @@ def _terms(eta: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return ll, sign * lam, lam * (z + lam)
 
 
-def _mle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
-    """(a, b, observed information) of the probit fit Phi(a + b ln x) to outcomes y."""
+def _mle(x: np.ndarray, y: np.ndarray, unit: str = "") -> tuple[float, float, np.ndarray]:
+    """(a, b, observed information) of the probit fit Phi(a + b ln x) to outcomes y (x in `unit`,
+    for the messages)."""
+    u = f" {unit}" if unit else ""
     n, k = x.size, int(y.sum())
     if k == 0 or k == n:
         raise FragilityError(f"{'none' if k == 0 else 'all'} of the {n} runs overturned: the intensities must "
@@ -103,16 +105,16 @@ def _mle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
     stand, fall = lx[y == 0], lx[y == 1]
     if stand.max() < fall.min():
         raise FragilityError(
-            f"the outcomes separate completely: every run up to {math.exp(stand.max()):.4g} stands and every run "
-            f"from {math.exp(fall.min()):.4g} falls, so the dispersion is below what these levels resolve "
+            f"the outcomes separate completely: every run up to {math.exp(stand.max()):.4g}{u} stands and every run "
+            f"from {math.exp(fall.min()):.4g}{u} falls, so the dispersion is below what these levels resolve "
             "(the median lies between them); add intensity levels in between")
     if stand.max() == fall.min():  # quasi-complete separation: the likelihood grows as beta goes to 0
         below, above = lx[lx < stand.max()], lx[lx > stand.max()]
         raise FragilityError(
-            f"the outcomes change at one level only: every run below {math.exp(stand.max()):.4g} stands, every run "
+            f"the outcomes change at one level only: every run below {math.exp(stand.max()):.4g}{u} stands, every run "
             f"above it falls, so the dispersion is below what these levels resolve; add intensity levels between "
             f"{math.exp(below.max()) if below.size else math.exp(stand.max()):.4g} and "
-            f"{math.exp(above.min()) if above.size else math.exp(stand.max()):.4g}")
+            f"{math.exp(above.min()) if above.size else math.exp(stand.max()):.4g}{u}")
     X = np.column_stack([np.ones(n), lx])
     b = 1.0 / max(np.std(lx), 1e-3)  # start: unit dispersion of the data about its mean
     params = np.array([-b * np.mean(lx), b])
@@ -141,16 +143,16 @@ def _mle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, np.ndarray]:
     return float(a), float(b), X.T @ (X * w[:, None])
 
 
-def fit(x: np.ndarray, overturned: np.ndarray, groups: np.ndarray | None = None) -> Fragility:
-    """Fit P(overturn | x) = Phi(ln(x / theta) / beta) to runs at intensities x (> 0) with outcomes
-    `overturned` (bool); `groups` labels each run's record (for the jackknife intervals)."""
+def fit(x: np.ndarray, overturned: np.ndarray, groups: np.ndarray | None = None, unit: str = "") -> Fragility:
+    """Fit P(overturn | x) = Phi(ln(x / theta) / beta) to runs at intensities x (> 0, in `unit`) with
+    outcomes `overturned` (bool); `groups` labels each run's record (for the jackknife intervals)."""
     x = np.asarray(x, dtype=float)
     y = np.asarray(overturned, dtype=float)
     if x.shape != y.shape or x.ndim != 1 or x.size < 3:
         raise FragilityError("a fragility fit needs at least three runs with an intensity and an outcome each")
     if not np.all(np.isfinite(x) & (x > 0)):
         raise FragilityError("every intensity must be a positive number")
-    a, b, info = _mle(x, y)
+    a, b, info = _mle(x, y, unit)
     median, beta = math.exp(-a / b), 1.0 / b
     labels = np.asarray(groups) if groups is not None else np.arange(x.size)
     uniq = np.unique(labels)

@@ -1,7 +1,8 @@
 """Record files: the plain-text format the FMU reads (excitation.kind = 4, excitation.file).
 
 One sample per line: time (s), horizontal ground acceleration (m/s^2), and optionally the
-vertical one (m/s^2), separated by spaces, tabs or one comma; '#' starts a comment line. The
+vertical one (m/s^2), separated by spaces and tabs, or by one comma or semicolon, one way within
+a line; lines end with LF, CR LF or CR; '#' starts a comment line. The
 FMU joins the samples by straight lines and takes the acceleration as zero before the first
 and after the last (docs/records.md). Signs follow docs/conventions.md: a_h > 0 accelerates
 the ground towards +x, a_v > 0 upwards.
@@ -26,8 +27,9 @@ import numpy as np
 MAX_SAMPLES = 10_000_000
 MIN_INTERVAL, MAX_INTERVAL = 1e-6, 100.0  # s
 MAX_TIME = 1e6  # s
-MAX_ACCELERATION = 10 * 9.80665  # m/s^2
-_SPLIT = re.compile(r"[ \t\r\v\f]*[,;][ \t\r\v\f]*|[ \t\r\v\f]+")
+MAX_ACCELERATION = 98.0665  # m/s^2, 10 g exactly
+MAX_TOKEN = 512  # characters: a number written out longer than this is not a sample
+_SPACE = " \t\r\v\f"
 
 
 class RecordFileError(ValueError):
@@ -39,6 +41,8 @@ def write_record_file(path: str | Path, time: np.ndarray, ah: np.ndarray, av: np
     """Write samples (s, m/s^2) in the FMU's format, every number to 17 significant digits (read
     back bit for bit); `comments` become '#' lines at the top. Written atomically."""
     path = Path(path)
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"cannot write {path}: the folder {path.parent} does not exist")
     cols = [np.asarray(time, float), np.asarray(ah, float)] + ([] if av is None else [np.asarray(av, float)])
     head = [f"# {c}" for line in comments for c in str(line).splitlines()]
     head.append("# time (s), horizontal acceleration (m/s2)" + ("" if av is None else ", vertical acceleration (m/s2)"))
@@ -51,9 +55,52 @@ def write_record_file(path: str | Path, time: np.ndarray, ah: np.ndarray, av: np
 
 
 def _number(token: str) -> float:
-    if not re.fullmatch(r"[0-9.+\-eEnNaAiIfFtTyY]+", token):
+    if len(token) >= MAX_TOKEN or not re.fullmatch(r"[0-9.+\-eEnNaAiIfFtTyY]+", token):
         raise ValueError(token)
     return float(token)
+
+
+def _shortest(x: float) -> str:
+    """x in %g form with the fewest significant digits (15 to 17) that read back as x, as the
+    FMU's messages write it."""
+    for digits in (15, 16, 17):
+        text = f"{x:.{digits}g}"
+        if float(text) == x:
+            break
+    return text
+
+
+class _Line(ValueError):
+    """A line's problem (the reader adds the file and the line)."""
+
+
+def _split(text: str) -> list[str]:
+    """The values of a data line, as the FMU's reader splits them (model/c/record.c)."""
+    tokens, i, n, spaced, commas = [], 0, len(text), False, False
+    while i < n and text[i] in _SPACE:
+        i += 1
+    while i < n:
+        j = i
+        while j < n and text[j] not in _SPACE and text[j] not in ",;":
+            j += 1
+        if j == i:
+            raise _Line("an empty value between separators")
+        tokens.append(text[i:j])
+        i = j
+        while i < n and text[i] in _SPACE:
+            i += 1
+        if i < n and text[i] in ",;":
+            i, commas = i + 1, True
+            while i < n and text[i] in _SPACE:
+                i += 1
+            if i == n:
+                raise _Line("an empty value between separators")
+        elif i < n:
+            spaced = True
+        if spaced and commas:
+            raise _Line("spaces between some values and commas between others: write decimals with '.' and "
+                        "separate the values one way")
+    return tokens
 
 
 def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -71,17 +118,17 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
         raw = raw[3:]
     rows: list[list[float]] = []
     columns, first_line = 0, 0
-    for n, line in enumerate(raw.split(b"\n"), start=1):
+    for n, line in enumerate(re.split(rb"\r\n|\r|\n", raw), start=1):
         if b"\0" in line:
             raise RecordFileError(f"{where}, line {n}: contains a NUL byte: this is not a text record file")
-        text = line.decode("latin-1").strip(" \t\r\v\f")
+        text = line.decode("latin-1").strip(_SPACE)
         if not text or text.startswith("#"):
             continue
-        if re.search(r"[,;][ \t\r\v\f]*([,;]|$)", text) or text[0] in ",;":
-            raise RecordFileError(f"{where}, line {n}: an empty value between separators")
-        tokens = _SPLIT.split(text)
         try:
+            tokens = _split(text)
             values = [_number(tok) for tok in tokens[:4]]
+        except _Line as exc:
+            raise RecordFileError(f"{where}, line {n}: {exc}") from None
         except ValueError as exc:
             shown = "".join(c if c.isprintable() else "?" for c in str(exc.args[0])[:23])
             raise RecordFileError(f"{where}, line {n}: '{shown}' is not a number") from None
@@ -99,7 +146,7 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
                 what = "the time" if j == 0 else "an acceleration"
                 raise RecordFileError(f"{where}, line {n}: {what} is not a finite number")
         if abs(values[0]) > MAX_TIME:
-            raise RecordFileError(f"{where}, line {n}: time {values[0]:g} s is beyond {MAX_TIME:g} s: "
+            raise RecordFileError(f"{where}, line {n}: |time| = {_shortest(abs(values[0]))} s is beyond a million seconds: "
                                   "is the first column the time in seconds?")
         for j in range(1, c):
             if abs(values[j]) > MAX_ACCELERATION:
@@ -108,8 +155,8 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
         if rows:
             dt = values[0] - rows[-1][0]
             if not dt > 0:
-                raise RecordFileError(f"{where}, line {n}: time {values[0]!r} s does not increase "
-                                      f"(previous sample {rows[-1][0]!r} s)")
+                raise RecordFileError(f"{where}, line {n}: time {_shortest(values[0])} s does not increase "
+                                      f"(previous sample {_shortest(rows[-1][0])} s)")
             if dt < MIN_INTERVAL:
                 raise RecordFileError(f"{where}, line {n}: sample interval {dt:g} s is below {MIN_INTERVAL:g} s: "
                                       "absurd sampling (is time in seconds?)")

@@ -24,7 +24,7 @@ def plot_record(out: Path, info: dict[str, Any], t: np.ndarray, ah: np.ndarray) 
     c0, c1 = _baseline(t, ah)
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     title = info["name"] + (f": {info['event']} {info['year'] or ''}, {info['station']}" if info.get("event") else "")
-    axes[0].set_title(title, fontsize=10)
+    axes[0].set_title(title, loc="left", fontsize=9)
     for ax, y, label, note in (
             (axes[0], ah / G0, "a_h (g)", f"PGA {info['pga'] / G0:.3f} g, Arias {info['arias']:.3f} m/s, "
                                           f"D5-95 {info['d5_95']:.2f} s"),
@@ -33,8 +33,7 @@ def plot_record(out: Path, info: dict[str, Any], t: np.ndarray, ah: np.ndarray) 
         ax.plot(t, y, lw=0.7, color="#1f4e79")
         ax.axhline(0, color="0.6", lw=0.5)
         ax.set_ylabel(label)
-        ax.text(0.01, 0.95, note, transform=ax.transAxes, va="top", fontsize=8,
-                bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.85))
+        ax.set_title(note, loc="right", fontsize=8, color="0.25")  # above the panel, off the curve
     axes[2].set_xlabel("time (s)")
     fig.tight_layout()
     out = Path(out)

@@ -16,7 +16,7 @@ Units SI (time in s, accelerations in m/s^2), signs as docs/conventions.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -38,6 +38,32 @@ def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.nd
     m = measures(time, ah)
     return add_record(session, name, time, ah, av, samples_sha256(time, ah, av), measures=m.as_dict(),
                       **provenance)
+
+
+def unit_notes(rec: Record) -> list[str]:
+    """Warnings when a record's PGA suggests the wrong units (it is stored all the same)."""
+    if rec.pga is None:
+        return []
+    g = rec.pga / G0
+    if g > 3.0:
+        return [f"PGA {g:.3g} g is larger than almost any recorded earthquake's: are the values in m/s2?"]
+    if g < 0.005:
+        return [f"PGA {g:.3g} g is very small for an earthquake: are the values in m/s2 (not g or cm/s2 "
+                "read as m/s2)?"]
+    return []
+
+
+def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float, g: float) -> None:
+    """The FMU's checks of a scaled record, made here first so the message names the record, not
+    the cached file the FMU reads: peak at most 1000 m/s2, g + a_v above zero."""
+    top = float(max(np.max(np.abs(ah)), 0.0 if av is None else np.max(np.abs(av))))
+    if not abs(scale) * top <= 1000.0:
+        raise ValueError(f"{label}: scale {scale:g} brings its peak acceleration to {abs(scale) * top:g} m/s2, beyond "
+                         "1000 m/s2 (about 100 g)")
+    if av is not None and not np.all(g + scale * av > 0):
+        raise ValueError(f"{label}: scale {scale:g} times its vertical acceleration reaches "
+                         f"{float(np.min(scale * av)):g} m/s2, at or below -g: the block would leave the ground "
+                         "(not modelled)")
 
 
 def fill_missing_measures(session) -> int:
@@ -79,6 +105,9 @@ def read_any(path: str | Path, units: str | None = None, sign: str | None = None
     from runners.measured import read_at2, read_csv
 
     path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"record file {path} does not exist" if not path.exists() else
+                                f"record file {path} is not a file")
     given = {"units": units, "sign": sign}
     suffix = path.suffix.lower()
     if suffix in (".at2", ".csv"):
@@ -118,11 +147,15 @@ def _store_read(session, path: Path, read: tuple, name: str | None, suite: str |
     name = name or (f"{suite}/{path.stem}" if suite else path.stem)
     if source:
         prov["source"] = source
+    sha = samples_sha256(t, ah, av)
     old = session.scalar(select(Record).where(Record.name == name))
     if old is not None:
-        if old.sha256 != samples_sha256(t, ah, av):
+        if old.sha256 != sha:
             raise ValueError(f"a record named {name!r} already exists with other samples: give another --name")
         return old, False
+    same = session.scalar(select(Record).where(Record.sha256 == sha))
+    if same is not None:  # the same samples under another name: one record, not two
+        return same, False
     rec = store_record(session, name, t, ah, av, suite=suite, **prov)
     session.flush()
     return rec, True
@@ -221,11 +254,13 @@ class SceneRecord:
     path: Path  # the file the FMU reads (excitation.file)
     end: float  # s, time of the last sample
     info: dict[str, Any]  # provenance and measures (row())
+    notes: list[str] = field(default_factory=list)  # what a reader of the run should know
 
     def describe(self, scale: float) -> str:
         i = self.info
         where = f" ({i['event']} {i['year'] or ''}, {i['station']})" if i.get("event") else ""
-        return f"record {self.name}{where} x {scale:g}"
+        pga = f" (PGA {abs(scale) * i['pga_g']:.3g} g)" if i.get("pga_g") else ""
+        return f"record {self.name}{where} x {scale:g}{pga}"
 
 
 def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
@@ -234,6 +269,13 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
     [simulation] stop_time, run until the record ends plus TAIL seconds. None otherwise."""
     if not scene.is_record:
         return None
+    g = float(scene.parameters.get("g", 9.81))
+
+    def scale_of(pga: float) -> float:  # the scene's scale, or the one that gives its PGA (in g)
+        if scene.pga is not None:
+            scene.parameters["excitation.scale"] = scene.pga * G0 / pga
+        return float(scene.parameters.get("excitation.scale", 1.0))
+
     if scene.record is not None:
         if factory is None:
             from db.session import open_database
@@ -245,6 +287,7 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
             session.expunge(rec)
     else:
         t, ah, av, prov = read_any(scene.file)
+        check_scaled(f"record file {scene.file}", ah, av, scale_of(float(np.max(np.abs(ah)))), g)
         if factory is None:
             m = measures(t, ah)
             rec = Record(id=None, name=Path(scene.file).stem, names=["ah"] + (["av"] if av is not None else []),
@@ -257,14 +300,20 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
                                 **{"source": f"record file {scene.file}", **prov})
             session.flush()
             session.expunge(rec)
-    t, _, _ = samples(rec)
+    t, ah, av = samples(rec)
+    check_scaled(f"record {rec.name}", ah, av, scale_of(float(np.max(np.abs(ah)))), g)
     return _finish(scene, rec, file_of(rec), float(t[-1]))
 
 
 def _finish(scene: Scene, rec: Record, path: Path, end: float) -> SceneRecord:
     scene.parameters["excitation.file"] = str(path)
+    start = float(scene.parameters.get("excitation.startTime", 0.0))
+    notes = []
     if not scene.stop_time_given:
-        scene.stop_time = float(scene.parameters.get("excitation.startTime", 0.0)) + end + TAIL
-    if not scene.step_given:  # outputs at the record's own sampling (at most 1 kHz)
-        scene.step = min(max(float(rec.dt), 1e-3), scene.stop_time)
-    return SceneRecord(rec.id, rec.name, path, end, row(rec) | {"source": rec.source})
+        scene.stop_time = start + end + TAIL
+    elif scene.stop_time < start + end:
+        notes.append(f"the run stops at {scene.stop_time:g} s, before the record ends at {start + end:g} s "
+                     "(without a stop time it runs to the record's end plus 5 s)")
+    if not scene.step_given:  # outputs at the record's own sampling, between 1 kHz and 100 Hz
+        scene.step = min(min(max(float(rec.dt), 1e-3), 0.01), scene.stop_time)
+    return SceneRecord(rec.id, rec.name, path, end, row(rec) | {"source": rec.source}, notes)

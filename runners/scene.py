@@ -64,6 +64,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "phase": ("excitation.phase", "real"),
         "record": (None, "record"),
         "file": (None, "text"),
+        "pga": (None, "real"),  # g: the record scaled to this PGA (instead of scale)
     },
     "simulation": {
         "stop_time": (None, "real"),
@@ -92,6 +93,7 @@ class Scene:
     file: str | None = None  # a record file ([excitation] file), absolute once loaded
     stop_time_given: bool = False  # [simulation] stop_time was set (else records set it)
     step_given: bool = False  # [simulation] step was set (else a record's sample interval is used)
+    pga: float | None = None  # g: scale the record to this PGA ([excitation] pga)
 
     @property
     def n_blocks(self) -> int:
@@ -169,6 +171,13 @@ def _check_record(scene: Scene, source: str) -> None:
     if scene.is_record and not given:
         raise SceneError(f"{source}: [excitation] kind = \"record\" needs record = NAME (a stored record, "
                          "runners records list) or file = PATH (a record file)")
+    if scene.pga is not None:
+        if not given:
+            raise SceneError(f"{source}: [excitation] pga scales a record: give record or file too")
+        if "excitation.scale" in scene.parameters:
+            raise SceneError(f"{source}: [excitation] give pga (the record's PGA, in g) or scale, not both")
+        if not 0 < scene.pga <= 5:
+            raise SceneError(f"{source}: [excitation] pga = {scene.pga:g} must be in (0, 5] g (it is in g)")
     if scene.file is not None:
         base = Path(source).parent if source and not source.startswith("<") else Path.cwd()
         scene.file = str((base / scene.file).resolve()) if not Path(scene.file).is_absolute() else scene.file

@@ -1,14 +1,17 @@
 """Studies of a sweep over records: fragility and IDA of overturning.
 
-Python API (``runners fragility`` and ``runners ida`` are thin layers over it)::
+Python API (``runners sweep --records``, ``runners fragility`` and ``runners ida`` are thin
+layers over it)::
 
     from db.session import open_database
-    from runners import study
-    factory = open_database()
-    oc = study.outcomes(factory, "latest", "pga")       # one row per run: intensity, outcome, peaks
+    from runners import records, study
+    factory = open_database("statue.db")
+    records.import_fema(factory, ["nearfield_pulse"])
+    sweep = study.run(factory, "examples/statue.toml", "fema-p695/nearfield_pulse", im="pga=0.05:1.0:20")
+    oc = study.outcomes(factory, sweep, "pga")          # one row per run: intensity, outcome, peaks
     frag = study.fragility(oc)                           # runners.fragility.Fragility
-    study.plot_fragility("fragility.png", frag, oc)
-    study.plot_ida("ida.png", oc)
+    fig = study.fragility_figure(frag, oc)               # a matplotlib Figure (shown inline in a notebook)
+    study.plot_ida("ida.png", oc)                        # or straight to a file
 
 A run's intensity is its record's measure times its scale (PGA, PGV, PGD linearly, Arias
 intensity with the square; runners.intensity.SCALING). "Overturned" means either block of a
@@ -67,6 +70,12 @@ class Outcomes:
 
         return f"two stacked blocks: lower {size(1)}, upper {size(2)}" if self.two else f"one block {size(1)}"
 
+    def records_text(self) -> str:
+        """How many records, and from which suites (their names' common folders)."""
+        names = list(dict.fromkeys(self.record))
+        suites = sorted({n.rsplit("/", 1)[0] for n in names if "/" in n})
+        return f"{len(names)} records" + (f" of {', '.join(suites)}" if suites and len(suites) <= 3 else "")
+
     def bins(self) -> list[np.ndarray]:
         """Groups of runs for empirical fractions: each distinct intensity when the runs sit on
         common levels (a sweep's --im stripes), else about 12 bins of equal count."""
@@ -83,6 +92,31 @@ class Outcomes:
         from runners.sweep import scales
 
         return scales(self.params)[1] / G0
+
+
+def run(factory, scene, records_spec: str, im: str | None = None, grid: tuple[str, ...] | list[str] = (),
+        stop_time: float | None = None, workers: int | None = None, fmu_path=None, progress: bool = False) -> int:
+    """Run and store a sweep of `scene` (a scene file or runners.scene.Scene) over the records
+    `records_spec` (a suite, names or ids, or a folder; runners.records.select_records), each
+    scaled to the levels `im` ("pga=START:STOP:COUNT" in g, "pgv=..." in m/s) or by a
+    "scale=START:STOP:COUNT" axis in `grid` (with any other NAME=START:STOP:COUNT axes). Without
+    `stop_time` each record runs to its end plus 5 s. Returns the sweep's id."""
+    from runners.fmu import RockingFMU, fmu_path_from
+    from runners.scene import Scene, load_scene
+    from runners.sweep import create_sweep, parse_axis, record_axes, run_sweep
+
+    scene = scene if isinstance(scene, Scene) else load_scene(scene)
+    if stop_time is not None:
+        scene.stop_time, scene.stop_time_given = float(stop_time), True
+    path = fmu_path_from(None if fmu_path is None else str(fmu_path))
+    with RockingFMU(path) as fmu:
+        reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
+        defaults = fmu.defaults()
+    axes = [parse_axis(spec, reals) for spec in grid]
+    refs, intensity, _ = record_axes(factory, scene, axes, records_spec, im, stop_time is not None)
+    sweep_id = create_sweep(factory, scene, axes, defaults, refs, intensity)
+    run_sweep(factory, sweep_id, path, workers=workers, progress=progress)
+    return sweep_id
 
 
 def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
@@ -104,7 +138,7 @@ def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
     factor = DISPLAY[measure][2]
     stripes = sw.grid.get("intensity")
     if stripes and stripes[0] == measure:  # the sweep's own levels, exactly (scale x measure rounds)
-        x = np.array([r.point[f"{measure}_level"] for r in ok])
+        x = np.array([r.point["level"] for r in ok])
     else:
         x = np.array([r.point[measure] / factor for r in ok])
     two = int(scene.n_blocks) == 2
@@ -119,7 +153,19 @@ def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
 
 def fragility(oc: Outcomes) -> Fragility:
     """The lognormal fragility of the sweep's outcomes (runners.fragility.fit), records as groups."""
-    return fit(oc.x, oc.overturned, np.array(oc.record))
+    return fit(oc.x, oc.overturned, np.array(oc.record), oc.unit)
+
+
+def fragility_notes(frag: Fragility, oc: Outcomes) -> list[str]:
+    """What the curve does not show: a median or interval outside the intensities run."""
+    lo, hi = float(oc.x.min()), float(oc.x.max())
+    notes = []
+    if not lo <= frag.median <= hi:
+        notes.append(f"the median {frag.median:.4g} {oc.unit} lies outside the intensities run ({lo:.4g} to "
+                     f"{hi:.4g} {oc.unit}): the curve there is an extrapolation")
+    elif frag.median_interval[1] > hi or frag.median_interval[0] < lo:
+        notes.append(f"the median's interval reaches beyond the intensities run ({lo:.4g} to {hi:.4g} {oc.unit})")
+    return notes
 
 
 def first_overturn(oc: Outcomes) -> dict[str, float | None]:
@@ -146,35 +192,51 @@ def resurrections(oc: Outcomes) -> list[str]:
     return out
 
 
-def _setup_matplotlib():
-    import matplotlib
-
-    matplotlib.use("Agg")
+def _save(fig, out: str | Path) -> Path:
     import matplotlib.pyplot as plt
 
-    return plt
+    out = Path(out)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
 
 
-def plot_fragility(out: str | Path, frag: Fragility, oc: Outcomes) -> Path:
-    """Empirical fraction overturned per level (marker area ~ runs), the fitted curve, its 95 %
-    band, the median with its interval, and the static uplift threshold (PGA)."""
-    plt = _setup_matplotlib()
+def plot_fragility(out: str | Path, frag: Fragility | None, oc: Outcomes) -> Path:
+    """fragility_figure written to `out` (PNG)."""
+    return _save(fragility_figure(frag, oc), out)
+
+
+def plot_ida(out: str | Path, oc: Outcomes) -> Path:
+    """ida_figure written to `out` (PNG)."""
+    return _save(ida_figure(oc), out)
+
+
+def fragility_figure(frag: Fragility | None, oc: Outcomes):
+    """A matplotlib Figure: the fraction overturned per level (marker area ~ runs), and, with a
+    fit, the curve, its 95 % band, the median with its interval; for PGA the static uplift
+    threshold. Without a fit (frag None: the outcomes could not give one), the fractions alone."""
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(8, 5.5))
+    import textwrap
+
     groups = oc.bins()
     xs = np.array([np.median(oc.x[g]) for g in groups])
     n = np.array([g.size for g in groups])
     k = np.array([int(oc.overturned[g].sum()) for g in groups])
     grid = np.geomspace(max(xs.min() * 0.5, 1e-6), xs.max() * 1.3, 400)
-    lo, hi = frag.band(grid)
-    ax.fill_between(grid, lo, hi, color="#9ecae1", alpha=0.5, lw=0, label="95 % band")
-    ax.plot(grid, frag.probability(grid), color="#08519c", lw=2,
-            label=f"fit: median {frag.median:.3g} {oc.unit}, beta {frag.beta:.2f} (Baker 2015)")
+    if frag is not None:
+        lo, hi = frag.band(grid)
+        ax.fill_between(grid, lo, hi, color="#9ecae1", alpha=0.5, lw=0, label="95 % band")
+        ax.plot(grid, frag.probability(grid), color="#08519c", lw=2,
+                label=f"fit: median {frag.median:.3g} {oc.unit}, beta {frag.beta:.2f} (Baker 2015)")
     ax.scatter(xs, k / n, s=12 + 60 * n / n.max(), color="#cb181d", zorder=3, edgecolor="k", lw=0.4,
                label="fraction overturned (" + (f"{int(n.min())}" if n.min() == n.max() else
                                                   f"{int(n.min())}-{int(n.max())}") + " runs per level)")
-    ax.axvline(frag.median, color="#08519c", lw=0.8, ls="--")
-    ax.axvspan(*frag.median_interval, color="#08519c", alpha=0.08,
-               label=f"median 95 %: {frag.median_interval[0]:.3g}-{frag.median_interval[1]:.3g} {oc.unit}")
+    if frag is not None:
+        ax.axvline(frag.median, color="#08519c", lw=0.8, ls="--")
+        ax.axvspan(*frag.median_interval, color="#08519c", alpha=0.08,
+                   label=f"median 95 %: {frag.median_interval[0]:.3g}-{frag.median_interval[1]:.3g} {oc.unit}")
     thr = oc.uplift_threshold()
     if thr is not None:
         ax.axvline(thr, color="#238b45", lw=1.2, ls=":", label=f"static uplift threshold {thr:.3g} g")
@@ -182,21 +244,21 @@ def plot_fragility(out: str | Path, frag: Fragility, oc: Outcomes) -> Path:
     ax.set_ylabel("P(overturn)")
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(0, grid.max())
-    ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {frag.n_groups} records, "
-                 f"{frag.n_runs} runs, {frag.n_overturned} overturned", fontsize=9)
-    ax.legend(fontsize=8, loc="lower right")
-    fig.text(0.01, 0.005, f"intervals: {frag.interval_method}", fontsize=6.5, color="0.35")
-    fig.tight_layout(rect=(0, 0.02, 1, 1))
-    out = Path(out)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out
+    ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs, "
+                 f"{int(oc.overturned.sum())} overturned", fontsize=9)
+    ax.legend(fontsize=8, loc="best")
+    foot = f"intervals: {frag.interval_method}" if frag is not None else "no fit: the outcomes do not determine one"
+    fig.text(0.01, 0.005, "\n".join(textwrap.wrap(foot, 150)), fontsize=6.5, color="0.35")
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    return fig
 
 
-def plot_ida(out: str | Path, oc: Outcomes) -> Path:
-    """Peak |theta| / alpha against intensity, one line per record, overturns marked at the top;
-    the median over records (overturned counted as infinite) in black."""
-    plt = _setup_matplotlib()
+def ida_figure(oc: Outcomes):
+    """A matplotlib Figure: peak |theta| / alpha against intensity, one line per record (named in a
+    legend up to 12 records), overturns marked at the top; the median over records (overturned
+    counted as infinite) in black."""
+    import matplotlib.pyplot as plt
+
     panels = [("block 1", oc.peak1)] + ([("block 2", oc.peak2)] if oc.two else [])
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 4.8 * len(panels)), sharex=True, squeeze=False)
     names = list(dict.fromkeys(oc.record))
@@ -211,7 +273,7 @@ def plot_ida(out: str | Path, oc: Outcomes) -> Path:
             order = np.argsort(oc.x[sel])
             xs, ys, fell = oc.x[sel][order], peak[sel][order], oc.overturned[sel][order]
             ys = np.where(fell, top, np.minimum(ys, top))
-            ax.plot(xs, ys, lw=0.8, color=cmap(i), alpha=0.8)
+            ax.plot(xs, ys, lw=0.8, color=cmap(i), alpha=0.8, label=name if len(names) <= 12 else None)
             ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(i), lw=1)
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
@@ -219,15 +281,12 @@ def plot_ida(out: str | Path, oc: Outcomes) -> Path:
         ax.text(levels.min(), top, " x overturned", va="bottom", fontsize=8, color="0.3")
         ax.set_ylim(0, top + 0.07)
         ax.set_ylabel(f"peak |theta| / alpha, {title}")
-        ax.legend(fontsize=8, loc="center right")
+        ax.legend(fontsize=7 if len(names) <= 12 else 8, loc="center right")
     axes[-1, 0].set_xlabel(f"{oc.label} ({oc.unit})")
-    axes[0, 0].set_title(f"IDA, sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {len(names)} records, "
-                         f"one line each", fontsize=9)
+    axes[0, 0].set_title(f"IDA, sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {oc.records_text()}, "
+                         "one line each", fontsize=9)
     fig.tight_layout()
-    out = Path(out)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out
+    return fig
 
 
 def format_fragility(frag: Fragility, oc: Outcomes) -> str:
@@ -245,7 +304,7 @@ def format_fragility(frag: Fragility, oc: Outcomes) -> str:
     thr = oc.uplift_threshold()
     if thr is not None:
         lines.append(f"uplift           no record below PGA {thr:.4g} g can lift the block from rest")
-    lines += [f"note             {n}" for n in oc.notes]
+    lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc)]
     return "\n".join(lines)
 
 
@@ -256,11 +315,13 @@ def format_ida(oc: Outcomes) -> str:
     lines = [f"IDA of sweep {oc.sweep_id}: {oc.scene}; {oc.block_text()}; {len(first)} records, "
              f"{len(oc.x)} runs",
              f"overturned       {len(fell)} of {len(first)} records at some level"
-             + (f"; first overturning {oc.label}: median {np.median(fell):.4g} {oc.unit}, range "
+             + (f"; the first overturning {oc.label} of those: median {np.median(fell):.4g} {oc.unit}, range "
                 f"{min(fell):.4g}-{max(fell):.4g}" if fell else "")]
+    never = [name for name, v in first.items() if v is None]
+    if never:
+        lines.append(f"never overturned {', '.join(never)}")
     if back:
         lines.append(f"not monotonic    {len(back)} records overturn the block at one level but not at a higher "
-                     f"one (rocking is not monotonic in intensity): {', '.join(back[:5])}"
-                     + (" ..." if len(back) > 5 else ""))
+                     f"one (rocking is not monotonic in intensity): {', '.join(back)}")
     lines += [f"note             {n}" for n in oc.notes]
     return "\n".join(lines)

@@ -132,13 +132,17 @@ def format_summary(s: dict[str, Any]) -> str:
             f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
             f"peak |theta|     block 1 {s['max_abs_theta_rad']:.6f} rad, block 2 {s['max_abs_theta2_rad']:.6f} rad",
         ]
-        return "\n".join(lines)
+        return "\n".join(lines + _notes(s))
     lines += [
         f"outcome          {outcome}",
         f"impacts          {s['impacts']}",
         f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad = {s['max_abs_theta_over_alpha']:.4f} alpha",
     ]
-    return "\n".join(lines)
+    return "\n".join(lines + _notes(s))
+
+
+def _notes(s: dict[str, Any]) -> list[str]:
+    return [f"note             {n}" for n in s.get("notes", ())]
 
 
 def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:

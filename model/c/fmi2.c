@@ -51,6 +51,7 @@ typedef struct {
     fmi2CallbackFunctions cb;
     char *name;
     char *resourceDir; /* local path of the FMU's resources folder, or NULL */
+    char resourceNote[300]; /* why there is none, when the importer gave a location */
     int loggingOn;
     int logEvents;
     Record rec;        /* the record of excitation.kind = 4, read once per file */
@@ -69,17 +70,24 @@ static void log_message(Instance *I, fmi2Status status, const char *category,
     va_start(ap, fmt);
     vsnprintf(buf, sizeof(buf), fmt, ap);
     va_end(ap);
-    /* Numbers are written with '.' whatever the importer's locale: event lines
-     * are read by programs, and printf follows LC_NUMERIC (',' in German). */
+    /* One line, whatever the message quotes (a path with a newline, escape codes);
+     * numbers written with '.' whatever the importer's locale (event lines are read
+     * by programs, and printf follows LC_NUMERIC: ',' in German); '%' doubled,
+     * because the logger treats the message as a format. */
     const struct lconv *lc = localeconv();
     char point = (lc && lc->decimal_point && lc->decimal_point[0]) ? lc->decimal_point[0] : '.';
-    for (char *p = buf; *p; p++) {
-        if (*p == '%') *p = ' '; /* the logger treats the message as a format */
-        if (point != '.' && *p == point && p > buf && isdigit((unsigned char)p[-1]) &&
-            isdigit((unsigned char)p[1]))
-            *p = '.';
+    char out[2 * MSG_LEN];
+    size_t k = 0;
+    for (const char *p = buf; *p && k + 2 < sizeof(out); p++) {
+        char c = *p;
+        if ((unsigned char)c < 0x20 || c == 0x7f) c = '?';
+        if (point != '.' && c == point && p > buf && isdigit((unsigned char)p[-1]) && isdigit((unsigned char)p[1]))
+            c = '.';
+        if (c == '%') out[k++] = '%';
+        out[k++] = c;
     }
-    I->cb.logger(I->cb.componentEnvironment, I->name, status, category, buf);
+    out[k] = '\0';
+    I->cb.logger(I->cb.componentEnvironment, I->name, status, category, out);
 }
 
 #define LOG_ERROR(I, ...) log_message(I, fmi2Error, "logStatusError", __VA_ARGS__)
@@ -111,35 +119,52 @@ static int bad_call(Instance *I, int allowed, const char *fn) {
 /* ---------------------------------------------------------------- records */
 
 static void stamp_of(const struct stat *st, const char *path, FileStamp *f) {
+    memset(f, 0, sizeof(*f)); /* compared with memcmp: no stray bytes */
     snprintf(f->path, sizeof(f->path), "%s", path);
     f->size = (double)st->st_size;
     f->mtime = (double)st->st_mtime;
     f->inode = (double)st->st_ino;
 #if defined(__linux__)
     f->mtimeNs = (double)st->st_mtim.tv_nsec;
-#else
-    f->mtimeNs = 0.0;
 #endif
 }
 
-/* Read the record named by excitation.file into the instance, unless the
- * same file (path, size, modification time) was read before. */
-static int load_record(Instance *I, char *msg, size_t n) {
+/* Make the instance hold the record that `file` (an excitation.file value) names: read
+ * it unless the same file (path, size, modification time) was read before. With want,
+ * the samples must have want->d's count and hash; otherwise the instance keeps what it
+ * held and an error is returned (a state saved on other samples). */
+static int load_record(Instance *I, const char *file, const Derived *want, char *msg, size_t n) {
     char path[STRING_CAPACITY];
     struct stat st;
     FileStamp now;
-    if (record_path(I->s.model.v.file, I->resourceDir, path, sizeof(path), msg, n)) return 1;
-    if (stat(path, &st) == 0) {
-        stamp_of(&st, path, &now);
-        if (I->rec.n > 0 && memcmp(&now, &I->recFile, sizeof(now)) == 0) return 0;
-    } else {
-        memset(&now, 0, sizeof(now));
+    memset(&now, 0, sizeof(now));
+    if (!I->resourceDir && I->resourceNote[0] && file[0] && !record_is_absolute(file)) {
+        snprintf(msg, n, "'%s' is a relative path, but the importer's resources location %s", file,
+                 I->resourceNote);
+        return 1;
     }
-    Record r;
-    if (record_read(path, &r, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
-    record_free(&I->rec, I->cb.freeMemory);
-    I->rec = r;
-    I->recFile = now;
+    if (record_path(file, I->resourceDir, path, sizeof(path), msg, n)) return 1;
+    int known = stat(path, &st) == 0;
+    if (known) stamp_of(&st, path, &now);
+    if (!(known && I->rec.n > 0 && memcmp(&now, &I->recFile, sizeof(now)) == 0)) {
+        Record r;
+        if (record_read(path, &r, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
+        if (want && (r.n != want->recN || r.hash != want->recHash)) {
+            snprintf(msg, n, "the record file '%s' changed since the state was saved (%d samples then, %d now)",
+                     path, want->recN, r.n);
+            record_free(&r, I->cb.freeMemory);
+            return 1;
+        }
+        record_free(&I->rec, I->cb.freeMemory);
+        I->rec = r;
+        I->recFile = now;
+        return 0;
+    }
+    if (want && (I->rec.n != want->recN || I->rec.hash != want->recHash)) {
+        snprintf(msg, n, "the record file '%s' changed since the state was saved (%d samples then, %d now)",
+                 path, want->recN, I->rec.n);
+        return 1;
+    }
     return 0;
 }
 
@@ -154,7 +179,7 @@ static fmi2Status ensure_initialized(Instance *I) {
     }
     M->rec = NULL;
     if (M->v.kind == KIND_RECORD) {
-        if (load_record(I, msg, sizeof(msg))) {
+        if (load_record(I, M->v.file, NULL, msg, sizeof(msg))) {
             LOG_ERROR(I, "excitation.file: %s", msg);
             return fmi2Error;
         }
@@ -247,11 +272,15 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType,
     memcpy(I->name, instanceName, len);
     /* record files named by a relative excitation.file live in resources/ */
     char dir[STRING_CAPACITY];
-    if (fmuResourceLocation && fmuResourceLocation[0] &&
-        record_uri_to_path(fmuResourceLocation, dir, sizeof(dir)) == 0) {
-        size_t dlen = strlen(dir) + 1;
-        I->resourceDir = (char *)functions->allocateMemory(dlen, 1);
-        if (I->resourceDir) memcpy(I->resourceDir, dir, dlen);
+    if (fmuResourceLocation && fmuResourceLocation[0]) {
+        if (record_uri_to_path(fmuResourceLocation, dir, sizeof(dir)) == 0) {
+            size_t dlen = strlen(dir) + 1;
+            I->resourceDir = (char *)functions->allocateMemory(dlen, 1);
+            if (I->resourceDir) memcpy(I->resourceDir, dir, dlen);
+        }
+        if (!I->resourceDir)
+            snprintf(I->resourceNote, sizeof(I->resourceNote), "'%.200s%s' is not a local folder this FMU can read",
+                     fmuResourceLocation, strlen(fmuResourceLocation) > 200 ? "..." : "");
     }
     I->loggingOn = loggingOn;
     I->logEvents = 1;
@@ -540,6 +569,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
         return fmi2Error;
     }
     *snap = I->s;
+    snap->model.rec = NULL; /* the instance's, re-attached by fmi2SetFMUstate; no address in saved bytes */
     *state = snap;
     return fmi2OK;
 }
@@ -553,20 +583,23 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
         return fmi2Error;
     }
     const Model *sm = &snap->model;
-    if (!snap->dirty && sm->v.kind == KIND_RECORD) {
-        /* the state ran on a record: this instance must hold the same samples */
+    if (!snap->dirty) {
+        /* the state's parameters must be valid and its derived values exactly those they give
+         * (with its record, which this instance must hold with the same samples) */
         char msg[MSG_LEN];
-        Snapshot keep = I->s;
-        I->s.model.v = sm->v; /* load_record reads excitation.file from here */
-        int failed = load_record(I, msg, sizeof(msg));
-        I->s = keep;
-        if (failed) {
+        if (model_validate(&sm->v, msg, sizeof(msg))) {
+            LOG_ERROR(I, "fmi2SetFMUstate: the state's parameters are invalid: %s", msg);
+            return fmi2Error;
+        }
+        if (sm->v.kind == KIND_RECORD && load_record(I, sm->v.file, &sm->d, msg, sizeof(msg))) {
             LOG_ERROR(I, "fmi2SetFMUstate: excitation.file: %s", msg);
             return fmi2Error;
         }
-        if (I->rec.n != sm->d.recN || I->rec.hash != sm->d.recHash) {
-            LOG_ERROR(I, "fmi2SetFMUstate: the record file '%s' changed since the state was saved "
-                      "(%d samples then, %d now)", sm->v.file, sm->d.recN, I->rec.n);
+        Model check = *sm;
+        check.rec = sm->v.kind == KIND_RECORD ? &I->rec : NULL;
+        model_derive(&check);
+        if (memcmp(&check.d, &sm->d, sizeof(Derived)) != 0) {
+            LOG_ERROR(I, "fmi2SetFMUstate: the state does not match its own parameters (a corrupted state?)");
             return fmi2Error;
         }
     }

@@ -23,6 +23,12 @@
  * MAX_CELLS). */
 #define MP_MAX_GAMMA 20.0
 
+/* Ground motions beyond these are refused as mistakes (units, a stray exponent):
+ * at 100 g or 1 kHz the rigid-rocking model says nothing about a real block. */
+#define MAX_GROUND_ACCELERATION 1000.0 /* m/s^2 */
+#define MIN_FREQUENCY 1e-4 /* Hz */
+#define MAX_FREQUENCY 1e3  /* Hz */
+
 static const char *const KIND_NAMES =
     "0 (none), 1 (sine pulse), 2 (cosine pulse), 3 (harmonic), 4 (record), 5 (Ricker wavelet), "
     "6 (antisymmetric Ricker wavelet) or 7 (Mavroeidis-Papageorgiou pulse)";
@@ -41,6 +47,14 @@ int ground_validate(const Variables *v, char *msg, size_t n) {
         return 0;
     }
     if (!(v->frequency > 0)) FAIL("excitation.frequency = %g must be > 0 Hz", v->frequency);
+    if (!(v->frequency >= MIN_FREQUENCY && v->frequency <= MAX_FREQUENCY))
+        FAIL("excitation.frequency = %g Hz is outside [%g, %g] Hz: a mistake rather than a ground motion",
+             v->frequency, MIN_FREQUENCY, MAX_FREQUENCY);
+    double peak = k == KIND_HARMONIC ? fabs(v->displacement) * pow(2.0 * M_PI * v->frequency, 2) : fabs(v->amplitude);
+    if (!(peak <= MAX_GROUND_ACCELERATION))
+        FAIL("the %s peak acceleration %g m/s2 exceeds %g m/s2 (about 100 g): check excitation.%s",
+             k == KIND_HARMONIC ? "harmonic's" : "pulse's", peak, MAX_GROUND_ACCELERATION,
+             k == KIND_HARMONIC ? "displacement and frequency" : "amplitude");
     if ((k == KIND_SINE_PULSE || k == KIND_COSINE_PULSE) && !(v->cycles > 0))
         FAIL("excitation.cycles = %g must be > 0 for a pulse", v->cycles);
     if (k == KIND_HARMONIC && !(v->cycles >= 0))
@@ -57,6 +71,14 @@ int ground_validate(const Variables *v, char *msg, size_t n) {
 int ground_validate_record(const Model *M, char *msg, size_t n) {
     const Record *r = M->rec;
     if (!r || r->n < 2) FAIL("excitation.kind = 4 (record) but no record is attached");
+    double top = 0.0;
+    for (int i = 0; i < r->n; i++) {
+        top = fmax(top, fabs(r->ah[i]));
+        if (r->vertical) top = fmax(top, fabs(r->av[i]));
+    }
+    if (!(fabs(M->v.scale) * top <= MAX_GROUND_ACCELERATION))
+        FAIL("record file '%s': excitation.scale %g brings its peak acceleration to %g m/s2, beyond %g m/s2 "
+             "(about 100 g)", M->v.file, M->v.scale, fabs(M->v.scale) * top, MAX_GROUND_ACCELERATION);
     if (!r->vertical) return 0;
     double worst = INFINITY, at = 0.0;
     for (int i = 0; i < r->n; i++) {
@@ -222,6 +244,10 @@ static double wave_inside(const Model *M, double t) {
 /* Sample i of the record, placed in time. */
 static double record_time(const Model *M, int i) { return M->v.startTime + M->rec->t[i]; }
 
+/* A record piece (segment i + 1 between samples i and i + 1) that exists in the
+ * attached record: anything else (a corrupted restored state) counts as outside. */
+static int record_piece_ok(const Model *M, int piece) { return piece >= 1 && piece <= M->rec->n - 1; }
+
 int model_piece(const Model *M, double tStart) {
     if (tStart < M->d.excStart || tStart >= M->d.excEnd) return 0;
     if (M->v.kind != KIND_RECORD) return 1;
@@ -236,13 +262,15 @@ int model_piece(const Model *M, double tStart) {
 
 void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
     double h = 0.0, vert = 0.0;
-    if (piece && M->v.kind == KIND_RECORD) {
-        const Record *r = M->rec;
-        int i = piece - 1;
-        double t0 = record_time(M, i), t1 = record_time(M, i + 1), s = (t - t0) / (t1 - t0);
-        /* (1 - s) a0 + s a1 is exact at both ends of the segment */
-        h = M->d.accAmp * ((1.0 - s) * r->ah[i] + s * r->ah[i + 1]);
-        if (r->vertical) vert = M->d.accAmp * ((1.0 - s) * r->av[i] + s * r->av[i + 1]);
+    if (M->v.kind == KIND_RECORD) {
+        if (record_piece_ok(M, piece)) {
+            const Record *r = M->rec;
+            int i = piece - 1;
+            double t0 = record_time(M, i), t1 = record_time(M, i + 1), s = (t - t0) / (t1 - t0);
+            /* (1 - s) a0 + s a1 is exact at both ends of the segment */
+            h = M->d.accAmp * ((1.0 - s) * r->ah[i] + s * r->ah[i + 1]);
+            if (r->vertical) vert = M->d.accAmp * ((1.0 - s) * r->av[i] + s * r->av[i + 1]);
+        }
     } else if (piece) {
         double w = wave_inside(M, t);
         h = M->d.accAmp * w;
@@ -323,7 +351,9 @@ static void wave_series(const Model *M, double t, int n, double *w) {
 
 void ground_series(const Model *M, double t, int piece, int n, double *ah, double *av) {
     for (int k = 0; k <= n; k++) ah[k] = av[k] = 0.0;
-    if (piece && M->v.kind == KIND_RECORD) {
+    if (M->v.kind == KIND_RECORD && !record_piece_ok(M, piece)) {
+        /* outside the record: only the inputs */
+    } else if (M->v.kind == KIND_RECORD) {
         const Record *r = M->rec;
         int i = piece - 1;
         double t0 = record_time(M, i), t1 = record_time(M, i + 1), s = (t - t0) / (t1 - t0);
@@ -354,7 +384,10 @@ double next_breakpoint(const Model *M, double t) {
     if (M->v.kind == KIND_NONE) return INFINITY;
     if (t < M->d.excStart) return M->d.excStart;
     if (t >= M->d.excEnd) return INFINITY;
-    if (M->v.kind == KIND_RECORD) return record_time(M, model_piece(M, t));
+    if (M->v.kind == KIND_RECORD) {
+        int piece = model_piece(M, t);
+        return record_piece_ok(M, piece) ? record_time(M, piece) : M->d.excEnd;
+    }
     return M->d.excEnd;
 }
 
@@ -366,7 +399,7 @@ double next_cell_edge(const Model *M, double a, int piece) {
     if (M->v.kind == KIND_NONE) return INFINITY;
     if (a < d->excStart) return d->excStart;
     if (a >= d->excEnd) return INFINITY;
-    if (M->v.kind == KIND_RECORD) return record_time(M, piece);
+    if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece) : d->excEnd;
     if (quarter_cells(M)) {
         double T4 = 0.25 / M->v.frequency;
         double j = floor((a - d->excStart) / T4) + 1.0;
@@ -382,7 +415,7 @@ double next_cell_edge(const Model *M, double a, int piece) {
 double cell_start(const Model *M, double a, int piece) {
     const Derived *d = &M->d;
     if (M->v.kind == KIND_NONE || a < d->excStart || a >= d->excEnd) return a;
-    if (M->v.kind == KIND_RECORD) return record_time(M, piece - 1);
+    if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece - 1) : a;
     if (quarter_cells(M)) {
         double T4 = 0.25 / M->v.frequency;
         double lo = d->excStart + floor((a - d->excStart) / T4) * T4;
@@ -397,5 +430,6 @@ double cell_start(const Model *M, double a, int piece) {
 int next_piece(const Model *M, int piece, double b) {
     if (M->v.kind != KIND_RECORD) return model_piece(M, b);
     if (b < M->d.excStart || b >= M->d.excEnd) return 0;
-    return piece == 0 ? 1 : piece + 1; /* the segment after the edge b */
+    int next = piece == 0 ? 1 : piece + 1; /* the segment after the edge b */
+    return record_piece_ok(M, next) ? next : 0;
 }

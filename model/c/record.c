@@ -10,7 +10,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#define MAX_TOKEN 64
+#define MAX_TOKEN 512 /* a number written out longer than this is not a sample */
 
 /* A record line is at most a few numbers: a file larger than this cannot be
  * a record of at most RECORD_MAX_SAMPLES samples with sensible comments. */
@@ -66,10 +66,11 @@ static int parse_number(const char *tok, size_t len, double *value) {
 }
 
 /* Split one line into at most 4 values; returns the count, or -1 (a token
- * that is not a number: its text in bad), or -2 (an empty value between
- * separators). */
+ * that is not a number: its text in bad), -2 (an empty value between
+ * separators) or -3 (spaces between some values, commas between others: a
+ * decimal comma, most likely). */
 static int split_values(const char *p, const char *e, double *vals, char *bad, size_t badLen) {
-    int count = 0;
+    int count = 0, spaced = 0, commas = 0;
     while (p < e && is_space(*p)) p++;
     while (p < e) {
         const char *s = p;
@@ -91,9 +92,13 @@ static int split_values(const char *p, const char *e, double *vals, char *bad, s
         while (p < e && is_space(*p)) p++;
         if (p < e && (*p == ',' || *p == ';')) {
             p++;
+            commas = 1;
             while (p < e && is_space(*p)) p++;
             if (p == e) return -2;
+        } else if (p < e) {
+            spaced = 1;
         }
+        if (spaced && commas) return -3;
     }
     return count;
 }
@@ -107,9 +112,12 @@ static const char *shortest(double x, char *buf, size_t n) {
     return buf;
 }
 
-static const char *line_end(const char *p, const char *end) {
-    const char *q = memchr(p, '\n', (size_t)(end - p));
-    return q ? q : end;
+/* End of the line that starts at p (its LF, CR or the buffer's end), and where the next starts. */
+static const char *line_end(const char *p, const char *end, const char **next) {
+    const char *q = p;
+    while (q < end && *q != '\n' && *q != '\r') q++;
+    *next = q + (q < end && *q == '\r' && q + 1 < end && q[1] == '\n' ? 2 : 1);
+    return q;
 }
 
 /* First non-blank character of the line [p, e) is a comment mark, or the line is blank. */
@@ -142,9 +150,11 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
     size_t size = (size_t)st.st_size;
     buf = (char *)alloc(size + 1, 1);
     if (!buf) FAIL_FILE("is too large to read into memory (%zu bytes)", size);
-    if (fread(buf, 1, size, f) != size) FAIL_FILE("could not be read completely: %s", strerror(errno));
+    size_t got = fread(buf, 1, size, f);
+    if (got != size && ferror(f)) FAIL_FILE("could not be read completely: %s", strerror(errno));
     fclose(f);
     f = NULL;
+    size = got; /* a file that shrank, or a system file whose size is nominal */
     const char *start = buf, *end = buf + size;
     if (size >= 3 && (unsigned char)buf[0] == 0xEF && (unsigned char)buf[1] == 0xBB &&
         (unsigned char)buf[2] == 0xBF)
@@ -152,12 +162,11 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
 
     /* first pass: count the data lines */
     long long data = 0;
-    for (const char *p = start; p < end;) {
-        const char *e = line_end(p, end);
+    for (const char *p = start, *next; p < end; p = next) {
+        const char *e = line_end(p, end, &next);
         if (!skip_line(p, e)) data++;
         if (data > RECORD_MAX_SAMPLES)
             FAIL_FILE("has more than %d samples (the most a record may have)", RECORD_MAX_SAMPLES);
-        p = e + 1;
     }
     if (data == 0) FAIL_FILE("has no samples (expected lines of: time in s, horizontal acceleration in m/s2)");
     r->t = (double *)alloc((size_t)data, sizeof(double));
@@ -166,20 +175,20 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
 
     /* second pass: parse and check */
     int line = 0, columns = 0, firstLine = 0, k = 0;
-    for (const char *p = start; p < end;) {
-        const char *e = line_end(p, end);
+    for (const char *p = start, *next; p < end; p = next) {
+        const char *e = line_end(p, end, &next);
         line++;
         if (memchr(p, '\0', (size_t)(e - p)))
             FAIL_LINE("contains a NUL byte: this is not a text record file");
-        if (skip_line(p, e)) {
-            p = e + 1;
-            continue;
-        }
+        if (skip_line(p, e)) continue;
         double v[4];
         char bad[24];
         int c = split_values(p, e, v, bad, sizeof(bad));
         if (c == -1) FAIL_LINE("'%s' is not a number", bad);
         if (c == -2) FAIL_LINE("an empty value between separators");
+        if (c == -3)
+            FAIL_LINE("spaces between some values and commas between others: write decimals with '.' and "
+                      "separate the values one way");
         if (c != 2 && c != 3)
             FAIL_LINE("%d values, expected 2 or 3 (time in s, horizontal acceleration in m/s2, "
                       "optional vertical acceleration in m/s2)", c);
@@ -197,8 +206,11 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
         }
         for (int j = 0; j < c; j++)
             if (!isfinite(v[j])) FAIL_LINE("%s is not a finite number", j == 0 ? "the time" : "an acceleration");
-        if (fabs(v[0]) > RECORD_MAX_TIME)
-            FAIL_LINE("time %g s is beyond %g s: is the first column the time in seconds?", v[0], RECORD_MAX_TIME);
+        if (fabs(v[0]) > RECORD_MAX_TIME) {
+            char tv[32];
+            FAIL_LINE("|time| = %s s is beyond a million seconds: is the first column the time in seconds?",
+                      shortest(fabs(v[0]), tv, sizeof(tv)));
+        }
         for (int j = 1; j < c; j++)
             if (fabs(v[j]) > RECORD_MAX_ACCELERATION)
                 FAIL_LINE("|%s acceleration| = %g m/s2 exceeds 10 g: are the values in m/s2?",
@@ -220,7 +232,6 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
         r->ah[k] = v[1];
         if (r->vertical) r->av[k] = v[2];
         k++;
-        p = e + 1;
     }
     if (k < 2) FAIL_FILE("has only one sample: a record needs at least two");
     r->n = k;
@@ -240,7 +251,7 @@ fail:
     return 1;
 }
 
-static int is_absolute(const char *p) {
+int record_is_absolute(const char *p) {
     if (p[0] == '/' || p[0] == '\\') return 1;
     return isalpha((unsigned char)p[0]) && p[1] == ':' && (p[2] == '/' || p[2] == '\\');
 }
@@ -251,7 +262,7 @@ int record_path(const char *file, const char *resourceDir, char *out, size_t out
         return 1;
     }
     int k;
-    if (is_absolute(file)) {
+    if (record_is_absolute(file)) {
         k = snprintf(out, outLen, "%s", file);
     } else {
         if (!resourceDir || !resourceDir[0]) {

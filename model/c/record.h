@@ -5,10 +5,12 @@
  *     time  horizontal-acceleration  [vertical-acceleration]
  *
  * in s and m/s^2 (positive: ground towards +x, and upwards), separated by
- * spaces, tabs or one comma. Lines whose first non-blank character is '#'
- * are comments; blank lines are skipped. Every data line has the same number
- * of values (2 or 3); time increases strictly. Numbers are read with '.' as
- * the decimal point whatever the process's locale.
+ * spaces and tabs, or by one comma or semicolon (with or without spaces
+ * around it), one way within a line. Lines end with LF, CR LF or CR. Lines
+ * whose first non-blank character is '#' are comments; blank lines are
+ * skipped. Every data line has the same number of values (2 or 3); time
+ * increases strictly. Numbers are read with '.' as the decimal point whatever
+ * the process's locale.
  *
  * The model interpolates the samples linearly in time and takes the ground
  * acceleration as zero before the first sample and after the last one.
@@ -24,7 +26,7 @@
 #define RECORD_MIN_INTERVAL 1e-6    /* s */
 #define RECORD_MAX_INTERVAL 100.0   /* s */
 #define RECORD_MAX_TIME 1e6         /* s, largest |time| */
-#define RECORD_MAX_ACCELERATION (10.0 * 9.80665) /* m/s^2, 10 g */
+#define RECORD_MAX_ACCELERATION 98.0665 /* m/s^2, 10 g exactly */
 
 typedef struct {
     int n;             /* number of samples (>= 2 once read) */
@@ -51,6 +53,9 @@ void record_free(Record *r, RecordFree release);
  * FMU's resources/ folder, may be NULL). Returns 0, or nonzero with a
  * one-line reason in msg. */
 int record_path(const char *file, const char *resourceDir, char *out, size_t outLen, char *msg, size_t n);
+
+/* A path that does not depend on a folder: /x, \\x, C:/x or C:\\x. */
+int record_is_absolute(const char *path);
 
 /* The local folder of an FMI resource location URI ("file:///C:/x/resources",
  * "file:/tmp/x/resources", a plain path): percent-escapes decoded. Returns 0,
