@@ -51,8 +51,8 @@ def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 20
     with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
         path = write_record_file(Path(tmp) / "record.txt", t, a)
         p = {**STATUE, "excitation.kind": 4, "excitation.file": str(path), "excitation.scale": SCALE}
-        with NativeTimer(fmu_path) as timer:
-            rows["native"] = timer.seconds(p, stop, native_repeats)
+        with NativeTimer(fmu_path) as timer:  # best of 5 batches, as the fmpy rows take their best run
+            rows["native"] = min(timer.seconds(p, stop, max(1, native_repeats // 5)) for _ in range(5))
 
         def best(fn) -> tuple[float, object]:
             walls, res = [], None
@@ -79,7 +79,7 @@ def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 20
            "",
            "| how | ms / run | ratio to native | impacts | peak / alpha |",
            "|---|---:|---:|---:|---:|",
-           f"| native: record file in the FMU, one fmi2DoStep (C harness, mean of {native_repeats}) | "
+           f"| native: record file in the FMU, one fmi2DoStep (C harness, best mean of 5 x {native_repeats // 5}) | "
            f"{1e3 * rows['native']:.2f} | 1.0 | {exact[0]} | {exact[1]:.4f} |",
            f"| through the runners: record in the FMU, one doStep (a sweep point) | {1e3 * rows['one step']:.2f} | "
            f"{rows['one step'] / rows['native']:.1f} | {exact[0]} | {exact[1]:.4f} |",
