@@ -11,6 +11,7 @@ w = q', absolute clockwise rotations in rad; SI units.
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from dataclasses import dataclass, field
@@ -108,7 +109,10 @@ class _Stack:
 
         if indicator(t0) > 0:
             return t0
-        grid = np.append(np.arange(t0, t1, dt), t1)
+        # sampled every dt and at the scene's breaks (a record's samples, where |a_h| of a
+        # piecewise-linear record peaks)
+        breaks = np.asarray(self.sc.breaks, dtype=float)
+        grid = np.union1d(np.append(np.arange(t0, t1, dt), t1), breaks[(breaks > t0) & (breaks < t1)])
         for a, b in zip(grid[:-1], grid[1:]):
             if indicator(b) > 0:
                 return brentq(indicator, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
@@ -171,7 +175,8 @@ def solve_stack(scene: StackScene, t_end: float, method: str = "DOP853", rtol: f
                 sol.events.append(StackEvent("open", t, "ground" if pattern == "upper" else "interface", "both"))
                 pattern = "both"
                 continue
-        t_stop = min([b for b in breaks if b > t] + [t_end])
+        k = bisect.bisect_right(breaks, t)
+        t_stop = min(breaks[k], t_end) if k < len(breaks) else t_end
         events, kinds = [], []
 
         def add(fn, direction, kind):

@@ -414,3 +414,44 @@ def test_the_mavroeidis_papageorgiou_acceleration_is_the_derivative_of_their_vel
         np.testing.assert_allclose(a[1:-1], mp_acceleration(tau, 0.9, f, gamma, nu)[1:-1], rtol=0,
                                    atol=1e-6 * np.max(np.abs(a)))
         assert mp_peak_acceleration(0.9, f, gamma, nu) == pytest.approx(np.max(np.abs(a)), rel=1e-6)
+
+
+@pytest.mark.parametrize("method", [0, 1], ids=["dopri5", "taylor"])
+def test_both_integrators_agree_on_a_record_and_inputs_add_on_top(fmu, near_field, tmp_path, method):
+    """The Taylor-series integrator on a real record, against Dormand-Prince; and a constant
+    ground.ah input on a record equals the record shifted by it."""
+    path, t, a = near_field
+    p = {"excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1.5, "block1.halfWidth": 0.125,
+         "block1.halfHeight": 0.5, **TIGHT}
+    base = fmu.run(p, 10.0, 10.0, outputs=["overturnTime"])
+    res = fmu.run({**p, "solver.method": method}, 10.0, 10.0, outputs=["overturnTime"])
+    np.testing.assert_allclose(res.event_times("impact"), base.event_times("impact"), rtol=0, atol=1e-8)
+    assert res.outputs["overturnTime"][-1] == pytest.approx(base.outputs["overturnTime"][-1], abs=1e-8)
+    shifted = write_record(tmp_path / "shifted.txt", t, a + 0.3 / 1.5)
+    with_input = fmu.run({**p, "solver.method": method}, 10.0, 10.0, outputs=["overturnTime"],
+                         inputs=lambda tt: (0.3, 0.0))
+    moved = fmu.run({**p, "excitation.file": str(shifted), "solver.method": method}, 10.0, 10.0,
+                    outputs=["overturnTime"])
+    # the input adds from t = 0; the shifted record only within its window (0 to its end): equal up to the end
+    before = lambda r: r.event_times("impact")[r.event_times("impact") < t[-1]]  # noqa: E731
+    np.testing.assert_allclose(before(with_input), before(moved), rtol=0, atol=1e-8)
+    assert len(before(with_input)) > 10 and not np.allclose(before(with_input)[:10], before(base)[:10])
+
+
+def test_a_stack_on_a_record_agrees_with_the_independent_stack_solver(fmu, near_field):
+    from model import two_blocks as tb
+    from model.two_block_solver import StackScene, solve_stack
+
+    path, t, a = near_field
+    st = tb.Stack(0.2, 0.4, 100.0, 0.15, 0.3, 40.0)
+    ground, breaks = record(t, a, scale=1.2)
+    ref = solve_stack(StackScene(st, ground=ground, breaks=breaks), 7.0, rtol=1e-12, atol=1e-14)
+    r = fmu.run({"nBlocks": 2, "block1.halfWidth": st.b1, "block1.halfHeight": st.h1, "block1.mass": st.m1,
+                 "block2.halfWidth": st.b2, "block2.halfHeight": st.h2, "block2.mass": st.m2,
+                 "excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1.2, **TIGHT}, 7.0, 7.0,
+                outputs=["impacts"])
+    ours = [(e.kind, e.labels.get("contact", ""), e.t) for e in r.events if e.kind != "peak"]
+    theirs = [(e.kind, e.contact, e.t) for e in ref.events]
+    assert len(ours) == len(theirs) >= 10
+    for x, y in zip(ours, theirs):
+        assert x[:2] == y[:2] and abs(x[2] - y[2]) < 1e-8, (x, y)
