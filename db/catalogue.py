@@ -1,9 +1,9 @@
 """The block catalogue shipped with the package and loaded by ``runners db init``.
 
-Seed 000 (Anagnostopoulos), Table 2: half dimensions from its full height x
-length (mm), steel; restitution: Housner's coefficient times the Table 3
-correction factor (blocks 1-3; block 4 has none). Seed 003 (Ceh and
-Jelenic), Table 1 gives FULL widths and heights (mm) and masses in grams:
+Anagnostopoulos (BEng thesis, University of Bristol), Table 2: half dimensions
+from its full height x length (mm), steel; restitution: Housner's coefficient
+times the Table 3 correction factor (blocks 1-3; block 4 has none). Čeh &
+Jelenić (2022), Table 1 gives FULL widths and heights (mm) and masses in grams:
 halved and converted here; restitution: the modified law with the exact k of
 each block, and the average k of its size class kept alongside.
 """
@@ -15,11 +15,11 @@ from sqlalchemy.orm import Session
 
 from db.schema import Block
 
-SEED000 = "seed 000 (Anagnostopoulos), Table 2 and Table 3"
-SEED003 = "seed 003 (Ceh and Jelenic 2022), Table 1 and section 5 (full dimensions halved)"
+SEED000 = "Anagnostopoulos, BEng thesis, University of Bristol: Table 2 and Table 3"
+SEED003 = "Čeh & Jelenić (2022), Engineering Review 42: Table 1 and section 5 (full dimensions halved)"
 
 CATALOGUE: list[dict] = [
-    # seed 000 Table 2: height x length (mm) -> half_height, half_width (m)
+    # Anagnostopoulos, Table 2: height x length (mm) -> half_height, half_width (m)
     dict(name="seed000-block1", half_width=0.029 / 2, half_height=0.120 / 2, mass=1.3, material="steel",
          restitution_law="housner", correction=1.036, source=SEED000),
     dict(name="seed000-block2", half_width=0.060 / 2, half_height=0.135 / 2, mass=2.95, material="steel",
@@ -28,7 +28,7 @@ CATALOGUE: list[dict] = [
          restitution_law="housner", correction=1.067, source=SEED000),
     dict(name="seed000-block4", half_width=0.060 / 2, half_height=0.100 / 2, mass=2.3, material="steel",
          restitution_law="housner", correction=1.0, source=SEED000),
-    # seed 003 Table 1: m (g), b and h FULL (mm)
+    # Čeh & Jelenić (2022) Table 1: m (g), b and h FULL (mm)
     dict(name="B3M", half_width=0.045 / 2, half_height=0.10125 / 2, mass=0.5444, restitution_law="modified",
          k=0.7595, k_size_average=0.8608, correction=1.0, source=SEED003),
     dict(name="B6M", half_width=0.045 / 2, half_height=0.2025 / 2, mass=1.0896, restitution_law="modified",
