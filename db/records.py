@@ -35,6 +35,12 @@ def add_record(session: Session, name: str, time: np.ndarray, ah: np.ndarray, av
     return rec
 
 
+def free_name(session: Session, name: str) -> str:
+    """name, or name-2, name-3, ... whichever no stored record holds."""
+    taken = set(session.scalars(select(Record.name).where(Record.name.like(f"{name}%"))))
+    return next(n for n in (name, *(f"{name}-{i}" for i in range(2, 100000))) if n not in taken)
+
+
 def samples(rec: Record) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(time in s, horizontal acceleration, vertical acceleration or None) in m/s^2."""
     t, cols = series.unpack(rec.names, rec.n_samples, rec.data)

@@ -34,9 +34,9 @@ SCALE = 0.9
 
 
 def _record() -> tuple[np.ndarray, np.ndarray]:
-    from runners.fema import components
+    from runners.fema import component
 
-    comp = next(c for c in components(RECORD[0]) if c.name == RECORD[1])
+    comp = component(RECORD[1])
     return comp.time, comp.ah
 
 

@@ -42,11 +42,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         args.record = str(motion_record(factory or _database(args.db), args.motion))
     notes = []
     if args.record is not None:  # the record replaces the scene's excitation, and the times set for it
-        from runners.scene import KINDS
+        from runners.scene import KIND_NAMES
 
         kind = int(scene.parameters.get("excitation.kind", 0))
         if kind not in (0, 4):
-            notes.append(f"the record replaces the scene's {next(k for k, v in KINDS.items() if v == kind)}")
+            notes.append(f"the record replaces the scene's {KIND_NAMES[kind]}")
         scene = replace(scene, record=args.record, file=None,
                         stop_time_given=args.stop_time is not None, step_given=args.step is not None,
                         parameters={**{k: v for k, v in scene.parameters.items()
@@ -57,8 +57,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             raise ValueError("--scale and --pga scale a record: give a record scene or --record")
         if args.scale is not None and args.pga is not None:
             raise ValueError("give --scale or --pga, not both")
-        if args.pga is not None and not 0 < args.pga <= 5:
-            raise ValueError(f"--pga {args.pga:g} must be in (0, 5] g (it is in g)")
+        if args.pga is not None:
+            from runners.scene import check_pga
+
+            check_pga(args.pga, "--pga")
         scene.parameters.pop("excitation.scale", None)
         scene.pga = args.pga
         if args.scale is not None:

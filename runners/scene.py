@@ -26,6 +26,9 @@ from typing import Any
 LAWS = {"housner": 0, "momentum": 0, "modified": 1, "constant": 2}
 KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3, "record": 4, "ricker": 5,
          "ricker-antisymmetric": 6, "mavroeidis-papageorgiou": 7}
+KIND_NAMES = {v: k for k, v in KINDS.items()}  # excitation.kind -> its name in a scene
+# g: a PGA beyond this is a mistake of units (the largest recorded PGA is about 4 g)
+MAX_PGA_G = 5.0
 
 # table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
 SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
@@ -159,6 +162,12 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     return scene
 
 
+def check_pga(pga: float, where: str) -> None:
+    """A PGA target (g) a record can be scaled to: above zero, at most MAX_PGA_G."""
+    if not 0 < pga <= MAX_PGA_G:
+        raise SceneError(f"{where} = {pga:g} must be in (0, {MAX_PGA_G:g}] g (it is in g)")
+
+
 def _check_record(scene: Scene, source: str) -> None:
     """record and file name the excitation of kind "record" (which they imply), one of them."""
     if scene.record is not None and scene.file is not None:
@@ -176,8 +185,7 @@ def _check_record(scene: Scene, source: str) -> None:
             raise SceneError(f"{source}: [excitation] pga scales a record: give record or file too")
         if "excitation.scale" in scene.parameters:
             raise SceneError(f"{source}: [excitation] give pga (the record's PGA, in g) or scale, not both")
-        if not 0 < scene.pga <= 5:
-            raise SceneError(f"{source}: [excitation] pga = {scene.pga:g} must be in (0, 5] g (it is in g)")
+        check_pga(scene.pga, f"{source}: [excitation] pga")
     if scene.file is not None:
         base = Path(source).parent if source and not source.startswith("<") else Path.cwd()
         scene.file = str((base / scene.file).resolve()) if not Path(scene.file).is_absolute() else scene.file

@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from runners.fmu import RunResult
-from runners.scene import KINDS, Scene
+from runners.scene import KIND_NAMES, Scene
 
 SUMMARY_OUTPUTS = (
     "block1.theta",
@@ -68,7 +68,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         "p_rad_per_s": math.sqrt(3 * g / (4 * R)),
         "uplift_threshold_m_s2": g * math.tan(alpha),
         "restitution_law": law,
-        "excitation": {v: k for k, v in KINDS.items()}[int(p["excitation.kind"])],
+        "excitation": KIND_NAMES[int(p["excitation.kind"])],
         "stop_time_s": float(result.time[-1]),
         "final_state": state,
         "overturned": overturned,

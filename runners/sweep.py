@@ -40,9 +40,9 @@ from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
 from runners.fmu import RockingFMU
 from runners.intensity import G0, SCALING
+from runners.scene import MAX_PGA_G
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
-TAIL = 5.0  # s simulated after a record ends, unless the scene sets stop_time (runners.records.TAIL)
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest"]
 TWO = ["block2.maxAbsTheta", "impactsGround", "impactsInterface", "block1.overturned", "block2.overturned"]
 
@@ -91,7 +91,7 @@ def scales(p: dict[str, Any]) -> tuple[float, float]:
 IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0)}  # --im measure: unit of its levels, factor to SI
 # levels beyond these are a mistake of units, not an earthquake (the largest recorded PGA is
 # about 4 g, the largest PGV about 3 m/s)
-IM_LIMITS = {"pga": 5.0, "pgv": 10.0}
+IM_LIMITS = {"pga": MAX_PGA_G, "pgv": 10.0}
 
 
 @dataclass(frozen=True)
@@ -489,6 +489,8 @@ class _Plan:
         """Stop time of a point on record `rec` (None: the sweep's)."""
         if rec is None or self.stop_given:
             return None
+        from runners.records import TAIL
+
         return float(self.base.get("excitation.startTime", 0.0)) + rec.end + TAIL
 
     def files(self) -> dict[str, str]:

@@ -146,24 +146,20 @@ static int load_record(Instance *I, const char *file, const Derived *want, char 
     if (record_path(file, I->resourceDir, path, sizeof(path), msg, n)) return 1;
     int known = stat(path, &st) == 0;
     if (known) stamp_of(&st, path, &now);
-    if (!(known && I->rec.n > 0 && memcmp(&now, &I->recFile, sizeof(now)) == 0)) {
-        Record r;
-        if (record_read(path, &r, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
-        if (want && (r.n != want->recN || r.hash != want->recHash)) {
-            snprintf(msg, n, "the record file '%s' changed since the state was saved (%d samples then, %d now)",
-                     path, want->recN, r.n);
-            record_free(&r, I->cb.freeMemory);
-            return 1;
-        }
-        record_free(&I->rec, I->cb.freeMemory);
-        I->rec = r;
-        I->recFile = now;
-        return 0;
-    }
-    if (want && (I->rec.n != want->recN || I->rec.hash != want->recHash)) {
+    int cached = known && I->rec.n > 0 && memcmp(&now, &I->recFile, sizeof(now)) == 0;
+    Record fresh;
+    if (!cached && record_read(path, &fresh, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
+    const Record *r = cached ? &I->rec : &fresh;
+    if (want && (r->n != want->recN || r->hash != want->recHash)) {
         snprintf(msg, n, "the record file '%s' changed since the state was saved (%d samples then, %d now)",
-                 path, want->recN, I->rec.n);
+                 path, want->recN, r->n);
+        if (!cached) record_free(&fresh, I->cb.freeMemory); /* the instance keeps what it held */
         return 1;
+    }
+    if (!cached) {
+        record_free(&I->rec, I->cb.freeMemory);
+        I->rec = fresh;
+        I->recFile = now;
     }
     return 0;
 }

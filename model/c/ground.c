@@ -71,20 +71,13 @@ int ground_validate(const Variables *v, char *msg, size_t n) {
 int ground_validate_record(const Model *M, char *msg, size_t n) {
     const Record *r = M->rec;
     if (!r || r->n < 2) FAIL("excitation.kind = 4 (record) but no record is attached");
-    double top = 0.0;
-    for (int i = 0; i < r->n; i++) {
-        top = fmax(top, fabs(r->ah[i]));
-        if (r->vertical) top = fmax(top, fabs(r->av[i]));
-    }
-    if (!(fabs(M->v.scale) * top <= MAX_GROUND_ACCELERATION))
+    if (!(fabs(M->v.scale) * r->peak <= MAX_GROUND_ACCELERATION))
         FAIL("record file '%s': excitation.scale %g brings its peak acceleration to %g m/s2, beyond %g m/s2 "
-             "(about 100 g)", M->v.file, M->v.scale, fabs(M->v.scale) * top, MAX_GROUND_ACCELERATION);
+             "(about 100 g)", M->v.file, M->v.scale, fabs(M->v.scale) * r->peak, MAX_GROUND_ACCELERATION);
     if (!r->vertical) return 0;
-    double worst = INFINITY, at = 0.0;
-    for (int i = 0; i < r->n; i++) {
-        double ge = M->v.g + M->v.scale * r->av[i];
-        if (ge < worst) worst = ge, at = r->t[i];
-    }
+    /* the most downward scaled vertical acceleration: at the smallest av for a positive scale */
+    int low = M->v.scale >= 0;
+    double worst = M->v.g + M->v.scale * (low ? r->avMin : r->avMax), at = low ? r->avMinTime : r->avMaxTime;
     if (!(worst > 0))
         FAIL("record file '%s': excitation.scale %g times its vertical acceleration reaches %g m/s2 at "
              "t = %g s, at or below -g: the block would leave the ground (not modelled)",
@@ -380,14 +373,11 @@ void ground_series(const Model *M, double t, int piece, int n, double *ah, doubl
 
 int excitation_over(const Model *M, double t) { return M->v.kind == KIND_NONE || t >= M->d.excEnd; }
 
-double next_breakpoint(const Model *M, double t) {
+double next_breakpoint(const Model *M, double t, int piece) {
     if (M->v.kind == KIND_NONE) return INFINITY;
     if (t < M->d.excStart) return M->d.excStart;
     if (t >= M->d.excEnd) return INFINITY;
-    if (M->v.kind == KIND_RECORD) {
-        int piece = model_piece(M, t);
-        return record_piece_ok(M, piece) ? record_time(M, piece) : M->d.excEnd;
-    }
+    if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece) : M->d.excEnd;
     return M->d.excEnd;
 }
 

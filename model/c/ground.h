@@ -50,8 +50,9 @@ void ground_series(const Model *M, double t, int piece, int n, double *ah, doubl
 /* True once the excitation is over (or there is none). */
 int excitation_over(const Model *M, double t);
 
-/* Next break point after t (a step stops there), +inf if none. */
-double next_breakpoint(const Model *M, double t);
+/* Next break point after t (a step stops there), +inf if none; piece is
+ * model_piece(M, t), which the caller has already found. */
+double next_breakpoint(const Model *M, double t, int piece);
 
 /* Cells on which the excitation is monotone, for the uplift search: the next
  * cell edge after a (of the piece active at a), the start of the cell that

@@ -230,7 +230,13 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
         }
         r->t[k] = v[0];
         r->ah[k] = v[1];
-        if (r->vertical) r->av[k] = v[2];
+        r->peak = fmax(r->peak, fabs(v[1]));
+        if (r->vertical) {
+            r->av[k] = v[2];
+            r->peak = fmax(r->peak, fabs(v[2]));
+            if (k == 0 || v[2] < r->avMin) r->avMin = v[2], r->avMinTime = v[0];
+            if (k == 0 || v[2] > r->avMax) r->avMax = v[2], r->avMaxTime = v[0];
+        }
         k++;
     }
     if (k < 2) FAIL_FILE("has only one sample: a record needs at least two");

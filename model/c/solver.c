@@ -127,7 +127,7 @@ static int take_step(Model *M, const Logger *log) {
     const Variables *v = &M->v;
     if (v->method == 1) return take_step_taylor(M, log);
     RhsCtx c = {M, S->side, model_piece(M, S->t)};
-    double bp = next_breakpoint(M, S->t);
+    double bp = next_breakpoint(M, S->t, c.piece);
     double hmax = bp - S->t;
     double y1[NMAX], f1[NMAX], cont[5][NMAX];
     double h = S->h, hNext;
@@ -220,7 +220,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     int piece = model_piece(M, S->t), side = S->side, N = taylor_order(v->relTol);
-    double x[TAYLOR_MAX + 1], bp = next_breakpoint(M, S->t);
+    double x[TAYLOR_MAX + 1], bp = next_breakpoint(M, S->t, piece);
     taylor_series(M, S->t, S->y[0], S->y[1], side, piece, N, x);
     double h = taylor_step(x, N, v->absTol + v->relTol * fabs(S->y[0]));
     int hitBp = 0;

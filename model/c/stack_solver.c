@@ -358,7 +358,7 @@ static int take_step(Model *M, const Logger *log) {
             return 0;
         }
     }
-    double bp = next_breakpoint(M, S->t), hmax = bp - S->t;
+    double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     double y1[NMAX], f1[NMAX], cont[5][NMAX], h = S->h, hNext;
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
