@@ -276,7 +276,9 @@ def solve_fixed_step(scene: Scene, t_end: float, method: str = "rk4", h: float =
     side = _initial_side(scene)
     resting = theta == 0.0 and omega == 0.0
     sol.max_abs_theta = abs(theta)
-    while t < t_end - 1e-12 * h:
+    h_max = h
+    while t < t_end - 1e-12 * h_max:
+        h = min(h_max, t_end - t)  # the last step ends at t_end
         if resting:  # the classic loop checks the threshold at every step
             if m.uplift_indicator(t) > 0:
                 theta, omega, side, resting, acc = 0.0, 0.0, m.uplift_side(t), False, None

@@ -11,9 +11,11 @@ import sys
 from pathlib import Path
 
 from db.session import DB_HELP, DatabaseError
+from runners.args import Parser, count, db_id, finite, output_file, positive, tolerance
 from runners.fmu import FMUError, RockingFMU, fmu_path_from
-from runners.scene import SceneError, load_scene
+from runners.scene import SceneError, check_times, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
+from runners.sweep import SweepError
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 
@@ -66,6 +68,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if args.scale is not None:
             scene.parameters["excitation.scale"] = args.scale
     rec = prepare_scene(scene, factory if factory is not None or scene.record is None else _database(args.db))
+    check_times(scene.stop_time, scene.step, "the stop time", "the output step")
     result = None
     with RockingFMU(fmu_path) as fmu:
         defaults = fmu.defaults()
@@ -166,10 +169,9 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    import math
-
     from db.schema import Sweep
-    from runners.sweep import create_sweep, local_workers, parse_axis, parse_points, record_axes, run_sweep
+    from runners.sweep import (Grid, check_axes, check_corners, check_size, create_sweep, local_workers, parse_axis,
+                               parse_points, record_axes, run_sweep)
 
     if (args.resume is None) == (args.scene is None):
         raise ValueError("give a scene file with --grid, or --resume SWEEP_ID")
@@ -187,26 +189,34 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         local_workers(args.scheduler)
     elif args.scheduler or args.chunk:
         raise ValueError("--scheduler and --chunk apply to --executor dask")
-    if args.resume is not None and (args.records or args.im):
-        raise ValueError("--records and --im define a new sweep; --resume finishes a stored one")
+    if args.resume is not None and (args.records or args.im or args.grid or args.stop_time is not None):
+        given = [o for o, v in (("--grid", args.grid), ("--records", args.records), ("--im", args.im),
+                                ("--stop-time", args.stop_time is not None)) if v]
+        raise ValueError(f"--resume finishes sweep {args.resume} as it was created: drop {', '.join(given)} "
+                         "(start a new sweep to change them)")
     factory = _database(args.db)
     fmu_path = fmu_path_from(args.fmu)
     if args.resume is None:
         scene = load_scene(args.scene)
         if args.stop_time is not None:
             scene.stop_time, scene.stop_time_given = args.stop_time, True
+        check_times(scene.stop_time, scene.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fmu:
             reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
             defaults = fmu.defaults()
-        axes = [parse_axis(spec, reals) for spec in args.grid]
-        records, intensity, notes = record_axes(factory, scene, axes, args.records, args.im,
-                                                args.stop_time is not None)
+            axes = [parse_axis(spec, reals) for spec in args.grid]
+            records, intensity, notes = record_axes(factory, scene, axes, args.records, args.im,
+                                                    args.stop_time is not None)
+            if not axes and not records:
+                raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
+            check_axes(axes, {**defaults, **scene.parameters})
+            grid = Grid(axes, records, intensity)
+            check_size(grid.total, factory)
+            if not records:  # the FMU's own checks, at the grid's corners, before the sweep exists
+                notes += check_corners(fmu, grid, {**defaults, **scene.parameters})
         for note in notes:
             print(f"note: {note}")
-        if not axes and not records:
-            raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
-        total = math.prod([len(records or ()) or 1, intensity.count if intensity else 1, *(a.count for a in axes)])
-        record = parse_points(args.record, total) if args.record else None
+        record = parse_points(args.record, grid.total) if args.record else None
         sweep_id = create_sweep(factory, scene, axes, defaults, records, intensity)
     else:
         sweep_id = args.resume
@@ -230,8 +240,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             if cluster is not None and args.scheduler.startswith("local:"):
                 cluster.close()
     n = max(st["ran"], 1)
-    print(f"sweep {sweep_id}: {st['already'] + st['ran']}/{st['total']} points stored ({st['ran']} now, "
-          f"{st['errors']} failed) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
+    skipped = f", {st['skipped']} already stored by another process" if st["skipped"] else ""
+    print(f"sweep {sweep_id}: {st['stored']}/{st['total']} points stored ({st['ran'] - st['skipped']} now, "
+          f"{st['errors']} failed{skipped}) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
           f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms, Python bookkeeping "
           f"{1e3 * st['python_seconds'] / n:.3f} ms in the main process")
     if st["recorded"]:
@@ -298,41 +309,41 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="runners", description="Rocking rigid blocks: run scenes through RockingBlock.fmu")
+    parser = Parser(prog="runners", description="Rocking rigid blocks: run scenes through RockingBlock.fmu")
     sub = parser.add_subparsers(dest="command", required=True)
     sim = sub.add_parser("simulate", help="run one scene file and print a summary")
     sim.add_argument("scene", help="scene file (TOML), see examples/")
     sim.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
-    sim.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
-    sim.add_argument("--step", type=float, help="override [simulation] step (s)")
+    sim.add_argument("--stop-time", type=positive, help="override [simulation] stop_time (s)")
+    sim.add_argument("--step", type=positive, help="override [simulation] step (s)")
     sim.add_argument("--method", choices=["fmu", "auto", "closed-form", *PYTHON_METHODS], default="fmu",
                      help="fmu: the model the scene describes (default); auto: the least model that meets "
                           "--accuracy (closed form, one block, two blocks; docs/methods.md); closed-form: seed 001's "
                           "closed forms, or an error if they do not apply; scipy, rk4, rk4-located, newmark, euler: "
                           "the independent Python solvers (docs/methods.md)")
-    sim.add_argument("--h", type=float, default=1e-4, help="fixed step (s) of rk4, rk4-located, newmark, euler "
+    sim.add_argument("--h", type=positive, default=1e-4, help="fixed step (s) of rk4, rk4-located, newmark, euler "
                                                           "(default 1e-4, seed 000's)")
-    sim.add_argument("--rtol", type=float, default=1e-10, help="relative tolerance of --method scipy")
+    sim.add_argument("--rtol", type=tolerance, default=1e-10, help="relative tolerance of --method scipy")
     sim.add_argument("--db", help=DB_HELP)
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
-    sim.add_argument("--rrd", metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
+    sim.add_argument("--rrd", type=output_file, metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
     sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/measured.py)")
     sim.add_argument("--record", metavar="NAME|ID",
                      help="drive the block with a stored record (runners records list) instead of the scene's "
                           "excitation")
-    sim.add_argument("--scale", type=float, help="multiply the record's accelerations (excitation.scale)")
-    sim.add_argument("--pga", type=float, metavar="G", help="scale the record so that its PGA is G (in g)")
-    sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
+    sim.add_argument("--scale", type=finite, help="multiply the record's accelerations (excitation.scale)")
+    sim.add_argument("--pga", type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
+    sim.add_argument("--motion", type=db_id, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")
-    sim.add_argument("--accuracy", type=float, default=1e-2,
+    sim.add_argument("--accuracy", type=tolerance, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     sim.set_defaults(func=cmd_simulate)
     bench = sub.add_parser("bench", help="measure the cost of simulations, natively and through fmpy")
     bench.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
-    bench.add_argument("--repeats", type=int, default=2000, help="native simulations per case")
-    bench.add_argument("--fmpy-repeats", type=int, default=20, help="fmpy runs per case")
+    bench.add_argument("--repeats", type=count, default=2000, help="native simulations per case")
+    bench.add_argument("--fmpy-repeats", type=count, default=20, help="fmpy runs per case")
     bench.add_argument("--chart", metavar="DIR",
                        help="instead: the work-precision comparison of every method, written to DIR")
     bench.add_argument("--quick", action="store_true", help="with --chart: fewer settings (a smoke run)")
@@ -353,9 +364,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "of record names or ids, or of a folder of record files (docs/records.md)")
     sw.add_argument("--im", metavar="pga=START:STOP:COUNT",
                     help="scale each record so that its PGA (in g) or PGV (pgv=..., in m/s) takes COUNT levels")
-    sw.add_argument("--resume", type=int, metavar="SWEEP_ID", help="finish an interrupted sweep")
-    sw.add_argument("--workers", type=int, help="worker processes (default: all cores)")
-    sw.add_argument("--stop-time", type=float, help="override [simulation] stop_time (s)")
+    sw.add_argument("--resume", type=db_id, metavar="SWEEP_ID", help="finish an interrupted sweep")
+    sw.add_argument("--workers", type=count, help="worker processes (default: all cores)")
+    sw.add_argument("--stop-time", type=positive, help="override [simulation] stop_time (s)")
     sw.add_argument("--db", help=DB_HELP)
     sw.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -366,7 +377,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="local: worker processes on this machine (default); dask: a Dask cluster")
     sw.add_argument("--scheduler", metavar="ADDRESS",
                     help="with --executor dask: tcp://HOST:PORT of the scheduler, or local:N for N local workers")
-    sw.add_argument("--chunk", type=int, metavar="N",
+    sw.add_argument("--chunk", type=count, metavar="N",
                     help="with --executor dask: grid points per task (default: about 4 tasks per worker)")
     sw.set_defaults(func=cmd_sweep)
     from runners.measuredcli import add_parser as add_measured_parser
@@ -379,7 +390,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
     mp.add_argument("sweep", help="sweep id, or 'latest'")
-    mp.add_argument("--out", default="overturning_map.png", help="PNG file (default: overturning_map.png)")
+    mp.add_argument("--out", type=output_file, default="overturning_map.png", help="PNG file (default: overturning_map.png)")
     mp.add_argument("--db", help=DB_HELP)
     mp.set_defaults(func=cmd_map)
 
@@ -391,8 +402,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminated(signum, _frame) -> None:
+    raise KeyboardInterrupt  # SIGTERM stops a command as Ctrl-C does: workers stopped, temporary files removed
+
+
 def main(argv: list[str] | None = None) -> int:
+    import signal
+    import threading
+
     args = build_parser().parse_args(argv)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminated)
     try:
         return args.func(args)
     except BrokenPipeError:  # the reader stopped (runners records list | head): nothing more to say
@@ -400,7 +420,7 @@ def main(argv: list[str] | None = None) -> int:
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError) as exc:
+    except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError, SweepError) as exc:
         print(f"error: {exc}".splitlines()[0], file=sys.stderr)
         return 2
     except KeyboardInterrupt:

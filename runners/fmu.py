@@ -59,6 +59,9 @@ DEFAULT_OUTPUTS = (
 # process in the wrong directory, so loading is serialised.
 _LOAD_LOCK = threading.Lock()
 
+# events one run may log (each a Python object of about 500 bytes): more is refused mid-run
+MAX_EVENTS = 1_000_000
+
 _EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn) (.*)$")
 
 
@@ -137,10 +140,19 @@ class RockingFMU:
     def __init__(self, fmu_path: str | Path, unzipdir: str | None = None):
         """unzipdir: an extraction another RockingFMU made (shared, e.g. by sweep workers; not removed here)."""
         fmu_path = Path(fmu_path)
+        if fmu_path.is_dir():
+            raise FMUError(f"{fmu_path} is a folder, not an FMU file")
         if not fmu_path.is_file():
             raise FileNotFoundError(f"FMU not found: {fmu_path} (run: python -m fmu_build)")
         self.path = fmu_path
-        self.model_description = read_model_description(str(fmu_path))
+        try:
+            self.model_description = read_model_description(str(fmu_path))
+        except Exception as exc:  # fmpy raises what its zip and XML readers raise
+            raise FMUError(f"{fmu_path} is not a usable FMU ({type(exc).__name__}: "
+                           f"{str(exc).splitlines()[0] if str(exc) else 'unreadable'})") from None
+        if self.model_description.coSimulation is None or "block1.theta" not in \
+                {v.name for v in self.model_description.modelVariables}:
+            raise FMUError(f"{fmu_path} is an FMU, but not a RockingBlock co-simulation FMU (python -m fmu_build)")
         self._owns_dir = unzipdir is None
         self.unzipdir = extract(str(fmu_path)) if unzipdir is None else unzipdir
         self.vars = {v.name: v for v in self.model_description.modelVariables}
@@ -186,6 +198,22 @@ class RockingFMU:
             )
         slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
         return slave, callbacks
+
+    def validate(self, parameters: dict[str, float | int | bool | str]) -> None:
+        """FMUError with the FMU's message unless it accepts `parameters` (it initialises with them)."""
+        errors: list[str] = []
+        slave, _callbacks = self.instantiate(lambda status, _c, msg: errors.append(msg) if status >= 3 else None,
+                                             logging_on=False)
+        try:
+            slave.setupExperiment(startTime=0.0)
+            self.set_parameters(slave, parameters)
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+            slave.terminate()
+        except Exception as exc:
+            raise FMUError(errors[-1] if errors else str(exc)) from None
+        finally:
+            slave.freeInstance()
 
     def set_parameters(self, slave: FMU2Slave, parameters: dict[str, float | int | bool]) -> None:
         for name, value in parameters.items():
@@ -235,10 +263,18 @@ class RockingFMU:
         ``inputs(t)`` may return (ground.ah, ground.av) in m/s^2, held over each step.
         Raises :class:`FMUError` with the FMU's message if any call fails.
         """
-        if not (step > 0 and stop_time > start_time):
-            raise ValueError(f"need step > 0 and stop_time > start_time (got {step}, {start_time}..{stop_time})")
+        from runners.scene import MAX_SAMPLES, n_samples
+
+        if not (np.isfinite(step) and step > 0 and np.isfinite(stop_time) and stop_time > start_time):
+            raise ValueError(f"need a finite step > 0 and a finite stop_time > start_time (got {step}, "
+                             f"{start_time}..{stop_time})")
+        n = n_samples(stop_time, step, start_time)  # the last step shortened to end at stop_time
+        if n > MAX_SAMPLES:
+            raise ValueError(f"{start_time:g}..{stop_time:g} s at step {step:g} s is {n:.3g} output samples, more "
+                             f"than the {MAX_SAMPLES:.0e} one run may hold: use a larger step")
         log_events: list[Event] = []
         errors: list[str] = []
+        overflow: list[float] = []  # times of the events beyond MAX_EVENTS (only the first kept)
 
         def log(status: int, category: str, message: str) -> None:
             if status >= 3:
@@ -246,12 +282,14 @@ class RockingFMU:
             elif events and category == "logEvents":
                 ev = parse_event(message)
                 if ev:
-                    log_events.append(ev)
+                    if len(log_events) < MAX_EVENTS:  # (an exception cannot leave a C callback)
+                        log_events.append(ev)
+                    elif not overflow:
+                        overflow.append(ev.t)
 
         t0 = time.perf_counter()
         slave, _callbacks = self.instantiate(log, logging_on=events)
         names = list(outputs)
-        n = int(round((stop_time - start_time) / step))
         times = start_time + step * np.arange(n + 1)
         times[-1] = stop_time
         data = np.empty((n + 1, len(names)))
@@ -269,6 +307,9 @@ class RockingFMU:
                         slave.setReal(list(ah_av), list(inputs(times[i])))
                     slave.doStep(currentCommunicationPoint=times[i], communicationStepSize=times[i + 1] - times[i])
                     data[i + 1] = get()
+                    if overflow:
+                        raise FMUError(f"more than {MAX_EVENTS:.0e} events (impacts, peaks...) by t = "
+                                       f"{overflow[0]:g} s: shorten the stop time")
                 slave.terminate()
             except Exception as exc:
                 raise FMUError(errors[-1] if errors else str(exc)) from None

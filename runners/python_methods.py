@@ -21,6 +21,7 @@ from runners.least_model import restitution
 FIXED = {"rk4": ("rk4", False), "rk4-located": ("rk4", True), "newmark": ("newmark", True),
          "euler": ("euler", False)}
 METHODS = ["scipy", *FIXED]
+MAX_STEPS = 100_000_000  # fixed steps a Python solver may take (about 20 minutes of rk4)
 
 
 def ground_of(p: dict[str, Any]):
@@ -59,6 +60,17 @@ def ground_of(p: dict[str, Any]):
 
 def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol: float) -> dict[str, Any]:
     """Simulate with a Python method; a summary in the keys of runners.summary where they apply."""
+    if method != "scipy" and not (math.isfinite(h) and h > 0):
+        raise ValueError(f"--h must be a finite step > 0 s, got {h}")
+    if method != "scipy" and stop_time / h > MAX_STEPS:
+        raise ValueError(f"--h {h:g} s over {stop_time:g} s is {stop_time / h:.3g} steps, more than the "
+                         f"{MAX_STEPS:.0e} a Python solver takes in reasonable time: use a larger --h")
+    p_rate = math.sqrt(0.75 * p["g"] / math.hypot(p["block1.halfWidth"], p["block1.halfHeight"]))  # rad/s
+    if method != "scipy" and h * p_rate > 0.5:
+        raise ValueError(f"--h {h:g} s is more than half the block's time scale 1/p = {1 / p_rate:.3g} s: a fixed "
+                         f"step that long cannot follow the rocking (use --h {0.01 / p_rate:.1g} or less)")
+    if not (math.isfinite(rtol) and 0 < rtol <= 0.1):  # scipy loops forever on rtol nan or 0
+        raise ValueError(f"--rtol {rtol:g} must be a tolerance in (0, 0.1]")
     ground, breaks = ground_of(p)
     if int(p["nBlocks"]) == 2:
         if method != "scipy":
@@ -89,8 +101,6 @@ def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol:
         model = f"one block, Python scipy DOP853 event-driven, rtol {rtol:g}"
     else:
         kind, locate = FIXED[method]
-        if not h > 0:
-            raise ValueError(f"--h must be > 0 s, got {h}")
         s = solve_fixed_step(scene, stop_time, kind, h, locate)
         model = f"one block, Python {method} with fixed step {h:g} s"
     return {"model": model, "blocks": 1,

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from db.session import DB_HELP, open_database
 from runners import records
+from runners.args import output_file
 from runners.intensity import G0
 
 
@@ -210,7 +211,7 @@ def add_parser(sub) -> None:
     sh.set_defaults(func=cmd_show)
     ex = rsub.add_parser("export", help="write a stored record as a record file the FMU reads")
     ex.add_argument("record", help="record name or id")
-    ex.add_argument("--out", required=True, metavar="FILE", help="record file to write")
+    ex.add_argument("--out", type=output_file, required=True, metavar="FILE", help="record file to write")
     ex.set_defaults(func=cmd_export)
     studies = []
     for name, func, what, json_help in (
@@ -222,7 +223,7 @@ def add_parser(sub) -> None:
         st.add_argument("sweep", help="sweep id, or 'latest'")
         st.add_argument("--im", default="pga",
                         help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
-        st.add_argument("--out", metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
+        st.add_argument("--out", type=output_file, metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
         st.add_argument("--json", action="store_true", help=json_help)
         st.set_defaults(func=func)
         studies.append(st)

@@ -11,6 +11,7 @@ import tempfile
 from pathlib import Path
 
 from db.session import DB_HELP, open_database
+from runners.args import output_file
 from runners.fmu import Event, RockingFMU, fmu_path_from
 
 
@@ -127,7 +128,7 @@ def add_parser(sub) -> None:
                      help="with --sweep: simulate these stored grid points again in full and record each "
                           "(e.g. 0,17,40-45), storing their series")
     rr_.add_argument("--record-dir", metavar="DIR", help="where --points writes (default: recordings/sweep-ID)")
-    rr_.add_argument("--out", help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
+    rr_.add_argument("--out", type=output_file, help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
     rr_.add_argument("--measured", metavar="CSV", help="overlay a measured series on a run's recording "
                                                         "(format: runners/measured.py)")
     rr_.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -137,7 +138,7 @@ def add_parser(sub) -> None:
     vw.set_defaults(func=cmd_view)
     sh = sub.add_parser("screenshot", help="a PNG of Rerun's viewer showing a stored run (needs Chromium)")
     sh.add_argument("run", type=int, help="run id")
-    sh.add_argument("--out", default="docs/figures/rerun_viewer.png", help="PNG file")
+    sh.add_argument("--out", type=output_file, default="docs/figures/rerun_viewer.png", help="PNG file")
     sh.set_defaults(func=cmd_screenshot)
     for p in (rr_, vw, sh):
         p.add_argument("--db", help=DB_HELP)

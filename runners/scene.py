@@ -29,6 +29,9 @@ KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3, "record":
 KIND_NAMES = {v: k for k, v in KINDS.items()}  # excitation.kind -> its name in a scene
 # g: a PGA beyond this is a mistake of units (the largest recorded PGA is about 4 g)
 MAX_PGA_G = 5.0
+# output samples one run may hold (a few hundred MB with its outputs): more is refused before
+# the run starts (docs/limits.md); 2e6 is 2000 s at a 1 ms step
+MAX_SAMPLES = 2_000_000
 
 # table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
 SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
@@ -79,6 +82,35 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "early_overturn": ("solver.earlyOverturn", "bool"),
     },
 }
+
+
+# the excitation parameters each kind uses (model/c/ground.c); a kind ignores the others
+_PULSE = {"amplitude", "frequency", "startTime", "verticalAmplitude"}
+EXCITATION_USES = {0: set(), 1: _PULSE | {"cycles"}, 2: _PULSE | {"cycles"},
+                   3: {"displacement", "frequency", "cycles", "startTime", "verticalAmplitude"},
+                   4: {"scale", "startTime"}, 5: _PULSE, 6: _PULSE, 7: _PULSE | {"gamma", "phase"}}
+
+
+def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
+    """Why the FMU ignores parameter `name` in a scene of parameters `p` (defaults included),
+    or None when it uses it."""
+    kind, law, two = int(p.get("excitation.kind", 0)), int(p.get("restitution.law", 0)), int(p.get("nBlocks", 1)) == 2
+    table, _, key = name.partition(".")
+    if table == "excitation" and key != "kind" and key not in EXCITATION_USES.get(kind, set()):
+        return f"{name} is not used by a scene of excitation kind \"{KIND_NAMES.get(kind, kind)}\""
+    if name == "block1.mass" and not two:
+        return "one block's rocking does not depend on its mass (theta, impacts and overturning are the same)"
+    if table == "block2" and not two:
+        return f"{name} belongs to a second block, and the scene has one (add a [block2] table)"
+    if name == "restitution.k" and (law != 1 or two):
+        return "restitution.k is used by the modified law (law = \"modified\", one block) only"
+    if name == "restitution.eta" and (law != 2 or two):
+        return "restitution.eta is used by the constant law (law = \"constant\") of one block only"
+    if name in ("restitution.etaGround", "restitution.etaInterface") and not (two and law == 2):
+        return f"{name} is used by the constant law (law = \"constant\") of two blocks only"
+    if name == "restitution.correction" and two:
+        return "restitution.correction is 1 for two blocks (use the constant law's eta_ground, eta_interface)"
+    return None
 
 
 class SceneError(ValueError):
@@ -155,11 +187,34 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
         if table == "block2":
             scene.parameters["nBlocks"] = 2
     _check_record(scene, source)
-    if not scene.stop_time > 0:
-        raise SceneError(f"{source}: [simulation] stop_time must be > 0 s, got {scene.stop_time}")
-    if not 0 < scene.step <= scene.stop_time:
-        raise SceneError(f"{source}: [simulation] step must be in (0, stop_time], got {scene.step}")
+    check_times(scene.stop_time, scene.step, f"{source}: [simulation] stop_time", f"{source}: [simulation] step")
     return scene
+
+
+def n_samples(stop_time: float, step: float, start_time: float = 0.0) -> int:
+    """Communication steps from start_time to stop_time with steps of `step` (s): the last one
+    shortened to end at stop_time, a step within 1e-9 of a whole number of them not added."""
+    q = (stop_time - start_time) / step
+    n = round(q)
+    return max(1, n if abs(q - n) <= 1e-9 * max(1.0, q) else math.ceil(q))
+
+
+def check_times(stop_time: float, step: float, stop_name: str = "stop_time", step_name: str = "step") -> None:
+    """SceneError unless stop_time and step (s) are finite and positive and give at most
+    MAX_SAMPLES output samples. A step longer than stop_time is one step to stop_time."""
+    if not (math.isfinite(stop_time) and stop_time > 0):
+        raise SceneError(f"{stop_name} must be a finite time > 0 s, got {stop_time:g}")
+    if not (math.isfinite(step) and step > 0):
+        raise SceneError(f"{step_name} must be a finite time > 0 s, got {step:g}")
+    if stop_time / step > MAX_SAMPLES:
+        raise SceneError(f"{stop_name} {stop_time:g} s at {step_name} {step:g} s gives {stop_time / step:.3g} output "
+                         f"samples, more than the {MAX_SAMPLES:.0e} one run may hold: use a larger step")
+
+
+def check_tolerance(value: float, name: str) -> None:
+    """SceneError unless a relative tolerance is finite and in (0, 0.1]."""
+    if not (math.isfinite(value) and 0 < value <= 0.1):
+        raise SceneError(f"{name} = {value:g} must be a finite tolerance in (0, 0.1]")
 
 
 def check_pga(pga: float, where: str) -> None:
@@ -195,11 +250,17 @@ def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark is allowed
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{path}: cannot read: {exc}") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a folder, not a scene file") from None
+    except UnicodeDecodeError as exc:
+        line = exc.object[:exc.start].count(b"\n") + 1
+        raise SceneError(f"{path}: line {line}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x}); a scene "
+                         "file is TOML, saved as UTF-8") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: invalid TOML: {exc}") from None
     return scene_from_dict(data, str(path))

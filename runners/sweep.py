@@ -33,14 +33,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy import insert, select
+from sqlalchemy import func, insert, select, update
+from sqlalchemy.exc import IntegrityError
 
 from db.schema import Excitation, Run, RunSeries, RunSummary, Scene, Sweep
 from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
-from runners.fmu import RockingFMU
+from runners.fmu import FMUError, RockingFMU
 from runners.intensity import G0, SCALING
-from runners.scene import MAX_PGA_G
+from runners.scene import KINDS, MAX_PGA_G, unused_parameter
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest"]
@@ -75,6 +76,32 @@ def parse_axis(spec: str, parameter_names: set[str]) -> Axis:
     if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
         raise ValueError(f"--grid {spec!r}: COUNT must be >= 1 and START, STOP finite")
     return Axis(name, start, stop, count)
+
+
+def target(name: str, p: dict[str, Any]) -> str:
+    """The FMU parameter an axis sets in a scene of parameters `p`: w the frequency, a the
+    amplitude (a harmonic's displacement), any other axis the parameter it names."""
+    if name == "w":
+        return "excitation.frequency"
+    if name == "a":
+        return "excitation.displacement" if int(p.get("excitation.kind", 0)) == KINDS["harmonic"] \
+            else "excitation.amplitude"
+    return name
+
+
+def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
+    """ValueError, in one line, for axes that would give a grid of identical or contradictory
+    points in a scene of FMU parameters `p` (defaults included): two axes setting one
+    parameter, or an axis on a parameter the scene does not use."""
+    setters: dict[str, str] = {}
+    for ax in axes:
+        param = target(ax.name, p)
+        if param in setters:
+            raise ValueError(f"--grid {setters[param]} and --grid {ax.name} both set {param}: keep one")
+        setters[param] = ax.name
+        why = unused_parameter(param, p)
+        if why:
+            raise ValueError(f"--grid {ax.name}: {why}, so every point would be the same")
 
 
 def scales(p: dict[str, Any]) -> tuple[float, float]:
@@ -188,7 +215,11 @@ class Grid:
         if "w" in values:
             over["excitation.frequency"] = values["w"] * pf / (2 * math.pi)
         if "a" in values:
-            over["excitation.amplitude"] = values["a"] * acc
+            if int(merged.get("excitation.kind", 0)) == KINDS["harmonic"]:  # its peak is D (2 pi f)^2
+                f = over.get("excitation.frequency", merged.get("excitation.frequency"))
+                over["excitation.displacement"] = values["a"] * acc / (2 * math.pi * f) ** 2
+            else:
+                over["excitation.amplitude"] = values["a"] * acc
         if rec is not None:  # the scaled record's measures, for fragility and IDA
             scale = float(merged.get("excitation.scale", 1.0))
             values["scale"] = scale
@@ -442,6 +473,49 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
     return row
 
 
+MAX_POINTS = 100_000_000  # grid points one sweep may have (about 40 GB in SQLite): split larger studies
+BYTES_PER_POINT = 400  # stored bytes of one point (run row, summary, index; 280 measured in SQLite)
+
+
+def check_size(total: int, factory) -> None:
+    """ValueError, before the sweep exists, for a grid too large to store: more than MAX_POINTS
+    points, or (SQLite) more than the free space of the database's disk."""
+    if total > MAX_POINTS:
+        raise ValueError(f"the grid has {total:.3g} points, more than the {MAX_POINTS:.0e} one sweep may have "
+                         "(about 40 GB of results): use fewer points, or split it into several sweeps")
+    url = factory.kw["bind"].url
+    if url.get_backend_name() == "sqlite" and url.database and url.database != ":memory:":
+        import shutil
+
+        free = shutil.disk_usage(Path(url.database).resolve().parent).free
+        if total * BYTES_PER_POINT > free:
+            raise ValueError(f"the grid's {total:.3g} points need about {total * BYTES_PER_POINT / 1e9:.3g} GB and "
+                             f"the database's disk has {free / 1e9:.3g} GB free: use fewer points")
+
+
+def check_corners(fmu: RockingFMU, grid: Grid, base: dict[str, Any], limit: int = 64) -> list[str]:
+    """Initialise the FMU at the corners of the grid (the first and last value of every axis;
+    at most `limit` corners). ValueError naming a point when it refuses every corner (every
+    point would fail); notes when it refuses some (their points are stored as errors)."""
+    import itertools
+
+    counts = grid.counts
+    corners = list(itertools.islice(itertools.product(*[sorted({0, c - 1}) for c in counts]), limit))
+    refused = []
+    for corner in corners:
+        index = int(np.ravel_multi_index(corner, counts))
+        values, over, _ = grid.point(index, base)
+        try:
+            fmu.validate({**base, **over})
+        except FMUError as exc:
+            at = ", ".join(f"{k} = {v:.4g}" for k, v in values.items() if isinstance(v, float))
+            refused.append(f"grid point {index} ({at}): {exc}")
+    if refused and len(refused) == len(corners):
+        raise ValueError(refused[0] if len(corners) == 1 else f"every corner of the grid is refused, e.g. {refused[0]}")
+    return [f"{len(refused)} of the grid's {len(corners)} corners are refused by the FMU (their points are stored "
+            f"as errors), e.g. {refused[0]}"] if refused else []
+
+
 def create_sweep(factory, scene, axes: list[Axis], defaults: dict, records: list[RecordRef] | None = None,
                  intensity: Intensity | None = None) -> int:
     """A new sweep of `scene` over the grid (records, intensity levels, axes); returns its id."""
@@ -472,7 +546,7 @@ class _Plan:
     params: dict  # the scene's parameters (without defaults)
     base: dict  # defaults + scene parameters
     grid: Grid
-    stored: set[int]
+    already: int  # points stored before this run
     stop_given: bool = True  # the scene's stop time applies to every point (else: each record's end + TAIL)
     infos: dict[int, dict] | None = None  # record id -> provenance and measures, for recordings
     record_data: dict[int, tuple] | None = None  # record id -> (names, n_samples, data) of db.series
@@ -518,10 +592,10 @@ def _plan(factory, sweep_id: int) -> _Plan:
             raise ValueError(f"no sweep {sweep_id} in the database")
         scene = session.get(Scene, sw.scene_id)
         params = dict(scene.parameters)
-        stored = set(session.scalars(select(Run.grid_index).where(Run.sweep_id == sweep_id)))
+        already = session.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == sweep_id))
         grid = grid_of(session, sw)
         plan = _Plan(sweep_id, sw.scene_id, scene.name, sw.total, sw.grid["stop_time"], sw.grid.get("step", 0.01),
-                     params, {**sw.grid["defaults"], **params}, grid, stored,
+                     params, {**sw.grid["defaults"], **params}, grid, already,
                      sw.grid.get("stop_time_given", True) or not grid.records)
         if grid.records:
             recs = {r.id: r for r in session.scalars(select(Record).where(Record.id.in_([x.id for x in grid.records])))}
@@ -530,11 +604,65 @@ def _plan(factory, sweep_id: int) -> _Plan:
         return plan
 
 
-def _pool(plan: _Plan, fmu_path: Path, shared: RockingFMU, workers: int):
-    ctx = get_context("fork") if hasattr(os, "fork") else get_context()
-    return ctx.Pool(workers, initializer=_start_worker,
-                    initargs=(str(fmu_path), shared.unzipdir, plan.params, plan.stop_time, plan.step, plan.two,
-                              plan.files()))
+def _start_pool_worker(*args) -> None:
+    """_start_worker in a local worker process, which leaves Ctrl-C to the main process (that
+    stops the pool) and dies quietly on SIGTERM (the main process's handler is not inherited)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _start_worker(*args)
+
+
+def _run_chunk(tasks: list) -> list[tuple]:
+    return [_run_point(t) for t in tasks]
+
+
+class SweepError(RuntimeError):
+    """A sweep cannot go on (e.g. a worker process died); str() is a one-line message."""
+
+
+class _LocalExecutor:
+    """Worker processes on this machine (forked where possible), sharing one extraction of the
+    FMU. A worker that dies (killed, out of memory) stops the sweep with SweepError instead of
+    hanging it; on an interruption the workers are stopped at once."""
+
+    def __init__(self, plan: _Plan, fmu_path: Path, workers: int):
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers = workers
+        self.shared = RockingFMU(fmu_path)
+        ctx = get_context("fork") if hasattr(os, "fork") else get_context()
+        self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_start_pool_worker,
+                                        initargs=(str(fmu_path), self.shared.unzipdir, plan.params, plan.stop_time,
+                                                  plan.step, plan.two, plan.files()))
+
+    def results(self, tasks: list, size: int | None = None):
+        from concurrent.futures import as_completed
+        from concurrent.futures.process import BrokenProcessPool
+
+        size = size or max(1, min(64, len(tasks) // (self.workers * 8) or 1))
+        try:
+            futures = [self.pool.submit(_run_chunk, tasks[i:i + size]) for i in range(0, len(tasks), size)]
+            for future in as_completed(futures):
+                yield from future.result()
+        except BrokenProcessPool:
+            raise SweepError("a worker process died (killed, or out of memory); the points stored so far are "
+                             "kept: finish the sweep with runners sweep --resume") from None
+
+    def __enter__(self) -> "_LocalExecutor":
+        return self
+
+    def __exit__(self, exc_type, *_exc) -> None:
+        processes = list((getattr(self.pool, "_processes", None) or {}).values())
+        self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
+        if exc_type is not None:  # interrupted or failed: stop the workers now, not after their chunks
+            for proc in processes:
+                if proc.is_alive():
+                    proc.kill()
+            for proc in processes:
+                proc.join(timeout=5)
+        self.shared.close()
 
 
 def _recording_task(plan: _Plan, index: int, record_dir: Path, rec: RecordRef | None) -> tuple:
@@ -548,12 +676,11 @@ def _series_row(run_id: int, rec: Recorded) -> dict:
     return {"run_id": run_id, "names": names, "n_samples": n, "data": blob, "events": rec.events}
 
 
-def _local_results(plan: _Plan, fmu_path: Path, tasks: list, workers: int):
-    """Results of the tasks from a pool of forked worker processes on this machine."""
-    shared = RockingFMU(fmu_path)  # one extraction for every worker
-    with shared, _pool(plan, fmu_path, shared, workers) as pool:
-        chunk = max(1, min(64, len(tasks) // (workers * 8) or 1))
-        yield from pool.imap_unordered(_run_point, tasks, chunksize=chunk)
+def _stored_among(factory, sweep_id: int, lo: int, hi: int) -> set[int]:
+    """The grid indices in lo..hi-1 of a sweep that are stored."""
+    with factory() as session:
+        return set(session.scalars(select(Run.grid_index).where(Run.sweep_id == sweep_id, Run.grid_index >= lo,
+                                                                 Run.grid_index < hi)))
 
 
 _DASK_FMUS: dict[str, RockingFMU] = {}  # FMU sha256 -> its extraction, once per Dask worker process
@@ -615,21 +742,33 @@ def dask_client(scheduler: str):
         raise OSError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
 
 
-def _dask_results(plan: _Plan, fmu_path: Path, sha: str, tasks: list, client, chunk: int | None):
-    """Results of the tasks from a Dask cluster, in chunks. A chunk whose worker dies is run
-    again elsewhere (retries); results are stored only here, in one slot per grid point,
-    so a rerun chunk cannot store a point twice."""
-    from distributed import as_completed
+class _DaskExecutor:
+    """Runs lists of tasks on a Dask cluster in chunks; the FMU and the record files are
+    sent to every worker once. A chunk whose worker dies is run again elsewhere (retries);
+    results are stored only by the caller, in one slot per grid point, so a rerun chunk
+    cannot store a point twice."""
 
-    n_workers = max(1, len(client.scheduler_info().get("workers", {})))
-    size = chunk or max(1, min(1000, math.ceil(len(tasks) / (4 * n_workers))))
-    blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
-    local = plan.files()
-    files = client.scatter({k: Path(v).read_bytes() for k, v in local.items()}, broadcast=True) if local else None
-    futures = [client.submit(_dask_chunk, blob, sha, plan.params, plan.stop_time, plan.step, plan.two,
-                             tasks[i:i + size], files, pure=False, retries=3) for i in range(0, len(tasks), size)]
-    for future in as_completed(futures):
-        yield from future.result()
+    def __init__(self, plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None):
+        self.plan, self.sha, self.client, self.chunk = plan, sha, client, chunk
+        self.n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        self.blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
+        local = plan.files()
+        self.files = client.scatter({k: Path(v).read_bytes() for k, v in local.items()},
+                                    broadcast=True) if local else None
+
+    def results(self, tasks: list):
+        from distributed import as_completed
+
+        p = self.plan
+        size = self.chunk or max(1, min(1000, math.ceil(len(tasks) / (4 * self.n_workers))))
+        futures = [self.client.submit(_dask_chunk, self.blob, self.sha, p.params, p.stop_time, p.step, p.two,
+                                      tasks[i:i + size], self.files, pure=False, retries=3)
+                   for i in range(0, len(tasks), size)]
+        for future in as_completed(futures):
+            yield from future.result()
+
+
+WINDOW = 20_000  # grid points planned at a time: a sweep of any size runs in bounded memory
 
 
 def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None, batch: int = 500,
@@ -641,84 +780,112 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     recording to record_dir/point-INDEX.rrd and their series and events are stored.
     With a Dask `client` the points run on its cluster in chunks of `chunk` points
     (default: about four chunks per worker); results are stored here as they arrive.
+    The grid is planned WINDOW points at a time, so memory does not grow with its size;
+    a point another process stored meanwhile (a concurrent --resume) is skipped.
     """
+    from contextlib import ExitStack
+
     from tqdm import tqdm
 
     plan = _plan(factory, sweep_id)
     record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
     recorded = set(record or ())
-    pending = [i for i in range(plan.total) if i not in plan.stored]
-    points = {i: plan.grid.point(i, plan.base) for i in pending}  # (grid values, overrides, record), once
-    tasks = [(i, points[i][1], _recording_task(plan, i, record_dir, points[i][2]) if i in recorded else None,
-              plan.stop_of(points[i][2])) for i in pending]
-    workers = max(1, min(workers or os.cpu_count() or 1, max(1, len(tasks))))
+    remaining = plan.total - plan.already
+    workers = max(1, min(workers or os.cpu_count() or 1, max(1, remaining)))
     sha, version = file_sha256(str(fmu_path)), code_version()
-    stats = {"sweep": sweep_id, "total": plan.total, "already": len(plan.stored), "ran": 0, "errors": 0,
-             "recorded": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "python_seconds": 0.0}
+    stats = {"sweep": sweep_id, "total": plan.total, "already": plan.already, "ran": 0, "errors": 0,
+             "recorded": 0, "skipped": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "python_seconds": 0.0}
     t_start = time.perf_counter()
     rows: list[tuple] = []
+
+    def insert_rows(session, batch_rows: list[tuple]) -> None:
+        excited = [r for r in batch_rows if r[3] is not None]  # points on records: their excitation first
+        if excited:
+            eids = session.scalars(insert(Excitation).returning(Excitation.id, sort_by_parameter_order=True),
+                                   [r[3] for r in excited]).all()
+            for r, eid in zip(excited, eids):
+                r[0]["excitation_id"] = eid
+        ids = session.execute(insert(Run).returning(Run.id, Run.grid_index), [r[0] for r in batch_rows]).all()
+        by_index = {gi: rid for rid, gi in ids}
+        summaries = [{"run_id": by_index[r[0]["grid_index"]], **r[1]} for r in batch_rows if r[1] is not None]
+        if summaries:
+            session.execute(insert(RunSummary), summaries)
+        full = [_series_row(by_index[r[0]["grid_index"]], r[2]) for r in batch_rows if r[2] is not None]
+        if full:
+            session.execute(insert(RunSeries), full)
+        session.execute(update(Sweep).where(Sweep.id == sweep_id).values(done=Sweep.done + len(batch_rows)))
+        session.execute(update(Sweep).where(Sweep.id == sweep_id, Sweep.done >= Sweep.total).values(status="done"))
 
     def flush() -> None:
         if not rows:
             return
         t0 = time.perf_counter()
-        with factory.begin() as session:
-            excited = [r for r in rows if r[3] is not None]  # points on records: their excitation first
-            if excited:
-                eids = session.scalars(insert(Excitation).returning(Excitation.id, sort_by_parameter_order=True),
-                                       [r[3] for r in excited]).all()
-                for r, eid in zip(excited, eids):
-                    r[0]["excitation_id"] = eid
-            ids = session.execute(insert(Run).returning(Run.id, Run.grid_index), [r[0] for r in rows]).all()
-            by_index = {gi: rid for rid, gi in ids}
-            summaries = [{"run_id": by_index[r[0]["grid_index"]], **r[1]} for r in rows if r[1] is not None]
-            if summaries:
-                session.execute(insert(RunSummary), summaries)
-            full = [_series_row(by_index[r[0]["grid_index"]], r[2]) for r in rows if r[2] is not None]
-            if full:
-                session.execute(insert(RunSeries), full)
-            sw = session.get(Sweep, sweep_id)
-            sw.done = sw.done + len(rows)
-            sw.status = "done" if sw.done >= sw.total else "running"
+        try:
+            with factory.begin() as session:
+                insert_rows(session, rows)
+        except IntegrityError:  # another process stored some of these points meanwhile: store the others
+            indices = [r[0]["grid_index"] for r in rows]
+            taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1)
+            fresh = [r for r in rows if r[0]["grid_index"] not in taken]
+            stats["skipped"] += len(rows) - len(fresh)
+            for r in fresh:
+                r[0].pop("excitation_id", None)
+            if fresh:
+                with factory.begin() as session:
+                    insert_rows(session, fresh)
         stats["db_seconds"] += time.perf_counter() - t0
         rows.clear()
 
-    bar = tqdm(total=plan.total, initial=len(plan.stored), disable=not progress, unit="run", desc=f"sweep {sweep_id}")
+    def task(i: int) -> tuple:
+        _, over, rec = plan.grid.point(i, plan.base)
+        return i, over, _recording_task(plan, i, record_dir, rec) if i in recorded else None, plan.stop_of(rec)
+
     if client is not None and recorded:
         raise ValueError("--record writes recordings where the point runs: use the local executor, or record "
                          "points after the sweep with runners rrd --sweep ID --points")
-    results = (_dask_results(plan, fmu_path, sha, tasks, client, chunk) if client is not None else
-               _local_results(plan, fmu_path, tasks, workers))
-    seen: set[int] = set()
-    if tasks:
-        for index, out, seconds, error, rec in results:
-            if index in seen:  # a chunk run twice (its worker died after sending): keep the first
-                continue
-            seen.add(index)
-            t_py = time.perf_counter()
-            values, over, record_ref = points[index]
-            merged = {**plan.base, **over}
-            stop = plan.stop_of(record_ref)
-            run = {"scene_id": plan.scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
-                   "model": "two blocks" if plan.two else "one block", "method": "fmu",
-                   "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
-                   "stop_time": plan.stop_time if stop is None else stop, "fmu_sha256": sha, "code_version": version,
-                   "wall_time": seconds, "status": "error" if error else "ok", "error_message": error,
-                   "recording": rec.path if rec else None}
-            excitation = None if record_ref is None else {
-                "kind": "record", "record_id": record_ref.id, "scale": float(merged.get("excitation.scale", 1.0)),
-                "start_time": float(merged.get("excitation.startTime", 0.0))}
-            rows.append((run, None if out is None else _summary(out, merged, plan.two), rec, excitation))
-            stats["ran"] += 1
-            stats["errors"] += error is not None
-            stats["recorded"] += rec is not None
-            stats["fmu_seconds"] += seconds
-            bar.update(1)
-            stats["python_seconds"] += time.perf_counter() - t_py
-            if len(rows) >= batch:
-                flush()
-        flush()
+    bar = tqdm(total=plan.total, initial=plan.already, disable=not progress, unit="run", desc=f"sweep {sweep_id}")
+    with ExitStack() as stack:
+        if remaining <= 0:
+            run_tasks = None
+        elif client is not None:
+            run_tasks = _DaskExecutor(plan, fmu_path, sha, client, chunk).results
+        else:
+            run_tasks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers)).results
+        for lo in range(0, plan.total if run_tasks else 0, WINDOW):
+            hi = min(plan.total, lo + WINDOW)
+            stored = _stored_among(factory, sweep_id, lo, hi)  # (another process may be storing this sweep too)
+            tasks = [task(i) for i in range(lo, hi) if i not in stored]
+            seen: set[int] = set()
+            for index, out, seconds, error, rec in run_tasks(tasks) if tasks else ():
+                if index in seen:  # a chunk run twice (its worker died after sending): keep the first
+                    continue
+                seen.add(index)
+                t_py = time.perf_counter()
+                values, over, record_ref = plan.grid.point(index, plan.base)
+                merged = {**plan.base, **over}
+                stop = plan.stop_of(record_ref)
+                run = {"scene_id": plan.scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
+                       "model": "two blocks" if plan.two else "one block", "method": "fmu",
+                       "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
+                       "stop_time": plan.stop_time if stop is None else stop, "fmu_sha256": sha,
+                       "code_version": version, "wall_time": seconds, "status": "error" if error else "ok",
+                       "error_message": error, "recording": rec.path if rec else None}
+                excitation = None if record_ref is None else {
+                    "kind": "record", "record_id": record_ref.id, "scale": float(merged.get("excitation.scale", 1.0)),
+                    "start_time": float(merged.get("excitation.startTime", 0.0))}
+                rows.append((run, None if out is None else _summary(out, merged, plan.two), rec, excitation))
+                stats["ran"] += 1
+                stats["errors"] += error is not None
+                stats["recorded"] += rec is not None
+                stats["fmu_seconds"] += seconds
+                bar.update(1)
+                stats["python_seconds"] += time.perf_counter() - t_py
+                if len(rows) >= batch:
+                    flush()
+            flush()
     bar.close()
+    with factory() as session:
+        stats["stored"] = session.get(Sweep, sweep_id).done  # by this process and any other
     stats["wall_seconds"] = time.perf_counter() - t_start
     return stats
 
@@ -734,7 +901,8 @@ def record_points(factory, sweep_id: int, indices: list[int], fmu_path: Path, re
     from tqdm import tqdm
 
     plan = _plan(factory, sweep_id)
-    missing = sorted(set(indices) - plan.stored)
+    missing = sorted(set(indices) - _stored_among(factory, sweep_id, min(indices), max(indices) + 1)) \
+        if indices else []
     if missing:
         raise ValueError(f"sweep {sweep_id} has no stored point {missing[0]} (finish it with runners sweep --resume)")
     record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
@@ -743,10 +911,9 @@ def record_points(factory, sweep_id: int, indices: list[int], fmu_path: Path, re
              for i in indices]
     workers = max(1, min(workers or os.cpu_count() or 1, len(tasks)))
     done: list[tuple[int, str]] = []
-    shared = RockingFMU(fmu_path)
-    with shared, _pool(plan, fmu_path, shared, workers) as pool, \
+    with _LocalExecutor(plan, fmu_path, workers) as pool, \
             tqdm(total=len(tasks), disable=not progress, unit="point", desc=f"recording sweep {sweep_id}") as bar:
-        for index, _out, _seconds, error, rec in pool.imap_unordered(_run_point, tasks):
+        for index, _out, _seconds, error, rec in pool.results(tasks, size=1):
             if error is not None:
                 raise ValueError(f"sweep {sweep_id} point {index}: {error}")
             with factory.begin() as session:

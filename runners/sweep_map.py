@@ -75,6 +75,11 @@ def draw(factory, sweep_id: str, out: Path) -> str:
         raise ValueError(f"sweep {sw.id} runs over records: draw it with runners fragility {sw.id} or "
                          f"runners ida {sw.id}")
     axes = [a[0] for a in sw.grid["axes"]]
+    if len(axes) > 2:
+        raise ValueError(f"sweep {sw.id} has {len(axes)} axes ({', '.join(axes)}): a map draws one or two "
+                         "(sweep two of them, with the others fixed in the scene)")
+    if not runs:
+        raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep --resume {sw.id}")
     p = {**sw.grid["defaults"], **scene.parameters}
     counts = [0, 0, 0, 0]
     for r in runs:

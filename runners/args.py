@@ -1,0 +1,94 @@
+"""Argument types and the parser class of the ``runners`` command line: every bad
+argument is refused by argparse itself, in one line, before any work is done."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+MAX_ID = 2**63 - 1  # database ids are 64-bit signed integers: a larger number names nothing
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (``error: ...``, exit 2), with where to look."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        print(f"error: {message} (see {self.prog} --help)", file=sys.stderr)
+        sys.exit(2)
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def positive(text: str) -> float:
+    """A finite number > 0 (times in s, steps, scales of work)."""
+    x = _number(text)
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    return x
+
+
+def finite(text: str) -> float:
+    """Any finite number (e.g. a record's scale, which may be negative to flip it)."""
+    x = _number(text)
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number")
+    return x
+
+
+def non_negative(text: str) -> float:
+    """A finite number >= 0 (e.g. a noise's standard deviation)."""
+    x = _number(text)
+    if not (math.isfinite(x) and x >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number >= 0")
+    return x
+
+
+def tolerance(text: str) -> float:
+    """A relative tolerance: finite, in (0, 0.1]."""
+    x = _number(text)
+    if not (math.isfinite(x) and 0 < x <= 0.1):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a tolerance in (0, 0.1]")
+    return x
+
+
+def count(text: str) -> int:
+    """A whole number >= 1 (workers, repeats, chunk sizes, limits)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
+    return n
+
+
+def db_id(text: str) -> int:
+    """A database id: a whole number in 1 .. 2**63 - 1."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an id (a whole number)") from None
+    if not 1 <= n <= MAX_ID:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an id: ids are whole numbers from 1 to {MAX_ID}")
+    return n
+
+
+def output_file(text: str):
+    """A file to write (a figure, a recording, an export): not a folder, its folder not a file."""
+    from pathlib import Path
+
+    path = Path(text)
+    if not text or path.is_dir() or text.endswith(("/", "\\")):
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
+            break
+    return text
