@@ -26,7 +26,8 @@ from sqlalchemy import select
 from db.records import MEASURES, add_record, find_record, free_name, samples, suite_records
 from db.schema import Record
 from runners.intensity import G0, measures
-from runners.record_files import cached_record_file, read_record_file, samples_sha256
+from runners.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, read_record_file,
+                                   samples_sha256)
 from runners.scene import Scene
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
@@ -120,12 +121,27 @@ def read_any(path: str | Path, units: str | None = None, sign: str | None = None
             if m.kind != "ground-acceleration":
                 raise ValueError(f"{path}: a record is a ground-acceleration series, not {m.kind}")
         t, a = m.series("acceleration")
+        check_sampling(path, t)
         return t, a, None, {"source": m.meta.get("source"), "file_name": path.name}
     if units or sign:
         raise ValueError(f"{path}: a record file is in s and m/s2 with our signs; --units and --sign apply to "
                          ".AT2 and .csv files")
     t, ah, av = read_record_file(path)
     return t, ah, av, {"file_name": path.name}
+
+
+def check_sampling(where: str | Path, t: np.ndarray) -> None:
+    """ValueError unless a record's times (s) increase by intervals the FMU accepts (the
+    limits of runners.record_files, which our own format is read with) and it has at most
+    MAX_SAMPLES samples."""
+    if len(t) > MAX_SAMPLES:
+        raise ValueError(f"{where} has {len(t)} samples, more than the {MAX_SAMPLES} a record may have")
+    dt = np.diff(t)
+    for bad, limit, word in ((dt < MIN_INTERVAL, MIN_INTERVAL, "below"), (dt > MAX_INTERVAL, MAX_INTERVAL, "above")):
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(f"{where}: the sample interval at t = {t[i]:g} s is {dt[i]:g} s, {word} {limit:g} s: "
+                             "absurd sampling (is time in seconds?)")
 
 
 def ensure_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,

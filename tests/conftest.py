@@ -64,7 +64,10 @@ def run_cli(*args: str, db: str, fmu_path: Path) -> subprocess.CompletedProcess:
     os.environ.update(ROCKING_FMU=str(fmu_path), ROCKING_DB=db)
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            code = main(list(args))
+            try:
+                code = main(list(args))
+            except SystemExit as exc:  # argparse refuses an argument (runners.args.Parser.error)
+                code = exc.code
     finally:
         for k, v in old.items():
             if v is None:

@@ -1,0 +1,398 @@
+"""Bad or extreme input to simulate, sweep, map and rrd (issue 15): each case ends in a correct
+result or a one-line error with a non-zero exit, before any work or stored row, and never
+in a crash, a hang or a silently wrong answer."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sqlalchemy import func, select
+
+from db.schema import Run, Sweep
+from db.session import open_database
+from tests.conftest import run_cli
+
+ROOT = Path(__file__).resolve().parent.parent
+EX = ROOT / "examples"
+
+
+def one_line_error(p: subprocess.CompletedProcess, *words: str) -> None:
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode != 0 and len(lines) == 1 and lines[0].startswith("error:"), p.stderr
+    assert "Traceback" not in p.stderr and all(w in lines[0] for w in words), p.stderr
+
+
+def summary(fmu_path, *args) -> dict:
+    p = run_cli("simulate", *args, "--json", "--no-store", db="sqlite://", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
+
+
+def sweeps_in(db: str) -> int:
+    with open_database(db)() as s:
+        return s.scalar(select(func.count()).select_from(Sweep))
+
+
+def cli(*args: str, db: str, fmu_path: Path, **kw) -> subprocess.Popen | subprocess.CompletedProcess:
+    """The console command in its own process (for signals, concurrency and memory)."""
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db, **kw.pop("env", {})}
+    cmd = [sys.executable, "-m", "runners.cli", *args]
+    if kw.pop("background", False):
+        return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
+                                start_new_session=True, **kw)
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, **kw)
+
+
+# ------------------------------------------------------------------ output steps and run size
+
+def test_an_output_step_beyond_twice_the_stop_time_gives_the_default_events(fmu_path):
+    default = summary(fmu_path, str(EX / "sine_pulse.toml"))
+    coarse = summary(fmu_path, str(EX / "sine_pulse.toml"), "--step", "10")
+    assert default["impacts"] > 10  # the pulse rocks it: the run was not skipped
+    assert coarse["final_state"] == default["final_state"] == "at rest"
+    for key in ("impacts", "peaks", "rest_time_s", "max_abs_theta_rad"):
+        assert coarse[key] == pytest.approx(default[key], rel=1e-9, abs=1e-12), key
+
+
+def test_a_step_longer_than_the_stop_time_simulates_up_to_the_stop_time(fmu_path):
+    fine = summary(fmu_path, str(EX / "free_rocking.toml"), "--stop-time", "0.4")
+    coarse = summary(fmu_path, str(EX / "free_rocking.toml"), "--stop-time", "0.4", "--step", "1")
+    assert fine["impacts"] >= 1 and coarse["impacts"] == fine["impacts"]
+
+
+def test_a_step_not_dividing_the_stop_time_ends_exactly_at_the_stop_time(fmu):
+    res = fmu.run({"block1.theta0": 0.1}, stop_time=1.0, step=0.3)
+    assert np.allclose(res.time, [0.0, 0.3, 0.6, 0.9, 1.0], rtol=0, atol=1e-15)
+
+
+def test_a_fixed_step_longer_than_the_block_time_scale_is_refused(fmu_path):
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), "--method", "rk4", "--h", "10", "--no-store",
+                db="sqlite://", fmu_path=fmu_path)
+    one_line_error(p, "--h 10", "time scale")
+
+
+def test_the_fixed_step_solver_shortens_its_last_step_to_the_stop_time():
+    from model.reference import Block
+    from model.solvers import Scene, solve_event_driven, solve_fixed_step
+
+    block = Block(0.0725, 0.3)
+    scene = Scene(block, eta=0.9, theta0=0.5 * block.alpha)
+    t1 = solve_event_driven(scene, 1.0).impact_times[0]
+    t_end = t1 - 0.01  # stop just before the first impact...
+    h = next(h for h in np.linspace(0.02, 0.05, 31) if np.ceil(t_end / h) * h > t1)  # ...with a step crossing it
+    sol = solve_fixed_step(scene, t_end, "rk4", h=h)
+    assert sol.impact_times == [] and not sol.overturned
+
+
+@pytest.mark.parametrize("value", ["nan", "0", "-1e-6", "inf", "0.5"])
+def test_a_tolerance_that_is_not_finite_and_positive_is_refused_without_hanging(fmu_path, value):
+    p = cli("simulate", str(EX / "free_rocking.toml"), "--method", "scipy", "--rtol", value, "--no-store",
+            db="sqlite://", fmu_path=fmu_path, timeout=60)
+    one_line_error(p, "--rtol")
+
+
+def test_a_run_too_long_for_memory_is_refused_before_it_starts(fmu_path):
+    t0 = time.perf_counter()
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), "--stop-time", "1e6", "--no-store",
+                db="sqlite://", fmu_path=fmu_path)
+    one_line_error(p, "output samples", "larger step")
+    assert time.perf_counter() - t0 < 10
+
+
+def test_a_nanosecond_output_step_is_refused_before_it_starts(fmu_path):
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), "--step", "1e-9", "--no-store",
+                db="sqlite://", fmu_path=fmu_path)
+    one_line_error(p, "output samples")
+
+
+def test_more_events_than_a_run_may_hold_stop_it_with_the_reason(fmu, monkeypatch):
+    import runners.fmu as fmu_module
+
+    monkeypatch.setattr(fmu_module, "MAX_EVENTS", 10)  # the limit, lowered to reach it in a second
+    with pytest.raises(fmu_module.FMUError, match="more than 1e\\+01 events"):
+        fmu.run({"block1.theta0": 0.2, "restitution.law": 2, "restitution.eta": 0.95}, stop_time=5.0, step=0.01)
+
+
+@pytest.mark.parametrize("option,value", [("--stop-time", "inf"), ("--stop-time", "nan"), ("--step", "-1"),
+                                          ("--stop-time", "1e400")])
+def test_a_non_finite_or_negative_time_is_one_line(fmu_path, option, value):
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), option, value, "--no-store", db="sqlite://",
+                fmu_path=fmu_path)
+    one_line_error(p, option)
+
+
+# ------------------------------------------------------------------ sweeps
+
+@pytest.mark.parametrize("value", ["-1", "nan", "inf"])
+def test_a_sweep_with_a_bad_stop_time_stores_nothing(fmu_path, tmp_path, value):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--stop-time", value,
+                "--no-progress", db=db, fmu_path=fmu_path)
+    one_line_error(p, "--stop-time")
+    assert sweeps_in(db) == 0
+
+
+def test_a_scene_whose_stop_time_is_refused_gives_no_sweep(fmu_path, tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text('[block]\nhalf_width = 0.1\nhalf_height = 0.4\n[excitation]\nkind = "sine-pulse"\n'
+                     'amplitude = 5.0\nfrequency = 2.0\ncycles = 1\n[simulation]\nstop_time = 1e7\n')
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = run_cli("sweep", str(scene), "--grid", "w=1:2:2", "--no-progress", db=db, fmu_path=fmu_path)
+    one_line_error(p, "output samples")
+    assert sweeps_in(db) == 0
+
+
+def test_two_axes_setting_one_parameter_are_refused(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "excitation.frequency=1:5:3",
+                "--grid", "w=1:12:3", db=db, fmu_path=fmu_path)
+    one_line_error(p, "both set excitation.frequency")
+    assert sweeps_in(db) == 0
+
+
+def test_one_axis_given_under_two_names_is_refused(fmu_path, tmp_path):
+    p = run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:12:3", "--grid", "omega_g/p=1:12:3",
+                db=f"sqlite:///{tmp_path / 's.db'}", fmu_path=fmu_path)
+    one_line_error(p, "w")
+
+
+@pytest.mark.parametrize("scene,axis,words", [
+    ("free_rocking.toml", "w=1:12:3", ["excitation.frequency", "not used"]),
+    ("free_rocking.toml", "excitation.amplitude=1:2:3", ["not used"]),
+    ("harmonic.toml", "excitation.amplitude=1:2:3", ["not used", "harmonic"]),
+    ("sine_pulse.toml", "block2.mass=1:3:3", ["second block"]),
+    ("sine_pulse.toml", "block1.mass=1:3:3", ["mass"]),
+    ("sine_pulse.toml", "restitution.eta=0.5:0.9:3", ["constant law"]),
+])
+def test_an_axis_the_scene_ignores_is_refused(fmu_path, tmp_path, scene, axis, words):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = run_cli("sweep", str(EX / scene), "--grid", axis, db=db, fmu_path=fmu_path)
+    one_line_error(p, *words)
+    assert sweeps_in(db) == 0
+
+
+def test_axis_a_sets_the_peak_acceleration_of_a_harmonic(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = run_cli("sweep", str(EX / "harmonic.toml"), "--grid", "a=1.1:3:2", "--stop-time", "2", "--no-progress",
+                db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    from runners.sweep import stored_point_parameters
+
+    with open_database(db)() as s:
+        runs = s.scalars(select(Run).order_by(Run.grid_index)).all()
+        for run in runs:
+            q = stored_point_parameters(s, run)
+            peak = q["excitation.displacement"] * (2 * np.pi * q["excitation.frequency"]) ** 2
+            uplift = q["g"] * q["block1.halfWidth"] / q["block1.halfHeight"]
+            assert peak == pytest.approx(run.point["a"] * uplift, rel=1e-12)
+        assert runs[0].summary.peak1_over_alpha != runs[1].summary.peak1_over_alpha
+
+
+def test_resume_refuses_the_options_it_would_ignore(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    assert run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--no-progress",
+                   db=db, fmu_path=fmu_path).returncode == 0
+    p = run_cli("sweep", "--resume", "1", "--grid", "w=1:3:3", "--stop-time", "2", db=db, fmu_path=fmu_path)
+    one_line_error(p, "--grid", "--stop-time")
+
+
+def test_a_grid_too_large_to_store_is_refused_before_the_sweep_exists(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    t0 = time.perf_counter()
+    p = run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:12:100000", "--grid",
+                "a=1:8:100000", db=db, fmu_path=fmu_path)
+    one_line_error(p, "1e+10 points")
+    assert sweeps_in(db) == 0 and time.perf_counter() - t0 < 10
+
+
+def test_a_grid_every_corner_of_which_the_fmu_refuses_is_refused(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "excitation.frequency=-2:-1:3",
+                db=db, fmu_path=fmu_path)
+    one_line_error(p, "excitation.frequency", "> 0 Hz")
+    assert sweeps_in(db) == 0
+
+
+def test_a_map_of_three_axes_is_refused(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    assert run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--grid", "a=1.1:2:2",
+                   "--grid", "block1.halfHeight=0.3:0.4:2", "--no-progress", db=db, fmu_path=fmu_path).returncode == 0
+    p = run_cli("map", "1", "--out", str(tmp_path / "m.png"), db=db, fmu_path=fmu_path)
+    one_line_error(p, "3 axes")
+    assert not (tmp_path / "m.png").exists()
+
+
+def test_a_map_of_a_sweep_without_points_says_so(fmu_path, tmp_path):
+    from runners.scene import load_scene
+    from runners.sweep import Axis, create_sweep
+
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    create_sweep(open_database(db), load_scene(EX / "sweep_sine_pulse.toml"), [Axis("w", 1, 2, 2)], {"g": 9.81})
+    p = run_cli("map", "1", "--out", str(tmp_path / "m.png"), db=db, fmu_path=fmu_path)
+    one_line_error(p, "no stored points", "--resume 1")
+
+
+# ------------------------------------------------------------------ interruptions, concurrency, memory
+
+def _wait_stored(db: str, n: int, timeout: float) -> int:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            with open_database(db)() as s:
+                done = s.scalar(select(func.count()).select_from(Run))
+            if done >= n:
+                return done
+        except Exception:  # the sweep is still creating the schema
+            pass
+        time.sleep(0.2)
+    raise AssertionError(f"fewer than {n} points stored after {timeout} s")
+
+
+def _children(pid: int) -> list[int]:
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    return [int(x) for x in out.split()]
+
+
+def test_sigterm_stops_a_sweep_like_ctrl_c_and_it_resumes(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    args = ("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
+            "excitation.displacement=0.001:0.004:60", "--stop-time", "2", "--no-progress", "--workers", "2")
+    p = cli(*args, db=db, fmu_path=fmu_path, background=True, env={"TMPDIR": str(scratch)})
+    _wait_stored(db, 500, 60)
+    workers = _children(p.pid)
+    os.killpg(p.pid, signal.SIGTERM)  # the whole group, as a job scheduler or systemd does
+    _, err = p.communicate(timeout=30)
+    assert p.returncode == 130 and err.strip() == "error: interrupted", err
+    assert not any(Path(f"/proc/{w}").exists() for w in workers)
+    assert list(scratch.iterdir()) == []  # the FMU's extraction is removed
+    q = cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path, timeout=300)
+    assert q.returncode == 0, q.stderr
+    with open_database(db)() as s:
+        assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3600 == s.get(Sweep, 1).done
+
+
+def test_a_killed_worker_stops_the_sweep_with_one_line_and_it_resumes(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = cli("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
+            "excitation.displacement=0.001:0.004:60", "--stop-time", "2", "--no-progress", "--workers", "2",
+            db=db, fmu_path=fmu_path, background=True)
+    _wait_stored(db, 500, 60)
+    os.kill(_children(p.pid)[0], signal.SIGKILL)  # as the out-of-memory killer would
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and err.count("\n") == 1 and "worker process died" in err, err
+    assert cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path, timeout=300).returncode == 0
+    with open_database(db)() as s:
+        assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3600 == s.get(Sweep, 1).done
+
+
+def test_two_concurrent_resumes_store_every_point_once(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    from runners.scene import load_scene
+    from runners.sweep import Axis, create_sweep
+
+    with RockingDefaults(fmu_path) as defaults:
+        create_sweep(open_database(db), load_scene(EX / "sweep_sine_pulse.toml"),
+                     [Axis("w", 1, 12, 60), Axis("a", 1.01, 8, 50)], defaults)
+    procs = [cli("sweep", "--resume", "1", "--no-progress", "--workers", "1", db=db, fmu_path=fmu_path,
+                 background=True) for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    with open_database(db)() as s:
+        n = s.scalar(select(func.count()).select_from(Run))
+        assert n == s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3000 == s.get(Sweep, 1).done
+        assert s.get(Sweep, 1).status == "done"
+
+
+class RockingDefaults:
+    """The FMU's default parameters (what runners sweep stores with a new sweep)."""
+
+    def __init__(self, fmu_path):
+        from runners.fmu import RockingFMU
+
+        self.fmu = RockingFMU(fmu_path)
+
+    def __enter__(self) -> dict:
+        return self.fmu.defaults()
+
+    def __exit__(self, *exc) -> None:
+        self.fmu.close()
+
+
+def test_a_ten_million_point_sweep_runs_in_bounded_memory(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:12:10000", "--grid", "a=1.01:8:1000",
+            "--no-progress", "--workers", "1", db=db, fmu_path=fmu_path, background=True)
+    _wait_stored(db, 1000, 60)  # planning the grid whole took minutes and gigabytes
+    status = Path(f"/proc/{p.pid}/status").read_text()
+    peak_mb = int(next(x for x in status.splitlines() if x.startswith("VmHWM")).split()[1]) / 1024
+    os.killpg(p.pid, signal.SIGTERM)
+    p.communicate(timeout=30)
+    assert peak_mb < 400, f"{peak_mb:.0f} MB"
+    with open_database(db)() as s:
+        assert s.get(Sweep, 1).total == 10_000_000
+
+
+# ------------------------------------------------------------------ files
+
+def test_a_recording_path_that_is_a_folder_is_refused_before_simulating(fmu_path, tmp_path):
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), "--rrd", str(tmp_path), db=f"sqlite:///{tmp_path / 'a.db'}",
+                fmu_path=fmu_path)
+    one_line_error(p, "is a folder")
+    assert not (tmp_path / "a.db").exists()
+
+
+def test_rrd_out_a_folder_is_one_line(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 'a.db'}"
+    assert run_cli("simulate", str(EX / "free_rocking.toml"), db=db, fmu_path=fmu_path).returncode == 0
+    one_line_error(run_cli("rrd", "1", "--out", str(tmp_path), db=db, fmu_path=fmu_path), "is a folder")
+
+
+@pytest.mark.parametrize("what", ["text", "folder", "zip"])
+def test_an_fmu_that_is_not_one_is_one_line(fmu_path, tmp_path, what):
+    import zipfile
+
+    bad = tmp_path / "bad.fmu"
+    if what == "text":
+        bad.write_text("not an FMU")
+    elif what == "folder":
+        bad.mkdir()
+    else:
+        with zipfile.ZipFile(bad, "w") as z:
+            z.writestr("readme.txt", "a zip, but no modelDescription.xml")
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), "--no-store", db="sqlite://", fmu_path=bad)
+    one_line_error(p, str(bad))
+
+
+def test_a_scene_saved_with_a_byte_order_mark_is_read(fmu_path, tmp_path):
+    scene = tmp_path / "bom.toml"
+    scene.write_bytes(b"\xef\xbb\xbf" + (EX / "free_rocking.toml").read_bytes())
+    assert summary(fmu_path, str(scene))["impacts"] == summary(fmu_path, str(EX / "free_rocking.toml"))["impacts"]
+
+
+def test_a_latin1_scene_names_its_line(fmu_path, tmp_path):
+    scene = tmp_path / "latin1.toml"
+    scene.write_bytes('name = "ok"\n# statue de Nîmes\n'.encode("latin-1"))
+    one_line_error(run_cli("simulate", str(scene), "--no-store", db="sqlite://", fmu_path=fmu_path), "line 2", "UTF-8")
+
+
+def test_a_folder_as_scene_is_one_line(fmu_path, tmp_path):
+    one_line_error(run_cli("simulate", str(tmp_path), "--no-store", db="sqlite://", fmu_path=fmu_path), "folder")
+
+
+def test_a_record_sampled_every_picosecond_is_refused_at_import(fmu_path, tmp_path):
+    csv = tmp_path / "fine.csv"
+    t = np.arange(100) * 1e-12
+    csv.write_text("# units: time=s, acceleration=m/s2\n# sign: +x\ntime,acceleration\n"
+                   + "".join(f"{a!r},{b!r}\n" for a, b in zip(t.tolist(), np.sin(np.arange(100.0)).tolist())))
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    one_line_error(run_cli("records", "import", str(csv), db=db, fmu_path=fmu_path), "1e-12 s", "sample interval")
