@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -402,6 +403,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _crash_report() -> str:
+    """Write the traceback being handled to a file in the temporary folder; its path."""
+    import tempfile
+    import time
+    import traceback
+
+    path = Path(tempfile.gettempdir()) / f"runners-error-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.txt"
+    path.write_text(f"runners {' '.join(sys.argv[1:])}\n\n{traceback.format_exc()}")
+    return str(path)
+
+
 def _terminated(signum, _frame) -> None:
     raise KeyboardInterrupt  # SIGTERM stops a command as Ctrl-C does: workers stopped, temporary files removed
 
@@ -417,8 +429,6 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except BrokenPipeError:  # the reader stopped (runners records list | head): nothing more to say
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError, SweepError) as exc:
@@ -427,6 +437,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # a defect of ours: one line for the user, the traceback in a file for us
+        if os.environ.get("ROCKING_DEBUG"):
+            raise
+        print(f"error: unexpected {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''} "
+              f"(details in {_crash_report()}; please report it)", file=sys.stderr)
+        return 3
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

@@ -27,7 +27,8 @@ EX = ROOT / "examples"
 def one_line_error(p: subprocess.CompletedProcess, *words: str) -> None:
     lines = p.stderr.strip().splitlines()
     assert p.returncode != 0 and len(lines) == 1 and lines[0].startswith("error:"), p.stderr
-    assert "Traceback" not in p.stderr and all(w in lines[0] for w in words), p.stderr
+    assert "Traceback" not in p.stderr and "unexpected" not in p.stderr and all(w in lines[0] for w in words), \
+        p.stderr
 
 
 def summary(fmu_path, *args) -> dict:
