@@ -397,3 +397,30 @@ def test_a_record_sampled_every_picosecond_is_refused_at_import(fmu_path, tmp_pa
                    + "".join(f"{a!r},{b!r}\n" for a, b in zip(t.tolist(), np.sin(np.arange(100.0)).tolist())))
     db = f"sqlite:///{tmp_path / 'r.db'}"
     one_line_error(run_cli("records", "import", str(csv), db=db, fmu_path=fmu_path), "1e-12 s", "sample interval")
+
+
+# ------------------------------------------------------------------ blocks the model cannot take
+
+def test_a_block_too_squat_for_housners_law_says_so_and_what_to_use(fmu):
+    from runners.fmu import FMUError
+
+    with pytest.raises(FMUError, match=r"too squat for Housner's law .*law = 2 \(constant\)"):
+        fmu.run({"block1.halfWidth": 0.5, "block1.halfHeight": 0.3}, stop_time=0.1, step=0.1)
+    res = fmu.run({"block1.halfWidth": 0.5, "block1.halfHeight": 0.3, "restitution.law": 2, "restitution.eta": 0.5,
+                   "block1.theta0": 0.1}, stop_time=1.0, step=0.1)  # ...which then rocks
+    assert res.outputs["impacts"][-1] >= 1
+
+
+@pytest.mark.parametrize("parameters,words", [
+    ({"block1.halfWidth": 1e-300, "block1.halfHeight": 1e-300}, "block1 half sizes"),
+    ({"block1.halfWidth": 5e4}, "block1 half sizes"),
+    ({"block1.halfHeight": 1e-7}, "block1 half sizes"),
+    ({"g": 1e-300}, "g = "),
+    ({"nBlocks": 2, "block2.halfHeight": 1e-9}, "block2 half sizes"),
+])
+def test_sizes_and_gravity_beyond_any_block_are_refused_in_one_line(fmu, parameters, words):
+    from runners.fmu import FMUError
+
+    with pytest.raises(FMUError, match=words) as info:
+        fmu.run({"block1.theta0": 0.05, **parameters}, stop_time=0.1, step=0.1)
+    assert "\n" not in str(info.value) and "step size" not in str(info.value)

@@ -29,6 +29,13 @@ void model_set_defaults(Model *M) {
         return 1;                        \
     } while (0)
 
+/* half sizes (m) and gravity (m/s2) beyond these are mistakes of units, and would make the
+   block's time scale 1/p too short or too long for any integrator step */
+#define MIN_SIZE 1e-6
+#define MAX_SIZE 1e4
+#define MIN_G 0.1
+#define MAX_G 1000.0
+
 int model_validate(const Variables *v, char *msg, size_t n) {
     /* every Real must be finite */
 #define VAR(T, vr, field, name, caus, var, start, unit, desc) CHECK_##T(field, name)
@@ -48,8 +55,12 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         FAIL("nBlocks = %d must be 1 (one block) or 2 (two stacked blocks)", v->nBlocks);
     if (!(v->halfWidth > 0)) FAIL("block1.halfWidth = %g must be > 0 m", v->halfWidth);
     if (!(v->halfHeight > 0)) FAIL("block1.halfHeight = %g must be > 0 m", v->halfHeight);
+    if (!(v->halfWidth >= MIN_SIZE && v->halfWidth <= MAX_SIZE && v->halfHeight >= MIN_SIZE &&
+          v->halfHeight <= MAX_SIZE))
+        FAIL("block1 half sizes %g x %g m must be in [%g, %g] m (half width and half height, in metres)",
+             v->halfWidth, v->halfHeight, MIN_SIZE, MAX_SIZE);
     if (!(v->mass > 0)) FAIL("block1.mass = %g must be > 0 kg", v->mass);
-    if (!(v->g > 0)) FAIL("g = %g must be > 0 m/s2", v->g);
+    if (!(v->g >= MIN_G && v->g <= MAX_G)) FAIL("g = %g must be in [%g, %g] m/s2", v->g, MIN_G, MAX_G);
     if (v->law < 0 || v->law > 2)
         FAIL("restitution.law = %d must be 0 (Housner), 1 (modified) or 2 (constant)", v->law);
     if (!(v->k >= 0 && v->k <= 1)) FAIL("restitution.k = %g must be in [0, 1]", v->k);
@@ -58,6 +69,10 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     {
         double alpha = atan(v->halfWidth / v->halfHeight);
         double eta = model_law_restitution(v, alpha) * v->correction;
+        if (v->law == 0 && v->nBlocks == 1 && model_law_restitution(v, alpha) < 0)
+            FAIL("block1 is too squat for Housner's law (b/h = %g > sqrt(2) gives the negative coefficient "
+                 "1 - 3/2 sin^2(alpha) = %g): set restitution.law = 2 (constant) and restitution.eta",
+                 v->halfWidth / v->halfHeight, model_law_restitution(v, alpha));
         if (!(eta >= 0 && eta <= 1))
             FAIL("effective restitution %g (law %d x correction %g) must be in [0, 1]",
                  eta, v->law, v->correction);
@@ -68,6 +83,10 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     if (v->nBlocks == 2) {
         if (!(v->halfWidth2 > 0)) FAIL("block2.halfWidth = %g must be > 0 m", v->halfWidth2);
         if (!(v->halfHeight2 > 0)) FAIL("block2.halfHeight = %g must be > 0 m", v->halfHeight2);
+        if (!(v->halfWidth2 >= MIN_SIZE && v->halfWidth2 <= MAX_SIZE && v->halfHeight2 >= MIN_SIZE &&
+              v->halfHeight2 <= MAX_SIZE))
+            FAIL("block2 half sizes %g x %g m must be in [%g, %g] m (half width and half height, in metres)",
+                 v->halfWidth2, v->halfHeight2, MIN_SIZE, MAX_SIZE);
         if (!(v->mass2 > 0)) FAIL("block2.mass = %g must be > 0 kg", v->mass2);
         if (v->law == 1)
             FAIL("restitution.law = 1 (modified, impact position k) is defined for one block only; "
