@@ -1,0 +1,184 @@
+"""Measured files and calibration that went wrong: every case through the real command line
+on a real SQLite file, each refused with one line that says what is wrong (or, where the
+input is fine after all, accepted), and nothing stored by a refusal."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sqlalchemy import func, select
+
+from conftest import run_cli
+from db import series
+from db.catalogue import CATALOGUE
+from db.schema import Block, Measurement, Record
+from db.session import open_database
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLE_PEAKS = ROOT / "examples" / "measured_peaks_block2.csv"
+HEADER = "# kind: peaks\n# units: time=s, theta=deg\n# sign: clockwise\n# block: B3L\n"
+
+
+@pytest.fixture
+def db(tmp_path, fmu_path) -> str:
+    url = f"sqlite:///{tmp_path / 'errors.db'}"
+    p = run_cli("db", "init", db=url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    return url
+
+
+def one_line_error(p: subprocess.CompletedProcess) -> str:
+    """The error a refusal printed, checked to be one line, exit status 2, no traceback."""
+    assert p.returncode == 2 and p.stderr.startswith("error: ") and p.stderr.count("\n") == 1, p.stderr
+    return p.stderr
+
+
+def count(db: str, table) -> int:
+    with open_database(db)() as session:
+        return session.scalar(select(func.count()).select_from(table))
+
+
+def import_ok(path: Path, db: str, fmu_path, *args: str) -> None:
+    p = run_cli("import-measured", str(path), *args, db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+
+
+# B. a Latin-1 .AT2
+
+LATIN1_AT2 = ("PEER NGA STRONG MOTION DATABASE RECORD\n"
+              "LOMA PRIETA 10/18/89, ESTACIÓN CAÑADA, Musée 090\n"
+              "ACCELERATION TIME SERIES IN UNITS OF G\n"
+              "NPTS=    6, DT=   .0100 SEC\n"
+              "  0.01000  0.02000 -0.01000  0.00500\n  0.00000  0.00000\n").encode("latin-1")
+
+
+def test_a_latin1_at2_keeps_its_station_name(tmp_path, fmu_path, db):
+    """An .AT2 written in Latin-1: 'Ó', 'Ñ' and 'é' survive (records import and import-measured)."""
+    at2 = tmp_path / "loma.AT2"
+    at2.write_bytes(LATIN1_AT2)
+    p = run_cli("records", "import", str(at2), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    import_ok(at2, db, fmu_path)
+    station = "LOMA PRIETA 10/18/89, ESTACIÓN CAÑADA, Musée 090"
+    with open_database(db)() as session:
+        assert session.scalar(select(Record.source).where(Record.name == "loma")) == f"PEER NGA record: {station}"
+        assert session.get(Measurement, 1).name == station
+
+
+# C. messages that say what is wrong
+
+
+def test_a_latin1_csv_header_is_read_as_latin1(tmp_path, fmu_path, db):
+    """A CSV saved in Latin-1 (a Spanish lab's name) is imported with its accents."""
+    csv = tmp_path / "ensayo.csv"
+    csv.write_bytes(("# name: Ensayo niño café\n# source: Laboratorio de Ingeniería Sísmica\n" + HEADER
+                     + "time,theta\n0,10\n0.3,-7\n0.55,5\n").encode("latin-1"))
+    import_ok(csv, db, fmu_path)
+    with open_database(db)() as session:
+        m = session.get(Measurement, 1)
+        assert (m.name, m.source) == ("Ensayo niño café", "Laboratorio de Ingeniería Sísmica")
+
+
+def test_a_latin1_byte_in_a_data_row_names_the_file_and_line(tmp_path, fmu_path, db):
+    """'-7é' in a data row: the file and line, not "'utf-8' codec can't decode"."""
+    csv = tmp_path / "typo.csv"
+    csv.write_bytes((HEADER + "time,theta\n0,10\n0.3,-7é\n0.55,5\n").encode("latin-1"))
+    err = one_line_error(run_cli("import-measured", str(csv), db=db, fmu_path=fmu_path))
+    assert f"{csv}, line 7: not a number" in err and "codec" not in err, err
+    assert count(db, Measurement) == 0
+
+
+def test_a_binary_file_is_refused_naming_the_file_and_line(tmp_path, fmu_path, db):
+    """A PNG given as a measured file: refused as not text, with the file and the line."""
+    png = tmp_path / "plot.csv"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x01\x00" + bytes(range(256)) * 4)
+    err = one_line_error(run_cli("import-measured", str(png), db=db, fmu_path=fmu_path))
+    assert f"{png}, line 2: byte 0x1a" in err and "not text" in err and "codec" not in err, err
+    assert count(db, Measurement) == 0
+
+
+def test_a_utf16_csv_is_refused_naming_the_file_and_the_encoding(tmp_path, fmu_path, db):
+    """Excel's 'Unicode text' is UTF-16: say so, rather than a codec's message."""
+    csv = tmp_path / "excel.csv"
+    csv.write_bytes((HEADER + "time,theta\n0,10\n0.3,-7\n0.55,5\n").encode("utf-16"))
+    err = one_line_error(run_cli("import-measured", str(csv), db=db, fmu_path=fmu_path))
+    assert f"{csv}, line 1: the file is UTF-16 text" in err, err
+
+
+def test_a_csv_starting_with_a_utf8_byte_order_mark_is_read(tmp_path, fmu_path, db):
+    """A byte-order mark before '# kind:' (Excel's 'CSV UTF-8') is skipped."""
+    csv = tmp_path / "bom.csv"
+    csv.write_bytes(b"\xef\xbb\xbf" + (HEADER + "time,theta\n0,10\n0.3,-7\n0.55,5\n").encode())
+    import_ok(csv, db, fmu_path)
+    with open_database(db)() as session:
+        m = session.get(Measurement, 1)
+        assert (m.kind, m.n_samples, m.block1.name) == ("peaks", 3, "B3L")
+
+
+def test_a_directory_given_as_the_measured_file_is_called_a_directory(tmp_path, fmu_path, db):
+    folder = tmp_path / "takes.csv"
+    folder.mkdir()
+    err = one_line_error(run_cli("import-measured", str(folder), db=db, fmu_path=fmu_path))
+    assert f"{folder} is a directory" in err and "does not exist" not in err, err
+
+
+def test_an_overlong_csv_field_is_one_line_naming_the_line(tmp_path, fmu_path, db):
+    """A field beyond the csv module's limit (131072 characters) raised csv.Error: a traceback."""
+    csv = tmp_path / "long.csv"
+    csv.write_text(HEADER + "time,theta\n0,10\n0.3," + "7" * 200_000 + "\n")
+    err = one_line_error(run_cli("import-measured", str(csv), db=db, fmu_path=fmu_path))
+    assert f"{csv}, line 7: not a CSV row" in err, err
+
+
+# D. a long file is streamed
+
+MEASURE = ("import resource, subprocess, sys; p = subprocess.run(sys.argv[1:]); "
+           "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); sys.exit(p.returncode)")
+
+
+def import_peak_memory(csv: Path, db: str, fmu_path) -> tuple[subprocess.CompletedProcess, int]:
+    """(result, peak resident memory in kB) of `runners import-measured CSV` in its own process."""
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    p = subprocess.run([sys.executable, "-c", MEASURE, sys.executable, "-m", "runners.cli", "import-measured",
+                        str(csv)], capture_output=True, text=True, env=env, cwd=ROOT)
+    return p, int(p.stdout.splitlines()[-1])
+
+
+def test_a_two_million_row_csv_is_imported_intact_in_bounded_memory(tmp_path, fmu_path, db):
+    """2 million rows (41 MB of text, 32 MB as float64): the import's peak memory above a 3-row
+    import's must stay under 300 MB. Reading the rows into Python lists took 750 MB more (3.8 GB
+    for 10 million rows); streaming into float64 arrays takes about 130 MB (the arrays and
+    the packing of the stored series). Every value is stored exactly."""
+    n = 2_000_000
+    big = tmp_path / "long.csv"
+    with big.open("w") as f:
+        f.write("# kind: rotation\n# units: time=s, theta=rad\n# sign: clockwise\n# block: B3L\ntime,theta\n")
+        for start in range(0, n, 200_000):
+            f.write("".join(f"{i / 1000:.3f},{((7 * i) % 2000 - 1000) / 1e4:.4f}\n"
+                            for i in range(start, start + 200_000)))
+    small = tmp_path / "short.csv"
+    small.write_text("# kind: rotation\n# units: time=s, theta=rad\n# sign: clockwise\n# block: B3L\n"
+                     "time,theta\n0,0.01\n0.001,0.02\n0.002,0.03\n")
+    p, base = import_peak_memory(small, db, fmu_path)
+    assert p.returncode == 0, p.stderr
+    p, peak = import_peak_memory(big, db, fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert f"{n} rows (0 to {(n - 1) / 1000:g} s)" in p.stdout, p.stdout
+    assert peak - base < 300 * 1024, f"the import took {(peak - base) / 1024:.0f} MB above a 3-row import's"
+    i = np.arange(n)
+    with open_database(db)() as session:
+        m = session.get(Measurement, 2)
+        assert (m.kind, m.n_samples, m.names) == ("rotation", n, ["block1.theta"])
+        t, cols = series.unpack(m.names, m.n_samples, m.data)
+    np.testing.assert_array_equal(t, i / 1000)
+    np.testing.assert_array_equal(cols["block1.theta"], ((7 * i) % 2000 - 1000) / 1e4)
+    assert (t[0], t[-1], cols["block1.theta"][0], cols["block1.theta"][-1]) == (0.0, 1999.999, -0.1, 0.0993)
+
+
