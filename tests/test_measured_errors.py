@@ -182,3 +182,30 @@ def test_a_two_million_row_csv_is_imported_intact_in_bounded_memory(tmp_path, fm
     assert (t[0], t[-1], cols["block1.theta"][0], cols["block1.theta"][-1]) == (0.0, 1999.999, -0.1, 0.0993)
 
 
+
+
+READ_RECORD = """
+import sys
+from runners.record_files import read_record_file
+
+def status(key):  # kB, from /proc/self/status
+    return int(next(line for line in open("/proc/self/status") if line.startswith(key)).split()[1])
+
+before = status("VmRSS")
+t, ah, av = read_record_file(sys.argv[1])
+print(status("VmHWM") - before, len(t), av is None)  # the peak while reading, above the memory before
+"""
+
+
+def test_a_half_million_sample_record_file_is_read_in_bounded_memory(tmp_path):
+    """Our record text format (runners records import FILE) is streamed too: 500,000 samples are
+    8 MB of float64; the file's bytes, its lines and a Python list per sample took 115 MB more."""
+    n = 500_000
+    path = tmp_path / "long.txt"
+    path.write_text("# a long record\n" + "".join(f"{i / 1000:.3f} {((7 * i) % 2000 - 1000) / 1e4:.4f}\n"
+                                                    for i in range(n)))
+    p = subprocess.run([sys.executable, "-c", READ_RECORD, str(path)], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    grown, samples, no_vertical = p.stdout.split()
+    assert (int(samples), no_vertical) == (n, "True")
+    assert int(grown) < 50 * 1024, f"reading took {int(grown) / 1024:.0f} MB"
