@@ -218,13 +218,17 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     """A stored run written as a measured file, optionally with reading noise: a synthetic
     experiment with known parameters, for checking import, compare and calibrate."""
+    if not (args.noise_theta >= 0 and args.noise_time >= 0 and math.isfinite(args.noise_theta + args.noise_time)):
+        raise ValueError("--noise-theta and --noise-time must be finite and >= 0")
+    if args.every < 1:
+        raise ValueError(f"--every must be at least 1 (got {args.every})")
+    if args.max_peaks < 1:
+        raise ValueError(f"--max-peaks must be at least 1 (got {args.max_peaks}): it is how many peaks to keep")
     factory = open_database(args.db)
     with factory() as session:
         run, t, cols, stored_events = load_run_series(session, args.run)
         events = [Event.from_dict(e) for e in stored_events]
         block, scene_name = args.block, run.scene.name
-    if args.noise_theta < 0 or args.noise_time < 0 or args.every < 1:
-        raise ValueError("--noise-theta and --noise-time must be >= 0 and --every >= 1")
     rng = np.random.default_rng(args.seed)
     if args.kind == "peaks":
         peaks = [e for e in events if e.kind == "peak"][: args.max_peaks]
@@ -287,7 +291,7 @@ def add_parser(sub) -> None:
     exp.add_argument("--noise-time", type=float, default=0.0, help="standard deviation of time noise (s)")
     exp.add_argument("--seed", type=int, default=0, help="random seed of the noise")
     exp.add_argument("--every", type=int, default=1, help="rotation: keep every Nth output sample")
-    exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many")
+    exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many (at least 1)")
     exp.set_defaults(func=cmd_export)
     cal = sub.add_parser("calibrate", help="fit the restitution to a measured free-rocking decay")
     cal.add_argument("measurement", type=int, help="measurement id (a peak table or rotation history)")

@@ -50,7 +50,23 @@ def import_ok(path: Path, db: str, fmu_path, *args: str) -> None:
     assert p.returncode == 0, p.stderr
 
 
-# B. a Latin-1 .AT2
+# B. export-measured --max-peaks; a Latin-1 .AT2
+
+
+@pytest.mark.parametrize("value", ["-3", "0"])
+def test_export_measured_refuses_a_max_peaks_below_one(tmp_path, fmu_path, db, value):
+    """--max-peaks -3 used to drop the last 3 peaks without a word."""
+    b = next(c for c in CATALOGUE if c["name"] == "seed000-block2")
+    scene = tmp_path / "decay.toml"
+    scene.write_text(f"name = 'decay'\n[block]\nhalf_width = {b['half_width']}\nhalf_height = {b['half_height']}\n"
+                     f"mass = {b['mass']}\ntheta0 = 0.3\n[simulation]\nstop_time = 3.0\nstep = 0.01\n")
+    assert run_cli("simulate", str(scene), db=db, fmu_path=fmu_path).returncode == 0
+    out = tmp_path / "peaks.csv"
+    err = one_line_error(run_cli("export-measured", "1", "--out", str(out), "--max-peaks", value, db=db,
+                                 fmu_path=fmu_path))
+    assert "--max-peaks must be at least 1" in err, err
+    assert not out.exists()
+
 
 LATIN1_AT2 = ("PEER NGA STRONG MOTION DATABASE RECORD\n"
               "LOMA PRIETA 10/18/89, ESTACIÓN CAÑADA, Musée 090\n"
