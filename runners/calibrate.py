@@ -79,6 +79,10 @@ def calibrate(fmu: RockingFMU, base: dict, decay: Decay, law: str, sigma_theta: 
     st = sigma_theta or SEED000_SIGMA[0]
     su = sigma_time or SEED000_SIGMA[1]
     alpha = math.atan2(base["block1.halfWidth"], base["block1.halfHeight"])
+    if not abs(decay.theta0) >= 1e-4 * alpha:
+        raise ValueError(f"the release (the first row, at {decay.t0:g} s) has theta = {decay.theta0:.3g} rad: free rocking "
+                         "starts from the block held at an angle and let go, so the first row must be that release "
+                         "angle (docs/measured.md); was it left out?")
     side = 1.0 if decay.theta0 >= 0 else -1.0
     _, _, lo, hi, start = LAW_PARAMETERS[law]
     if law == "correction":  # the corrected coefficient must stay below 1

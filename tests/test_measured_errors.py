@@ -91,6 +91,18 @@ def test_a_latin1_at2_keeps_its_station_name(tmp_path, fmu_path, db):
 # C. messages that say what is wrong
 
 
+def test_calibrating_a_decay_released_at_zero_says_the_release_is_missing(tmp_path, fmu_path, db):
+    """A peak table whose first row is 0 deg: scipy's 'Initial guess is outside of provided bounds'
+    said nothing about the data."""
+    csv = tmp_path / "zero.csv"
+    csv.write_text(HEADER.replace("B3L", "seed000-block2")
+                   + "time,theta\n0,0\n0.37,-15\n0.69,11\n0.89,-9.7\n1.05,7.1\n")
+    import_ok(csv, db, fmu_path)
+    err = one_line_error(run_cli("calibrate", "1", "--law", "constant", db=db, fmu_path=fmu_path))
+    assert "the release (the first row" in err and "theta = 0 rad" in err, err
+    assert "bounds" not in err, err
+
+
 def test_a_latin1_csv_header_is_read_as_latin1(tmp_path, fmu_path, db):
     """A CSV saved in Latin-1 (a Spanish lab's name) is imported with its accents."""
     csv = tmp_path / "ensayo.csv"
