@@ -50,6 +50,55 @@ def import_ok(path: Path, db: str, fmu_path, *args: str) -> None:
     assert p.returncode == 0, p.stderr
 
 
+# A. calibration judges its fit before storing it
+
+
+def test_calibrating_growing_peaks_is_refused_as_a_poor_fit_and_stores_nothing(tmp_path, fmu_path, db):
+    """Peaks that grow (5, 6, 7, 8, 9 deg) fit eta = 1 at its bound with chi2/dof 25: refused,
+    saying why, and no block is stored."""
+    csv = tmp_path / "growing.csv"
+    csv.write_text(HEADER.replace("B3L", "seed000-block2") + "time,theta\n0,5\n0.4,6\n0.8,7\n1.2,8\n1.6,9\n")
+    import_ok(csv, db, fmu_path)
+    blocks = count(db, Block)
+    err = one_line_error(run_cli("calibrate", "1", "--law", "constant", db=db, fmu_path=fmu_path))
+    assert "the fit is poor" in err and "chi2/dof" in err and "> 5" in err, err
+    assert "the peaks grow" in err and "not stored" in err and "--accept-poor-fit" in err, err
+    assert count(db, Block) == blocks
+
+
+def test_calibrating_a_peak_table_in_seconds_declared_as_ms_is_refused_naming_the_time_units(tmp_path, fmu_path, db):
+    """The example peak table imported with time=ms: today 'correction factor 0.8855 [-1.25, 3.02]';
+    the interval leaves the physical range and the output points at the time units."""
+    import_ok(EXAMPLE_PEAKS, db, fmu_path, "--units", "time=ms, theta=deg")
+    blocks = count(db, Block)
+    err = one_line_error(run_cli("calibrate", "1", "--law", "correction", db=db, fmu_path=fmu_path))
+    assert "the fit is poor" in err and "physical range" in err, err
+    assert "time units" in err and "declared ms" in err, err
+    assert count(db, Block) == blocks
+
+
+def test_accept_poor_fit_reports_and_stores_the_fit_with_its_problems(tmp_path, fmu_path, db):
+    """--accept-poor-fit: exit 0, the problems in the JSON output and in the stored block's source."""
+    csv = tmp_path / "growing.csv"
+    csv.write_text(HEADER.replace("B3L", "seed000-block2") + "time,theta\n0,5\n0.4,6\n0.8,7\n1.2,8\n1.6,9\n")
+    import_ok(csv, db, fmu_path)
+    p = run_cli("calibrate", "1", "--law", "constant", "--accept-poor-fit", "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    fit = json.loads(p.stdout)
+    assert any("chi2/dof" in x for x in fit["poor_fit"]), fit
+    with open_database(db)() as session:
+        assert "accepted with --accept-poor-fit" in session.get(Block, fit["block_id"]).source
+
+
+def test_a_good_fit_reports_no_problems(tmp_path, fmu_path, db):
+    """The documentation's example still calibrates, and its JSON says the fit passed the checks."""
+    import_ok(EXAMPLE_PEAKS, db, fmu_path)
+    p = run_cli("calibrate", "1", "--law", "correction", "--no-store", "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    fit = json.loads(p.stdout)
+    assert fit["poor_fit"] == [] and fit["low"] <= 1.233 <= fit["high"], fit
+
+
 # B. export-measured --max-peaks; a Latin-1 .AT2
 
 
@@ -208,8 +257,6 @@ def test_a_two_million_row_csv_is_imported_intact_in_bounded_memory(tmp_path, fm
     np.testing.assert_array_equal(t, i / 1000)
     np.testing.assert_array_equal(cols["block1.theta"], ((7 * i) % 2000 - 1000) / 1e4)
     assert (t[0], t[-1], cols["block1.theta"][0], cols["block1.theta"][-1]) == (0.0, 1999.999, -0.1, 0.0993)
-
-
 
 
 READ_RECORD = """
