@@ -30,12 +30,20 @@ Two formats:
   third naming the units (G), the fourth NPTS and DT, then the values. The
   record's positive direction becomes +x unless ``--sign -x`` is given.
 
-Every problem raises ValueError (or FileNotFoundError) with one line naming
-the file, the line and what is wrong; nothing is returned half-read.
+Both are read as UTF-8 text (a byte-order mark is skipped); a byte that is not
+UTF-8 is read as Windows-1252 (Latin-1), so a header or station name saved in
+Latin-1 keeps its accents. A control character (a binary file) or UTF-16 text is
+refused. A CSV is streamed: its values go straight into float64 arrays, so a file
+of millions of rows takes about 8 bytes per value, not a Python object per cell.
+
+Every problem raises ValueError (or FileNotFoundError, IsADirectoryError) with one
+line naming the file, the line and what is wrong; nothing is returned half-read.
 """
 
 from __future__ import annotations
 
+import array
+import codecs
 import csv
 import hashlib
 import math
@@ -131,23 +139,141 @@ def parse_uncertainty(spec: str, where: str) -> dict[str, float]:
     return out
 
 
-def _header_and_rows(path: Path) -> tuple[dict[str, tuple[int, str]], list[tuple[int, list[str]]]]:
-    meta: dict[str, tuple[int, str]] = {}
-    rows: list[tuple[int, list[str]]] = []
-    with path.open(newline="") as f:
-        for n, row in enumerate(csv.reader(f), start=1):
-            if not row or not any(c.strip() for c in row):
-                continue
-            first = row[0].lstrip()
-            if first.startswith("#"):
-                text = ",".join(row).lstrip()[1:].strip()
-                key, colon, value = text.partition(":")
-                key = key.strip().lower().replace(" ", "_")
-                if colon and key in META_KEYS:
-                    meta[key] = (n, value.strip())
-                continue
-            rows.append((n, row))
-    return meta, rows
+_CP1252_UNDEFINED = {0x81, 0x8D, 0x8F, 0x90, 0x9D}
+
+
+def _cp1252_fallback(exc: UnicodeError) -> tuple[str, int]:
+    """Codec error handler: bytes that are not UTF-8 are read as Windows-1252 (Latin-1 where
+    cp1252 leaves a byte undefined), so a Latin-1 header's 'Ñ' or 'é' survives."""
+    if not isinstance(exc, UnicodeDecodeError):
+        raise exc
+    bad = exc.object[exc.start:exc.end]
+    return "".join(chr(b) if b in _CP1252_UNDEFINED else bytes([b]).decode("cp1252") for b in bad), exc.end
+
+
+codecs.register_error("rocking.cp1252", _cp1252_fallback)
+TEXT_ENCODING = {"encoding": "utf-8-sig", "errors": "rocking.cp1252"}  # a UTF-8 BOM is skipped
+_CONTROL = re.compile(r"[\x00-\x08\x0e-\x1f\x7f]")  # not in a text file (tab, LF, VT, FF, CR are)
+
+
+def decode_text(raw: bytes) -> str:
+    """Bytes of a text file: UTF-8 (a byte-order mark skipped), any byte that is not read as Windows-1252."""
+    return raw.decode(**TEXT_ENCODING)
+
+
+def _check_file(path: Path) -> None:
+    """FileNotFoundError or IsADirectoryError (one line) unless `path` is a readable text file."""
+    if path.is_dir():
+        raise IsADirectoryError(f"measured file {path} is a directory, not a file")
+    if not path.exists():
+        raise FileNotFoundError(f"measured file {path} does not exist")
+    if not path.is_file():
+        raise ValueError(f"measured file {path} is not a regular file")
+    with path.open("rb") as f:
+        start = f.read(2)
+    if start in (b"\xff\xfe", b"\xfe\xff"):
+        raise ValueError(f"{path}, line 1: the file is UTF-16 text: save it as UTF-8 (or plain ASCII)")
+
+
+def _not_text(where: str, line: int, text: str) -> ValueError | None:
+    """The error for a line holding a control character (a binary file), else None."""
+    m = _CONTROL.search(text)
+    if m is None:
+        return None
+    return ValueError(f"{where}, line {line}: byte 0x{ord(m.group()):02x} at character {m.start() + 1} is not text: "
+                      "is this a binary file rather than a CSV?")
+
+
+def _sha256(path: Path) -> str:
+    with path.open("rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+@dataclass
+class _Table:
+    """A CSV file read in one pass: header keys, the column names row, the data as float64."""
+
+    meta: dict[str, tuple[int, str]]
+    names_line: int = 0
+    names: list[str] | None = None
+    columns: list[np.ndarray] = field(default_factory=list)  # raw values, one array per column
+    data_rows: int = 0  # rows after the names row (read or not)
+    error: str | None = None  # the first bad data row's "line N: ..." (rows after it are not read)
+
+
+def _read_table(path: Path, where: str) -> _Table:
+    """Stream the file: values go straight into growing float64 arrays (8 bytes per value), so
+    memory stays near the data's size whatever the file's length. The first bad data row is kept
+    as an error, raised by read_csv after the header's checks, as the rows were read before."""
+    table = _Table({})
+    cols: list[array.array] = []
+    width, prev, inf = 0, -math.inf, math.inf
+    with path.open(newline="", **TEXT_ENCODING) as f:
+        reader = csv.reader(f)
+        try:
+            for row in reader:
+                if width and table.error is None:  # the fast path: a data row of numbers
+                    try:
+                        vals = list(map(float, row))
+                    except ValueError:
+                        vals = None
+                    if vals is not None and len(vals) == width and prev < vals[0] < inf \
+                            and -inf < sum(vals) < inf:  # no infinite value (NaN: the slow path)
+                        for a, v in zip(cols, vals):
+                            a.append(v)
+                        prev = vals[0]
+                        table.data_rows += 1
+                        continue
+                line = reader.line_num
+                if not row or not any(c.strip() for c in row):
+                    continue
+                first = row[0].lstrip()
+                if first.startswith("#"):
+                    text = ",".join(row)
+                    bad = _not_text(where, line, text)
+                    if bad:
+                        raise bad
+                    text = text.lstrip()[1:].strip()
+                    key, colon, value = text.partition(":")
+                    key = key.strip().lower().replace(" ", "_")
+                    if colon and key in META_KEYS:
+                        table.meta[key] = (line, value.strip())
+                    continue
+                if table.names is None:
+                    bad = _not_text(where, line, ",".join(row))
+                    if bad:
+                        raise bad
+                    table.names_line, table.names, width = line, row, len(row)
+                    cols = [array.array("d") for _ in row]
+                    continue
+                table.data_rows += 1
+                if table.error is not None:
+                    continue
+                if len(row) != width:
+                    table.error = f"line {line}: {len(row)} fields, the column names row has {width}"
+                    continue
+                try:
+                    vals = [float(c) if c.strip() else math.nan for c in row]
+                except ValueError:
+                    bad = _not_text(where, line, ",".join(row))
+                    if bad:
+                        raise bad from None
+                    table.error = f"line {line}: not a number in {','.join(row)!r}"
+                    continue
+                if not math.isfinite(vals[0]):
+                    table.error = f"line {line}: time must be a finite number"
+                elif not vals[0] > prev:
+                    table.error = f"line {line}: time {vals[0]:g} does not increase (previous {prev:g})"
+                elif any(math.isinf(v) for v in vals[1:]):
+                    table.error = f"line {line}: values must be finite"
+                else:
+                    for a, v in zip(cols, vals):
+                        a.append(v)
+                    prev = vals[0]
+        except csv.Error as exc:
+            raise ValueError(f"{where}, line {reader.line_num}: not a CSV row ({exc})") from None
+    table.columns = [np.frombuffer(a, dtype=float) if len(a) else np.empty(0) for a in cols]  # no copy
+    return table
 
 
 def read_csv(path: str | Path, given: dict[str, str] | None = None,
@@ -155,20 +281,19 @@ def read_csv(path: str | Path, given: dict[str, str] | None = None,
     """A measured CSV file. `given` (command line) wins over the file's header, which wins
     over `defaults`; kind, units and sign must be declared by one of them."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"measured file {path} does not exist")
-    header, rows = _header_and_rows(path)
-    meta = {**(defaults or {}), **{k: v for k, (_, v) in header.items()},
-            **{k: v for k, v in (given or {}).items() if v is not None}}
+    _check_file(path)
     where = str(path)
+    table = _read_table(path, where)
+    meta = {**(defaults or {}), **{k: v for k, (_, v) in table.meta.items()},
+            **{k: v for k, v in (given or {}).items() if v is not None}}
     kind = meta.get("kind")
     if kind not in KINDS:
         raise ValueError(f"{where}: declare the kind (# kind: or --kind) as one of {', '.join(KINDS)}"
                          + (f", not {kind!r}" if kind else ""))
-    if not rows:
+    if table.names is None:
         raise ValueError(f"{where}: no column names row (time, then the measured columns)")
-    line, names = rows[0]
-    names = [ALIASES.get(h.strip(), h.strip()) for h in names]
+    line = table.names_line
+    names = [ALIASES.get(h.strip(), h.strip()) for h in table.names]
     quantity = KINDS[kind]
     allowed = COLUMNS[quantity]
     if names[0] != "time":
@@ -190,30 +315,22 @@ def read_csv(path: str | Path, given: dict[str, str] | None = None,
     if sign not in SIGNS[sign_kind]:
         raise ValueError(f"{where}: declare the sign convention (# sign: or --sign) as one of "
                          f"{', '.join(SIGNS[sign_kind])}" + (f", not {sign!r}" if sign else ""))
-    if len(rows) < 3:
+    if table.data_rows < 2:
         raise ValueError(f"{where}: needs at least two data rows")
-    data = np.empty((len(rows) - 1, len(names)))
-    for i, (line, row) in enumerate(rows[1:]):
-        if len(row) != len(names):
-            raise ValueError(f"{where}, line {line}: {len(row)} fields, the column names row has {len(names)}")
-        try:
-            data[i] = [float(c) if c.strip() else math.nan for c in row]
-        except ValueError:
-            raise ValueError(f"{where}, line {line}: not a number in {','.join(row)!r}") from None
-        if not math.isfinite(data[i, 0]):
-            raise ValueError(f"{where}, line {line}: time must be a finite number")
-        if i and data[i, 0] <= data[i - 1, 0]:
-            raise ValueError(f"{where}, line {line}: time {data[i, 0]:g} does not increase "
-                             f"(previous {data[i - 1, 0]:g})")
-        if np.isinf(data[i, 1:]).any():
-            raise ValueError(f"{where}, line {line}: values must be finite")
-    time = data[:, 0] * UNITS["time"][units["time"]]
-    columns = {h: data[:, j + 1] * UNITS[_quantity_of(h)][units[_quantity_of(h)]] * SIGNS[sign_kind][sign]
-               for j, h in enumerate(names[1:])}
+    if table.error is not None:
+        raise ValueError(f"{where}, {table.error}")
+    time = table.columns[0]
+    if UNITS["time"][units["time"]] != 1.0:
+        time *= UNITS["time"][units["time"]]  # in place: the arrays are the only copy of the data
+    columns = {}
+    for h, v in zip(names[1:], table.columns[1:]):
+        factor = UNITS[_quantity_of(h)][units[_quantity_of(h)]] * SIGNS[sign_kind][sign]
+        if factor != 1.0:
+            v *= factor
+        columns[h] = v
     if all(np.isnan(v).all() for v in columns.values()):
         raise ValueError(f"{where}: no measured values")
-    out = Measured(kind, time, columns, units, sign, file_name=path.name,
-                   sha256=hashlib.sha256(path.read_bytes()).hexdigest())
+    out = Measured(kind, time, columns, units, sign, file_name=path.name, sha256=_sha256(path))
     _finish(out, meta, where)
     return out
 
@@ -226,10 +343,16 @@ _AT2_UNITS = {"G": "g", "CM/S/S": "cm/s2", "CM/S^2": "cm/s2", "CM/SEC/SEC": "cm/
 def read_at2(path: str | Path, given: dict[str, str] | None = None) -> Measured:
     """A PEER NGA .AT2 accelerogram as a ground-acceleration measurement (m/s^2)."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"measured file {path} does not exist")
+    _check_file(path)
     where = str(path)
-    lines = path.read_text(errors="replace").splitlines()
+    raw = path.read_bytes()
+    lines = re.split(r"\r\n|\r|\n", decode_text(raw))  # a Latin-1 station name is read as such
+    if lines and not lines[-1].strip():
+        lines.pop()
+    for n, text in enumerate(lines[:4], start=1):
+        bad = _not_text(where, n, text)
+        if bad:
+            raise bad
     if len(lines) < 5:
         raise ValueError(f"{where}: an .AT2 file has four header lines and then values")
     m = re.search(r"UNITS\s+OF\s+(\S+)", lines[2], re.I)
@@ -248,7 +371,7 @@ def read_at2(path: str | Path, given: dict[str, str] | None = None) -> Measured:
             try:
                 v = float(item)
             except ValueError:
-                raise ValueError(f"{where}, line {n}: not a number: {item!r}") from None
+                raise (_not_text(where, n, text) or ValueError(f"{where}, line {n}: not a number: {item!r}")) from None
             if not math.isfinite(v):
                 raise ValueError(f"{where}, line {n}: values must be finite")
             values.append(v)
@@ -263,7 +386,7 @@ def read_at2(path: str | Path, given: dict[str, str] | None = None) -> Measured:
         raise ValueError(f"{where}: --sign must be one of {', '.join(SIGNS['motion'])} for an accelerogram")
     a = np.asarray(values) * UNITS["acceleration"][unit] * SIGNS["motion"][meta["sign"]]
     out = Measured(meta["kind"], dt * np.arange(npts), {"acceleration": a}, {"time": "s", "acceleration": unit},
-                   meta["sign"], file_name=path.name, sha256=hashlib.sha256(path.read_bytes()).hexdigest())
+                   meta["sign"], file_name=path.name, sha256=hashlib.sha256(raw).hexdigest())
     _finish(out, meta, where)
     return out
 
@@ -285,7 +408,7 @@ def _finish(out: Measured, meta: dict[str, str], where: str) -> None:
     if meta.get("uncertainty"):
         out.uncertainty = parse_uncertainty(meta["uncertainty"], where)
     for name, v in out.columns.items():
-        top = float(np.nanmax(np.abs(v)))
+        top = max(-float(np.fmin.reduce(v)), float(np.fmax.reduce(v)))  # max |v|, NaN ignored, no copy
         if name.endswith(".theta") and top > math.pi / 2:
             raise ValueError(f"{where}: |{name}| reaches {top:.3g} rad, beyond a fallen block (pi/2): "
                              f"are the units right (declared {out.units.get('theta')})?")

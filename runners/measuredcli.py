@@ -165,7 +165,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from db.catalogue import block_parameters
-    from runners.calibrate import calibrate
+    from runners.calibrate import PARAMETER_NAMES, assess, calibrate
     from runners.compare import decay_from_peaks, decay_from_rotation
 
     factory = open_database(args.db)
@@ -182,16 +182,29 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         decay = (decay_from_peaks(t, th) if m.kind == "peaks" else
                  decay_from_rotation(t, th, m.uncertainty_angle or 0.0))
         sig = (m.uncertainty_angle, m.uncertainty_time)
+        time_unit = (m.units or {}).get("time")
         block_fields = {c.key: getattr(block, c.key) for c in Block.__table__.columns if c.key != "id"}
+    where = f"measurement {args.measurement}, block {block_fields['name']}, law {args.law}"
     with RockingFMU(fmu_path_from(args.fmu)) as fmu:
-        fit = calibrate(fmu, {**fmu.defaults(), **base}, decay, args.law, *sig)
-    name = {"constant": "eta", "modified": "k", "correction": "correction factor"}[args.law]
+        try:
+            fit = calibrate(fmu, {**fmu.defaults(), **base}, decay, args.law, *sig)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+    name = PARAMETER_NAMES[args.law]
     text = (f"{name} = {fit.value:.4f}, 95% interval [{fit.low:.4f}, {fit.high:.4f}] "
             f"(theta0 {fit.theta0:.4f} rad, chi2/dof {fit.chi2_per_dof:.3g}, {fit.dof} dof, "
             f"{fit.evaluations} simulations"
             + ("; uncertainty not stated, seed 000's 0.5 deg and 0.1 s assumed" if fit.sigma_assumed else "") + ")")
+    problems, why = assess(fit, decay, time_unit)
+    verdict = (f"the fit is poor ({name} = {fit.value:.4g}, 95% interval [{fit.low:.4g}, {fit.high:.4g}]: "
+               f"{', '.join(problems)})" + (f": {why}" if why else "")) if problems else ""
+    if problems and not args.accept_poor_fit:
+        raise ValueError(f"{where}: {verdict}; " + ("use --accept-poor-fit to report it anyway" if args.no_store else
+                                                    "not stored (use --accept-poor-fit to store it)"))
     out = {"measurement": args.measurement, "law": args.law, "value": fit.value, "low": fit.low, "high": fit.high,
-           "theta0": fit.theta0, "chi2_per_dof": fit.chi2_per_dof, "dof": fit.dof}
+           "theta0": fit.theta0, "chi2_per_dof": fit.chi2_per_dof, "dof": fit.dof, "poor_fit": problems}
+    if problems:
+        text += f"; accepted with --accept-poor-fit although {verdict}"
     if not args.no_store:
         fields = dict(block_fields)
         fields["restitution_law"] = {"constant": "constant", "modified": "modified", "correction": "housner"}[args.law]
@@ -218,13 +231,17 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     """A stored run written as a measured file, optionally with reading noise: a synthetic
     experiment with known parameters, for checking import, compare and calibrate."""
+    if not (args.noise_theta >= 0 and args.noise_time >= 0 and math.isfinite(args.noise_theta + args.noise_time)):
+        raise ValueError("--noise-theta and --noise-time must be finite and >= 0")
+    if args.every < 1:
+        raise ValueError(f"--every must be at least 1 (got {args.every})")
+    if args.max_peaks < 1:
+        raise ValueError(f"--max-peaks must be at least 1 (got {args.max_peaks}): it is how many peaks to keep")
     factory = open_database(args.db)
     with factory() as session:
         run, t, cols, stored_events = load_run_series(session, args.run)
         events = [Event.from_dict(e) for e in stored_events]
         block, scene_name = args.block, run.scene.name
-    if args.noise_theta < 0 or args.noise_time < 0 or args.every < 1:
-        raise ValueError("--noise-theta and --noise-time must be >= 0 and --every >= 1")
     rng = np.random.default_rng(args.seed)
     if args.kind == "peaks":
         peaks = [e for e in events if e.kind == "peak"][: args.max_peaks]
@@ -287,13 +304,17 @@ def add_parser(sub) -> None:
     exp.add_argument("--noise-time", type=float, default=0.0, help="standard deviation of time noise (s)")
     exp.add_argument("--seed", type=int, default=0, help="random seed of the noise")
     exp.add_argument("--every", type=int, default=1, help="rotation: keep every Nth output sample")
-    exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many")
+    exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many (at least 1)")
     exp.set_defaults(func=cmd_export)
     cal = sub.add_parser("calibrate", help="fit the restitution to a measured free-rocking decay")
     cal.add_argument("measurement", type=int, help="measurement id (a peak table or rotation history)")
     cal.add_argument("--law", required=True, choices=["constant", "modified", "correction"],
                      help="fit eta (constant), k (modified) or Housner's correction factor")
     cal.add_argument("--no-store", action="store_true", help="do not store the calibrated block")
+    cal.add_argument("--accept-poor-fit", action="store_true",
+                     help="report and store a fit that fails the checks (chi2/dof above 5, the parameter at a bound "
+                          "of the search, an interval outside the physical range: docs/measured.md); refused "
+                          "otherwise")
     cal.add_argument("--json", action="store_true")
     cal.set_defaults(func=cmd_calibrate)
     for p in (imp, cmp_, cal, exp):

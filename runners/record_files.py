@@ -15,6 +15,7 @@ the FMU can read it: one file per content (its sha256), written once.
 
 from __future__ import annotations
 
+import array
 import hashlib
 import math
 import os
@@ -109,19 +110,27 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
     path = Path(path)
     where = f"record file '{path}'"
     try:
-        raw = path.read_bytes()
+        f = path.open(encoding="latin-1", newline="")  # one character per byte; lines end in LF, CR LF or CR
     except IsADirectoryError:
         raise RecordFileError(f"{where} is not a regular file") from None
     except OSError as exc:
         raise RecordFileError(f"{where} cannot be opened: {exc.strerror or exc}") from None
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    rows: list[list[float]] = []
+    with f:
+        return _read_lines(f, where)
+
+
+def _read_lines(f, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """read_record_file's reading, streamed: the samples go straight into float64 arrays (8 bytes a
+    value), so a record of millions of samples takes its size in memory, not a Python list per line."""
+    cols = [array.array("d") for _ in range(3)]
+    count = 0
     columns, first_line = 0, 0
-    for n, line in enumerate(re.split(rb"\r\n|\r|\n", raw), start=1):
-        if b"\0" in line:
+    for n, line in enumerate(f, start=1):
+        if n == 1 and line.startswith("\xef\xbb\xbf"):  # a UTF-8 byte-order mark, read as Latin-1
+            line = line[3:]
+        if "\0" in line:
             raise RecordFileError(f"{where}, line {n}: contains a NUL byte: this is not a text record file")
-        text = line.decode("latin-1").strip(_SPACE)
+        text = line.rstrip("\r\n").strip(_SPACE)
         if not text or text.startswith("#"):
             continue
         try:
@@ -152,26 +161,28 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
             if abs(values[j]) > MAX_ACCELERATION:
                 raise RecordFileError(f"{where}, line {n}: |{'horizontal' if j == 1 else 'vertical'} acceleration| "
                                       f"= {abs(values[j]):g} m/s2 exceeds 10 g: are the values in m/s2?")
-        if rows:
-            dt = values[0] - rows[-1][0]
+        if count:
+            dt = values[0] - cols[0][-1]
             if not dt > 0:
                 raise RecordFileError(f"{where}, line {n}: time {_shortest(values[0])} s does not increase "
-                                      f"(previous sample {_shortest(rows[-1][0])} s)")
+                                      f"(previous sample {_shortest(cols[0][-1])} s)")
             if dt < MIN_INTERVAL:
                 raise RecordFileError(f"{where}, line {n}: sample interval {dt:g} s is below {MIN_INTERVAL:g} s: "
                                       "absurd sampling (is time in seconds?)")
             if dt > MAX_INTERVAL:
                 raise RecordFileError(f"{where}, line {n}: sample interval {dt:g} s is above {MAX_INTERVAL:g} s: "
                                       "absurd sampling (is time in seconds?)")
-        rows.append(values)
-        if len(rows) > MAX_SAMPLES:
+        for a, v in zip(cols, values):
+            a.append(v)
+        count += 1
+        if count > MAX_SAMPLES:
             raise RecordFileError(f"{where} has more than {MAX_SAMPLES} samples (the most a record may have)")
-    if not rows:
+    if not count:
         raise RecordFileError(f"{where} has no samples (expected lines of: time in s, horizontal acceleration in m/s2)")
-    if len(rows) < 2:
+    if count < 2:
         raise RecordFileError(f"{where} has only one sample: a record needs at least two")
-    data = np.array(rows)
-    return data[:, 0].copy(), data[:, 1].copy(), (data[:, 2].copy() if columns == 3 else None)
+    t, ah, av = (np.frombuffer(a, dtype=float) for a in cols)  # no copy
+    return t, ah, (av if columns == 3 else None)
 
 
 def samples_sha256(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None) -> str:
