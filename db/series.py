@@ -10,8 +10,17 @@ import numpy as np
 def pack(time: np.ndarray, columns: dict[str, np.ndarray]) -> tuple[list[str], int, bytes]:
     """(names, n_samples, blob): time first, then the columns in the given order, bit for bit."""
     names = list(columns)
-    data = np.vstack([np.asarray(time, "<f8")] + [np.asarray(columns[n], "<f8") for n in names])
-    return names, int(data.shape[1]), zlib.compress(data.tobytes(), 6)
+    n = len(time)
+    z = zlib.compressobj(6)
+    parts = []
+    for col in [time] + [columns[k] for k in names]:  # column by column, in slices: no copy of the whole table
+        a = np.asarray(col, "<f8")
+        if a.shape != (n,):
+            raise ValueError(f"every column needs one value per time ({n}), got shape {a.shape}")
+        for i in range(0, n, 1 << 18):
+            parts.append(z.compress(np.ascontiguousarray(a[i:i + (1 << 18)])))
+    parts.append(z.flush())
+    return names, n, b"".join(parts)
 
 
 def unpack(names: list[str], n_samples: int, blob: bytes) -> tuple[np.ndarray, dict[str, np.ndarray]]:
