@@ -57,26 +57,25 @@ def tolerance(text: str) -> float:
     return x
 
 
-def count(text: str) -> int:
-    """A whole number >= 1 (workers, repeats, chunk sizes, limits)."""
+def _whole(text: str, low: int, high: int | None, what: str) -> int:
     try:
         n = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
+        raise argparse.ArgumentTypeError(f"{text!r} is not {what} (a whole number)") from None
+    if n < low or (high is not None and n > high):
+        span = f"at least {low}" if high is None else f"from {low} to {high}"
+        raise argparse.ArgumentTypeError(f"{text!r} is not {what}: expected a whole number {span}")
     return n
+
+
+def count(text: str) -> int:
+    """A whole number >= 1 (workers, repeats, chunk sizes, limits)."""
+    return _whole(text, 1, None, "a count")
 
 
 def db_id(text: str) -> int:
-    """A database id: a whole number in 1 .. 2**63 - 1."""
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an id (a whole number)") from None
-    if not 1 <= n <= MAX_ID:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an id: ids are whole numbers from 1 to {MAX_ID}")
-    return n
+    """A database id: a whole number in 1 .. 2**63 - 1 (a larger number names no row)."""
+    return _whole(text, 1, MAX_ID, "an id")
 
 
 def output_file(text: str):
