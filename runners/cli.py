@@ -33,6 +33,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene.step, scene.step_given = args.step, True
     measured = _measured(args.measured, args.rrd)  # fail on a bad file before simulating
     factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
+    if factory is not None:
+        from db.session import require_writable
+
+        require_writable(factory, "or run with --no-store")  # else the run would be lost after it ran
     fmu_path = fmu_path_from(args.fmu)
     if args.record is not None and args.motion is not None:
         raise ValueError("give --record or --motion, not both")
@@ -392,6 +396,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from db.session import database_failure
+
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
@@ -402,6 +410,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError) as exc:
         print(f"error: {exc}".splitlines()[0], file=sys.stderr)
+        return 2
+    except SQLAlchemyError as exc:  # a database failure the command did not foresee: one line, not a traceback
+        print(f"error: {database_failure(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
