@@ -1,4 +1,4 @@
-"""``runners db init | list | show``: the database from the command line."""
+"""``runners db init | list | show | import-unsaved``: the database from the command line."""
 
 from __future__ import annotations
 
@@ -93,8 +93,24 @@ def cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_import_unsaved(args: argparse.Namespace) -> int:
+    from db.store import read_unsaved, store_pending, stored_already
+
+    pending = read_unsaved(args.file)
+    factory = open_database(args.db, write=True)
+    with factory.begin() as session:
+        done = stored_already(session, pending)
+        run_id = done if done is not None else store_pending(session, pending).id
+    what = f"{pending['scene']['name']}, {pending['model']}, run at {pending['created_at']}"
+    if done is not None:
+        print(f"{args.file} is stored already: run {run_id} ({what}) in {_url(factory)}")
+    else:
+        print(f"stored run {run_id} ({what}) from {args.file} in {_url(factory)}; the file can now be deleted")
+    return 0
+
+
 def add_parser(sub) -> None:
-    dbp = sub.add_parser("db", help="the experiment database: init, list, show")
+    dbp = sub.add_parser("db", help="the experiment database: init, list, show, import-unsaved")
     dsub = dbp.add_subparsers(dest="db_command", required=True)
     init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
     init.set_defaults(func=cmd_init)
@@ -107,5 +123,9 @@ def add_parser(sub) -> None:
     show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement"])
     show.add_argument("key")
     show.set_defaults(func=cmd_show)
-    for p in (init, lst, show):
+    imp = dsub.add_parser("import-unsaved", help="store a run that could not be stored when it ran "
+                                                 "(the rocking-unsaved-*.json file the error named)")
+    imp.add_argument("file", help="rocking-unsaved-*.json")
+    imp.set_defaults(func=cmd_import_unsaved)
+    for p in (init, lst, show, imp):
         p.add_argument("--db", help=DB_HELP)

@@ -9,14 +9,16 @@ import shutil
 import sqlite3
 import subprocess
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 import pytest
-from sqlalchemy import func, select
+from sqlalchemy import event, func, select
+from sqlalchemy.pool import Pool
 
 from conftest import run_cli
-from db.schema import Run
-from db.session import open_database
+from db.schema import Run, RunSeries, RunSummary
+from db.session import integrity_ok, open_database
 
 ROOT = Path(__file__).resolve().parent.parent
 FREE = str(ROOT / "examples" / "free_rocking.toml")
@@ -230,6 +232,73 @@ def test_an_old_database_on_a_read_only_mount_says_it_cannot_be_migrated(tmp_pat
     p = read_only.run("db", "list", "runs", db=path, fmu_path=fmu_path)
     one_line_error(p, str(path), "revision 0005", "cannot be migrated")
     assert path.read_bytes() == before
+
+
+# --- 5. and 6. storing fails after the run: the run is kept in a file, the database unchanged -------------
+
+def test_a_full_disk_while_storing_is_one_line_and_keeps_the_stored_runs(tmp_path, fmu_path, monkeypatch):
+    """SQLITE_FULL as a full disk gives it: every connection may not grow the file (max_page_count
+    is a per-connection setting, so it is set as each one opens)."""
+    db = stored_db(tmp_path / "full.db", fmu_path, runs=2)
+    monkeypatch.chdir(tmp_path)
+
+    def no_growth(dbapi_connection, _record):
+        dbapi_connection.execute("PRAGMA max_page_count = 1")  # never below the current size: no new pages
+
+    event.listen(Pool, "connect", no_growth)
+    try:
+        p = run_cli("simulate", FREE, db=db, fmu_path=fmu_path)
+    finally:
+        event.remove(Pool, "connect", no_growth)
+    err = one_line_error(p, "the disk is full", "the run was not stored", "runners db import-unsaved")
+    kept = list(tmp_path.glob("rocking-unsaved-*.json"))
+    assert len(kept) == 1 and str(kept[0]) in err
+    assert count_runs(db) == 2 and integrity_ok(open_database(db).kw["bind"])
+
+
+def test_a_run_that_finds_the_database_locked_is_kept_and_imported_later(tmp_path, fmu_path, monkeypatch):
+    db = stored_db(tmp_path / "locked.db", fmu_path)
+    reference = stored_db(tmp_path / "reference.db", fmu_path)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ROCKING_DB_BUSY_TIMEOUT", "1")
+    holder = sqlite3.connect(db, isolation_level=None)
+    holder.execute("BEGIN EXCLUSIVE")  # another process's long write
+    try:
+        p = run_cli("simulate", FREE, db=db, fmu_path=fmu_path)
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    err = one_line_error(p, "is locked by another process", "waited 1 s", "runners db import-unsaved")
+    (kept,) = tmp_path.glob("rocking-unsaved-*.json")
+    assert str(kept) in err and count_runs(db) == 1
+    imported_at = datetime.now(timezone.utc).replace(tzinfo=None)  # SQLite gives naive UTC times back
+    p = run_cli("db", "import-unsaved", str(kept), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "stored run 2" in p.stdout, p.stderr
+    p = run_cli("db", "import-unsaved", str(kept), db=db, fmu_path=fmu_path)  # a second time: nothing new
+    assert p.returncode == 0 and "stored already: run 2" in p.stdout, p.stderr
+    assert count_runs(db) == 2
+    with open_database(db)() as s, open_database(reference)() as r:  # what storing at once writes, bit for bit
+        run, ref = s.get(Run, 2), r.get(Run, 1)
+        assert s.get(RunSeries, 2).data == r.get(RunSeries, 1).data
+        assert s.get(RunSeries, 2).events == r.get(RunSeries, 1).events
+        cols = [c.key for c in RunSummary.__table__.columns if c.key != "run_id"]
+        assert [getattr(run.summary, c) for c in cols] == [getattr(ref.summary, c) for c in cols]
+        assert (run.model, run.method, run.fmu_sha256, run.scene.parameters, run.scene.source) == \
+               (ref.model, ref.method, ref.fmu_sha256, ref.scene.parameters, ref.scene.source)
+        assert run.created_at < imported_at  # when it ran, not when it was imported
+
+
+def test_a_bad_busy_timeout_is_one_line(tmp_path, fmu_path, monkeypatch):
+    monkeypatch.setenv("ROCKING_DB_BUSY_TIMEOUT", "soon")
+    one_line_error(run_cli("db", "list", "runs", db=str(tmp_path / "x.db"), fmu_path=fmu_path),
+                   "ROCKING_DB_BUSY_TIMEOUT")
+
+
+def test_importing_a_file_that_is_not_an_unsaved_run_is_one_line(tmp_path, fmu_path):
+    path = tmp_path / "other.json"
+    path.write_text('{"a": 1}')
+    one_line_error(run_cli("db", "import-unsaved", str(path), db=str(tmp_path / "x.db"), fmu_path=fmu_path),
+                   "is not a file of an unsaved run")
 
 
 # --- 7. a schema that does not match its revision -----------------------------------------------------------
