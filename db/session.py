@@ -67,12 +67,14 @@ def busy_timeout() -> float:
     return value
 
 
-def _sqlite_pragmas(busy_ms: int, wal: bool):
+def _sqlite_pragmas(busy_ms: int, readonly: bool):
     def on_connect(dbapi_connection, _record) -> None:
         cur = dbapi_connection.cursor()
         cur.execute("PRAGMA foreign_keys=ON")
         cur.execute(f"PRAGMA busy_timeout={busy_ms}")  # ms: concurrent writers wait instead of failing
-        if wal:  # not on a read-only connection, which must not write even the journal mode
+        if readonly:  # no statement may write, not even the journal mode
+            cur.execute("PRAGMA query_only=ON")
+        else:
             cur.execute("PRAGMA journal_mode=WAL")
         cur.close()
     return on_connect
@@ -85,7 +87,7 @@ def make_engine(url: str | URL, *, readonly: bool = False) -> Engine:
         raise DatabaseError(f"cannot use database URL {str(url)!r}: {exc}") from None
     if engine.dialect.name == "sqlite":
         busy_ms = min(round(busy_timeout() * 1000), 2 ** 31 - 1)
-        event.listen(engine, "connect", _sqlite_pragmas(busy_ms, wal=not readonly))
+        event.listen(engine, "connect", _sqlite_pragmas(busy_ms, readonly))
     return engine
 
 
@@ -185,15 +187,21 @@ def _unwritable(path: str) -> str | None:
 
 
 def _readonly_engine(path: str) -> Engine:
-    """A connection that never writes: SQLite's read-only mode, or, when the folder cannot hold
-    the -shm file a WAL reader needs and there is no -wal file to read, the file as immutable."""
-    folder = os.path.dirname(os.path.abspath(path))
-    wal = Path(f"{path}-wal")
-    immutable = (not os.access(folder, os.W_OK | os.X_OK) and not Path(f"{path}-shm").exists()
-                 and not (wal.is_file() and wal.stat().st_size > 0))
-    mode = {"immutable": "1"} if immutable else {"mode": "ro"}
-    engine = make_engine(URL.create("sqlite", database=f"file:{quote(path)}", query={**mode, "uri": "true"}),
-                         readonly=True)
+    """A connection that never writes. A file that could be written is opened as usual with
+    every statement refused (query_only), so that the last connection still tidies up the
+    -wal and -shm files; one that cannot is opened in SQLite's read-only mode, or, when its
+    folder cannot hold the -shm file a WAL reader needs and there is no -wal file to read,
+    as immutable."""
+    if _unwritable(path) is None:
+        url = URL.create("sqlite", database=path)
+    else:
+        folder = os.path.dirname(os.path.abspath(path))
+        wal = Path(f"{path}-wal")
+        immutable = (not os.access(folder, os.W_OK | os.X_OK) and not Path(f"{path}-shm").exists()
+                     and not (wal.is_file() and wal.stat().st_size > 0))
+        mode = {"immutable": "1"} if immutable else {"mode": "ro"}
+        url = URL.create("sqlite", database=f"file:{quote(path)}", query={**mode, "uri": "true"})
+    engine = make_engine(url, readonly=True)
     _READ_ONLY[engine] = path
     return engine
 

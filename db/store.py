@@ -226,7 +226,14 @@ def read_unsaved(path: str | Path) -> dict[str, Any]:
     if p.get("version") != UNSAVED_VERSION:
         raise ValueError(f"{path} is an unsaved run of format version {p.get('version')}; this tool reads version "
                          f"{UNSAVED_VERSION}")
+    missing = sorted(_UNSAVED_KEYS - set(p)) or sorted({"name", "parameters", "source"} - set(p["scene"] or {}))
+    if missing:
+        raise ValueError(f"{path} is not a whole unsaved run: it lacks {', '.join(missing)}")
     return p
+
+
+_UNSAVED_KEYS = {"created_at", "code_version", "fmu_sha256", "scene", "merged", "summary", "model", "method",
+                 "stop_time", "wall_time", "recording", "record", "series"}
 
 
 def store_or_keep(factory: sessionmaker, p: dict[str, Any]) -> int:
@@ -240,6 +247,8 @@ def store_or_keep(factory: sessionmaker, p: dict[str, Any]) -> int:
             return store_pending(session, p).id
     except SQLAlchemyError as exc:
         reason = database_failure(exc, database_name(engine))
+    except Exception as exc:  # whatever went wrong, the computed run is not lost
+        reason = f"storing the run in {database_name(engine)} failed ({type(exc).__name__}: {exc})".splitlines()[0]
     path_db = sqlite_file(engine)
     target = os.path.abspath(path_db) if path_db is not None else display_url(engine)  # as --db takes it
     try:

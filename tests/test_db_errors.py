@@ -234,6 +234,18 @@ def test_an_old_database_on_a_read_only_mount_says_it_cannot_be_migrated(tmp_pat
     assert path.read_bytes() == before
 
 
+def test_read_commands_leave_no_files_next_to_a_writable_database(tmp_path, fmu_path):
+    """Opened read-only (query_only), a writable database still has its -wal and -shm files
+    tidied away when the command ends, as a writing command does."""
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path)}
+    path = tmp_path / "runs.db"
+    for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "show", "run", "1")):
+        p = subprocess.run([sys.executable, "-m", "runners.cli", *args, "--db", str(path)], capture_output=True,
+                           text=True, env=env, cwd=tmp_path)
+        assert p.returncode == 0, p.stderr
+        assert sorted(f.name for f in tmp_path.iterdir()) == ["runs.db", "runs.db.migrate-lock"], args
+
+
 # --- 5. and 6. storing fails after the run: the run is kept in a file, the database unchanged -------------
 
 def test_a_full_disk_while_storing_is_one_line_and_keeps_the_stored_runs(tmp_path, fmu_path, monkeypatch):
@@ -292,6 +304,14 @@ def test_a_bad_busy_timeout_is_one_line(tmp_path, fmu_path, monkeypatch):
     monkeypatch.setenv("ROCKING_DB_BUSY_TIMEOUT", "soon")
     one_line_error(run_cli("db", "list", "runs", db=str(tmp_path / "x.db"), fmu_path=fmu_path),
                    "ROCKING_DB_BUSY_TIMEOUT")
+
+
+def test_importing_an_unsaved_run_that_lacks_a_part_is_one_line(tmp_path, fmu_path):
+    path = tmp_path / "rocking-unsaved-cut.json"
+    path.write_text(json.dumps({"format": "rocking-unsaved-run", "version": 1, "created_at": "2026-01-01T00:00:00"}))
+    db = tmp_path / "x.db"
+    one_line_error(run_cli("db", "import-unsaved", str(path), db=str(db), fmu_path=fmu_path),
+                   "is not a whole unsaved run", "scene")
 
 
 def test_importing_a_file_that_is_not_an_unsaved_run_is_one_line(tmp_path, fmu_path):
