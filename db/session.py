@@ -1,25 +1,41 @@
 """Engines and sessions: SQLite by default (rocking.db in the working folder, WAL mode,
 foreign keys on), any SQLAlchemy URL through --db or ROCKING_DB; the schema is brought
-to the newest Alembic revision on opening."""
+to the newest Alembic revision on opening.
+
+Opening checks the database before anything writes to it: a file that is not an SQLite
+database or was cut short, a schema from a newer version of the tool (an unknown Alembic
+revision), and a schema at the newest revision that lacks a table or column are one-line
+errors (DatabaseError), and the file is left as it was. A database that cannot be written
+(read-only file, folder or mount) is opened read-only and never migrated; commands that
+write call require_writable first, so that they fail before doing any work."""
 
 from __future__ import annotations
 
 import fcntl
+import math
 import os
+import weakref
 from contextlib import contextmanager
+from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
+from urllib.parse import quote
 
 from alembic import command
 from alembic.config import Config
 from alembic.migration import MigrationContext
 from alembic.script import ScriptDirectory
-from sqlalchemy import create_engine, event, inspect, text
+from sqlalchemy import URL, create_engine, event, inspect, text
 from sqlalchemy.engine import Engine
-from sqlalchemy.exc import ArgumentError, OperationalError
+from sqlalchemy.exc import ArgumentError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 
 DEFAULT_URL = "sqlite:///rocking.db"
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
+MAX_ID = 2 ** 63 - 1  # ids are 64-bit integers at most (SQLite's INTEGER); larger ones name no row
+BUSY_TIMEOUT = 60.0  # s a writer waits for another process's lock (ROCKING_DB_BUSY_TIMEOUT)
+SQLITE_MAGIC = b"SQLite format 3\x00"
+_READ_ONLY: weakref.WeakKeyDictionary[Engine, str] = weakref.WeakKeyDictionary()  # our read-only engines: their file
 
 
 class DatabaseError(RuntimeError):
@@ -36,22 +52,162 @@ def database_url(arg: str | None = None) -> str:
     return url if "://" in url else f"sqlite:///{url}"
 
 
-def _sqlite_pragmas(dbapi_connection, _record) -> None:
-    cur = dbapi_connection.cursor()
-    cur.execute("PRAGMA foreign_keys=ON")
-    cur.execute("PRAGMA journal_mode=WAL")
-    cur.execute("PRAGMA busy_timeout=60000")  # ms: concurrent writers wait instead of failing
-    cur.close()
+def busy_timeout() -> float:
+    """Seconds an SQLite writer waits for a lock another process holds before giving up:
+    ROCKING_DB_BUSY_TIMEOUT, else 60."""
+    raw = os.environ.get("ROCKING_DB_BUSY_TIMEOUT", "").strip()
+    if not raw:
+        return BUSY_TIMEOUT
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise DatabaseError(f"ROCKING_DB_BUSY_TIMEOUT must be a number of seconds (0 or more), got {raw!r}")
+    return value
 
 
-def make_engine(url: str) -> Engine:
+def _sqlite_pragmas(busy_ms: int, readonly: bool):
+    def on_connect(dbapi_connection, _record) -> None:
+        cur = dbapi_connection.cursor()
+        cur.execute("PRAGMA foreign_keys=ON")
+        cur.execute(f"PRAGMA busy_timeout={busy_ms}")  # ms: concurrent writers wait instead of failing
+        if readonly:  # no statement may write, not even the journal mode
+            cur.execute("PRAGMA query_only=ON")
+        else:
+            cur.execute("PRAGMA journal_mode=WAL")
+        cur.close()
+    return on_connect
+
+
+def make_engine(url: str | URL, *, readonly: bool = False) -> Engine:
     try:
         engine = create_engine(url)
     except (ArgumentError, ImportError, ValueError) as exc:
-        raise DatabaseError(f"cannot use database URL {url!r}: {exc}") from None
+        raise DatabaseError(f"cannot use database URL {str(url)!r}: {exc}") from None
     if engine.dialect.name == "sqlite":
-        event.listen(engine, "connect", _sqlite_pragmas)
+        busy_ms = min(round(busy_timeout() * 1000), 2 ** 31 - 1)
+        event.listen(engine, "connect", _sqlite_pragmas(busy_ms, readonly))
     return engine
+
+
+class RockingSession(Session):
+    """A Session whose get() finds nothing for an id no row can have: beyond the 64-bit
+    integers ids are stored as, which SQLite cannot even bind (runners db show run 1e30)."""
+
+    def get(self, entity, ident, **kw):
+        if isinstance(ident, int) and not isinstance(ident, bool) and not -MAX_ID - 1 <= ident <= MAX_ID:
+            return None
+        return super().get(entity, ident, **kw)
+
+
+# ---------------------------------------------------------------------------------------------
+# SQLite files: what they are, whether they can be written, and opening them read-only
+
+
+def sqlite_file(engine: Engine) -> str | None:
+    """The SQLite file behind an engine of ours (read-only ones included), as given; None for
+    other databases, in-memory ones and URLs that are already SQLite URIs."""
+    if engine in _READ_ONLY:
+        return _READ_ONLY[engine]
+    url = engine.url
+    if engine.dialect.name != "sqlite" or not url.database or url.database == ":memory:" or url.query.get("uri"):
+        return None
+    return url.database
+
+
+def display_url(engine: Engine) -> str:
+    """The database's URL, password hidden (a read-only SQLite file's as if it were not)."""
+    path = sqlite_file(engine)
+    return f"sqlite:///{path}" if path is not None else engine.url.render_as_string(hide_password=True)
+
+
+def database_name(engine: Engine) -> str:
+    """The database in a message: the SQLite file, else the URL (password hidden)."""
+    path = sqlite_file(engine)
+    return path if path is not None else engine.url.render_as_string(hide_password=True)
+
+
+def _check_file(path: str) -> bool:
+    """True if the file holds a database; False if there is none yet (no file, or an empty one,
+    which SQLite takes as a new database). A file that is not an SQLite database, or one cut
+    short (fewer bytes than its header says, or not whole pages), is a DatabaseError: the
+    file is only read here, so it is left as it was."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise DatabaseError(f"{path} is a folder, not an SQLite database file")
+        size = p.stat().st_size
+        if size == 0:
+            return False
+        with p.open("rb") as fh:
+            head = fh.read(100)
+    except FileNotFoundError:
+        return False
+    except OSError as exc:
+        raise DatabaseError(f"cannot read the database {path}: {exc.strerror}") from None
+    if not head.startswith(SQLITE_MAGIC[:len(head)]) or len(head) < len(SQLITE_MAGIC):
+        raise DatabaseError(f"{path} is not an SQLite database (it does not start as one); it was left untouched")
+    if len(head) < 100:
+        raise DatabaseError(f"the database {path} is damaged: it is cut short ({size} bytes, less than its "
+                            "100-byte header); it was left untouched")
+    page = int.from_bytes(head[16:18], "big")
+    page = 65536 if page == 1 else page
+    if page < 512 or page & (page - 1):
+        raise DatabaseError(f"the database {path} is damaged: its header is invalid (page size {page}); "
+                            "it was left untouched")
+    if size % page:
+        raise DatabaseError(f"the database {path} is damaged: it is cut short ({size} bytes, not a whole number "
+                            f"of {page}-byte pages); it was left untouched")
+    pages = int.from_bytes(head[28:32], "big")
+    wal = Path(f"{path}-wal")
+    pending_wal = wal.is_file() and wal.stat().st_size > 0  # a checkpoint may have been cut off: SQLite recovers
+    if pages and head[24:28] == head[92:96] and size < pages * page and not pending_wal:
+        raise DatabaseError(f"the database {path} is damaged: it is cut short ({size} bytes of the "
+                            f"{pages * page} its header announces); it was left untouched")
+    return True
+
+
+def _unwritable(path: str) -> str | None:
+    """Why runs cannot be written to this SQLite file (None if they can): no write permission
+    on the file, or on its folder, where SQLite keeps the -wal and -shm files next to it."""
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        read_only_fs = bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
+    except OSError:
+        read_only_fs = False
+    why = "a read-only file system" if read_only_fs else "no write permission"
+    if os.path.exists(path) and not os.access(path, os.W_OK):
+        return f"the file is read-only ({why})"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        if os.path.exists(path) and all(os.access(f"{path}-{x}", os.W_OK) for x in ("wal", "shm")):
+            return None  # SQLite has the files it needs
+        return f"its folder {folder} is read-only ({why}), and SQLite keeps its -wal and -shm files there"
+    return None
+
+
+def _readonly_engine(path: str) -> Engine:
+    """A connection that never writes. A file that could be written is opened as usual with
+    every statement refused (query_only), so that the last connection still tidies up the
+    -wal and -shm files; one that cannot is opened in SQLite's read-only mode, or, when its
+    folder cannot hold the -shm file a WAL reader needs and there is no -wal file to read,
+    as immutable."""
+    if _unwritable(path) is None:
+        url = URL.create("sqlite", database=path)
+    else:
+        folder = os.path.dirname(os.path.abspath(path))
+        wal = Path(f"{path}-wal")
+        immutable = (not os.access(folder, os.W_OK | os.X_OK) and not Path(f"{path}-shm").exists()
+                     and not (wal.is_file() and wal.stat().st_size > 0))
+        mode = {"immutable": "1"} if immutable else {"mode": "ro"}
+        url = URL.create("sqlite", database=f"file:{quote(path)}", query={**mode, "uri": "true"})
+    engine = make_engine(url, readonly=True)
+    _READ_ONLY[engine] = path
+    return engine
+
+
+# ---------------------------------------------------------------------------------------------
+# the schema: which revision, which tables, and whether this version of the tool can use it
 
 
 def _alembic_config() -> Config:
@@ -60,12 +216,94 @@ def _alembic_config() -> Config:
     return cfg
 
 
+@lru_cache(maxsize=None)
+def _revisions() -> tuple[str, frozenset[str]]:
+    """(newest revision, all revisions) of db/migrations."""
+    script = ScriptDirectory.from_config(_alembic_config())
+    return script.get_current_head(), frozenset(r.revision for r in script.walk_revisions())
+
+
+@dataclass
+class _Schema:
+    revision: str | None
+    tables: dict[str, set[str]] = field(default_factory=dict)  # table -> its columns
+
+
+def _probe(engine: Engine) -> _Schema:
+    """The schema as it is, read without writing."""
+    from db.schema import Base
+
+    with engine.connect() as conn:
+        insp = inspect(conn)
+        names = set(insp.get_table_names())
+        revision = MigrationContext.configure(conn).get_current_revision() if "alembic_version" in names else None
+        ours = {t: {c["name"] for c in insp.get_columns(t)} for t in Base.metadata.tables if t in names}
+    return _Schema(revision, {**{t: set() for t in names}, **ours})
+
+
+def _check(schema: _Schema, where: str) -> bool:
+    """True at the newest revision with every table and column; False if a migration can bring
+    it there (a new or older database); DatabaseError if this version of the tool cannot use it."""
+    from db.schema import Base
+
+    head, known = _revisions()
+    if schema.revision is not None and schema.revision not in known:
+        raise DatabaseError(f"the database {where} was written by a newer version of this tool (schema revision "
+                            f"{schema.revision} is unknown here; the newest known is {head}): upgrade the tool "
+                            "to use it; it was not changed")
+    if schema.revision is None:  # new; or being created by another process (Alembic makes its table first)
+        other = sorted(set(schema.tables) - {"alembic_version"})
+        if other and "alembic_version" not in schema.tables:
+            raise DatabaseError(f"the database {where} is not one of this tool's: it has tables ({', '.join(other[:5])}"
+                                f"{', ...' if len(other) > 5 else ''}) but no schema revision; it was not changed")
+        return False
+    if schema.revision != head:
+        return False
+    missing = [t for t in Base.metadata.tables if t not in schema.tables]
+    if missing:
+        raise DatabaseError(f"the database {where} is damaged: table{'s' if len(missing) > 1 else ''} "
+                            f"{', '.join(missing)} {'are' if len(missing) > 1 else 'is'} missing (schema revision "
+                            f"{head} has {'them' if len(missing) > 1 else 'it'})")
+    for name, table in Base.metadata.tables.items():
+        lacking = [c.name for c in table.columns if c.name not in schema.tables[name]]
+        if lacking:
+            raise DatabaseError(f"the database {where} is damaged: table {name} has no column {', '.join(lacking)} "
+                                f"(schema revision {head} has)")
+    return True
+
+
+def database_failure(exc: BaseException, where: str | None = None, doing: str = "") -> str:
+    """One line saying why a database operation failed (an SQLAlchemy or driver error);
+    `doing` (e.g. "cannot open the database X") prefixes the driver's own words when the
+    failure is none of the usual ones (full, locked, read-only, damaged)."""
+    orig = getattr(exc, "orig", None) or exc
+    msg = (str(orig).strip().splitlines() or [type(orig).__name__])[0]
+    low = msg.lower()
+    db = f"the database {where}" if where else "the database"
+    if "database or disk is full" in low or "no space left" in low or "disk full" in low:
+        return f"the disk is full ({msg})"
+    if "database is locked" in low or "database table is locked" in low:
+        return (f"{db} is locked by another process (waited {busy_timeout():g} s; ROCKING_DB_BUSY_TIMEOUT sets "
+                "how long)")
+    if "readonly database" in low or "read-only" in low:
+        return f"{db} is read-only ({msg})"
+    if "not a database" in low:
+        return f"{db} is not an SQLite database ({msg})"
+    if "malformed" in low or "corrupt" in low:
+        return f"{db} is damaged ({msg})"
+    return f"{doing or f'{db} failed'}: {msg}"
+
+
+def _open_failure(exc: BaseException, where: str) -> DatabaseError:
+    return DatabaseError(database_failure(exc, where, f"cannot open the database {where!r}"))
+
+
 @contextmanager
 def _migration_lock(engine: Engine):
     """Processes opening the same SQLite file for the first time migrate one after the other
     (SQLite's DDL is not transactional through the driver); other databases rely on their own locks."""
-    path = engine.url.database if engine.dialect.name == "sqlite" else None
-    if not path or path == ":memory:":
+    path = sqlite_file(engine)
+    if not path:
         yield
         return
     with open(f"{path}.migrate-lock", "a") as fh:
@@ -76,39 +314,130 @@ def _migration_lock(engine: Engine):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def _at_head(engine: Engine) -> bool:
-    head = ScriptDirectory.from_config(_alembic_config()).get_current_head()
-    with engine.connect() as conn:
-        return MigrationContext.configure(conn).get_current_revision() == head
-
-
 def upgrade(engine: Engine) -> None:
-    """Create or migrate the schema to the newest revision."""
+    """Create or migrate the schema to the newest revision; DatabaseError (nothing written)
+    for a schema from a newer version of the tool, a damaged one, or another program's."""
     cfg = _alembic_config()
+    where = database_name(engine)
+    sqlite = engine.dialect.name == "sqlite"
     try:
-        if _at_head(engine):
+        if _check(_probe(engine), where):
             return
-        sqlite = engine.dialect.name == "sqlite"
-        with _migration_lock(engine), engine.begin() as conn:
-            if sqlite:  # a batch migration rebuilds tables others refer to: check the keys after, not during
-                conn.exec_driver_sql("PRAGMA foreign_keys=OFF")
-            cfg.attributes["connection"] = conn
-            command.upgrade(cfg, "head")
-            if sqlite:
-                broken = conn.exec_driver_sql("PRAGMA foreign_key_check").fetchall()
-                if broken:
-                    raise DatabaseError(f"migrating {engine.url!r} would break foreign keys: {broken[:3]}")
+        with _migration_lock(engine):
+            if _check(_probe(engine), where):  # another process migrated it meanwhile
+                return
+            with engine.begin() as conn:
+                if sqlite:  # a batch migration rebuilds tables others refer to: check the keys after, not during
+                    conn.exec_driver_sql("PRAGMA foreign_keys=OFF")
+                cfg.attributes["connection"] = conn
+                command.upgrade(cfg, "head")
+                if sqlite:
+                    broken = conn.exec_driver_sql("PRAGMA foreign_key_check").fetchall()
+                    if broken:
+                        raise DatabaseError(f"migrating {where} would break foreign keys: {broken[:3]}")
         if sqlite:
             engine.dispose()  # new connections get foreign_keys=ON again (_sqlite_pragmas)
-    except OperationalError as exc:
-        raise DatabaseError(f"cannot open the database {engine.url!r}: {str(exc.orig).splitlines()[0]}") from None
+    except SQLAlchemyError as exc:
+        raise _open_failure(exc, where) from None
 
 
-def open_database(url: str | None = None) -> sessionmaker[Session]:
-    """A session factory on an up-to-date schema."""
+def open_database(url: str | None = None, *, write: bool | None = None) -> sessionmaker[Session]:
+    """A session factory on an up-to-date schema.
+
+    write=None (most commands): migrate when needed, but a database that cannot be written
+    (read-only file or folder) is opened read-only. write=True: it must be writable
+    (require_writable). write=False (read commands): opened read-only and never created or
+    migrated."""
     engine = make_engine(database_url(url))
-    upgrade(engine)
-    return sessionmaker(engine, expire_on_commit=False)
+    path = sqlite_file(engine)
+    if write:
+        require_writable(engine)
+    if path is None:
+        if write is False:
+            try:
+                if not _check(_probe(engine), database_name(engine)):
+                    raise DatabaseError(_behind(engine, database_name(engine), None))
+            except SQLAlchemyError as exc:
+                raise _open_failure(exc, database_name(engine)) from None
+        else:
+            upgrade(engine)
+        return sessionmaker(engine, class_=RockingSession, expire_on_commit=False)
+    where = database_name(engine)
+    exists = _check_file(path)
+    unwritable = _unwritable(path) if exists else None
+    if not exists:
+        if write is False:
+            raise DatabaseError(f"cannot open the database {where!r}: there is no such database "
+                                "(runners db init creates it)")
+        upgrade(engine)
+        return sessionmaker(engine, class_=RockingSession, expire_on_commit=False)
+    readonly = _readonly_engine(path)
+    try:  # read without writing first: nothing touches a file this version cannot use
+        at_head = _check(_probe(readonly), where)
+    except SQLAlchemyError as exc:
+        readonly.dispose()
+        raise _open_failure(exc, where) from None
+    except DatabaseError:
+        readonly.dispose()
+        raise
+    if write is False or unwritable:
+        if not at_head:
+            readonly.dispose()
+            raise DatabaseError(_behind(readonly, where, unwritable))
+        engine.dispose()
+        return sessionmaker(readonly, class_=RockingSession, expire_on_commit=False)
+    readonly.dispose()
+    if not at_head:
+        upgrade(engine)
+    return sessionmaker(engine, class_=RockingSession, expire_on_commit=False)
+
+
+def _behind(engine: Engine, where: str, unwritable: str | None) -> str:
+    head, _ = _revisions()
+    try:
+        rev = _probe(engine).revision
+    except SQLAlchemyError:
+        rev = None
+    state = f"at schema revision {rev}, older than this tool's {head}" if rev else "empty (no schema yet)"
+    if unwritable:
+        return (f"the database {where} is {state}, and it cannot be migrated as {unwritable}; migrate a writable "
+                "copy (runners db init --db COPY)")
+    return f"the database {where} is {state}; read commands do not migrate it: runners db init --db {where} does"
+
+
+def require_writable(db, hint: str = "") -> None:
+    """DatabaseError (one line) unless runs can be written to the database: a URL, an engine or
+    a session factory. Commands that write call it before doing any work; `hint` ends the
+    message (e.g. "or run with --no-store")."""
+    if isinstance(db, sessionmaker):
+        engine, own = db.kw["bind"], False
+    elif isinstance(db, Engine):
+        engine, own = db, False
+    else:
+        engine, own = make_engine(database_url(db)), True
+    try:
+        path = sqlite_file(engine)
+        if path is not None:
+            why = _unwritable(path)
+            if why:
+                raise DatabaseError(f"the database {path} cannot be written: {why}; nothing can be stored in it "
+                                    f"(read commands such as runners db list still work{hint and '; ' + hint})")
+            if engine in _READ_ONLY:  # opened read-only although writable (open_database(write=False))
+                raise DatabaseError(f"the database {path} was opened read-only")
+        elif engine.dialect.name == "postgresql":
+            with engine.connect() as conn:
+                ro = conn.exec_driver_sql("SHOW transaction_read_only").scalar() == "on"
+                can = conn.execute(text("SELECT to_regclass('runs') IS NULL OR "
+                                        "has_table_privilege('runs', 'INSERT')")).scalar()
+            if ro or not can:
+                raise DatabaseError(f"the database {database_name(engine)} cannot be written: "
+                                    f"{'its transactions are read-only' if ro else 'no INSERT privilege on runs'}; "
+                                    f"nothing can be stored in it{hint and ' (' + hint + ')'}")
+    except SQLAlchemyError as exc:
+        raise _open_failure(exc, database_name(engine)) from None
+    finally:
+        if own:
+            engine.dispose()
 
 
 def integrity_ok(engine: Engine) -> bool:

@@ -1,20 +1,33 @@
 """Writing runs: the scene, its excitation, the run, its summary and its series in one
-transaction (all or nothing)."""
+transaction (all or nothing). A simulated run that cannot be stored (disk full, database
+locked, ...) is kept in a file instead (keep_unsaved), which runners db import-unsaved stores
+later (store_pending): the same rows, bit for bit, as storing it at once would have written."""
 
 from __future__ import annotations
 
+import base64
 import hashlib
+import json
+import os
 import subprocess
+import tempfile
+from datetime import datetime, timezone
 from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy.orm import Session
+from sqlalchemy import select
+from sqlalchemy.exc import SQLAlchemyError
+from sqlalchemy.orm import Session, sessionmaker
 
 from db import series
 from db.schema import Block, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene
+from db.session import DatabaseError, database_failure, database_name, display_url, sqlite_file
+
+UNSAVED_FORMAT = "rocking-unsaved-run"  # the "format" of the files keep_unsaved writes
+UNSAVED_VERSION = 1
 
 KINDS = {0: "none", 1: "sine-pulse", 2: "cosine-pulse", 3: "harmonic", 4: "record", 5: "ricker",
          6: "ricker-antisymmetric", 7: "mavroeidis-papageorgiou"}
@@ -113,3 +126,135 @@ def load_run_series(session: Session, run_id: int, hint: str = "") -> tuple[Run,
         raise ValueError(f"run {run_id} has no stored series" + (f" ({hint})" if hint else ""))
     t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
     return run, t, cols, list(run.series.events or [])
+
+
+def pending_run(*, scene_name: str, parameters: dict[str, Any], source: str | None, merged: dict[str, Any],
+                summary: dict[str, Any] | None, model: str, method: str, stop_time: float, fmu_path: str | None,
+                wall_time: float | None, time: np.ndarray | None = None, outputs: dict[str, np.ndarray] | None = None,
+                events: list[dict[str, Any]] | None = None, recording: str | None = None,
+                record: tuple[int, str] | None = None) -> dict[str, Any]:
+    """A simulated run as plain JSON values, ready to store (store_pending) or to keep in a
+    file (keep_unsaved): its scene, the FMU parameters it ran with, its summary row, its series
+    packed as they are stored (db.series, base64), when it ran and with which code and FMU,
+    and the stored record (id, name) it was driven by."""
+    p: dict[str, Any] = {
+        "format": UNSAVED_FORMAT, "version": UNSAVED_VERSION,
+        "created_at": datetime.now(timezone.utc).isoformat(), "code_version": code_version(),
+        "fmu_sha256": file_sha256(str(fmu_path)) if fmu_path else None,
+        "scene": {"name": scene_name, "parameters": dict(parameters), "source": source},
+        "merged": dict(merged), "summary": summary, "model": model, "method": method, "stop_time": stop_time,
+        "wall_time": wall_time, "recording": recording,
+        "record": None if record is None else {"id": record[0], "name": record[1]}, "series": None}
+    if time is not None and outputs:
+        names, n, blob = series.pack(time, outputs)
+        p["series"] = {"names": names, "n_samples": n, "data": base64.b64encode(blob).decode("ascii"),
+                       "events": events}
+    return p
+
+
+def _record_of(session: Session, ref: dict[str, Any]) -> Record:
+    """The stored record a pending run was driven by: by id if the name matches, else by name."""
+    rec = session.get(Record, ref["id"])
+    if rec is None or rec.name != ref["name"]:
+        rec = session.scalar(select(Record).where(Record.name == ref["name"]))
+    if rec is None:
+        raise ValueError(f"the run was driven by record {ref['name']!r}, which is not in this database "
+                         "(runners records import, or the --db the run was meant for)")
+    return rec
+
+
+def store_pending(session: Session, p: dict[str, Any]) -> Run:
+    """Add a pending run (pending_run) and everything it refers to; the caller commits."""
+    created = datetime.fromisoformat(p["created_at"])
+    rec = None if p["record"] is None else _record_of(session, p["record"])
+    sc = add_scene(session, p["scene"]["name"], p["scene"]["parameters"], p["scene"]["source"])
+    sc.created_at = created
+    run = add_run(session, sc, p["merged"], p["summary"], model=p["model"], method=p["method"],
+                  stop_time=p["stop_time"], fmu_path=None, wall_time=p["wall_time"],
+                  excitation=excitation_of(p["merged"], rec))
+    run.fmu_sha256, run.code_version, run.created_at = p["fmu_sha256"], p["code_version"], created
+    run.recording = p["recording"]
+    if p["series"] is not None:
+        ps = p["series"]
+        run.series = RunSeries(names=ps["names"], n_samples=ps["n_samples"], data=base64.b64decode(ps["data"]),
+                               events=ps["events"])
+    session.flush()
+    return run
+
+
+def stored_already(session: Session, p: dict[str, Any]) -> int | None:
+    """The id of the run a pending run was already stored as (same start, code and method), if any."""
+    return session.scalar(select(Run.id).where(Run.created_at == datetime.fromisoformat(p["created_at"]),
+                                               Run.code_version == p["code_version"], Run.model == p["model"],
+                                               Run.method == p["method"]).limit(1))
+
+
+def _json_value(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"{type(obj).__name__} is not JSON")
+
+
+def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | None = None) -> Path:
+    """Write a run that could not be stored to rocking-unsaved-<time>-<pid>.json in `folder`
+    (default: the working folder, else the temporary folder); OSError if neither can hold it."""
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    data = json.dumps({**p, "unsaved": {"reason": reason, "database": database}}, default=_json_value)
+    folders = [folder] if folder is not None else [Path.cwd(), Path(tempfile.gettempdir())]
+    err: OSError | None = None
+    for f in folders:
+        path = (f / f"rocking-unsaved-{stamp}-{os.getpid()}.json").resolve()
+        part = path.with_name(path.name + ".part")
+        try:
+            part.write_text(data)
+            os.replace(part, path)
+            return path
+        except OSError as exc:
+            err = exc
+            part.unlink(missing_ok=True)
+    raise err
+
+
+def read_unsaved(path: str | Path) -> dict[str, Any]:
+    """A file keep_unsaved wrote; ValueError (one line) for anything else."""
+    try:
+        p = json.loads(Path(path).read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path} is not a file of an unsaved run (not JSON: {exc})") from None
+    if not isinstance(p, dict) or p.get("format") != UNSAVED_FORMAT:
+        raise ValueError(f"{path} is not a file of an unsaved run (rocking-unsaved-*.json)")
+    if p.get("version") != UNSAVED_VERSION:
+        raise ValueError(f"{path} is an unsaved run of format version {p.get('version')}; this tool reads version "
+                         f"{UNSAVED_VERSION}")
+    missing = sorted(_UNSAVED_KEYS - set(p)) or sorted({"name", "parameters", "source"} - set(p["scene"] or {}))
+    if missing:
+        raise ValueError(f"{path} is not a whole unsaved run: it lacks {', '.join(missing)}")
+    return p
+
+
+_UNSAVED_KEYS = {"created_at", "code_version", "fmu_sha256", "scene", "merged", "summary", "model", "method",
+                 "stop_time", "wall_time", "recording", "record", "series"}
+
+
+def store_or_keep(factory: sessionmaker, p: dict[str, Any]) -> int:
+    """Store a pending run in one transaction and return its id. If the database fails (disk
+    full, locked for longer than the busy timeout, read-only, ...), nothing is written to it:
+    the run goes to a file (keep_unsaved) and a one-line DatabaseError says where, and how to
+    store it later."""
+    engine = factory.kw["bind"]
+    try:
+        with factory.begin() as session:
+            return store_pending(session, p).id
+    except SQLAlchemyError as exc:
+        reason = database_failure(exc, database_name(engine))
+    except Exception as exc:  # whatever went wrong, the computed run is not lost
+        reason = f"storing the run in {database_name(engine)} failed ({type(exc).__name__}: {exc})".splitlines()[0]
+    path_db = sqlite_file(engine)
+    target = os.path.abspath(path_db) if path_db is not None else display_url(engine)  # as --db takes it
+    try:
+        path = keep_unsaved(p, reason, target)
+    except OSError as err:
+        raise DatabaseError(f"{reason}: the run was not stored, and keeping it in a file failed too ({err})") from None
+    hint = f"runners db import-unsaved {path}" + (f" --db {target}" if path_db is not None else " --db URL")
+    raise DatabaseError(f"{reason}: the run was not stored (the database is unchanged); its results are in {path}: "
+                        f"store them later with {hint}")

@@ -36,6 +36,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene.step, scene.step_given = args.step, True
     measured = _measured(args.measured, args.rrd)  # fail on a bad file before simulating
     factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
+    if factory is not None:
+        from db.session import require_writable
+
+        require_writable(factory, "or run with --no-store")  # else the run would be lost after it ran
     fmu_path = fmu_path_from(args.fmu)
     if args.record is not None and args.motion is not None:
         raise ValueError("give --record or --motion, not both")
@@ -125,7 +129,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         text_out += f"\nrecording        {recording}"
     if factory is not None:
         s["run_id"] = _store(factory, scene, {**defaults, **scene.parameters}, s, model, method, fmu_path, result,
-                             recording, None if rec is None else rec.record_id)
+                             recording, None if rec is None else (rec.record_id, rec.name))
         text_out += f"\nstored           run {s['run_id']} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
     print(json.dumps(s, indent=2) if args.json else text_out)
     return 0
@@ -149,24 +153,22 @@ def _database(url: str | None):
 
 
 def _store(factory, scene, merged, s, model, method, fmu_path, result, recording=None,
-           record_id: int | None = None) -> int:
-    """The run and everything it refers to, in one transaction."""
-    from db.schema import Record
-    from db.store import add_run, add_scene, excitation_of
+           record: tuple[int, str] | None = None) -> int:
+    """The run and everything it refers to, in one transaction; if the database fails, the run
+    is kept in a file that runners db import-unsaved stores later (db.store.store_or_keep)."""
+    from db.store import pending_run, store_or_keep
     from runners.summary import summary_row
 
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
-    with factory.begin() as session:
-        sc = add_scene(session, scene.name, scene.parameters, source)
-        run = add_run(session, sc, merged, summary_row(s, merged), model=model, method=method,
-                      stop_time=scene.stop_time, fmu_path=str(fmu_path) if result is not None else None,
-                      wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
-                      outputs=None if result is None else result.outputs,
-                      events=None if result is None else [e.as_dict() for e in result.events],
-                      excitation=excitation_of(merged, None if record_id is None else session.get(Record, record_id)))
-        run.recording = None if recording is None else str(Path(recording).resolve())
-        session.flush()
-        return run.id
+    pending = pending_run(scene_name=scene.name, parameters=scene.parameters, source=source, merged=merged,
+                          summary=summary_row(s, merged), model=model, method=method, stop_time=scene.stop_time,
+                          fmu_path=str(fmu_path) if result is not None else None, wall_time=s.get("wall_time_s"),
+                          time=None if result is None else result.time,
+                          outputs=None if result is None else result.outputs,
+                          events=None if result is None else [e.as_dict() for e in result.events],
+                          recording=None if recording is None else str(Path(recording).resolve()),
+                          record=record)
+    return store_or_keep(factory, pending)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -422,6 +424,10 @@ def main(argv: list[str] | None = None) -> int:
     import signal
     import threading
 
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from db.session import database_failure
+
     args = build_parser().parse_args(argv)
     previous = None
     if threading.current_thread() is threading.main_thread():
@@ -433,6 +439,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except (SceneError, FMUError, FileNotFoundError, ValueError, OSError, DatabaseError, SweepError) as exc:
         print(f"error: {exc}".splitlines()[0], file=sys.stderr)
+        return 2
+    except SQLAlchemyError as exc:  # a database failure the command did not foresee: one line, not a traceback
+        print(f"error: {database_failure(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)

@@ -1,4 +1,4 @@
-"""``runners db init | list | show``: the database from the command line."""
+"""``runners db init | list | show | import-unsaved``: the database from the command line."""
 
 from __future__ import annotations
 
@@ -10,17 +10,17 @@ from sqlalchemy import func, select
 
 from db.catalogue import load_catalogue
 from db.schema import Block, Measurement, Run, Scene, Sweep
-from db.session import DB_HELP, open_database
+from db.session import DB_HELP, MAX_ID, display_url, open_database
 
 TABLES = {"blocks": Block, "runs": Run, "scenes": Scene, "sweeps": Sweep, "measurements": Measurement}
 
 
 def _url(factory) -> str:
-    return factory.kw["bind"].url.render_as_string(hide_password=True)
+    return display_url(factory.kw["bind"])
 
 
 def cmd_init(args: argparse.Namespace) -> int:
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=True)
     with factory.begin() as session:
         added, updated = load_catalogue(session)
     print(f"database ready: {_url(factory)}; catalogue: {added} blocks added, {updated} updated")
@@ -37,11 +37,13 @@ def _row(obj) -> dict[str, Any]:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    factory = open_database(args.db)
+    if args.limit < 1:
+        raise ValueError(f"--limit must be at least 1, got {args.limit}")
+    factory = open_database(args.db, write=False)
     model = TABLES[args.table]
     with factory() as session:
         total = session.scalar(select(func.count()).select_from(model))
-        rows = session.scalars(select(model).order_by(model.id.desc()).limit(args.limit)).all()
+        rows = session.scalars(select(model).order_by(model.id.desc()).limit(min(args.limit, MAX_ID))).all()
         if args.json:
             print(json.dumps([_row(r) for r in rows], indent=1, default=str))
             return 0
@@ -69,14 +71,14 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=False)
     with factory() as session:
         if args.what == "block":
             obj = session.scalar(select(Block).where(Block.name == args.key))
-            if obj is None and args.key.isdigit():
+            if obj is None and args.key.isdecimal():
                 obj = session.get(Block, int(args.key))
         else:
-            if not args.key.isdigit():
+            if not args.key.isdecimal():
                 raise ValueError(f"{args.what} ids are integers, got {args.key!r}")
             obj = session.get(TABLES[args.what + "s"], int(args.key))
         if obj is None:
@@ -91,8 +93,24 @@ def cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_import_unsaved(args: argparse.Namespace) -> int:
+    from db.store import read_unsaved, store_pending, stored_already
+
+    pending = read_unsaved(args.file)
+    factory = open_database(args.db, write=True)
+    with factory.begin() as session:
+        done = stored_already(session, pending)
+        run_id = done if done is not None else store_pending(session, pending).id
+    what = f"{pending['scene']['name']}, {pending['model']}, run at {pending['created_at']}"
+    if done is not None:
+        print(f"{args.file} is stored already: run {run_id} ({what}) in {_url(factory)}")
+    else:
+        print(f"stored run {run_id} ({what}) from {args.file} in {_url(factory)}; the file can now be deleted")
+    return 0
+
+
 def add_parser(sub) -> None:
-    dbp = sub.add_parser("db", help="the experiment database: init, list, show")
+    dbp = sub.add_parser("db", help="the experiment database: init, list, show, import-unsaved")
     dsub = dbp.add_subparsers(dest="db_command", required=True)
     init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
     init.set_defaults(func=cmd_init)
@@ -105,5 +123,9 @@ def add_parser(sub) -> None:
     show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement"])
     show.add_argument("key")
     show.set_defaults(func=cmd_show)
-    for p in (init, lst, show):
+    imp = dsub.add_parser("import-unsaved", help="store a run that could not be stored when it ran "
+                                                 "(the rocking-unsaved-*.json file the error named)")
+    imp.add_argument("file", help="rocking-unsaved-*.json")
+    imp.set_defaults(func=cmd_import_unsaved)
+    for p in (init, lst, show, imp):
         p.add_argument("--db", help=DB_HELP)

@@ -1,0 +1,374 @@
+"""Bad databases and failing stores: every case is one line on stderr and a non-zero exit,
+never a traceback, and stored data are never lost (real SQLite files, the real command line)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sqlite3
+import subprocess
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+import pytest
+from sqlalchemy import event, func, select
+from sqlalchemy.pool import Pool
+
+from conftest import run_cli
+from db.schema import Run, RunSeries, RunSummary
+from db.session import integrity_ok, open_database
+
+ROOT = Path(__file__).resolve().parent.parent
+FREE = str(ROOT / "examples" / "free_rocking.toml")
+HUGE = "99999999999999999999999"  # beyond 2**63 - 1
+
+
+def one_line_error(p: subprocess.CompletedProcess, *words: str) -> str:
+    """The command failed with exit 2 and exactly one line on stderr holding `words`."""
+    assert p.returncode == 2, (p.returncode, p.stdout, p.stderr)
+    assert p.stderr.count("\n") == 1 and p.stderr.startswith("error: "), p.stderr
+    assert "Traceback" not in p.stderr + p.stdout
+    for w in words:
+        assert w in p.stderr, (w, p.stderr)
+    return p.stderr
+
+
+def stored_db(path: Path, fmu_path: Path, runs: int = 1) -> str:
+    """An SQLite file holding `runs` stored runs, its WAL checkpointed into the file."""
+    for _ in range(runs):
+        p = run_cli("simulate", FREE, db=str(path), fmu_path=fmu_path)
+        assert p.returncode == 0, p.stderr
+    con = sqlite3.connect(path)
+    assert con.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()[0] == 0  # all in the file now
+    con.close()
+    return str(path)
+
+
+def copied_db(folder: Path, fmu_path: Path) -> Path:
+    """A database with one run copied into `folder` on its own, as onto a read-only medium:
+    no -wal or -shm file next to it."""
+    folder.mkdir()
+    src = folder.parent / f"{folder.name}-source.db"
+    stored_db(src, fmu_path)
+    shutil.copyfile(src, folder / "runs.db")
+    return folder / "runs.db"
+
+
+def count_runs(db: str) -> int:
+    with open_database(db)() as s:
+        return s.scalar(select(func.count()).select_from(Run))
+
+
+# --- 1. files that are not SQLite databases, or are cut short: one line, the file untouched --------------
+
+def test_a_text_file_given_as_db_is_refused_in_one_line_and_left_byte_identical(tmp_path, fmu_path):
+    path = tmp_path / "notes.txt"
+    path.write_text("not a database\n" * 100)
+    before = path.read_bytes()
+    for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "init")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), str(path), "is not an SQLite database")
+    assert path.read_bytes() == before
+
+
+def test_a_png_file_given_as_db_is_refused_in_one_line_and_left_byte_identical(tmp_path, fmu_path):
+    path = tmp_path / "map.png"
+    shutil.copy(ROOT / "docs" / "figures" / "overturning_map.png", path)
+    before = path.read_bytes()
+    for args in (("simulate", FREE), ("db", "show", "run", "1")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), str(path), "is not an SQLite database")
+    assert path.read_bytes() == before
+
+
+def test_a_database_cut_mid_page_is_damaged_in_one_line_and_left_byte_identical(tmp_path, fmu_path):
+    good = Path(stored_db(tmp_path / "good.db", fmu_path))
+    path = tmp_path / "cut.db"
+    path.write_bytes(good.read_bytes()[:5000])
+    for args in (("simulate", FREE), ("db", "list", "runs")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), str(path), "is damaged", "cut short")
+    assert path.read_bytes() == good.read_bytes()[:5000]
+
+
+def test_a_database_cut_at_a_page_boundary_is_damaged_in_one_line_and_left_byte_identical(tmp_path, fmu_path):
+    good = Path(stored_db(tmp_path / "good.db", fmu_path))
+    data = good.read_bytes()
+    assert len(data) > 3 * 4096
+    path = tmp_path / "cut.db"
+    path.write_bytes(data[:2 * 4096])  # whole pages, fewer than the header announces
+    for args in (("simulate", FREE), ("db", "show", "run", "1")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), str(path), "is damaged", "cut short")
+    assert path.read_bytes() == data[:2 * 4096]
+
+
+def test_an_sqlite_file_of_another_program_is_refused_and_left_byte_identical(tmp_path, fmu_path):
+    path = tmp_path / "other.db"
+    con = sqlite3.connect(path)
+    con.execute("CREATE TABLE contacts (name TEXT, phone TEXT)")
+    con.execute("INSERT INTO contacts VALUES ('a', '1')")
+    con.commit()
+    con.close()
+    before = path.read_bytes()
+    for args in (("simulate", FREE), ("db", "init"), ("db", "list", "runs")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), "is not one of this tool's", "contacts")
+    assert path.read_bytes() == before
+
+
+# --- 2. a newer schema: say so, change nothing ------------------------------------------------------------
+
+def test_a_database_from_a_newer_version_is_refused_in_one_line_and_not_modified(tmp_path, fmu_path):
+    path = tmp_path / "newer.db"
+    stored_db(path, fmu_path)
+    con = sqlite3.connect(path)
+    con.execute("UPDATE alembic_version SET version_num = 'ffff9999'")
+    con.commit()
+    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    con.close()
+    before = path.read_bytes()
+    for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "init")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), "newer version", "ffff9999", "upgrade")
+    assert path.read_bytes() == before
+    assert not Path(f"{path}-wal").exists() or Path(f"{path}-wal").stat().st_size == 0
+
+
+# --- 3. and 4. read-only files, folders and mounts --------------------------------------------------------
+
+@pytest.fixture
+def read_only(tmp_path):
+    """Make paths read-only: chmod, and, as root (whom permissions do not stop), a read-only
+    bind mount of each in a private mount namespace that only the command runs in."""
+    mounted: list[Path] = []
+    if os.geteuid() == 0:
+        probe = subprocess.run(["unshare", "-m", "--propagation", "private", "mount", "--bind", str(tmp_path),
+                                str(tmp_path)], capture_output=True, text=True) if shutil.which("unshare") else None
+        if probe is None or probe.returncode != 0:
+            pytest.skip("running as root, where permissions do not apply, and read-only mounts (unshare -m) are "
+                        f"not available: {probe.stderr.strip() if probe else 'no unshare'}")
+
+    def make(*paths: Path) -> None:
+        for p in paths:
+            p.chmod(0o555 if p.is_dir() else 0o444)
+        mounted.extend(paths)
+
+    def run(*args: str, db: Path, fmu_path: Path) -> subprocess.CompletedProcess:
+        env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": str(db)}
+        cmd = [sys.executable, "-m", "runners.cli", *args]
+        if os.geteuid() == 0:
+            mounts = " && ".join(f'mount --bind "${i}" "${i}" && mount -o remount,bind,ro "${i}"'
+                                 for i in range(1, len(mounted) + 1))
+            cmd = ["unshare", "-m", "--propagation", "private", "sh", "-c",
+                   f'{mounts} && shift {len(mounted)} && exec "$@"', "sh", *map(str, mounted), *cmd]
+        return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path)
+
+    make.run = run
+    yield make
+    for p in mounted:
+        p.chmod(0o755 if p.is_dir() else 0o644)
+
+
+def test_simulate_on_a_read_only_file_fails_before_simulating(tmp_path, fmu_path, read_only):
+    path = Path(stored_db(tmp_path / "runs.db", fmu_path))
+    read_only(path)  # the folder stays writable
+    before = path.read_bytes()
+    rrd = tmp_path / "run.rrd"  # written after the simulation and before storing: it must not appear
+    p = read_only.run("simulate", FREE, "--rrd", str(rrd), db=path, fmu_path=fmu_path)
+    one_line_error(p, str(path), "read-only")
+    assert not rrd.exists() and not list(tmp_path.glob("rocking-unsaved-*"))
+    assert path.read_bytes() == before
+
+
+def test_simulate_on_a_read_only_mount_fails_before_simulating(tmp_path, fmu_path, read_only):
+    folder = tmp_path / "mount"
+    path = copied_db(folder, fmu_path)
+    read_only(path, folder)
+    before = path.read_bytes()
+    rrd = tmp_path / "run.rrd"
+    p = read_only.run("simulate", FREE, "--rrd", str(rrd), db=path, fmu_path=fmu_path)
+    one_line_error(p, str(path), "read-only")
+    assert not rrd.exists() and path.read_bytes() == before
+
+
+def test_read_commands_work_on_a_read_only_file(tmp_path, fmu_path, read_only):
+    path = Path(stored_db(tmp_path / "runs.db", fmu_path))
+    read_only(path)
+    before = path.read_bytes()
+    p = read_only.run("db", "list", "runs", db=path, fmu_path=fmu_path)
+    assert p.returncode == 0 and "runs: 1 in" in p.stdout, p.stderr
+    p = read_only.run("db", "show", "run", "1", db=path, fmu_path=fmu_path)
+    assert p.returncode == 0 and json.loads(p.stdout)["summary"]["impacts"] > 0, p.stderr
+    assert path.read_bytes() == before
+
+
+def test_read_commands_work_on_a_read_only_mount(tmp_path, fmu_path, read_only):
+    """Folder and file not writable: SQLite cannot create the -wal and -shm files a WAL
+    reader normally uses, so the file is read as immutable."""
+    folder = tmp_path / "mount"
+    path = copied_db(folder, fmu_path)
+    read_only(path, folder)
+    before, files = path.read_bytes(), sorted(folder.iterdir())
+    p = read_only.run("db", "list", "runs", db=path, fmu_path=fmu_path)
+    assert p.returncode == 0 and "runs: 1 in" in p.stdout, p.stderr
+    p = read_only.run("db", "show", "run", "1", db=path, fmu_path=fmu_path)
+    assert p.returncode == 0 and json.loads(p.stdout)["series"]["n_samples"] > 100, p.stderr
+    assert path.read_bytes() == before and sorted(folder.iterdir()) == files
+
+
+def test_an_old_database_on_a_read_only_mount_says_it_cannot_be_migrated(tmp_path, fmu_path, read_only):
+    from alembic import command
+
+    from db.session import _alembic_config, make_engine
+
+    folder = tmp_path / "mount"
+    folder.mkdir()
+    path = folder / "old.db"
+    engine = make_engine(f"sqlite:///{path}")
+    cfg = _alembic_config()
+    with engine.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "0005")
+    engine.dispose()
+    read_only(path, folder)
+    before = path.read_bytes()
+    p = read_only.run("db", "list", "runs", db=path, fmu_path=fmu_path)
+    one_line_error(p, str(path), "revision 0005", "cannot be migrated")
+    assert path.read_bytes() == before
+
+
+def test_read_commands_leave_no_files_next_to_a_writable_database(tmp_path, fmu_path):
+    """Opened read-only (query_only), a writable database still has its -wal and -shm files
+    tidied away when the command ends, as a writing command does."""
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path)}
+    path = tmp_path / "runs.db"
+    for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "show", "run", "1")):
+        p = subprocess.run([sys.executable, "-m", "runners.cli", *args, "--db", str(path)], capture_output=True,
+                           text=True, env=env, cwd=tmp_path)
+        assert p.returncode == 0, p.stderr
+        assert sorted(f.name for f in tmp_path.iterdir()) == ["runs.db", "runs.db.migrate-lock"], args
+
+
+# --- 5. and 6. storing fails after the run: the run is kept in a file, the database unchanged -------------
+
+def test_a_full_disk_while_storing_is_one_line_and_keeps_the_stored_runs(tmp_path, fmu_path, monkeypatch):
+    """SQLITE_FULL as a full disk gives it: every connection may not grow the file (max_page_count
+    is a per-connection setting, so it is set as each one opens)."""
+    db = stored_db(tmp_path / "full.db", fmu_path, runs=2)
+    monkeypatch.chdir(tmp_path)
+
+    def no_growth(dbapi_connection, _record):
+        dbapi_connection.execute("PRAGMA max_page_count = 1")  # never below the current size: no new pages
+
+    event.listen(Pool, "connect", no_growth)
+    try:
+        p = run_cli("simulate", FREE, db=db, fmu_path=fmu_path)
+    finally:
+        event.remove(Pool, "connect", no_growth)
+    err = one_line_error(p, "the disk is full", "the run was not stored", "runners db import-unsaved")
+    kept = list(tmp_path.glob("rocking-unsaved-*.json"))
+    assert len(kept) == 1 and str(kept[0]) in err
+    assert count_runs(db) == 2 and integrity_ok(open_database(db).kw["bind"])
+
+
+def test_a_run_that_finds_the_database_locked_is_kept_and_imported_later(tmp_path, fmu_path, monkeypatch):
+    db = stored_db(tmp_path / "locked.db", fmu_path)
+    reference = stored_db(tmp_path / "reference.db", fmu_path)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ROCKING_DB_BUSY_TIMEOUT", "1")
+    holder = sqlite3.connect(db, isolation_level=None)
+    holder.execute("BEGIN EXCLUSIVE")  # another process's long write
+    try:
+        p = run_cli("simulate", FREE, db=db, fmu_path=fmu_path)
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    err = one_line_error(p, "is locked by another process", "waited 1 s", "runners db import-unsaved")
+    (kept,) = tmp_path.glob("rocking-unsaved-*.json")
+    assert str(kept) in err and count_runs(db) == 1
+    imported_at = datetime.now(timezone.utc).replace(tzinfo=None)  # SQLite gives naive UTC times back
+    p = run_cli("db", "import-unsaved", str(kept), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "stored run 2" in p.stdout, p.stderr
+    p = run_cli("db", "import-unsaved", str(kept), db=db, fmu_path=fmu_path)  # a second time: nothing new
+    assert p.returncode == 0 and "stored already: run 2" in p.stdout, p.stderr
+    assert count_runs(db) == 2
+    with open_database(db)() as s, open_database(reference)() as r:  # what storing at once writes, bit for bit
+        run, ref = s.get(Run, 2), r.get(Run, 1)
+        assert s.get(RunSeries, 2).data == r.get(RunSeries, 1).data
+        assert s.get(RunSeries, 2).events == r.get(RunSeries, 1).events
+        cols = [c.key for c in RunSummary.__table__.columns if c.key != "run_id"]
+        assert [getattr(run.summary, c) for c in cols] == [getattr(ref.summary, c) for c in cols]
+        assert (run.model, run.method, run.fmu_sha256, run.scene.parameters, run.scene.source) == \
+               (ref.model, ref.method, ref.fmu_sha256, ref.scene.parameters, ref.scene.source)
+        assert run.created_at < imported_at  # when it ran, not when it was imported
+
+
+def test_a_bad_busy_timeout_is_one_line(tmp_path, fmu_path, monkeypatch):
+    monkeypatch.setenv("ROCKING_DB_BUSY_TIMEOUT", "soon")
+    one_line_error(run_cli("db", "list", "runs", db=str(tmp_path / "x.db"), fmu_path=fmu_path),
+                   "ROCKING_DB_BUSY_TIMEOUT")
+
+
+def test_importing_an_unsaved_run_that_lacks_a_part_is_one_line(tmp_path, fmu_path):
+    path = tmp_path / "rocking-unsaved-cut.json"
+    path.write_text(json.dumps({"format": "rocking-unsaved-run", "version": 1, "created_at": "2026-01-01T00:00:00"}))
+    db = tmp_path / "x.db"
+    one_line_error(run_cli("db", "import-unsaved", str(path), db=str(db), fmu_path=fmu_path),
+                   "is not a whole unsaved run", "scene")
+
+
+def test_importing_a_file_that_is_not_an_unsaved_run_is_one_line(tmp_path, fmu_path):
+    path = tmp_path / "other.json"
+    path.write_text('{"a": 1}')
+    one_line_error(run_cli("db", "import-unsaved", str(path), db=str(tmp_path / "x.db"), fmu_path=fmu_path),
+                   "is not a file of an unsaved run")
+
+
+# --- 7. a schema that does not match its revision -----------------------------------------------------------
+
+def test_a_dropped_table_is_reported_as_damage_in_one_line(tmp_path, fmu_path):
+    path = tmp_path / "dropped.db"
+    stored_db(path, fmu_path)
+    con = sqlite3.connect(path)
+    con.execute("DROP TABLE runs")
+    con.commit()
+    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    con.close()
+    before = path.read_bytes()
+    for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "show", "scene", "1")):
+        one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), str(path), "is damaged",
+                       "table runs is missing")
+    assert path.read_bytes() == before
+
+
+# --- 8. ids no row can have --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("what", ["run", "scene", "sweep", "measurement", "block"])
+def test_db_show_of_an_id_beyond_64_bits_is_no_such_row(tmp_path, fmu_path, what):
+    db = stored_db(tmp_path / "ids.db", fmu_path)
+    one_line_error(run_cli("db", "show", what, HUGE, db=db, fmu_path=fmu_path), f"no {what} '{HUGE}'")
+
+
+def test_db_list_with_a_limit_beyond_64_bits_lists_everything(tmp_path, fmu_path):
+    db = stored_db(tmp_path / "ids.db", fmu_path)
+    p = run_cli("db", "list", "runs", "--limit", HUGE, db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "runs: 1 in" in p.stdout, p.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ("rrd", HUGE), ("rrd", "--sweep", HUGE), ("view", HUGE), ("map", HUGE), ("sweep", "--resume", HUGE),
+    ("compare", HUGE, "1"), ("compare", "1", HUGE), ("export-measured", HUGE, "--out", "x.csv"),
+    ("calibrate", HUGE, "--law", "modified"), ("fragility", HUGE), ("ida", HUGE), ("records", "show", HUGE),
+    ("simulate", FREE, "--motion", HUGE),
+    ("import-measured", str(ROOT / "examples" / "measured_peaks_block2.csv"), "--block", HUGE)],
+    ids=lambda a: " ".join(x for x in a if x != HUGE and "/" not in x))
+def test_other_commands_given_an_id_beyond_64_bits_say_there_is_no_such_row(tmp_path, fmu_path, args):
+    db = stored_db(tmp_path / "ids.db", fmu_path)
+    one_line_error(run_cli(*args, db=db, fmu_path=fmu_path), "no ", HUGE)
+
+
+def test_read_commands_and_ids_beyond_64_bits_on_every_backend(db_url, fmu_path):
+    """The read-only opening of db list / db show, and ids no row can have, on SQLite and PostgreSQL."""
+    p = run_cli("simulate", FREE, db=db_url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    p = run_cli("db", "list", "runs", db=db_url, fmu_path=fmu_path)
+    assert p.returncode == 0 and "runs: 1 in" in p.stdout, p.stderr
+    one_line_error(run_cli("db", "show", "run", HUGE, db=db_url, fmu_path=fmu_path), f"no run '{HUGE}'")
+    one_line_error(run_cli("rrd", HUGE, db=db_url, fmu_path=fmu_path), f"no run {HUGE}")
