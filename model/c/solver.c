@@ -139,7 +139,7 @@ static int take_step(Model *M, const Logger *log) {
     }
     if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                       cont, &hNext, &hitBp, &S->rejected)) {
-        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
@@ -229,7 +229,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
         hitBp = 1;
     }
     if (!(h > 16.0 * DBL_EPSILON * fmax(1.0, fabs(S->t)))) {
-        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
