@@ -330,8 +330,8 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
         return fmi2Error;
     }
     I->s.startTime = startTime;
-    I->s.stopTime = stopTime;
-    I->s.stopDefined = stopTimeDefined;
+    I->s.stopTime = stopTimeDefined ? stopTime : 0.0; /* no stray value (NaN) in a saved state */
+    I->s.stopDefined = stopTimeDefined ? 1 : 0;
     I->s.tc = startTime;
     I->s.dirty = 1;
     return fmi2OK;

@@ -114,6 +114,7 @@ double model_law_restitution(const Variables *v, double alpha) {
 void model_derive(Model *M) {
     const Variables *v = &M->v;
     Derived *d = &M->d;
+    memset(d, 0, sizeof(*d)); /* a function of the parameters alone, unused values 0 */
     double b = v->halfWidth, h = v->halfHeight;
     d->R = sqrt(b * b + h * h);
     d->alpha = atan(b / h);

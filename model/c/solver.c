@@ -129,7 +129,9 @@ static int take_step(Model *M, const Logger *log) {
     RhsCtx c = {M, S->side, model_piece(M, S->t)};
     double bp = next_breakpoint(M, S->t, c.piece);
     double hmax = bp - S->t;
-    double y1[NMAX], f1[NMAX], cont[5][NMAX];
+    /* zeroed: the step fills components 0 and 1 only, and the whole array goes
+     * into the state (no stray stack bytes in a saved state) */
+    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}};
     double h = S->h, hNext;
     int hitBp;
 
@@ -220,7 +222,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     int piece = model_piece(M, S->t), side = S->side, N = taylor_order(v->relTol);
-    double x[TAYLOR_MAX + 1], bp = next_breakpoint(M, S->t, piece);
+    double x[TAYLOR_MAX + 1] = {0}, bp = next_breakpoint(M, S->t, piece); /* x[N + 1..]: 0 in the state */
     taylor_series(M, S->t, S->y[0], S->y[1], side, piece, N, x);
     double h = taylor_step(x, N, v->absTol + v->relTol * fabs(S->y[0]));
     int hitBp = 0;
@@ -356,12 +358,17 @@ void solver_outputs(Model *M, double tc) {
     v->pattern = (int)S->mode;
     v->impactsGround = S->impacts; /* one block: every impact is on the ground */
     v->overturned1 = v->overturned;
+    /* no block 2 (whatever a former two-block initialisation wrote there) */
+    v->theta2 = v->omega2 = v->alphaDD2 = v->maxAbsTheta2 = 0.0;
+    v->impactsInterface = 0;
+    v->locked = v->overturned2 = 0;
     v->energy = model_energy(M, y[0], y[1]);
     model_ground(M, tc, &v->ahTotal, &v->avTotal);
 }
 
 void solver_rollback(Model *M, double tc) {
     State *S = &M->s;
+    S->fValid = 0; /* the derivative at (t, y) was for the old inputs */
     if (M->v.nBlocks == 2) {
         stack_rollback(M, tc);
         return;
