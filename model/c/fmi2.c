@@ -594,6 +594,41 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     return fmi2OK;
 }
 
+/* The FMI part of a state to restore: phase, flags and times. */
+static int snapshot_check(const Snapshot *snap, char *msg, size_t n) {
+    int phase = (int)snap->phase;
+    if (!(phase == PHASE_INSTANTIATED || phase == PHASE_INITIALIZATION || phase == PHASE_STEP_COMPLETE ||
+          phase == PHASE_TERMINATED || phase == PHASE_ERROR)) {
+        snprintf(msg, n, "unknown phase %d", phase);
+        return 1;
+    }
+    /* parameters set since the last initialisation are checked, and the state rebuilt, before
+     * they are used: possible until fmi2ExitInitializationMode, and always so before it */
+    if (!(snap->dirty == 0 || snap->dirty == 1) || (snap->dirty && phase > PHASE_INITIALIZATION) ||
+        (!snap->dirty && phase == PHASE_INSTANTIATED)) {
+        snprintf(msg, n, "the flag of changed parameters (%d) does not fit phase %d", snap->dirty, phase);
+        return 1;
+    }
+    if (!isfinite(snap->startTime) || !(snap->stopDefined == 0 || snap->stopDefined == 1) ||
+        !isfinite(snap->stopTime) || (snap->stopDefined && !(snap->stopTime >= snap->startTime))) {
+        snprintf(msg, n, "start time %g, stop time %g (defined: %d) are not an experiment's", snap->startTime,
+                 snap->stopTime, snap->stopDefined);
+        return 1;
+    }
+    /* fmi2DoStep accepts a communication point within 1e-9 (relative) of the FMU's time */
+    if (!(isfinite(snap->tc) && snap->tc >= snap->startTime - 1e-9 * fmax(1.0, fabs(snap->startTime))) ||
+        (phase <= PHASE_INITIALIZATION && snap->tc != snap->startTime)) {
+        snprintf(msg, n, "time %.17g is not a time after the start %.17g (the start itself before stepping)", snap->tc,
+                 snap->startTime);
+        return 1;
+    }
+    if (snap->model.rec) {
+        snprintf(msg, n, "a record address where a saved state has none");
+        return 1;
+    }
+    return 0;
+}
+
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     Instance *I = (Instance *)c;
     CHECK(I, GET_PHASES | PHASE_INSTANTIATED, "fmi2SetFMUstate");
@@ -603,11 +638,16 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
         return fmi2Error;
     }
     char msg[MSG_LEN];
+    if (snapshot_check(snap, msg, sizeof(msg))) {
+        LOG_ERROR(I, "fmi2SetFMUstate: invalid state (corrupted?): %s", msg);
+        return fmi2Error;
+    }
     const Model *sm = &snap->model;
     StagedRecord staged = {0};
     if (!snap->dirty) {
-        /* the state's parameters must be valid and its derived values exactly those they give
-         * (with its record, which must have the same samples). Until every check passed,
+        /* the state's parameters must be valid, its derived values exactly those they give
+         * (with its record, which must have the same samples), and its integrator and
+         * discrete state one a run of these parameters leaves. Until every check passed,
          * nothing of the instance changes (its record neither). */
         if (model_validate(&sm->v, msg, sizeof(msg))) {
             LOG_ERROR(I, "fmi2SetFMUstate: the state's parameters are invalid: %s", msg);
@@ -623,6 +663,14 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
         if (memcmp(&check.d, &sm->d, sizeof(Derived)) != 0) {
             drop_record(I, &staged);
             LOG_ERROR(I, "fmi2SetFMUstate: the state does not match its own parameters (a corrupted state?)");
+            return fmi2Error;
+        }
+        StateUse use = snap->phase == PHASE_INITIALIZATION  ? STATE_INITIAL
+                       : snap->phase == PHASE_STEP_COMPLETE ? STATE_RUNNING
+                                                            : STATE_INERT;
+        if (state_validate(&check, snap->startTime, snap->tc, use, msg, sizeof(msg))) {
+            drop_record(I, &staged);
+            LOG_ERROR(I, "fmi2SetFMUstate: invalid state (corrupted?): %s", msg);
             return fmi2Error;
         }
         adopt_record(I, &staged);

@@ -30,12 +30,13 @@ void model_set_defaults(Model *M) {
     } while (0)
 
 int model_validate(const Variables *v, char *msg, size_t n) {
-    /* every Real must be finite */
+    /* every Real must be finite, every Boolean 0 or 1, every String terminated */
 #define VAR(T, vr, field, name, caus, var, start, unit, desc) CHECK_##T(field, name)
 #define CHECK_REAL(field, name) \
     if (!isfinite(v->field)) FAIL("%s = %g is not a finite number", name, v->field);
 #define CHECK_INTEGER(field, name)
-#define CHECK_BOOLEAN(field, name)
+#define CHECK_BOOLEAN(field, name) \
+    if (v->field != 0 && v->field != 1) FAIL("%s = %d is not a Boolean (0 or 1)", name, v->field);
 #define CHECK_STRING(field, name) \
     if (!memchr(v->field, '\0', sizeof(v->field))) FAIL("%s is not terminated", name);
 #include "variables.def"
