@@ -32,7 +32,11 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
             return -1;
         }
     }
-    for (;;) {
+    for (int tries = 0;; tries++) {
+        if (!isfinite(hh) || tries >= MAX_REJECTS) { /* e.g. an infinite step with no break point ahead */
+            *h = hh;
+            return -1;
+        }
         *hitMax = 0;
         if (hh >= hmax) {
             hh = hmax;
@@ -115,6 +119,7 @@ int find_uplift(const Model *M, double t, double tc, double *tu) {
             }
         double b = next_cell_edge(M, a, piece);
         if (!isfinite(b)) return 0; /* no waveform left: the indicator stays put */
+        if (!(b > a)) return UPLIFT_STUCK;
         /* Bisect on the whole cell (where the indicator is still <= 0 at its
          * start), not from a: the root then does not depend on where the
          * previous call stopped, i.e. on the communication points. */
@@ -144,7 +149,16 @@ int find_uplift(const Model *M, double t, double tc, double *tu) {
 
 int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops) {
     State *S = &M->s;
-    for (;;) {
+    double last = S->t;
+    for (int stalls = 0;; stalls++) {
+        if (S->t > last) {
+            last = S->t;
+            stalls = 0;
+        } else if (stalls > MAX_STALLS) {
+            say(log, LOG_ERROR, "time does not advance from t=%.17g (pattern %d): %d passes without progress",
+                S->t, (int)S->mode, MAX_STALLS);
+            return -1;
+        }
         if (S->pending != EVENT_NONE && S->t <= tc && ops->apply_event(M, log)) return -1;
         if (S->t >= tc) return 0;
         if (ops->before_step) ops->before_step(M, log);
@@ -155,6 +169,10 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops) {
             double tu;
             int side = find_uplift(M, S->t, tc, &tu);
             S->denseValid = 0;
+            if (side == UPLIFT_STUCK) {
+                say(log, LOG_ERROR, "at rest at t=%.17g: the time is too large to resolve the excitation", S->t);
+                return -1;
+            }
             if (side) ops->start_moving(M, tu, side, log);
             else S->t = tc;
         } else if (ops->take_step(M, log)) {

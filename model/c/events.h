@@ -18,7 +18,9 @@ void say(const Logger *log, int category, const char *fmt, ...);
  * (capped at hmax, in which case *hitMax is set), shrinking it until the
  * error norm is <= 1. Writes the step result, its dense output and the
  * proposed next step; counts rejected attempts. Returns 0, or -1 if the
- * step size underflows. */
+ * step size underflows, is not finite or no step is accepted within
+ * MAX_REJECTS attempts. */
+#define MAX_REJECTS 1000
 int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   const double *f0, double *h, double hmax, double rtol, double atol,
                   double *y1, double *f1, double cont[5][NMAX], double *hNext,
@@ -41,7 +43,10 @@ int may_have_root(const double *c);
 /* At rest: the first time in [t, tc] at which |ah| exceeds
  * M->d.upliftSlope * (g + av), found cell by cell (the excitation is
  * monotone on each cell, ground.h) and by bisection. Returns the tipping side (+1, -1)
- * and the time in *tu, or 0 if the ground does not tip the body before tc. */
+ * and the time in *tu, 0 if the ground does not tip the body before tc, or
+ * UPLIFT_STUCK if the next cell edge is not after the current time (a time so
+ * large that its resolution is coarser than the excitation's cells). */
+#define UPLIFT_STUCK 2
 int find_uplift(const Model *M, double t, double tc, double *tu);
 
 /* What a solver plugs into advance_to(). */
@@ -57,7 +62,10 @@ typedef struct {
 } SolverOps;
 
 /* Advance M to tc: apply events once time reaches them, wait at rest for
- * uplift (find_uplift), step while moving, stay put once overturned. */
+ * uplift (find_uplift), step while moving, stay put once overturned.
+ * Gives up with an error after MAX_STALLS passes in a row that leave the
+ * time where it was (whatever the state, the loop ends). */
+#define MAX_STALLS 1000
 int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops);
 
 #endif

@@ -129,15 +129,23 @@ static void stamp_of(const struct stat *st, const char *path, FileStamp *f) {
 #endif
 }
 
-/* Make the instance hold the record that `file` (an excitation.file value) names: read
- * it unless the same file (path, size, modification time) was read before. With want,
- * the samples must have want->d's count and hash; otherwise the instance keeps what it
- * held and an error is returned (a state saved on other samples). */
-static int load_record(Instance *I, const char *file, const Derived *want, char *msg, size_t n) {
+/* A record read for the instance but not yet adopted by it (stage_record). */
+typedef struct {
+    int fresh;    /* 0: the instance's own record is the one; 1: rec holds a new one */
+    Record rec;
+    FileStamp stamp;
+} StagedRecord;
+
+/* Find the record that `file` (an excitation.file value) names: the instance's own if it
+ * read the same file (path, size, modification time) before, else read it into
+ * staged->rec. With want, the samples must have want's count and hash (a state saved on
+ * other samples is refused). Nothing of the instance changes: the caller adopts the
+ * record with adopt_record, or drops it with drop_record. */
+static int stage_record(Instance *I, const char *file, const Derived *want, StagedRecord *staged, char *msg,
+                        size_t n) {
     char path[STRING_CAPACITY];
     struct stat st;
-    FileStamp now;
-    memset(&now, 0, sizeof(now));
+    memset(staged, 0, sizeof(*staged));
     if (!I->resourceDir && I->resourceNote[0] && file[0] && !record_is_absolute(file)) {
         snprintf(msg, n, "'%s' is a relative path, but the importer's resources location %s", file,
                  I->resourceNote);
@@ -145,23 +153,37 @@ static int load_record(Instance *I, const char *file, const Derived *want, char 
     }
     if (record_path(file, I->resourceDir, path, sizeof(path), msg, n)) return 1;
     int known = stat(path, &st) == 0;
-    if (known) stamp_of(&st, path, &now);
-    int cached = known && I->rec.n > 0 && memcmp(&now, &I->recFile, sizeof(now)) == 0;
-    Record fresh;
-    if (!cached && record_read(path, &fresh, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
-    const Record *r = cached ? &I->rec : &fresh;
+    if (known) stamp_of(&st, path, &staged->stamp);
+    int cached = known && I->rec.n > 0 && memcmp(&staged->stamp, &I->recFile, sizeof(staged->stamp)) == 0;
+    if (!cached && record_read(path, &staged->rec, I->cb.allocateMemory, I->cb.freeMemory, msg, n)) return 1;
+    staged->fresh = !cached;
+    const Record *r = cached ? &I->rec : &staged->rec;
     if (want && (r->n != want->recN || r->hash != want->recHash)) {
         snprintf(msg, n, "the record file '%s' changed since the state was saved (%d samples then, %d now)",
                  path, want->recN, r->n);
-        if (!cached) record_free(&fresh, I->cb.freeMemory); /* the instance keeps what it held */
+        if (staged->fresh) record_free(&staged->rec, I->cb.freeMemory);
+        staged->fresh = 0;
         return 1;
     }
-    if (!cached) {
-        record_free(&I->rec, I->cb.freeMemory);
-        I->rec = fresh;
-        I->recFile = now;
-    }
     return 0;
+}
+
+static const Record *staged_record(const Instance *I, const StagedRecord *staged) {
+    return staged->fresh ? &staged->rec : &I->rec;
+}
+
+static void drop_record(Instance *I, StagedRecord *staged) {
+    if (staged->fresh) record_free(&staged->rec, I->cb.freeMemory);
+    staged->fresh = 0;
+}
+
+/* The instance holds the staged record from now on (its previous one is freed). */
+static void adopt_record(Instance *I, StagedRecord *staged) {
+    if (!staged->fresh) return;
+    record_free(&I->rec, I->cb.freeMemory);
+    I->rec = staged->rec;
+    I->recFile = staged->stamp;
+    staged->fresh = 0;
 }
 
 /* Validate, derive and initialise if parameters changed; write outputs. */
@@ -175,10 +197,12 @@ static fmi2Status ensure_initialized(Instance *I) {
     }
     M->rec = NULL;
     if (M->v.kind == KIND_RECORD) {
-        if (load_record(I, M->v.file, NULL, msg, sizeof(msg))) {
+        StagedRecord staged;
+        if (stage_record(I, M->v.file, NULL, &staged, msg, sizeof(msg))) {
             LOG_ERROR(I, "excitation.file: %s", msg);
             return fmi2Error;
         }
+        adopt_record(I, &staged);
         M->rec = &I->rec;
         if (ground_validate_record(M, msg, sizeof(msg))) {
             LOG_ERROR(I, "invalid parameter: %s", msg);
@@ -306,8 +330,8 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
         return fmi2Error;
     }
     I->s.startTime = startTime;
-    I->s.stopTime = stopTime;
-    I->s.stopDefined = stopTimeDefined;
+    I->s.stopTime = stopTimeDefined ? stopTime : 0.0; /* no stray value (NaN) in a saved state */
+    I->s.stopDefined = stopTimeDefined ? 1 : 0;
     I->s.tc = startTime;
     I->s.dirty = 1;
     return fmi2OK;
@@ -570,6 +594,41 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     return fmi2OK;
 }
 
+/* The FMI part of a state to restore: phase, flags and times. */
+static int snapshot_check(const Snapshot *snap, char *msg, size_t n) {
+    int phase = (int)snap->phase;
+    if (!(phase == PHASE_INSTANTIATED || phase == PHASE_INITIALIZATION || phase == PHASE_STEP_COMPLETE ||
+          phase == PHASE_TERMINATED || phase == PHASE_ERROR)) {
+        snprintf(msg, n, "unknown phase %d", phase);
+        return 1;
+    }
+    /* parameters set since the last initialisation are checked, and the state rebuilt, before
+     * they are used: possible until fmi2ExitInitializationMode, and always so before it */
+    if (!(snap->dirty == 0 || snap->dirty == 1) || (snap->dirty && phase > PHASE_INITIALIZATION) ||
+        (!snap->dirty && phase == PHASE_INSTANTIATED)) {
+        snprintf(msg, n, "the flag of changed parameters (%d) does not fit phase %d", snap->dirty, phase);
+        return 1;
+    }
+    if (!isfinite(snap->startTime) || !(snap->stopDefined == 0 || snap->stopDefined == 1) ||
+        !isfinite(snap->stopTime) || (snap->stopDefined && !(snap->stopTime >= snap->startTime))) {
+        snprintf(msg, n, "start time %g, stop time %g (defined: %d) are not an experiment's", snap->startTime,
+                 snap->stopTime, snap->stopDefined);
+        return 1;
+    }
+    /* fmi2DoStep accepts a communication point within 1e-9 (relative) of the FMU's time */
+    if (!(isfinite(snap->tc) && snap->tc >= snap->startTime - 1e-9 * fmax(1.0, fabs(snap->startTime))) ||
+        (phase <= PHASE_INITIALIZATION && snap->tc != snap->startTime)) {
+        snprintf(msg, n, "time %.17g is not a time after the start %.17g (the start itself before stepping)", snap->tc,
+                 snap->startTime);
+        return 1;
+    }
+    if (snap->model.rec) {
+        snprintf(msg, n, "a record address where a saved state has none");
+        return 1;
+    }
+    return 0;
+}
+
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     Instance *I = (Instance *)c;
     CHECK(I, GET_PHASES | PHASE_INSTANTIATED, "fmi2SetFMUstate");
@@ -578,26 +637,43 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
         LOG_ERROR(I, "fmi2SetFMUstate: not a state of this FMU");
         return fmi2Error;
     }
+    char msg[MSG_LEN];
+    if (snapshot_check(snap, msg, sizeof(msg))) {
+        LOG_ERROR(I, "fmi2SetFMUstate: invalid state (corrupted?): %s", msg);
+        return fmi2Error;
+    }
     const Model *sm = &snap->model;
+    StagedRecord staged = {0};
     if (!snap->dirty) {
-        /* the state's parameters must be valid and its derived values exactly those they give
-         * (with its record, which this instance must hold with the same samples) */
-        char msg[MSG_LEN];
+        /* the state's parameters must be valid, its derived values exactly those they give
+         * (with its record, which must have the same samples), and its integrator and
+         * discrete state one a run of these parameters leaves. Until every check passed,
+         * nothing of the instance changes (its record neither). */
         if (model_validate(&sm->v, msg, sizeof(msg))) {
             LOG_ERROR(I, "fmi2SetFMUstate: the state's parameters are invalid: %s", msg);
             return fmi2Error;
         }
-        if (sm->v.kind == KIND_RECORD && load_record(I, sm->v.file, &sm->d, msg, sizeof(msg))) {
+        if (sm->v.kind == KIND_RECORD && stage_record(I, sm->v.file, &sm->d, &staged, msg, sizeof(msg))) {
             LOG_ERROR(I, "fmi2SetFMUstate: excitation.file: %s", msg);
             return fmi2Error;
         }
         Model check = *sm;
-        check.rec = sm->v.kind == KIND_RECORD ? &I->rec : NULL;
+        check.rec = sm->v.kind == KIND_RECORD ? staged_record(I, &staged) : NULL;
         model_derive(&check);
         if (memcmp(&check.d, &sm->d, sizeof(Derived)) != 0) {
+            drop_record(I, &staged);
             LOG_ERROR(I, "fmi2SetFMUstate: the state does not match its own parameters (a corrupted state?)");
             return fmi2Error;
         }
+        StateUse use = snap->phase == PHASE_INITIALIZATION  ? STATE_INITIAL
+                       : snap->phase == PHASE_STEP_COMPLETE ? STATE_RUNNING
+                                                            : STATE_INERT;
+        if (state_validate(&check, snap->startTime, snap->tc, use, msg, sizeof(msg))) {
+            drop_record(I, &staged);
+            LOG_ERROR(I, "fmi2SetFMUstate: invalid state (corrupted?): %s", msg);
+            return fmi2Error;
+        }
+        adopt_record(I, &staged);
     }
     I->s = *snap;
     I->s.model.rec = (!snap->dirty && sm->v.kind == KIND_RECORD) ? &I->rec : NULL;

@@ -37,12 +37,13 @@ void model_set_defaults(Model *M) {
 #define MAX_G 1000.0
 
 int model_validate(const Variables *v, char *msg, size_t n) {
-    /* every Real must be finite */
+    /* every Real must be finite, every Boolean 0 or 1, every String terminated */
 #define VAR(T, vr, field, name, caus, var, start, unit, desc) CHECK_##T(field, name)
 #define CHECK_REAL(field, name) \
     if (!isfinite(v->field)) FAIL("%s = %g is not a finite number", name, v->field);
 #define CHECK_INTEGER(field, name)
-#define CHECK_BOOLEAN(field, name)
+#define CHECK_BOOLEAN(field, name) \
+    if (v->field != 0 && v->field != 1) FAIL("%s = %d is not a Boolean (0 or 1)", name, v->field);
 #define CHECK_STRING(field, name) \
     if (!memchr(v->field, '\0', sizeof(v->field))) FAIL("%s is not terminated", name);
 #include "variables.def"
@@ -133,6 +134,7 @@ double model_law_restitution(const Variables *v, double alpha) {
 void model_derive(Model *M) {
     const Variables *v = &M->v;
     Derived *d = &M->d;
+    memset(d, 0, sizeof(*d)); /* a function of the parameters alone, unused values 0 */
     double b = v->halfWidth, h = v->halfHeight;
     d->R = sqrt(b * b + h * h);
     d->alpha = atan(b / h);

@@ -2,6 +2,7 @@
 #include "solver.h"
 
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -129,7 +130,9 @@ static int take_step(Model *M, const Logger *log) {
     RhsCtx c = {M, S->side, model_piece(M, S->t)};
     double bp = next_breakpoint(M, S->t, c.piece);
     double hmax = bp - S->t;
-    double y1[NMAX], f1[NMAX], cont[5][NMAX];
+    /* zeroed: the step fills components 0 and 1 only, and the whole array goes
+     * into the state (no stray stack bytes in a saved state) */
+    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}};
     double h = S->h, hNext;
     int hitBp;
 
@@ -139,7 +142,7 @@ static int take_step(Model *M, const Logger *log) {
     }
     if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                       cont, &hNext, &hitBp, &S->rejected)) {
-        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
@@ -220,7 +223,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     int piece = model_piece(M, S->t), side = S->side, N = taylor_order(v->relTol);
-    double x[TAYLOR_MAX + 1], bp = next_breakpoint(M, S->t, piece);
+    double x[TAYLOR_MAX + 1] = {0}, bp = next_breakpoint(M, S->t, piece); /* x[N + 1..]: 0 in the state */
     taylor_series(M, S->t, S->y[0], S->y[1], side, piece, N, x);
     double h = taylor_step(x, N, v->absTol + v->relTol * fabs(S->y[0]));
     int hitBp = 0;
@@ -229,7 +232,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
         hitBp = 1;
     }
     if (!(h > 16.0 * DBL_EPSILON * fmax(1.0, fabs(S->t)))) {
-        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
@@ -356,12 +359,17 @@ void solver_outputs(Model *M, double tc) {
     v->pattern = (int)S->mode;
     v->impactsGround = S->impacts; /* one block: every impact is on the ground */
     v->overturned1 = v->overturned;
+    /* no block 2 (whatever a former two-block initialisation wrote there) */
+    v->theta2 = v->omega2 = v->alphaDD2 = v->maxAbsTheta2 = 0.0;
+    v->impactsInterface = 0;
+    v->locked = v->overturned2 = 0;
     v->energy = model_energy(M, y[0], y[1]);
     model_ground(M, tc, &v->ahTotal, &v->avTotal);
 }
 
 void solver_rollback(Model *M, double tc) {
     State *S = &M->s;
+    S->fValid = 0; /* the derivative at (t, y) was for the old inputs */
     if (M->v.nBlocks == 2) {
         stack_rollback(M, tc);
         return;
@@ -387,3 +395,335 @@ void solver_rollback(Model *M, double tc) {
         }
     S->nStepPeaks = k;
 }
+
+/* ------------------------------------------------------------ restored states */
+
+/* The derivative at the state's time and values, as a step starting there takes it. */
+static void state_rhs(const Model *M, double f[NMAX]) {
+    const State *S = &M->s;
+    if (M->v.nBlocks == 2) {
+        stack_state_rhs(M, f);
+        return;
+    }
+    RhsCtx c = {M, S->side, model_piece(M, S->t)};
+    rhs_cb(&c, S->t, S->y, f);
+}
+
+/* The last step taken again from its start (tOld, and the dense output at s = 0),
+ * as take_step took it: its end values y1 and, for Dormand-Prince, its dense
+ * output cont, for the Taylor series x. */
+static void replay_step(const Model *M, double y1[NMAX], double cont[5][NMAX], double x[TAYLOR_MAX + 1]) {
+    const State *S = &M->s;
+    double f1[NMAX] = {0};
+    if (M->v.nBlocks == 2) {
+        stack_replay_step(M, y1, f1, cont);
+        return;
+    }
+    int piece = model_piece(M, S->tOld);
+    if (S->denseTaylor) {
+        taylor_series(M, S->tOld, S->tay[0], S->tay[1], S->denseSide, piece, S->tayN, x);
+        taylor_eval(x, S->tayN, S->hDense, &y1[0], &y1[1]);
+        return;
+    }
+    RhsCtx c = {M, S->denseSide, piece};
+    double y0[NMAX] = {S->cont[0][0], S->cont[0][1], 0.0, 0.0}, f0[NMAX] = {0}, err[NMAX];
+    rhs_cb(&c, S->tOld, y0, f0);
+    dopri5_step(rhs_cb, &c, 2, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
+}
+
+#define FAIL(...)                      \
+    do {                               \
+        snprintf(msg, n, __VA_ARGS__); \
+        return 1;                      \
+    } while (0)
+
+/* Angles may pass their geometric bounds by this much (rad): events are
+ * located to the integrator's accuracy, and a Taylor step samples its series. */
+#define ANGLE_SLACK 1e-3
+/* Counts no run reaches (and whose increments could overflow). */
+#define COUNT_MAX (INT_MAX / 2)
+#define STEPS_MAX (1LL << 53)
+
+/* Times the FMU keeps apart may still differ by this much: fmi2DoStep accepts
+ * a communication point within 1e-9 (relative) of the FMU's time. */
+static double slack(double t) { return 1e-9 * fmax(1.0, fabs(t)); }
+
+static int within(double x, double lo, double hi) { return x >= lo && x <= hi; } /* false for NaN */
+static int flag(int b) { return b == 0 || b == 1; }
+static int sign(int s) { return s == 1 || s == -1; }
+
+/* The first entry of x[0..count) that is not finite, or -1. */
+static int not_finite(const double *x, int count) {
+    for (int i = 0; i < count; i++)
+        if (!isfinite(x[i])) return i;
+    return -1;
+}
+
+/* Enumerations, flags and counts (every state). */
+static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
+    const State *S = &M->s;
+    const Variables *v = &M->v;
+    int two = v->nBlocks == 2, taylor = v->method == 1, mode = (int)S->mode, pending = (int)S->pending;
+    if (two ? !(mode == MODE_REST || mode == MODE_OVERTURNED || mode == MODE_UPPER || mode == MODE_LOCKED ||
+                mode == MODE_BOTH)
+            : !(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED))
+        FAIL("pattern %d is not one of %s", mode,
+             two ? "two blocks (1 rest, 2 overturned, 3 upper, 4 locked, 5 both)"
+                 : "one block (0 rocking, 1 rest, 2 overturned)");
+    int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH : mode == MODE_ROCKING;
+    if (!(pending >= EVENT_NONE && pending <= (two ? EVENT_OPEN : EVENT_OVERTURN)))
+        FAIL("pending event %d is not one of %s", pending,
+             two ? "0 to 5 (none, impact, overturn, interface, overturn2, open)" : "0 to 2 (none, impact, overturn)");
+    if (pending != EVENT_NONE && !moving) FAIL("event %d is pending, but nothing moves (pattern %d)", pending, mode);
+    if (!flag(S->fValid) || !flag(S->denseValid) || !flag(S->denseTaylor))
+        FAIL("flags fValid = %d, denseValid = %d, denseTaylor = %d must be 0 or 1", S->fValid, S->denseValid,
+             S->denseTaylor);
+
+    /* pivots: +1 right, -1 left; 0 only where one block has no second pivot, and before the first step */
+    if (!sign(S->side)) FAIL("side = %d must be +1 or -1", S->side);
+    if (two ? !sign(S->side2) : S->side2 != 0)
+        FAIL("side2 = %d must be %s", S->side2, two ? "+1 or -1" : "0 for one block");
+    if (!within(S->denseSide, -1, 1) || (S->denseValid && !sign(S->denseSide)))
+        FAIL("denseSide = %d must be +1 or -1 (0 before the first step)", S->denseSide);
+    if (two ? !within(S->denseSide2, -1, 1) || (S->denseValid && !sign(S->denseSide2)) : S->denseSide2 != 0)
+        FAIL("denseSide2 = %d must be %s", S->denseSide2,
+             two ? "+1 or -1 (0 before the first step)" : "0 for one block");
+    if (mode == MODE_LOCKED && S->side2 != S->side)
+        FAIL("a locked pair turns about one corner: side2 = %d must equal side = %d", S->side2, S->side);
+    if (mode == MODE_UPPER && S->side != S->side2)
+        FAIL("with block 1 flat, side = %d must follow side2 = %d", S->side, S->side2);
+
+    /* the Taylor series of the last step: its order is the one solver.relTol gives */
+    int order = taylor_order(v->relTol);
+    if (taylor ? !(S->tayN == 0 || S->tayN == order) : S->tayN != 0)
+        FAIL("tayN = %d must be %s", S->tayN,
+             taylor ? "0 or the order solver.relTol gives" : "0 without the Taylor-series integrator");
+    if (S->denseTaylor != (S->tayN != 0)) FAIL("denseTaylor = %d does not fit tayN = %d", S->denseTaylor, S->tayN);
+    if (taylor && S->denseValid && !S->denseTaylor)
+        FAIL("the dense output of a Taylor-series step must be its series");
+    if (taylor && S->fValid) FAIL("the Taylor-series integrator keeps no derivative (fValid = 1)");
+
+    /* peaks located in the last step (one block): Dormand-Prince finds up to MAX_STEP_PEAKS, Taylor 2 */
+    int maxPeaks = two ? 0 : taylor ? 2 : MAX_STEP_PEAKS;
+    if (!within(S->nStepPeaks, 0, maxPeaks)) FAIL("nStepPeaks = %d is outside [0, %d]", S->nStepPeaks, maxPeaks);
+    if (S->nStepPeaks > 0 && mode != MODE_ROCKING)
+        FAIL("%d peaks are pending, but the block does not rock", S->nStepPeaks);
+
+    /* counters */
+    if (!within(S->impacts, 0, COUNT_MAX) || !within(S->peaks, 0, COUNT_MAX) ||
+        !within(S->impactsGround, 0, COUNT_MAX) || !within(S->impactsInterface, 0, COUNT_MAX))
+        FAIL("counters impacts = %d, peaks = %d, impactsGround = %d, impactsInterface = %d must be in [0, %d]",
+             S->impacts, S->peaks, S->impactsGround, S->impactsInterface, COUNT_MAX);
+    if (!(S->steps >= 0 && S->steps <= STEPS_MAX && S->rejected >= 0 && S->rejected <= STEPS_MAX))
+        FAIL("step counts %lld, %lld (rejected) must be in [0, 2^53]", S->steps, S->rejected);
+    if (S->impacts > S->steps) FAIL("impacts = %d exceed the steps taken (%lld)", S->impacts, S->steps);
+    if (S->peaks > MAX_STEP_PEAKS * S->steps) FAIL("peaks = %d exceed what %lld steps find", S->peaks, S->steps);
+    if (two) {
+        if (S->impacts != S->impactsGround + S->impactsInterface)
+            FAIL("impacts = %d must be impactsGround + impactsInterface = %d + %d", S->impacts, S->impactsGround,
+                 S->impactsInterface);
+        if (S->peaks != 0) FAIL("peaks = %d: two blocks count none", S->peaks);
+        if (!flag(S->overturned1) || !flag(S->overturned2) || (S->overturned1 && !S->overturned2))
+            FAIL("overturned1 = %d, overturned2 = %d: flags 0 or 1, and block 1 takes block 2 with it", S->overturned1,
+                 S->overturned2);
+        if ((mode == MODE_OVERTURNED) != S->overturned2)
+            FAIL("overturned2 = %d does not fit pattern %d", S->overturned2, mode);
+        int maxSwitches = MAX_QUICK_SWITCHES + (use == STATE_INERT); /* a failed step counted one more */
+        if (!within(S->quickSwitches, 0, maxSwitches))
+            FAIL("quickSwitches = %d is outside [0, %d]", S->quickSwitches, maxSwitches);
+    } else if (S->impactsGround || S->impactsInterface || S->overturned1 || S->overturned2 || S->quickSwitches) {
+        FAIL("the two-block counters and flags must be 0 for one block");
+    }
+
+    /* outputs: booleans are checked by model_validate */
+    if (v->impacts < 0 || v->peaks < 0 || v->impactsGround < 0 || v->impactsInterface < 0)
+        FAIL("output counters impacts = %d, peaks = %d, impactsGround = %d, impactsInterface = %d must be >= 0",
+             v->impacts, v->peaks, v->impactsGround, v->impactsInterface);
+    if (!within(v->pattern, MODE_ROCKING, MODE_BOTH)) FAIL("output pattern = %d is outside [0, 5]", v->pattern);
+
+    /* initialised, not yet stepped */
+    if (use == STATE_INITIAL && (S->steps || S->rejected || S->impacts || S->peaks || S->nStepPeaks || S->denseValid ||
+                                 S->tayN || pending != EVENT_NONE || S->quickSwitches))
+        FAIL("a state in initialization mode has taken no step (%lld steps, %d impacts)", S->steps, S->impacts);
+    return 0;
+}
+
+/* All bits 0 (not -0.0): what the solver never wrote. */
+static int zero_bits(double x) { return x == 0 && !signbit(x); }
+
+/* Numbers of a state that steps (or is about to): finite, and where a run leaves them. */
+static int check_numbers(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
+    const State *S = &M->s;
+    int two = M->v.nBlocks == 2, mode = (int)S->mode, ny = two ? 4 : 2;
+    int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH : mode == MODE_ROCKING;
+    const struct {
+        const char *name;
+        const double *x;
+        int count;
+    } numbers[] = {
+        {"t", &S->t, 1}, {"y", S->y, NMAX}, {"f", S->f, NMAX}, {"h", &S->h, 1}, {"tOld", &S->tOld, 1},
+        {"hDense", &S->hDense, 1}, {"cont[0]", S->cont[0], NMAX}, {"cont[1]", S->cont[1], NMAX},
+        {"cont[2]", S->cont[2], NMAX}, {"cont[3]", S->cont[3], NMAX}, {"cont[4]", S->cont[4], NMAX},
+        {"tay", S->tay, TAYLOR_MAX + 1}, {"stepPeakTime", S->stepPeakTime, MAX_STEP_PEAKS},
+        {"stepPeakTheta", S->stepPeakTheta, MAX_STEP_PEAKS}, {"lastImpactTime", &S->lastImpactTime, 1},
+        {"lastPeakTime", &S->lastPeakTime, 1}, {"lastPeakTheta", &S->lastPeakTheta, 1},
+        {"maxAbsTheta", &S->maxAbsTheta, 1}, {"overturnTime", &S->overturnTime, 1}, {"restTime", &S->restTime, 1},
+        {"maxAbsTheta2", &S->maxAbsTheta2, 1}, {"maxPrev", &S->maxPrev, 1}, {"maxPrev2", &S->maxPrev2, 1},
+    };
+    for (size_t k = 0; k < sizeof(numbers) / sizeof(numbers[0]); k++) {
+        int i = not_finite(numbers[k].x, numbers[k].count);
+        if (i >= 0) FAIL("%s[%d] = %g is not a finite number", numbers[k].name, i, numbers[k].x[i]);
+    }
+    /* what a solver never writes keeps the zeros model_initialize gave it */
+    if (two) {
+        if (!isfinite(S->lastSwitchTime) && S->lastSwitchTime != -INFINITY)
+            FAIL("lastSwitchTime = %g must be a time (-inf before the first pattern change)", S->lastSwitchTime);
+        for (int i = 0; i < MAX_STEP_PEAKS; i++)
+            if (!zero_bits(S->stepPeakTime[i]) || !zero_bits(S->stepPeakTheta[i]))
+                FAIL("two blocks locate no peaks: stepPeak %d must be 0", i);
+    } else {
+        int taylor = M->v.method == 1; /* the Taylor-series integrator keeps neither f nor cont */
+        for (int i = 0; i < NMAX; i++) {
+            int used = (i >= 2 || taylor) && (!zero_bits(S->f[i]) || (i >= 2 && !zero_bits(S->y[i])));
+            for (int k = 0; k < 5; k++) used |= (i >= 2 || taylor) && !zero_bits(S->cont[k][i]);
+            if (used)
+                FAIL("component %d of y, f or the dense output is unused%s and must be 0", i,
+                     taylor ? " (Taylor series)" : "");
+        }
+        if (!zero_bits(S->maxAbsTheta2) || !zero_bits(S->maxPrev) || !zero_bits(S->maxPrev2) ||
+            !zero_bits(S->lastSwitchTime))
+            FAIL("the two-block quantities must be 0 for one block");
+    }
+    for (int k = 0; k <= TAYLOR_MAX; k++)
+        if ((S->tayN == 0 || k > S->tayN) && !zero_bits(S->tay[k]))
+            FAIL("tay[%d] = %g lies beyond the series' order %d and must be 0", k, S->tay[k], S->tayN);
+
+    /* times: the integrator may run ahead of tc by the step that covers tc, never fall behind */
+    if (!(S->t >= tc - slack(tc))) FAIL("t = %.17g lies before the communication point %.17g", S->t, tc);
+    if (use == STATE_INITIAL && S->t != tc)
+        FAIL("t = %.17g must be the start time %.17g in initialization mode", S->t, tc);
+    if (!(S->h >= 0)) FAIL("the proposed step h = %g must be >= 0", S->h);
+    if (S->denseValid) {
+        if (!(S->hDense > 0)) FAIL("the last step's length %g must be > 0", S->hDense);
+        if (!(fabs(S->tOld + S->hDense - S->t) <= slack(S->t)))
+            FAIL("the last step [%.17g, + %.17g] does not end at t = %.17g", S->tOld, S->hDense, S->t);
+        if (!(S->tOld <= tc + slack(tc)))
+            FAIL("the last step starts at %.17g, after the communication point %.17g", S->tOld, tc);
+    }
+    if (S->t > tc + slack(tc) && !(moving && S->denseValid))
+        FAIL("t = %.17g is ahead of the communication point %.17g without a step that covers it", S->t, tc);
+    if (!moving && !(fabs(S->t - tc) <= slack(tc)))
+        FAIL("at rest or overturned, t = %.17g must be the communication point %.17g", S->t, tc);
+    if (S->pending != EVENT_NONE && !(S->t > tc))
+        FAIL("an event is pending at t = %.17g, not after the communication point %.17g", S->t, tc);
+    double lo = t0 - slack(t0), hi = S->t + slack(S->t);
+    if (S->impacts == 0 ? S->lastImpactTime != -1 : !within(S->lastImpactTime, lo, hi))
+        FAIL("lastImpactTime = %.17g does not fit %d impacts (-1 before the first, else a time in [start, t])",
+             S->lastImpactTime, S->impacts);
+    if (S->peaks == 0 ? S->lastPeakTime != -1 || S->lastPeakTheta != 0 : !within(S->lastPeakTime, lo, hi))
+        FAIL("lastPeakTime = %.17g, lastPeakTheta = %g do not fit %d peaks", S->lastPeakTime, S->lastPeakTheta,
+             S->peaks);
+    if (mode == MODE_OVERTURNED ? !within(S->overturnTime, lo, hi) : S->overturnTime != -1)
+        FAIL("overturnTime = %.17g does not fit pattern %d", S->overturnTime, mode);
+    if (S->restTime != -1 && !within(S->restTime, lo, hi))
+        FAIL("restTime = %.17g is not a time in [start, t]", S->restTime);
+    if (two && S->lastSwitchTime != -INFINITY && !within(S->lastSwitchTime, lo, hi))
+        FAIL("lastSwitchTime = %.17g is not a time in [start, t]", S->lastSwitchTime);
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (!within(S->stepPeakTime[i], S->tOld - slack(S->tOld), hi))
+            FAIL("pending peak %d at %.17g lies outside the last step [%.17g, %.17g]", i, S->stepPeakTime[i],
+                 S->tOld, S->t);
+
+    /* angles: block 1 within a quarter turn of upright, block 2 within a quarter turn of block 1 */
+    double quarter = M_PI / 2 + ANGLE_SLACK;
+    if (!(fabs(S->y[0]) <= quarter)) FAIL("block 1's angle %g lies beyond pi/2", S->y[0]);
+    if (two && !(fabs(S->y[2] - S->y[0]) <= quarter))
+        FAIL("block 2's angle %g lies beyond pi/2 from block 1's %g", S->y[2], S->y[0]);
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (!(fabs(S->stepPeakTheta[i]) <= quarter))
+            FAIL("pending peak %d at angle %g lies beyond pi/2", i, S->stepPeakTheta[i]);
+    if (!(fabs(S->lastPeakTheta) <= quarter)) FAIL("lastPeakTheta = %g lies beyond pi/2", S->lastPeakTheta);
+    if (!within(S->maxAbsTheta, two ? 0 : fabs(S->lastPeakTheta), quarter))
+        FAIL("maxAbsTheta = %g is outside [|lastPeakTheta|, pi/2]", S->maxAbsTheta);
+    if (two && !(within(S->maxAbsTheta2, 0, 2 * quarter) && within(S->maxPrev, 0, S->maxAbsTheta) &&
+                 within(S->maxPrev2, 0, S->maxAbsTheta2)))
+        FAIL("maxAbsTheta2 = %g, maxPrev = %g, maxPrev2 = %g do not fit maxAbsTheta = %g", S->maxAbsTheta2, S->maxPrev,
+             S->maxPrev2, S->maxAbsTheta);
+
+    /* rates: a million times the blocks' own frequency sqrt(g / R) is no rocking (and keeps
+     * the energy finite) */
+    const Derived *d = &M->d;
+    double rateMax = 1e6 * sqrt(M->v.g / (two ? fmin(d->R, fmin(d->RI, d->RL)) : d->R));
+    for (int i = 1; i < ny; i += 2)
+        if (!(fabs(S->y[i]) <= rateMax)) FAIL("rate y[%d] = %g exceeds %g rad/s", i, S->y[i], rateMax);
+
+    /* the derivative kept for the next step is the one at (t, y) (only a moving state steps) */
+    if (S->fValid && moving) {
+        double f[NMAX] = {0};
+        state_rhs(M, f);
+        if (memcmp(f, S->f, ny * sizeof(double)) != 0)
+            FAIL("the derivative kept at t = %.17g is not the one there", S->t);
+    }
+    /* Once the integrator has run ahead of tc, outputs come from the last step's dense output
+     * (no event applied since): taken again from the step's start, the step must give the same
+     * dense output and end values (an angle an event set to its target excepted) */
+    if (moving && S->denseValid && S->t > tc) {
+        double y1[NMAX] = {0}, cont[5][NMAX] = {{0}}, x[TAYLOR_MAX + 1] = {0};
+        if (S->denseSide != S->side || S->denseSide2 != S->side2)
+            FAIL("the pivots of the last step (%d, %d) are not the current ones (%d, %d)", S->denseSide, S->denseSide2,
+                 S->side, S->side2);
+        replay_step(M, y1, cont, x);
+        if (S->denseTaylor ? memcmp(x, S->tay, sizeof(x)) != 0 : memcmp(cont, S->cont, sizeof(cont)) != 0)
+            FAIL("the last step's dense output is not the one its start (t = %.17g) gives", S->tOld);
+        for (int i = 0; i < ny; i++) {
+            int angle = i % 2 == 0;
+            if (angle && S->pending != EVENT_NONE ? !(fabs(S->y[i] - y1[i]) <= ANGLE_SLACK) : S->y[i] != y1[i])
+                FAIL("y[%d] = %.17g is not where the last step ends (%.17g)", i, S->y[i], y1[i]);
+        }
+    }
+
+    /* what each pattern holds fixed */
+    switch (mode) {
+    case MODE_REST:
+        for (int i = 0; i < ny; i++)
+            if (S->y[i] != 0) FAIL("at rest every angle and rate is 0, not y[%d] = %g", i, S->y[i]);
+        break;
+    case MODE_OVERTURNED:
+        if (two ? S->y[1] != 0 || S->y[3] != 0 : S->y[1] != 0 || S->y[0] != S->side * M_PI / 2)
+            FAIL("an overturned block lies still on its side (y = %g, %g)", S->y[0], S->y[1]);
+        break;
+    case MODE_UPPER:
+        if (S->y[0] != 0 || S->y[1] != 0)
+            FAIL("block 1 lies flat while block 2 rocks alone (y = %g, %g)", S->y[0], S->y[1]);
+        break;
+    case MODE_LOCKED: /* an event located at t set block 1's angle to its target, not yet block 2's */
+        if (S->y[3] != S->y[1] ||
+            (S->pending == EVENT_NONE ? S->y[2] != S->y[0] : !(fabs(S->y[2] - S->y[0]) <= ANGLE_SLACK)))
+            FAIL("a locked pair moves as one body (y = %g, %g, %g, %g)", S->y[0], S->y[1], S->y[2], S->y[3]);
+        break;
+    default:
+        break;
+    }
+    return 0;
+}
+
+int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
+    if (check_discrete(M, use, msg, n)) return 1;
+    if (use == STATE_INERT) return 0;
+    if (check_numbers(M, t0, tc, use, msg, n)) return 1;
+    /* the outputs are those of the state at tc, but for the ones that follow the inputs at
+     * once (set after the outputs were written) */
+    Model out = *M;
+    solver_outputs(&out, tc);
+    out.v.alphaDD = M->v.alphaDD;
+    out.v.alphaDD2 = M->v.alphaDD2;
+    out.v.ahTotal = M->v.ahTotal;
+    out.v.avTotal = M->v.avTotal;
+#define VAR(T, vr, field, name, caus, var, start, unit, desc)         \
+    if (memcmp(&out.v.field, &M->v.field, sizeof(out.v.field)) != 0) \
+        FAIL("%s is not what the state gives at t = %.17g", name, tc);
+#include "variables.def"
+#undef VAR
+    return 0;
+}
+#undef FAIL

@@ -25,4 +25,23 @@ void solver_outputs(Model *M, double tc);
 /* Bring the integrator back to tc (when an input changed there). */
 void solver_rollback(Model *M, double tc);
 
+/* What a restored state is for (state_validate). */
+typedef enum {
+    STATE_INERT = 0,   /* never stepped again: saved after a failed step or fmi2Terminate */
+    STATE_INITIAL = 1, /* initialised, not yet stepped (initialization mode) */
+    STATE_RUNNING = 2  /* between steps */
+} StateUse;
+
+/* Check the integrator and discrete state M->s of a restored FMU state, and its
+ * outputs, against the parameters M->v and derived values M->d it comes with
+ * (both checked already: model_validate, and M->d equal to what model_derive
+ * gives; M->rec attached). t0 is the experiment's start time and tc the
+ * communication point of the state (both finite, tc >= t0). An inert state has
+ * its enumerations, flags and counts checked, which keeps every index the solver
+ * takes from the state in range; the others must also hold finite numbers that
+ * fit each other as a run leaves them: the last step taken again from its start
+ * gives the same dense output and end values, the outputs are those of the state
+ * at tc. Returns 0, or nonzero with a one-line reason in msg. */
+int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n);
+
 #endif

@@ -14,8 +14,6 @@
 /* A closed contact opens once its margin (stack_margins) falls below
  * -TOL_OPEN: a reaction moment 1e-9 of weight times contact half width. */
 #define TOL_OPEN 1e-9
-/* Pattern changes allowed at one instant before the solver gives up. */
-#define MAX_QUICK_SWITCHES 16
 /* Samples per step when looking for a contact that opens. */
 #define OPEN_SAMPLES 8
 
@@ -366,7 +364,7 @@ static int take_step(Model *M, const Logger *log) {
     }
     if (adaptive_step(rhs_cb, &c, 4, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                       cont, &hNext, &hitBp, &S->rejected)) {
-        say(log, LOG_ERROR, "step size %g too small at t=%.17g", h, S->t);
+        say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
@@ -523,4 +521,19 @@ void stack_rollback(Model *M, double tc) {
     S->pending = EVENT_NONE;
     S->fValid = 0;
     S->denseValid = 0;
+}
+
+void stack_state_rhs(const Model *M, double f[NMAX]) {
+    const State *S = &M->s;
+    Ctx c = {M, S->mode, S->side, S->side2, model_piece(M, S->t)};
+    rhs_cb(&c, S->t, S->y, f);
+}
+
+void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]) {
+    const State *S = &M->s;
+    Ctx c = {M, S->mode, S->denseSide, S->denseSide2, model_piece(M, S->tOld)};
+    double y0[NMAX], f0[NMAX], err[NMAX];
+    for (int i = 0; i < NMAX; i++) y0[i] = S->cont[0][i];
+    rhs_cb(&c, S->tOld, y0, f0);
+    dopri5_step(rhs_cb, &c, 4, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
 }

@@ -13,6 +13,9 @@
 
 #include "model.h"
 
+/* Pattern changes allowed at one instant before the solver gives up. */
+#define MAX_QUICK_SWITCHES 16
+
 /* Initial pattern and pivots from the initial conditions (after the common
  * part of model_initialize). */
 void stack_initialize(Model *M);
@@ -20,5 +23,12 @@ void stack_initialize(Model *M);
 int stack_advance(Model *M, double tc, const Logger *log);
 void stack_outputs(Model *M, double tc);
 void stack_rollback(Model *M, double tc);
+
+/* For checking a restored state (state_validate): the derivative at the state's
+ * time and values, and the last step taken again from its start (tOld, the dense
+ * output at s = 0) in the state's pattern: its end values, derivative there and
+ * dense output. */
+void stack_state_rhs(const Model *M, double f[NMAX]);
+void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]);
 
 #endif
