@@ -7,9 +7,6 @@ import argparse
 import math
 import sys
 
-MAX_ID = 2**63 - 1  # database ids are 64-bit signed integers: a larger number names nothing
-
-
 class Parser(argparse.ArgumentParser):
     """An ArgumentParser whose errors are one line (``error: ...``, exit 2), with where to look."""
 
@@ -57,25 +54,15 @@ def tolerance(text: str) -> float:
     return x
 
 
-def _whole(text: str, low: int, high: int | None, what: str) -> int:
+def count(text: str) -> int:
+    """A whole number >= 1 (workers, repeats, chunk sizes, limits)."""
     try:
         n = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not {what} (a whole number)") from None
-    if n < low or (high is not None and n > high):
-        span = f"at least {low}" if high is None else f"from {low} to {high}"
-        raise argparse.ArgumentTypeError(f"{text!r} is not {what}: expected a whole number {span}")
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
     return n
-
-
-def count(text: str) -> int:
-    """A whole number >= 1 (workers, repeats, chunk sizes, limits)."""
-    return _whole(text, 1, None, "a count")
-
-
-def db_id(text: str) -> int:
-    """A database id: a whole number in 1 .. 2**63 - 1 (a larger number names no row)."""
-    return _whole(text, 1, MAX_ID, "an id")
 
 
 def output_file(text: str):

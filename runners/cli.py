@@ -11,8 +11,8 @@ import os
 import sys
 from pathlib import Path
 
-from db.session import DB_HELP, DatabaseError
-from runners.args import Parser, count, db_id, finite, output_file, positive, tolerance
+from db.session import DB_HELP, DatabaseError, require_writable
+from runners.args import Parser, count, finite, output_file, positive, tolerance
 from runners.fmu import FMUError, RockingFMU, fmu_path_from
 from runners.scene import SceneError, check_times, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
@@ -198,6 +198,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ValueError(f"--resume finishes sweep {args.resume} as it was created: drop {', '.join(given)} "
                          "(start a new sweep to change them)")
     factory = _database(args.db)
+    require_writable(factory)  # before any work: a sweep stores every point
     fmu_path = fmu_path_from(args.fmu)
     if args.resume is None:
         scene = load_scene(args.scene)
@@ -337,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "excitation")
     sim.add_argument("--scale", type=finite, help="multiply the record's accelerations (excitation.scale)")
     sim.add_argument("--pga", type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
-    sim.add_argument("--motion", type=db_id, metavar="MEASUREMENT_ID",
+    sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")
     sim.add_argument("--accuracy", type=tolerance, default=1e-2,
@@ -367,7 +368,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "of record names or ids, or of a folder of record files (docs/records.md)")
     sw.add_argument("--im", metavar="pga=START:STOP:COUNT",
                     help="scale each record so that its PGA (in g) or PGV (pgv=..., in m/s) takes COUNT levels")
-    sw.add_argument("--resume", type=db_id, metavar="SWEEP_ID", help="finish an interrupted sweep")
+    sw.add_argument("--resume", type=int, metavar="SWEEP_ID", help="finish an interrupted sweep")
     sw.add_argument("--workers", type=count, help="worker processes (default: all cores)")
     sw.add_argument("--stop-time", type=positive, help="override [simulation] stop_time (s)")
     sw.add_argument("--db", help=DB_HELP)

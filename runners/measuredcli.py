@@ -12,7 +12,7 @@ from sqlalchemy import select
 
 from db import series
 from db.schema import Block, Excitation, Measurement
-from db.session import DB_HELP, open_database
+from db.session import DB_HELP, open_database, require_writable
 from db.store import load_run_series
 from runners.fmu import Event, RockingFMU, fmu_path_from
 
@@ -50,7 +50,7 @@ def cmd_import(args: argparse.Namespace) -> int:
              "sampling_rate": None if args.sampling_rate is None else str(args.sampling_rate),
              "uncertainty": args.uncertainty}
     m = read_measured(args.file, given)  # everything is checked before the database is touched
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=True)
     motion = m.kind not in ("peaks", "rotation")
     with factory.begin() as session:  # one transaction: all of it or nothing
         record = None
@@ -169,6 +169,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from runners.compare import decay_from_peaks, decay_from_rotation
 
     factory = open_database(args.db)
+    if not args.no_store:
+        require_writable(factory, "or run with --no-store")
     with factory() as session:
         m, tm, mcols = load_measurement(session, args.measurement)
         if m.kind not in ("peaks", "rotation"):

