@@ -137,11 +137,18 @@ def _check_file(path: str) -> bool:
     try:
         if p.is_dir():
             raise DatabaseError(f"{path} is a folder, not an SQLite database file")
-        size = p.stat().st_size
-        if size == 0:
+        st = p.stat()
+        if st.st_size == 0:
             return False
+        if (st.st_dev, st.st_ino) in _HEADERS_READ:
+            # Read once per process: closing a file descriptor of a database file releases every
+            # POSIX lock this process holds on it, the locks of its open SQLite connections
+            # included (https://www.sqlite.org/howtocorrupt.html, 2.2), so the header is
+            # read only before this process has connected to the file.
+            return True
         with p.open("rb") as fh:
             head = fh.read(100)
+        size = st.st_size
     except FileNotFoundError:
         return False
     except OSError as exc:
@@ -165,7 +172,11 @@ def _check_file(path: str) -> bool:
     if pages and head[24:28] == head[92:96] and size < pages * page and not pending_wal:
         raise DatabaseError(f"the database {path} is damaged: it is cut short ({size} bytes of the "
                             f"{pages * page} its header announces); it was left untouched")
+    _HEADERS_READ.add((st.st_dev, st.st_ino))
     return True
+
+
+_HEADERS_READ: set[tuple[int, int]] = set()  # (device, inode) of the database files _check_file has read
 
 
 def _unwritable(path: str) -> str | None:
@@ -370,6 +381,8 @@ def open_database(url: str | None = None, *, write: bool | None = None) -> sessi
             raise DatabaseError(f"cannot open the database {where!r}: there is no such database "
                                 "(runners db init creates it)")
         upgrade(engine)
+        st = os.stat(path)  # created here: its header needs no reading, which could break our locks
+        _HEADERS_READ.add((st.st_dev, st.st_ino))
         return sessionmaker(engine, class_=RockingSession, expire_on_commit=False)
     readonly = _readonly_engine(path)
     try:  # read without writing first: nothing touches a file this version cannot use

@@ -372,3 +372,26 @@ def test_read_commands_and_ids_beyond_64_bits_on_every_backend(db_url, fmu_path)
     assert p.returncode == 0 and "runs: 1 in" in p.stdout, p.stderr
     one_line_error(run_cli("db", "show", "run", HUGE, db=db_url, fmu_path=fmu_path), f"no run '{HUGE}'")
     one_line_error(run_cli("rrd", HUGE, db=db_url, fmu_path=fmu_path), f"no run {HUGE}")
+
+
+def test_opening_a_database_again_keeps_the_locks_of_its_open_connections(tmp_path):
+    """Reading a database file's header closes a file descriptor of it, which releases every
+    POSIX lock the process holds on it, its SQLite connections' included: another process
+    closing its connection then believes it is the last one and removes the write-ahead log
+    under the first one's feet (what corrupted sweeps watched by a polling reader)."""
+    import sqlite3
+    import subprocess
+    import sys
+
+    from sqlalchemy import text
+
+    path = tmp_path / "locks.db"
+    factory = open_database(f"sqlite:///{path}")
+    with factory.kw["bind"].connect() as conn:  # an open connection of this process...
+        conn.execute(text("SELECT count(*) FROM runs")).scalar()
+        open_database(f"sqlite:///{path}")  # ...while the database is opened again
+        subprocess.run([sys.executable, "-c", "import sqlite3, sys; c = sqlite3.connect(sys.argv[1]); "
+                        "c.execute('SELECT count(*) FROM runs').fetchone(); c.close()", str(path)], check=True)
+        assert Path(f"{path}-wal").exists()  # the other process knew it was not the last
+        conn.execute(text("SELECT count(*) FROM runs")).scalar()
+    assert sqlite3.connect(path).execute("PRAGMA integrity_check").fetchone() == ("ok",)
