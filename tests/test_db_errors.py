@@ -114,17 +114,23 @@ def test_an_sqlite_file_of_another_program_is_refused_and_left_byte_identical(tm
     assert path.read_bytes() == before
 
 
+def altered_db(path: Path, fmu_path, sql: str) -> bytes:
+    """A database with one stored run, then changed behind the tool's back by `sql` (and
+    checkpointed, so the file holds everything); its bytes."""
+    stored_db(path, fmu_path)
+    con = sqlite3.connect(path)
+    con.execute(sql)
+    con.commit()
+    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    con.close()
+    return path.read_bytes()
+
+
 # --- 2. a newer schema: say so, change nothing ------------------------------------------------------------
 
 def test_a_database_from_a_newer_version_is_refused_in_one_line_and_not_modified(tmp_path, fmu_path):
     path = tmp_path / "newer.db"
-    stored_db(path, fmu_path)
-    con = sqlite3.connect(path)
-    con.execute("UPDATE alembic_version SET version_num = 'ffff9999'")
-    con.commit()
-    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-    con.close()
-    before = path.read_bytes()
+    before = altered_db(path, fmu_path, "UPDATE alembic_version SET version_num = 'ffff9999'")
     for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "init")):
         one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), "newer version", "ffff9999", "upgrade")
     assert path.read_bytes() == before
@@ -325,13 +331,7 @@ def test_importing_a_file_that_is_not_an_unsaved_run_is_one_line(tmp_path, fmu_p
 
 def test_a_dropped_table_is_reported_as_damage_in_one_line(tmp_path, fmu_path):
     path = tmp_path / "dropped.db"
-    stored_db(path, fmu_path)
-    con = sqlite3.connect(path)
-    con.execute("DROP TABLE runs")
-    con.commit()
-    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-    con.close()
-    before = path.read_bytes()
+    before = altered_db(path, fmu_path, "DROP TABLE runs")
     for args in (("simulate", FREE), ("db", "list", "runs"), ("db", "show", "scene", "1")):
         one_line_error(run_cli(*args, db=str(path), fmu_path=fmu_path), str(path), "is damaged",
                        "table runs is missing")
