@@ -9,6 +9,7 @@ with a communication step, outputs read at every step.
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import tempfile
@@ -227,3 +228,45 @@ def run_dask_bench(fmu_path: Path) -> str:
             notes.append(f"{label}: the Dask path adds {1e3 * (wall['dask', 1] - wall['local', 1]) / (n * n):.3f} ms "
                          f"per point against the local one ({wall['dask', 1] / wall['local', 1]:.2f}x, 1 worker)")
     return "\n".join(out + [""] + notes)
+
+
+SIZE_CASES = [(100, 100), (1000, 1000), (10000, 1000)]  # w x a points of the one-sine-pulse map
+
+
+def run_sweep_size_bench(fmu_path: Path, first: int = 1000) -> str:
+    """Memory and start-up of sweeps of 1e4, 1e6 and 1e7 points: each runs as its own
+    `runners sweep` process (1 worker), watched until `first` points are stored, then
+    stopped with SIGTERM; its peak resident memory (VmHWM, Linux) and the time to that
+    first stored batch. The grid is planned a window at a time, so neither should grow
+    with the grid."""
+    import signal
+    import sqlite3
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    out = [f"Sweep size: a runners sweep process until {first} points are stored (1 worker, SQLite)", "",
+           "| points | to the first stored points (s) | peak memory of the runner (MB) |", "|---:|---:|---:|"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for nw, na in SIZE_CASES:
+            db = Path(tmp) / f"size-{nw * na}.db"
+            cmd = [sys.executable, "-m", "runners.cli", "sweep", str(root / "examples" / "sweep_sine_pulse.toml"),
+                   "--grid", f"w=1:12:{nw}", "--grid", f"a=1.01:8:{na}", "--workers", "1", "--no-progress",
+                   "--db", str(db), "--fmu", str(fmu_path)]
+            t0 = time.perf_counter()
+            proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+            stored, peak = 0, 0
+            while proc.poll() is None and stored < first and time.perf_counter() - t0 < 600:
+                try:
+                    status = Path(f"/proc/{proc.pid}/status").read_text()
+                    peak = int(next(x for x in status.splitlines() if x.startswith("VmHWM")).split()[1])
+                    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
+                        stored = conn.execute("SELECT count(*) FROM runs").fetchone()[0]
+                except (OSError, StopIteration, sqlite3.Error):
+                    pass
+                time.sleep(0.05)
+            elapsed = time.perf_counter() - t0
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGTERM)
+            proc.communicate(timeout=60)
+            out.append(f"| {nw * na:.0e} | {elapsed:.2f} | {peak / 1024:.0f} |")
+    return "\n".join(out)

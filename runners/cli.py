@@ -274,6 +274,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
         return 0
     from runners.bench_records import run_record_bench, run_study_bench
 
+    if args.sweep_size:
+        from runners.bench import run_sweep_size_bench
+
+        print(run_sweep_size_bench(fmu))
+        return 0
     if args.records:
         print(run_record_bench(fmu, repeats=args.fmpy_repeats))
         print()
@@ -301,6 +306,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(run_record_bench(fmu, repeats=args.fmpy_repeats))
     print()
     print(run_study_bench(fmu))
+    print()
+    from runners.bench import run_sweep_size_bench
+
+    print(run_sweep_size_bench(fmu))
     return 0
 
 
@@ -355,6 +364,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="sweep executors: local against a local Dask cluster, 1 and 2 workers")
     bench.add_argument("--records", action="store_true",
                        help="only the record benchmarks: one record-driven run, and a 560-run fragility study")
+    bench.add_argument("--sweep-size", action="store_true",
+                       help="only the sweep-size benchmark: memory and start-up of 1e4- to 1e7-point sweeps")
     bench.set_defaults(func=cmd_bench)
     from runners.dbcli import add_parser as add_db_parser
 

@@ -836,8 +836,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         stats["db_seconds"] += time.perf_counter() - t0
         rows.clear()
 
-    def task(i: int) -> tuple:
-        _, over, rec = plan.grid.point(i, plan.base)
+    def task(i: int, point: tuple) -> tuple:
+        _, over, rec = point
         return i, over, _recording_task(plan, i, record_dir, rec) if i in recorded else None, plan.stop_of(rec)
 
     if client is not None and recorded:
@@ -854,14 +854,13 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         for lo in range(0, plan.total if run_tasks else 0, WINDOW):
             hi = min(plan.total, lo + WINDOW)
             stored = _stored_among(factory, sweep_id, lo, hi)  # (another process may be storing this sweep too)
-            tasks = [task(i) for i in range(lo, hi) if i not in stored]
-            seen: set[int] = set()
+            points = {i: plan.grid.point(i, plan.base) for i in range(lo, hi) if i not in stored}  # one window's
+            tasks = [task(i, point) for i, point in points.items()]
             for index, out, seconds, error, rec in run_tasks(tasks) if tasks else ():
-                if index in seen:  # a chunk run twice (its worker died after sending): keep the first
+                if index not in points:  # a chunk run twice (its worker died after sending): keep the first
                     continue
-                seen.add(index)
                 t_py = time.perf_counter()
-                values, over, record_ref = plan.grid.point(index, plan.base)
+                values, over, record_ref = points.pop(index)
                 merged = {**plan.base, **over}
                 stop = plan.stop_of(record_ref)
                 run = {"scene_id": plan.scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
