@@ -237,6 +237,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     try:
         st = run_sweep(factory, sweep_id, fmu_path, workers=args.workers, progress=not args.no_progress,
                        record=record, record_dir=args.record_dir, client=client, chunk=args.chunk)
+    except (KeyboardInterrupt, SweepError) as exc:
+        with factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            where = f"sweep {sweep_id} has {sw.done} of {sw.total} points stored: finish it with " \
+                    f"runners sweep --resume {sweep_id}"
+        print(f"error: {'interrupted' if isinstance(exc, KeyboardInterrupt) else exc}; {where}", file=sys.stderr)
+        return 130 if isinstance(exc, KeyboardInterrupt) else 2
     finally:
         if client is not None:
             cluster = client.cluster

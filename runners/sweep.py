@@ -22,6 +22,7 @@ each record's samples once and read them as a file (runners.record_files).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import tempfile
@@ -647,8 +648,7 @@ class _LocalExecutor:
             for future in as_completed(futures):
                 yield from future.result()
         except BrokenProcessPool:
-            raise SweepError("a worker process died (killed, or out of memory); the points stored so far are "
-                             "kept: finish the sweep with runners sweep --resume") from None
+            raise SweepError("a worker process died (killed, or out of memory)") from None
 
     def __enter__(self) -> "_LocalExecutor":
         return self
@@ -768,6 +768,30 @@ class _DaskExecutor:
             yield from future.result()
 
 
+def _row(plan: _Plan, index: int, point: tuple, out: dict | None, seconds: float, error: str | None,
+         rec: Recorded | None, sha: str, version: str) -> tuple:
+    """(run row, summary row or None, Recorded or None, excitation row or None) of one point's result."""
+    values, over, record_ref = point
+    merged = {**plan.base, **over}
+    stop = plan.stop_of(record_ref)
+    run = {"scene_id": plan.scene_id, "sweep_id": plan.sweep_id, "grid_index": index, "point": values,
+           "model": "two blocks" if plan.two else "one block", "method": "fmu",
+           "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
+           "stop_time": plan.stop_time if stop is None else stop, "fmu_sha256": sha, "code_version": version,
+           "wall_time": seconds, "status": "error" if error else "ok", "error_message": error,
+           "recording": rec.path if rec else None}
+    excitation = None if record_ref is None else {
+        "kind": "record", "record_id": record_ref.id, "scale": float(merged.get("excitation.scale", 1.0)),
+        "start_time": float(merged.get("excitation.startTime", 0.0))}
+    return run, None if out is None else _summary(out, merged, plan.two), rec, excitation
+
+
+def _set_status(factory, sweep_id: int, status: str) -> None:
+    """Mark an unfinished sweep running or interrupted (a finished one stays done)."""
+    with factory.begin() as session:
+        session.execute(update(Sweep).where(Sweep.id == sweep_id, Sweep.done < Sweep.total).values(status=status))
+
+
 WINDOW = 20_000  # grid points planned at a time: a sweep of any size runs in bounded memory
 
 
@@ -844,44 +868,40 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         raise ValueError("--record writes recordings where the point runs: use the local executor, or record "
                          "points after the sweep with runners rrd --sweep ID --points")
     bar = tqdm(total=plan.total, initial=plan.already, disable=not progress, unit="run", desc=f"sweep {sweep_id}")
-    with ExitStack() as stack:
-        if remaining <= 0:
-            run_tasks = None
-        elif client is not None:
-            run_tasks = _DaskExecutor(plan, fmu_path, sha, client, chunk).results
-        else:
-            run_tasks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers)).results
-        for lo in range(0, plan.total if run_tasks else 0, WINDOW):
-            hi = min(plan.total, lo + WINDOW)
-            stored = _stored_among(factory, sweep_id, lo, hi)  # (another process may be storing this sweep too)
-            points = {i: plan.grid.point(i, plan.base) for i in range(lo, hi) if i not in stored}  # one window's
-            tasks = [task(i, point) for i, point in points.items()]
-            for index, out, seconds, error, rec in run_tasks(tasks) if tasks else ():
-                if index not in points:  # a chunk run twice (its worker died after sending): keep the first
-                    continue
-                t_py = time.perf_counter()
-                values, over, record_ref = points.pop(index)
-                merged = {**plan.base, **over}
-                stop = plan.stop_of(record_ref)
-                run = {"scene_id": plan.scene_id, "sweep_id": sweep_id, "grid_index": index, "point": values,
-                       "model": "two blocks" if plan.two else "one block", "method": "fmu",
-                       "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
-                       "stop_time": plan.stop_time if stop is None else stop, "fmu_sha256": sha,
-                       "code_version": version, "wall_time": seconds, "status": "error" if error else "ok",
-                       "error_message": error, "recording": rec.path if rec else None}
-                excitation = None if record_ref is None else {
-                    "kind": "record", "record_id": record_ref.id, "scale": float(merged.get("excitation.scale", 1.0)),
-                    "start_time": float(merged.get("excitation.startTime", 0.0))}
-                rows.append((run, None if out is None else _summary(out, merged, plan.two), rec, excitation))
-                stats["ran"] += 1
-                stats["errors"] += error is not None
-                stats["recorded"] += rec is not None
-                stats["fmu_seconds"] += seconds
-                bar.update(1)
-                stats["python_seconds"] += time.perf_counter() - t_py
-                if len(rows) >= batch:
-                    flush()
+    _set_status(factory, sweep_id, "running")
+    try:
+        with ExitStack() as stack:
+            if remaining <= 0:
+                run_tasks = None
+            elif client is not None:
+                run_tasks = _DaskExecutor(plan, fmu_path, sha, client, chunk).results
+            else:
+                run_tasks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers)).results
+            for lo in range(0, plan.total if run_tasks else 0, WINDOW):
+                hi = min(plan.total, lo + WINDOW)
+                stored = _stored_among(factory, sweep_id, lo, hi)  # (another process may be storing this sweep too)
+                points = {i: plan.grid.point(i, plan.base) for i in range(lo, hi) if i not in stored}  # one window's
+                tasks = [task(i, point) for i, point in points.items()]
+                for index, out, seconds, error, rec in run_tasks(tasks) if tasks else ():
+                    if index not in points:  # a chunk run twice (its worker died after sending): keep the first
+                        continue
+                    t_py = time.perf_counter()
+                    rows.append(_row(plan, index, points.pop(index), out, seconds, error, rec, sha, version))
+                    stats["ran"] += 1
+                    stats["errors"] += error is not None
+                    stats["recorded"] += rec is not None
+                    stats["fmu_seconds"] += seconds
+                    bar.update(1)
+                    stats["python_seconds"] += time.perf_counter() - t_py
+                    if len(rows) >= batch:
+                        flush()
+                flush()
+    except BaseException:  # interrupted or failed: keep what arrived, and say the sweep is not running
+        with contextlib.suppress(Exception):
             flush()
+        with contextlib.suppress(Exception):
+            _set_status(factory, sweep_id, "interrupted")
+        raise
     bar.close()
     with factory() as session:
         stats["stored"] = session.get(Sweep, sweep_id).done  # by this process and any other

@@ -278,7 +278,10 @@ def test_sigterm_stops_a_sweep_like_ctrl_c_and_it_resumes(fmu_path, tmp_path):
     workers = _children(p.pid)
     os.killpg(p.pid, signal.SIGTERM)  # the whole group, as a job scheduler or systemd does
     _, err = p.communicate(timeout=30)
-    assert p.returncode == 130 and err.strip() == "error: interrupted", err
+    assert p.returncode == 130 and err.count("\n") == 1 and err.startswith("error: interrupted; sweep 1 has "), err
+    assert "runners sweep --resume 1" in err
+    with open_database(db)() as s:
+        assert s.get(Sweep, 1).status == "interrupted" and 500 <= s.get(Sweep, 1).done < 3600
     assert not any(Path(f"/proc/{w}").exists() for w in workers)
     assert list(scratch.iterdir()) == []  # the FMU's extraction is removed
     q = cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path, timeout=300)
@@ -295,7 +298,7 @@ def test_a_killed_worker_stops_the_sweep_with_one_line_and_it_resumes(fmu_path, 
     _wait_stored(db, 500, 60)
     os.kill(_children(p.pid)[0], signal.SIGKILL)  # as the out-of-memory killer would
     _, err = p.communicate(timeout=60)
-    assert p.returncode == 2 and err.count("\n") == 1 and "worker process died" in err, err
+    assert p.returncode == 2 and err.count("\n") == 1 and "worker process died" in err and "--resume 1" in err, err
     assert cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path, timeout=300).returncode == 0
     with open_database(db)() as s:
         assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3600 == s.get(Sweep, 1).done
