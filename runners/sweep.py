@@ -60,6 +60,22 @@ class Axis:
     def values(self) -> np.ndarray:
         return np.linspace(self.start, self.stop, self.count)
 
+    def value(self, i: int) -> float:
+        """values[i], computed alone (a grid point must not cost the whole axis), bit for bit."""
+        return _linspace_at(self.start, self.stop, self.count, i)
+
+
+def _linspace_at(start: float, stop: float, count: int, i: int) -> float:
+    """np.linspace(start, stop, count)[i], by numpy's own arithmetic."""
+    if count == 1:
+        return float(start)
+    if i == count - 1:
+        return float(stop)
+    step = (stop - start) / (count - 1)
+    if step == 0:
+        return float(i / (count - 1) * (stop - start) + start)
+    return float(i * step + start)
+
 
 def parse_axis(spec: str, parameter_names: set[str]) -> Axis:
     """NAME=START:STOP:COUNT, with a one-line reason when it is malformed."""
@@ -138,7 +154,11 @@ class Intensity:
     @property
     def values(self) -> np.ndarray:
         """The levels, in self.unit (12 significant digits: 0.8, not 0.7999999999999999)."""
-        return np.array([float(f"{v:.12g}") for v in np.linspace(self.start, self.stop, self.count)])
+        return np.array([self.level(i) for i in range(self.count)])
+
+    def level(self, i: int) -> float:
+        """values[i], computed alone."""
+        return float(f"{_linspace_at(self.start, self.stop, self.count, i):.12g}")
 
     def si(self, level: float) -> float:
         return level * IM_UNITS[self.measure][1]
@@ -205,10 +225,10 @@ class Grid:
             values.update(record=rec.name, record_id=rec.id)
             over.update({"excitation.kind": 4, "excitation.file": f"@{rec.sha256}"})
         if self.intensity:
-            level = float(self.intensity.values[idx.pop(0)])
+            level = self.intensity.level(idx.pop(0))
             values.update(level=level, level_measure=self.intensity.measure, level_unit=self.intensity.unit)
             over["excitation.scale"] = self.intensity.si(level) / rec.measures[self.intensity.measure]
-        on_axes = {ax.name: float(ax.values[i]) for ax, i in zip(self.axes, idx)}
+        on_axes = {ax.name: ax.value(i) for ax, i in zip(self.axes, idx)}
         values.update(on_axes)
         over.update({k: v for k, v in on_axes.items() if k not in ("w", "a")})
         merged = {**base, **over}

@@ -5,6 +5,7 @@ in a crash, a hang or a silently wrong answer."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -432,3 +433,62 @@ def test_sizes_and_gravity_beyond_any_block_are_refused_in_one_line(fmu, paramet
     with pytest.raises(FMUError, match=words) as info:
         fmu.run({"block1.theta0": 0.05, **parameters}, stop_time=0.1, step=0.1)
     assert "\n" not in str(info.value) and "step size" not in str(info.value)
+
+
+@pytest.mark.parametrize("omega0", [-1e-300, 1e-300, 1e-18, -1e-15, 1e-4])
+def test_a_block_released_flat_with_a_negligible_rate_rests_as_the_reference_says(fmu, omega0):
+    """It once fell through the floor (|theta| of 17 alpha, no impact, not overturned): the
+    return to theta = 0 within the first 1e-300 s was missed. The independent event-driven
+    solver (scipy) comes to rest at once."""
+    from model.reference import Block
+    from model.solvers import Scene, solve_event_driven
+
+    res = fmu.run({"block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.omega0": omega0}, 2.0, 0.01)
+    ref = solve_event_driven(Scene(Block(0.1, 0.3), eta=1 - 1.5 * math.sin(math.atan(1 / 3)) ** 2, omega0=omega0), 2.0)
+    assert ref.at_rest and ref.max_abs_theta < 1e-6
+    assert res.outputs["atRest"][-1] == 1 and res.outputs["overturned"][-1] == 0
+    assert np.max(np.abs(res.outputs["block1.theta"])) <= ref.max_abs_theta + 1e-12
+
+
+@pytest.mark.parametrize("omega0,omega02", [(-1e-300, 0.0), (0.0, 1e-300), (1e-18, 1e-18)])
+def test_a_stack_released_flat_with_negligible_rates_rests(fmu, omega0, omega02):
+    res = fmu.run({"nBlocks": 2, "block1.omega0": omega0, "block2.omega0": omega02}, 2.0, 0.01,
+                  outputs=["block1.theta", "block2.theta", "atRest", "overturned"])
+    assert res.outputs["atRest"][-1] == 1 and res.outputs["overturned"][-1] == 0
+    assert np.max(np.abs(res.outputs["block1.theta"])) < 1e-9 and np.max(np.abs(res.outputs["block2.theta"])) < 1e-9
+
+
+def test_a_block_released_flat_with_a_real_rate_rocks_as_the_reference_says(fmu):
+    from model.reference import Block
+    from model.solvers import Scene, solve_event_driven
+
+    eta = 1 - 1.5 * math.sin(math.atan(1 / 3)) ** 2
+    res = fmu.run({"block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.omega0": -0.05}, 2.0, 0.01)
+    ref = solve_event_driven(Scene(Block(0.1, 0.3), eta=eta, omega0=-0.05), 2.0)
+    assert res.outputs["impacts"][-1] == len(ref.impact_times) > 5
+
+
+def test_a_ten_million_point_axis_starts_at_once(fmu_path, tmp_path):
+    """A point's value was taken from the whole axis (np.linspace of 1e7 values per point)."""
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:10000000", "--no-progress", "--workers", "1",
+            db=db, fmu_path=fmu_path, background=True)
+    try:
+        _wait_stored(db, 500, 30)
+    finally:
+        os.killpg(p.pid, signal.SIGTERM)
+        p.communicate(timeout=30)
+
+
+def test_a_grid_value_is_the_axis_value_bit_for_bit():
+    from runners.sweep import Axis, Intensity
+
+    rng = np.random.default_rng(3)
+    for start, stop, count in [(1.0, 12.0, 60), (1.01, 8.0, 7), (0.3, 0.3, 5), (-2.5, 1e3, 1), (0.05, 1.0, 20),
+                               *[(float(a), float(b), int(n)) for a, b, n in zip(rng.normal(size=50) * 100,
+                                                                                 rng.normal(size=50) * 100,
+                                                                                 rng.integers(1, 400, 50))]]:
+        ax = Axis("w", start, stop, count)
+        assert [ax.value(i) for i in range(count)] == np.linspace(start, stop, count).tolist()
+    im = Intensity("pga", 0.05, 1.0, 20)
+    assert [im.level(i) for i in range(20)] == [float(f"{v:.12g}") for v in np.linspace(0.05, 1.0, 20)]

@@ -179,7 +179,19 @@ void model_initialize(Model *M, double t0) {
     S->t = t0;
     S->y[0] = M->v.theta0;
     S->y[1] = M->v.omega0;
-    if (M->v.theta0 == 0.0 && M->v.omega0 == 0.0) {
+    if (M->v.theta0 == 0.0 && M->v.omega0 != 0.0) {
+        /* Released flat with a rate too small to lift the block to restRatio * alpha: it is
+         * at rest, by the criterion that ends rocking at an impact (its excursion would last
+         * less than any step could resolve, and the return to theta = 0 would be missed) */
+        double ah, av;
+        model_ground(M, t0, &ah, &av);
+        double geff = M->v.g + av, w = M->v.omega0;
+        if (geff > 0 && fabs(ah) <= geff * M->d.tanAlpha) {
+            double cmax = cos(M->d.alpha) + w * w / (2.0 * M->d.mROverI0 * geff);
+            if (cmax < 1.0 && M->d.alpha - acos(cmax) < M->v.restRatio * M->d.alpha) S->y[1] = 0.0;
+        }
+    }
+    if (S->y[0] == 0.0 && S->y[1] == 0.0) {
         S->mode = MODE_REST;
         S->side = 1;
     } else {

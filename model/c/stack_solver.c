@@ -121,6 +121,10 @@ void stack_initialize(Model *M) {
     S->maxPrev2 = S->maxAbsTheta2;
     S->lastSwitchTime = -INFINITY;
     model_ground(M, S->t, &ah, &av);
+    /* a closed contact released with a rate below the one that settles it at an impact is
+     * closed: its excursion would be too short for any step, and its return missed */
+    if (y[0] == 0.0 && fabs(y[1]) < settle_rate(M, 0, av)) y[1] = 0.0;
+    if (y[2] == y[0] && fabs(y[3] - y[1]) < settle_rate(M, 1, av)) y[3] = y[1];
     int s1 = sign_of(y[0], y[1]), s2 = sign_of(y[2] - y[0], y[3] - y[1]);
     Mode mode;
     int contact, end;
