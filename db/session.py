@@ -48,6 +48,8 @@ DB_HELP = "database URL or SQLite file (default: ROCKING_DB, else sqlite:///rock
 def database_url(arg: str | None = None) -> str:
     """--db, else ROCKING_DB, else rocking.db in the working folder. A value without
     "://" is a path to an SQLite file (results.db means sqlite:///results.db)."""
+    if arg is not None and not arg.strip():
+        raise DatabaseError("--db is empty: give a database URL or an SQLite file")
     url = arg or os.environ.get("ROCKING_DB") or DEFAULT_URL
     return url if "://" in url else f"sqlite:///{url}"
 
@@ -360,6 +362,9 @@ def open_database(url: str | None = None, *, write: bool | None = None) -> sessi
     (require_writable). write=False (read commands): opened read-only and never created or
     migrated."""
     engine = make_engine(database_url(url))
+    if engine.dialect.name == "sqlite" and (engine.url.database or ":memory:") == ":memory:":
+        raise DatabaseError(f"{database_url(url)} is an in-memory database, which forgets everything when the command "
+                            "ends (and each connection gets its own): give an SQLite file")
     path = sqlite_file(engine)
     if write:
         require_writable(engine)

@@ -70,11 +70,34 @@ def output_file(text: str):
     from pathlib import Path
 
     path = Path(text)
-    if not text or path.is_dir() or text.endswith(("/", "\\")):
-        raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
-    for parent in path.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
-            break
-    return text
+    try:
+        if not text or path.is_dir() or text.endswith(("/", "\\")):
+            raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
+        if path.exists() and not path.resolve().is_file():  # a device, a pipe, a socket: never replaced
+            raise argparse.ArgumentTypeError(f"{text!r} exists and is not a regular file")
+        for parent in path.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
+                break
+        return str(path.resolve()) if path.is_symlink() else text  # a link's target is written, not the link
+    except OSError as exc:  # a name too long, a loop of links...
+        raise argparse.ArgumentTypeError(f"{text[:60]!r}{'...' if len(text) > 60 else ''}: {exc.strerror}") from None
+
+
+def folder(text: str) -> str:
+    """A folder to write into (created if missing): not a file, nor inside one."""
+    from pathlib import Path
+
+    path = Path(text)
+    try:
+        if not text or (path.exists() and not path.is_dir()):
+            raise argparse.ArgumentTypeError(f"{text!r} is not a folder")
+        for parent in path.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
+                break
+        return text
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"{text[:60]!r}{'...' if len(text) > 60 else ''}: {exc.strerror}") from None

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from db.session import DB_HELP, DatabaseError, require_writable
-from runners.args import Parser, count, finite, output_file, positive, tolerance
+from runners.args import Parser, count, finite, folder, output_file, positive, tolerance
 from runners.fmu import FMUError, RockingFMU, fmu_path_from
 from runners.scene import SceneError, check_times, load_scene
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
@@ -181,6 +181,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     # the executor's settings are checked before anything is stored
     if (args.chunk is not None and args.chunk < 1) or (args.workers is not None and args.workers < 1):
         raise ValueError("--chunk and --workers must be at least 1")
+    cores = os.cpu_count() or 1
+    if args.workers is not None and args.workers > 4 * cores:
+        raise ValueError(f"--workers {args.workers} is more than 4 per core of this machine ({cores} cores): "
+                         "they would only wait for each other")
     if args.executor == "dask":
         if not args.scheduler:
             raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
@@ -394,7 +398,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--no-progress", action="store_true", help="no progress bar")
     sw.add_argument("--record", metavar="POINTS",
                     help="grid points to simulate in full and record (.rrd), e.g. 0,17,40-45 or all")
-    sw.add_argument("--record-dir", metavar="DIR", help="where --record writes (default: recordings/sweep-ID)")
+    sw.add_argument("--record-dir", type=folder, metavar="DIR", help="where --record writes (default: recordings/sweep-ID)")
     sw.add_argument("--executor", choices=["local", "dask"], default="local",
                     help="local: worker processes on this machine (default); dask: a Dask cluster")
     sw.add_argument("--scheduler", metavar="ADDRESS",

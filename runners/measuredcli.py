@@ -14,6 +14,7 @@ from db import series
 from db.schema import Block, Excitation, Measurement
 from db.session import DB_HELP, open_database, require_writable
 from db.store import load_run_series
+from runners.args import output_file
 from runners.fmu import Event, RockingFMU, fmu_path_from
 
 
@@ -50,17 +51,20 @@ def cmd_import(args: argparse.Namespace) -> int:
              "sampling_rate": None if args.sampling_rate is None else str(args.sampling_rate),
              "uncertainty": args.uncertainty}
     m = read_measured(args.file, given)  # everything is checked before the database is touched
-    factory = open_database(args.db, write=True)
     motion = m.kind not in ("peaks", "rotation")
+    if motion:  # the ground motion it amounts to becomes a record: the checks of runners records import
+        from runners.records import check_sampling
+
+        t, a = ground_acceleration(m.kind, m.time, m.columns)
+        check_sampling(args.file, t)
+    factory = open_database(args.db, write=True)
     with factory.begin() as session:  # one transaction: all of it or nothing
         record = None
         if motion:  # the ground motion it amounts to becomes a record (runners records list)
-            from db.records import free_name
-            from runners.records import store_record
+            from runners.records import ensure_record
 
-            t, a = ground_acceleration(m.kind, m.time, m.columns)
-            record = store_record(session, free_name(session, m.meta["name"]), t, a,
-                                  source=m.meta.get("source"), file_name=m.file_name)
+            record = ensure_record(session, m.meta["name"], t, a, source=m.meta.get("source"),
+                                   file_name=m.file_name)
         b1 = find_block(session, m.meta["block"]) if m.meta.get("block") else None
         b2 = find_block(session, m.meta["block2"]) if m.meta.get("block2") else None
         if not motion and b1 is None:
@@ -293,12 +297,12 @@ def add_parser(sub) -> None:
     cmp_.add_argument("run", type=int, help="run id")
     cmp_.add_argument("measurement", type=int, help="measurement id")
     cmp_.add_argument("--block", type=int, choices=[1, 2], default=1, help="which block's theta (default 1)")
-    cmp_.add_argument("--plot", metavar="PNG", help="draw both, with the measurement's uncertainty")
+    cmp_.add_argument("--plot", type=output_file, metavar="PNG", help="draw both, with the measurement's uncertainty")
     cmp_.add_argument("--rrd", metavar="PATH", help="the run's Rerun recording with the measurement overlaid")
     cmp_.set_defaults(func=cmd_compare)
     exp = sub.add_parser("export-measured", help="write a stored run as a measured CSV file, with optional noise")
     exp.add_argument("run", type=int, help="run id")
-    exp.add_argument("--out", required=True, help="CSV file to write")
+    exp.add_argument("--out", type=output_file, required=True, help="CSV file to write")
     exp.add_argument("--kind", choices=["peaks", "rotation"], default="peaks",
                      help="peaks: the release and the peak events; rotation: block 1's theta")
     exp.add_argument("--block", help="block name to declare in the file's header")

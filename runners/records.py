@@ -28,7 +28,7 @@ from db.schema import Record
 from runners.intensity import G0, measures
 from runners.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, read_record_file,
                                    samples_sha256)
-from runners.scene import Scene
+from runners.scene import MAX_PGA_G, Scene
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
 
@@ -57,6 +57,10 @@ def unit_notes(rec: Record) -> list[str]:
 def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float, g: float) -> None:
     """The FMU's checks of a scaled record, made here first so the message names the record, not
     the cached file the FMU reads: peak at most 1000 m/s2, g + a_v above zero."""
+    pga = abs(scale) * float(np.max(np.abs(ah))) / G0
+    if not pga <= MAX_PGA_G:
+        raise ValueError(f"{label}: scale {scale:g} brings its PGA to {pga:.3g} g, beyond {MAX_PGA_G:g} g (the largest "
+                         "recorded PGA is about 4 g): check the scale")
     top = float(max(np.max(np.abs(ah)), 0.0 if av is None else np.max(np.abs(av))))
     if not abs(scale) * top <= 1000.0:
         raise ValueError(f"{label}: scale {scale:g} brings its peak acceleration to {abs(scale) * top:g} m/s2, beyond "
@@ -287,6 +291,9 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
 
     def scale_of(pga: float) -> float:  # the scene's scale, or the one that gives its PGA (in g)
         if scene.pga is not None:
+            if not pga > 0:
+                raise ValueError("the record's accelerations are all zero: no scale gives it a PGA of "
+                                 f"{scene.pga:g} g")
             scene.parameters["excitation.scale"] = scene.pga * G0 / pga
         return float(scene.parameters.get("excitation.scale", 1.0))
 

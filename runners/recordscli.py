@@ -207,7 +207,7 @@ def add_parser(sub) -> None:
     sh = rsub.add_parser("show", help="one record: provenance and intensity measures")
     sh.add_argument("record", help="record name or id")
     sh.add_argument("--json", action="store_true")
-    sh.add_argument("--plot", metavar="PNG", help="draw its acceleration, velocity and displacement")
+    sh.add_argument("--plot", type=output_file, metavar="PNG", help="draw its acceleration, velocity and displacement")
     sh.set_defaults(func=cmd_show)
     ex = rsub.add_parser("export", help="write a stored record as a record file the FMU reads")
     ex.add_argument("record", help="record name or id")

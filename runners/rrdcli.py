@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 from db.session import DB_HELP, open_database
-from runners.args import output_file
+from runners.args import folder, output_file
 from runners.fmu import Event, RockingFMU, fmu_path_from
 
 
@@ -127,7 +127,7 @@ def add_parser(sub) -> None:
     rr_.add_argument("--points", metavar="POINTS",
                      help="with --sweep: simulate these stored grid points again in full and record each "
                           "(e.g. 0,17,40-45), storing their series")
-    rr_.add_argument("--record-dir", metavar="DIR", help="where --points writes (default: recordings/sweep-ID)")
+    rr_.add_argument("--record-dir", type=folder, metavar="DIR", help="where --points writes (default: recordings/sweep-ID)")
     rr_.add_argument("--out", type=output_file, help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
     rr_.add_argument("--measured", metavar="CSV", help="overlay a measured series on a run's recording "
                                                         "(format: runners/measured.py)")

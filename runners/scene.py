@@ -187,7 +187,10 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
         if table == "block2":
             scene.parameters["nBlocks"] = 2
     _check_record(scene, source)
-    check_times(scene.stop_time, scene.step, f"{source}: [simulation] stop_time", f"{source}: [simulation] step")
+    try:
+        check_times(scene.stop_time, scene.step, "[simulation] stop_time", "[simulation] step")
+    except SceneError as exc:
+        raise SceneError(f"{source}: {exc}") from None
     return scene
 
 

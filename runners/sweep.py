@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import sys
 import tempfile
 import threading
 import time
@@ -92,6 +93,9 @@ def parse_axis(spec: str, parameter_names: set[str]) -> Axis:
         raise ValueError(f"--grid {spec!r}: START and STOP must be numbers and COUNT an integer") from None
     if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
         raise ValueError(f"--grid {spec!r}: COUNT must be >= 1 and START, STOP finite")
+    if count > 1 and start == stop:
+        raise ValueError(f"--grid {spec!r}: START = STOP gives {count} identical points (COUNT 1, or set it in the "
+                         "scene)")
     return Axis(name, start, stop, count)
 
 
@@ -632,6 +636,13 @@ def _start_pool_worker(*args) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):  # a main process killed outright (SIGKILL) takes its workers along
+        import ctypes
+
+        parent = os.getppid()
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+        if os.getppid() != parent:  # it died before the call
+            os._exit(0)
     _start_worker(*args)
 
 

@@ -492,3 +492,19 @@ def test_a_grid_value_is_the_axis_value_bit_for_bit():
         assert [ax.value(i) for i in range(count)] == np.linspace(start, stop, count).tolist()
     im = Intensity("pga", 0.05, 1.0, 20)
     assert [im.level(i) for i in range(20)] == [float(f"{v:.12g}") for v in np.linspace(0.05, 1.0, 20)]
+
+
+def test_workers_do_not_outlive_a_killed_sweep(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    p = cli("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
+            "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--no-progress", "--workers", "2",
+            db=db, fmu_path=fmu_path, background=True)
+    _wait_stored(db, 500, 60)
+    workers = _children(p.pid)
+    assert workers
+    os.kill(p.pid, signal.SIGKILL)  # the runner alone, as the out-of-memory killer would
+    p.communicate(timeout=30)
+    end = time.monotonic() + 10
+    while time.monotonic() < end and any(Path(f"/proc/{w}").exists() for w in workers):
+        time.sleep(0.1)
+    assert not any(Path(f"/proc/{w}").exists() for w in workers)
