@@ -508,3 +508,63 @@ def test_workers_do_not_outlive_a_killed_sweep(fmu_path, tmp_path):
     while time.monotonic() < end and any(Path(f"/proc/{w}").exists() for w in workers):
         time.sleep(0.1)
     assert not any(Path(f"/proc/{w}").exists() for w in workers)
+
+
+# ------------------------------------------------------------------ a hostile pass's cases
+
+@pytest.mark.parametrize("args,words", [
+    (["records", "export", "1", "--out", "/dev/null"], ["not a regular file"]),
+    (["records", "export", "1", "--out", "x" * 300], ["File name too long"]),
+    (["sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:3", "--record", "0", "--record-dir", "/etc/hostname"],
+     ["--record-dir", "not a folder"]),
+    (["records", "show", "1", "--plot", "/tmp"], ["--plot", "is a folder"]),
+    (["sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:1:3"], ["START = STOP"]),
+    (["sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:3", "--workers", "4096"], ["per core"]),
+])
+def test_bad_paths_and_sweep_options_are_refused_before_any_work(fmu_path, tmp_path, args, words):
+    db = f"sqlite:///{tmp_path / 'a.db'}"
+    one_line_error(run_cli(*args, db=db, fmu_path=fmu_path), *words)
+    assert not (tmp_path / "a.db").exists() or sweeps_in(db) == 0
+
+
+@pytest.mark.parametrize("db,words", [("sqlite://", ["in-memory"]), (":memory:", ["in-memory"]), ("", ["--db is empty"])])
+def test_a_database_that_cannot_keep_a_run_is_refused_before_simulating(fmu_path, tmp_path, db, words):
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), "--db", db, db="sqlite://", fmu_path=fmu_path)
+    one_line_error(p, *words)
+    assert not list(Path.cwd().glob("rocking-unsaved-*.json"))
+
+
+def test_an_export_through_a_link_writes_the_file_it_points_to(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    assert run_cli("records", "import", str(EX / "pulse_3hz.AT2"), db=db, fmu_path=fmu_path).returncode == 0
+    target, link = tmp_path / "target.txt", tmp_path / "link.txt"
+    target.write_text("old")
+    link.symlink_to(target)
+    assert run_cli("records", "export", "1", "--out", str(link), db=db, fmu_path=fmu_path).returncode == 0
+    assert link.is_symlink() and target.read_text() != "old"
+
+
+def _record_scene(tmp_path, csv_rows: str, excitation: str) -> Path:
+    csv = tmp_path / "rec.csv"
+    csv.write_text("# units: time=s, acceleration=m/s2\n# sign: +x\ntime,acceleration\n" + csv_rows)
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[block]\nhalf_width = 0.1\nhalf_height = 0.4\n[excitation]\nfile = "{csv}"\n{excitation}\n')
+    return scene
+
+
+def test_a_pga_for_an_all_zero_record_is_one_line(fmu_path, tmp_path):
+    scene = _record_scene(tmp_path, "".join(f"{0.01 * i},0.0\n" for i in range(50)), "pga = 0.3")
+    one_line_error(run_cli("simulate", str(scene), "--no-store", db="sqlite://", fmu_path=fmu_path), "all zero")
+
+
+def test_a_scale_beyond_any_recorded_pga_is_refused_like_pga(fmu_path, tmp_path):
+    scene = _record_scene(tmp_path, "".join(f"{0.01 * i},{math.sin(i / 5)}\n" for i in range(50)), "scale = 200")
+    one_line_error(run_cli("simulate", str(scene), "--no-store", db="sqlite://", fmu_path=fmu_path), "beyond 5 g")
+
+
+def test_a_motion_sampled_every_nanosecond_is_refused_by_import_measured(fmu_path, tmp_path):
+    csv = tmp_path / "m.csv"
+    csv.write_text("# kind: ground-acceleration\n# units: time=s, acceleration=m/s2\n# sign: +x\n# name: fast\n"
+                   "time,acceleration\n" + "".join(f"{i * 1e-9!r},{math.sin(i)!r}\n" for i in range(20)))
+    db = f"sqlite:///{tmp_path / 'm.db'}"
+    one_line_error(run_cli("import-measured", str(csv), db=db, fmu_path=fmu_path), "sample interval")
