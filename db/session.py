@@ -11,9 +11,11 @@ write call require_writable first, so that they fail before doing any work."""
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import math
 import os
+import threading
 import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -354,6 +356,30 @@ def upgrade(engine: Engine) -> None:
         raise _open_failure(exc, where) from None
 
 
+def _create_whole(path: str) -> bool:
+    """Create a new SQLite database at `path` with the whole schema, or not at all: the schema is
+    built in a file of its own beside it, which then takes the name in one step (a hard link,
+    which fails if the name exists). SQLite's DDL is not one transaction through the driver, and
+    a process killed while creating the schema in place left a file no command could open.
+    False (nothing done) if `path` exists by then."""
+    tmp = f"{path}.new-{os.getpid()}-{threading.get_ident()}"
+    try:
+        engine = make_engine(URL.create("sqlite", database=tmp))
+        try:
+            upgrade(engine)
+        finally:
+            engine.dispose()  # the last connection folds the write-ahead log into the file
+        try:
+            os.link(tmp, path)
+            return True
+        except OSError:  # the name exists (or the file system has no hard links: then in place)
+            return False
+    finally:
+        for leftover in (tmp, f"{tmp}-wal", f"{tmp}-shm", f"{tmp}.migrate-lock"):
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(leftover)
+
+
 def open_database(url: str | None = None, *, write: bool | None = None) -> sessionmaker[Session]:
     """A session factory on an up-to-date schema.
 
@@ -385,7 +411,8 @@ def open_database(url: str | None = None, *, write: bool | None = None) -> sessi
         if write is False:
             raise DatabaseError(f"cannot open the database {where!r}: there is no such database "
                                 "(runners db init creates it)")
-        upgrade(engine)
+        if not _create_whole(path):  # an empty file was there, or another process created it first
+            upgrade(engine)
         st = os.stat(path)  # created here: its header needs no reading, which could break our locks
         _HEADERS_READ.add((st.st_dev, st.st_ino))
         return sessionmaker(engine, class_=RockingSession, expire_on_commit=False)

@@ -13,7 +13,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import pytest
-from sqlalchemy import event, func, select
+from sqlalchemy import event, func, select, text
 from sqlalchemy.pool import Pool
 
 from conftest import run_cli
@@ -249,7 +249,7 @@ def test_read_commands_leave_no_files_next_to_a_writable_database(tmp_path, fmu_
         p = subprocess.run([sys.executable, "-m", "runners.cli", *args, "--db", str(path)], capture_output=True,
                            text=True, env=env, cwd=tmp_path)
         assert p.returncode == 0, p.stderr
-        assert sorted(f.name for f in tmp_path.iterdir()) == ["runs.db", "runs.db.migrate-lock"], args
+        assert sorted(f.name for f in tmp_path.iterdir()) == ["runs.db"], args  # built beside it: no lock file
 
 
 # --- 5. and 6. storing fails after the run: the run is kept in a file, the database unchanged -------------
@@ -395,3 +395,22 @@ def test_opening_a_database_again_keeps_the_locks_of_its_open_connections(tmp_pa
         assert Path(f"{path}-wal").exists()  # the other process knew it was not the last
         conn.execute(text("SELECT count(*) FROM runs")).scalar()
     assert sqlite3.connect(path).execute("PRAGMA integrity_check").fetchone() == ("ok",)
+
+
+def test_a_database_killed_while_being_created_is_absent_or_whole(tmp_path):
+    """SIGKILL at any moment of a first opening leaves no database, or a whole one: the schema
+    is built beside it and takes its name in one step (a kill in the middle once left a file
+    that every command refused)."""
+    import signal
+    import time
+
+    for i, delay in enumerate([0.40 + 0.025 * k for k in range(18)]):
+        path = tmp_path / f"k{i}.db"
+        p = subprocess.Popen([sys.executable, "-c", "import sys; from db.session import open_database; "
+                              "open_database(sys.argv[1])", f"sqlite:///{path}"], cwd=ROOT)
+        time.sleep(delay)
+        p.send_signal(signal.SIGKILL)
+        p.wait()
+        if path.exists():
+            with open_database(f"sqlite:///{path}")() as s:  # whole: usable as it is
+                s.execute(text("SELECT count(*) FROM runs")).scalar()
