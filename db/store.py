@@ -229,7 +229,62 @@ def read_unsaved(path: str | Path) -> dict[str, Any]:
     missing = sorted(_UNSAVED_KEYS - set(p)) or sorted({"name", "parameters", "source"} - set(p["scene"] or {}))
     if missing:
         raise ValueError(f"{path} is not a whole unsaved run: it lacks {', '.join(missing)}")
+    wrong = _unsaved_problem(p)
+    if wrong:
+        raise ValueError(f"{path} is not a valid unsaved run: {wrong}")
     return p
+
+
+def _unsaved_problem(p: dict[str, Any]) -> str | None:
+    """What is wrong with the values of an unsaved run (None if nothing): the types its rows
+    need, and series whose data hold the samples they announce."""
+    import zlib
+
+    from db.schema import RunSummary
+
+    scalar = (bool, int, float, str)
+    for key in ("parameters",):
+        d = p["scene"][key]
+        if not isinstance(d, dict) or not all(isinstance(k, str) and isinstance(v, scalar) for k, v in d.items()):
+            return f"scene.{key} is not a table of named values"
+    if not isinstance(p["merged"], dict) or not all(isinstance(v, scalar) for v in p["merged"].values()):
+        return "merged is not a table of named values"
+    if not isinstance(p["scene"]["name"], str) or not isinstance(p["model"], str) or not isinstance(p["method"], str):
+        return "the scene's name, the model and the method must be texts"
+    if not isinstance(p["stop_time"], (int, float)) or isinstance(p["stop_time"], bool):
+        return "stop_time is not a number"
+    try:
+        datetime.fromisoformat(p["created_at"])
+    except (TypeError, ValueError):
+        return "created_at is not a date and time"
+    if p["summary"] is not None:
+        if not isinstance(p["summary"], dict):
+            return "summary is not a table"
+        columns = RunSummary.__table__.columns
+        for k, v in p["summary"].items():
+            if k not in columns:
+                return f"summary has an unknown field {k!r}"
+            want = columns[k].type.python_type
+            if v is not None and not (isinstance(v, want) or (want is float and isinstance(v, int))) \
+                    or (want is not bool and isinstance(v, bool)):
+                return f"summary.{k} = {v!r} is not a {want.__name__}"
+    rec = p["record"]
+    if rec is not None and not (isinstance(rec, dict) and isinstance(rec.get("id"), int)
+                                and isinstance(rec.get("name"), str)):
+        return "record is not an id and a name"
+    ps = p["series"]
+    if ps is not None:
+        if not (isinstance(ps, dict) and isinstance(ps.get("names"), list) and isinstance(ps.get("n_samples"), int)
+                and isinstance(ps.get("data"), str) and isinstance(ps.get("events"), (list, type(None)))):
+            return "series is not names, n_samples, data and events"
+        try:
+            size = len(zlib.decompress(base64.b64decode(ps["data"], validate=True)))
+        except (ValueError, zlib.error):
+            return "series.data is not packed samples"
+        if size != 8 * (len(ps["names"]) + 1) * ps["n_samples"]:
+            return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
+                    "announces")
+    return None
 
 
 _UNSAVED_KEYS = {"created_at", "code_version", "fmu_sha256", "scene", "merged", "summary", "model", "method",

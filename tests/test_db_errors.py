@@ -414,3 +414,31 @@ def test_a_database_killed_while_being_created_is_absent_or_whole(tmp_path):
         if path.exists():
             with open_database(f"sqlite:///{path}")() as s:  # whole: usable as it is
                 s.execute(text("SELECT count(*) FROM runs")).scalar()
+
+
+@pytest.mark.parametrize("change,words", [
+    (lambda p: p["scene"].update(parameters=5), "scene.parameters"),
+    (lambda p: p.update(record={"id": 999}), "record"),
+    (lambda p: p["series"].update(n_samples=10**12), "does not hold"),
+    (lambda p: p["summary"].update(impacts="many"), "summary.impacts"),
+    (lambda p: p["summary"].update(colour=1), "unknown field"),
+    (lambda p: p.update(created_at="yesterday"), "created_at"),
+])
+def test_an_unsaved_run_with_wrong_values_is_refused_before_storing(tmp_path, fmu_path, change, words):
+    """A changed or damaged unsaved-run file once stored a run no command could read back
+    (n_samples 1e12), a summary of impacts "many", or ended in an unforeseen error."""
+    import numpy as np
+
+    from db.store import keep_unsaved, pending_run
+
+    t = np.linspace(0.0, 1.0, 11)
+    p = pending_run(scene_name="s", parameters={"block1.theta0": 0.1}, source=None, merged={"block1.theta0": 0.1},
+                    summary={"impacts": 3, "overturned": False}, model="one block", method="fmu", stop_time=1.0,
+                    fmu_path=str(fmu_path), wall_time=0.01, time=t, outputs={"block1.theta": np.sin(t)}, events=[])
+    change(p)
+    path = keep_unsaved(p, "test", "nowhere", folder=tmp_path)
+    db = f"sqlite:///{tmp_path / 'u.db'}"
+    one_line_error(run_cli("db", "import-unsaved", str(path), db=db, fmu_path=fmu_path), "not a valid unsaved run",
+                   words)
+    with open_database(db)() as s:
+        assert s.scalar(select(func.count()).select_from(Run)) == 0
