@@ -581,3 +581,18 @@ def test_three_concurrent_imports_of_one_fema_set_all_succeed(fmu_path, tmp_path
 
     with open_database(db)() as s:
         assert s.scalar(select(func.count()).select_from(Record)) == 28
+
+
+@pytest.mark.parametrize("method", [0, 1])
+def test_every_peak_the_outputs_count_is_logged_whatever_the_stop_time(fmu, method):
+    """A peak inside the integrator's last step, before the stop time, was counted but never
+    logged (the stored events lacked it, and export-measured and compare dropped it)."""
+    from runners.scene import load_scene
+
+    p = {**load_scene(EX / "free_rocking_block2.toml").parameters, "solver.method": method}
+    for stop in (2.9654, 1.234, 0.5, 3.0):
+        for step in (0.01, stop):
+            r = fmu.run(p, stop, step, outputs=["peaks", "impacts"])
+            peaks = r.event_times("peak")
+            assert len(peaks) == int(r.outputs["peaks"][-1]) and np.all(peaks <= stop), (stop, step)
+            assert len(r.event_times("impact")) == int(r.outputs["impacts"][-1])

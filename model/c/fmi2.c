@@ -357,6 +357,10 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
 fmi2Status fmi2Terminate(fmi2Component c) {
     Instance *I = (Instance *)c;
     CHECK(I, PHASE_STEP_COMPLETE | PHASE_ERROR, "fmi2Terminate");
+    if (I->s.phase == PHASE_STEP_COMPLETE) { /* events the outputs counted that no later step will log */
+        Logger log = {solver_log, I, I->loggingOn && I->logEvents};
+        solver_log_pending(&I->s.model, I->s.tc, &log);
+    }
     I->s.phase = PHASE_TERMINATED;
     return fmi2OK;
 }

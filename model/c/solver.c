@@ -367,6 +367,14 @@ void solver_outputs(Model *M, double tc) {
     model_ground(M, tc, &v->ahTotal, &v->avTotal);
 }
 
+void solver_log_pending(const Model *M, double tc, const Logger *log) {
+    const State *S = &M->s;
+    if (M->v.nBlocks == 2) return; /* a stack logs its events as it passes them */
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc)
+            say(log, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->stepPeakTime[i], S->stepPeakTheta[i]);
+}
+
 void solver_rollback(Model *M, double tc) {
     State *S = &M->s;
     S->fValid = 0; /* the derivative at (t, y) was for the old inputs */

@@ -23,6 +23,9 @@ int solver_advance(Model *M, double tc, const Logger *log);
 void solver_outputs(Model *M, double tc);
 
 /* Bring the integrator back to tc (when an input changed there). */
+/* Log the peaks up to tc that the outputs count but the integrator, which ran ahead of tc,
+ * has not committed yet (at fmi2Terminate: no later step will). */
+void solver_log_pending(const Model *M, double tc, const Logger *log);
 void solver_rollback(Model *M, double tc);
 
 /* What a restored state is for (state_validate). */
