@@ -596,3 +596,18 @@ def test_every_peak_the_outputs_count_is_logged_whatever_the_stop_time(fmu, meth
             peaks = r.event_times("peak")
             assert len(peaks) == int(r.outputs["peaks"][-1]) and np.all(peaks <= stop), (stop, step)
             assert len(r.event_times("impact")) == int(r.outputs["impacts"][-1])
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_interruption_while_the_command_loads_is_one_line(tmp_path, sig):
+    script = Path(sys.executable).parent / "runners"
+    if not script.exists():
+        pytest.skip("the runners console script is not installed next to this Python")
+    for delay in (0.2, 0.4, 0.7):
+        p = subprocess.Popen([str(script), "db", "list", "runs", "--db", str(tmp_path / "x.db")], text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+        time.sleep(delay)
+        os.killpg(p.pid, sig)
+        _, err = p.communicate(timeout=30)
+        assert "Traceback" not in err and (p.returncode == 130 and err == "error: interrupted\n" or p.returncode == 2), \
+            (delay, p.returncode, err)

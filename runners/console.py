@@ -1,0 +1,21 @@
+"""The ``runners`` console script: runners.cli.main, with Ctrl-C or SIGTERM while the command
+line is still loading its modules (about a second) ending as quietly as later on."""
+
+from __future__ import annotations
+
+import signal
+import sys
+
+
+def _stop(signum, _frame) -> None:
+    raise KeyboardInterrupt
+
+
+def main() -> int:
+    signal.signal(signal.SIGTERM, _stop)
+    try:
+        from runners.cli import main as run
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    return run()
