@@ -15,7 +15,12 @@ def main() -> int:
     signal.signal(signal.SIGTERM, _stop)
     try:
         from runners.cli import main as run
-    except KeyboardInterrupt:
+    except BaseException as exc:  # a library may wrap the interruption in an ImportError of its own
+        chain = exc
+        while chain is not None and not isinstance(chain, KeyboardInterrupt):
+            chain = chain.__cause__ or chain.__context__
+        if chain is None:
+            raise
         print("error: interrupted", file=sys.stderr)
         return 130
     return run()
