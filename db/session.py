@@ -145,13 +145,14 @@ def _check_file(path: str) -> bool:
         if st.st_size == 0:
             return False
         if (st.st_dev, st.st_ino) in _HEADERS_READ:
-            # Read once per process: closing a file descriptor of a database file releases every
-            # POSIX lock this process holds on it, the locks of its open SQLite connections
-            # included (https://www.sqlite.org/howtocorrupt.html, 2.2), so the header is
-            # read only before this process has connected to the file.
             return True
-        with p.open("rb") as fh:
-            head = fh.read(100)
+        # Closing a file descriptor of a database file releases every POSIX lock this process
+        # holds on it, the locks of its open SQLite connections included (whoever opened them;
+        # https://www.sqlite.org/howtocorrupt.html, 2.2): the descriptor the header is read
+        # through stays open for the life of the process, and each file is read once.
+        fd = os.open(path, os.O_RDONLY)
+        _HEADER_FDS.append(fd)
+        head = os.pread(fd, 100, 0)
         size = st.st_size
     except FileNotFoundError:
         return False
@@ -181,6 +182,7 @@ def _check_file(path: str) -> bool:
 
 
 _HEADERS_READ: set[tuple[int, int]] = set()  # (device, inode) of the database files _check_file has read
+_HEADER_FDS: list[int] = []  # their descriptors, never closed (see _check_file)
 
 
 def _unwritable(path: str) -> str | None:

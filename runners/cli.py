@@ -14,7 +14,7 @@ from pathlib import Path
 from db.session import DB_HELP, DatabaseError, require_writable
 from runners.args import Parser, count, finite, folder, output_file, positive, tolerance
 from runners.fmu import FMUError, RockingFMU, fmu_path_from
-from runners.scene import SceneError, check_times, load_scene
+from runners.scene import SceneError, check_times, load_scene, unused_parameter
 from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
 from runners.sweep import SweepError
 
@@ -34,6 +34,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene.stop_time, scene.stop_time_given = args.stop_time, True
     if args.step is not None:
         scene.step, scene.step_given = args.step, True
+    if args.h is not None and args.method not in ("rk4", "rk4-located", "newmark", "euler"):
+        raise ValueError("--h is the fixed step of --method rk4, rk4-located, newmark or euler")
+    if args.rtol is not None and args.method != "scipy":
+        raise ValueError("--rtol is the tolerance of --method scipy (the FMU's is [simulation] rel_tol)")
     measured = _measured(args.measured, args.rrd)  # fail on a bad file before simulating
     factory = None if args.no_store else _database(args.db)  # fail on a bad database before simulating
     if factory is not None:
@@ -78,10 +82,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     with RockingFMU(fmu_path) as fmu:
         defaults = fmu.defaults()
         merged = {**defaults, **scene.parameters}
+        notes += [f"{why} (the scene sets it)" for k in scene.parameters if k != "block1.mass"
+                  and (why := unused_parameter(k, merged))]
         if args.method in PYTHON_METHODS:
             from runners.python_methods import format_python, run_python
 
-            s = {"scene": scene.name, **run_python(args.method, merged, scene.stop_time, args.h, args.rtol)}
+            s = {"scene": scene.name, **run_python(args.method, merged, scene.stop_time,
+                                                    1e-4 if args.h is None else args.h,
+                                                    1e-10 if args.rtol is None else args.rtol)}
             text_out = format_python(scene.name, s, scene.stop_time)
             model, method = s["model"], args.method
         else:
@@ -346,9 +354,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "--accuracy (closed form, one block, two blocks; docs/methods.md); closed-form: seed 001's "
                           "closed forms, or an error if they do not apply; scipy, rk4, rk4-located, newmark, euler: "
                           "the independent Python solvers (docs/methods.md)")
-    sim.add_argument("--h", type=positive, default=1e-4, help="fixed step (s) of rk4, rk4-located, newmark, euler "
-                                                          "(default 1e-4, seed 000's)")
-    sim.add_argument("--rtol", type=tolerance, default=1e-10, help="relative tolerance of --method scipy")
+    sim.add_argument("--h", type=positive, help="fixed step (s) of rk4, rk4-located, newmark, euler (default 1e-4)")
+    sim.add_argument("--rtol", type=tolerance, help="relative tolerance of --method scipy (default 1e-10)")
     sim.add_argument("--db", help=DB_HELP)
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--rrd", type=output_file, metavar="PATH", help="also write a Rerun recording (.rrd) of the run")

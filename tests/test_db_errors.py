@@ -442,3 +442,19 @@ def test_an_unsaved_run_with_wrong_values_is_refused_before_storing(tmp_path, fm
                    words)
     with open_database(db)() as s:
         assert s.scalar(select(func.count()).select_from(Run)) == 0
+
+
+def test_a_first_opening_keeps_the_locks_of_connections_made_without_it(tmp_path):
+    """The same, with the database created by another process and connected to here by plain
+    sqlite3 before open_database reads its header for the first time (what the signal tests
+    do while watching a sweep)."""
+    path = tmp_path / "watched.db"
+    subprocess.run([sys.executable, "-c", "import sys; from db.session import open_database; "
+                    "open_database(sys.argv[1])", f"sqlite:///{path}"], check=True, cwd=ROOT)
+    conn = sqlite3.connect(path)
+    conn.execute("SELECT count(*) FROM runs").fetchone()
+    open_database(f"sqlite:///{path}")  # the header is read here, with conn open
+    subprocess.run([sys.executable, "-c", "import sqlite3, sys; c = sqlite3.connect(sys.argv[1]); "
+                    "c.execute('SELECT count(*) FROM runs').fetchone(); c.close()", str(path)], check=True)
+    assert Path(f"{path}-wal").exists()
+    conn.close()

@@ -271,7 +271,7 @@ def test_record_scenes_by_name_id_and_file(db, fmu_path, tmp_path):
                                  ('kind = "sine-pulse"\nrecord = "x"', 'apply to kind = "record"'),
                                  ('record = "nope"', "no record 'nope'"),
                                  ('file = "missing.txt"', "missing.txt does not exist"),
-                                 ('file = "motion.txt"\nscale = 1e5', "motion.txt: scale 100000 brings its peak")):
+                                 ('file = "motion.txt"\nscale = 1e5', "motion.txt: scale 100000 brings its PGA")):
         bad = folder / "bad.toml"
         bad.write_text(f"[excitation]\n{scene_text}\n")
         e = cli("simulate", str(bad), db=db, fmu_path=fmu_path)

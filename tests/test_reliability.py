@@ -611,3 +611,19 @@ def test_an_interruption_while_the_command_loads_is_one_line(tmp_path, sig):
         _, err = p.communicate(timeout=30)
         assert "Traceback" not in err and (p.returncode == 130 and err == "error: interrupted\n" or p.returncode == 2), \
             (delay, p.returncode, err)
+
+
+@pytest.mark.parametrize("args,words", [(["--h", "1e-3"], ["--h is the fixed step"]),
+                                        (["--method", "rk4", "--rtol", "1e-6"], ["--rtol is the tolerance"])])
+def test_solver_options_of_another_method_are_refused_not_ignored(fmu_path, args, words):
+    p = run_cli("simulate", str(EX / "free_rocking.toml"), *args, "--no-store", db="sqlite://", fmu_path=fmu_path)
+    one_line_error(p, *words)
+
+
+def test_a_scene_parameter_the_run_does_not_use_is_noted(fmu_path, tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text((EX / "sine_pulse.toml").read_text() + "\n[restitution]\neta_ground = 0.5\n"
+                     if "[restitution]" not in (EX / "sine_pulse.toml").read_text() else
+                     (EX / "sine_pulse.toml").read_text().replace("[restitution]", "[restitution]\neta_ground = 0.5", 1))
+    s = summary(fmu_path, str(scene))
+    assert any("restitution.etaGround" in n and "the scene sets it" in n for n in s.get("notes", [])), s
