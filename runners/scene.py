@@ -88,7 +88,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
 _PULSE = {"amplitude", "frequency", "startTime", "verticalAmplitude"}
 EXCITATION_USES = {0: set(), 1: _PULSE | {"cycles"}, 2: _PULSE | {"cycles"},
                    3: {"displacement", "frequency", "cycles", "startTime", "verticalAmplitude"},
-                   4: {"scale", "startTime"}, 5: _PULSE, 6: _PULSE, 7: _PULSE | {"gamma", "phase"}}
+                   4: {"scale", "startTime", "file"}, 5: _PULSE, 6: _PULSE, 7: _PULSE | {"gamma", "phase"}}
 
 
 def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
