@@ -65,8 +65,22 @@ def count(text: str) -> int:
     return n
 
 
+def _parents_are_folders(text: str, path) -> None:
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
+            return
+
+
+def _unusable(text: str, exc: OSError) -> argparse.ArgumentTypeError:
+    """A path the file system refuses (a name too long, a loop of links...)."""
+    return argparse.ArgumentTypeError(f"{text[:60]!r}{'...' if len(text) > 60 else ''}: {exc.strerror}")
+
+
 def output_file(text: str):
-    """A file to write (a figure, a recording, an export): not a folder, its folder not a file."""
+    """A file to write (a figure, a recording, an export): not a folder, its folder not a file,
+    not a device or pipe; through a symbolic link, the file it points to."""
     from pathlib import Path
 
     path = Path(text)
@@ -75,14 +89,10 @@ def output_file(text: str):
             raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
         if path.exists() and not path.resolve().is_file():  # a device, a pipe, a socket: never replaced
             raise argparse.ArgumentTypeError(f"{text!r} exists and is not a regular file")
-        for parent in path.parents:
-            if parent.exists():
-                if not parent.is_dir():
-                    raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
-                break
-        return str(path.resolve()) if path.is_symlink() else text  # a link's target is written, not the link
-    except OSError as exc:  # a name too long, a loop of links...
-        raise argparse.ArgumentTypeError(f"{text[:60]!r}{'...' if len(text) > 60 else ''}: {exc.strerror}") from None
+        _parents_are_folders(text, path)
+        return str(path.resolve()) if path.is_symlink() else text
+    except OSError as exc:
+        raise _unusable(text, exc) from None
 
 
 def folder(text: str) -> str:
@@ -93,11 +103,7 @@ def folder(text: str) -> str:
     try:
         if not text or (path.exists() and not path.is_dir()):
             raise argparse.ArgumentTypeError(f"{text!r} is not a folder")
-        for parent in path.parents:
-            if parent.exists():
-                if not parent.is_dir():
-                    raise argparse.ArgumentTypeError(f"{text!r}: {parent} is a file, not a folder")
-                break
+        _parents_are_folders(text, path)
         return text
     except OSError as exc:
-        raise argparse.ArgumentTypeError(f"{text[:60]!r}{'...' if len(text) > 60 else ''}: {exc.strerror}") from None
+        raise _unusable(text, exc) from None

@@ -268,13 +268,18 @@ def _children(pid: int) -> list[int]:
     return [int(x) for x in out.split()]
 
 
+def harmonic_sweep(db: str, fmu_path: Path, **kw) -> subprocess.Popen:
+    """A 3600-point sweep of a few seconds on two workers, in the background."""
+    return cli("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
+               "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--no-progress", "--workers", "2",
+               db=db, fmu_path=fmu_path, background=True, **kw)
+
+
 def test_sigterm_stops_a_sweep_like_ctrl_c_and_it_resumes(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
     scratch = tmp_path / "tmp"
     scratch.mkdir()
-    args = ("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
-            "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--no-progress", "--workers", "2")
-    p = cli(*args, db=db, fmu_path=fmu_path, background=True, env={"TMPDIR": str(scratch)})
+    p = harmonic_sweep(db, fmu_path, env={"TMPDIR": str(scratch)})
     _wait_stored(db, 500, 60)
     workers = _children(p.pid)
     os.killpg(p.pid, signal.SIGTERM)  # the whole group, as a job scheduler or systemd does
@@ -293,9 +298,7 @@ def test_sigterm_stops_a_sweep_like_ctrl_c_and_it_resumes(fmu_path, tmp_path):
 
 def test_a_killed_worker_stops_the_sweep_with_one_line_and_it_resumes(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
-    p = cli("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
-            "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--no-progress", "--workers", "2",
-            db=db, fmu_path=fmu_path, background=True)
+    p = harmonic_sweep(db, fmu_path)
     _wait_stored(db, 500, 60)
     os.kill(_children(p.pid)[0], signal.SIGKILL)  # as the out-of-memory killer would
     _, err = p.communicate(timeout=60)
@@ -496,9 +499,7 @@ def test_a_grid_value_is_the_axis_value_bit_for_bit():
 
 def test_workers_do_not_outlive_a_killed_sweep(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
-    p = cli("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
-            "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--no-progress", "--workers", "2",
-            db=db, fmu_path=fmu_path, background=True)
+    p = harmonic_sweep(db, fmu_path)
     _wait_stored(db, 500, 60)
     workers = _children(p.pid)
     assert workers
