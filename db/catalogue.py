@@ -15,28 +15,28 @@ from sqlalchemy.orm import Session
 
 from db.schema import Block
 
-SEED000 = "Anagnostopoulos, BEng thesis, University of Bristol: Table 2 and Table 3"
-SEED003 = "Čeh & Jelenić (2022), Engineering Review 42: Table 1 and section 5 (full dimensions halved)"
+ANAGNOSTOPOULOS = "Anagnostopoulos, BEng thesis, University of Bristol: Table 2 and Table 3"
+CEH_JELENIC_2022 = "Čeh & Jelenić (2022), Engineering Review 42: Table 1 and section 5 (full dimensions halved)"
 
 CATALOGUE: list[dict] = [
     # Anagnostopoulos, Table 2: height x length (mm) -> half_height, half_width (m)
-    dict(name="seed000-block1", half_width=0.029 / 2, half_height=0.120 / 2, mass=1.3, material="steel",
-         restitution_law="housner", correction=1.036, source=SEED000),
-    dict(name="seed000-block2", half_width=0.060 / 2, half_height=0.135 / 2, mass=2.95, material="steel",
-         restitution_law="housner", correction=1.233, source=SEED000),
-    dict(name="seed000-block3", half_width=0.060 / 2, half_height=0.238 / 2, mass=5.3, material="steel",
-         restitution_law="housner", correction=1.067, source=SEED000),
-    dict(name="seed000-block4", half_width=0.060 / 2, half_height=0.100 / 2, mass=2.3, material="steel",
-         restitution_law="housner", correction=1.0, source=SEED000),
+    dict(name="anagnostopoulos-block1", half_width=0.029 / 2, half_height=0.120 / 2, mass=1.3, material="steel",
+         restitution_law="housner", correction=1.036, source=ANAGNOSTOPOULOS),
+    dict(name="anagnostopoulos-block2", half_width=0.060 / 2, half_height=0.135 / 2, mass=2.95, material="steel",
+         restitution_law="housner", correction=1.233, source=ANAGNOSTOPOULOS),
+    dict(name="anagnostopoulos-block3", half_width=0.060 / 2, half_height=0.238 / 2, mass=5.3, material="steel",
+         restitution_law="housner", correction=1.067, source=ANAGNOSTOPOULOS),
+    dict(name="anagnostopoulos-block4", half_width=0.060 / 2, half_height=0.100 / 2, mass=2.3, material="steel",
+         restitution_law="housner", correction=1.0, source=ANAGNOSTOPOULOS),
     # Čeh & Jelenić (2022) Table 1: m (g), b and h FULL (mm)
     dict(name="B3M", half_width=0.045 / 2, half_height=0.10125 / 2, mass=0.5444, restitution_law="modified",
-         k=0.7595, k_size_average=0.8608, correction=1.0, source=SEED003),
+         k=0.7595, k_size_average=0.8608, correction=1.0, source=CEH_JELENIC_2022),
     dict(name="B6M", half_width=0.045 / 2, half_height=0.2025 / 2, mass=1.0896, restitution_law="modified",
-         k=0.8241, k_size_average=0.8608, correction=1.0, source=SEED003),
+         k=0.8241, k_size_average=0.8608, correction=1.0, source=CEH_JELENIC_2022),
     dict(name="B3L", half_width=0.060 / 2, half_height=0.135 / 2, mass=1.2843, restitution_law="modified",
-         k=0.7259, k_size_average=0.7306, correction=1.0, source=SEED003),
+         k=0.7259, k_size_average=0.7306, correction=1.0, source=CEH_JELENIC_2022),
     dict(name="B6L", half_width=0.060 / 2, half_height=0.270 / 2, mass=2.5692, restitution_law="modified",
-         k=0.7214, k_size_average=0.7306, correction=1.0, source=SEED003),
+         k=0.7214, k_size_average=0.7306, correction=1.0, source=CEH_JELENIC_2022),
 ]
 
 

@@ -1,4 +1,4 @@
-"""Closed forms of seed 001 (Dimitrakopoulos & DeJong 2012) for the linearised
+"""Closed forms of Dimitrakopoulos & DeJong (2012) for the linearised
 rocking block under a one-sine pulse, in its dimensionless groups.
 
 The linearised block (slender, small angles) obeys, with tau = p t,
@@ -139,7 +139,7 @@ def impact_at_pulse_end_margin(a: float, w: float) -> float:
 
 
 def overturns(a: float, w: float, eta: float) -> tuple[bool, str]:
-    """Whether the linearised block overturns, and by which case of seed 001 (1.1, 1.2, 2, or safe)."""
+    """Whether the linearised block overturns, and by which case of Dimitrakopoulos & DeJong (2012) (1.1, 1.2, 2, or safe)."""
     m11 = case_11_margin(a, w, eta)
     if m11 is not None:
         return m11 >= 0.0, "1.1" if m11 >= 0.0 else "safe (impact in the pulse)"

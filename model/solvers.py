@@ -8,10 +8,10 @@ Two families, for the speed-versus-accuracy comparison of ``runners bench``:
 - :func:`solve_fixed_step`: the classic fixed-step schemes as the seeds used
   them: explicit Euler and RK4 (seed 000, impacts found by a sign change of
   theta, optionally located inside the step) and the Newmark trapezoidal rule
-  with Newton iterations and impact-time location (seed 003).
+  with Newton iterations and impact-time location (Čeh & Jelenić 2022).
 
 Both integrate the nonlinear equation of motion or, with ``linear=True``, the
-linearised one of seed 001 (eq. 3.1), in the conventions of
+linearised one of Dimitrakopoulos & DeJong (2012) (eq. 3.1), in the conventions of
 docs/conventions.md: theta > 0 on the right corner, clockwise; a_h > 0 pushes
 the ground to +x. Units SI, angles in radians.
 
@@ -67,7 +67,7 @@ class Scene:
     ground: Ground = no_ground  # (a_h, a_v) in m/s^2
     breaks: tuple[float, ...] = ()  # times where the excitation is not smooth, s
     rest_ratio: float = 1e-6
-    linear: bool = False  # seed 001's linearised equation (3.1)
+    linear: bool = False  # Dimitrakopoulos & DeJong (2012)'s linearised equation (3.1)
 
 
 @dataclass
@@ -266,8 +266,8 @@ def _hermite_peak(t, h, th0, w0, th1, w1) -> tuple[float, float]:
 
 def solve_fixed_step(scene: Scene, t_end: float, method: str = "rk4", h: float = 1e-4, locate: bool = False,
                      max_impacts: int | None = None) -> Solution:
-    """Fixed step h (s). Impacts by a sign change of theta at the step's end (locate=False, as seed 000),
-    or located inside the step by re-stepping to theta = 0 (locate=True, as seed 003)."""
+    """Fixed step h (s). Impacts by a sign change of theta at the step's end (locate=False, as Anagnostopoulos),
+    or located inside the step by re-stepping to theta = 0 (locate=True, as Čeh & Jelenić 2022)."""
     step = STEPPERS[method]
     m = _Model(scene)
     sol = Solution(f"{method} h {h:g}" + (" located" if locate else ""))

@@ -56,7 +56,7 @@ LAW_PARAMETERS = {  # law -> (restitution.law, FMU parameter, lower bound, upper
     "modified": (1, "restitution.k", 0.0, 1.0, 0.8),
     "correction": (0, "restitution.correction", 0.3, None, 1.0),
 }
-SEED000_SIGMA = (0.5 * math.pi / 180, 0.1)  # rad, s: seed 000 section 4.2, used when none is stated
+THESIS_SIGMA = (0.5 * math.pi / 180, 0.1)  # rad, s: Anagnostopoulos (BEng thesis) section 4.2, used when none is stated
 PARAMETER_NAMES = {"constant": "eta", "modified": "k", "correction": "correction factor"}
 CHI2_LIMIT = 5.0  # chi2/dof beyond which a fit is poor (module docstring: P < 0.05% at 4 dof)
 TIME_SCALE_LIMIT = 3.0  # measured peaks this many times sooner or later than the model's: units?
@@ -113,8 +113,8 @@ def calibrate(fmu: RockingFMU, base: dict, decay: Decay, law: str, sigma_theta: 
     if len(decay.times) < 3:
         raise ValueError(f"a calibration needs at least 3 measured peaks after the release (got {len(decay.times)})")
     assumed = sigma_theta is None or sigma_time is None
-    st = sigma_theta or SEED000_SIGMA[0]
-    su = sigma_time or SEED000_SIGMA[1]
+    st = sigma_theta or THESIS_SIGMA[0]
+    su = sigma_time or THESIS_SIGMA[1]
     alpha = math.atan2(base["block1.halfWidth"], base["block1.halfHeight"])
     if not abs(decay.theta0) >= 1e-4 * alpha:
         raise ValueError(f"the release (the first row, at {decay.t0:g} s) has theta = {decay.theta0:.3g} rad: free rocking "
@@ -215,6 +215,6 @@ def assess(fit: Fit, decay: Decay, time_unit: str | None = None) -> tuple[list[s
                        fit.sim_amplitudes if fit.sim_amplitudes is not None else np.array([]), fit.sigma_theta,
                        time_unit)
         if not why and fit.sigma_assumed and not fit.chi2_per_dof <= CHI2_LIMIT:
-            why = ("no uncertainty was stated and seed 000's 0.5 deg and 0.1 s were assumed: state the reading "
+            why = ("no uncertainty was stated and Anagnostopoulos's 0.5 deg and 0.1 s were assumed: state the reading "
                    "uncertainty (import-measured --uncertainty)")
     return problems, why

@@ -351,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--step", type=positive, help="override [simulation] step (s)")
     sim.add_argument("--method", choices=["fmu", "auto", "closed-form", *PYTHON_METHODS], default="fmu",
                      help="fmu: the model the scene describes (default); auto: the least model that meets "
-                          "--accuracy (closed form, one block, two blocks; docs/methods.md); closed-form: seed 001's "
+                          "--accuracy (closed form, one block, two blocks; docs/methods.md); closed-form: Dimitrakopoulos & DeJong (2012)'s "
                           "closed forms, or an error if they do not apply; scipy, rk4, rk4-located, newmark, euler: "
                           "the independent Python solvers (docs/methods.md)")
     sim.add_argument("--h", type=positive, help="fixed step (s) of rk4, rk4-located, newmark, euler (default 1e-4)")

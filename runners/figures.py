@@ -17,13 +17,13 @@ import numpy as np  # noqa: E402
 
 from runners.fmu import RockingFMU  # noqa: E402
 
-# seed 000 Table 2, half dimensions: Block 1 below, Block 4 on top
+# Anagnostopoulos Table 2, half dimensions: Block 1 below, Block 4 on top
 SEED_STACK = {
     "nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,
     "block2.halfWidth": 0.030, "block2.halfHeight": 0.050, "block2.mass": 2.3,
     "restitution.law": 2, "restitution.etaGround": 0.95, "restitution.etaInterface": 0.98,
 }
-SEED_CASES = [(7.0, 0.003), (5.5, 0.003), (3.0, 0.005), (4.0, 0.003)]  # Hz, m (seed 000 Fig. 17 A-D)
+SEED_CASES = [(7.0, 0.003), (5.5, 0.003), (3.0, 0.005), (4.0, 0.003)]  # Hz, m (Anagnostopoulos Fig. 17 A-D)
 PATTERN_COLOURS = {3: "#fde0c5", 4: "#d8e8f5", 5: "#e3f1d8"}  # upper alone, locked, both
 PATTERN_NAMES = {3: "upper block alone", 4: "locked pair", 5: "both rock"}
 TALL = {"nBlocks": 2, "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.mass": 10.0,
@@ -55,7 +55,7 @@ def _finish(fig, axes, title: str, out: Path) -> Path:
 
 
 def seed_forced_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step: float = 2e-3) -> Path:
-    """Seed 000 Fig. 17: the four harmonic table motions, theta1 and theta2 against time."""
+    """Anagnostopoulos Fig. 17: the four harmonic table motions, theta1 and theta2 against time."""
     fig, axes = plt.subplots(len(SEED_CASES), 1, figsize=(9, 10), sharex=True)
     for ax, (f, d) in zip(axes, SEED_CASES):
         p = {**SEED_STACK, "excitation.kind": 3, "excitation.frequency": f, "excitation.displacement": d,
@@ -77,12 +77,12 @@ def seed_forced_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step:
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in PATTERN_COLOURS.values()]
     lines, labels = axes[0].get_legend_handles_labels()
     axes[0].legend(lines + handles, labels + list(PATTERN_NAMES.values()), fontsize=8, ncol=3, loc="upper right")
-    return _finish(fig, axes, "Two blocks on a shaking table (seed 000 Fig. 17 cases), "
+    return _finish(fig, axes, "Two blocks on a shaking table (Anagnostopoulos Fig. 17 cases), "
                    "constant restitution 0.95 / 0.98", out)
 
 
 def mirror_tests(fmu: RockingFMU, out: Path, stop_time: float = 3.0, step: float = 1e-3) -> Path:
-    """Seed 000 Figs. 14-15: opposite and same-direction tilts, and their mirror images."""
+    """Anagnostopoulos Figs. 14-15: opposite and same-direction tilts, and their mirror images."""
     configs = [("opposite tilts (Fig. 14)", 0.05, -0.08), ("same direction (Fig. 15)", 0.03, 0.09)]
     fig, axes = plt.subplots(len(configs), 1, figsize=(9, 6), sharex=True)
     for ax, (name, th1, th2) in zip(axes, configs):

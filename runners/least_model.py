@@ -126,7 +126,7 @@ CASES = {"1.1": "after an impact within the pulse (eqs. 3.20-3.21)",
 
 def format_closed_form(name: str, why: str, s: dict[str, Any]) -> str:
     lines = [f"scene            {name}",
-             f"model            closed form (seed 001): {why}",
+             f"model            closed form (Dimitrakopoulos & DeJong 2012): {why}",
              f"groups           a = a_g/(g alpha) = {s['a']:.4f}, omega_g/p = {s['omega_over_p']:.4f}, "
              f"eta = {s['eta']:.4f}"]
     if s["overturned"]:

@@ -200,7 +200,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     text = (f"{name} = {fit.value:.4f}, 95% interval [{fit.low:.4f}, {fit.high:.4f}] "
             f"(theta0 {fit.theta0:.4f} rad, chi2/dof {fit.chi2_per_dof:.3g}, {fit.dof} dof, "
             f"{fit.evaluations} simulations"
-            + ("; uncertainty not stated, seed 000's 0.5 deg and 0.1 s assumed" if fit.sigma_assumed else "") + ")")
+            + ("; uncertainty not stated, Anagnostopoulos's 0.5 deg and 0.1 s assumed" if fit.sigma_assumed else "") + ")")
     problems, why = assess(fit, decay, time_unit)
     verdict = (f"the fit is poor ({name} = {fit.value:.4g}, 95% interval [{fit.low:.4g}, {fit.high:.4g}]: "
                f"{', '.join(problems)})" + (f": {why}" if why else "")) if problems else ""

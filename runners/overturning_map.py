@@ -1,4 +1,4 @@
-"""Overturning map of a one-sine pulse: seed 001's closed forms against simulation.
+"""Overturning map of a one-sine pulse: Dimitrakopoulos & DeJong (2012)'s closed forms against simulation.
 
 For each omega = omega_g / p the smallest overturning amplitude a = a_g / (g alpha)
 is found three ways: from the closed forms (model/closed_form.py), from the
@@ -80,7 +80,7 @@ def draw(rows: list[dict], out: Path) -> Path:
     ax.legend(handles, labels, fontsize=7, loc="upper right")
     ax.set_xlabel("omega_g / p")
     ax.set_ylabel("g alpha / a_g")
-    ax.set_title(f"One-sine pulse, eta = {ETA}: seed 001's closed forms (dotted: first impact at the pulse's end, 3.31)",
+    ax.set_title(f"One-sine pulse, eta = {ETA}: Dimitrakopoulos & DeJong (2012)'s closed forms (dotted: first impact at the pulse's end, 3.31)",
                  fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=110)

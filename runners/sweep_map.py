@@ -1,9 +1,9 @@
 """``runners map SWEEP_ID --out map.png``: the overturning map of a stored sweep.
 
 Each grid point is safe (rocks and settles, or never lifts), overturns after
-one or more impacts, or overturns without impact (seed 000 Fig. 18's three
+one or more impacts, or overturns without impact (Anagnostopoulos Fig. 18's three
 regions), or failed. A (w, a) grid of one block under a one-sine pulse is
-drawn in the seeds' axes omega_g/p and a_g/(g tan alpha), with seed 001's
+drawn in the seeds' axes omega_g/p and a_g/(g tan alpha), with Dimitrakopoulos & DeJong (2012)'s
 closed-form boundaries of the linearised block overlaid (their a_g/(g alpha)
 converted by alpha / tan(alpha)).
 """
@@ -49,7 +49,7 @@ def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
 
 
 def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] | None:
-    """Seed 001's smallest overturning a and its no-impact boundary, in a_g/(g tan alpha); None if they do not apply."""
+    """Dimitrakopoulos & DeJong (2012)'s smallest overturning a and its no-impact boundary, in a_g/(g tan alpha); None if they do not apply."""
     if int(p.get("nBlocks", 1)) != 1 or int(p["excitation.kind"]) != 1 or p["excitation.cycles"] != 1:
         return None
     alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
@@ -60,8 +60,8 @@ def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] 
                                            and cf.first_impact_in_pulse(cf.groups(a, w)) is None, w, a_max=200.0)
                  for w in ws]
     conv = lambda xs: np.array([x * to_tan if x else np.nan for x in xs])  # noqa: E731
-    return [("seed 001 closed forms: smallest overturning amplitude", conv(smallest)),
-            ("seed 001 closed forms: overturning without impact above", conv(no_impact))]
+    return [("Dimitrakopoulos & DeJong (2012) closed forms: smallest overturning amplitude", conv(smallest)),
+            ("Dimitrakopoulos & DeJong (2012) closed forms: overturning without impact above", conv(no_impact))]
 
 
 def draw(factory, sweep_id: str, out: Path) -> str:

@@ -6,7 +6,7 @@ impact times and the 9 peaks between them against the exact reference
 (model/reference.py). Case "sine pulse": the same block, eta 0.85, a one-sine
 pulse of 5 m/s2 at 3 Hz; the error is the largest relative error of the
 first 10 impact times against scipy's DOP853 at rtol 1e-13, an independent
-solver. Case "two blocks": the free stack of seed 000 Fig. 14 (opposite tilts,
+solver. Case "two blocks": the free stack of Anagnostopoulos Fig. 14 (opposite tilts,
 momentum law); the error of its first 20 impact times (ground and interface)
 against the event-driven two-block reference at rtol 1e-13
 (model/two_block_solver.py).
@@ -101,7 +101,7 @@ def sine_pulse_case() -> Case:
 
 
 TWO_BLOCKS = tb.Stack(0.1, 0.3, 10.0, 0.1, 0.2, 5.0)
-TWO_BLOCK_START = (0.05, -0.08)  # seed 000 Fig. 14's opposite tilts
+TWO_BLOCK_START = (0.05, -0.08)  # Anagnostopoulos Fig. 14's opposite tilts
 N_TWO = 20
 
 
@@ -207,8 +207,8 @@ FIXED = {  # (method, locate): steps in s
     ("rk4", True): [4e-2, 2e-2, 1e-2, 5e-3, 2e-3],
     ("newmark", True): [1e-2, 3e-3, 1e-3, 3e-4],
 }
-FIXED_NAMES = {("euler", False): "Euler, sign change (seed 000)", ("rk4", False): "RK4, sign change (seed 000)",
-               ("rk4", True): "RK4, located impacts", ("newmark", True): "Newmark + Newton, located (seed 003)"}
+FIXED_NAMES = {("euler", False): "Euler, sign change (Anagnostopoulos)",
+               ("rk4", False): "RK4, sign change (Anagnostopoulos)", ("rk4", True): "RK4, located impacts", ("newmark", True): "Newmark + Newton, located (Čeh & Jelenić 2022)"}
 FMU_TOLS = [1e-4, 1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]
 QUICK_TOLS = [1e-6, 1e-10]  # --quick: a smoke run
 

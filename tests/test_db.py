@@ -74,7 +74,7 @@ def test_catalogue_loads_once_with_the_seeds_numbers(tmp_path, fmu_path):
         assert s.scalar(select(func.count()).select_from(Block)) == len(CATALOGUE) == 8
         b3m = s.scalar(select(Block).where(Block.name == "B3M"))
         assert (b3m.half_width, b3m.half_height, b3m.k, b3m.k_size_average) == (0.0225, 0.050625, 0.7595, 0.8608)
-        b1 = s.scalar(select(Block).where(Block.name == "seed000-block1"))
+        b1 = s.scalar(select(Block).where(Block.name == "anagnostopoulos-block1"))
         assert (b1.half_width, b1.half_height, b1.correction) == (0.0145, 0.060, 1.036)
 
 
@@ -132,7 +132,7 @@ def test_db_list_and_show(tmp_path, fmu_path):
     runners("db", "init", db=db, fmu_path=fmu_path)
     runners("simulate", "examples/two_blocks_free.toml", db=db, fmu_path=fmu_path)
     p = runners("db", "list", "blocks", db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "B6L" in p.stdout and "seed000-block2" in p.stdout
+    assert p.returncode == 0 and "B6L" in p.stdout and "anagnostopoulos-block2" in p.stdout
     shown = json.loads(runners("db", "show", "run", "1", db=db, fmu_path=fmu_path).stdout)
     assert shown["summary"]["impacts_interface"] > 0 and shown["series"]["n_samples"] > 100
     p = runners("db", "show", "run", "7", db=db, fmu_path=fmu_path)
@@ -161,3 +161,24 @@ def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
         run = s.get(Run, 1)
         assert run.model == "one block" and run.point is None
     assert integrity_ok(factory.kw["bind"])
+
+
+def test_catalogue_blocks_named_by_file_number_are_renamed_after_their_source(tmp_path):
+    """Revision 0007: seed000-blockN (a source document's file number) becomes anagnostopoulos-blockN."""
+    from alembic import command
+
+    from db.schema import Block
+    from db.session import _alembic_config, make_engine
+
+    url = f"sqlite:///{tmp_path / 'old.db'}"
+    engine = make_engine(url)
+    cfg = _alembic_config()
+    with engine.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "0006")
+    with engine.begin() as conn:
+        conn.execute(text("INSERT INTO blocks (name, half_width, half_height, mass, restitution_law, correction) "
+                          "VALUES ('seed000-block2', 0.03, 0.0675, 2.95, 'housner', 1.233)"))
+    with open_database(url)() as s:
+        names = set(s.scalars(select(Block.name)))
+    assert "anagnostopoulos-block2" in names and not any(n.startswith("seed") for n in names)

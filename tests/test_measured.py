@@ -87,23 +87,23 @@ def export_with_noise(tmp_path: Path, db: str, fmu_path, run: int, block: str, m
 def test_round_trip_simulate_export_import_calibrate(tmp_path, fmu_path, db, law, value):
     """All through the command line: simulate a free decay with known restitution, export it
     as a measured peak table with noise, import it, calibrate, and recover the parameter."""
-    b = next(c for c in CATALOGUE if c["name"] == "seed000-block2")
+    b = next(c for c in CATALOGUE if c["name"] == "anagnostopoulos-block2")
     scene = tmp_path / "decay.toml"
     scene.write_text(f"name = 'synthetic decay'\n[block]\nhalf_width = {b['half_width']}\n"
                      f"half_height = {b['half_height']}\nmass = {b['mass']}\ntheta0 = 0.33\n"
                      f"[restitution]\nlaw = '{law}'\n{'eta' if law == 'constant' else 'k'} = {value}\n"
                      "[simulation]\nstop_time = 4.0\nstep = 0.01\n")
     assert runners("simulate", str(scene), db=db, fmu_path=fmu_path).returncode == 0
-    csv = export_with_noise(tmp_path, db, fmu_path, 1, "seed000-block2")
+    csv = export_with_noise(tmp_path, db, fmu_path, 1, "anagnostopoulos-block2")
     p = runners("import-measured", str(csv), db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     factory = open_database(db)
     with factory() as session:
         m = session.get(Measurement, 1)
-        assert (m.block1.name, m.kind, m.units["theta"], m.sign) == ("seed000-block2", "peaks", "deg", "clockwise")
+        assert (m.block1.name, m.kind, m.units["theta"], m.sign) == ("anagnostopoulos-block2", "peaks", "deg", "clockwise")
         assert m.uncertainty_angle == pytest.approx(0.5 * DEG) and m.uncertainty_time == 0.05
     p = runners("db", "list", "measurements", db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "exported" in p.stdout and "seed000-block2" in p.stdout, p.stderr
+    assert p.returncode == 0 and "exported" in p.stdout and "anagnostopoulos-block2" in p.stdout, p.stderr
     shown = json.loads(runners("db", "show", "measurement", "1", db=db, fmu_path=fmu_path).stdout)
     assert shown["kind"] == "peaks" and shown["data"].endswith("bytes>")
     p = runners("calibrate", "1", "--law", law, "--json", db=db, fmu_path=fmu_path)
@@ -135,7 +135,7 @@ def test_a_file_in_other_units_and_signs_is_stored_in_ours(tmp_path, fmu_path, d
     np.testing.assert_allclose(b[1]["block1.theta"], a[1]["block1.theta"], rtol=1e-14)
 
 
-@pytest.mark.parametrize("name", ["seed000-block1", "seed000-block2", "seed000-block3"])
+@pytest.mark.parametrize("name", ["anagnostopoulos-block1", "anagnostopoulos-block2", "anagnostopoulos-block3"])
 def test_seed000_table3_in_spirit_calibration_returns_the_correction_factor(tmp_path, fmu, fmu_path, db, name):
     """A decay made with Housner's r times Table 3's factor; --law correction gets the factor back."""
     factor = next(c for c in CATALOGUE if c["name"] == name)["correction"]
@@ -158,7 +158,7 @@ def test_the_95_percent_interval_covers_the_true_eta_in_repeated_experiments(fmu
     from runners.calibrate import calibrate
     from runners.compare import decay_from_peaks
 
-    block = {**fmu.defaults(), **catalogue_block("seed000-block2")}
+    block = {**fmu.defaults(), **catalogue_block("anagnostopoulos-block2")}
     alpha = math.atan2(block["block1.halfWidth"], block["block1.halfHeight"])
     t, th = decay(fmu, block, {"restitution.law": 2, "restitution.eta": 0.9}, 0.8 * alpha, 10)
     hits = 0

@@ -57,7 +57,7 @@ def test_calibrating_growing_peaks_is_refused_as_a_poor_fit_and_stores_nothing(t
     """Peaks that grow (5, 6, 7, 8, 9 deg) fit eta = 1 at its bound with chi2/dof 25: refused,
     saying why, and no block is stored."""
     csv = tmp_path / "growing.csv"
-    csv.write_text(HEADER.replace("B3L", "seed000-block2") + "time,theta\n0,5\n0.4,6\n0.8,7\n1.2,8\n1.6,9\n")
+    csv.write_text(HEADER.replace("B3L", "anagnostopoulos-block2") + "time,theta\n0,5\n0.4,6\n0.8,7\n1.2,8\n1.6,9\n")
     import_ok(csv, db, fmu_path)
     blocks = count(db, Block)
     err = one_line_error(run_cli("calibrate", "1", "--law", "constant", db=db, fmu_path=fmu_path))
@@ -80,7 +80,7 @@ def test_calibrating_a_peak_table_in_seconds_declared_as_ms_is_refused_naming_th
 def test_accept_poor_fit_reports_and_stores_the_fit_with_its_problems(tmp_path, fmu_path, db):
     """--accept-poor-fit: exit 0, the problems in the JSON output and in the stored block's source."""
     csv = tmp_path / "growing.csv"
-    csv.write_text(HEADER.replace("B3L", "seed000-block2") + "time,theta\n0,5\n0.4,6\n0.8,7\n1.2,8\n1.6,9\n")
+    csv.write_text(HEADER.replace("B3L", "anagnostopoulos-block2") + "time,theta\n0,5\n0.4,6\n0.8,7\n1.2,8\n1.6,9\n")
     import_ok(csv, db, fmu_path)
     p = run_cli("calibrate", "1", "--law", "constant", "--accept-poor-fit", "--json", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
@@ -105,7 +105,7 @@ def test_a_good_fit_reports_no_problems(tmp_path, fmu_path, db):
 @pytest.mark.parametrize("value", ["-3", "0"])
 def test_export_measured_refuses_a_max_peaks_below_one(tmp_path, fmu_path, db, value):
     """--max-peaks -3 used to drop the last 3 peaks without a word."""
-    b = next(c for c in CATALOGUE if c["name"] == "seed000-block2")
+    b = next(c for c in CATALOGUE if c["name"] == "anagnostopoulos-block2")
     scene = tmp_path / "decay.toml"
     scene.write_text(f"name = 'decay'\n[block]\nhalf_width = {b['half_width']}\nhalf_height = {b['half_height']}\n"
                      f"mass = {b['mass']}\ntheta0 = 0.3\n[simulation]\nstop_time = 3.0\nstep = 0.01\n")
@@ -144,7 +144,7 @@ def test_calibrating_a_decay_released_at_zero_says_the_release_is_missing(tmp_pa
     """A peak table whose first row is 0 deg: scipy's 'Initial guess is outside of provided bounds'
     said nothing about the data."""
     csv = tmp_path / "zero.csv"
-    csv.write_text(HEADER.replace("B3L", "seed000-block2")
+    csv.write_text(HEADER.replace("B3L", "anagnostopoulos-block2")
                    + "time,theta\n0,0\n0.37,-15\n0.69,11\n0.89,-9.7\n1.05,7.1\n")
     import_ok(csv, db, fmu_path)
     err = one_line_error(run_cli("calibrate", "1", "--law", "constant", db=db, fmu_path=fmu_path))
