@@ -214,12 +214,6 @@ def check_times(stop_time: float, step: float, stop_name: str = "stop_time", ste
                          f"samples, more than the {MAX_SAMPLES:.0e} one run may hold: use a larger step")
 
 
-def check_tolerance(value: float, name: str) -> None:
-    """SceneError unless a relative tolerance is finite and in (0, 0.1]."""
-    if not (math.isfinite(value) and 0 < value <= 0.1):
-        raise SceneError(f"{name} = {value:g} must be a finite tolerance in (0, 0.1]")
-
-
 def check_pga(pga: float, where: str) -> None:
     """A PGA target (g) a record can be scaled to: above zero, at most MAX_PGA_G."""
     if not 0 < pga <= MAX_PGA_G:
