@@ -2,7 +2,7 @@
 
 A record's samples are time (s), horizontal and optionally vertical ground acceleration
 (m/s^2) in the sign convention of docs/conventions.md, packed by db.series. Its intensity
-measures are computed by runners.intensity when it is stored (runners.records)."""
+measures are computed by runners.engine.intensity when it is stored (runners.engine.records)."""
 
 from __future__ import annotations
 

@@ -40,7 +40,7 @@ class Block(Base):
 class Record(Base):
     """A ground-motion record: its samples (time in s, horizontal and optionally vertical ground
     acceleration in m/s^2, our signs; db.series), where it comes from, and its intensity
-    measures, computed once from the samples joined by straight lines (runners.intensity)."""
+    measures, computed once from the samples joined by straight lines (runners.engine.intensity)."""
 
     __tablename__ = "records"
     id: Mapped[int] = mapped_column(primary_key=True)
@@ -61,7 +61,7 @@ class Record(Base):
     sha256: Mapped[str] = mapped_column(String(64))  # of the samples (little-endian float64 time, then columns)
     dt: Mapped[float] = mapped_column(Float)  # s, smallest sample interval
     duration: Mapped[float] = mapped_column(Float)  # s, last sample time minus the first
-    # intensity measures of the horizontal component (runners.intensity); None until computed
+    # intensity measures of the horizontal component (runners.engine.intensity); None until computed
     pga: Mapped[float | None] = mapped_column(Float)  # m/s^2
     pgv: Mapped[float | None] = mapped_column(Float)  # m/s
     pgd: Mapped[float | None] = mapped_column(Float)  # m

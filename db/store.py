@@ -102,7 +102,7 @@ def add_measurement(session: Session, *, name: str, kind: str, time: np.ndarray,
                     uncertainty: dict[str, float] | None = None, file_name: str | None = None,
                     file_sha256: str | None = None, record: Record | None = None) -> Measurement:
     """One measurement (SI, our signs); with `record` (the ground motion a motion measurement
-    amounts to, runners.records.store_record) also its excitation, which runs can be driven by."""
+    amounts to, runners.engine.records.store_record) also its excitation, which runs can be driven by."""
     u = uncertainty or {}
     names, n, blob = series.pack(time, columns)
     m = Measurement(name=name, kind=kind, block1=block1, block2=block2, source=source, instrument=instrument,

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from fmu_build import build_fmu
-from runners.fmu import RockingFMU
+from runners.engine.fmu import RockingFMU
 
 
 @pytest.fixture(scope="session")
@@ -52,12 +52,12 @@ def _scratch_database(tmp_path_factory, monkeypatch):
 
 
 def run_cli(*args: str, db: str, fmu_path: Path) -> subprocess.CompletedProcess:
-    """The runners command line in this process (runners.cli.main, as the console script
+    """The runners command line in this process (runners.cli.main.main, as the console script
     calls it): exit status and what it printed, without a Python start-up per call."""
     import contextlib
     import io
 
-    from runners.cli import main
+    from runners.cli.main import main
 
     out, err = io.StringIO(), io.StringIO()
     old = {k: os.environ.get(k) for k in ("ROCKING_FMU", "ROCKING_DB")}
@@ -66,7 +66,7 @@ def run_cli(*args: str, db: str, fmu_path: Path) -> subprocess.CompletedProcess:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
                 code = main(list(args))
-            except SystemExit as exc:  # argparse refuses an argument (runners.args.Parser.error)
+            except SystemExit as exc:  # argparse refuses an argument (runners.cli.args.Parser.error)
                 code = exc.code
     finally:
         for k, v in old.items():

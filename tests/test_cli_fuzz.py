@@ -19,7 +19,7 @@ from sqlalchemy import func, inspect, select
 
 from db.schema import Measurement, Record, Run, Scene, Sweep
 from db.session import open_database
-from runners.scene import KINDS, LAWS, SCHEMA
+from runners.engine.scene import KINDS, LAWS, SCHEMA
 from tests.conftest import run_cli
 
 ROOT = Path(__file__).resolve().parent.parent

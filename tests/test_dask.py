@@ -15,8 +15,8 @@ from sqlalchemy import func, select
 from conftest import run_cli
 from db.schema import Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
-from runners.scene import load_scene
-from runners.sweep import Axis, create_sweep, run_sweep
+from runners.engine.scene import load_scene
+from runners.engine.sweep import Axis, create_sweep, run_sweep
 
 distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install -e '.[dask]')")
 

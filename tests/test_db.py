@@ -90,8 +90,8 @@ def test_simulate_stores_the_run_losslessly(tmp_path, fmu_path, fmu):
         assert run.summary.peak1_over_alpha == pytest.approx(s["max_abs_theta_over_alpha"], rel=1e-15)
         t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
         assert session.get(Scene, run.scene_id).source == (ROOT / "examples" / "sine_pulse.toml").read_text()
-    from runners.scene import load_scene
-    from runners.summary import SUMMARY_OUTPUTS
+    from runners.engine.scene import load_scene
+    from runners.engine.summary import SUMMARY_OUTPUTS
     scene = load_scene(ROOT / "examples" / "sine_pulse.toml")
     again = fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
     assert np.array_equal(t, again.time)

@@ -15,7 +15,7 @@ from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
 from conftest import build_container
-from runners.fmu import FMUError
+from runners.engine.fmu import FMUError
 
 SCENE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
 OUT = ["block1.theta", "block1.omega", "impacts", "atRest", "energy", "peaks"]

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from runners.fmu import RockingFMU
+from runners.engine.fmu import RockingFMU
 
 SINE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
 TAYLOR = {**SINE, "solver.method": 1}
@@ -379,7 +379,7 @@ def test_a_time_too_large_to_resolve_the_excitation_is_an_error_not_a_hang(fmu_p
     """At rest at t = 1e20 s the next quarter period of a 1 Hz table motion is not a different
     double: the search for uplift cannot advance, and says so (it used to loop for ever). In a
     child process, so that a hang fails the test instead of stopping the suite."""
-    script = ("import sys\nfrom runners.fmu import RockingFMU\n"
+    script = ("import sys\nfrom runners.engine.fmu import RockingFMU\n"
               "with RockingFMU(sys.argv[1]) as f:\n"
               "    msgs = []\n"
               "    s, _ = f.instantiate(lambda st, c, m: msgs.append(m))\n"

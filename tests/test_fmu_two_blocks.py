@@ -12,7 +12,7 @@ from fmpy import simulate_fmu
 
 from conftest import build_container
 from model import two_blocks as tb
-from runners.fmu import FMUError
+from runners.engine.fmu import FMUError
 
 TALL = dict(b1=0.1, h1=0.3, m1=10.0, b2=0.1, h2=0.2, m2=5.0)
 # seed 000 Table 2: Block 1 (lower) and Block 4 (upper), half dimensions

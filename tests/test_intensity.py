@@ -1,4 +1,4 @@
-"""Intensity measures (runners.intensity) against closed forms."""
+"""Intensity measures (runners.engine.intensity) against closed forms."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from runners.intensity import G0, measures, significant_duration
+from runners.engine.intensity import G0, measures, significant_duration
 
 D, F, CYCLES = 0.05, 2.0, 10  # a table displacement D cos(w t) for 10 cycles
 W = 2 * math.pi * F

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from model import closed_form as cf
-from runners.least_model import choose_model, closed_form_summary
+from runners.analysis.least_model import choose_model, closed_form_summary
 
 ROOT = Path(__file__).resolve().parent.parent
 SLENDER = {"block1.halfWidth": 0.05, "block1.halfHeight": 1.0}

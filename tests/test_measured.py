@@ -155,8 +155,8 @@ def test_seed000_table3_in_spirit_calibration_returns_the_correction_factor(tmp_
 def test_the_95_percent_interval_covers_the_true_eta_in_repeated_experiments(fmu):
     """40 synthetic experiments (normal noise, 0.5 deg and 0.1 s): the linearised 95%
     intervals must contain the true eta in at least 34 (85%)."""
-    from runners.calibrate import calibrate
-    from runners.compare import decay_from_peaks
+    from runners.analysis.calibrate import calibrate
+    from runners.analysis.compare import decay_from_peaks
 
     block = {**fmu.defaults(), **catalogue_block("anagnostopoulos-block2")}
     alpha = math.atan2(block["block1.halfWidth"], block["block1.halfHeight"])

@@ -261,7 +261,7 @@ def test_a_two_million_row_csv_is_imported_intact_in_bounded_memory(tmp_path, fm
 
 READ_RECORD = """
 import sys
-from runners.record_files import read_record_file
+from runners.engine.record_files import read_record_file
 
 def status(key):  # kB, from /proc/self/status
     return int(next(line for line in open("/proc/self/status") if line.startswith(key)).split()[1])

@@ -22,8 +22,8 @@ from conftest import run_cli
 from db.records import find_record, samples
 from db.schema import Excitation, Record, Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
-from runners.fmu import RockingFMU
-from runners.record_files import write_record_file
+from runners.engine.fmu import RockingFMU
+from runners.engine.record_files import write_record_file
 
 ROOT = Path(__file__).resolve().parent.parent
 G0 = 9.80665
@@ -87,7 +87,7 @@ def test_each_point_stores_its_record_scale_and_measures_and_matches_a_single_ru
             picked.append((rec, r.excitation.scale, r.summary.overturned, r.summary.impacts,
                            r.summary.peak1_over_alpha))
     # a single run of the same record and scale gives the same outcome (bit for bit)
-    from runners.records import file_of
+    from runners.engine.records import file_of
 
     for rec, scale, over, impacts, peak in picked[1::3]:
         res = fmu.run({"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 150.0,
@@ -133,9 +133,9 @@ def test_a_killed_record_sweep_resumes_to_every_point_once(db, fmu_path, statue)
 
 def test_a_record_sweep_on_dask_stores_what_the_local_one_does(db, fmu_path, fmu, statue):
     distributed = pytest.importorskip("distributed", reason="dask.distributed is not installed")
-    from runners.records import select_records
-    from runners.scene import load_scene
-    from runners.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+    from runners.engine.records import select_records
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep
 
     factory = open_database(db)
     recs = select_records(factory, "fema-p695/nearfield_pulse")[:8]
@@ -304,7 +304,7 @@ def test_the_python_api_runs_a_study_as_the_docs_show(db, fmu_path, monkeypatch)
     """docs/records.md's snippet, smaller: a sweep from Python, its outcomes, fragility and figures."""
     import matplotlib
 
-    from runners import records, study
+    from runners.engine import records, study
 
     monkeypatch.setenv("ROCKING_FMU", str(fmu_path))
     factory = open_database(db)

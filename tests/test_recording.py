@@ -146,7 +146,7 @@ def test_base_motion_is_the_table_displacement_in_a_centred_inertial_frame(fmu):
     """Seed 000's shaking table: a = -D w^2 sin(w t) is the second derivative of D sin(w t).
     Integrated twice from rest it drifts at the constant velocity D w; base_motion removes
     a line, so it must match D sin(w t) with its own least-squares line removed."""
-    from runners.recording import base_motion
+    from runners.engine.recording import base_motion
 
     D, f = 0.003, 7.0
     res = fmu.run({"block1.halfWidth": 0.03, "block1.halfHeight": 0.0675, "excitation.kind": 3,
@@ -163,7 +163,7 @@ def test_base_motion_is_the_table_displacement_in_a_centred_inertial_frame(fmu):
 def test_the_animated_scene_stands_on_the_moving_base(tmp_path, fmu_path):
     """Every frame: block 1 has its true size, its lowest corner is on the base, at the
     pivot in use (theta > 0: the right corner), and the base's hatching moves with it."""
-    from runners.recording import base_motion
+    from runners.engine.recording import base_motion
 
     db = f"sqlite:///{tmp_path / 'b.db'}"
     rrd = tmp_path / "h.rrd"
@@ -239,7 +239,7 @@ def test_recordings_written_at_once_from_threads_stay_apart(tmp_path, fmu):
     """Each recording has its own stream and file: two written concurrently hold only their own data."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from runners.recording import write_recording
+    from runners.engine.recording import write_recording
 
     p = fmu.defaults()
     t = np.linspace(0.0, 1.0, 1001)
@@ -319,7 +319,7 @@ def test_screenshot_shows_the_viewer_with_the_recording(tmp_path, fmu_path):
     """Rerun's own (web) viewer draws the recording: the PNG shows the blocks' colours."""
     import matplotlib.image as mpimg
 
-    from runners.recording import COLOURS
+    from runners.engine.recording import COLOURS
 
     db = f"sqlite:///{tmp_path / 'sh.db'}"
     assert runners("simulate", "examples/two_blocks_harmonic.toml", db=db, fmu_path=fmu_path).returncode == 0

@@ -15,7 +15,7 @@ from conftest import run_cli
 from db.records import find_record, samples
 from db.schema import Excitation, Measurement, Record
 from db.session import open_database
-from runners.record_files import RecordFileError, read_record_file, write_record_file
+from runners.engine.record_files import RecordFileError, read_record_file, write_record_file
 from test_records_fmu import BAD_RECORDS
 
 G0 = 9.80665

@@ -20,7 +20,7 @@ from model.ground_motions import (mp_peak_acceleration, mp_pulse, record, ricker
                                   sampled_sine_bound)
 from model.reference import Block, housner_restitution
 from model.solvers import Scene, solve_event_driven
-from runners.fmu import FMUError
+from runners.engine.fmu import FMUError
 
 G0 = 9.80665
 TIGHT = {"solver.relTol": 1e-12, "solver.absTol": 1e-14}
@@ -202,7 +202,7 @@ def test_absurd_magnitudes_are_refused_instead_of_hanging(fmu_path, near_field):
              ({"excitation.kind": 3, "excitation.displacement": 1e10, "excitation.frequency": 3.0}, "exceeds"),
              ({"block1.theta0": 0.1, "block1.omega0": 1e300}, "step size"),
              ({"block1.theta0": 0.1, "g": 1e300}, "g = 1e+300 must be in")]
-    script = ("import sys, ast\nfrom runners.fmu import RockingFMU, FMUError\n"
+    script = ("import sys, ast\nfrom runners.engine.fmu import RockingFMU, FMUError\n"
               "with RockingFMU(sys.argv[1]) as f:\n"
               "    try:\n        f.run(ast.literal_eval(sys.argv[2]), 5.0, 0.1)\n        print('no error')\n"
               "    except FMUError as e:\n        print(e)\n")
@@ -232,7 +232,7 @@ def test_missing_and_unnamed_record_files_are_errors(fmu, tmp_path):
 
 
 def test_a_relative_record_file_is_read_from_the_fmu_resources_folder(fmu_path, tmp_path):
-    from runners.fmu import RockingFMU
+    from runners.engine.fmu import RockingFMU
 
     t = np.arange(0, 1.0001, 0.01)
     write_record(tmp_path / "pulse.txt", t, 5.0 * np.sin(2 * math.pi * 3 * t))
@@ -350,7 +350,7 @@ def test_a_record_is_read_the_same_whatever_the_locale(fmu_path, near_field, tmp
     path, _, _ = near_field
     script = (
         "import locale, sys\n"
-        "from runners.fmu import RockingFMU\n"
+        "from runners.engine.fmu import RockingFMU\n"
         "if sys.argv[3] == 'de': locale.setlocale(locale.LC_NUMERIC, 'de_DE.UTF-8')\n"
         "assert locale.localeconv()['decimal_point'] == (',' if sys.argv[3] == 'de' else '.')\n"
         "with RockingFMU(sys.argv[1]) as f:\n"

@@ -116,7 +116,7 @@ def test_a_nanosecond_output_step_is_refused_before_it_starts(fmu_path):
 
 
 def test_more_events_than_a_run_may_hold_stop_it_with_the_reason(fmu, monkeypatch):
-    import runners.fmu as fmu_module
+    import runners.engine.fmu as fmu_module
 
     monkeypatch.setattr(fmu_module, "MAX_EVENTS", 10)  # the limit, lowered to reach it in a second
     with pytest.raises(fmu_module.FMUError, match="more than 1e\\+01 events"):
@@ -186,7 +186,7 @@ def test_axis_a_sets_the_peak_acceleration_of_a_harmonic(fmu_path, tmp_path):
     p = run_cli("sweep", str(EX / "harmonic.toml"), "--grid", "a=1.1:3:2", "--stop-time", "2", "--no-progress",
                 db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
-    from runners.sweep import stored_point_parameters
+    from runners.engine.sweep import stored_point_parameters
 
     with open_database(db)() as s:
         runs = s.scalars(select(Run).order_by(Run.grid_index)).all()
@@ -233,8 +233,8 @@ def test_a_map_of_three_axes_is_refused(fmu_path, tmp_path):
 
 
 def test_a_map_of_a_sweep_without_points_says_so(fmu_path, tmp_path):
-    from runners.scene import load_scene
-    from runners.sweep import Axis, create_sweep
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep
 
     db = f"sqlite:///{tmp_path / 's.db'}"
     create_sweep(open_database(db), load_scene(EX / "sweep_sine_pulse.toml"), [Axis("w", 1, 2, 2)], {"g": 9.81})
@@ -310,8 +310,8 @@ def test_a_killed_worker_stops_the_sweep_with_one_line_and_it_resumes(fmu_path, 
 
 def test_two_concurrent_resumes_store_every_point_once(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
-    from runners.scene import load_scene
-    from runners.sweep import Axis, create_sweep
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep
 
     with RockingDefaults(fmu_path) as defaults:
         create_sweep(open_database(db), load_scene(EX / "sweep_sine_pulse.toml"),
@@ -330,7 +330,7 @@ class RockingDefaults:
     """The FMU's default parameters (what runners sweep stores with a new sweep)."""
 
     def __init__(self, fmu_path):
-        from runners.fmu import RockingFMU
+        from runners.engine.fmu import RockingFMU
 
         self.fmu = RockingFMU(fmu_path)
 
@@ -414,7 +414,7 @@ def test_a_record_sampled_every_picosecond_is_refused_at_import(fmu_path, tmp_pa
 # ------------------------------------------------------------------ blocks the model cannot take
 
 def test_a_block_too_squat_for_housners_law_says_so_and_what_to_use(fmu):
-    from runners.fmu import FMUError
+    from runners.engine.fmu import FMUError
 
     with pytest.raises(FMUError, match=r"too squat for Housner's law .*law = 2 \(constant\)"):
         fmu.run({"block1.halfWidth": 0.5, "block1.halfHeight": 0.3}, stop_time=0.1, step=0.1)
@@ -431,7 +431,7 @@ def test_a_block_too_squat_for_housners_law_says_so_and_what_to_use(fmu):
     ({"nBlocks": 2, "block2.halfHeight": 1e-9}, "block2 half sizes"),
 ])
 def test_sizes_and_gravity_beyond_any_block_are_refused_in_one_line(fmu, parameters, words):
-    from runners.fmu import FMUError
+    from runners.engine.fmu import FMUError
 
     with pytest.raises(FMUError, match=words) as info:
         fmu.run({"block1.theta0": 0.05, **parameters}, stop_time=0.1, step=0.1)
@@ -484,7 +484,7 @@ def test_a_ten_million_point_axis_starts_at_once(fmu_path, tmp_path):
 
 
 def test_a_grid_value_is_the_axis_value_bit_for_bit():
-    from runners.sweep import Axis, Intensity
+    from runners.engine.sweep import Axis, Intensity
 
     rng = np.random.default_rng(3)
     for start, stop, count in [(1.0, 12.0, 60), (1.01, 8.0, 7), (0.3, 0.3, 5), (-2.5, 1e3, 1), (0.05, 1.0, 20),
@@ -588,7 +588,7 @@ def test_three_concurrent_imports_of_one_fema_set_all_succeed(fmu_path, tmp_path
 def test_every_peak_the_outputs_count_is_logged_whatever_the_stop_time(fmu, method):
     """A peak inside the integrator's last step, before the stop time, was counted but never
     logged (the stored events lacked it, and export-measured and compare dropped it)."""
-    from runners.scene import load_scene
+    from runners.engine.scene import load_scene
 
     p = {**load_scene(EX / "free_rocking_block2.toml").parameters, "solver.method": method}
     for stop in (2.9654, 1.234, 0.5, 3.0):

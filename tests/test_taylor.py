@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from model.reference import Block, free_rocking
-from runners.fmu import FMUError
+from runners.engine.fmu import FMUError
 
 BLOCK = Block(0.1, 0.3)
 TAYLOR = {"solver.method": 1}

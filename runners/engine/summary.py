@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from runners.fmu import RunResult
-from runners.scene import KIND_NAMES, Scene
+from runners.engine.fmu import RunResult
+from runners.engine.scene import KIND_NAMES, Scene
 
 SUMMARY_OUTPUTS = (
     "block1.theta",
@@ -27,7 +27,7 @@ SUMMARY_OUTPUTS = (
     "block1.overturned",
     "block2.overturned",
     "pattern",
-    # for recordings (runners.recording)
+    # for recordings (runners.engine.recording)
     "block2.omega",
     "block1.alpha_dd",
     "block2.alpha_dd",

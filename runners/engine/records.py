@@ -4,7 +4,7 @@ FEMA P695 sets and record files, and hand a stored record to the FMU as a file.
 Python API (the ``runners records`` commands are a thin layer over it)::
 
     from db.session import open_database
-    from runners import records
+    from runners.engine import records
     factory = open_database()                                  # rocking.db by default
     records.import_fema(factory, ["nearfield_pulse"])          # 28 components
     rec = records.import_file(factory, "my_record.AT2")        # PEER NGA .AT2, CSV or our text format
@@ -25,17 +25,17 @@ from sqlalchemy import select
 
 from db.records import MEASURES, add_record, find_record, free_name, samples, suite_records
 from db.schema import Record
-from runners.intensity import G0, measures
-from runners.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, read_record_file,
+from runners.engine.intensity import G0, measures
+from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, read_record_file,
                                    samples_sha256)
-from runners.scene import MAX_PGA_G, Scene
+from runners.engine.scene import MAX_PGA_G, Scene
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
 
 
 def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
                  **provenance: Any) -> Record:
-    """A new record with its intensity measures (runners.intensity)."""
+    """A new record with its intensity measures (runners.engine.intensity)."""
     m = measures(time, ah)
     return add_record(session, name, time, ah, av, samples_sha256(time, ah, av), measures=m.as_dict(),
                       **provenance)
@@ -87,7 +87,7 @@ def import_fema(factory, sets: Iterable[str], progress: bool = False) -> dict[st
     components already stored (by name) are skipped. One transaction per set."""
     from tqdm import tqdm
 
-    from runners.fema import components
+    from runners.engine.fema import components
 
     from sqlalchemy.exc import IntegrityError
 
@@ -117,8 +117,8 @@ def import_fema(factory, sets: Iterable[str], progress: bool = False) -> dict[st
 def read_any(path: str | Path, units: str | None = None, sign: str | None = None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict[str, Any]]:
     """(time, ah, av or None, provenance) of a record file: PEER NGA .AT2, a measured CSV
-    (runners.measured, kind ground-acceleration) or our text format (anything else)."""
-    from runners.measured import read_at2, read_csv
+    (runners.engine.measured, kind ground-acceleration) or our text format (anything else)."""
+    from runners.engine.measured import read_at2, read_csv
 
     path = Path(path)
     if not path.is_file():
@@ -147,7 +147,7 @@ def read_any(path: str | Path, units: str | None = None, sign: str | None = None
 
 def check_sampling(where: str | Path, t: np.ndarray) -> None:
     """ValueError unless a record's times (s) increase by intervals the FMU accepts (the
-    limits of runners.record_files, which our own format is read with) and it has at most
+    limits of runners.engine.record_files, which our own format is read with) and it has at most
     MAX_SAMPLES samples."""
     if len(t) > MAX_SAMPLES:
         raise ValueError(f"{where} has {len(t)} samples, more than the {MAX_SAMPLES} a record may have")
@@ -242,7 +242,7 @@ def select_records(factory, spec: str) -> list[Record]:
 
 def file_of(factory_or_record, key: str | int | None = None) -> Path:
     """The record (a Record, or a name or id looked up in the factory's database) as a file
-    the FMU reads, in the record cache (runners.record_files.cache_folder)."""
+    the FMU reads, in the record cache (runners.engine.record_files.cache_folder)."""
     if isinstance(factory_or_record, Record):
         rec = factory_or_record
     else:

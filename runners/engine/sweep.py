@@ -17,7 +17,7 @@ each point of the grid; ``--im pga=START:STOP:COUNT`` (in g; or ``pgv=`` in m/s)
 each record so that its PGA (PGV) takes each of COUNT values. The flat grid index runs
 over records first, then intensity levels, then the --grid axes (last fastest). Each
 point stores its record, scale and the scaled record's intensity measures; workers get
-each record's samples once and read them as a file (runners.record_files).
+each record's samples once and read them as a file (runners.engine.record_files).
 """
 
 from __future__ import annotations
@@ -41,9 +41,9 @@ from sqlalchemy.exc import IntegrityError
 from db.schema import Excitation, Run, RunSeries, RunSummary, Scene, Sweep
 from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
-from runners.fmu import FMUError, RockingFMU
-from runners.intensity import G0, SCALING
-from runners.scene import KINDS, MAX_PGA_G, unused_parameter
+from runners.engine.fmu import FMUError, RockingFMU
+from runners.engine.intensity import G0, SCALING
+from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest"]
@@ -197,7 +197,7 @@ class RecordRef:
     name: str
     sha256: str  # of its samples: workers read the file cached under this name
     end: float  # s, time of its last sample
-    measures: dict  # intensity measures of the unscaled record (SI; runners.intensity)
+    measures: dict  # intensity measures of the unscaled record (SI; runners.engine.intensity)
 
 
 @dataclass
@@ -267,12 +267,12 @@ BUILT_IN = {"w", "a", "excitation.amplitude", "excitation.frequency", "excitatio
 
 def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_spec: str | None,
                 stop_given: bool) -> tuple[list[RecordRef] | None, Intensity | None, list[str]]:
-    """(records, intensity, notes) of a new sweep of `scene` (runners.scene.Scene, changed in
+    """(records, intensity, notes) of a new sweep of `scene` (runners.engine.scene.Scene, changed in
     place when records replace its excitation), checked against its axes: records from
-    `records_spec` (runners.records.select_records) or the scene's own record, scaled by
+    `records_spec` (runners.engine.records.select_records) or the scene's own record, scaled by
     `im_spec` (pga=START:STOP:COUNT, ...); `stop_given`: a stop time was given for this sweep.
     ValueError, before anything is stored, for combinations a record would ignore or that conflict."""
-    from runners.records import prepare_scene, select_records
+    from runners.engine.records import prepare_scene, select_records
 
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
@@ -322,7 +322,7 @@ def record_refs(session, ids: list[int]) -> list[RecordRef]:
     """The RecordRefs of stored records, in the given order (their measures computed if missing)."""
     from db.records import MEASURES, samples
     from db.schema import Record
-    from runners.records import fill_missing_measures
+    from runners.engine.records import fill_missing_measures
 
     fill_missing_measures(session)
     by_id = {r.id: r for r in session.scalars(select(Record).where(Record.id.in_(ids)))}
@@ -345,13 +345,13 @@ def grid_of(session, sw: Sweep) -> Grid:
 
 def stored_point_parameters(session, run: Run) -> dict[str, Any]:
     """The FMU parameters (defaults included) that a stored sweep run ran with; a record's file
-    is the record cache's (runners.records.file_of)."""
+    is the record cache's (runners.engine.records.file_of)."""
     sw = session.get(Sweep, run.sweep_id)
     base = {**sw.grid["defaults"], **session.get(Scene, sw.scene_id).parameters}
     _, over, rec = grid_of(session, sw).point(run.grid_index, base)
     if rec is not None:
         from db.schema import Record
-        from runners.records import file_of
+        from runners.engine.records import file_of
 
         over["excitation.file"] = str(file_of(session.get(Record, rec.id)))
     return {**base, **over}
@@ -417,8 +417,8 @@ class Recorded:
 def _record_point(over: dict, stop: float, path: str, name: str, record: dict | None) -> tuple[dict, Recorded]:
     """Simulate one point with output at every communication step and write its recording
     (in this worker process, to its own file: recordings never wait for each other)."""
-    from runners.recording import write_recording
-    from runners.summary import SUMMARY_OUTPUTS
+    from runners.engine.recording import write_recording
+    from runners.engine.summary import SUMMARY_OUTPUTS
 
     w = _worker()
     fmu = w["fmu"]
@@ -588,7 +588,7 @@ class _Plan:
         """Stop time of a point on record `rec` (None: the sweep's)."""
         if rec is None or self.stop_given:
             return None
-        from runners.records import TAIL
+        from runners.engine.records import TAIL
 
         return float(self.base.get("excitation.startTime", 0.0)) + rec.end + TAIL
 
@@ -597,7 +597,7 @@ class _Plan:
         if not self.grid.records:
             return {}
         from db.schema import Record
-        from runners.records import file_of
+        from runners.engine.records import file_of
 
         out = {}
         for r in self.grid.records:
@@ -609,7 +609,7 @@ class _Plan:
 
 def _plan(factory, sweep_id: int) -> _Plan:
     from db.schema import Record
-    from runners.records import row
+    from runners.engine.records import row
 
     with factory.begin() as session:
         sw = session.get(Sweep, sweep_id)

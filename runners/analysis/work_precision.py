@@ -14,7 +14,7 @@ against the event-driven two-block reference at rtol 1e-13
 The FMU runs with both of its integrators (solver.method 0, Dormand-Prince,
 and 1, Taylor series; two blocks have Dormand-Prince only). Costs are wall
 seconds per simulation. The FMU appears three times: natively
-(the C harness of runners/bench.py, instantiate to free, mean of many runs),
+(the C harness of runners/analysis/bench.py, instantiate to free, mean of many runs),
 through fmpy with one instance reset between runs and one doStep (what a
 Python sweep pays per simulation), and through fmpy with 10 ms communication
 steps reading theta at each (what a co-simulation pays); the error does not
@@ -38,8 +38,8 @@ from model import two_blocks as tb
 from model.reference import Block, free_rocking
 from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
 from model.two_block_solver import StackScene, solve_stack
-from runners.bench import NativeTimer
-from runners.fmu import RockingFMU, parse_event
+from runners.analysis.bench import NativeTimer
+from runners.engine.fmu import RockingFMU, parse_event
 
 BLOCK = Block(0.1, 0.3)
 N_IMPACTS = 10

@@ -2,7 +2,7 @@
 
 The model is the FMU's one block released at rest from theta0 (fitted too, as a
 nuisance parameter). Its peak events, in order, are matched with the measured
-peaks (runners.compare.Decay). The residuals are
+peaks (runners.analysis.compare.Decay). The residuals are
 
     (|theta_sim,i| - |theta_meas,i|) / sigma_theta   and   (t_sim,i - t_meas,i) / sigma_t.
 
@@ -48,8 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.reference import housner_restitution
-from runners.compare import Decay
-from runners.fmu import RockingFMU
+from runners.analysis.compare import Decay
+from runners.engine.fmu import RockingFMU
 
 LAW_PARAMETERS = {  # law -> (restitution.law, FMU parameter, lower bound, upper bound, start)
     "constant": (2, "restitution.eta", 0.05, 1.0, 0.9),

@@ -1,0 +1,1 @@
+"""The engine: scenes, the FMU, sweeps, ground-motion records, summaries and Rerun recordings."""

@@ -1,0 +1,61 @@
+"""What the Python API returns: one run (RunResult) and one stored sweep (SweepResult).
+
+Units are SI and angles radians throughout (docs/conventions.md): the series' index is the
+time in s, each column one FMU output under its modelDescription name (``block1.theta`` in rad,
+``block1.omega`` in rad/s, ``ground.ah`` in m/s^2, ...).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from sqlalchemy.orm import sessionmaker
+
+
+@dataclass
+class RunResult:
+    """One simulated (or stored) run.
+
+    series: one row per output sample, index ``time`` (s), one column per FMU output (SI units).
+        Empty for the closed-form model, which has no time history.
+    events: one row per event the integrator located (impacts, uplift, rest, overturning):
+        columns ``time`` (s), ``kind``, ``block`` and the event's other fields.
+    summary: the run's outcome as ``runners simulate --json`` prints it (peaks over the
+        slenderness alpha, overturned, impacts, rest time, the model chosen and why, ...).
+    parameters: every FMU parameter of the run, the FMU's defaults merged with the scene's.
+    run_id: the database id of the stored run, None when not stored.
+    """
+
+    scene: str
+    series: "pd.DataFrame"
+    events: "pd.DataFrame"
+    summary: dict[str, Any]
+    parameters: dict[str, Any] = field(default_factory=dict)
+    run_id: int | None = None
+    recording: Path | None = None
+
+    @property
+    def overturned(self) -> bool:
+        """Whether any block overturned."""
+        return bool(self.summary.get("overturned", False))
+
+
+@dataclass
+class SweepResult:
+    """A sweep stored in a database: its id and where it is; read its points with to_pandas()."""
+
+    sweep_id: int
+    factory: "sessionmaker" = field(repr=False)
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def to_pandas(self) -> "pd.DataFrame":
+        """One row per grid point, in grid order: ``grid_index``, the swept parameters (SI units),
+        the record and its intensity where the sweep runs records, and the outcomes (status,
+        peak1_over_alpha, overturned, overturn_time in s, impacts, rest_time in s, ...)."""
+        from runners.engine.tables import sweep_frame
+
+        return sweep_frame(self.factory, self.sweep_id)
