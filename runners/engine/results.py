@@ -13,6 +13,9 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from runners.analysis.fragility import Fragility
+    from runners.engine.study import Outcomes
     from sqlalchemy.orm import sessionmaker
 
 
@@ -28,6 +31,8 @@ class RunResult:
         slenderness alpha, overturned, impacts, rest time, the model chosen and why, ...).
     parameters: every FMU parameter of the run, the FMU's defaults merged with the scene's.
     run_id: the database id of the stored run, None when not stored.
+    recording: the Rerun recording (.rrd) written, if any.
+    report: the summary for people, as ``runners simulate`` prints it.
     """
 
     scene: str
@@ -37,6 +42,7 @@ class RunResult:
     parameters: dict[str, Any] = field(default_factory=dict)
     run_id: int | None = None
     recording: Path | None = None
+    report: str = ""
 
     @property
     def overturned(self) -> bool:
@@ -59,3 +65,18 @@ class SweepResult:
         from runners.engine.tables import sweep_frame
 
         return sweep_frame(self.factory, self.sweep_id)
+
+    def outcomes(self, measure: str = "pga") -> "Outcomes":
+        """A record sweep's runs against intensity ``measure`` (pga in g, pgv in m/s, pgd in m,
+        arias in m/s): runners.engine.study.Outcomes, the data of the fragility and IDA curves."""
+        from runners.engine import study
+
+        return study.outcomes(self.factory, self.sweep_id, measure)
+
+    def fragility(self, measure: str = "pga") -> "Fragility":
+        """The lognormal fragility of overturning fitted to a record sweep by maximum likelihood
+        (runners.analysis.fragility.Fragility: median and dispersion beta, in the unit of
+        ``measure``). Raises FragilityError when the runs cannot determine it."""
+        from runners.engine import study
+
+        return study.fragility(self.outcomes(measure))

