@@ -145,13 +145,13 @@ def fmu_defaults() -> dict[str, float]:
 
 
 @lru_cache(maxsize=1)
-def output_units() -> dict[str, str]:
-    """Unit of each FMU output ("rad", "rad/s", "m/s2", "J", "s"; "" for counts and flags),
-    from model/c/variables.def."""
+def variable_units() -> dict[str, str]:
+    """Unit of each FMU variable, outputs and parameters ("rad", "rad/s", "m/s2", "J", "s",
+    ...; "" for counts, flags and ratios), from model/c/variables.def."""
     from fmu_build.build import C_DIR
     from fmu_build.variables import read_variables
 
-    return {v.name: v.unit for v in read_variables(C_DIR / "variables.def") if v.causality == "output"}
+    return {v.name: v.unit for v in read_variables(C_DIR / "variables.def")}
 
 
 # ---------------------------------------------------------------------------------------------
