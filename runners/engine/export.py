@@ -32,6 +32,7 @@ import math
 import os
 import sys
 import tempfile
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
@@ -337,14 +338,22 @@ def _arrow_schema(columns: dict, meta: dict):
 
 
 def _sweep_parquet(files: _Files, path: Path, frames, columns: dict, meta: dict) -> tuple[int, int]:
+    """One row group per chunk, under a schema fixed before the first (a chunk whose column
+    holds no value gets its type from the sweep's columns, not from its values); pandas'
+    own metadata rides along, so pandas.read_parquet gives back the frame's dtypes."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     schema = _arrow_schema(columns, meta)
     rows = pending = 0
-    with files.open(path, "wb") as fh, pq.ParquetWriter(fh, schema) as writer:
-        for df in frames:  # one row group per chunk
-            writer.write_table(pa.Table.from_pandas(df, schema=schema, preserve_index=False))
+    with files.open(path, "wb") as fh, ExitStack() as stack:
+        writer = None
+        for df in frames:
+            table = pa.Table.from_pandas(df, schema=schema, preserve_index=False)
+            if writer is None:
+                full = table.schema.with_metadata({**(table.schema.metadata or {}), **schema.metadata})
+                writer = stack.enter_context(pq.ParquetWriter(fh, full))
+            writer.write_table(table.replace_schema_metadata(writer.schema.metadata))
             rows += len(df)
             pending += int((df["status"] == "pending").sum())
     return rows, pending

@@ -17,13 +17,14 @@ pandas is imported here only: the rest of the tool works without it.
 
 from __future__ import annotations
 
+import json
 import math
 from functools import lru_cache
 from typing import Any, Iterator
 
 import numpy as np
 import pandas as pd
-from sqlalchemy import exists, func, or_, select
+from sqlalchemy import Text, exists, func, or_, select, type_coerce
 from sqlalchemy.orm import aliased, sessionmaker
 
 from db import series as packed
@@ -222,51 +223,69 @@ def iter_sweep_frames(factory: sessionmaker, sweep_id: int, chunk: int = CHUNK,
     yield from _frames(factory, sw, params, refs, chunk, stored_only)
 
 
+FIXED = ("grid_index", "run_id", "status", "error_message")  # sweep columns a point's grid values never set
+
+
+def _points(raw: list) -> list[dict]:
+    """The stored grid values of a chunk's runs: JSON texts decoded in one call (SQLite), or
+    dicts as the driver decoded them (PostgreSQL)."""
+    texts = [i for i, v in enumerate(raw) if isinstance(v, str)]
+    out = [v if isinstance(v, dict) else {} for v in raw]
+    if texts:
+        decoded = json.loads("[" + ",".join(raw[i] for i in texts) + "]")
+        for i, d in zip(texts, decoded):
+            out[i] = d or {}
+    return out
+
+
 def _frames(factory, sw, params, refs, chunk: int, stored_only: bool) -> Iterator[pd.DataFrame]:
+    """The frames of a sweep's grid points lo..lo+chunk-1, one chunk at a time: one select
+    each (SQL Core on the session's connection: rows are tuples, not ORM objects)."""
     from runners.engine.intensity import G0
 
     columns = sweep_columns(sw)
     grid = None
     base = {**sw.grid["defaults"], **params}
-    summary = [getattr(RunSummary, k) for k in OUTCOMES]
+    stmt = (select(Run.grid_index, Run.id, type_coerce(Run.point, Text), Run.status, Run.error_message,
+                   *[getattr(RunSummary, k) for k in OUTCOMES])
+            .outerjoin(RunSummary, RunSummary.run_id == Run.id))
     for lo in range(0, sw.total, chunk):
         hi = min(sw.total, lo + chunk)
         with factory() as session:
-            rows = session.execute(
-                select(Run.grid_index, Run.id, Run.point, Run.status, Run.error_message, *summary)
-                .outerjoin(RunSummary, RunSummary.run_id == Run.id)
-                .where(Run.sweep_id == sw.id, Run.grid_index >= lo, Run.grid_index < hi)
+            rows = session.connection().execute(
+                stmt.where(Run.sweep_id == sw.id, Run.grid_index >= lo, Run.grid_index < hi)
                 .order_by(Run.grid_index)).all()
-        if stored_only:
-            index = np.array([r.grid_index for r in rows], dtype="int64")
-        else:
-            index = np.arange(lo, hi, dtype="int64")
+        stored = list(zip(*rows)) if rows else [()] * (5 + len(OUTCOMES))
+        indices = np.array(stored[0], dtype="int64")
+        index = indices if stored_only else np.arange(lo, hi, dtype="int64")
         n = len(index)
         if n == 0:
             continue
-        at = {gi: k for k, gi in enumerate(index.tolist())} if stored_only else None
+        at = np.arange(len(rows)) if stored_only else indices - lo  # row of each stored point
         data: dict[str, list] = {c: [None] * n for c in columns}
         data["grid_index"] = index
+
+        def put(column: str, values) -> None:
+            target = data[column]
+            for k, v in zip(at.tolist(), values):
+                target[k] = v
+
         data["status"] = ["pending"] * n
-        seen = np.zeros(n, dtype=bool)
-        for r in rows:
-            k = at[r.grid_index] if at is not None else r.grid_index - lo
-            seen[k] = True
-            data["run_id"][k] = r.id
-            data["status"][k] = r.status
-            data["error_message"][k] = r.error_message
-            for c in OUTCOMES:
-                data[c][k] = getattr(r, c)
-            for key, v in (r.point or {}).items():
-                if key in data and key not in ("grid_index", "run_id", "status", "error_message"):
-                    data[key][k] = v
-        for k in np.flatnonzero(~seen).tolist():  # pending points: their grid values, computed as the run would
-            if grid is None:
-                grid = grid_of(sw, refs)
-            values, _, _ = grid.point(int(index[k]), base)
-            for key, v in values.items():
-                if key in data and key not in ("grid_index", "run_id", "status", "error_message"):
-                    data[key][k] = v
+        for column, values in zip(("run_id", "status", "error_message", *OUTCOMES), (stored[1], *stored[3:])):
+            put(column, values)
+        points = _points(list(stored[2]))
+        for key in set().union(*points):  # a record lacking a measure lacks its key
+            if key in data and key not in FIXED:
+                put(key, [p.get(key) for p in points])
+        if len(rows) < n:  # pending points: their grid values, computed as their runs will store them
+            grid = grid or grid_of(sw, refs)
+            seen = np.zeros(n, dtype=bool)
+            seen[at] = True
+            for k in np.flatnonzero(~seen).tolist():
+                values, _, _ = grid.point(int(index[k]), base)
+                for key, v in values.items():
+                    if key in data and key not in FIXED:
+                        data[key][k] = v
         if "pga_g" in data:
             data["pga_g"] = [None if v is None else v / G0 for v in data["pga"]]
         yield pd.DataFrame({c: _column(data[c], dtype) for c, dtype in columns.items()}, columns=list(columns))
@@ -274,7 +293,7 @@ def _frames(factory, sw, params, refs, chunk: int, stored_only: bool) -> Iterato
 
 def _column(values, dtype: str) -> pd.Series | np.ndarray:
     if dtype == "float64":
-        return np.array([math.nan if v is None else v for v in values], dtype="float64")
+        return np.array(values, dtype="float64")  # None becomes NaN
     if dtype == "object":
         return _objects(values)
     if dtype == "int64":
