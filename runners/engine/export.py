@@ -194,9 +194,21 @@ def export_run(factory: sessionmaker, run_id: int, fmt: str = "csv", out: str | 
             _parquet(files, main, series, meta, index=True)
             _parquet(files, events_path(main), events, {**meta, "units": _event_units(events)}, index=False)
         else:
-            _run_json(files, main, meta, series, result.events, progress)
+            _run_json(files, main, meta, series, _stored_events(factory, run_id), progress)
         written = files.commit()
     return Exported(written, len(series), len(events))
+
+
+def _stored_events(factory: sessionmaker, run_id: int) -> list[dict]:
+    """A run's events as JSON writes them: time, kind, then its fields as the FMU logged them."""
+    from sqlalchemy import select
+
+    from db.schema import RunSeries
+
+    with factory() as session:
+        events = session.scalar(select(RunSeries.events).where(RunSeries.run_id == run_id)) or []
+    return [{"time": e["t"], "kind": e["kind"], **(e.get("values") or {}), **(e.get("labels") or {})}
+            for e in events]
 
 
 def _event_units(events) -> dict[str, str]:
@@ -257,9 +269,7 @@ def _run_json(files: _Files, path: Path, meta: dict, series, events, progress: b
             fh.write(("" if k == 0 else ", ") + json.dumps(name) + ": ")
             fh.write(json.dumps([_plain(v) for v in values.tolist()]))
             bar.update(1)
-        rows = [{c: _plain(v) for c, v in row.items() if _plain(v) is not None}
-                for row in events.to_dict(orient="records")]
-        fh.write('}, "events": ' + json.dumps(rows) + "}\n")
+        fh.write('}, "events": ' + json.dumps(events) + "}\n")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -102,7 +102,10 @@ def _label(e: dict[str, Any], key: str) -> str | None:
     if key in (e.get("labels") or {}):
         return e["labels"][key]
     v = (e.get("values") or {}).get(key)
-    return None if v is None else repr(float(v))
+    if v is None:
+        return None
+    v = float(v)
+    return str(int(v)) if v.is_integer() else repr(v)  # blocks=2 beside blocks=1+2: "2"
 
 
 def run_frames(factory: sessionmaker, run_id: int) -> tuple[pd.DataFrame, pd.DataFrame]:
