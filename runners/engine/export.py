@@ -33,7 +33,7 @@ import os
 import sys
 import tempfile
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -55,7 +55,6 @@ class Exported:
     rows: int
     events: int | None = None  # rows of a run's events file
     pending: int = 0  # grid points of a sweep not stored yet (rows with status "pending")
-    notes: list[str] = field(default_factory=list)
 
 
 def choose_format(fmt: str | None, out: str | None) -> str:
@@ -102,7 +101,7 @@ class _Files:
     def commit(self) -> list[Path]:
         for tmp, dest in self.pending:
             try:
-                os.chmod(tmp, 0o666 & ~_umask())
+                os.chmod(tmp, 0o666 & ~_UMASK)  # as open() would have made it (mkstemp makes 0600)
                 os.replace(tmp, dest)
             except OSError as exc:
                 raise OSError(f"cannot write {dest}: {exc.strerror or exc}") from None
@@ -122,10 +121,14 @@ class _Files:
         self.discard()  # nothing left if commit() was not reached
 
 
-def _umask() -> int:
-    mask = os.umask(0)
+def _read_umask() -> int:
+    """The process's umask (read once, at import: setting it to read it is not thread-safe)."""
+    mask = os.umask(0o022)
     os.umask(mask)
     return mask
+
+
+_UMASK = _read_umask()
 
 
 def _bar(total: int, desc: str, progress: bool, unit: str):
@@ -135,20 +138,11 @@ def _bar(total: int, desc: str, progress: bool, unit: str):
 
 
 def _plain(v: Any) -> Any:
-    """A value as JSON has it: numpy scalars as Python ones, NaN and <NA> as null."""
-    if v is None:
-        return None
-    if isinstance(v, (np.generic,)):
+    """A value as JSON has it: numpy scalars as Python ones, NaN as null."""
+    if isinstance(v, np.generic):
         v = v.item()
-    if isinstance(v, float) and not math.isfinite(v):
-        return None if math.isnan(v) else v
-    try:
-        import pandas as pd
-
-        if v is pd.NA:
-            return None
-    except ImportError:  # pragma: no cover
-        pass
+    if isinstance(v, float) and math.isnan(v):
+        return None
     return v
 
 
@@ -299,10 +293,10 @@ def export_sweep(factory: sessionmaker, sweep_id: int, fmt: str = "csv", out: st
     runners.engine.tables.sweep_frame), points not stored yet with status "pending". Read and
     written `chunk` grid points at a time. ValueError for a sweep that is not there or has no
     stored point yet."""
-    from runners.engine.tables import CHUNK, _frames, _sweep_header, grid_text, sweep_columns
+    from runners.engine.tables import CHUNK, frames_of, grid_text, stored_sweep, sweep_columns
 
     fmt = choose_format(fmt, str(out) if out is not None else None)
-    sw, params, refs = _sweep_header(factory, sweep_id)
+    sw, params, refs = stored_sweep(factory, sweep_id)
     if sw.done == 0:
         raise ValueError(f"sweep {sweep_id} has no stored points yet: run them with runners sweep --resume {sweep_id}")
     main = Path(out) if out is not None else Path(f"sweep-{sweep_id}{FORMATS[fmt]}")
@@ -311,7 +305,7 @@ def export_sweep(factory: sessionmaker, sweep_id: int, fmt: str = "csv", out: st
     meta = {"sweep": sweep_id, "grid": grid_text(sw.grid), "axes": sw.grid["axes"], "total": sw.total,
             "stored": sw.done, "status": sw.status, "stop_time": sw.grid["stop_time"], "units": units,
             "scene": params, "defaults": sw.grid["defaults"]}
-    frames = _frames(factory, sw, params, refs, chunk or CHUNK, False)
+    frames = frames_of(factory, sw, params, refs, chunk or CHUNK, False)
     with _Files() as files, _bar(sw.total, f"sweep {sweep_id}", progress, "point") as bar:
         writer = {"csv": _sweep_csv, "parquet": _sweep_parquet, "json": _sweep_json}[fmt]
         rows, pending = writer(files, main, _counted(frames, bar), columns, meta)
@@ -375,7 +369,8 @@ def _sweep_json(files: _Files, path: Path, frames, columns: dict, meta: dict) ->
         fh.write('{"sweep": ' + _json({k: v for k, v in meta.items() if k != "units"}) + ', "units": '
                  + _json(meta["units"]) + ', "points": [')
         for df in frames:
-            lists = [[_plain(v) for v in df[c].tolist()] for c in columns]
+            lists = [[_plain(v) for v in df[c].astype(object).where(df[c].notna(), None).tolist()]
+                     for c in columns]
             for k, values in enumerate(zip(*lists)):
                 fh.write(("," if rows + k else "") + "\n" + json.dumps(dict(zip(columns, values))))
             rows += len(df)

@@ -24,7 +24,7 @@ from typing import Any, Iterator
 
 import numpy as np
 import pandas as pd
-from sqlalchemy import Text, exists, func, or_, select, type_coerce
+from sqlalchemy import Text, exists, false, func, or_, select, type_coerce
 from sqlalchemy.orm import aliased, sessionmaker
 
 from db import series as packed
@@ -179,7 +179,7 @@ def record_refs(session, sw: Sweep) -> list | None:
             for i in ids]
 
 
-def _sweep_header(factory: sessionmaker, sweep_id: int):
+def stored_sweep(factory: sessionmaker, sweep_id: int) -> tuple[Sweep, dict, list | None]:
     """(sweep, its scene's parameters, its records or None)."""
     with factory() as session:
         sw = session.get(Sweep, sweep_id)
@@ -222,8 +222,8 @@ def iter_sweep_frames(factory: sessionmaker, sweep_id: int, chunk: int = CHUNK,
     """sweep_frame in pieces of at most `chunk` grid points, in grid order (for exports of
     sweeps of any size in bounded memory). With `stored_only`, the points not stored yet are
     left out instead of being rows with status "pending"."""
-    sw, params, refs = _sweep_header(factory, sweep_id)
-    yield from _frames(factory, sw, params, refs, chunk, stored_only)
+    sw, params, refs = stored_sweep(factory, sweep_id)
+    yield from frames_of(factory, sw, params, refs, chunk, stored_only)
 
 
 FIXED = ("grid_index", "run_id", "status", "error_message")  # sweep columns a point's grid values never set
@@ -241,7 +241,7 @@ def _points(raw: list) -> list[dict]:
     return out
 
 
-def _frames(factory, sw, params, refs, chunk: int, stored_only: bool) -> Iterator[pd.DataFrame]:
+def frames_of(factory, sw, params, refs, chunk: int, stored_only: bool) -> Iterator[pd.DataFrame]:
     """The frames of a sweep's grid points lo..lo+chunk-1, one chunk at a time: one select
     each (SQL Core on the session's connection: rows are tuples, not ORM objects)."""
     from runners.engine.intensity import G0
@@ -320,8 +320,8 @@ def sweep_frame(factory: sessionmaker, sweep_id: int, stored_only: bool = False)
 
     Read in chunks of grid indices with SQL Core selects: memory grows with the frame, not
     with ORM objects. ValueError for a sweep that is not there."""
-    sw, params, refs = _sweep_header(factory, sweep_id)
-    parts = list(_frames(factory, sw, params, refs, CHUNK, stored_only))
+    sw, params, refs = stored_sweep(factory, sweep_id)
+    parts = list(frames_of(factory, sw, params, refs, CHUNK, stored_only))
     if not parts:
         return pd.DataFrame({c: _column([], d) for c, d in sweep_columns(sw).items()})
     return parts[0] if len(parts) == 1 else pd.concat(parts, ignore_index=True)
@@ -413,7 +413,9 @@ def _runs(factory: sessionmaker, sweep: int | None = None, single: bool = False,
             .outerjoin(Record, Record.id == Excitation.record_id)
             .order_by(Run.id.desc()))
     if sweep is not None:
-        stmt = stmt.where(Run.sweep_id == sweep)
+        from db.session import MAX_ID
+
+        stmt = stmt.where(Run.sweep_id == sweep if -MAX_ID - 1 <= sweep <= MAX_ID else false())  # no such id
     if single:
         stmt = stmt.where(Run.sweep_id.is_(None))
     if limit is not None:
