@@ -215,9 +215,11 @@ def build_parser() -> argparse.ArgumentParser:
     sw.set_defaults(func=cmd_sweep)
     from runners.cli.measured import add_parser as add_measured_parser
     from runners.cli.records import add_parser as add_records_parser
+    from runners.cli.export import add_parser as add_export_parser
     from runners.cli.rrd import add_parser as add_rrd_parser
 
     add_rrd_parser(sub)
+    add_export_parser(sub)
     add_measured_parser(sub)
     add_records_parser(sub)
 

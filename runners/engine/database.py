@@ -1,0 +1,178 @@
+"""A stored database seen from Python: its blocks, scenes, runs, sweeps, records and
+measurements as pandas DataFrames, and one run or sweep as the API's result types.
+
+    >>> db = open_db("results.db")              # an SQLite file, or any SQLAlchemy URL
+    >>> db.runs(single=True, limit=5)           # the newest five runs that are in no sweep
+    >>> db.run(12).series["block1.theta"]       # rad, indexed by time in s
+    >>> db.sweep(3).to_pandas()                 # one row per grid point
+
+Units are SI and angles radians (docs/conventions.md); docs/export.md lists every column.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime, timezone
+from typing import TYPE_CHECKING, Any
+
+from sqlalchemy.orm import sessionmaker
+
+from db.schema import Excitation, Run, RunSummary, Scene, Sweep
+from db.session import display_url, open_database
+from runners.engine.results import RunResult, SweepResult
+from runners.engine.tables import OUTCOMES, fmu_defaults, stored_table
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+class Database:
+    """A database of runs, opened by open_db. Every method reads; none writes.
+
+    Tables come back as DataFrames indexed by ``id`` with readable columns (names next to
+    ids, no blob columns); runs are newest first, the other tables in id order.
+    """
+
+    def __init__(self, factory: sessionmaker):
+        self.factory = factory  # the SQLAlchemy session factory (db.session.open_database)
+
+    @property
+    def url(self) -> str:
+        """The database's URL, password hidden (sqlite:///path for an SQLite file)."""
+        return display_url(self.factory.kw["bind"])
+
+    def __repr__(self) -> str:
+        return f"Database({self.url!r})"
+
+    # -- tables -------------------------------------------------------------------------------
+
+    def blocks(self) -> "pd.DataFrame":
+        """The block catalogue: half_width, half_height (m), mass (kg), material, restitution
+        law and its parameters (k, eta, correction), source."""
+        return stored_table(self.factory, "blocks")
+
+    def scenes(self) -> "pd.DataFrame":
+        """Stored scenes: name, number of blocks, excitation kind, catalogue blocks, how many
+        runs and sweeps use each, created_at, and the FMU parameters each sets (a dict)."""
+        return stored_table(self.factory, "scenes")
+
+    def runs(self, sweep: int | None = None, single: bool = False, limit: int | None = None) -> "pd.DataFrame":
+        """Stored runs, newest first: scene name, sweep id and grid index (<NA> for single runs),
+        model, method, excitation, record and scale, stop_time (s), status, the outcomes
+        (peak1_over_alpha, overturned, overturn_time in s, impacts, rest_time in s, ...),
+        has_series (whether run() has a time history), wall_time (s), created_at.
+
+        sweep: only the points of this sweep; single: only runs in no sweep; limit: the
+        newest N. A sweep of a million points makes a million rows: filter."""
+        return stored_table(self.factory, "runs", sweep=sweep, single=single, limit=limit)
+
+    def sweeps(self) -> "pd.DataFrame":
+        """Stored sweeps: scene name, the grid in one line (w=1:12:5, a=1.01:8:4), stop_time (s),
+        total points, points stored (done), status (running, interrupted, done), created_at."""
+        return stored_table(self.factory, "sweeps")
+
+    def records(self, suite: str | None = None) -> "pd.DataFrame":
+        """Stored ground-motion records with their provenance and intensity measures (pga in
+        m/s^2 and pga_g in g, pgv m/s, pgd m, arias m/s, d5_95 and mean_period s); `suite`: only
+        that suite and those under it (e.g. "fema-p695")."""
+        return stored_table(self.factory, "records", **({} if suite is None else {"suite": suite}))
+
+    def measurements(self) -> "pd.DataFrame":
+        """Stored measurements: name, kind, blocks, columns, number of samples, sampling rate
+        (Hz), instrument, uncertainties (rad, s, m or m/s^2), source."""
+        return stored_table(self.factory, "measurements")
+
+    # -- one run, one sweep -------------------------------------------------------------------
+
+    def run(self, run_id: int) -> RunResult:
+        """A stored run: its series (index time in s, one column per FMU output) and events,
+        its outcome (summary), the FMU parameters it ran with and its scene's name.
+
+        Runs stored without a time history (sweep points keep their outcomes only, and the
+        closed form has none) have empty series and events; summary["has_series"] says so.
+        ValueError for a run that is not there."""
+        from db import series as packed
+        from runners.engine.tables import events_frame, series_frame
+
+        with self.factory() as session:
+            run = session.get(Run, run_id)
+            if run is None:
+                raise ValueError(f"no run {run_id} in the database")
+            summary = _summary(session, run)
+            parameters = _parameters(session, run)
+            scene = run.scene.name
+            recording = run.recording
+            stored = run.series
+            if stored is not None:
+                t, cols = packed.unpack(stored.names, stored.n_samples, stored.data)
+                events = list(stored.events or [])
+        if stored is None:
+            t, cols, events = [], {}, []
+        from pathlib import Path
+
+        return RunResult(scene=scene, series=series_frame(t, cols), events=events_frame(events), summary=summary,
+                         parameters=parameters, run_id=run_id, recording=Path(recording) if recording else None)
+
+    def sweep(self, sweep_id: int) -> SweepResult:
+        """A stored sweep; its points come with to_pandas() (one row per grid point). stats
+        holds its scene, grid, total points, points stored and status. ValueError for a
+        sweep that is not there."""
+        from runners.engine.tables import grid_text
+
+        with self.factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            if sw is None:
+                raise ValueError(f"no sweep {sweep_id} in the database")
+            stats = {"sweep": sw.id, "scene": session.get(Scene, sw.scene_id).name, "grid": grid_text(sw.grid),
+                     "total": sw.total, "stored": sw.done, "status": sw.status}
+        return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
+
+
+def _summary(session, run: Run) -> dict[str, Any]:
+    """A stored run's outcome: what ran (model, method, stop time in s) and how it went."""
+    out: dict[str, Any] = {"scene": run.scene.name, "model": run.model, "method": run.method,
+                           "status": run.status, "error_message": run.error_message, "stop_time": run.stop_time,
+                           "rel_tol": run.rel_tol, "wall_time_s": run.wall_time, "sweep_id": run.sweep_id,
+                           "grid_index": run.grid_index, "point": run.point, "has_series": run.series is not None,
+                           "code_version": run.code_version, "created_at": _utc(run.created_at).isoformat()}
+    s: RunSummary | None = run.summary
+    out.update({k: None if s is None else getattr(s, k) for k in OUTCOMES})
+    exc: Excitation | None = run.excitation
+    if exc is not None and exc.record is not None:
+        out["record"] = {"id": exc.record.id, "name": exc.record.name,
+                         "scale": exc.scale if exc.scale is not None else 1.0}
+    return out
+
+
+def _utc(when: datetime) -> datetime:
+    """A stored time in UTC (SQLite hands it back without its time zone)."""
+    return when.replace(tzinfo=timezone.utc) if when.tzinfo is None else when
+
+
+def _parameters(session, run: Run) -> dict[str, Any]:
+    """The FMU parameters a stored run ran with: the FMU's defaults, the scene's, and a sweep
+    point's grid values. A stored record's samples are named, not given as a file:
+    excitation.file is left out (summary["record"] says which record drove the run)."""
+    if run.sweep_id is None:
+        params = {**fmu_defaults(), **run.scene.parameters}
+    else:
+        from runners.engine.tables import grid_of, record_refs
+
+        sw = session.get(Sweep, run.sweep_id)
+        base = {**sw.grid["defaults"], **run.scene.parameters}
+        _, over, _ = grid_of(sw, record_refs(session, sw)).point(run.grid_index, base)
+        params = {**base, **over}
+    if run.excitation is not None and run.excitation.record is not None:
+        params.pop("excitation.file", None)
+    return params
+
+
+def open_db(url: str | None = None, *, write: bool = False) -> Database:
+    """Open a database of runs: an SQLAlchemy URL (sqlite:///results.db,
+    postgresql+psycopg://user@host/name) or an SQLite file's path; None: ROCKING_DB, else
+    rocking.db in the working folder, as the command line's --db.
+
+    By default it is opened read-only: nothing is created or migrated, and a file that is not
+    there is an error (runners db init creates one). write=True opens it for writing
+    (creating and migrating it as the commands that store runs do). DatabaseError, in one
+    line, for a database that cannot be opened."""
+    return Database(open_database(url, write=write))
