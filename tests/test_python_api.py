@@ -102,9 +102,9 @@ def test_bad_arguments_raise_one_line_errors(fmu_path, call, message):
 
 def test_the_command_line_prints_what_the_api_returns(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 'cli.db'}"
-    code, out, err = run_cli("simulate", str(SINE), "--json", db=db, fmu_path=fmu_path)
-    assert code == 0, err
-    printed = json.loads(out)
+    p = run_cli("simulate", str(SINE), "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    printed = json.loads(p.stdout)
     api = runners.simulate(SINE, fmu=fmu_path).summary
     for key in ("impacts", "peaks", "rest_time_s", "max_abs_theta_rad", "final_state", "model", "alpha_rad"):
         assert printed[key] == api[key], key
