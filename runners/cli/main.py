@@ -182,7 +182,7 @@ def _store(factory, scene, merged, s, model, method, fmu_path, result, recording
 def cmd_sweep(args: argparse.Namespace) -> int:
     from db.schema import Sweep
     from runners.engine.sweep import (Grid, check_axes, check_corners, check_size, create_sweep, local_workers, parse_axis,
-                               parse_points, record_axes, run_sweep)
+                               parse_points, record_axes, run_sweep, axis_parameters)
 
     if (args.resume is None) == (args.scene is None):
         raise ValueError("give a scene file with --grid, or --resume SWEEP_ID")
@@ -218,9 +218,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             scene.stop_time, scene.stop_time_given = args.stop_time, True
         check_times(scene.stop_time, scene.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fmu:
-            reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
+            sweepable = axis_parameters(fmu)
             defaults = fmu.defaults()
-            axes = [parse_axis(spec, reals) for spec in args.grid]
+            axes = [parse_axis(spec, sweepable) for spec in args.grid]
             records, intensity, notes = record_axes(factory, scene, axes, args.records, args.im,
                                                     args.stop_time is not None)
             if not axes and not records:
@@ -391,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("scene", nargs="?", help="scene file (TOML); omit with --resume")
     sw.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                     help="an axis: w (omega_g/p), a (a_g/(g tan alpha)), scale (a record's multiplier) or a Real "
-                         "FMU parameter; repeatable")
+                         "or Integer FMU parameter (whole numbers: solver.method=0:1:2); repeatable")
     sw.add_argument("--records", metavar="SUITE|NAMES|FOLDER",
                     help="run every record of a suite (e.g. fema-p695/nearfield_pulse), of a comma-separated list "
                          "of record names or ids, or of a folder of record files (docs/records.md)")
