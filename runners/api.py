@@ -182,7 +182,11 @@ def simulate(
 
             s = {"scene": sc.name, **run_python(method, merged, sc.stop_time, 1e-4 if h is None else h,
                                                 1e-10 if rtol is None else rtol)}
-            report = format_python(sc.name, s, sc.stop_time)
+            if "solver.method" in sc.parameters:
+                notes.append(f"the scene's FMU integrator ([simulation] method) does not apply to method {method}")
+            if notes:
+                s["notes"] = notes
+            report = format_python(sc.name, s, sc.stop_time) + "".join(f"\nnote             {n}" for n in notes)
             model = s["model"]
         else:
             from runners.analysis.least_model import (choose_model, closed_form_summary,
@@ -353,7 +357,7 @@ def sweep(
     from db.schema import Sweep
     from db.session import open_database, require_writable
     from runners.engine.fmu import RockingFMU, fmu_path_from
-    from runners.engine.sweep import (Grid, SweepError, check_axes, check_corners, check_size, create_sweep,
+    from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
                                       local_workers, parse_axis, parse_points, record_axes, run_sweep)
 
     specs = _axes_from(grid)
@@ -392,9 +396,9 @@ def sweep(
             sc.stop_time, sc.stop_time_given = float(stop_time), True
         check_times(sc.stop_time, sc.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fm:
-            reals = {n for n, v in fm.vars.items() if v.type == "Real" and v.causality == "parameter"}
+            sweepable = axis_parameters(fm)  # name -> "Real" or "Integer"
             defaults = fm.defaults()
-            axes = [parse_axis(spec, reals) for spec in specs]
+            axes = [parse_axis(spec, sweepable) for spec in specs]
             recs, intensity, notes = record_axes(factory, sc, axes, records, im, stop_time is not None)
             if not axes and not recs:
                 raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")

@@ -191,7 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("scene", nargs="?", help="scene file (TOML); omit with --resume")
     sw.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                     help="an axis: w (omega_g/p), a (a_g/(g tan alpha)), scale (a record's multiplier) or a Real "
-                         "FMU parameter; repeatable")
+                         "or Integer FMU parameter (whole numbers: solver.method=0:1:2); repeatable")
     sw.add_argument("--records", metavar="SUITE|NAMES|FOLDER",
                     help="run every record of a suite (e.g. fema-p695/nearfield_pulse), of a comma-separated list "
                          "of record names or ids, or of a folder of record files (docs/records.md)")

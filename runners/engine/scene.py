@@ -3,8 +3,8 @@
 A scene has the tables [block], [restitution], [excitation] and [simulation],
 and [block2] for a second block standing on the first (which makes it a
 two-block scene, nBlocks = 2). Every key is optional and falls back to the
-FMU's default. Units are SI and angles radians (docs/conventions.md). See
-examples/*.toml.
+FMU's default. Units are SI and angles radians (docs/conventions.md). Every
+key, its unit and default: docs/scenes.md; examples: examples/*.toml.
 
 A recorded earthquake is ``[excitation] kind = "record"`` with ``record = NAME``
 (or a database id) of a stored record, or ``file = PATH`` (a record file, PEER
@@ -27,6 +27,8 @@ LAWS = {"housner": 0, "momentum": 0, "modified": 1, "constant": 2}
 KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3, "record": 4, "ricker": 5,
          "ricker-antisymmetric": 6, "mavroeidis-papageorgiou": 7}
 KIND_NAMES = {v: k for k, v in KINDS.items()}  # excitation.kind -> its name in a scene
+# the FMU's integrators (solver.method, docs/methods.md): Taylor series for one block only
+METHODS = {"dormand-prince": 0, "taylor": 1}
 # g: a PGA beyond this is a mistake of units (the largest recorded PGA is about 4 g)
 MAX_PGA_G = 5.0
 # output samples one run may hold (a few hundred MB with its outputs): more is refused before
@@ -79,6 +81,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "rel_tol": ("solver.relTol", "real"),
         "abs_tol": ("solver.absTol", "real"),
         "rest_ratio": ("solver.restRatio", "real"),
+        "method": ("solver.method", METHODS),
         "early_overturn": ("solver.earlyOverturn", "bool"),
     },
 }
@@ -187,6 +190,9 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
         if table == "block2":
             scene.parameters["nBlocks"] = 2
     _check_record(scene, source)
+    if scene.parameters.get("solver.method") == METHODS["taylor"] and scene.n_blocks == 2:
+        raise SceneError(f"{source}: [simulation] method = \"taylor\" integrates one block; a two-block scene "
+                         "([block2]) uses \"dormand-prince\"")
     try:
         check_times(scene.stop_time, scene.step, "[simulation] stop_time", "[simulation] step")
     except SceneError as exc:

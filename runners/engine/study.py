@@ -103,16 +103,16 @@ def run(factory, scene, records_spec: str, im: str | None = None, grid: tuple[st
     `stop_time` each record runs to its end plus 5 s. Returns the sweep's id."""
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.scene import Scene, load_scene
-    from runners.engine.sweep import create_sweep, parse_axis, record_axes, run_sweep
+    from runners.engine.sweep import axis_parameters, create_sweep, parse_axis, record_axes, run_sweep
 
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     if stop_time is not None:
         scene.stop_time, scene.stop_time_given = float(stop_time), True
     path = fmu_path_from(None if fmu_path is None else str(fmu_path))
     with RockingFMU(path) as fmu:
-        reals = {n for n, v in fmu.vars.items() if v.type == "Real" and v.causality == "parameter"}
+        sweepable = axis_parameters(fmu)
         defaults = fmu.defaults()
-    axes = [parse_axis(spec, reals) for spec in grid]
+    axes = [parse_axis(spec, sweepable) for spec in grid]
     refs, intensity, _ = record_axes(factory, scene, axes, records_spec, im, stop_time is not None)
     sweep_id = create_sweep(factory, scene, axes, defaults, refs, intensity)
     run_sweep(factory, sweep_id, path, workers=workers, progress=progress)

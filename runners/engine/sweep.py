@@ -3,7 +3,8 @@ batches; resumable after any interruption (each batch is one transaction and eac
 point has one unique slot, so a resumed sweep stores every point exactly once).
 
 Grid axes (NAME=START:STOP:COUNT) are FMU parameters (dimensional, e.g.
-excitation.amplitude) or the dimensionless groups of the seeds:
+excitation.amplitude; an Integer parameter such as solver.method takes whole numbers
+only, solver.method=0:1:2, and is stored and set as an int) or dimensionless groups:
 
 - ``w`` (or ``omega_g/p``): excitation.frequency = w p / (2 pi), with
   p = sqrt(3 g / (4 R)) of block 1;
@@ -32,7 +33,7 @@ import time
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 from sqlalchemy import func, insert, select, update
@@ -56,14 +57,17 @@ class Axis:
     start: float
     stop: float
     count: int
+    integer: bool = False  # an Integer FMU parameter: every value a whole number, given to the FMU as an int
 
     @property
     def values(self) -> np.ndarray:
-        return np.linspace(self.start, self.stop, self.count)
+        return np.array([self.value(i) for i in range(self.count)]) if self.integer \
+            else np.linspace(self.start, self.stop, self.count)
 
-    def value(self, i: int) -> float:
+    def value(self, i: int) -> float | int:
         """values[i], computed alone (a grid point must not cost the whole axis), bit for bit."""
-        return _linspace_at(self.start, self.stop, self.count, i)
+        v = _linspace_at(self.start, self.stop, self.count, i)
+        return int(round(v)) if self.integer else v
 
 
 def _linspace_at(start: float, stop: float, count: int, i: int) -> float:
@@ -78,15 +82,24 @@ def _linspace_at(start: float, stop: float, count: int, i: int) -> float:
     return float(i * step + start)
 
 
-def parse_axis(spec: str, parameter_names: set[str]) -> Axis:
-    """NAME=START:STOP:COUNT, with a one-line reason when it is malformed."""
+def axis_parameters(fmu: RockingFMU) -> dict[str, str]:
+    """The FMU parameters a --grid axis may set, name -> type ("Real" or "Integer")."""
+    return {n: v.type for n, v in fmu.vars.items() if v.causality == "parameter" and v.type in ("Real", "Integer")}
+
+
+def parse_axis(spec: str, parameters: Mapping[str, str] | Iterable[str]) -> Axis:
+    """NAME=START:STOP:COUNT, with a one-line reason when it is malformed. `parameters`: the FMU
+    parameters an axis may set, name -> type ("Real" or "Integer"; axis_parameters), or a set of
+    Real parameters' names. An Integer parameter's axis takes whole numbers only (START, STOP and
+    the spacing (STOP - START) / (COUNT - 1)), e.g. solver.method=0:1:2."""
+    types = dict(parameters) if isinstance(parameters, Mapping) else dict.fromkeys(parameters, "Real")
     name, eq, rng = spec.partition("=")
     parts = rng.split(":")
     if not eq or len(parts) != 3:
         raise ValueError(f"--grid {spec!r}: expected NAME=START:STOP:COUNT")
     name = ALIASES.get(name.strip(), name.strip())
-    if name not in ("w", "a") and name not in parameter_names:
-        raise ValueError(f"--grid {spec!r}: unknown name {name!r} (w, a, or a Real FMU parameter)")
+    if name not in ("w", "a") and types.get(name) not in ("Real", "Integer"):
+        raise ValueError(f"--grid {spec!r}: unknown name {name!r} (w, a, or a Real or Integer FMU parameter)")
     try:
         start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
     except ValueError:
@@ -96,6 +109,13 @@ def parse_axis(spec: str, parameter_names: set[str]) -> Axis:
     if count > 1 and start == stop:
         raise ValueError(f"--grid {spec!r}: START = STOP gives {count} identical points (COUNT 1, or set it in the "
                          "scene)")
+    if types.get(name) == "Integer":
+        gap = (stop - start) / (count - 1) if count > 1 else 1.0
+        if not (start.is_integer() and stop.is_integer() and gap.is_integer()):
+            raise ValueError(f"--grid {spec!r}: {name} is an Integer parameter: START, STOP and the spacing "
+                             f"(STOP - START) / (COUNT - 1) must be whole numbers, e.g. {name}="
+                             f"{math.floor(start)}:{math.floor(start) + 1}:2")
+        return Axis(name, int(start), int(stop), count, True)
     return Axis(name, start, stop, count)
 
 
@@ -113,16 +133,23 @@ def target(name: str, p: dict[str, Any]) -> str:
 def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
     """ValueError, in one line, for axes that would give a grid of identical or contradictory
     points in a scene of FMU parameters `p` (defaults included): two axes setting one
-    parameter, or an axis on a parameter the scene does not use."""
+    parameter, or an axis on a parameter the scene does not use (with any value of the
+    grid's Integer axes, e.g. restitution.k on a restitution.law axis that includes "modified")."""
+    import itertools
+
     setters: dict[str, str] = {}
     for ax in axes:
         param = target(ax.name, p)
         if param in setters:
             raise ValueError(f"--grid {setters[param]} and --grid {ax.name} both set {param}: keep one")
         setters[param] = ax.name
-        why = unused_parameter(param, p)
-        if why:
-            raise ValueError(f"--grid {ax.name}: {why}, so every point would be the same")
+    ints = [ax for ax in axes if ax.integer]
+    cases = [{**p, **dict(zip([ax.name for ax in ints], combo))}
+             for combo in itertools.islice(itertools.product(*[ax.values.tolist() for ax in ints]), 1024)]
+    for ax in axes:
+        whys = [unused_parameter(target(ax.name, q), q) for q in cases]
+        if all(whys):
+            raise ValueError(f"--grid {ax.name}: {whys[0]}, so every point would be the same")
 
 
 def scales(p: dict[str, Any]) -> tuple[float, float]:
@@ -254,7 +281,7 @@ class Grid:
         return values, over, rec
 
     def as_json(self) -> dict[str, Any]:
-        return {"axes": [[a.name, a.start, a.stop, a.count] for a in self.axes],
+        return {"axes": [[a.name, a.start, a.stop, a.count] + ([True] if a.integer else []) for a in self.axes],
                 "records": [r.id for r in self.records] if self.records else None,
                 "intensity": None if self.intensity is None else
                 [self.intensity.measure, self.intensity.start, self.intensity.stop, self.intensity.count]}
@@ -533,7 +560,8 @@ def check_corners(fmu: RockingFMU, grid: Grid, base: dict[str, Any], limit: int 
         try:
             fmu.validate({**base, **over})
         except FMUError as exc:
-            at = ", ".join(f"{k} = {v:.4g}" for k, v in values.items() if isinstance(v, float))
+            at = ", ".join(f"{k} = {v:.4g}" for k, v in values.items()
+                           if isinstance(v, float) or k in {ax.name for ax in grid.axes if ax.integer})
             refused.append(f"grid point {index} ({at}): {exc}")
     if refused and len(refused) == len(corners):
         raise ValueError(refused[0] if len(corners) == 1 else f"every corner of the grid is refused, e.g. {refused[0]}")
