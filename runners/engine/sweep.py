@@ -3,7 +3,7 @@ batches; resumable after any interruption (each batch is one transaction and eac
 point has one unique slot, so a resumed sweep stores every point exactly once).
 
 Grid axes (NAME=START:STOP:COUNT) are FMU parameters (dimensional, e.g.
-excitation.amplitude) or the dimensionless groups of the seeds:
+excitation.amplitude) or the dimensionless groups of the sources (Dimitrakopoulos & DeJong 2012):
 
 - ``w`` (or ``omega_g/p``): excitation.frequency = w p / (2 pi), with
   p = sqrt(3 g / (4 R)) of block 1;
