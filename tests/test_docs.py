@@ -178,3 +178,45 @@ def test_documented_commands_do_not_write_into_tracked_folders():
             if TRACKED_OUT.search(line):
                 found.append(f"{page.relative_to(ROOT)}: {line.strip()}")
     assert not found, "write outputs outside the repository's folders:\n" + "\n".join(found)
+
+
+def documented_commands() -> list[tuple[str, str]]:
+    """(page, command) for every `runners ...` line of a code block and every inline `runners ...`."""
+    out = []
+    for page in READ_BY_USERS:
+        text = page.read_text(encoding="utf-8")
+        for line in text.splitlines():
+            m = re.match(r"^\s+(?:\.venv/bin/)?runners\s+(.*)$", line)
+            if m:
+                out.append((page.name, re.split(r"\s+#", m.group(1))[0]))
+        out += [(page.name, m.group(1)) for m in re.finditer(r"`(?:\.venv/bin/)?runners ([^`]+)`", text.replace("\n", " "))]
+    return out
+
+
+def test_documented_commands_use_options_that_exist():
+    """Every --option of a documented command is an option of that (sub)command, so a renamed
+    or removed option cannot stay in the docs."""
+    import argparse
+
+    from runners.cli.main import build_parser
+
+    def children(p: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+        return next((a.choices for a in p._actions if isinstance(a, argparse._SubParsersAction)), {})
+
+    commands = documented_commands()
+    assert len(commands) > 50  # the parser above finds the docs' commands
+    wrong = []
+    for page, command in commands:
+        words, p, path = command.split(), build_parser(), []
+        while words and words[0] in children(p):
+            path.append(words[0])
+            p, words = children(p)[words[0]], words[1:]
+        if not path:
+            wrong.append(f"{page}: no such command: runners {command}")
+            continue
+        known = {s for a in p._actions for s in a.option_strings}
+        for word in words:
+            for option in word.strip("[](),").split("=")[0].split("|"):
+                if option.startswith("--") and option not in known:
+                    wrong.append(f"{page}: runners {' '.join(path)} has no {option}: runners {command}")
+    assert not wrong, "\n".join(wrong)
