@@ -31,7 +31,7 @@ class Block(Base):
     material: Mapped[str | None] = mapped_column(String(100))
     restitution_law: Mapped[str] = mapped_column(String(20), default="housner")  # housner, modified, constant
     k: Mapped[float | None] = mapped_column(Float)  # impact position, modified law
-    k_size_average: Mapped[float | None] = mapped_column(Float)  # seed 003: the average k of its size class
+    k_size_average: Mapped[float | None] = mapped_column(Float)  # Čeh & Jelenić (2022): the average k of its size class
     eta: Mapped[float | None] = mapped_column(Float)  # constant law
     correction: Mapped[float] = mapped_column(Float, default=1.0)
     source: Mapped[str | None] = mapped_column(Text)

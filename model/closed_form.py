@@ -15,7 +15,7 @@ All functions take (a, omega[, eta]) with a > 1 (the block lifts) and
 return dimensionless numbers. The block first rotates towards the side the
 pulse pushes it (theta < 0 for a_g > 0 in docs/conventions.md); the formulas
 below are written for that side, as in the paper. Equation numbers refer to
-seed 001.
+Dimitrakopoulos & DeJong (2012), Proc. R. Soc. A 468 (docs/references.md).
 """
 
 from __future__ import annotations

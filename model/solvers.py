@@ -5,8 +5,8 @@ Two families, for the speed-versus-accuracy comparison of ``runners bench``:
 - :func:`solve_event_driven`: ``scipy.integrate.solve_ivp`` (any of its
   methods) between events, with impacts and overturn located by its event
   finder and the integration restarted after each impact;
-- :func:`solve_fixed_step`: the classic fixed-step schemes as the seeds used
-  them: explicit Euler and RK4 (seed 000, impacts found by a sign change of
+- :func:`solve_fixed_step`: the classic fixed-step schemes as the sources used
+  them: explicit Euler and RK4 (Anagnostopoulos, impacts found by a sign change of
   theta, optionally located inside the step) and the Newmark trapezoidal rule
   with Newton iterations and impact-time location (Čeh & Jelenić 2022).
 

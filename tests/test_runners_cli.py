@@ -99,7 +99,7 @@ def test_bad_two_block_scene_is_a_one_line_error(fmu_path, tmp_path):
 def test_bench_prints_native_and_fmpy_tables(fmu_path):
     p = runners("bench", "--repeats", "1", "--fmpy-repeats", "1", fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
-    assert "two blocks, seed 7 Hz / 3 mm, 10 s" in p.stdout and "Through fmpy" in p.stdout
+    assert "two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s" in p.stdout and "Through fmpy" in p.stdout
     assert "Rerun recordings" in p.stdout and "two_blocks_harmonic.toml" in p.stdout
     p = runners("bench", "--repeats", "0", fmu_path=fmu_path)
     assert p.returncode == 2 and "--repeats" in p.stderr

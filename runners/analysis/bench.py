@@ -90,21 +90,21 @@ def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
     return "\n".join(out)
 
 
-# seed 000 Fig. 17A: Blocks 1 (lower) and 4 (upper), 7 Hz / 3 mm harmonic table motion
+# Anagnostopoulos (BEng thesis) Fig. 17A: Blocks 1 (lower) and 4 (upper), 7 Hz / 3 mm harmonic table motion
 STACK_7HZ = {
     "nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,
     "block2.halfWidth": 0.030, "block2.halfHeight": 0.050, "block2.mass": 2.3,
     "restitution.law": 2, "restitution.etaGround": 0.95, "restitution.etaInterface": 0.98,
     "excitation.kind": 3, "excitation.frequency": 7.0, "excitation.displacement": 0.003, "excitation.cycles": 0,
 }
-# seed 000 Block 2 alone, same table motion (examples/harmonic.toml)
+# Anagnostopoulos's Block 2 alone, same table motion (examples/harmonic.toml)
 BLOCK_7HZ = {
     "block1.halfWidth": 0.030, "block1.halfHeight": 0.0675, "block1.mass": 2.95, "restitution.correction": 1.233,
     "excitation.kind": 3, "excitation.frequency": 7.0, "excitation.displacement": 0.003, "excitation.cycles": 0,
 }
 FMPY_CASES = [
-    ("two blocks, seed 7 Hz / 3 mm", STACK_7HZ, ["block1.theta", "block2.theta", "impacts", "pattern"]),
-    ("one block, seed Block 2, 7 Hz / 3 mm", BLOCK_7HZ, ["block1.theta", "impacts", "atRest", "overturned"]),
+    ("two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm)", STACK_7HZ, ["block1.theta", "block2.theta", "impacts", "pattern"]),
+    ("one block, Anagnostopoulos Block 2, 7 Hz / 3 mm", BLOCK_7HZ, ["block1.theta", "impacts", "atRest", "overturned"]),
 ]
 
 

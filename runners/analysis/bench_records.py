@@ -12,7 +12,7 @@ Two measurements (docs/BENCHMARKS.md):
    - the same record fed through the ground.ah input by fmpy at the record's time step (what
      one had to do before records lived in the FMU): one call per sample, and the input held
      constant over each step, so its outcome differs too.
-2. The study of issue 14: the statue under the 28 near-field pulse components at 20 PGA levels
+2. The fragility study of docs/records.md: the statue under the 28 near-field pulse components at 20 PGA levels
    (560 runs) stored in an SQLite database by ``runners sweep`` with 2 workers, then its
    fragility fit and figure.
 """
@@ -96,7 +96,7 @@ def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 20
 
 
 def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
-    """The issue's study: 28 near-field pulse components x 20 PGA levels, stored, then its fragility."""
+    """The fragility study of docs/records.md: 28 near-field components x 20 PGA levels, stored, then fitted."""
     from db.session import open_database
     from runners.engine import records, study
     from runners.engine.scene import Scene

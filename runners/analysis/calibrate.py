@@ -11,7 +11,7 @@ and theta0:
 
 - ``constant``: eta, the ratio of angular velocities after/before impact;
 - ``modified``: the impact position k;
-- ``correction``: the factor on Housner's coefficient (seed 000, Table 3).
+- ``correction``: the factor on Housner's coefficient (Anagnostopoulos, BEng thesis, Table 3).
 
 A measured peak that the model does not reach (the block came to rest first)
 counts as a simulated amplitude of zero.

@@ -2,7 +2,7 @@
 
 The rule, cheapest first (docs/methods.md, "The least model a scene needs"):
 
-1. **closed form** (seed 001, model/closed_form.py): one block starting at
+1. **closed form** (Dimitrakopoulos & DeJong 2012, model/closed_form.py): one block starting at
    rest, one horizontal one-sine pulse, and slender enough that the
    linearisation is within the requested accuracy, 2 alpha^2 <= accuracy (the
    overturning boundary of a block with alpha = 0.25 rad is off by up to 6.7%,

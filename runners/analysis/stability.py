@@ -7,7 +7,7 @@ with a communication step longer than the pulse. The reference is scipy's
 DOP853 at rtol 1e-12 (model/solvers.py), independent of the FMU. A method
 gets a scene right if it agrees on overturning, on the number of impacts and
 on the largest |theta| within 1% (if it does not overturn). The two-block
-scene (seed 000 Fig. 15's same-direction tilts, which chatter and lock) is
+scene (Anagnostopoulos's Fig. 15, same-direction tilts, which chatter and lock) is
 checked against the two-block reference (model/two_block_solver.py at rtol
 1e-12) on the impacts of both contacts and the largest |theta1|; the
 fixed-step methods exist for one block only.

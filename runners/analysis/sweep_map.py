@@ -3,7 +3,7 @@
 Each grid point is safe (rocks and settles, or never lifts), overturns after
 one or more impacts, or overturns without impact (Anagnostopoulos Fig. 18's three
 regions), or failed. A (w, a) grid of one block under a one-sine pulse is
-drawn in the seeds' axes omega_g/p and a_g/(g tan alpha), with Dimitrakopoulos & DeJong (2012)'s
+drawn in the sources' axes omega_g/p and a_g/(g tan alpha), with Dimitrakopoulos & DeJong (2012)'s
 closed-form boundaries of the linearised block overlaid (their a_g/(g alpha)
 converted by alpha / tan(alpha)).
 """

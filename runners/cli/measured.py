@@ -264,7 +264,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     out = Path(args.out)
     header = [f"# kind: {args.kind}", "# units: time=s, theta=deg", "# sign: clockwise",
               f"# source: synthetic: run {args.run} ({scene_name}) exported by runners export-measured, "
-              f"normal noise of {args.noise_theta:g} deg and {args.noise_time:g} s, seed {args.seed}"]
+              f"normal noise of {args.noise_theta:g} deg and {args.noise_time:g} s, random seed: {args.seed}"]
     if block:
         header.append(f"# block: {block}")
     if args.noise_theta or args.noise_time:

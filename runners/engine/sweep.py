@@ -4,7 +4,8 @@ point has one unique slot, so a resumed sweep stores every point exactly once).
 
 Grid axes (NAME=START:STOP:COUNT) are FMU parameters (dimensional, e.g.
 excitation.amplitude; an Integer parameter such as solver.method takes whole numbers
-only, solver.method=0:1:2, and is stored and set as an int) or dimensionless groups:
+only, solver.method=0:1:2, and is stored and set as an int) or the dimensionless groups of
+Dimitrakopoulos & DeJong (2012):
 
 - ``w`` (or ``omega_g/p``): excitation.frequency = w p / (2 pi), with
   p = sqrt(3 g / (4 R)) of block 1;

@@ -109,7 +109,7 @@ int main(int argc, char **argv) {
     /* b, h, theta0, amplitude, frequency, relTol, stop, restRatio, kind, law
      * [, nBlocks, m, b2, h2, m2, theta02, displacement] */
 #define ONE 1, 10.0, 0.1, 0.2, 5.0, 0.0, 0.0
-#define SEED 2, 1.3, 0.030, 0.050, 2.3, 0.0 /* seed 000 Blocks 1 (lower) and 4 (upper) */
+#define FIG17 2, 1.3, 0.030, 0.050, 2.3, 0.0 /* Anagnostopoulos's Blocks 1 (lower) and 4 (upper) */
     Case cases[] = {
         {"sine pulse to rest, rtol 1e-10, restRatio 1e-6 (defaults)", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-6, 1, 0, ONE},
         {"sine pulse to rest, rtol 1e-6, restRatio 1e-6", 0.1, 0.3, 0, 5.0, 3.0, 1e-6, 5.0, 1e-6, 1, 0, ONE},
@@ -120,12 +120,12 @@ int main(int argc, char **argv) {
         {"free rocking 10 impacts, rtol 1e-6", 0.1, 0.3, 0.2, 0, 1, 1e-6, 0, 1e-6, 0, 2, ONE},
         {"two blocks, free from opposite tilts, rtol 1e-10", 0.1, 0.3, 0.05, 0, 1, 1e-10, 3.0, 1e-6, 0, 0,
          2, 10.0, 0.1, 0.2, 5.0, -0.08, 0.0},
-        {"two blocks, seed 7 Hz / 3 mm, 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 7.0, 1e-10, 10.0, 1e-6, 3, 2, SEED, 0.003},
-        {"two blocks, seed 7 Hz / 3 mm, 10 s, rtol 1e-6", 0.0145, 0.060, 0, 0, 7.0, 1e-6, 10.0, 1e-6, 3, 2, SEED, 0.003},
-        {"two blocks, seed 5.5 Hz / 3 mm, 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 5.5, 1e-10, 10.0, 1e-6, 3, 2, SEED, 0.003},
+        {"two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 7.0, 1e-10, 10.0, 1e-6, 3, 2, FIG17, 0.003},
+        {"two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s, rtol 1e-6", 0.0145, 0.060, 0, 0, 7.0, 1e-6, 10.0, 1e-6, 3, 2, FIG17, 0.003},
+        {"two blocks, Anagnostopoulos Fig. 17B (5.5 Hz / 3 mm), 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 5.5, 1e-10, 10.0, 1e-6, 3, 2, FIG17, 0.003},
     };
 #undef ONE
-#undef SEED
+#undef FIG17
     const fmi2ValueReference vrReal[] = {2, 3, 5, 13, 14, 19, 21, 4, 60, 61, 62, 63, 18, 15};
     const fmi2ValueReference vrInt[] = {12, 8, 1};
     const fmi2ValueReference vrImp = 43, vrOver = 44, vrRest = 45;
