@@ -25,8 +25,9 @@ class RunResult:
 
     series: one row per output sample, index ``time`` (s), one column per FMU output (SI units).
         Empty for the closed-form model, which has no time history.
-    events: one row per event the integrator located (impacts, uplift, rest, overturning):
-        columns ``time`` (s), ``kind``, ``block`` and the event's other fields.
+    events: one row per event the integrator located (kind impact, peak, rest, overturn, ...):
+        columns ``time`` (s), ``kind``, then the events' fields (``theta`` in rad,
+        ``omega_minus`` and ``omega_plus`` in rad/s, ``side``, ``contact``, ...; docs/export.md).
     summary: the run's outcome as ``runners simulate --json`` prints it (peaks over the
         slenderness alpha, overturned, impacts, rest time, the model chosen and why, ...).
     parameters: every FMU parameter of the run, the FMU's defaults merged with the scene's.
