@@ -4,6 +4,7 @@ catalog), checked against the stored run."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -397,3 +398,47 @@ def test_screenshot_shows_the_viewer_with_the_recording(tmp_path, fmu_path):
     for block in ("block1", "block2"):
         near = np.abs(img - np.array(COLOURS[block])).max(axis=-1) < 30
         assert near.sum() > 500, block  # outlines and curves in the block's colour
+
+
+def _blueprint_ranges(rrd: Path) -> dict[str, tuple[float, float]]:
+    """The y range stored in the recording's blueprint for each time-series view, by view name."""
+    import rerun.chunk as rc
+
+    reader = rc.RrdReader(rrd)
+    (store,) = reader.blueprints()
+    names, ranges = {}, {}
+    for chunk in reader.stream(store=store):
+        entity, data = chunk.entity_path, chunk.to_record_batch().to_pydict()
+        view = "/".join(entity.split("/")[:3])  # /view/<id>
+        for key, values in data.items():
+            if key.endswith(":display_name"):
+                names[view] = values[-1][0]
+            if key == "ScalarAxis:range" and values[-1]:
+                ranges[view] = tuple(values[-1][0])
+    return {names[v]: r for v, r in ranges.items()}
+
+
+@pytest.mark.parametrize("example", ["two_blocks_harmonic", "sine_pulse"])
+def test_the_viewer_plots_have_ranges_with_labelled_ticks(tmp_path, fmu, example):
+    """The blueprint gives each plot a y range symmetric about 0 whose powers of ten the viewer
+    labels: at least 0 and +-10^k inside it, at most three steps of 10^k from 0 to the edge (so
+    the labels lie far enough apart to be drawn), the curves filling at least 30% of it."""
+    from runners.engine.recording import write_recording
+    from runners.engine.scene import load_scene
+    from runners.engine.summary import SUMMARY_OUTPUTS
+
+    scene = load_scene(ROOT / "examples" / f"{example}.toml")
+    r = fmu.run(scene.parameters, min(scene.stop_time, 3.0), 0.01, outputs=SUMMARY_OUTPUTS)
+    rrd = write_recording(tmp_path / "r.rrd", scene.name, r.time, r.outputs, {**fmu.defaults(), **scene.parameters},
+                          r.events)
+    ranges = _blueprint_ranges(rrd)
+    table = read_back(rrd)
+    blocks = ["block1", "block2"] if scene.n_blocks == 2 else ["block1"]
+    for view, entities in (("theta (rad)", [f"/{b}/theta" for b in blocks]),
+                           ("omega (rad/s)", [f"/{b}/omega" for b in blocks]),
+                           ("ground (m/s2)", ["/ground/ah", "/ground/av"])):
+        lo, hi = ranges[view]
+        peak = max(abs(v[1][0]) for e in entities for v in column(table, e)[1])  # as stored in the recording
+        step = 10.0 ** math.floor(math.log10(hi))
+        assert lo == -hi and peak <= hi and peak >= 0.3 * hi, (view, lo, hi, peak)
+        assert 1 <= hi / step <= 3 + 1e-9, (view, hi)  # labels 0, +-step (and +-2, +-3 step) in view
