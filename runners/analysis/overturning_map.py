@@ -60,15 +60,16 @@ def _block_line(name: str, block: Block, unit: str) -> str:
             f"p = {p:.3f} rad/s (p / 2 pi = {p / (2 * math.pi):.3f} Hz), a_g / ({unit})")
 
 
-def map_figure(rows: list[dict]):
-    """The closed-form map (regions and boundaries) with the simulated boundaries of `rows`, as a
-    matplotlib Figure, in the axes of every overturning map (runners.analysis.sweep_map)."""
+def map_figure(rows: list[dict], resolution: tuple[int, int] = (120, 110)):
+    """The closed-form map (regions and boundaries, on `resolution` omega x a points) with the
+    simulated boundaries of `rows`, as a matplotlib Figure, in the axes of every overturning map
+    (runners.analysis.sweep_map)."""
     import matplotlib.pyplot as plt
 
     from runners.analysis.sweep_map import AMPLITUDE, FREQUENCY
 
-    w_grid = np.linspace(0.6, 10, 120)
-    a_grid = np.geomspace(1.02, 50.0, 110)
+    w_grid = np.linspace(0.6, 10, resolution[0])
+    a_grid = np.geomspace(1.02, 50.0, resolution[1])
     cases = {"safe": 0, "1.1": 1, "1.2": 2, "2": 3}
     field = np.array([[cases.get(cf.overturns(a, w, ETA)[1], 0) for w in w_grid] for a in a_grid])
     fig, ax = plt.subplots(figsize=(9, 7.2))

@@ -72,18 +72,22 @@ def critical_amplitude() -> float:
     return hi
 
 
+def free_rocking_scene() -> tuple[str, Scene, dict, float]:
+    """Free rocking from 0.6 alpha with eta 0.95, to rest after many small impacts."""
+    theta0 = 0.6 * BLOCK.alpha
+    return ("free rocking to rest (eta 0.95)", Scene(BLOCK, 0.95, theta0=theta0),
+            {"block1.theta0": theta0, "restitution.eta": 0.95}, 0.01)
+
+
 def scenes() -> list[tuple[str, Scene, dict, float]]:
     """(name, scene, FMU parameters, FMU communication step)."""
     a_c = critical_amplitude()
     below, p_below = pulse_scene(0.99 * a_c)
     above, p_above = pulse_scene(1.01 * a_c)
-    theta0 = 0.6 * BLOCK.alpha
-    free = Scene(BLOCK, 0.95, theta0=theta0)
-    p_free = {"block1.theta0": theta0, "restitution.eta": 0.95}
     return [
         ("pulse 1% below overturning", below, p_below, 0.01),
         ("pulse 1% above overturning", above, p_above, 0.01),
-        ("free rocking to rest (eta 0.95)", free, p_free, 0.01),
+        free_rocking_scene(),
         ("pulse below, communication step 2 s", below, p_below, 2.0),
         ("two blocks chattering, then locked", STACK_SCENE, STACK_PARAMS, 0.01),
     ]
