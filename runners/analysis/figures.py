@@ -26,12 +26,12 @@ from runners.engine.fmu import RockingFMU  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 
 # Anagnostopoulos Table 2, half dimensions: Block 1 below, Block 4 on top
-SEED_STACK = {
+FIG17_STACK = {
     "nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,
     "block2.halfWidth": 0.030, "block2.halfHeight": 0.050, "block2.mass": 2.3,
     "restitution.law": 2, "restitution.etaGround": 0.95, "restitution.etaInterface": 0.98,
 }
-SEED_CASES = [(7.0, 0.003), (5.5, 0.003), (3.0, 0.005), (4.0, 0.003)]  # Hz, m (Anagnostopoulos Fig. 17 A-D)
+FIG17_CASES = [(7.0, 0.003), (5.5, 0.003), (3.0, 0.005), (4.0, 0.003)]  # Hz, m (Anagnostopoulos Fig. 17 A-D)
 PATTERN_COLOURS = {3: "#fde0c5", 4: "#d8e8f5", 5: "#e3f1d8"}  # upper alone, locked, both
 PATTERN_NAMES = {3: "upper block alone", 4: "locked pair", 5: "both rock"}
 TALL = {"nBlocks": 2, "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.mass": 10.0,
@@ -62,11 +62,11 @@ def _finish(fig, axes, title: str, out: Path) -> Path:
     return out
 
 
-def seed_forced_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step: float = 2e-3) -> Path:
+def fig17_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step: float = 2e-3) -> Path:
     """Anagnostopoulos Fig. 17: the four harmonic table motions, theta1 and theta2 against time."""
-    fig, axes = plt.subplots(len(SEED_CASES), 1, figsize=(9, 10), sharex=True)
-    for ax, (f, d) in zip(axes, SEED_CASES):
-        p = {**SEED_STACK, "excitation.kind": 3, "excitation.frequency": f, "excitation.displacement": d,
+    fig, axes = plt.subplots(len(FIG17_CASES), 1, figsize=(9, 10), sharex=True)
+    for ax, (f, d) in zip(axes, FIG17_CASES):
+        p = {**FIG17_STACK, "excitation.kind": 3, "excitation.frequency": f, "excitation.displacement": d,
              "excitation.cycles": 0}
         r = fmu.run(p, stop_time, step, outputs=["block1.theta", "block2.theta", "pattern", "overturnTime",
                                                  "impactsGround", "impactsInterface"], events=False)
@@ -113,7 +113,7 @@ def mirror_tests(fmu: RockingFMU, out: Path, stop_time: float = 3.0, step: float
 
 
 def fig17(ctx: "Context", out: Path) -> list[Path]:
-    return [seed_forced_cases(ctx.fmu, out / "two_blocks_fig17.png")]
+    return [fig17_cases(ctx.fmu, out / "two_blocks_fig17.png")]
 
 
 def mirror(ctx: "Context", out: Path) -> list[Path]:

@@ -72,7 +72,7 @@ def map_figure(rows: list[dict], resolution: tuple[int, int] = (120, 110)):
     a_grid = np.geomspace(1.02, 50.0, resolution[1])
     cases = {"safe": 0, "1.1": 1, "1.2": 2, "2": 3}
     field = np.array([[cases.get(cf.overturns(a, w, ETA)[1], 0) for w in w_grid] for a in a_grid])
-    fig, ax = plt.subplots(figsize=(9, 7.2))
+    fig, ax = plt.subplots(figsize=(9, 8.4))
     colours = ["#ffffff", "#f6c9c9", "#f3dfb6", "#c9d7f3"]
     ax.contourf(w_grid, a_grid, field, levels=[-0.5, 0.5, 1.5, 2.5, 3.5], colors=colours)
     limit = [[cf.impact_at_pulse_end_margin(a, w) for w in w_grid] for a in a_grid]
@@ -93,11 +93,12 @@ def map_figure(rows: list[dict], resolution: tuple[int, int] = (120, 110)):
     handles, labels = ax.get_legend_handles_labels()
     handles += [plt.Rectangle((0, 0), 1, 1, color=c, ec="grey") for c in colours[1:]]
     handles += [plt.Line2D([], [], color="grey", ls=":")]
-    labels += ["overturns after an impact in the pulse (their eqs. 3.20-3.21)",
-               "overturns after an impact after the pulse (their eq. 3.18)",
-               "overturns without impact (their eq. 3.10)",
-               "first impact at the pulse's end (their eq. 3.31)"]
-    ax.legend(handles, labels, fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
+    dd = "Dimitrakopoulos & DeJong 2012"
+    labels += [f"overturns after an impact in the pulse ({dd}, eqs. 3.20-3.21)",
+               f"overturns after an impact after the pulse ({dd}, eq. 3.18)",
+               f"overturns without impact ({dd}, eq. 3.10)",
+               f"first impact at the pulse's end ({dd}, eq. 3.31)"]
+    ax.legend(handles, labels, fontsize=8, ncol=1, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
     ax.set_xlabel(FREQUENCY)
     ax.set_ylabel(AMPLITUDE)
     ax.set_title(f"One-sine pulse, constant restitution eta = {ETA}: Dimitrakopoulos & DeJong (2012)'s closed forms "
