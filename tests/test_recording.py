@@ -4,6 +4,7 @@ catalog), checked against the stored run."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -131,7 +132,6 @@ def test_a_sweep_recording_holds_the_map_and_every_point(tmp_path, fmu_path):
         client = srv.client()
         dataset = client.get_dataset("s")
         table = dataset.reader(index="grid_index").to_arrow_table()
-        static = dataset.reader(index=None).to_arrow_table()
     impacts = [v[0] for v in table.column("/points/impacts:Scalars:scalars").to_pylist() if v is not None]
     grid = table.column("grid_index").to_pylist()
     assert len(impacts) == 30 and sorted(grid) == list(range(30))
@@ -139,7 +139,75 @@ def test_a_sweep_recording_holds_the_map_and_every_point(tmp_path, fmu_path):
     with factory() as session:
         stored = {r.grid_index: r.summary.impacts for r in session.query(Run).filter(Run.sweep_id == 1)}
     assert {g: int(v) for g, v in zip(grid, impacts)} == stored
-    assert any(name.startswith("/map:Image") for name in static.column_names)
+    # the map is a PNG in one row (the first grid index), not static data joined to every row
+    maps = [(g, b) for g, b in zip(grid, table.column("/map:EncodedImage:blob").to_pylist()) if b is not None]
+    assert len(maps) == 1 and maps[0][0] == 0
+    png = bytes(maps[0][1][0])
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    import matplotlib.image as mpimg
+    import io
+
+    assert mpimg.imread(io.BytesIO(png), format="png").shape[0] > 300  # a picture, not a thumbnail
+
+
+READ_SWEEP = """
+import sys
+import rerun as rr
+with rr.server.Server(host="127.0.0.1", datasets={"s": [sys.argv[1]]}) as srv:
+    client = srv.client()
+    table = client.get_dataset("s").reader(index="grid_index").to_arrow_table()
+    grid = table.column("grid_index").to_pylist()
+    maps = sum(v is not None for v in table.column("/map:EncodedImage:blob").to_pylist())
+peak = next(int(x.split()[1]) for x in open("/proc/self/status") if x.startswith("VmHWM"))
+print(table.num_rows, len(set(grid)), maps, table.nbytes, peak)
+"""
+CAP_MB = 500
+
+
+def test_a_10000_point_sweep_recording_reads_back_in_under_500_mb(tmp_path, fmu_path):
+    """A real 100 x 100 sweep (one block, one-sine pulse, 1 s simulated), its recording written
+    by write_sweep_recording and read back whole with Rerun's dataframe API in a child process.
+
+    The cap is on resident memory: the parent watches the child's VmRSS and kills it above
+    500 MB, and the child reports its own peak (VmHWM, Linux). Not RLIMIT_AS: Rerun's server
+    and DataFusion reserve about 4 GB of address space they never touch. Not the parent's
+    wait4 ru_maxrss either: Linux carries the forking pytest process's peak over the exec."""
+    import time
+
+    from runners.engine.fmu import RockingFMU
+    from runners.engine.recording import write_sweep_recording
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+
+    factory = open_database(f"sqlite:///{tmp_path / 'big.db'}")
+    scene = load_scene(ROOT / "examples" / "sweep_sine_pulse.toml")
+    scene.stop_time = 1.0
+    with RockingFMU(fmu_path) as f:
+        defaults = f.defaults()
+    sid = create_sweep(factory, scene, [Axis("w", 1.0, 12.0, 100), Axis("a", 1.01, 8.0, 100)], defaults)
+    assert run_sweep(factory, sid, fmu_path, progress=False)["stored"] == 10_000
+    rrd = write_sweep_recording(tmp_path / "big.rrd", factory, sid)
+    child = subprocess.Popen([sys.executable, "-c", READ_SWEEP, str(rrd)], stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True)
+    seen, deadline = 0.0, time.monotonic() + 120
+    while child.poll() is None:
+        try:
+            rss = next(int(x.split()[1]) for x in Path(f"/proc/{child.pid}/status").read_text().splitlines()
+                       if x.startswith("VmRSS")) / 1024
+        except (OSError, StopIteration):  # between exit and reaping
+            rss = 0.0
+        seen = max(seen, rss)
+        if rss > CAP_MB or time.monotonic() > deadline:
+            child.kill()
+        time.sleep(0.02)
+    text = child.stdout.read()
+    child.stdout.close()
+    assert child.returncode == 0, f"killed or failed, {seen:.0f} MB resident seen: {text[-2000:]}"
+    rows, distinct, maps, nbytes, peak_kb = map(int, text.split()[-5:])
+    assert rows == distinct == 10_000 and maps == 1
+    print(f"10,000-point sweep recording: {rrd.stat().st_size / 1e6:.2f} MB on disk, table {nbytes / 1e6:.2f} MB, "
+          f"reader's peak resident memory {peak_kb / 1024:.0f} MB")
+    assert peak_kb / 1024 < CAP_MB
 
 
 def test_base_motion_is_the_table_displacement_in_a_centred_inertial_frame(fmu):
@@ -330,3 +398,47 @@ def test_screenshot_shows_the_viewer_with_the_recording(tmp_path, fmu_path):
     for block in ("block1", "block2"):
         near = np.abs(img - np.array(COLOURS[block])).max(axis=-1) < 30
         assert near.sum() > 500, block  # outlines and curves in the block's colour
+
+
+def _blueprint_ranges(rrd: Path) -> dict[str, tuple[float, float]]:
+    """The y range stored in the recording's blueprint for each time-series view, by view name."""
+    import rerun.chunk as rc
+
+    reader = rc.RrdReader(rrd)
+    (store,) = reader.blueprints()
+    names, ranges = {}, {}
+    for chunk in reader.stream(store=store):
+        entity, data = chunk.entity_path, chunk.to_record_batch().to_pydict()
+        view = "/".join(entity.split("/")[:3])  # /view/<id>
+        for key, values in data.items():
+            if key.endswith(":display_name"):
+                names[view] = values[-1][0]
+            if key == "ScalarAxis:range" and values[-1]:
+                ranges[view] = tuple(values[-1][0])
+    return {names[v]: r for v, r in ranges.items()}
+
+
+@pytest.mark.parametrize("example", ["two_blocks_harmonic", "sine_pulse"])
+def test_the_viewer_plots_have_ranges_with_labelled_ticks(tmp_path, fmu, example):
+    """The blueprint gives each plot a y range symmetric about 0 whose powers of ten the viewer
+    labels: at least 0 and +-10^k inside it, at most three steps of 10^k from 0 to the edge (so
+    the labels lie far enough apart to be drawn), the curves filling at least 30% of it."""
+    from runners.engine.recording import write_recording
+    from runners.engine.scene import load_scene
+    from runners.engine.summary import SUMMARY_OUTPUTS
+
+    scene = load_scene(ROOT / "examples" / f"{example}.toml")
+    r = fmu.run(scene.parameters, min(scene.stop_time, 3.0), 0.01, outputs=SUMMARY_OUTPUTS)
+    rrd = write_recording(tmp_path / "r.rrd", scene.name, r.time, r.outputs, {**fmu.defaults(), **scene.parameters},
+                          r.events)
+    ranges = _blueprint_ranges(rrd)
+    table = read_back(rrd)
+    blocks = ["block1", "block2"] if scene.n_blocks == 2 else ["block1"]
+    for view, entities in (("theta (rad)", [f"/{b}/theta" for b in blocks]),
+                           ("omega (rad/s)", [f"/{b}/omega" for b in blocks]),
+                           ("ground (m/s2)", ["/ground/ah", "/ground/av"])):
+        lo, hi = ranges[view]
+        peak = max(abs(v[1][0]) for e in entities for v in column(table, e)[1])  # as stored in the recording
+        step = 10.0 ** math.floor(math.log10(hi))
+        assert lo == -hi and peak <= hi and peak >= 0.3 * hi, (view, lo, hi, peak)
+        assert 1 <= hi / step <= 3 + 1e-9, (view, hi)  # labels 0, +-step (and +-2, +-3 step) in view

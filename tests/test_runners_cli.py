@@ -106,10 +106,11 @@ def test_bench_prints_native_and_fmpy_tables(fmu_path):
 
 
 def test_figures_are_drawn_into_the_given_folder(fmu_path, tmp_path):
-    p = runners("figures", "--out", str(tmp_path), fmu_path=fmu_path)
+    names = ("two_blocks_fig17.png", "two_blocks_mirror.png", "records_pulses.png", "records_interpolation.png",
+             "records_imperial_valley.png", "records_statue_fragility.png", "records_statue_ida.png")
+    p = runners("figures", "--only", *names, "--out", str(tmp_path), fmu_path=fmu_path)  # all: about a minute
     assert p.returncode == 0, p.stderr
-    for name in ("two_blocks_fig17.png", "two_blocks_mirror.png", "records_pulses.png", "records_interpolation.png",
-                 "records_imperial_valley.png", "records_statue_fragility.png", "records_statue_ida.png"):
+    for name in names:
         png = tmp_path / name
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
 

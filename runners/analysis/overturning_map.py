@@ -1,7 +1,8 @@
 """Overturning map of a one-sine pulse: Dimitrakopoulos & DeJong (2012)'s closed forms against simulation.
 
-For each omega = omega_g / p the smallest overturning amplitude a = a_g / (g alpha)
-is found three ways: from the closed forms (model/closed_form.py), from the
+For each omega = omega_g / p the smallest overturning amplitude, in units of the
+uplift acceleration (a = a_g / (g alpha) for the linearised block, a_g / (g tan alpha)
+for the real one: the axes of every map, runners.analysis.sweep_map), is found three ways: from the closed forms (model/closed_form.py), from the
 linearised simulation of a slender block (alpha = 0.05), and from the
 nonlinear simulation of a stocky block (alpha = 0.25, amplitude in units of
 g tan(alpha)), both by model/solvers.py. The first two must agree within 1%;
@@ -53,36 +54,68 @@ def boundaries(omegas) -> list[dict]:
     return rows
 
 
+def _block_line(name: str, block: Block, unit: str) -> str:
+    p = math.sqrt(block.p2)
+    return (f"{name}: b = {block.b:g} m, h = {block.h:g} m (half-width, half-height), alpha = {block.alpha:.3f} rad, "
+            f"p = {p:.3f} rad/s (p / 2 pi = {p / (2 * math.pi):.3f} Hz), a_g / ({unit})")
+
+
+def map_figure(rows: list[dict], resolution: tuple[int, int] = (120, 110)):
+    """The closed-form map (regions and boundaries, on `resolution` omega x a points) with the
+    simulated boundaries of `rows`, as a matplotlib Figure, in the axes of every overturning map
+    (runners.analysis.sweep_map)."""
+    import matplotlib.pyplot as plt
+
+    from runners.analysis.sweep_map import AMPLITUDE, FREQUENCY
+
+    w_grid = np.linspace(0.6, 10, resolution[0])
+    a_grid = np.geomspace(1.02, 50.0, resolution[1])
+    cases = {"safe": 0, "1.1": 1, "1.2": 2, "2": 3}
+    field = np.array([[cases.get(cf.overturns(a, w, ETA)[1], 0) for w in w_grid] for a in a_grid])
+    fig, ax = plt.subplots(figsize=(9, 8.4))
+    colours = ["#ffffff", "#f6c9c9", "#f3dfb6", "#c9d7f3"]
+    ax.contourf(w_grid, a_grid, field, levels=[-0.5, 0.5, 1.5, 2.5, 3.5], colors=colours)
+    limit = [[cf.impact_at_pulse_end_margin(a, w) for w in w_grid] for a in a_grid]
+    ax.contour(w_grid, a_grid, limit, levels=[0.0], colors="grey", linestyles=":")
+    w = [r["omega"] for r in rows]
+    for key, style, label in [
+            ("a_closed_form", dict(color="k", ls="-"), "closed forms: smallest overturning amplitude"),
+            ("a_linear_simulation", dict(color="#1f78b4", marker="o", ls="none", mfc="none"),
+             "linearised simulation, slender block (alpha = 0.05)"),
+            ("a_nonlinear_simulation", dict(color="#d62728", marker="s", ls="none", mfc="none"),
+             "nonlinear simulation, stocky block (alpha = 0.25)")]:
+        ax.plot(w, [r[key] if r[key] else np.nan for r in rows], label=label, **style)
+    ax.set_yscale("log")
+    ax.set_ylim(1.0, 50.0)
+    ticks = [1, 1.5, 2, 3, 5, 7, 10, 20, 30, 50]
+    ax.set_yticks(ticks, [f"{t:g}" for t in ticks])
+    ax.minorticks_off()
+    handles, labels = ax.get_legend_handles_labels()
+    handles += [plt.Rectangle((0, 0), 1, 1, color=c, ec="grey") for c in colours[1:]]
+    handles += [plt.Line2D([], [], color="grey", ls=":")]
+    dd = "Dimitrakopoulos & DeJong 2012"
+    labels += [f"overturns after an impact in the pulse ({dd}, eqs. 3.20-3.21)",
+               f"overturns after an impact after the pulse ({dd}, eq. 3.18)",
+               f"overturns without impact ({dd}, eq. 3.10)",
+               f"first impact at the pulse's end ({dd}, eq. 3.31)"]
+    ax.legend(handles, labels, fontsize=8, ncol=1, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
+    ax.set_xlabel(FREQUENCY)
+    ax.set_ylabel(AMPLITUDE)
+    ax.set_title(f"One-sine pulse, constant restitution eta = {ETA}: Dimitrakopoulos & DeJong (2012)'s closed forms "
+                 f"of the linearised block,\n{_block_line('slender', SLENDER, 'g alpha')}, linearised;\n"
+                 f"{_block_line('stocky', STOCKY, 'g tan alpha')}", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
 def draw(rows: list[dict], out: Path) -> Path:
+    """Write map_figure(rows) as a PNG."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    w_grid = np.linspace(0.6, 10, 120)
-    inv_a = np.linspace(0.02, 0.98, 110)
-    cases = {"safe": 0, "1.1": 1, "1.2": 2, "2": 3}
-    field = np.array([[cases.get(cf.overturns(1 / y, w, ETA)[1], 0) for w in w_grid] for y in inv_a])
-    fig, ax = plt.subplots(figsize=(8, 5.5))
-    colours = ["#ffffff", "#f6c9c9", "#f3dfb6", "#c9d7f3"]
-    ax.contourf(w_grid, inv_a, field, levels=[-0.5, 0.5, 1.5, 2.5, 3.5], colors=colours)
-    limit = [[cf.impact_at_pulse_end_margin(1 / y, w) for w in w_grid] for y in inv_a]
-    ax.contour(w_grid, inv_a, limit, levels=[0.0], colors="grey", linestyles=":")
-    w = [r["omega"] for r in rows]
-    for key, style, label in [("a_closed_form", "k-", "closed forms: smallest overturning a"),
-                              ("a_linear_simulation", "o", "linearised simulation (alpha = 0.05)"),
-                              ("a_nonlinear_simulation", "s", "nonlinear simulation (alpha = 0.25, a in g tan alpha)")]:
-        ax.plot(w, [1 / r[key] if r[key] else np.nan for r in rows], style, label=label, mfc="none")
-    handles, labels = ax.get_legend_handles_labels()
-    handles += [plt.Rectangle((0, 0), 1, 1, color=c, ec="grey") for c in colours[1:]]
-    labels += ["overturns after an impact in the pulse (3.20-3.21)", "overturns after an impact after it (3.18)",
-               "overturns without impact (3.10)"]
-    ax.legend(handles, labels, fontsize=7, loc="upper right")
-    ax.set_xlabel("omega_g / p")
-    ax.set_ylabel("g alpha / a_g")
-    ax.set_title(f"One-sine pulse, eta = {ETA}: Dimitrakopoulos & DeJong (2012)'s closed forms (dotted: first impact at the pulse's end, 3.31)",
-                 fontsize=9)
-    fig.tight_layout()
+    fig = map_figure(rows)
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out

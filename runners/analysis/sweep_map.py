@@ -2,15 +2,21 @@
 
 Each grid point is safe (rocks and settles, or never lifts), overturns after
 one or more impacts, or overturns without impact (Anagnostopoulos Fig. 18's three
-regions), or failed. A (w, a) grid of one block under a one-sine pulse is
-drawn in the sources' axes omega_g/p and a_g/(g tan alpha), with Dimitrakopoulos & DeJong (2012)'s
-closed-form boundaries of the linearised block overlaid (their a_g/(g alpha)
-converted by alpha / tan(alpha)).
+regions), or failed. A (w, a) grid is drawn in the dimensionless groups of
+Dimitrakopoulos & DeJong (2012): omega_g/p and the amplitude over the uplift
+acceleration, a_g / (g tan alpha) for one block (1 = uplift; their a_g/(g alpha)
+is its slender-block limit). A one-block grid under a one-sine pulse gets their
+closed-form boundaries of the linearised block overlaid (their a converted by
+alpha / tan(alpha)). Every overturning map in runners (this one and the closed-form
+map of runners bench --chart, runners.analysis.overturning_map) uses this
+normalisation and names the block (half-width b, half-height h, p) and its
+restitution in the title.
 """
 
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +26,12 @@ from sqlalchemy.orm import selectinload
 from db.schema import Run, Scene, Sweep
 from model import closed_form as cf
 from runners.analysis.least_model import restitution
+from runners.engine.sweep import scales
+
+# the axes of every overturning map (Dimitrakopoulos & DeJong 2012's dimensionless groups)
+FREQUENCY = "omega_g / p (pulse over block frequency)"
+AMPLITUDE = ("a_g / (g tan alpha)   (1 = uplift)\nDimitrakopoulos & DeJong (2012)'s a_g / (g alpha) "
+             "for a slender block")
 
 REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "failed"]
 COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]
@@ -64,10 +76,39 @@ def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] 
             ("Dimitrakopoulos & DeJong (2012) closed forms: overturning without impact above", conv(no_impact))]
 
 
-def draw(factory, sweep_id: str, out: Path) -> str:
-    import matplotlib
+LAW_NAMES = {0: "Housner (1963)", 1: "modified", 2: "constant"}
 
-    matplotlib.use("Agg")
+
+def amplitude_label(p: dict) -> str:
+    """The y label of a (w, a) map: a over the uplift acceleration of the scene's block or stack."""
+    if int(p.get("nBlocks", 1)) == 2:
+        _, uplift = scales(p)
+        return f"a_g / a_uplift of the stack   (1 = first uplift)\na_uplift = {uplift / p['g']:.3f} g"
+    return AMPLITUDE
+
+
+def block_title(p: dict) -> str:
+    """The block (or stack) and its restitution in one line: half-width b, half-height h (m),
+    alpha, p (rad/s, and p / 2 pi in Hz, so that omega_g / p converts to a pulse frequency)."""
+    pf, _ = scales(p)
+    blocks = [("", 1)] if int(p.get("nBlocks", 1)) != 2 else [("lower ", 1), ("upper ", 2)]
+    parts = [f"{w}b = {p[f'block{i}.halfWidth']:g} m, h = {p[f'block{i}.halfHeight']:g} m" for w, i in blocks]
+    alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
+    law = int(p["restitution.law"])
+    if law == 2 and int(p.get("nBlocks", 1)) == 2 and "restitution.etaGround" in p:
+        rest = f"constant restitution, ground {p['restitution.etaGround']:g}, interface {p['restitution.etaInterface']:g}"
+    else:
+        rest = f"{LAW_NAMES.get(law, law)} restitution, eta = {restitution(p, alpha):.3f}"
+        if law != 2 and p.get("restitution.correction", 1.0) != 1.0:
+            rest += f" (x {p['restitution.correction']:g})"
+    one = "" if len(blocks) == 1 else " of the lower block"
+    return (f"{'; '.join(parts)} (half-width, half-height), alpha = {alpha:.3f} rad, "
+            f"p{one} = {pf:.3f} rad/s (p / 2 pi = {pf / (2 * math.pi):.3f} Hz); {rest}")
+
+
+def map_figure(factory, sweep_id: str):
+    """The map of a stored sweep as a matplotlib Figure, and the count of points per region
+    (REGIONS order)."""
     import matplotlib.pyplot as plt
 
     sw, scene, runs = load(factory, sweep_id)
@@ -84,7 +125,7 @@ def draw(factory, sweep_id: str, out: Path) -> str:
     counts = [0, 0, 0, 0]
     for r in runs:
         counts[region(r)] += 1
-    fig, ax = plt.subplots(figsize=(8, 6))
+    fig, ax = plt.subplots(figsize=(9, 7.5))
     if len(axes) == 2:
         xs = sorted({r.point[axes[0]] for r in runs})
         ys = sorted({r.point[axes[1]] for r in runs})
@@ -104,15 +145,33 @@ def draw(factory, sweep_id: str, out: Path) -> str:
         xs = [r.point[axes[0]] for r in runs]
         ax.scatter(xs, [region(r) for r in runs], c=[COLOURS[region(r)] for r in runs], edgecolors="k")
         ax.set_yticks(range(4), REGIONS)
-    names = {"w": "omega_g / p", "a": "a_g / (g tan alpha)"}
+    names = {"w": FREQUENCY, "a": amplitude_label(p)}
     ax.set_xlabel(names.get(axes[0], axes[0]))
     if len(axes) == 2:
         ax.set_ylabel(names.get(axes[1], axes[1]))
+    if axes[0] == "w":  # the pulse frequency in Hz on top: f_g = (omega_g / p) p / (2 pi)
+        pf, _ = scales(p)
+        top = ax.secondary_xaxis("top", functions=(lambda w: w * pf / (2 * math.pi),
+                                                   lambda f: f * 2 * math.pi / pf))
+        top.set_xlabel("pulse frequency f_g = omega_g / 2 pi (Hz)", fontsize=9)
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in COLOURS]
     h2, l2 = ax.get_legend_handles_labels()
-    ax.legend(handles + h2, [f"{n} ({c})" for n, c in zip(REGIONS, counts)] + l2, fontsize=8, loc="upper right")
-    ax.set_title(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points)", fontsize=10)
+    ax.legend(handles + h2, [f"{n} ({c})" for n, c in zip(REGIONS, counts)] + l2, fontsize=8, ncol=2,
+              loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
+    title = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points)", 100)
+    ax.set_title(title + "\n" + textwrap.fill(block_title(p), 110), fontsize=8.5)
     fig.tight_layout()
+    return fig, counts, sw
+
+
+def draw(factory, sweep_id: str, out: Path) -> str:
+    """Write the map of a stored sweep as a PNG; return a one-line summary."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, counts, sw = map_figure(factory, sweep_id)
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))

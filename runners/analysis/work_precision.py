@@ -248,44 +248,99 @@ def speedups(points: list[Point]) -> list[str]:
     return lines
 
 
-def chart(points: list[Point], out: Path) -> Path:
-    import matplotlib
+# One style per method, the same in every chart: (colour, marker, line style). The FMU in blues and
+# purples with full lines, scipy's event-driven solvers in warm colours with dashes, the fixed-step
+# methods in greens and greys with dots or dash-dots; no two methods share a colour or a marker.
+STYLES: dict[str, tuple[str, str, str]] = {
+    "FMU native (C harness)": ("#08306b", "o", "-"),
+    "FMU native (C harness), Taylor series": ("#6a3d9a", "D", "-"),
+    "FMU through fmpy": ("#1f78b4", "s", "-"),
+    "FMU through fmpy, Taylor series": ("#b15fd3", "^", "-"),
+    "FMU through fmpy, 10 ms communication steps": ("#56b4e9", "v", "-"),
+    "scipy DOP853, event-driven": ("#d62728", "P", "--"),
+    "scipy RK45, event-driven": ("#ff7f0e", "X", "--"),
+    "scipy Radau, event-driven": ("#8c564b", "*", "--"),
+    FIXED_NAMES[("euler", False)]: ("#7f7f7f", "x", ":"),
+    FIXED_NAMES[("rk4", False)]: ("#bcbd22", "+", ":"),
+    FIXED_NAMES[("rk4", True)]: ("#2ca02c", "<", "-."),
+    FIXED_NAMES[("newmark", True)]: ("#e377c2", ">", "-."),
+}
 
-    matplotlib.use("Agg")
+
+def style(method: str) -> dict:
+    """Matplotlib keywords of a method's line: its colour, marker and line style (STYLES), thicker
+    for the FMU."""
+    colour, marker, ls = STYLES[method]
+    return {"color": colour, "marker": marker, "ls": ls, "ms": 6, "mfc": "none" if marker not in "x+" else colour,
+            "lw": 2.2 if method.startswith("FMU") else 1.2}
+
+
+def chart_figure(points: list[Point]):
+    """The work-precision chart as a matplotlib Figure: one panel per case, error against wall
+    time per simulation, one line per method styled by STYLES, one legend for all panels."""
     import matplotlib.pyplot as plt
 
     cases = list(dict.fromkeys(p.case for p in points))
-    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 5.5), squeeze=False)
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 6.0), squeeze=False)
     methods = list(dict.fromkeys(p.method for p in points))
+    unknown = [m for m in methods if m not in STYLES]
+    if unknown:
+        raise ValueError(f"no chart style for {', '.join(unknown)} (runners.analysis.work_precision.STYLES)")
+    legend: dict[str, object] = {}
     for ax, case in zip(axes[0], cases):
-        for i, method in enumerate(methods):
+        for method in methods:
             pts = [p for p in points if p.case == case and p.method == method and math.isfinite(p.error)]
             if not pts:
                 continue
-            ax.loglog([p.seconds for p in pts], [max(p.error, 1e-16) for p in pts], "o-", color=f"C{i}",
-                      lw=2.5 if method.startswith("FMU") else 1.2, label=method)
+            (line,) = ax.loglog([p.seconds for p in pts], [max(p.error, 1e-16) for p in pts], label=method,
+                                **style(method))
+            legend.setdefault(method, line)
         ax.set_title(f"{case}: error of the first {N_TWO if case == 'two blocks' else N_IMPACTS} impacts" +
                      (" and peaks" if case == "free rocking" else ""), fontsize=10)
         ax.set_xlabel("wall time per simulation (s)")
         ax.set_ylabel("largest relative error")
         ax.grid(alpha=0.3, which="both")
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    order = [m for m in STYLES if m in legend]  # the same order in every chart
+    fig.legend([legend[m] for m in order], order, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.13, 1, 1))
+    return fig
+
+
+def chart(points: list[Point], out: Path) -> Path:
+    """Write chart_figure(points) as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = chart_figure(points)
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
 
 
-def run_work_precision(fmu_path: Path, out_dir: Path, repeats: int = 20, quick: bool = False) -> str:
-    """Compute every point, write work_precision.{png,csv,json} to out_dir, return a text summary."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+def compute_points(fmu_path: Path, repeats: int = 20, quick: bool = False, progress: bool = False) -> list[Point]:
+    """Every point of the chart: the three cases, each with the FMU and the Python methods."""
+    from tqdm import tqdm
+
     points: list[Point] = []
-    with RockingFMU(fmu_path) as fmu, NativeTimer(fmu_path) as native:
+    with RockingFMU(fmu_path) as fmu, NativeTimer(fmu_path) as native, \
+            tqdm(total=5, desc="work-precision", unit="part", disable=not progress) as bar:
         for case in (free_rocking_case(), sine_pulse_case()):
             points += fmu_points(fmu, native, case, QUICK_TOLS if quick else FMU_TOLS, repeats)
+            bar.update()
             points += python_points(case, quick)
+            bar.update()
         points += two_block_points(fmu, native, repeats, quick)
+        bar.update()
+    return points
+
+
+def run_work_precision(fmu_path: Path, out_dir: Path, repeats: int = 20, quick: bool = False,
+                       progress: bool = False) -> str:
+    """Compute every point, write work_precision.{png,csv,json} to out_dir, return a text summary."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    points = compute_points(fmu_path, repeats, quick, progress)
     with open(out_dir / "work_precision.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(asdict(points[0])))
         w.writeheader()

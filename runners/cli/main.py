@@ -133,9 +133,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_figures(args: argparse.Namespace) -> int:
-    from runners.analysis.figures import write_figures
+    from runners.analysis.figures import select, write_figures
 
-    for path in write_figures(fmu_path_from(args.fmu), Path(args.out)):
+    select(args.only)  # an unknown name is an error before anything runs
+    progress = sys.stderr.isatty() and not getattr(args, "no_progress", False) and not getattr(args, "quiet", False)
+    for path in write_figures(fmu_path_from(args.fmu), Path(args.out), args.only, progress=progress,
+                              note=lambda text: print(text, file=sys.stderr)):
         print(path)
     return 0
 
@@ -232,7 +235,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_db_parser(sub)
     figs = sub.add_parser("figures", help="draw the figures of docs/ from fresh FMU runs")
     figs.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu)")
-    figs.add_argument("--out", default="docs/figures", help="folder for the PNG files (default: docs/figures)")
+    figs.add_argument("--out", type=folder, default="figures",
+                      help="folder for the PNG files (default: ./figures; --out docs/figures replaces the "
+                           "tracked ones)")
+    figs.add_argument("--only", nargs="+", metavar="NAME", help="draw only these figures (docs/figures.md lists them)")
+    figs.add_argument("--no-progress", action="store_true", help="no progress bar")
     figs.set_defaults(func=cmd_figures)
     return parser
 

@@ -15,7 +15,8 @@ A recording holds, on the ``sim_time`` timeline (s):
   record's own samples times its scale (m/s^2), and ``/record/about``, a text
   with its name, provenance, scale and intensity measures;
 - a blueprint that opens on the scene, the angles, the velocities and the
-  excitation (and the record's text).
+  excitation (and the record's text), each plot with a y range symmetric
+  about 0 chosen so that the viewer labels several ticks (axis_range).
 
 Time series go through the columnar API (``send_columns``). Conventions:
 docs/conventions.md (theta > 0 clockwise about the right corner).
@@ -130,16 +131,40 @@ def _ground_hatch(x0: np.ndarray, y0: np.ndarray, width: float) -> np.ndarray:
     return strips
 
 
-def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float], record: bool = False):
+def axis_range(*series: np.ndarray) -> tuple[float, float]:
+    """A y range for a plot of `series`: symmetric about 0, +-R with R the smallest of 1, 1.5, 2 or
+    3 times a power of ten that is at least 1.1 times the largest |value|. The viewer labels its
+    y axis at powers of ten only where they lie far enough apart; so the labels 0 and +-10^k
+    (and +-2, +-3 x 10^k) always show, and the curves fill a third to all of the height, where
+    an auto-scaled theta of +-0.045 rad had the single label 0."""
+    peak = max((float(np.nanmax(np.abs(s))) for s in series if len(s) and np.isfinite(s).any()), default=0.0)
+    if not peak > 0.0 or not math.isfinite(peak):
+        return (-1.0, 1.0)
+    target = 1.1 * peak
+    k = math.floor(math.log10(target))
+    for m in (1.0, 1.5, 2.0, 3.0, 10.0):
+        if m * 10.0 ** k >= target * (1 - 1e-12):
+            r = float(f"{m * 10.0 ** k:.3g}")
+            return (-r, r)
+    return (-10.0 ** (k + 1), 10.0 ** (k + 1))  # not reached
+
+
+def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float], record: bool = False,
+               ranges: dict[str, tuple[float, float]] | None = None):
     """Scene on the left (over the record's text, if any); angles, velocities and excitation on the
-    right; the run playing in a loop."""
+    right, each plot with its y range (`ranges`: theta, omega, ground -> (low, high), axis_range);
+    the run playing in a loop."""
     import rerun.blueprint as rrb
 
     blocks = ["block1", "block2"] if two else ["block1"]
+    ranges = ranges or {}
+
+    def y_axis(key: str) -> "rrb.ScalarAxis | None":
+        return rrb.ScalarAxis(range=ranges[key], zoom_lock=False) if key in ranges else None
 
     def plot(name: str, var: str) -> "rrb.TimeSeriesView":
         extra = [f"/measured/{m}" for m in measured if m.endswith(f"/{var}")]
-        return rrb.TimeSeriesView(name=name, contents=[f"/{b}/{var}" for b in blocks] + extra)
+        return rrb.TimeSeriesView(name=name, contents=[f"/{b}/{var}" for b in blocks] + extra, axis_y=y_axis(var))
 
     x0, x1, y0, y1 = bounds
     scene = rrb.Spatial2DView(origin="/scene", name="blocks (to scale)",
@@ -152,7 +177,8 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
             rrb.Vertical(
                 plot("theta (rad)", "theta"),
                 plot("omega (rad/s)", "omega"),
-                rrb.TimeSeriesView(name="ground (m/s2)", contents=["/ground/**", "/record/ah", "/record/av"]),
+                rrb.TimeSeriesView(name="ground (m/s2)", contents=["/ground/**", "/record/ah", "/record/av"],
+                                   axis_y=y_axis("ground")),
             ),
             column_shares=[2, 3],
         ),
@@ -237,7 +263,13 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None))
+    blocks = ["block1", "block2"] if two else ["block1"]
+    ranges = {var: axis_range(*[np.asarray(out[f"{b}.{var}"], float) for b in blocks if f"{b}.{var}" in out],
+                              *[np.asarray(v[1], float) for k, v in measured.items() if k.endswith(f".{var}")])
+              for var in ("theta", "omega")}
+    ranges["ground"] = axis_range(*[np.asarray(out[k], float) for k in ("ground.ahTotal", "ground.avTotal")
+                                    if k in out])
+    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges))
     rec.send_property("run", rr.AnyValues(name=name))
     if record is not None:
         from runners.engine.record_files import read_record_file
@@ -295,13 +327,18 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
 
 
 def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
-    """One recording of a sweep: its overturning map as an image (a sweep over records: its
-    IDA curves) and, on a `grid_index` sequence, each point's grid values (and record,
-    scale and intensity measures) and summary (overturned, impacts, peak / alpha), and
-    whether the point was recorded in full (runners sweep --record)."""
+    """One recording of a sweep: on a `grid_index` sequence, each point's grid values (and record,
+    scale and intensity measures) and summary (overturned, impacts, peak / alpha), whether the
+    point was recorded in full (runners sweep --record), and its overturning map (a sweep over
+    records: its IDA curves) as a PNG at the first grid index.
+
+    Nothing large is static: Rerun's dataframe API joins static data to every row of a query,
+    so ``dataset.reader(index="grid_index").to_arrow_table()`` of a 10,000-point sweep would
+    repeat a static image 10,000 times (23 GB for an 880 x 660 RGBA map). Logged once at the
+    first index, the viewer still shows it at every index (latest-at) and the read stays small
+    (1.5 MB for 10,000 points; tests/test_recording.py)."""
     import tempfile
 
-    import matplotlib.image as mpimg
     import rerun as rr
 
     from runners.analysis.sweep_map import draw, load
@@ -322,8 +359,13 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
             plot_ida(png, outcomes(factory, sweep_id, "pga"))
         else:
             draw(factory, str(sweep_id), png)
-        rgba = (mpimg.imread(png) * 255).astype(np.uint8)
-    rec.log("/ida" if on_records else "/map", rr.Image(rgba), static=True)
+        png_bytes = png.read_bytes()
+    # The picture is logged once, at the first grid index, and not static: the viewer shows it at every
+    # later index (latest-at), while a dataframe query on grid_index carries it in one row only. Static
+    # data is joined to every row of such a query (a 10,000-point sweep would repeat it 10,000 times).
+    first = [rr.TimeColumn("grid_index", sequence=[min((r.grid_index for r in runs), default=0)])]
+    rec.send_columns("/ida" if on_records else "/map", indexes=first,
+                     columns=rr.EncodedImage.columns(blob=[png_bytes], media_type=["image/png"]))
     idx = [rr.TimeColumn("grid_index", sequence=np.array([r.grid_index for r in runs], dtype=np.int64))]
     ok = [r.summary is not None for r in runs]
     columns = {
