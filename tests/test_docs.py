@@ -175,7 +175,8 @@ def test_documented_commands_do_not_write_into_tracked_folders():
     found = []
     for page in READ_BY_USERS:
         for line in page.read_text(encoding="utf-8").splitlines():
-            if TRACKED_OUT.search(line):
+            # (runners figures --out docs/figures is the one command meant to redraw tracked files)
+            if TRACKED_OUT.search(line) and "runners figures" not in line:
                 found.append(f"{page.relative_to(ROOT)}: {line.strip()}")
     assert not found, "write outputs outside the repository's folders:\n" + "\n".join(found)
 
