@@ -252,10 +252,44 @@ def test_db_list_runs_filters(stocked, fmu_path):
 
 # --- --quiet and progress -------------------------------------------------------------------------
 
-def test_quiet_anywhere_silences_notes_and_progress(stocked, fmu_path, tmp_path):
-    for args in (("-q", "rrd", "--sweep", "1", "--points", "2", "--out", str(tmp_path)),
-                 ("rrd", "--sweep", "1", "--points", "2", "--out", str(tmp_path), "--quiet")):
-        p = cli(stocked, fmu_path, *args)
-        assert p.returncode == 0 and p.stderr == "", p.stderr
-    p = cli(stocked, fmu_path, "rrd", "--sweep", "1", "--points", "2", "--out", str(tmp_path))
-    assert "recording sweep 1" in p.stderr and "point/s" in p.stderr or "1/1" in p.stderr, p.stderr
+def _on_a_terminal(args, db, fmu_path) -> tuple[int, str]:
+    """Run the command line with its stderr on a pseudo-terminal, as in a shell: (exit status, stderr)."""
+    import os
+
+    import fcntl
+    import struct
+    import termios
+
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))  # tqdm draws nothing 0 columns wide
+    p = subprocess.run([sys.executable, "-m", "runners.cli", *args, "--db", db], stdout=subprocess.PIPE, stderr=slave,
+                       cwd=ROOT, env={**os.environ, "ROCKING_FMU": str(fmu_path)}, timeout=300)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # EIO: the terminal's other end is closed and everything was read
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(master)
+    return p.returncode, b"".join(chunks).decode("utf-8", "replace")
+
+
+def test_progress_on_a_terminal_and_quiet_anywhere_silences_it(stocked, fmu_path, tmp_path):
+    db = stocked[0]
+    code, err = _on_a_terminal(["rrd", "--sweep", "1", "--points", "2", "--out", str(tmp_path)], db, fmu_path)
+    assert code == 0 and "recording sweep 1" in err and "1/1" in err, err
+    for args in (["-q", "rrd", "--sweep", "1", "--points", "2", "--out", str(tmp_path)],
+                 ["rrd", "--sweep", "1", "--points", "2", "--out", str(tmp_path), "--quiet"]):
+        code, err = _on_a_terminal(args, db, fmu_path)
+        assert code == 0 and err == "", err
+
+
+def test_no_progress_bar_in_a_log_so_that_a_failure_is_one_line(stocked, fmu_path):
+    """stderr not a terminal (a log, a pipe): no bar, and a failed calibration is its one error line."""
+    p = cli(stocked, fmu_path, "calibrate", "1", "--law", "modified", "--no-store")
+    assert p.returncode == 0 or (p.stderr.count("\n") == 1 and p.stderr.startswith("error: ")), p.stderr
+    assert "simulation" not in p.stderr.split("error:")[0], p.stderr

@@ -344,7 +344,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     for name in output.stages(list(stages), "bench"):
         texts.append(stages[name]())
         if not args.json:  # each table as soon as it is measured
-            print(("\n" if len(texts) > 1 else "") + texts[-1], flush=True)
+            output.result(("\n" if len(texts) > 1 else "") + texts[-1])
     if args.json:
         output.emit_json({"benchmarks": [{"stage": name, **section} for name, text in zip(stages, texts)
                                          for section in markdown_sections(text)]})
