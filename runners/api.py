@@ -311,7 +311,7 @@ class SweepStopped(Exception):
     def __init__(self, sweep_id: int, done: int, total: int, interrupted: bool, reason: str):
         self.sweep_id, self.done, self.total, self.interrupted = sweep_id, done, total, interrupted
         super().__init__(f"{reason}; sweep {sweep_id} has {done} of {total} points stored: finish it with "
-                         f"runners sweep --resume {sweep_id}")
+                         f"runners sweep {sweep_id}")
 
 
 def sweep(
@@ -385,7 +385,7 @@ def sweep(
     if resume is not None and (records or im or specs or stop_time is not None):
         given = [o for o, v in (("--grid", specs), ("--records", records), ("--im", im),
                                 ("--stop-time", stop_time is not None)) if v]
-        raise ValueError(f"--resume finishes sweep {resume} as it was created: drop {', '.join(given)} "
+        raise ValueError(f"resuming finishes sweep {resume} as it was created: drop {', '.join(given)} "
                          "(start a new sweep to change them)")
     factory = open_database(db)
     require_writable(factory)  # before any work: a sweep stores every point

@@ -149,7 +149,7 @@ def test_random_scenes_and_options_to_simulate(fmu_path, fuzz_db, tmp_path_facto
        extra=st.sampled_from([[], ["--resume", "1"], ["--workers", "0"], ["--im", "pga=0.1:1:3"], ["--record", "0,x"],
                               ["--records", "nothing-here"], ["--chunk", "5"]]))
 def test_random_grids_and_options_to_sweep(fmu_path, fuzz_db, grids, stop, scene, extra):
-    args = ["sweep", str(ROOT / "examples" / scene), "--no-progress", "--workers", "1", *extra]
+    args = ["sweep", str(ROOT / "examples" / scene), "--quiet", "--workers", "1", *extra]
     for g in grids:
         args += ["--grid", g]
     if stop is not None:

@@ -91,7 +91,7 @@ def test_the_command_line_sweeps_on_a_running_scheduler(tmp_path, fmu_path, clie
     db = f"sqlite:///{tmp_path / 'cli.db'}"
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
     p = subprocess.run([sys.executable, "-m", "runners.cli", "sweep", SCENE, "--grid", "w=1:12:30", "--grid",
-                        "a=1.01:8:30", "--executor", "dask", "--scheduler", client.scheduler.address, "--no-progress"],
+                        "a=1.01:8:30", "--executor", "dask", "--scheduler", client.scheduler.address, "--quiet"],
                        capture_output=True, text=True, env=env, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     assert "900/900 points stored" in p.stdout
@@ -109,7 +109,7 @@ def test_the_command_line_sweeps_on_a_running_scheduler(tmp_path, fmu_path, clie
     (["--executor", "dask", "--scheduler", "local:1", "--record", "0"], "--record writes recordings"),
 ])
 def test_bad_executor_settings_are_one_line_errors(tmp_path, fmu_path, args, message):
-    p = run_cli("sweep", SCENE, "--grid", "w=1:2:2", "--no-progress", *args,
+    p = run_cli("sweep", SCENE, "--grid", "w=1:2:2", "--quiet", *args,
                 db=f"sqlite:///{tmp_path / 'e.db'}", fmu_path=fmu_path)
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and message in p.stderr, p.stderr
     with open_database(f"sqlite:///{tmp_path / 'e.db'}")() as s:

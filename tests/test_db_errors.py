@@ -177,7 +177,7 @@ def test_simulate_on_a_read_only_file_fails_before_simulating(tmp_path, fmu_path
     read_only(path)  # the folder stays writable
     before = path.read_bytes()
     rrd = tmp_path / "run.rrd"  # written after the simulation and before storing: it must not appear
-    p = read_only.run("simulate", FREE, "--rrd", str(rrd), db=path, fmu_path=fmu_path)
+    p = read_only.run("simulate", FREE, "--out", str(rrd), db=path, fmu_path=fmu_path)
     one_line_error(p, str(path), "read-only")
     assert not rrd.exists() and not list(tmp_path.glob("rocking-unsaved-*"))
     assert path.read_bytes() == before
@@ -189,7 +189,7 @@ def test_simulate_on_a_read_only_mount_fails_before_simulating(tmp_path, fmu_pat
     read_only(path, folder)
     before = path.read_bytes()
     rrd = tmp_path / "run.rrd"
-    p = read_only.run("simulate", FREE, "--rrd", str(rrd), db=path, fmu_path=fmu_path)
+    p = read_only.run("simulate", FREE, "--out", str(rrd), db=path, fmu_path=fmu_path)
     one_line_error(p, str(path), "read-only")
     assert not rrd.exists() and path.read_bytes() == before
 

@@ -191,7 +191,7 @@ def test_compare_a_rotation_history_with_its_run(tmp_path, fmu_path, db):
                    + "".join(f"{a * 1e3!r},{b!r}\n" for a, b in zip(tm.tolist(), (cols["block1.theta"][keep] + noise).tolist())))
     assert runners("import-measured", str(csv), db=db, fmu_path=fmu_path).returncode == 0
     png, rrd = tmp_path / "c.png", tmp_path / "c.rrd"
-    p = runners("compare", "1", "1", "--plot", str(png), "--rrd", str(rrd), db=db, fmu_path=fmu_path)
+    p = runners("compare", "1", "1", "--out", str(png), "--recording", str(rrd), db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     rms = float(p.stdout.split("RMS error ")[1].split(" rad")[0])
     assert abs(rms - 0.5 * DEG / math.sqrt(3)) < 0.1 * 0.5 * DEG / math.sqrt(3)

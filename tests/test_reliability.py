@@ -137,7 +137,7 @@ def test_a_non_finite_or_negative_time_is_one_line(fmu_path, option, value):
 def test_a_sweep_with_a_bad_stop_time_stores_nothing(fmu_path, tmp_path, value):
     db = f"sqlite:///{tmp_path / 's.db'}"
     p = run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--stop-time", value,
-                "--no-progress", db=db, fmu_path=fmu_path)
+                "--quiet", db=db, fmu_path=fmu_path)
     one_line_error(p, "--stop-time")
     assert sweeps_in(db) == 0
 
@@ -147,7 +147,7 @@ def test_a_scene_whose_stop_time_is_refused_gives_no_sweep(fmu_path, tmp_path):
     scene.write_text('[block]\nhalf_width = 0.1\nhalf_height = 0.4\n[excitation]\nkind = "sine-pulse"\n'
                      'amplitude = 5.0\nfrequency = 2.0\ncycles = 1\n[simulation]\nstop_time = 1e7\n')
     db = f"sqlite:///{tmp_path / 's.db'}"
-    p = run_cli("sweep", str(scene), "--grid", "w=1:2:2", "--no-progress", db=db, fmu_path=fmu_path)
+    p = run_cli("sweep", str(scene), "--grid", "w=1:2:2", "--quiet", db=db, fmu_path=fmu_path)
     one_line_error(p, "output samples")
     assert sweeps_in(db) == 0
 
@@ -183,7 +183,7 @@ def test_an_axis_the_scene_ignores_is_refused(fmu_path, tmp_path, scene, axis, w
 
 def test_axis_a_sets_the_peak_acceleration_of_a_harmonic(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
-    p = run_cli("sweep", str(EX / "harmonic.toml"), "--grid", "a=1.1:3:2", "--stop-time", "2", "--no-progress",
+    p = run_cli("sweep", str(EX / "harmonic.toml"), "--grid", "a=1.1:3:2", "--stop-time", "2", "--quiet",
                 db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     from runners.engine.sweep import stored_point_parameters
@@ -200,7 +200,7 @@ def test_axis_a_sets_the_peak_acceleration_of_a_harmonic(fmu_path, tmp_path):
 
 def test_resume_refuses_the_options_it_would_ignore(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
-    assert run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--no-progress",
+    assert run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--quiet",
                    db=db, fmu_path=fmu_path).returncode == 0
     p = run_cli("sweep", "--resume", "1", "--grid", "w=1:3:3", "--stop-time", "2", db=db, fmu_path=fmu_path)
     one_line_error(p, "--grid", "--stop-time")
@@ -226,7 +226,7 @@ def test_a_grid_every_corner_of_which_the_fmu_refuses_is_refused(fmu_path, tmp_p
 def test_a_map_of_three_axes_is_refused(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
     assert run_cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:2", "--grid", "a=1.1:2:2",
-                   "--grid", "block1.halfHeight=0.3:0.4:2", "--no-progress", db=db, fmu_path=fmu_path).returncode == 0
+                   "--grid", "block1.halfHeight=0.3:0.4:2", "--quiet", db=db, fmu_path=fmu_path).returncode == 0
     p = run_cli("map", "1", "--out", str(tmp_path / "m.png"), db=db, fmu_path=fmu_path)
     one_line_error(p, "3 axes")
     assert not (tmp_path / "m.png").exists()
@@ -239,7 +239,7 @@ def test_a_map_of_a_sweep_without_points_says_so(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
     create_sweep(open_database(db), load_scene(EX / "sweep_sine_pulse.toml"), [Axis("w", 1, 2, 2)], {"g": 9.81})
     p = run_cli("map", "1", "--out", str(tmp_path / "m.png"), db=db, fmu_path=fmu_path)
-    one_line_error(p, "no stored points", "--resume 1")
+    one_line_error(p, "no stored points", "runners sweep 1")
 
 
 # ------------------------------------------------------------------ interruptions, concurrency, memory
@@ -271,7 +271,7 @@ def _children(pid: int) -> list[int]:
 def harmonic_sweep(db: str, fmu_path: Path, **kw) -> subprocess.Popen:
     """A 3600-point sweep of a few seconds on two workers, in the background."""
     return cli("sweep", str(EX / "harmonic.toml"), "--grid", "excitation.frequency=2:8:60", "--grid",
-               "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--no-progress", "--workers", "2",
+               "excitation.displacement=0.001:0.004:60", "--stop-time", "20", "--quiet", "--workers", "2",
                db=db, fmu_path=fmu_path, background=True, **kw)
 
 
@@ -285,12 +285,12 @@ def test_sigterm_stops_a_sweep_like_ctrl_c_and_it_resumes(fmu_path, tmp_path):
     os.killpg(p.pid, signal.SIGTERM)  # the whole group, as a job scheduler or systemd does
     _, err = p.communicate(timeout=30)
     assert p.returncode == 130 and err.count("\n") == 1 and err.startswith("error: interrupted; sweep 1 has "), err
-    assert "runners sweep --resume 1" in err
+    assert "runners sweep 1" in err
     with open_database(db)() as s:
         assert s.get(Sweep, 1).status == "interrupted" and 500 <= s.get(Sweep, 1).done < 3600
     assert not any(Path(f"/proc/{w}").exists() for w in workers)
     assert list(scratch.iterdir()) == []  # the FMU's extraction is removed
-    q = cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path, timeout=300)
+    q = cli("sweep", "--resume", "1", "--quiet", db=db, fmu_path=fmu_path, timeout=300)
     assert q.returncode == 0, q.stderr
     with open_database(db)() as s:
         assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3600 == s.get(Sweep, 1).done
@@ -303,7 +303,7 @@ def test_a_killed_worker_stops_the_sweep_with_one_line_and_it_resumes(fmu_path, 
     os.kill(_children(p.pid)[0], signal.SIGKILL)  # as the out-of-memory killer would
     _, err = p.communicate(timeout=60)
     assert p.returncode == 2 and err.count("\n") == 1 and "worker process died" in err and "--resume 1" in err, err
-    assert cli("sweep", "--resume", "1", "--no-progress", db=db, fmu_path=fmu_path, timeout=300).returncode == 0
+    assert cli("sweep", "--resume", "1", "--quiet", db=db, fmu_path=fmu_path, timeout=300).returncode == 0
     with open_database(db)() as s:
         assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3600 == s.get(Sweep, 1).done
 
@@ -316,7 +316,7 @@ def test_two_concurrent_resumes_store_every_point_once(fmu_path, tmp_path):
     with RockingDefaults(fmu_path) as defaults:
         create_sweep(open_database(db), load_scene(EX / "sweep_sine_pulse.toml"),
                      [Axis("w", 1, 12, 60), Axis("a", 1.01, 8, 50)], defaults)
-    procs = [cli("sweep", "--resume", "1", "--no-progress", "--workers", "1", db=db, fmu_path=fmu_path,
+    procs = [cli("sweep", "--resume", "1", "--quiet", "--workers", "1", db=db, fmu_path=fmu_path,
                  background=True) for _ in range(2)]
     outs = [p.communicate(timeout=300) for p in procs]
     assert all(p.returncode == 0 for p in procs), outs
@@ -344,7 +344,7 @@ class RockingDefaults:
 def test_a_ten_million_point_sweep_runs_in_bounded_memory(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
     p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:12:10000", "--grid", "a=1.01:8:1000",
-            "--no-progress", "--workers", "1", db=db, fmu_path=fmu_path, background=True)
+            "--quiet", "--workers", "1", db=db, fmu_path=fmu_path, background=True)
     _wait_stored(db, 1000, 60)  # planning the grid whole took minutes and gigabytes
     status = Path(f"/proc/{p.pid}/status").read_text()
     peak_mb = int(next(x for x in status.splitlines() if x.startswith("VmHWM")).split()[1]) / 1024
@@ -474,7 +474,7 @@ def test_a_block_released_flat_with_a_real_rate_rocks_as_the_reference_says(fmu)
 def test_a_ten_million_point_axis_starts_at_once(fmu_path, tmp_path):
     """A point's value was taken from the whole axis (np.linspace of 1e7 values per point)."""
     db = f"sqlite:///{tmp_path / 's.db'}"
-    p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:10000000", "--no-progress", "--workers", "1",
+    p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:10000000", "--quiet", "--workers", "1",
             db=db, fmu_path=fmu_path, background=True)
     try:
         _wait_stored(db, 500, 30)

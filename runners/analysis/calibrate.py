@@ -104,9 +104,13 @@ def simulate_peaks(fmu: RockingFMU, base: dict, law: str, value: float, theta0: 
 
 
 def calibrate(fmu: RockingFMU, base: dict, decay: Decay, law: str, sigma_theta: float | None = None,
-              sigma_time: float | None = None) -> Fit:
-    """Fit the law's parameter (and theta0) to `decay`; `base` holds the block's FMU parameters."""
+              sigma_time: float | None = None, progress: bool = False) -> Fit:
+    """Fit the law's parameter (and theta0) to `decay`; `base` holds the block's FMU parameters.
+    With `progress`, a bar on stderr counts the simulations (their number is not known ahead)."""
+    import sys
+
     from scipy import optimize, stats
+    from tqdm import tqdm
 
     if law not in LAW_PARAMETERS:
         raise ValueError(f"--law must be one of {', '.join(LAW_PARAMETERS)}")
@@ -128,9 +132,12 @@ def calibrate(fmu: RockingFMU, base: dict, decay: Decay, law: str, sigma_theta: 
     stop = float(decay.times[-1] + 2.0)
     n = len(decay.times)
     calls = [0]
+    bar = tqdm(desc=f"calibrating {PARAMETER_NAMES[law]}", unit="simulation", disable=not progress,
+               file=sys.stderr, leave=False)
 
     def residuals(x: np.ndarray) -> np.ndarray:
         calls[0] += 1
+        bar.update()
         t, th = simulate_peaks(fmu, base, law, float(x[0]), side * float(x[1]), stop)
         m = min(n, len(t))
         amp = np.zeros(n)
@@ -142,8 +149,9 @@ def calibrate(fmu: RockingFMU, base: dict, decay: Decay, law: str, sigma_theta: 
     theta_start = min(abs(decay.theta0), 0.95 * alpha)
     hi = hi if hi is not None else np.inf
     lower, upper = [lo, 1e-4 * alpha], [hi, 0.999 * alpha]
-    sol = optimize.least_squares(residuals, [start, theta_start], bounds=(lower, upper),
-                                 diff_step=1e-6, x_scale=[0.1, 0.1 * alpha])
+    with bar:
+        sol = optimize.least_squares(residuals, [start, theta_start], bounds=(lower, upper),
+                                     diff_step=1e-6, x_scale=[0.1, 0.1 * alpha])
     at_bound = tuple(_at_bound(float(sol.x[i]), lower[i], upper[i], int(sol.active_mask[i])) for i in range(2))
     sim_t, sim_th = simulate_peaks(fmu, base, law, float(sol.x[0]), side * float(sol.x[1]), stop)
     dof = max(1, 2 * n - 2)

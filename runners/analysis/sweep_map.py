@@ -120,7 +120,7 @@ def map_figure(factory, sweep_id: str):
         raise ValueError(f"sweep {sw.id} has {len(axes)} axes ({', '.join(axes)}): a map draws one or two "
                          "(sweep two of them, with the others fixed in the scene)")
     if not runs:
-        raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep --resume {sw.id}")
+        raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
     p = {**sw.grid["defaults"], **scene.parameters}
     counts = [0, 0, 0, 0]
     for r in runs:

@@ -107,3 +107,56 @@ def folder(text: str) -> str:
         return text
     except OSError as exc:
         raise _unusable(text, exc) from None
+
+
+DB_HELP = "database URL or SQLite file (default: ROCKING_DB, else sqlite:///rocking.db)"  # = db.session.DB_HELP,
+# copied so that building the parser does not import SQLAlchemy and Alembic (tests/test_cli_conventions.py checks)
+FMU_HELP = "FMU to use (default: ROCKING_FMU, else build/RockingBlock.fmu, built if needed)"
+
+
+def object_id(text: str) -> int | str:
+    """A stored run's, sweep's or measurement's id: a whole number, or 'latest' (the newest);
+    ids beyond 64 bits pass, and then name no row."""
+    if text == "latest":
+        return text
+    if not text.isdecimal():
+        raise argparse.ArgumentTypeError(f"{text!r} is not an id (a whole number, or 'latest')")
+    return int(text)
+
+
+class Renamed(argparse.Action):
+    """An option's former spelling: it still works, stores into the new option's dest, and
+    leaves a one-line note (printed after parsing, unless --quiet)."""
+
+    def __init__(self, option_strings, dest, new: str, value=None, **kw):
+        self.new, self.value = new, value
+        kw.setdefault("help", argparse.SUPPRESS)
+        if value is not None:  # a former flag: takes no argument
+            kw["nargs"] = 0
+        super().__init__(option_strings, dest, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, self.value if self.value is not None else values)
+        renamed = getattr(namespace, "_renamed", None) or []
+        renamed.append(f"{option_string} is now {self.new}")
+        namespace._renamed = renamed
+
+
+def renamed(p: argparse.ArgumentParser, old: str, new: str, dest: str, value=None, **kw) -> None:
+    """Accept `old` as a hidden, deprecated spelling of `new` (same dest)."""
+    p.add_argument(old, dest=dest, action=Renamed, new=new, value=value, default=argparse.SUPPRESS, **kw)
+
+
+def common(p: argparse.ArgumentParser, json: bool = True, db: bool = False, fmu: bool = False,
+           fmu_help: str = FMU_HELP) -> argparse.ArgumentParser:
+    """The options every command spells the same way: --json, --quiet, --db, --fmu."""
+    if json:
+        p.add_argument("--json", action="store_true",
+                       help="print the result as one JSON document on stdout (notes and progress go to stderr)")
+    p.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                   help="no progress bars and no notes: only results and errors")
+    if db:
+        p.add_argument("--db", help=DB_HELP)
+    if fmu:
+        p.add_argument("--fmu", help=fmu_help)
+    return p

@@ -1,4 +1,4 @@
-"""The ``runners`` console script: runners.cli.main.main, with Ctrl-C or SIGTERM while the command
+"""The ``runners`` console script: runners.cli.parser.main, with Ctrl-C or SIGTERM while the command
 line is still loading its modules (about a second) ending as quietly as later on."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ def _stop(signum, _frame) -> None:
 def main() -> int:
     signal.signal(signal.SIGTERM, _stop)
     try:
-        from runners.cli.main import main as run
+        from runners.cli.parser import main as run
     except BaseException as exc:  # a library may wrap the interruption in an ImportError of its own
         chain = exc
         while chain is not None and not isinstance(chain, KeyboardInterrupt):

@@ -3,23 +3,26 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-from sqlalchemy import select
+from runners.cli import output
+from runners.cli.args import common, object_id, output_file, renamed
+from runners.cli.output import emit_json
 
-from db import series
-from db.schema import Block, Excitation, Measurement
-from db.session import DB_HELP, open_database, require_writable
-from db.store import load_run_series
-from runners.cli.args import output_file
-from runners.engine.fmu import Event, RockingFMU, fmu_path_from
+if TYPE_CHECKING:
+    import numpy as np
+
+    from db.schema import Block, Measurement
 
 
 def find_block(session, key: str) -> Block:
     """A block by name (or id)."""
+    from sqlalchemy import select
+
+    from db.schema import Block
+
     block = session.scalar(select(Block).where(Block.name == key))
     if block is None and key.isdigit():
         block = session.get(Block, int(key))
@@ -32,6 +35,8 @@ def find_block(session, key: str) -> Block:
 def ground_acceleration(kind: str, time: np.ndarray, columns: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(time, horizontal ground acceleration in m/s^2) of a motion record; a table
     displacement is differentiated twice (np.gradient: central differences inside)."""
+    import numpy as np
+
     if kind == "table-displacement":
         t, x = time, columns["displacement"]
         if np.isnan(x).any():
@@ -43,6 +48,8 @@ def ground_acceleration(kind: str, time: np.ndarray, columns: dict[str, np.ndarr
 
 
 def cmd_import(args: argparse.Namespace) -> int:
+    from db.schema import Excitation
+    from db.session import open_database
     from db.store import add_measurement
     from runners.engine.measured import read_measured
 
@@ -90,6 +97,11 @@ def cmd_import(args: argparse.Namespace) -> int:
         mid, eid = row.id, row.excitation_id
         rname = record.name if record is not None else None
     blocks = ", ".join(b.name for b in (b1, b2) if b is not None)
+    if args.json:
+        emit_json({"measurement": mid, "kind": m.kind, "rows": len(m.time), "start": float(m.time[0]),
+                   "end": float(m.time[-1]), "blocks": [b.name for b in (b1, b2) if b is not None],
+                   "record": rname, "excitation": eid})
+        return 0
     print(f"imported measurement {mid}: {m.kind}, {len(m.time)} rows ({m.time[0]:g} to {m.time[-1]:g} s)"
           + (f", block {blocks}" if blocks else "")
           + (f", record {rname!r} (excitation {eid})" if motion else f", excitation {eid}" if eid else ", free rocking"))
@@ -97,6 +109,8 @@ def cmd_import(args: argparse.Namespace) -> int:
 
 
 def get_measurement(session, mid: int) -> Measurement:
+    from db.schema import Measurement
+
     m = session.get(Measurement, mid)
     if m is None:
         raise ValueError(f"no measurement {mid} in the database (runners db list measurements)")
@@ -104,6 +118,8 @@ def get_measurement(session, mid: int) -> Measurement:
 
 
 def load_measurement(session, mid: int) -> tuple[Measurement, np.ndarray, dict[str, np.ndarray]]:
+    from db import series
+
     m = get_measurement(session, mid)
     t, cols = series.unpack(m.names, m.n_samples, m.data)
     return m, t, cols
@@ -119,6 +135,8 @@ def motion_record(factory, mid: int) -> int:
 
 
 def _theta(t: np.ndarray, cols: dict[str, np.ndarray], column: str) -> tuple[np.ndarray, np.ndarray]:
+    import numpy as np
+
     if column not in cols:
         raise ValueError(f"the measurement has no {column} (it has {', '.join(cols)})")
     ok = ~np.isnan(cols[column])
@@ -126,9 +144,18 @@ def _theta(t: np.ndarray, cols: dict[str, np.ndarray], column: str) -> tuple[np.
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from db.schema import Measurement, Run
+    from db.session import open_database
+    from db.store import load_run_series
     from runners.analysis.compare import compare_peaks, compare_rotation, decay_from_peaks, format_comparison, plot_comparison
+    from runners.cli.parser import resolve_latest
+    from runners.engine.fmu import Event
 
     factory = open_database(args.db)
+    args.run = resolve_latest(factory, Run, args.run, "run")
+    args.measurement = resolve_latest(factory, Measurement, args.measurement, "measurement")
     with factory() as session:
         _, t_sim, cols, stored_events = load_run_series(session, args.run, "simulate it without --no-store")
         m, tm, mcols = load_measurement(session, args.measurement)
@@ -149,30 +176,65 @@ def cmd_compare(args: argparse.Namespace) -> int:
         impacts = np.array([e.t for e in events if e.kind == "impact"
                             and (args.block == 1 or e.labels.get("contact") != "ground")])
         c = compare_rotation(t_meas, th_meas, t_sim, cols[column], impacts, p_t, p_th, sigma_theta or 0.0)
-    print(f"run {args.run} against measurement {args.measurement} ({name}, {kind}), {column}")
-    print(format_comparison(c, sigma_theta, sigma_time))
-    if args.plot:
+    text = [f"run {args.run} against measurement {args.measurement} ({name}, {kind}), {column}",
+            format_comparison(c, sigma_theta, sigma_time)]
+    doc = {"run": args.run, "measurement": args.measurement, "name": name, "kind": kind, "column": column,
+           **_comparison_dict(c)}
+    if args.out:
         shift = t_meas[0] if kind == "peaks" else 0.0  # a peak table's first row is the run's time 0
-        plot_comparison(Path(args.plot), f"run {args.run} against measurement {args.measurement}: {name}",
+        plot_comparison(Path(args.out), f"run {args.run} against measurement {args.measurement}: {name}",
                         t_sim, cols[column], t_meas - shift, th_meas, sigma_theta, sigma_time,
                         kind == "peaks" and bool(np.all(th_meas >= 0)))
-        print(f"plot             {args.plot}")
-    if args.rrd:
+        text.append(f"plot             {args.out}")
+        doc["figure"] = str(args.out)
+    if args.recording:
         from runners.cli.rrd import record_run
 
         shift = t_meas[0] if kind == "peaks" else 0.0
-        path = record_run(factory, args.run, Path(args.rrd), args.fmu, {column: (t_meas - shift, th_meas)},
+        path = record_run(factory, args.run, Path(args.recording), args.fmu, {column: (t_meas - shift, th_meas)},
                           remember=False)
-        print(f"recording        {path}")
+        text.append(f"recording        {path}")
+        doc["recording"] = str(path)
+    if args.json:
+        emit_json(doc)
+    else:
+        print("\n".join(text))
     return 0
 
 
+def _comparison_dict(c) -> dict:
+    """A Comparison (runners.analysis.compare) as JSON: angles in rad, times in s, errors simulated
+    minus measured."""
+    import numpy as np
+
+    def num(x):
+        return None if x is None or not np.isfinite(x) else float(x)
+
+    d_theta, d_time = c.peak_errors()
+    impacts = c.impact_errors()
+    return {"peaks": [{"t_measured": num(a), "t_simulated": num(b), "theta_measured": num(m), "theta_simulated": num(s)}
+                      for a, b, m, s in c.peak_pairs],
+            "peak_theta_error_rms": num(np.sqrt(np.mean(d_theta ** 2))) if len(d_theta) else None,
+            "peak_time_error_rms": num(np.sqrt(np.mean(d_time ** 2))) if len(d_time) else None,
+            "impacts": [{"t_measured": num(a), "t_simulated": num(b)} for a, b in c.impact_pairs],
+            "impact_time_error_rms": num(np.sqrt(np.mean(impacts ** 2))) if len(impacts) else None,
+            "theta_rms": num(c.theta_rms), "theta_max": num(c.theta_max), "samples": c.samples,
+            "missing_peaks": c.missing_peaks}
+
+
 def cmd_calibrate(args: argparse.Namespace) -> int:
+    from sqlalchemy import select
+
     from db.catalogue import block_parameters
+    from db.schema import Block, Measurement
+    from db.session import open_database, require_writable
     from runners.analysis.calibrate import PARAMETER_NAMES, assess, calibrate
     from runners.analysis.compare import decay_from_peaks, decay_from_rotation
+    from runners.cli.parser import resolve_latest
+    from runners.engine.fmu import RockingFMU, fmu_path_from
 
     factory = open_database(args.db)
+    args.measurement = resolve_latest(factory, Measurement, args.measurement, "measurement")
     if not args.no_store:
         require_writable(factory, "or run with --no-store")
     with factory() as session:
@@ -193,7 +255,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     where = f"measurement {args.measurement}, block {block_fields['name']}, law {args.law}"
     with RockingFMU(fmu_path_from(args.fmu)) as fmu:
         try:
-            fit = calibrate(fmu, {**fmu.defaults(), **base}, decay, args.law, *sig)
+            fit = calibrate(fmu, {**fmu.defaults(), **base}, decay, args.law, *sig, progress=output.progress())
         except ValueError as exc:
             raise ValueError(f"{where}: {exc}") from None
     name = PARAMETER_NAMES[args.law]
@@ -226,7 +288,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             session.flush()
             out["block"], out["block_id"] = new.name, new.id
     if args.json:
-        print(json.dumps(out, indent=2))
+        emit_json(out)
     else:
         print(f"measurement {args.measurement}, block {block_fields['name']}, law {args.law}: {text}")
         if "block" in out:
@@ -237,6 +299,14 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     """A stored run written as a measured file, optionally with reading noise: a synthetic
     experiment with known parameters, for checking import, compare and calibrate."""
+    import numpy as np
+
+    from db.schema import Run
+    from db.session import open_database
+    from db.store import load_run_series
+    from runners.cli.parser import resolve_latest
+    from runners.engine.fmu import Event
+
     if not (args.noise_theta >= 0 and args.noise_time >= 0 and math.isfinite(args.noise_theta + args.noise_time)):
         raise ValueError("--noise-theta and --noise-time must be finite and >= 0")
     if args.every < 1:
@@ -244,6 +314,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.max_peaks < 1:
         raise ValueError(f"--max-peaks must be at least 1 (got {args.max_peaks}): it is how many peaks to keep")
     factory = open_database(args.db)
+    args.run = resolve_latest(factory, Run, args.run, "run")
     with factory() as session:
         run, t, cols, stored_events = load_run_series(session, args.run)
         events = [Event.from_dict(e) for e in stored_events]
@@ -271,7 +342,10 @@ def cmd_export(args: argparse.Namespace) -> int:
         header.append(f"# uncertainty: theta={args.noise_theta:g} deg, time={args.noise_time:g} s")
     lines = header + ["time,theta"] + [f"{a:.6f},{b * 180 / math.pi:.6f}" for a, b in zip(times, theta)]
     out.write_text("\n".join(lines) + "\n")
-    print(f"{out}: {args.kind}, {len(times)} rows")
+    if args.json:
+        emit_json({"file": str(out), "kind": args.kind, "rows": len(times), "run": args.run})
+    else:
+        print(f"{out}: {args.kind}, {len(times)} rows")
     return 0
 
 
@@ -294,14 +368,18 @@ def add_parser(sub) -> None:
                           "(e.g. the one a table record's import printed); none means free rocking")
     imp.set_defaults(func=cmd_import)
     cmp_ = sub.add_parser("compare", help="a stored run against a measurement: aligned errors, plot, recording")
-    cmp_.add_argument("run", type=int, help="run id")
-    cmp_.add_argument("measurement", type=int, help="measurement id")
+    cmp_.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
+    cmp_.add_argument("measurement", type=object_id, metavar="MEASUREMENT_ID", help="measurement id (or 'latest')")
     cmp_.add_argument("--block", type=int, choices=[1, 2], default=1, help="which block's theta (default 1)")
-    cmp_.add_argument("--plot", type=output_file, metavar="PNG", help="draw both, with the measurement's uncertainty")
-    cmp_.add_argument("--rrd", metavar="PATH", help="the run's Rerun recording with the measurement overlaid")
+    cmp_.add_argument("--out", type=output_file, metavar="PNG",
+                      help="draw both in this figure, with the measurement's uncertainty")
+    renamed(cmp_, "--plot", "--out", dest="out", type=output_file)
+    cmp_.add_argument("--recording", type=output_file, metavar="RRD",
+                      help="also write the run's Rerun recording with the measurement overlaid to this file")
+    renamed(cmp_, "--rrd", "--recording", dest="recording", type=output_file)
     cmp_.set_defaults(func=cmd_compare)
     exp = sub.add_parser("export-measured", help="write a stored run as a measured CSV file, with optional noise")
-    exp.add_argument("run", type=int, help="run id")
+    exp.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
     exp.add_argument("--out", type=output_file, required=True, help="CSV file to write")
     exp.add_argument("--kind", choices=["peaks", "rotation"], default="peaks",
                      help="peaks: the release and the peak events; rotation: block 1's theta")
@@ -313,7 +391,8 @@ def add_parser(sub) -> None:
     exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many (at least 1)")
     exp.set_defaults(func=cmd_export)
     cal = sub.add_parser("calibrate", help="fit the restitution to a measured free-rocking decay")
-    cal.add_argument("measurement", type=int, help="measurement id (a peak table or rotation history)")
+    cal.add_argument("measurement", type=object_id, metavar="MEASUREMENT_ID",
+                     help="measurement id (or 'latest'): a peak table or rotation history")
     cal.add_argument("--law", required=True, choices=["constant", "modified", "correction"],
                      help="fit eta (constant), k (modified) or Housner's correction factor")
     cal.add_argument("--no-store", action="store_true", help="do not store the calibrated block")
@@ -321,9 +400,8 @@ def add_parser(sub) -> None:
                      help="report and store a fit that fails the checks (chi2/dof above 5, the parameter at a bound "
                           "of the search, an interval outside the physical range: docs/measured.md); refused "
                           "otherwise")
-    cal.add_argument("--json", action="store_true")
     cal.set_defaults(func=cmd_calibrate)
-    for p in (imp, cmp_, cal, exp):
-        p.add_argument("--db", help=DB_HELP)
+    for p in (imp, exp):
+        common(p, db=True)
     for p in (cmp_, cal):
-        p.add_argument("--fmu", help="FMU to use (default: build/RockingBlock.fmu, built if needed)")
+        common(p, db=True, fmu=True)

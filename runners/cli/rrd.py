@@ -10,9 +10,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from db.session import DB_HELP, open_database
-from runners.cli.args import folder, output_file
-from runners.engine.fmu import Event, RockingFMU, fmu_path_from
+from runners.cli import output
+from runners.cli.args import common, folder, object_id, output_file, renamed
+from runners.cli.output import emit_json
 
 
 def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: dict | None = None,
@@ -21,6 +21,7 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
     with `remember`, store the path with the run."""
     from db.schema import Run
     from db.store import load_run_series
+    from runners.engine.fmu import Event, RockingFMU, fmu_path_from
     from runners.engine.recording import write_recording
 
     with factory() as session:
@@ -52,44 +53,76 @@ def record_run(factory, run_id: int, out: Path, fmu_arg: str | None, measured: d
     return Path(out)
 
 
+def _checked(text: str, check, option: str = "--out") -> str:
+    """A path given to --out, checked as argparse would (`check`: args.output_file or args.folder)."""
+    import argparse
+
+    try:
+        return check(text)
+    except argparse.ArgumentTypeError as exc:
+        raise ValueError(f"argument {option}: {exc}") from None
+
+
 def cmd_rrd(args: argparse.Namespace) -> int:
+    from db.schema import Run, Sweep
+    from db.session import open_database
+    from runners.cli.parser import resolve_latest
+    from runners.engine.fmu import fmu_path_from
+
     factory = open_database(args.db, write=True)  # the recording's path is stored with its run
+    if args.sweep is not None:
+        args.sweep = resolve_latest(factory, Sweep, args.sweep, "sweep")
     if args.points is not None:
         if args.sweep is None:
             raise ValueError("--points records grid points of a sweep: give --sweep SWEEP_ID too")
-        from db.schema import Sweep
         from runners.engine.sweep import parse_points, record_points
 
+        out = _checked(args.out, folder) if args.out else None
         with factory() as session:
             sw = session.get(Sweep, args.sweep)
             if sw is None:
                 raise ValueError(f"no sweep {args.sweep} in the database")
             indices = parse_points(args.points, sw.total)
-        for index, path in record_points(factory, args.sweep, indices, fmu_path_from(args.fmu), args.record_dir,
-                                         progress=not args.no_progress):
-            print(f"point {index}: {path}")
+        done = []
+        for index, path in record_points(factory, args.sweep, indices, fmu_path_from(args.fmu), out,
+                                         progress=output.progress()):
+            done.append({"point": index, "recording": str(path)})
+            if not args.json:
+                print(f"point {index}: {path}")
+        if args.json:
+            emit_json({"sweep": args.sweep, "points": done})
         return 0
+    out = _checked(args.out, output_file) if args.out else None
     if args.sweep is not None:
+        if args.run is not None:
+            raise ValueError("give a RUN_ID or --sweep SWEEP_ID, not both")
         from runners.engine.recording import write_sweep_recording
 
-        print(write_sweep_recording(Path(args.out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep))
+        with output.busy(f"recording sweep {args.sweep}"):
+            path = write_sweep_recording(Path(out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep)
+        emit_json({"sweep": args.sweep, "recording": str(path)}) if args.json else print(path)
         return 0
     if args.run is None:
         raise ValueError("give a RUN_ID, or --sweep SWEEP_ID")
+    run_id = resolve_latest(factory, Run, args.run, "run")
     measured = None
     if args.measured:
         from runners.engine.measured import read_measured_csv
 
         measured = read_measured_csv(args.measured)
-    print(record_run(factory, args.run, Path(args.out or f"recordings/run-{args.run}.rrd"), args.fmu, measured))
+    path = record_run(factory, run_id, Path(out or f"recordings/run-{run_id}.rrd"), args.fmu, measured)
+    emit_json({"run": run_id, "recording": str(path)}) if args.json else print(path)
     return 0
 
 
 def cmd_view(args: argparse.Namespace) -> int:
     """Open a stored run's recording in the Rerun viewer (written first if it has none)."""
     from db.schema import Run
+    from db.session import open_database
+    from runners.cli.parser import resolve_latest
 
     factory = open_database(args.db)
+    args.run = resolve_latest(factory, Run, args.run, "run")
     with factory() as session:
         run = session.get(Run, args.run)
         if run is None:
@@ -104,42 +137,51 @@ def cmd_view(args: argparse.Namespace) -> int:
         raise OSError(f"no display to open the viewer on; the recording is {path} "
                       "(open it with the Rerun viewer on a machine with a display)")
     subprocess.Popen([viewer, path])
-    print(f"opened {path} in the Rerun viewer")
+    emit_json({"run": args.run, "recording": path}) if args.json else print(f"opened {path} in the Rerun viewer")
     return 0
 
 
 def cmd_screenshot(args: argparse.Namespace) -> int:
     """A stored run in Rerun's web viewer, drawn by headless Chromium, as a PNG (the viewer
     starts playing the run when it opens, so the scene shows it a fraction of a second in)."""
+    from db.schema import Run
+    from db.session import open_database
     from runners.analysis.screenshot import screenshot
+    from runners.cli.parser import resolve_latest
 
     factory = open_database(args.db)
-    with tempfile.TemporaryDirectory() as tmp:
+    args.run = resolve_latest(factory, Run, args.run, "run")
+    with tempfile.TemporaryDirectory() as tmp, output.busy(f"screenshot of run {args.run}"):
         rrd = record_run(factory, args.run, Path(tmp) / f"run-{args.run}.rrd", args.fmu, remember=False)
-        print(screenshot(rrd, Path(args.out)))
+        png = screenshot(rrd, Path(args.out))
+    emit_json({"run": args.run, "figure": str(png)}) if args.json else print(png)
     return 0
 
 
 def add_parser(sub) -> None:
     rr_ = sub.add_parser("rrd", help="write the Rerun recording (.rrd) of a stored run or sweep")
-    rr_.add_argument("run", type=int, nargs="?", help="run id")
-    rr_.add_argument("--sweep", type=int, metavar="SWEEP_ID", help="record a sweep: its map and per-point summaries")
+    rr_.add_argument("run", type=object_id, nargs="?", metavar="RUN_ID", help="run id (or 'latest')")
+    rr_.add_argument("--sweep", type=object_id, metavar="SWEEP_ID",
+                     help="record a sweep (or 'latest'): its map and per-point summaries")
     rr_.add_argument("--points", metavar="POINTS",
                      help="with --sweep: simulate these stored grid points again in full and record each "
                           "(e.g. 0,17,40-45), storing their series")
-    rr_.add_argument("--record-dir", type=folder, metavar="DIR", help="where --points writes (default: recordings/sweep-ID)")
-    rr_.add_argument("--out", type=output_file, help="recording path (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd)")
+    rr_.add_argument("--out", metavar="RRD|DIR",
+                     help="recording to write (default: recordings/run-ID.rrd or recordings/sweep-ID.rrd); "
+                          "with --points, the folder the recordings go to (default: recordings/sweep-ID)")
+    renamed(rr_, "--record-dir", "--out", dest="out")
     rr_.add_argument("--measured", metavar="CSV", help="overlay a measured series on a run's recording "
-                                                        "(format: runners/engine/measured.py)")
-    rr_.add_argument("--no-progress", action="store_true", help="no progress bar")
-    rr_.set_defaults(func=cmd_rrd)
+                                                        "(docs/measured.md)")
+    renamed(rr_, "--no-progress", "--quiet", dest="no_progress", value=True)
+    rr_.set_defaults(func=cmd_rrd, no_progress=False)
     vw = sub.add_parser("view", help="open a stored run's recording in the Rerun viewer")
-    vw.add_argument("run", type=int, help="run id")
+    vw.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
     vw.set_defaults(func=cmd_view)
     sh = sub.add_parser("screenshot", help="a PNG of Rerun's viewer showing a stored run (needs Chromium)")
-    sh.add_argument("run", type=int, help="run id")
-    sh.add_argument("--out", type=output_file, default="docs/figures/rerun_viewer.png", help="PNG file")
+    sh.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
+    sh.add_argument("--out", type=output_file, default="docs/figures/rerun_viewer.png", metavar="PNG",
+                    help="figure to write (default: docs/figures/rerun_viewer.png)")
     sh.set_defaults(func=cmd_screenshot)
     for p in (rr_, vw, sh):
-        p.add_argument("--db", help=DB_HELP)
-        p.add_argument("--fmu", help="FMU to use for parameter defaults (default: build/RockingBlock.fmu)")
+        common(p, db=True, fmu=True, fmu_help="FMU whose parameter defaults the recording shows "
+                                              "(default: ROCKING_FMU, else build/RockingBlock.fmu)")

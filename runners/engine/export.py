@@ -298,7 +298,7 @@ def export_sweep(factory: sessionmaker, sweep_id: int, fmt: str = "csv", out: st
     fmt = choose_format(fmt, str(out) if out is not None else None)
     sw, params, refs = stored_sweep(factory, sweep_id)
     if sw.done == 0:
-        raise ValueError(f"sweep {sweep_id} has no stored points yet: run them with runners sweep --resume {sweep_id}")
+        raise ValueError(f"sweep {sweep_id} has no stored points yet: run them with runners sweep {sweep_id}")
     main = Path(out) if out is not None else Path(f"sweep-{sweep_id}{FORMATS[fmt]}")
     columns = sweep_columns(sw)
     units = {c: sweep_units(sw.grid).get(c, "") for c in columns}

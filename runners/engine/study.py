@@ -134,7 +134,7 @@ def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
         raise ValueError(f"sweep {sw.id} is not over records (runners sweep --records); its map: runners map {sw.id}")
     ok = [r for r in runs if r.status == "ok" and r.summary is not None]
     if not ok:
-        raise ValueError(f"sweep {sw.id} has no finished runs yet (runners sweep --resume {sw.id})")
+        raise ValueError(f"sweep {sw.id} has no finished runs yet (runners sweep {sw.id})")
     factor = DISPLAY[measure][2]
     stripes = sw.grid.get("intensity")
     if stripes and stripes[0] == measure:  # the sweep's own levels, exactly (scale x measure rounds)

@@ -983,7 +983,7 @@ def record_points(factory, sweep_id: int, indices: list[int], fmu_path: Path, re
     missing = sorted(set(indices) - _stored_among(factory, sweep_id, min(indices), max(indices) + 1)) \
         if indices else []
     if missing:
-        raise ValueError(f"sweep {sweep_id} has no stored point {missing[0]} (finish it with runners sweep --resume)")
+        raise ValueError(f"sweep {sweep_id} has no stored point {missing[0]} (finish it with runners sweep SWEEP_ID)")
     record_dir = Path(record_dir or f"recordings/sweep-{sweep_id}")
     points = {i: plan.grid.point(i, plan.base) for i in indices}
     tasks = [(i, points[i][1], _recording_task(plan, i, record_dir, points[i][2]), plan.stop_of(points[i][2]))
