@@ -4,22 +4,11 @@ files (runners.engine.export; docs/export.md)."""
 from __future__ import annotations
 
 import argparse
-import json
 
-from db.session import DB_HELP, open_database
-from runners.cli.args import output_file
+from db.session import open_database
+from runners.cli import output
+from runners.cli.args import common, object_id, output_file
 from runners.engine.export import FORMATS
-
-
-def _id(text: str) -> int:
-    """A run or sweep id: a whole number >= 1."""
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an id (a whole number)") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an id (ids start at 1)")
-    return n
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -28,8 +17,15 @@ def cmd_export(args: argparse.Namespace) -> int:
     if (args.run is None) == (args.sweep is None):
         raise ValueError("give a RUN_ID, or --sweep SWEEP_ID (not both)")
     fmt = choose_format(args.format, args.out)  # before opening the database: a bad option is refused first
+    from db.schema import Run, Sweep
+    from runners.cli.parser import resolve_latest
+
     factory = open_database(args.db, write=False)
-    progress = not args.quiet
+    progress = output.progress()
+    if args.sweep is not None:
+        args.sweep = resolve_latest(factory, Sweep, args.sweep, "sweep")
+    else:
+        args.run = resolve_latest(factory, Run, args.run, "run")
     if args.sweep is not None:
         done = export_sweep(factory, args.sweep, fmt, args.out, progress=progress)
         what = f"sweep {args.sweep}: {done.rows} grid points" + (f" ({done.pending} not stored yet, status pending)"
@@ -43,7 +39,7 @@ def cmd_export(args: argparse.Namespace) -> int:
             out["events"] = done.events
         if args.sweep is not None:
             out["pending"] = done.pending
-        print(json.dumps(out, indent=1))
+        output.emit_json(out)
     else:
         print(f"exported {what} to {', '.join(str(p) for p in done.files)}")
     return 0
@@ -52,14 +48,14 @@ def cmd_export(args: argparse.Namespace) -> int:
 def add_parser(sub) -> None:
     ex = sub.add_parser("export", help="write a stored run's series and events, or a sweep's points, "
                                        "as CSV, Parquet or JSON")
-    ex.add_argument("run", nargs="?", type=_id, metavar="RUN_ID", help="the run to export (runners db list runs)")
-    ex.add_argument("--sweep", type=_id, metavar="SWEEP_ID", help="export a sweep instead: one row per grid point")
+    ex.add_argument("run", nargs="?", type=object_id, metavar="RUN_ID",
+                    help="the run to export (or 'latest'; runners db list runs)")
+    ex.add_argument("--sweep", type=object_id, metavar="SWEEP_ID",
+                    help="export a sweep instead (or 'latest'): one row per grid point")
     ex.add_argument("--format", choices=list(FORMATS),
                     help="file format (default: from --out's suffix, else csv)")
     ex.add_argument("--out", type=output_file, metavar="PATH",
                     help="file to write (default: run-ID.EXT or sweep-ID.EXT in the working folder; a run's "
                          "events go beside it, as NAME-events.EXT; an existing file is replaced)")
-    ex.add_argument("--db", help=DB_HELP)
-    ex.add_argument("--json", action="store_true", help="print the files written and the rows as JSON")
-    ex.add_argument("--quiet", action="store_true", help="no progress bar")
+    common(ex, db=True)
     ex.set_defaults(func=cmd_export)

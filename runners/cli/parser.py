@@ -144,6 +144,9 @@ def build_parser() -> argparse.ArgumentParser:
     from runners.cli.rrd import add_parser as add_rrd_parser
 
     add_rrd_parser(sub)
+    from runners.cli.export import add_parser as add_export_parser
+
+    add_export_parser(sub)
     from runners.cli.measured import add_parser as add_measured_parser
 
     add_measured_parser(sub)
