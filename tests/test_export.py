@@ -235,7 +235,7 @@ def test_events_frame_keeps_its_columns_without_events():
     (["1", "--sweep", "1"], "give a RUN_ID, or --sweep SWEEP_ID"),
     (["1", "--format", "xlsx"], "argument --format: invalid choice"),
     (["1", "--format", "csv", "--out", "x.parquet"], "names a parquet file, and --format is csv"),
-    (["0"], "is not an id"),
+    (["0"], "no run 0 in the database"),
     (["1", "--out", "/proc/rocking/x.csv"], "cannot write /proc/rocking/x.csv"),
 ])
 def test_bad_exports_are_one_line_errors(stored, fmu_path, tmp_path, monkeypatch, args, message):

@@ -157,7 +157,7 @@ def test_runners_figures_refuses_an_unknown_name_and_skips_the_viewer_without_ch
     p = runners_cli("figures", "--only", "rerun_viewer", "--out", str(tmp_path / "y"), fmu_path=fmu_path,
                     env={"PATH": str(bin_dir)})
     assert p.returncode == 0 and p.stdout == "", p.stderr
-    assert p.stderr.count("\n") == 1 and p.stderr.startswith("skipped rerun_viewer:") and "Chromium" in p.stderr
+    assert p.stderr.count("\n") == 1 and p.stderr.startswith("note: skipped rerun_viewer:") and "Chromium" in p.stderr
 
 
 def test_docs_figures_md_lists_every_figure_and_how_to_draw_it():

@@ -85,7 +85,7 @@ def test_summary_says_which_model_ran_and_why(fmu_path, tmp_path):
     p = runners("simulate", "examples/sine_pulse.toml", "--method", "auto", fmu_path=fmu_path)
     assert "model            one block: no closed form" in p.stdout
     p = runners("simulate", "examples/sine_pulse.toml", "--method", "closed-form", fmu_path=fmu_path)
-    assert p.returncode == 2 and p.stderr.startswith("error: --method closed-form does not apply")
+    assert p.returncode == 2 and p.stderr.startswith("error: method closed-form does not apply")
 
 
 def test_a_negligible_upper_block_runs_as_one_block(fmu_path, tmp_path):

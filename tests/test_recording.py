@@ -298,7 +298,7 @@ def test_measured_series_are_overlaid_and_bad_files_are_refused(tmp_path, fmu_pa
     with factory() as session:
         assert session.get(Run, 1).recording == str(out.resolve())  # a refused file changes nothing stored
     p = runners("simulate", "examples/free_rocking.toml", "--measured", str(csv), db=db, fmu_path=fmu_path)
-    assert p.returncode == 2 and "--rrd" in p.stderr
+    assert p.returncode == 2 and "--out RUN.rrd" in p.stderr
     p = runners("rrd", "1", "--measured", str(tmp_path / "none.csv"), db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and "does not exist" in p.stderr
 

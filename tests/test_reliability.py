@@ -302,7 +302,7 @@ def test_a_killed_worker_stops_the_sweep_with_one_line_and_it_resumes(fmu_path, 
     _wait_stored(db, 500, 60)
     os.kill(_children(p.pid)[0], signal.SIGKILL)  # as the out-of-memory killer would
     _, err = p.communicate(timeout=60)
-    assert p.returncode == 2 and err.count("\n") == 1 and "worker process died" in err and "--resume 1" in err, err
+    assert p.returncode == 2 and err.count("\n") == 1 and "worker process died" in err and "runners sweep 1" in err, err
     assert cli("sweep", "--resume", "1", "--quiet", db=db, fmu_path=fmu_path, timeout=300).returncode == 0
     with open_database(db)() as s:
         assert s.scalar(select(func.count(func.distinct(Run.grid_index)))) == 3600 == s.get(Sweep, 1).done

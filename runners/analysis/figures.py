@@ -122,7 +122,7 @@ def mirror(ctx: "Context", out: Path) -> list[Path]:
 
 def compare_figure(ctx: "Context", out: Path) -> list[Path]:
     """examples/free_rocking_block2.toml against the synthetic peak table
-    examples/measured_peaks_block2.csv, as runners compare --plot draws it."""
+    examples/measured_peaks_block2.csv, as runners compare --out draws it."""
     from runners.analysis.compare import plot_comparison
     from runners.engine.measured import read_measured
     from runners.engine.scene import load_scene
@@ -238,7 +238,7 @@ FIGURES: list[Figure] = [
     Figure(("compare_peaks",), "a free-rocking run against a synthetic peak table with its stated uncertainty "
            "(docs/measured.md)",
            "runners simulate examples/free_rocking_block2.toml; runners import-measured "
-           "examples/measured_peaks_block2.csv; runners compare RUN MEASUREMENT --plot compare_peaks.png",
+           "examples/measured_peaks_block2.csv; runners compare RUN MEASUREMENT --out compare_peaks.png",
            compare_figure),
     Figure(("fig18_corrected",), "overturning map of Anagnostopoulos Fig. 18A (h/b = 2, Housner's restitution "
            "times 1.233), 80 x 80 points, Dimitrakopoulos & DeJong (2012)'s closed forms overlaid",
@@ -248,9 +248,9 @@ FIGURES: list[Figure] = [
            "runners sweep examples/fig18_housner.toml --grid w=0.5:10:80 --grid a=1.01:7:80; "
            "runners map SWEEP --out fig18_housner.png", fig18_housner),
     Figure(("overturning_map",), "Dimitrakopoulos & DeJong (2012)'s closed-form overturning map of a one-sine "
-           "pulse against linearised and nonlinear simulation", "runners bench --chart FOLDER", overturning_map),
+           "pulse against linearised and nonlinear simulation", "runners bench --charts --out FOLDER", overturning_map),
     Figure(("records_imperial_valley",), "FEMA P695 near-field record 1a: acceleration, velocity, displacement "
-           "and its intensity measures", "runners records show fema-p695/nearfield_pulse/1a --plot PNG",
+           "and its intensity measures", "runners records show fema-p695/nearfield_pulse/1a --out PNG",
            _records("records_imperial_valley")),
     Figure(("records_interpolation",), "a one-sine pulse against its samples joined by straight lines: the "
            "rotation gap and its bound", "runners figures --only records_interpolation",
@@ -267,13 +267,13 @@ FIGURES: list[Figure] = [
            rerun_viewer, needs="headless Chromium and Playwright (apt-get install chromium; "
                                "pip install -e '.[docs]')"),
     Figure(("stability",), "which methods get the outcome right on scenes of rising difficulty, against "
-           "scipy's DOP853 at rtol 1e-12", "runners bench --chart FOLDER", stability),
+           "scipy's DOP853 at rtol 1e-12", "runners bench --charts --out FOLDER", stability),
     Figure(("two_blocks_fig17",), "two blocks on a shaking table, Anagnostopoulos Fig. 17's four harmonic cases",
            "runners figures --only two_blocks_fig17", fig17),
     Figure(("two_blocks_mirror",), "free rocking of two blocks and its mirror image (Anagnostopoulos Figs. 14-15)",
            "runners figures --only two_blocks_mirror", mirror),
     Figure(("work_precision",), "error against cost of every method: the FMU natively and through fmpy, "
-           "scipy's event-driven solvers and the fixed-step methods", "runners bench --chart FOLDER",
+           "scipy's event-driven solvers and the fixed-step methods", "runners bench --charts --out FOLDER",
            work_precision),
 ]
 NAMES = [n for f in FIGURES for n in f.names]

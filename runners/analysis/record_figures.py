@@ -101,7 +101,7 @@ def record_vs_pulse(fmu: RockingFMU, out: Path, amplitude: float = 5.0, frequenc
 
 
 def imperial_valley(fmu: RockingFMU, out: Path) -> Path:
-    """FEMA P695 near-field record 1a, as runners records show --plot draws it."""
+    """FEMA P695 near-field record 1a, as runners records show --out draws it."""
     from runners.engine.fema import component
     from runners.engine.intensity import measures
     from runners.analysis.record_plots import plot_record

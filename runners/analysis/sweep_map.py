@@ -8,7 +8,7 @@ acceleration, a_g / (g tan alpha) for one block (1 = uplift; their a_g/(g alpha)
 is its slender-block limit). A one-block grid under a one-sine pulse gets their
 closed-form boundaries of the linearised block overlaid (their a converted by
 alpha / tan(alpha)). Every overturning map in runners (this one and the closed-form
-map of runners bench --chart, runners.analysis.overturning_map) uses this
+map of runners bench --charts, runners.analysis.overturning_map) uses this
 normalisation and names the block (half-width b, half-height h, p) and its
 restitution in the title.
 """

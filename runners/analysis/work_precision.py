@@ -1,4 +1,4 @@
-"""Work-precision comparison: error against cost for every method (``runners bench --chart``).
+"""Work-precision comparison: error against cost for every method (``runners bench --charts``).
 
 Case "free rocking": a block with h/b = 3 released at 0.6 alpha, constant
 restitution 0.9; the error is the largest relative error of the first 10

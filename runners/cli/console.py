@@ -23,4 +23,9 @@ def main() -> int:
             raise
         print("error: interrupted", file=sys.stderr)
         return 130
-    return run()
+    code = run()
+    # the command is done and has said so: an interruption arriving while Python exits has
+    # nothing left to stop, and must not turn a finished command into a killed one
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    return code

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import argparse
 
-from db.session import open_database
 from runners.cli import output
 from runners.cli.args import common, object_id, output_file
-from runners.engine.export import FORMATS
+
+FORMATS = ("csv", "parquet", "json")  # runners.engine.export.FORMATS (imported when the command runs)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -18,6 +18,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise ValueError("give a RUN_ID, or --sweep SWEEP_ID (not both)")
     fmt = choose_format(args.format, args.out)  # before opening the database: a bad option is refused first
     from db.schema import Run, Sweep
+    from db.session import open_database
     from runners.cli.parser import resolve_latest
 
     factory = open_database(args.db, write=False)

@@ -163,7 +163,7 @@ def cmd_figures(args: argparse.Namespace) -> int:
                                            progress=output.progress(), note=output.note)]
     if args.json:
         output.emit_json({"figures": paths})
-    else:
+    elif paths:
         print("\n".join(paths))
     return 0
 
