@@ -55,11 +55,37 @@ def _overrides(parameters: Mapping[str, Any] | None, overrides: Mapping[str, Any
     return out
 
 
-def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> None:
-    for name in p:
+def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> dict[str, Any]:
+    """The parameters p checked against the FMU's variables: each a parameter, a finite number
+    for a Real, a whole number for an Integer, True or False for a Boolean (ValueError if not)."""
+    import difflib
+    import math
+
+    out = {}
+    for name, value in p.items():
         v = variables.get(name)
         if v is None or v.causality != "parameter":
-            raise ValueError(f"{name} is not a parameter of RockingBlock.fmu (docs/scenes.md lists them)")
+            close = difflib.get_close_matches(name, [n for n, x in variables.items() if x.causality == "parameter"], 1)
+            hint = f" (did you mean {close[0]}?)" if close else " (docs/scenes.md lists them)"
+            raise ValueError(f"{name} is not a parameter of RockingBlock.fmu{hint}")
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if v.type == "Real" and not (number and math.isfinite(value)):
+            raise ValueError(f"{name} must be a finite number (SI units), got {value!r}")
+        if v.type == "Integer" and not (number and float(value).is_integer()):
+            raise ValueError(f"{name} must be a whole number, got {value!r}")
+        if v.type == "Boolean" and not isinstance(value, bool):
+            raise ValueError(f"{name} must be True or False, got {value!r}")
+        out[name] = float(value) if v.type == "Real" else int(value) if v.type == "Integer" else value
+    return out
+
+
+def _seconds(value: Any, name: str) -> float:
+    """A time in s given to the API: a finite number > 0 (ValueError if not)."""
+    import math
+
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a finite time > 0 s, got {value!r}")
+    return float(value)
 
 
 def simulate(
@@ -126,9 +152,9 @@ def simulate(
     sc = as_scene(scene)
     given = _overrides(parameters, overrides)
     if stop_time is not None:
-        sc.stop_time, sc.stop_time_given = float(stop_time), True
+        sc.stop_time, sc.stop_time_given = _seconds(stop_time, "stop_time"), True
     if step is not None:
-        sc.step, sc.step_given = float(step), True
+        sc.step, sc.step_given = _seconds(step, "step"), True
     measured_series = None
     if measured is not None:  # fail on a bad file before simulating
         from runners.engine.measured import read_measured_csv
@@ -171,8 +197,7 @@ def simulate(
     result = None
     series = events = None
     with RockingFMU(fmu_path) as fm:
-        _check_overrides(given, fm.vars)
-        sc.parameters.update(given)
+        sc.parameters.update(_check_overrides(given, fm.vars))
         defaults = fm.defaults()
         merged = {**defaults, **sc.parameters}
         notes += [f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
@@ -186,7 +211,7 @@ def simulate(
                 notes.append(f"the scene's FMU integrator ([simulation] method) does not apply to method {method}")
             if notes:
                 s["notes"] = notes
-            report = format_python(sc.name, s, sc.stop_time) + "".join(f"\nnote             {n}" for n in notes)
+            report = format_python(sc.name, s, sc.stop_time)
             model = s["model"]
         else:
             from runners.analysis.least_model import (choose_model, closed_form_summary,
@@ -223,12 +248,12 @@ def simulate(
                     notes += rec.notes
                 if notes:
                     s["notes"] = notes
-                report = format_summary(s)
-                keep = list(outputs) if outputs else [o for o in SUMMARY_OUTPUTS  # a second block's if there is one
-                                                      if int(merged["nBlocks"]) == 2 or not o.startswith("block2.")]
+                report = format_summary({k: v for k, v in s.items() if k != "notes"})  # notes: summary["notes"]
+                keep = list(outputs) if outputs else list(SUMMARY_OUTPUTS)  # as stored and exported
                 series = series_frame(result.time, {k: result.outputs[k] for k in keep})
                 events = events_frame([e.as_dict() for e in result.events])
-        merged = {**defaults, **sc.parameters}
+        merged = {name: int(v) if fm.vars[name].type == "Integer" else bool(v) if fm.vars[name].type == "Boolean"
+                  else v for name, v in {**defaults, **sc.parameters}.items()}
     written = None
     if recording is not None:
         if result is None:
@@ -393,7 +418,7 @@ def sweep(
     if resume is None:
         sc = as_scene(scene)
         if stop_time is not None:
-            sc.stop_time, sc.stop_time_given = float(stop_time), True
+            sc.stop_time, sc.stop_time_given = _seconds(stop_time, "stop_time"), True
         check_times(sc.stop_time, sc.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fm:
             sweepable = axis_parameters(fm)  # name -> "Real" or "Integer"

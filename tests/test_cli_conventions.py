@@ -293,3 +293,19 @@ def test_no_progress_bar_in_a_log_so_that_a_failure_is_one_line(stocked, fmu_pat
     p = cli(stocked, fmu_path, "calibrate", "1", "--law", "modified", "--no-store")
     assert p.returncode == 0 or (p.stderr.count("\n") == 1 and p.stderr.startswith("error: ")), p.stderr
     assert "simulation" not in p.stderr.split("error:")[0], p.stderr
+
+
+def test_read_only_commands_do_not_create_a_mistyped_database_and_export_latest_skips_sweep_points(
+        tmp_path, fmu_path):
+    missing = tmp_path / "typo.db"
+    for args in (["map", "latest"], ["fragility", "latest"], ["records", "list"], ["export", "latest"]):
+        p = run_cli(*args, db=f"sqlite:///{missing}", fmu_path=fmu_path)
+        assert p.returncode == 2 and p.stderr.startswith("error: cannot open the database"), (args, p.stderr)
+        assert not missing.exists(), args
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    assert run_cli("simulate", "examples/free_rocking.toml", "--quiet", db=db, fmu_path=fmu_path).returncode == 0
+    assert run_cli("sweep", "examples/sweep_sine_pulse.toml", "--grid", "w=1:2:2", "--quiet",
+                   db=db, fmu_path=fmu_path).returncode == 0
+    p = run_cli("export", "latest", "--json", "--out", str(tmp_path / "x.csv"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["rows"] > 100  # run 1's series, not a sweep point's outcome

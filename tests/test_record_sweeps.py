@@ -265,7 +265,7 @@ def test_record_scenes_by_name_id_and_file(db, fmu_path, tmp_path):
     assert s["record"]["pga_g"] == pytest.approx(1.5 * np.max(np.abs(ah)) / G0)
     p = cli("simulate", "examples/sine_pulse.toml", "--record", "1", "--stop-time", "4", "--no-store", db=db,
             fmu_path=fmu_path)
-    assert "note             the run stops at 4 s, before the record ends at 39.03 s" in p.stdout
+    assert "note: the run stops at 4 s, before the record ends at 39.03 s" in p.stderr  # notes: stderr
     for scene_text, expected in (('kind = "record"', "needs record = NAME"),
                                  ('record = "x"\nfile = "y"', "not both"),
                                  ('kind = "sine-pulse"\nrecord = "x"', 'apply to kind = "record"'),
@@ -310,10 +310,15 @@ def test_the_python_api_runs_a_study_as_the_docs_show(db, fmu_path, monkeypatch)
     factory = open_database(db)
     rows = records.table(factory, "fema-p695/nearfield_pulse")
     assert len(rows) == 28 and {"pga", "pgv", "arias", "d5_95", "event"} <= set(rows[0])
-    sweep = study.run(factory, ROOT / "examples" / "statue.toml", "fema-p695/nearfield_pulse",
-                      im="pga=0.2:0.8:7")
-    oc = study.outcomes(factory, sweep, "pga")
+    import runners
+
+    sw = runners.sweep(ROOT / "examples" / "statue.toml", records="fema-p695/nearfield_pulse", im="pga=0.2:0.8:7",
+                       db=db, fmu=fmu_path)
+    oc = sw.outcomes("pga")
     assert len(oc.x) == 196 and set(np.round(oc.x, 12)) == {0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8}
+    table = oc.to_pandas()
+    assert len(table) == 196 and table["overturned"].sum() == np.sum(oc.overturned)
+    assert np.array_equal(table["pga_g"].to_numpy(), oc.x) and "196 runs against PGA in g" in repr(oc)
     frag = study.fragility(oc)
     fig = study.fragility_figure(frag, oc)
     assert isinstance(fig, matplotlib.figure.Figure) and "28 records of fema-p695/nearfield_pulse" in \

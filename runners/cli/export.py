@@ -25,8 +25,14 @@ def cmd_export(args: argparse.Namespace) -> int:
     progress = output.progress()
     if args.sweep is not None:
         args.sweep = resolve_latest(factory, Sweep, args.sweep, "sweep")
-    else:
-        args.run = resolve_latest(factory, Run, args.run, "run")
+    elif args.run == "latest":  # the newest run with a time history: sweep points keep outcomes only
+        from sqlalchemy import func, select
+
+        with factory() as session:
+            newest = session.scalar(select(func.max(Run.id)).where(Run.sweep_id.is_(None)))
+        if newest is None:
+            raise ValueError("no single run in the database (sweep points are exported with --sweep ID)")
+        args.run = int(newest)
     if args.sweep is not None:
         done = export_sweep(factory, args.sweep, fmt, args.out, progress=progress)
         what = f"sweep {args.sweep}: {done.rows} grid points" + (f" ({done.pending} not stored yet, status pending)"
@@ -50,7 +56,7 @@ def add_parser(sub) -> None:
     ex = sub.add_parser("export", help="write a stored run's series and events, or a sweep's points, "
                                        "as CSV, Parquet or JSON")
     ex.add_argument("run", nargs="?", type=object_id, metavar="RUN_ID",
-                    help="the run to export (or 'latest'; runners db list runs)")
+                    help="the run to export (or 'latest': the newest run that is not a sweep point)")
     ex.add_argument("--sweep", type=object_id, metavar="SWEEP_ID",
                     help="export a sweep instead (or 'latest'): one row per grid point")
     ex.add_argument("--format", choices=list(FORMATS),

@@ -44,6 +44,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         output.emit_json(run.summary)
     else:
         print(run.report)
+    for text in run.summary.get("notes", ()):
+        output.note(text)
     return 0
 
 
@@ -61,6 +63,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 130 if exc.interrupted else 2
     st, sweep_id = sw.stats, sw.sweep_id
+    if not args.json and st["ran"] == 0 and st["stored"] == st["total"]:
+        print(f"sweep {sweep_id} is already complete: {st['stored']}/{st['total']} points stored "
+              f"(runners map {sweep_id}, runners export --sweep {sweep_id})")
+        return 0
     folder = (args.record_dir or f"recordings/sweep-{sweep_id}") if st["recorded"] else None
     if args.json:
         output.emit_json({"sweep": sweep_id, **st, "recordings": folder})
@@ -83,7 +89,7 @@ def cmd_map(args: argparse.Namespace) -> int:
 
     from db.session import open_database
 
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=False)  # reads only: a mistyped path is not created
     sweep_id = resolve_latest(factory, Sweep, args.sweep, "sweep")
     with output.busy(f"map of sweep {sweep_id}"):
         text = draw(factory, str(sweep_id), Path(args.out))

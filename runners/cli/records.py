@@ -79,7 +79,7 @@ def cmd_list(args: argparse.Namespace) -> int:
     from db.session import open_database
     from runners.engine import records
 
-    rows = records.table(open_database(args.db), args.suite)
+    rows = records.table(open_database(args.db, write=False), args.suite)
     if args.json:
         emit_json(rows)
         return 0
@@ -154,7 +154,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from db.session import open_database
     from runners.engine.record_files import write_record_file
 
-    with open_database(args.db)() as session:
+    with open_database(args.db, write=False)() as session:
         rec = find_record(session, args.record)
         t, ah, av = samples(rec)
         comments = [f"record {rec.name}", *([rec.source] if rec.source else [])]
@@ -175,7 +175,7 @@ def _study(args: argparse.Namespace):
     from runners.cli.parser import resolve_latest
     from runners.engine import study
 
-    factory = open_database(args.db)
+    factory = open_database(args.db, write=False)  # reads only: a mistyped path is not created
     oc = study.outcomes(factory, resolve_latest(factory, Sweep, args.sweep, "sweep"), args.im)
     return study, oc, Path(args.out or f"{args.command}-{oc.sweep_id}.png")
 

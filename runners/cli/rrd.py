@@ -179,8 +179,9 @@ def add_parser(sub) -> None:
     vw.set_defaults(func=cmd_view)
     sh = sub.add_parser("screenshot", help="a PNG of Rerun's viewer showing a stored run (needs Chromium)")
     sh.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
-    sh.add_argument("--out", type=output_file, default="docs/figures/rerun_viewer.png", metavar="PNG",
-                    help="figure to write (default: docs/figures/rerun_viewer.png)")
+    sh.add_argument("--out", type=output_file, default="rerun_viewer.png", metavar="PNG",
+                    help="figure to write (default: ./rerun_viewer.png; --out docs/figures/rerun_viewer.png "
+                         "replaces the tracked one)")
     sh.set_defaults(func=cmd_screenshot)
     for p in (rr_, vw, sh):
         common(p, db=True, fmu=True, fmu_help="FMU whose parameter defaults the recording shows "

@@ -107,6 +107,8 @@ class Database:
                 events = list(stored.events or [])
         if stored is None:
             t, cols, events = [], {}, []
+        else:
+            summary = {**summary, **_full_summary(scene, parameters, t, cols, events)}
         from pathlib import Path
 
         return RunResult(scene=scene, series=series_frame(t, cols), events=events_frame(events), summary=summary,
@@ -125,6 +127,21 @@ class Database:
             stats = {"sweep": sw.id, "scene": session.get(Scene, sw.scene_id).name, "grid": grid_text(sw.grid),
                      "total": sw.total, "stored": sw.done, "status": sw.status}
         return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
+
+
+def _full_summary(scene: str, parameters: dict[str, Any], t, cols: dict, events: list[dict]) -> dict[str, Any]:
+    """The summary runners.simulate gives (runners.engine.summary.summarize), rebuilt from a
+    stored series that holds every summary output; {} for one that does not."""
+    from runners.engine.fmu import Event, RunResult as Sampled
+    from runners.engine.scene import Scene
+    from runners.engine.summary import SUMMARY_OUTPUTS, summarize
+
+    if any(o not in cols for o in SUMMARY_OUTPUTS):
+        return {}
+    sampled = Sampled(t, cols, [Event.from_dict(e) for e in events], float("nan"))
+    s = summarize(Scene(name=scene, parameters=dict(parameters), stop_time=float(t[-1])), sampled, parameters)
+    s.pop("wall_time_s", None)  # not stored with the series
+    return s
 
 
 def _summary(session, run: Run) -> dict[str, Any]:

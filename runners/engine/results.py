@@ -33,7 +33,8 @@ class RunResult:
     parameters: every FMU parameter of the run, the FMU's defaults merged with the scene's.
     run_id: the database id of the stored run, None when not stored.
     recording: the Rerun recording (.rrd) written, if any.
-    report: the summary for people, as ``runners simulate`` prints it.
+    report: the summary for people, as ``runners simulate`` prints it; its notes (scene
+        parameters the run does not use, record units...) are in ``summary["notes"]``.
     """
 
     scene: str

