@@ -163,10 +163,10 @@ def test_sweep_points_out_and_the_former_record_record_dir_resume(fmu_path, tmp_
     for note in ("note: --record is now --points", "note: --record-dir is now --out", "note: --no-progress is now --quiet"):
         assert note in notes, p.stderr
     p = run_cli("sweep", "--resume", "2", db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "sweep 2: 2/2 points stored" in p.stdout, p.stderr
+    assert p.returncode == 0 and "sweep 2 is already complete: 2/2 points stored" in p.stdout, p.stderr
     assert any(n.startswith("note: --resume is now the positional SWEEP_ID") for n in p.stderr.splitlines())
     p = run_cli("sweep", "latest", "-q", db=db, fmu_path=fmu_path)
-    assert p.returncode == 0 and "sweep 2: 2/2 points stored" in p.stdout and p.stderr == "", p.stderr
+    assert p.returncode == 0 and "sweep 2 is already complete: 2/2 points stored" in p.stdout and p.stderr == "", p.stderr
 
 
 def test_rrd_points_out_is_a_folder(stocked, fmu_path, tmp_path):
@@ -298,7 +298,8 @@ def test_no_progress_bar_in_a_log_so_that_a_failure_is_one_line(stocked, fmu_pat
 def test_read_only_commands_do_not_create_a_mistyped_database_and_export_latest_skips_sweep_points(
         tmp_path, fmu_path):
     missing = tmp_path / "typo.db"
-    for args in (["map", "latest"], ["fragility", "latest"], ["records", "list"], ["export", "latest"]):
+    for args in (["map", "latest"], ["fragility", "latest"], ["records", "export", "x", "--out", "x.csv"],
+                 ["export", "latest"]):
         p = run_cli(*args, db=f"sqlite:///{missing}", fmu_path=fmu_path)
         assert p.returncode == 2 and p.stderr.startswith("error: cannot open the database"), (args, p.stderr)
         assert not missing.exists(), args

@@ -110,15 +110,9 @@ def map_figure(rows: list[dict], resolution: tuple[int, int] = (120, 110)):
 
 def draw(rows: list[dict], out: Path) -> Path:
     """Write map_figure(rows) as a PNG."""
-    import matplotlib
+    from runners.analysis.plotting import save_png
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig = map_figure(rows)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_png(map_figure(rows), out)
 
 
 def run_overturning_map(out_dir: Path, quick: bool = False) -> str:

@@ -247,12 +247,6 @@ def stability_figure(rows: list[dict], names: list[str]):
 
 def draw(rows: list[dict], names: list[str], out: Path) -> Path:
     """Write stability_figure(rows, names) as a PNG."""
-    import matplotlib
+    from runners.analysis.plotting import save_png
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig = stability_figure(rows, names)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_png(stability_figure(rows, names), out)

@@ -308,15 +308,9 @@ def chart_figure(points: list[Point]):
 
 def chart(points: list[Point], out: Path) -> Path:
     """Write chart_figure(points) as a PNG."""
-    import matplotlib
+    from runners.analysis.plotting import save_png
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig = chart_figure(points)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_png(chart_figure(points), out)
 
 
 def compute_points(fmu_path: Path, repeats: int = 20, quick: bool = False, progress: bool = False) -> list[Point]:

@@ -79,7 +79,7 @@ def cmd_list(args: argparse.Namespace) -> int:
     from db.session import open_database
     from runners.engine import records
 
-    rows = records.table(open_database(args.db, write=False), args.suite)
+    rows = records.table(open_database(args.db), args.suite)  # (fills in measures a record lacks)
     if args.json:
         emit_json(rows)
         return 0
