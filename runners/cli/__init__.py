@@ -1,7 +1,8 @@
-"""The ``runners`` command line: argument parsing and printing over the Python API.
+"""The ``runners`` command line: argument parsing and printing over the Python API (runners.api).
 
-``main`` builds the parser and dispatches (runners.cli.main); each command group
-has its own module (``db``, ``records``, ``measured``, ``rrd``); ``console`` is the
-installed entry point and ``args`` holds the shared argument checks. Nothing here
-computes: the work is done by runners.engine and runners.analysis.
+``parser`` builds the parser and dispatches (it imports nothing heavy, so ``--help`` is quick);
+``main`` holds simulate, sweep, map, bench and figures; each command group has its own module
+(``db``, ``records``, ``measured``, ``rrd``, ``export``); ``args`` holds the shared argument
+checks, ``output`` the notes, JSON and progress bars, ``console`` the installed entry point.
+Nothing here computes: the work is done by runners.api, runners.engine and runners.analysis.
 """
