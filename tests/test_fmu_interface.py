@@ -142,6 +142,35 @@ def test_invalid_call_sequences_are_errors(slave):
     slave.expect_error(lambda: s.doStep(0.1, 0.1), "fmi2DoStep must not be called")
 
 
+def test_no_step_may_end_after_a_defined_stop_time(slave):
+    """FMI 2.0, fmi2SetupExperiment: with stopTimeDefined, fmi2DoStep past stopTime is fmi2Error."""
+    s = slave.s
+    s.setupExperiment(startTime=0.0, stopTime=1.0)
+    slave.fmu.set_parameters(s, {"block1.theta0": 0.1})
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.doStep(0.0, 0.5)
+    slave.expect_error(lambda: s.doStep(0.5, 0.6), "ends after the stop time 1")
+    s.doStep(0.5, 0.5)  # to the stop time exactly: allowed
+    slave.expect_error(lambda: s.doStep(1.0, 0.5), "ends after the stop time 1")
+    s.doStep(1.0, 0.0)  # a zero step at the stop time is not after it
+    clean = Slave(slave.fmu)  # the same run without the refused steps: they changed nothing
+    clean.s.setupExperiment(startTime=0.0, stopTime=1.0)
+    clean.fmu.set_parameters(clean.s, {"block1.theta0": 0.1})
+    clean.s.enterInitializationMode()
+    clean.s.exitInitializationMode()
+    clean.s.doStep(0.0, 0.5)
+    clean.s.doStep(0.5, 0.5)
+    assert clean.outputs() == slave.outputs()
+    clean.close()
+
+
+def test_without_a_stop_time_steps_go_on(slave):
+    slave.start({"block1.theta0": 0.1})  # fmi2SetupExperiment without a stop time
+    for k in range(4):
+        slave.s.doStep(0.5 * k, 0.5)
+
+
 def test_fmu_state_round_trip_reproduces_the_continuation(slave):
     slave.start(SCENE)
     s = slave.s

@@ -796,6 +796,13 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
         return fmi2Error;
     }
     double target = currentCommunicationPoint + communicationStepSize;
+    /* FMI 2.0 (fmi2SetupExperiment): with a stop time defined, no step may end after it
+     * (within the 1e-9 relative slack the communication point has) */
+    if (I->s.stopDefined && target > I->s.stopTime + 1e-9 * fmax(1.0, fabs(I->s.stopTime))) {
+        LOG_ERROR(I, "fmi2DoStep: the step to %.17g ends after the stop time %.17g set by fmi2SetupExperiment",
+                  target, I->s.stopTime);
+        return fmi2Error;
+    }
     Logger log = {solver_log, I, I->loggingOn && I->logEvents};
     if (solver_advance(&I->s.model, target, &log)) {
         I->s.phase = PHASE_ERROR;
