@@ -139,8 +139,8 @@ def test_db_list_and_show(tmp_path, fmu_path):
     assert p.returncode == 2 and p.stderr.startswith("error: no run '7'")
 
 
-def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
-    """A file at the first revision gets the newer columns and keeps its rows."""
+def _database_at_revision(tmp_path, revision: str):
+    """(url, engine) of a new SQLite file migrated only up to `revision`: an old database."""
     from alembic import command
 
     from db.session import _alembic_config, make_engine
@@ -150,7 +150,13 @@ def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
     cfg = _alembic_config()
     with engine.begin() as conn:
         cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "0001")
+        command.upgrade(cfg, revision)
+    return url, engine
+
+
+def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
+    """A file at the first revision gets the newer columns and keeps its rows."""
+    url, engine = _database_at_revision(tmp_path, "0001")
     with engine.begin() as conn:
         conn.execute(text("INSERT INTO scenes (name, n_blocks, parameters, created_at) "
                           "VALUES ('old', 1, '{}', '2026-01-01')"))
@@ -165,17 +171,9 @@ def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
 
 def test_catalogue_blocks_named_by_file_number_are_renamed_after_their_source(tmp_path):
     """Revision 0007: seed000-blockN (a source document's file number) becomes anagnostopoulos-blockN."""
-    from alembic import command
-
     from db.schema import Block
-    from db.session import _alembic_config, make_engine
 
-    url = f"sqlite:///{tmp_path / 'old.db'}"
-    engine = make_engine(url)
-    cfg = _alembic_config()
-    with engine.begin() as conn:
-        cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "0006")
+    url, engine = _database_at_revision(tmp_path, "0006")
     with engine.begin() as conn:
         conn.execute(text("INSERT INTO blocks (name, half_width, half_height, mass, restitution_law, correction) "
                           "VALUES ('seed000-block2', 0.03, 0.0675, 2.95, 'housner', 1.233)"))

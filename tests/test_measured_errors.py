@@ -5,7 +5,6 @@ input is fine after all, accepted), and nothing stored by a refusal."""
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import sys

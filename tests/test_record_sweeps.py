@@ -22,7 +22,6 @@ from conftest import run_cli
 from db.records import find_record, samples
 from db.schema import Excitation, Record, Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
-from runners.engine.fmu import RockingFMU
 from runners.engine.record_files import write_record_file
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import (FMU_HELP, Parser, common, count, finite, folder, object_id, output_file, positive,
+from runners.cli.args import (Parser, common, count, finite, folder, object_id, output_file, positive,
                               renamed, tolerance)
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
