@@ -736,6 +736,31 @@ def _series_row(run_id: int, rec: Recorded) -> dict:
     return {"run_id": run_id, "names": names, "n_samples": n, "data": blob, "events": rec.events}
 
 
+@contextlib.contextmanager
+def _interrupts_deferred():
+    """Ctrl-C or SIGTERM arriving inside the block takes effect (KeyboardInterrupt) when it ends.
+
+    A database transaction interrupted half-way can leave its connection holding SQLite's
+    write lock while the traceback keeps it alive, and the flush that follows (of the points
+    already run) then waits on that lock; so each transaction of a sweep runs whole. Only in
+    the main thread, where Python runs signal handlers."""
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = {s: signal.signal(s, lambda signum, _frame: caught.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    if caught:
+        raise KeyboardInterrupt
+
+
 def _stored_among(factory, sweep_id: int, lo: int, hi: int) -> set[int]:
     """The grid indices in lo..hi-1 of a sweep that are stored."""
     with factory() as session:
@@ -905,7 +930,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
             return
         t0 = time.perf_counter()
         try:
-            with factory.begin() as session:
+            with _interrupts_deferred(), factory.begin() as session:
                 insert_rows(session, rows)
         except IntegrityError:  # another process stored some of these points meanwhile: store the others
             indices = [r[0]["grid_index"] for r in rows]
@@ -915,7 +940,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
             for r in fresh:
                 r[0].pop("excitation_id", None)
             if fresh:
-                with factory.begin() as session:
+                with _interrupts_deferred(), factory.begin() as session:
                     insert_rows(session, fresh)
         stats["db_seconds"] += time.perf_counter() - t0
         rows.clear()
