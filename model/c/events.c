@@ -147,7 +147,17 @@ int find_uplift(const Model *M, double t, double tc, double *tu) {
     }
 }
 
-int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops) {
+/* Does the event just applied at S->t end the advance? */
+static int stops_here(const Model *M, EventStop *stop) {
+    const State *S = &M->s;
+    if (!stop || !(S->t > stop->after)) return 0;
+    if (!(stop->any || (stop->overturn && S->mode == MODE_OVERTURNED))) return 0;
+    stop->stopped = 1;
+    stop->time = S->t;
+    return 1;
+}
+
+int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops, EventStop *stop) {
     State *S = &M->s;
     double last = S->t;
     for (int stalls = 0;; stalls++) {
@@ -159,7 +169,10 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops) {
                 S->t, (int)S->mode, MAX_STALLS);
             return -1;
         }
-        if (S->pending != EVENT_NONE && S->t <= tc && ops->apply_event(M, log)) return -1;
+        if (S->pending != EVENT_NONE && S->t <= tc) {
+            if (ops->apply_event(M, log)) return -1;
+            if (stops_here(M, stop)) return 0;
+        }
         if (S->t >= tc) return 0;
         if (ops->before_step) ops->before_step(M, log);
         if (S->mode == MODE_OVERTURNED) {
@@ -173,8 +186,12 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops) {
                 say(log, LOG_ERROR, "at rest at t=%.17g: the time is too large to resolve the excitation", S->t);
                 return -1;
             }
-            if (side) ops->start_moving(M, tu, side, log);
-            else S->t = tc;
+            if (side) {
+                ops->start_moving(M, tu, side, log);
+                if (stops_here(M, stop)) return 0;
+            } else {
+                S->t = tc;
+            }
         } else if (ops->take_step(M, log)) {
             return -1;
         }

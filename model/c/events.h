@@ -64,8 +64,9 @@ typedef struct {
 /* Advance M to tc: apply events once time reaches them, wait at rest for
  * uplift (find_uplift), step while moving, stay put once overturned.
  * Gives up with an error after MAX_STALLS passes in a row that leave the
- * time where it was (whatever the state, the loop ends). */
+ * time where it was (whatever the state, the loop ends). With stop (may be
+ * NULL), returns early right after the first event that stop asks for. */
 #define MAX_STALLS 1000
-int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops);
+int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops, EventStop *stop);
 
 #endif

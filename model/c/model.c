@@ -162,6 +162,17 @@ void model_rhs(const Model *M, double t, const double y[2], int side, double dy[
     model_rhs_piece(M, t, y, side, model_piece(M, t), dy);
 }
 
+int model_impact(const Model *M, double t, double wm, double *wp) {
+    *wp = M->d.eta * wm;
+    double ah, av;
+    model_ground(M, t, &ah, &av);
+    double geff = M->v.g + av;
+    if (!(geff > 0 && fabs(ah) <= geff * M->d.tanAlpha)) return 0;
+    double pe2 = M->d.mROverI0 * geff;
+    double cmax = cos(M->d.alpha) + *wp * *wp / (2.0 * pe2);
+    return cmax < 1.0 && M->d.alpha - acos(cmax) < M->v.restRatio * M->d.alpha;
+}
+
 double model_energy(const Model *M, double theta, double omega) {
     double a = M->d.alpha;
     return 0.5 * M->d.I0 * omega * omega +

@@ -157,6 +157,9 @@ typedef struct {
     double maxPrev, maxPrev2; /* max |theta1|, |theta2| before the dense step */
     double lastSwitchTime;
     int quickSwitches;    /* pattern changes without time advancing */
+
+    /* Model Exchange (me.c) */
+    int omegaSign;        /* sign of omega after the last event (a peak is a change) */
 } State;
 
 typedef struct {
@@ -178,6 +181,17 @@ typedef struct {
     int events;
 } Logger;
 
+/* Where an advance may end early (solver_advance): right after the first
+ * event later than `after` (any: impact, uplift, overturn, pattern change;
+ * overturn: an overturn only). stopped and time tell whether and when. */
+typedef struct {
+    int any;
+    int overturn;
+    double after;
+    int stopped;
+    double time;
+} EventStop;
+
 /* Set every variable to its start value. */
 void model_set_defaults(Model *M);
 
@@ -197,6 +211,14 @@ double model_law_restitution(const Variables *v, double alpha);
  *   theta'' = -(m R / I0) [ (g + a_v) sin(side*alpha - theta)
  *                           + a_h cos(side*alpha - theta) ]            */
 void model_rhs(const Model *M, double t, const double y[2], int side, double dy[2]);
+
+/* The impact map of block 1 landing on the ground at time t with angular
+ * velocity wm: writes the velocity just after, *wp = eta wm, and returns 1 if
+ * the block comes to rest there (rest criterion: below the uplift threshold,
+ * a rebound that would peak, in free rocking with effective gravity g + a_v,
+ * below restRatio * alpha), else 0. Used by the built-in solver and by Model
+ * Exchange's event update alike. */
+int model_impact(const Model *M, double t, double wm, double *wp);
 
 /* Energy (J): 0.5 I0 omega^2 + m g R (cos(alpha - |theta|) - cos(alpha)). */
 double model_energy(const Model *M, double theta, double omega);

@@ -53,7 +53,8 @@ static int apply_event(Model *M, const Logger *log) {
     State *S = &M->s;
     commit_peaks(M, log);
     if (S->pending == EVENT_IMPACT) {
-        double wm = S->y[1], wp = M->d.eta * wm;
+        double wm = S->y[1], wp;
+        int rest = model_impact(M, S->t, wm, &wp);
         S->impacts++;
         S->lastImpactTime = S->t;
         S->y[0] = 0.0;
@@ -62,22 +63,12 @@ static int apply_event(Model *M, const Logger *log) {
         S->fValid = 0;
         say(log, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g",
             S->t, wm, wp);
-        /* Rest criterion: below the uplift threshold, an impact whose rebound
-         * (free rocking with effective gravity g + a_v) would peak below
-         * restRatio * alpha ends the rocking. */
-        double ah, av;
-        model_ground(M, S->t, &ah, &av);
-        double geff = M->v.g + av;
-        if (geff > 0 && fabs(ah) <= geff * M->d.tanAlpha) {
-            double pe2 = M->d.mROverI0 * geff;
-            double cmax = cos(M->d.alpha) + wp * wp / (2.0 * pe2);
-            if (cmax < 1.0 && M->d.alpha - acos(cmax) < M->v.restRatio * M->d.alpha) {
-                S->mode = MODE_REST;
-                S->y[1] = 0.0;
-                S->restTime = S->t;
-                S->h = 0.0;
-                say(log, LOG_EVENTS, "rest t=%.17g", S->t);
-            }
+        if (rest) {
+            S->mode = MODE_REST;
+            S->y[1] = 0.0;
+            S->restTime = S->t;
+            S->h = 0.0;
+            say(log, LOG_EVENTS, "rest t=%.17g", S->t);
         }
     } else if (S->pending == EVENT_OVERTURN) {
         S->mode = MODE_OVERTURNED;
@@ -306,9 +297,9 @@ void solver_initialize(Model *M, double t0) {
     if (M->v.nBlocks == 2) stack_initialize(M);
 }
 
-int solver_advance(Model *M, double tc, const Logger *log) {
-    if (M->v.nBlocks == 2) return stack_advance(M, tc, log);
-    return advance_to(M, tc, log, &ONE_BLOCK);
+int solver_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
+    if (M->v.nBlocks == 2) return stack_advance(M, tc, log, stop);
+    return advance_to(M, tc, log, &ONE_BLOCK, stop);
 }
 
 void solver_outputs(Model *M, double tc) {

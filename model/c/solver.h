@@ -16,8 +16,10 @@
 /* Set the state from the initial parameters at time t0 (one or two blocks). */
 void solver_initialize(Model *M, double t0);
 
-/* Returns 0 on success, nonzero on failure (a message went to log). */
-int solver_advance(Model *M, double tc, const Logger *log);
+/* Returns 0 on success, nonzero on failure (a message went to log). With
+ * stop (may be NULL), ends early right after the first event it asks for
+ * (an impact, uplift, overturn or pattern change; or an overturn only). */
+int solver_advance(Model *M, double tc, const Logger *log, EventStop *stop);
 
 /* Write the output variables of M->v for time tc (<= integrator time). */
 void solver_outputs(Model *M, double tc);

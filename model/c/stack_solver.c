@@ -450,8 +450,8 @@ static int take_step(Model *M, const Logger *log) {
 
 static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL};
 
-int stack_advance(Model *M, double tc, const Logger *log) {
-    return advance_to(M, tc, log, &TWO_BLOCKS);
+int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
+    return advance_to(M, tc, log, &TWO_BLOCKS, stop);
 }
 
 /* State at tc (<= S->t) from the dense output, with the pivots of its step. */

@@ -20,7 +20,7 @@
  * part of model_initialize). */
 void stack_initialize(Model *M);
 
-int stack_advance(Model *M, double tc, const Logger *log);
+int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop);
 void stack_outputs(Model *M, double tc);
 void stack_rollback(Model *M, double tc);
 

@@ -1,0 +1,200 @@
+/* Model Exchange interface of the rocking block (me.h). The continuous
+ * state is the State's (t, y); the discrete state its side, mode and
+ * counters, so that outputs come from solver_outputs as in Co-Simulation. */
+#include "me.h"
+
+#include <math.h>
+#include <stdio.h>
+
+#include "events.h"
+#include "ground.h"
+#include "solver.h"
+
+static int sign_of(double x) { return x > 0 ? 1 : x < 0 ? -1 : 0; }
+
+int me_check(Instance *I) {
+    const Variables *v = &I->s.model.v;
+    if (v->nBlocks != 1) {
+        INSTANCE_ERROR(I, "invalid parameter: nBlocks = %d: Model Exchange runs one block (nBlocks = 1); run the "
+                     "two-block stack with Co-Simulation", v->nBlocks);
+        return 1;
+    }
+    if (v->earlyOverturn) {
+        INSTANCE_ERROR(I, "invalid parameter: solver.earlyOverturn belongs to the built-in solver of Co-Simulation; "
+                     "in Model Exchange the importer's solver integrates until |theta| = pi/2");
+        return 1;
+    }
+    return 0;
+}
+
+void me_start(Instance *I) {
+    Model *M = &I->s.model;
+    State *S = &M->s;
+    S->t = I->s.tc;
+    S->denseValid = 0;
+    S->nStepPeaks = 0;
+    S->omegaSign = sign_of(S->y[1]);
+    if (S->omegaSign == 0 && S->mode == MODE_ROCKING) { /* released at rest: it moves as it accelerates */
+        double dy[2];
+        model_rhs(M, S->t, S->y, S->side, dy);
+        S->omegaSign = sign_of(dy[1]);
+    }
+    me_update_outputs(I);
+}
+
+void me_update_outputs(Instance *I) {
+    if (I->s.dirty) return;
+    solver_outputs(&I->s.model, I->s.model.s.t);
+}
+
+Status me_set_time(Instance *I, double t, const char *fn) {
+    if (!isfinite(t)) {
+        INSTANCE_ERROR(I, "%s: time %g is not finite", fn, t);
+        return STATUS_ERROR;
+    }
+    I->s.model.s.t = t;
+    I->s.tc = t;
+    me_update_outputs(I);
+    return STATUS_OK;
+}
+
+static Status check_size(Instance *I, const void *p, size_t n, size_t want, const char *fn) {
+    if (!p && n > 0) {
+        INSTANCE_ERROR(I, "%s: NULL array", fn);
+        return STATUS_ERROR;
+    }
+    if (n != want) {
+        INSTANCE_ERROR(I, "%s: %zu values given, the model has %zu", fn, n, want);
+        return STATUS_ERROR;
+    }
+    return STATUS_OK;
+}
+
+Status me_set_states(Instance *I, const double *x, size_t nx, const char *fn) {
+    if (check_size(I, x, nx, ME_STATES, fn)) return STATUS_ERROR;
+    if (!isfinite(x[0]) || !isfinite(x[1])) {
+        INSTANCE_ERROR(I, "%s: state (%g, %g) is not finite", fn, x[0], x[1]);
+        return STATUS_ERROR;
+    }
+    State *S = &I->s.model.s;
+    S->y[0] = x[0];
+    S->y[1] = x[1];
+    me_update_outputs(I);
+    return STATUS_OK;
+}
+
+Status me_get_states(Instance *I, double *x, size_t nx, const char *fn) {
+    if (check_size(I, x, nx, ME_STATES, fn) || instance_initialize(I)) return STATUS_ERROR;
+    x[0] = I->s.model.s.y[0];
+    x[1] = I->s.model.s.y[1];
+    return STATUS_OK;
+}
+
+Status me_get_nominals(Instance *I, double *x, size_t nx, const char *fn) {
+    if (check_size(I, x, nx, ME_STATES, fn)) return STATUS_ERROR;
+    x[0] = x[1] = 1.0;
+    return STATUS_OK;
+}
+
+Status me_get_derivatives(Instance *I, double *dx, size_t nx, const char *fn) {
+    if (check_size(I, dx, nx, ME_STATES, fn) || instance_initialize(I)) return STATUS_ERROR;
+    const Model *M = &I->s.model;
+    const State *S = &M->s;
+    if (S->mode == MODE_ROCKING) {
+        model_rhs(M, S->t, S->y, S->side, dx);
+    } else {
+        dx[0] = dx[1] = 0.0;
+    }
+    return STATUS_OK;
+}
+
+Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn) {
+    if (check_size(I, z, nz, ME_INDICATORS, fn) || instance_initialize(I)) return STATUS_ERROR;
+    const Model *M = &I->s.model;
+    const State *S = &M->s;
+    z[0] = z[1] = z[2] = z[3] = 1.0;
+    if (S->mode == MODE_ROCKING) {
+        z[0] = S->y[0];
+        z[1] = M_PI / 2 - fabs(S->y[0]);
+        z[3] = S->y[1];
+    } else if (S->mode == MODE_REST) {
+        double ah, av;
+        model_ground(M, S->t, &ah, &av);
+        z[2] = (M->v.g + av) * M->d.upliftSlope - fabs(ah);
+    }
+    return STATUS_OK;
+}
+
+int me_event_update(Instance *I, MeEventInfo *info) {
+    Model *M = &I->s.model;
+    State *S = &M->s;
+    Logger log = instance_solver_logger(I);
+    double t = S->t, ah, av;
+    info->newDiscreteStatesNeeded = info->terminate = info->statesChanged = 0;
+    if (instance_initialize(I)) return -1;
+    model_ground(M, t, &ah, &av);
+    if (!(M->v.g + av > 0)) {
+        say(&log, LOG_ERROR,
+            "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)", av, t);
+        return -1;
+    }
+    if (S->mode == MODE_ROCKING) {
+        double theta = S->y[0], omega = S->y[1];
+        if (fabs(theta) >= M_PI / 2) {
+            S->mode = MODE_OVERTURNED;
+            S->overturnTime = t;
+            S->y[0] = S->side * M_PI / 2;
+            S->y[1] = 0.0;
+            S->maxAbsTheta = M_PI / 2;
+            info->statesChanged = 1;
+            say(&log, LOG_EVENTS, "overturn t=%.17g side=%d", t, S->side);
+        } else if (S->side * theta < 0 || (theta == 0 && S->side * omega < 0)) {
+            /* block 1 lands on the corner of the other side: the impact map */
+            double wp;
+            int rest = model_impact(M, t, omega, &wp);
+            S->impacts++;
+            S->lastImpactTime = t;
+            S->y[1] = wp;
+            S->side = -S->side;
+            info->statesChanged = 1;
+            say(&log, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g", t, omega, wp);
+            if (rest) {
+                S->mode = MODE_REST;
+                S->y[0] = S->y[1] = 0.0;
+                S->restTime = t;
+                say(&log, LOG_EVENTS, "rest t=%.17g", t);
+            }
+        } else if (omega * S->omegaSign < 0) { /* omega changed sign: a peak */
+            S->peaks++;
+            S->lastPeakTime = t;
+            S->lastPeakTheta = theta;
+            if (fabs(theta) > S->maxAbsTheta) S->maxAbsTheta = fabs(theta);
+            say(&log, LOG_EVENTS, "peak t=%.17g theta=%.17g", t, theta);
+        }
+        if (S->mode == MODE_ROCKING && sign_of(S->y[1])) S->omegaSign = sign_of(S->y[1]);
+        if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
+    } else if (S->mode == MODE_REST && fabs(ah) > (M->v.g + av) * M->d.upliftSlope) {
+        /* the ground tips the block over a corner: a_h > 0 towards theta < 0 */
+        S->mode = MODE_ROCKING;
+        S->side = ah > 0 ? -1 : 1;
+        S->y[0] = S->y[1] = 0.0;
+        S->omegaSign = S->side;
+        info->statesChanged = 1;
+        say(&log, LOG_EVENTS, "uplift t=%.17g side=%d", t, S->side);
+    }
+    if (S->mode == MODE_OVERTURNED && M->v.stopAtOverturn) {
+        I->s.terminated = 1;
+        info->terminate = 1;
+    }
+    double next = next_breakpoint(M, t, model_piece(M, t));
+    info->nextTimeDefined = isfinite(next) && next > t;
+    info->nextTime = info->nextTimeDefined ? next : 0.0;
+    me_update_outputs(I);
+    return 0;
+}
+
+int me_completed_step(Instance *I, int *enterEventMode) {
+    *enterEventMode = 0;
+    (void)I;
+    return 0;
+}
