@@ -12,7 +12,7 @@ import zipfile
 from pathlib import Path
 
 from fmu_build.model_description import model_description
-from fmu_build.variables import read_variables
+from fmu_build.variables import read_enumerations, read_variables
 
 MODEL_IDENTIFIER = "RockingBlock"
 ROOT = Path(__file__).resolve().parent.parent
@@ -55,7 +55,7 @@ def _sources_digest() -> str:
     for name in C_SOURCES + C_HEADERS:
         h.update(name.encode())
         h.update((C_DIR / name).read_bytes())
-    for name in ("build.py", "model_description.py", "variables.py"):
+    for name in ("build.py", "model_description.py", "model_structure.py", "variables.py"):
         h.update((Path(__file__).parent / name).read_bytes())
     return h.hexdigest()
 
@@ -99,7 +99,8 @@ def build_fmu(
             f'#define MODEL_GUID "{guid}"\n#endif\n'
         )
         (root / "modelDescription.xml").write_text(
-            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION)
+            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION,
+                              read_enumerations(C_DIR / "variables.def"))
         )
         binary = bindir / f"{MODEL_IDENTIFIER}.so"
         cmd = [cc, *flags, "-I", str(src), "-I", str(fmi_headers_dir()), "-o", str(binary)]

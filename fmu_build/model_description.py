@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.variables import Variable
+from fmu_build.model_structure import DEPENDENCIES, STATES
+from fmu_build.variables import Enumeration, Variable
 
 # SI base-unit exponents of every unit the model uses
 UNITS: dict[str, dict[str, int]] = {
@@ -19,6 +20,16 @@ UNITS: dict[str, dict[str, int]] = {
     "m/s2": {"m": 1, "s": -2},
     "J": {"kg": 1, "m": 2, "s": -2},
 }
+
+
+# display units of the angle units: degrees for people, radians in the model
+DISPLAY_UNITS: dict[str, tuple[str, float]] = {
+    "rad": ("deg", 180.0 / 3.141592653589793),
+    "rad/s": ("deg/s", 180.0 / 3.141592653589793),
+    "rad/s2": ("deg/s2", 180.0 / 3.141592653589793),
+}
+
+NUMBER_OF_EVENT_INDICATORS = 4  # model/c/me.h ME_INDICATORS
 
 
 def _start(v: Variable) -> str:
@@ -37,8 +48,18 @@ def model_description(
     guid: str,
     source_files: list[str],
     version: str,
+    enumerations: dict[str, Enumeration] | None = None,
 ) -> str:
-    """Return the XML text of modelDescription.xml."""
+    """Return the XML text of modelDescription.xml (Co-Simulation and Model Exchange)."""
+    enumerations = enumerations or {}
+    index = {v.name: i for i, v in enumerate(variables, start=1)}
+    unknown_names = [n for n in list(DEPENDENCIES) + list(STATES) + list(STATES.values()) + list(enumerations)
+                     if n not in index]
+    for deps in DEPENDENCIES.values():
+        unknown_names += [n for n in deps if n not in index]
+    if unknown_names:
+        raise ValueError(f"model structure names unknown variable(s): {sorted(set(unknown_names))}")
+    derivative_of = {der: state for state, der in STATES.items()}
     used_units = sorted({v.unit for v in variables if v.unit})
     unknown = [u for u in used_units if u not in UNITS]
     if unknown:
@@ -51,8 +72,20 @@ def model_description(
         f'modelName="{model_identifier}" guid="{guid}" '
         'description="Rigid block rocking on its corners under horizontal and vertical ground acceleration" '
         f'version="{version}" generationTool="rocking fmu_build" '
-        'variableNamingConvention="structured" numberOfEventIndicators="0">'
+        'variableNamingConvention="structured" '
+        f'numberOfEventIndicators="{NUMBER_OF_EVENT_INDICATORS}">'
     )
+    w(
+        f'  <ModelExchange modelIdentifier="{model_identifier}" '
+        'needsExecutionTool="false" completedIntegratorStepNotNeeded="true" '
+        'canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="false" '
+        'canSerializeFMUstate="false">'
+    )
+    w("    <SourceFiles>")
+    for f in source_files:
+        w(f'      <File name="{f}"/>')
+    w("    </SourceFiles>")
+    w("  </ModelExchange>")
     w(
         f'  <CoSimulation modelIdentifier="{model_identifier}" '
         'canHandleVariableCommunicationStepSize="true" canGetAndSetFMUstate="true" '
@@ -67,8 +100,22 @@ def model_description(
     w("  <UnitDefinitions>")
     for u in used_units:
         exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
-        w(f"    <Unit name={quoteattr(u)}><BaseUnit {exps}/></Unit>" if exps else f"    <Unit name={quoteattr(u)}/>")
+        base = f"<BaseUnit {exps}/>" if exps else ""
+        if u in DISPLAY_UNITS:
+            name, factor = DISPLAY_UNITS[u]
+            base += f'<DisplayUnit name="{name}" factor="{factor!r}"/>'
+        w(f"    <Unit name={quoteattr(u)}>{base}</Unit>" if base else f"    <Unit name={quoteattr(u)}/>")
     w("  </UnitDefinitions>")
+    if enumerations:
+        w("  <TypeDefinitions>")
+        for enum in sorted({e.name: e for e in enumerations.values()}.values(), key=lambda e: e.name):
+            w(f'    <SimpleType name="{enum.name}">')
+            w("      <Enumeration>")
+            for value, item, description in enum.items:
+                w(f'        <Item name="{item}" value="{value}" description={quoteattr(description)}/>')
+            w("      </Enumeration>")
+            w("    </SimpleType>")
+        w("  </TypeDefinitions>")
     w("  <LogCategories>")
     w('    <Category name="logEvents" description="Impacts, peaks, uplift, rest and overturn with full-precision times"/>')
     w('    <Category name="logStatusError" description="Errors: invalid parameters, invalid call sequences, solver failures"/>')
@@ -76,26 +123,40 @@ def model_description(
     w('  <DefaultExperiment startTime="0" stopTime="5"/>')
     w("  <ModelVariables>")
     outputs: list[int] = []
-    for index, v in enumerate(variables, start=1):
+    for i, v in enumerate(variables, start=1):
         attrs = (
             f"name={quoteattr(v.name)} valueReference=\"{v.value_reference}\" "
             f"causality=\"{v.causality}\" variability=\"{v.variability}\" "
             f"description={quoteattr(v.description)}"
         )
         if v.causality == "output":
-            outputs.append(index)
-            inner = f"<{v.type}" + (f' unit="{v.unit}"' if v.type == "Real" and v.unit else "") + "/>"
-        else:
-            inner = f'<{v.type} start={quoteattr(_start(v))}' + (
-                f' unit="{v.unit}"' if v.type == "Real" and v.unit else ""
-            ) + "/>"
-        w(f"    <ScalarVariable {attrs}>{inner}</ScalarVariable>")
+            outputs.append(i)
+        element = v.type
+        extra = ""
+        if v.name in enumerations:
+            element = "Enumeration"
+            extra += f' declaredType="{enumerations[v.name].name}"'
+        if v.type == "Real" and v.unit:
+            extra += f' unit="{v.unit}"'
+            if v.unit in DISPLAY_UNITS:
+                extra += f' displayUnit="{DISPLAY_UNITS[v.unit][0]}"'
+        if v.name in derivative_of:
+            extra += f' derivative="{index[derivative_of[v.name]]}"'
+        if v.causality != "output":
+            extra = f" start={quoteattr(_start(v))}" + extra
+        w(f"    <ScalarVariable {attrs}><{element}{extra}/></ScalarVariable>")
     w("  </ModelVariables>")
     w("  <ModelStructure>")
     w("    <Outputs>")
     for i in outputs:
-        w(f'      <Unknown index="{i}"/>')
+        deps = " ".join(str(index[n]) for n in DEPENDENCIES.get(variables[i - 1].name, ()))
+        w(f'      <Unknown index="{i}" dependencies="{deps}"/>')
     w("    </Outputs>")
+    w("    <Derivatives>")
+    for state, der in STATES.items():
+        deps = " ".join(str(index[n]) for n in DEPENDENCIES.get(der, ()))
+        w(f'      <Unknown index="{index[der]}" dependencies="{deps}"/>')
+    w("    </Derivatives>")
     w("    <InitialUnknowns>")
     for i in outputs:
         w(f'      <Unknown index="{i}"/>')

@@ -57,3 +57,33 @@ def read_variables(path: Path) -> list[Variable]:
     if len(set(names)) != len(names) or len(set(refs)) != len(refs):
         raise ValueError(f"{path}: duplicate variable name or value reference")
     return variables
+
+
+_ITEM = re.compile(
+    r'^ITEM\(\s*"(?P<var>[^"]+)"\s*,\s*(?P<type>\w+)\s*,\s*(?P<value>-?\d+)\s*,\s*(?P<item>\w+)\s*,'
+    r'\s*"(?P<description>[^"]*)"\s*\)\s*$'
+)
+
+
+@dataclass(frozen=True)
+class Enumeration:
+    """An FMI Enumeration type: its name and items (value, name, description)."""
+
+    name: str
+    items: tuple[tuple[int, str, str], ...]
+
+
+def read_enumerations(path: Path) -> dict[str, Enumeration]:
+    """The ``ITEM(...)`` lines of ``path``: variable name -> its Enumeration type."""
+    found: dict[str, tuple[str, list[tuple[int, str, str]]]] = {}
+    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+        if not line.startswith("ITEM("):
+            continue
+        m = _ITEM.match(line.strip())
+        if not m:
+            raise ValueError(f"{path}:{lineno}: malformed ITEM line: {line.strip()}")
+        type_name, items = found.setdefault(m["var"], (m["type"], []))
+        if type_name != m["type"]:
+            raise ValueError(f"{path}:{lineno}: '{m['var']}' has two enumeration types")
+        items.append((int(m["value"]), m["item"], m["description"]))
+    return {var: Enumeration(t, tuple(sorted(items))) for var, (t, items) in found.items()}

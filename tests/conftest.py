@@ -45,6 +45,39 @@ def build_container(fmu_path: Path, folder: Path, step_size: float, name: str = 
     return container
 
 
+class Slave:
+    """A raw fmpy slave with its log captured, for call-sequence tests."""
+
+    def __init__(self, fmu):
+        self.messages: list[str] = []
+        self.fmu = fmu
+        self.s, self._cb = fmu.instantiate(lambda st, cat, msg: self.messages.append(msg))
+        self.vr = {n: v.valueReference for n, v in fmu.vars.items()}
+
+    def start(self, params=None, t0=0.0):
+        self.s.setupExperiment(startTime=t0)
+        self.fmu.set_parameters(self.s, params or {})
+        self.s.enterInitializationMode()
+        self.s.exitInitializationMode()
+
+    def real(self, *names):
+        return self.s.getReal([self.vr[n] for n in names])
+
+    def outputs(self):
+        return self.real("block1.theta", "block1.omega", "energy") + self.s.getInteger(
+            [self.vr["impacts"], self.vr["peaks"]]
+        )
+
+    def expect_error(self, call, text):
+        n = len(self.messages)
+        with pytest.raises(Exception):
+            call()
+        assert any(text in m for m in self.messages[n:]), self.messages[n:]
+
+    def close(self):
+        self.s.freeInstance()
+
+
 @pytest.fixture(autouse=True)
 def _scratch_database(tmp_path_factory, monkeypatch):
     """Runs stored by the tests go to a scratch SQLite file, never to ./rocking.db."""

@@ -14,7 +14,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import build_container
+from conftest import Slave, build_container
 from runners.engine.fmu import FMUError
 
 SCENE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
@@ -82,39 +82,6 @@ def test_invalid_combinations_give_errors(fmu):
 def test_vertical_input_below_minus_g_is_an_error_not_a_crash(fmu):
     with pytest.raises(FMUError, match="leave the ground"):
         fmu.run({"block1.theta0": 0.1}, 0.5, 0.01, inputs=lambda t: (0.0, -20.0))
-
-
-class Slave:
-    """A raw fmpy slave with its log captured, for call-sequence tests."""
-
-    def __init__(self, fmu):
-        self.messages: list[str] = []
-        self.fmu = fmu
-        self.s, self._cb = fmu.instantiate(lambda st, cat, msg: self.messages.append(msg))
-        self.vr = {n: v.valueReference for n, v in fmu.vars.items()}
-
-    def start(self, params=None, t0=0.0):
-        self.s.setupExperiment(startTime=t0)
-        self.fmu.set_parameters(self.s, params or {})
-        self.s.enterInitializationMode()
-        self.s.exitInitializationMode()
-
-    def real(self, *names):
-        return self.s.getReal([self.vr[n] for n in names])
-
-    def outputs(self):
-        return self.real("block1.theta", "block1.omega", "energy") + self.s.getInteger(
-            [self.vr["impacts"], self.vr["peaks"]]
-        )
-
-    def expect_error(self, call, text):
-        n = len(self.messages)
-        with pytest.raises(Exception):
-            call()
-        assert any(text in m for m in self.messages[n:]), self.messages[n:]
-
-    def close(self):
-        self.s.freeInstance()
 
 
 @pytest.fixture

@@ -10,6 +10,10 @@
 #include "ground.h"
 #include "solver.h"
 
+/* s: how far ahead an uplift is looked for without a stop time (an endless harmonic
+ * motion below the threshold would otherwise be searched for ever) */
+#define UPLIFT_HORIZON 1000.0
+
 static int sign_of(double x) { return x > 0 ? 1 : x < 0 ? -1 : 0; }
 
 int me_check(Instance *I) {
@@ -92,7 +96,12 @@ Status me_get_states(Instance *I, double *x, size_t nx, const char *fn) {
 
 Status me_get_nominals(Instance *I, double *x, size_t nx, const char *fn) {
     if (check_size(I, x, nx, ME_STATES, fn)) return STATUS_ERROR;
-    x[0] = x[1] = 1.0;
+    const Derived *d = &I->s.model.d;
+    /* the size of the motion: an excursion of the order of alpha (once the
+     * parameters are known), at the rate a free fall from it reaches */
+    int known = !I->s.dirty;
+    x[0] = known ? d->alpha : 1.0;
+    x[1] = known ? d->alpha * sqrt(d->p2) : 1.0;
     return STATUS_OK;
 }
 
@@ -186,7 +195,17 @@ int me_event_update(Instance *I, MeEventInfo *info) {
         I->s.terminated = 1;
         info->terminate = 1;
     }
-    double next = next_breakpoint(M, t, model_piece(M, t));
+    int piece = model_piece(M, t);
+    double next = next_breakpoint(M, t, piece);
+    /* at rest, the next uplift under the built-in excitation (and the inputs as they are
+     * now) is a time event, found as the built-in solver finds it (find_uplift): an
+     * excursion of |ah| above the threshold shorter than one step of the importer's solver
+     * would give the uplift indicator no sign change at the step's ends */
+    if (S->mode == MODE_REST) {
+        double horizon = fmin(I->s.stopDefined ? I->s.stopTime : INFINITY, t + UPLIFT_HORIZON), tu;
+        int side = find_uplift(M, t, horizon, &tu);
+        if ((side == 1 || side == -1) && tu > t) next = fmin(next, tu);
+    }
     info->nextTimeDefined = isfinite(next) && next > t;
     info->nextTime = info->nextTimeDefined ? next : 0.0;
     me_update_outputs(I);

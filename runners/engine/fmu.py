@@ -23,6 +23,8 @@ from fmpy.fmi2 import (
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
+    fmi2LastSuccessfulTime,
+    fmi2Terminated,
 )
 
 def _allocator():
@@ -155,6 +157,9 @@ class RockingFMU:
             raise FMUError(f"{fmu_path} is an FMU, but not a RockingBlock co-simulation FMU (python -m fmu_build)")
         self._owns_dir = unzipdir is None
         self.unzipdir = extract(str(fmu_path)) if unzipdir is None else unzipdir
+        for v in self.model_description.modelVariables:
+            if v.type == "Enumeration":  # read and set as an Integer in FMI 2.0 (fmi2GetInteger)
+                v.type = "Integer"
         self.vars = {v.name: v for v in self.model_description.modelVariables}
 
     def close(self) -> None:
@@ -248,6 +253,22 @@ class RockingFMU:
 
         return get
 
+    @staticmethod
+    def _step(slave: FMU2Slave, t: float, h: float) -> bool:
+        """One fmi2DoStep; False if it ended the run (fmi2Discard with fmi2Terminated: an
+        overturn with solver.stopAtOverturn), an exception for any other failure."""
+        try:
+            slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            return True
+        except Exception:
+            try:
+                ended = bool(slave.getBooleanStatus(fmi2Terminated))
+            except Exception:
+                ended = False
+            if ended:
+                return False
+            raise
+
     def run(
         self,
         parameters: dict[str, float | int | bool],
@@ -305,7 +326,12 @@ class RockingFMU:
                 for i in range(n):
                     if inputs is not None:
                         slave.setReal(list(ah_av), list(inputs(times[i])))
-                    slave.doStep(currentCommunicationPoint=times[i], communicationStepSize=times[i + 1] - times[i])
+                    if not self._step(slave, times[i], times[i + 1] - times[i]):
+                        # solver.stopAtOverturn: the run ended at the overturn; the series ends there
+                        times[i + 1] = slave.getRealStatus(fmi2LastSuccessfulTime)
+                        data[i + 1] = get()
+                        times, data = times[:i + 2], data[:i + 2]
+                        break
                     data[i + 1] = get()
                     if overflow:
                         raise FMUError(f"more than {MAX_EVENTS:.0e} events (impacts, peaks...) by t = "

@@ -83,6 +83,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "rest_ratio": ("solver.restRatio", "real"),
         "method": ("solver.method", METHODS),
         "early_overturn": ("solver.earlyOverturn", "bool"),
+        "stop_at_overturn": ("solver.stopAtOverturn", "bool"),
     },
 }
 

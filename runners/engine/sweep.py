@@ -478,7 +478,7 @@ def _run_point(task: tuple) -> tuple[int, dict | None, float, str | None, Record
         _set_all(fmu, s, {**w["base"], **over})
         s.enterInitializationMode()
         s.exitInitializationMode()
-        s.doStep(0.0, stop)
+        RockingFMU._step(s, 0.0, stop)  # with solver.stopAtOverturn it may end at the overturn
         out = {}
         for typ, get in (("Real", s.getReal), ("Integer", s.getInteger), ("Boolean", s.getBoolean)):
             names = [n for n, v in w["vrs"].items() if v.type == typ]

@@ -1,0 +1,184 @@
+"""FMI 2.0 rules the FMU keeps beyond the call sequence: outputs after inputs are set,
+the declared ModelStructure, the importer's tolerance, ending a run at an overturn,
+Enumerations and display units."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
+
+from conftest import Slave
+from fmu_build.model_structure import DEPENDENCIES, STATES
+
+ROCKING = {"block1.theta0": 0.15, "excitation.kind": 1, "excitation.amplitude": 4.0, "excitation.frequency": 2.0}
+STACK = {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": 0.08}
+INPUTS = ("ground.ah", "ground.av")
+
+
+def _outputs(slave: Slave) -> dict[str, float]:
+    values = {}
+    for name, v in slave.fmu.vars.items():
+        if v.causality != "output":
+            continue
+        get = {"Real": slave.s.getReal, "Integer": slave.s.getInteger, "Boolean": slave.s.getBoolean}[v.type]
+        values[name] = float(get([v.valueReference])[0])
+    return values
+
+
+def _rocking_slave(fmu, params, t=0.37):
+    slave = Slave(fmu)
+    slave.start(params)
+    slave.s.doStep(0.0, t)
+    return slave
+
+
+def test_inputs_set_without_a_step_update_the_feedthrough_outputs(fmu):
+    """After fmi2SetReal(ground.ah), ahTotal and alpha_dd are those of the new input at once:
+    alpha_dd from the equation of motion written out here, with theta from the outputs."""
+    slave = _rocking_slave(fmu, {"block1.theta0": 0.15})
+    theta, omega = slave.real("block1.theta", "block1.omega")
+    side = math.copysign(1.0, theta)  # the corner it rocks on
+    assert theta != 0
+    ah, av = 2.5, -1.5
+    slave.s.setReal([slave.vr["ground.ah"], slave.vr["ground.av"]], [ah, av])
+    b, h, g = 0.1, 0.3, 9.81  # the FMU's default block and gravity
+    R, alpha = math.hypot(b, h), math.atan(b / h)
+    phi = side * alpha - theta
+    expected = -(3.0 / (4.0 * R)) * ((g + av) * math.sin(phi) + ah * math.cos(phi))
+    got_ah, got_av, got_add = slave.real("ground.ahTotal", "ground.avTotal", "block1.alpha_dd")
+    assert (got_ah, got_av) == (ah, av)
+    assert got_add == pytest.approx(expected, rel=1e-12)
+    assert slave.real("block1.theta", "block1.omega") == [theta, omega]  # states do not jump
+    slave.close()
+
+
+@pytest.mark.parametrize("params", [ROCKING, STACK], ids=["one block", "two blocks"])
+@pytest.mark.parametrize("changed", INPUTS)
+def test_outputs_declared_independent_of_an_input_do_not_change_with_it(fmu, params, changed):
+    """ModelStructure by perturbation: set one input at a communication point (no step);
+    an output that does not declare it must keep its value, and some that do must change."""
+    slave = _rocking_slave(fmu, params)
+    before = _outputs(slave)
+    slave.s.setReal([slave.vr[changed]], [3.25])
+    after = _outputs(slave)
+    moved = {n for n in before if after[n] != before[n]}
+    declared = {n for n, deps in DEPENDENCIES.items() if changed in deps}
+    assert moved <= declared, f"changed without a declared dependency on {changed}: {moved - declared}"
+    must_move = {"ground.ahTotal" if changed == "ground.ah" else "ground.avTotal", "block1.alpha_dd"}
+    if params is STACK:
+        must_move.add("block2.alpha_dd")
+    assert must_move <= moved
+    slave.close()
+
+
+def test_model_description_declares_the_structure(fmu):
+    md = fmu.model_description
+    index = {v.name: i for i, v in enumerate(md.modelVariables, start=1)}
+    by_name = {v.name: v for v in md.modelVariables}
+    outputs = {u.variable.name: {d.name for d in (u.dependencies or [])} for u in md.outputs}
+    assert set(outputs) == {n for n, v in by_name.items() if v.causality == "output"}
+    for name, deps in outputs.items():
+        assert deps == set(DEPENDENCIES.get(name, ())), name
+    assert {u.variable.name for u in md.derivatives} == set(STATES.values())
+    for state, der in STATES.items():
+        assert by_name[der].derivative is by_name[state]
+    assert index  # indices resolved by fmpy
+
+
+def test_importer_tolerance_replaces_the_solver_tolerance(fmu_path):
+    """toleranceDefined: the importer's tolerance is solver.relTol. A loose one changes the
+    trajectory, one equal to solver.relTol does not."""
+    kw = dict(start_values={"block1.theta0": 0.15}, stop_time=3.0, output_interval=0.01, output=["block1.theta"])
+    own = simulate_fmu(str(fmu_path), **kw)["block1.theta"]  # no tolerance given: solver.relTol = 1e-10
+    same = simulate_fmu(str(fmu_path), relative_tolerance=1e-10, **kw)["block1.theta"]
+    loose = simulate_fmu(str(fmu_path), relative_tolerance=1e-3, **kw)["block1.theta"]
+    tight = simulate_fmu(str(fmu_path), relative_tolerance=1e-12, **kw)["block1.theta"]
+    assert np.array_equal(own, same)
+    assert np.max(np.abs(loose - tight)) > 1e-6  # the loose tolerance is used
+    assert np.max(np.abs(own - tight)) < np.max(np.abs(loose - tight))
+
+
+def test_tolerance_is_reported_and_checked(fmu):
+    slave = Slave(fmu)
+    slave.s.setupExperiment(tolerance=1e-6, startTime=0.0)
+    slave.s.enterInitializationMode()
+    assert slave.real("solver.relTol") == [1e-6]
+    slave.close()
+    bad = Slave(fmu)
+    bad.expect_error(lambda: bad.s.setupExperiment(tolerance=0.5, startTime=0.0), "tolerance 0.5 must be in (0, 0.1]")
+    bad.close()
+
+
+OVERTURNING = {"excitation.kind": 1, "excitation.amplitude": 12.0, "excitation.frequency": 1.0}
+
+
+def test_stop_at_overturn_ends_the_step_there(fmu):
+    """solver.stopAtOverturn: the step that contains the overturn returns fmi2Discard,
+    fmi2Terminated is true and the last successful time is the overturn time of a run
+    without the option."""
+    full = Slave(fmu)
+    full.start(OVERTURNING)
+    for k in range(6):
+        full.s.doStep(0.5 * k, 0.5)  # default: steps go on after the overturn
+    overturn_time, = full.real("overturnTime")
+    assert 0 < overturn_time < 3.0
+    assert not full.s.getBooleanStatus(fmi2Terminated)
+    full.close()
+
+    slave = Slave(fmu)
+    slave.start({**OVERTURNING, "solver.stopAtOverturn": True})
+    t = 0.0
+    with pytest.raises(Exception):
+        while t < 3.0:
+            slave.s.doStep(t, 0.5)
+            t += 0.5
+    assert slave.s.getBooleanStatus(fmi2Terminated)
+    assert slave.s.getRealStatus(fmi2LastSuccessfulTime) == overturn_time
+    assert slave.real("overturnTime", "block1.theta") == [overturn_time, math.copysign(math.pi / 2,
+                                                                                        slave.real("block1.theta")[0])]
+    assert slave.s.getBoolean([slave.vr["overturned"]]) == [True]
+    slave.close()
+
+
+def test_stop_at_overturn_in_the_runners_ends_the_series(fmu):
+    full = fmu.run(OVERTURNING, 3.0, 0.01, outputs=["block1.theta", "overturnTime"])
+    short = fmu.run({**OVERTURNING, "solver.stopAtOverturn": True}, 3.0, 0.01, outputs=["block1.theta", "overturnTime"])
+    t_over = full.outputs["overturnTime"][-1]
+    assert short.time[-1] == t_over
+    n = len(short.time) - 1
+    assert np.array_equal(short.time[:n], full.time[:n])
+    assert np.array_equal(short.outputs["block1.theta"][:n], full.outputs["block1.theta"][:n])
+
+
+def test_enumerations_name_exactly_the_values_the_model_accepts(fmu):
+    md = fmu.model_description
+    typed = {v.name: v.declaredType for v in md.modelVariables if v.declaredType is not None
+             and v.declaredType.type == "Enumeration"}
+    assert {"restitution.law", "excitation.kind", "solver.method", "pattern"} <= set(typed)
+    for name, t in typed.items():
+        values = sorted(int(item.value) for item in t.items)
+        assert values == list(range(values[0], values[-1] + 1)), name
+        assert all(item.description for item in t.items), name
+        if fmu.vars[name].causality != "parameter":
+            continue
+        for outside in (values[0] - 1, values[-1] + 1):
+            slave = Slave(fmu)
+            slave.s.setupExperiment(startTime=0.0)
+            slave.s.setInteger([slave.vr[name]], [outside])
+            slave.expect_error(slave.s.enterInitializationMode, name)
+            slave.close()
+
+
+def test_angles_display_in_degrees(fmu):
+    md = fmu.model_description
+    units = {u.name: u for u in md.unitDefinitions}
+    for v in md.modelVariables:
+        if v.type == "Real" and v.unit in ("rad", "rad/s", "rad/s2"):
+            assert v.displayUnit is not None and v.displayUnit.startswith("deg"), v.name
+    for u in ("rad", "rad/s", "rad/s2"):
+        (display,) = units[u].displayUnits
+        assert display.factor == pytest.approx(180.0 / math.pi, rel=1e-15)
