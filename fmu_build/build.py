@@ -11,6 +11,7 @@ import uuid
 import zipfile
 from pathlib import Path
 
+from fmu_build.documentation import DOCS, PAGES, documentation_html
 from fmu_build.model_description import model_description
 from fmu_build.variables import read_enumerations, read_variables
 
@@ -55,8 +56,10 @@ def _sources_digest() -> str:
     for name in C_SOURCES + C_HEADERS:
         h.update(name.encode())
         h.update((C_DIR / name).read_bytes())
-    for name in ("build.py", "model_description.py", "model_structure.py", "variables.py"):
+    for name in ("build.py", "documentation.py", "model_description.py", "model_structure.py", "variables.py"):
         h.update((Path(__file__).parent / name).read_bytes())
+    for page in PAGES:
+        h.update((DOCS / page).read_bytes())
     return h.hexdigest()
 
 
@@ -98,10 +101,13 @@ def build_fmu(
             "#ifndef ROCKING_CONFIG_H\n#define ROCKING_CONFIG_H\n"
             f'#define MODEL_GUID "{guid}"\n#endif\n'
         )
+        enumerations = read_enumerations(C_DIR / "variables.def")
         (root / "modelDescription.xml").write_text(
-            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION,
-                              read_enumerations(C_DIR / "variables.def"))
+            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION, enumerations)
         )
+        (root / "documentation").mkdir()
+        (root / "documentation" / "index.html").write_text(
+            documentation_html(variables, enumerations, MODEL_IDENTIFIER, VERSION), encoding="utf-8")
         binary = bindir / f"{MODEL_IDENTIFIER}.so"
         cmd = [cc, *flags, "-I", str(src), "-I", str(fmi_headers_dir()), "-o", str(binary)]
         cmd += [str(src / s) for s in C_SOURCES] + ["-lm"]
