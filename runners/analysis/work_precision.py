@@ -18,8 +18,10 @@ seconds per simulation. The FMU appears three times: natively
 through fmpy with one instance reset between runs and one doStep (what a
 Python sweep pays per simulation), and through fmpy with 10 ms communication
 steps reading theta at each (what a co-simulation pays); the error does not
-depend on the communication step (a test), only the cost does. The Python methods are model/solvers.py (minimum over
-repeats).
+depend on the communication step (a test), only the cost does. Its Model Exchange
+interface appears integrated by fmpy's CVode (BDF, at several tolerances) and by
+fmpy's forward Euler (fixed steps; events found at the step's end). The Python
+methods are model/solvers.py (minimum over repeats).
 """
 
 from __future__ import annotations
@@ -198,6 +200,49 @@ def fmu_points(fmu: RockingFMU, native: NativeTimer, case: Case, rel_tols, repea
 
 
 BLOCK_PARAMETERS = {"block1.halfWidth": BLOCK.b, "block1.halfHeight": BLOCK.h}
+ME_TOLS = [1e-4, 1e-6, 1e-8, 1e-10]
+ME_STEPS = [1e-3, 3e-4, 1e-4]  # s, fmpy's Euler steps from one output point to the next
+
+
+def me_points(fmu: RockingFMU, case: Case, repeats: int, quick: bool = False) -> list[Point]:
+    """The FMU's Model Exchange interface integrated by fmpy's CVode (several tolerances) and its
+    forward Euler (fixed steps): one instance reset between runs, events from its log."""
+    from fmpy import instantiate_fmu, simulate_fmu
+
+    events = []
+
+    def log(_env, _name, _status, category, message):
+        if category == b"logEvents":
+            ev = parse_event(message.decode())
+            if ev:
+                events.append(ev)
+
+    md = fmu.model_description
+    model = instantiate_fmu(fmu.unzipdir, md, "ModelExchange", debug_logging=True, logger=log)
+    params = {**BLOCK_PARAMETERS, **case.fmu_parameters}
+    points = []
+    try:
+        for solver, settings in (("CVode", QUICK_TOLS if quick else ME_TOLS), ("Euler", ME_STEPS)):
+            for x in settings:
+                def run():
+                    events.clear()
+                    model.reset()
+                    simulate_fmu(fmu.unzipdir, validate=False, stop_time=case.fmu_stop, solver=solver,
+                                 relative_tolerance=x if solver == "CVode" else None,
+                                 step_size=x if solver == "Euler" else None,
+                                 output_interval=x if solver == "Euler" else case.fmu_stop / 10,
+                                 record_events=False, fmi_type="ModelExchange", start_values=params, output=[],
+                                 model_description=md, fmu_instance=model, terminate=True)
+                    return ([e.t for e in events if e.kind == "impact"],
+                            [e.values["theta"] for e in events if e.kind == "peak"])
+
+                seconds, (ti, pk) = _timed(run, max(1, repeats // 5) if solver == "CVode" else 1)
+                setting = f"rtol {x:g}" if solver == "CVode" else f"h {x:g} s"
+                points.append(Point(case.name, f"FMU Model Exchange, fmpy {solver}", setting,
+                                    case.error(ti, pk), seconds))
+    finally:
+        model.freeInstance()
+    return points
 
 SCIPY = {"DOP853": [1e-4, 1e-6, 1e-8, 1e-10, 1e-12], "RK45": [1e-4, 1e-6, 1e-8, 1e-10],
          "Radau": [1e-4, 1e-6, 1e-8]}
@@ -257,6 +302,8 @@ STYLES: dict[str, tuple[str, str, str]] = {
     "FMU through fmpy": ("#1f78b4", "s", "-"),
     "FMU through fmpy, Taylor series": ("#b15fd3", "^", "-"),
     "FMU through fmpy, 10 ms communication steps": ("#56b4e9", "v", "-"),
+    "FMU Model Exchange, fmpy CVode": ("#17becf", "h", "-"),
+    "FMU Model Exchange, fmpy Euler": ("#9edae5", "d", "-"),
     "scipy DOP853, event-driven": ("#d62728", "P", "--"),
     "scipy RK45, event-driven": ("#ff7f0e", "X", "--"),
     "scipy Radau, event-driven": ("#8c564b", "*", "--"),
@@ -322,6 +369,7 @@ def compute_points(fmu_path: Path, repeats: int = 20, quick: bool = False, progr
             tqdm(total=5, desc="work-precision", unit="part", disable=not progress) as bar:
         for case in (free_rocking_case(), sine_pulse_case()):
             points += fmu_points(fmu, native, case, QUICK_TOLS if quick else FMU_TOLS, repeats)
+            points += me_points(fmu, case, repeats, quick)
             bar.update()
             points += python_points(case, quick)
             bar.update()

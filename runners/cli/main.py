@@ -100,6 +100,12 @@ def cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def fmu3_for(fmu: Path) -> Path | None:
+    """The FMI 3.0 edition built beside `fmu` (python -m fmu_build), if there is one."""
+    path = fmu.with_name(fmu.stem + "3.fmu")
+    return path if path.is_file() else None
+
+
 def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object]]:
     """(name, callable returning a Markdown section) of the benchmarks the options ask for."""
     from runners.analysis import bench as b
@@ -114,6 +120,13 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
 
         return run_study_bench(fmu)
 
+    def interfaces():
+        from runners.analysis.bench_interfaces import run_interface_bench
+
+        return run_interface_bench(fmu, fmu3_for(fmu))
+
+    if args.interfaces:
+        return [("FMI interfaces", interfaces)]
     if args.dask:
         return [("sweep executors (Dask)", lambda: b.run_dask_bench(fmu))]
     if args.sweep_size:
@@ -133,6 +146,7 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
             ("fmpy", lambda: b.run_fmpy_bench(fmu, repeats=args.fmpy_repeats)),
             ("recordings", lambda: b.run_recording_bench(fmu)),
             ("sweep recordings", lambda: b.run_sweep_recording_bench(fmu)),
+            ("FMI interfaces", interfaces),
             ("record-driven run", records), ("fragility study", study),
             ("sweep size", lambda: b.run_sweep_size_bench(fmu))]
 
@@ -146,8 +160,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise ValueError("--charts writes its charts to a folder: give --out DIR")
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
-    if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts))) > 1:
-        raise ValueError("give one of --charts, --dask, --records and --sweep-size (or none: every benchmark)")
+    if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces))) > 1:
+        raise ValueError("give one of --charts, --dask, --records, --sweep-size and --interfaces (or none: every "
+                         "benchmark)")
     fmu = fmu_path_from(args.fmu)
     stages = dict(_bench_stages(args, fmu))
     texts = []

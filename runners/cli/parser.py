@@ -180,6 +180,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="only the record benchmarks: one record-driven run, and a 560-run fragility study")
     bench.add_argument("--sweep-size", action="store_true",
                        help="only the sweep-size benchmark: memory and start-up of 1e4- to 1e7-point sweeps")
+    bench.add_argument("--interfaces", action="store_true",
+                       help="only the cost of one run through each FMI interface (Co-Simulation, Model Exchange "
+                            "with CVode and Euler, FMI 3.0 with early return)")
     common(bench, fmu=True)
     bench.set_defaults(func=f"{main}:cmd_bench", chart=None)
 
