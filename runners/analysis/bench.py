@@ -61,7 +61,7 @@ class NativeTimer:
         for name, value in parameters.items():
             v = self.vars[name]
             args.append(f"s{v.valueReference}={value}" if v.type == "String"
-                        else f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean")
+                        else f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean", "Enumeration")
                         else f"{v.valueReference}={float(value)!r}")
         proc = subprocess.run([str(self.exe), str(self.lib), self.guid, str(repeats), "custom", repr(float(stop_time)),
                                *args], capture_output=True, text=True)
