@@ -23,7 +23,11 @@ def main() -> int:
             raise
         print("error: interrupted", file=sys.stderr)
         return 130
-    code = run()
+    try:
+        code = run()
+    except KeyboardInterrupt:  # while the parser is still being built (run's own handler not yet active)
+        print("error: interrupted", file=sys.stderr)
+        return 130
     # the command is done and has said so: an interruption arriving while Python exits has
     # nothing left to stop, and must not turn a finished command into a killed one
     signal.signal(signal.SIGINT, signal.SIG_IGN)
