@@ -1,4 +1,5 @@
-"""``python -m fmu_build``: build build/RockingBlock.fmu from model/c."""
+"""``python -m fmu_build``: build build/RockingBlock.fmu (FMI 2.0) and build/RockingBlock3.fmu (FMI 3.0)
+from model/c."""
 
 from __future__ import annotations
 
@@ -7,20 +8,24 @@ import sys
 from pathlib import Path
 
 from fmu_build.build import BuildError, build_fmu
+from fmu_build.build3 import build_fmu3
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m fmu_build", description=__doc__)
     parser.add_argument("--out", type=Path, help="output .fmu path (default build/RockingBlock.fmu)")
+    parser.add_argument("--out3", type=Path, help="output path of the FMI 3.0 FMU (default build/RockingBlock3.fmu)")
     parser.add_argument("--sanitize", action="store_true", help="build with AddressSanitizer and UBSan")
     parser.add_argument("--force", action="store_true", help="rebuild even if the sources did not change")
     args = parser.parse_args(argv)
     try:
         path = build_fmu(args.out, sanitize=args.sanitize, force=args.force)
+        path3 = build_fmu3(args.out3, sanitize=args.sanitize, force=args.force)
     except (BuildError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     print(path)
+    print(path3)
     return 0
 
 

@@ -428,8 +428,9 @@ Status instance_get_string(Instance *I, unsigned vr, const char **value, const c
 /* The FMI part of a state to restore: phase, flags and times. */
 static int snapshot_check(const Snapshot *snap, char *msg, size_t n) {
     int phase = (int)snap->phase;
+    /* PHASE_EVENT: FMI 3.0 Co-Simulation's event mode, between two steps like PHASE_STEP_COMPLETE */
     if (!(phase == PHASE_INSTANTIATED || phase == PHASE_INITIALIZATION || phase == PHASE_STEP_COMPLETE ||
-          phase == PHASE_TERMINATED || phase == PHASE_ERROR)) {
+          phase == PHASE_EVENT || phase == PHASE_TERMINATED || phase == PHASE_ERROR)) {
         snprintf(msg, n, "unknown phase %d", phase);
         return 1;
     }
@@ -544,9 +545,9 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
             INSTANCE_ERROR(I, "%s: the state does not match its own parameters (a corrupted state?)", fn);
             return STATUS_ERROR;
         }
-        StateUse use = snap->phase == PHASE_INITIALIZATION                       ? STATE_INITIAL
-                       : (snap->phase == PHASE_STEP_COMPLETE && !snap->terminated) ? STATE_RUNNING
-                                                                                   : STATE_INERT;
+        StateUse use = snap->phase == PHASE_INITIALIZATION ? STATE_INITIAL
+                       : ((snap->phase & (PHASE_STEP_COMPLETE | PHASE_EVENT)) && !snap->terminated) ? STATE_RUNNING
+                                                                                                 : STATE_INERT;
         if (state_validate(&check, snap->startTime, snap->tc, use, msg, sizeof(msg))) {
             drop_record(I, &staged);
             INSTANCE_ERROR(I, "%s: invalid state (corrupted?): %s", fn, msg);

@@ -1,0 +1,117 @@
+"""Compile model/c into RockingBlock3.fmu: the FMI 3.0 Co-Simulation edition.
+
+The same C core as RockingBlock.fmu (every source of ``C_SOURCES`` but the FMI
+2.0 layer ``fmi2.c``) with the FMI 3.0 layer ``fmi3.c``, compiled against the
+FMI 3.0 headers shipped in fmpy. Like :func:`fmu_build.build.build_fmu`, it
+rebuilds only when the sources changed (a sha256 stamp next to the FMU).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+
+from fmu_build.build import C_DIR, C_HEADERS, C_SOURCES, CFLAGS, ROOT, SANITIZE_FLAGS, VERSION, BuildError
+from fmu_build.model_description3 import build_description3, model_description3
+from fmu_build.variables import read_variables
+
+MODEL_IDENTIFIER3 = "RockingBlock3"
+C_SOURCES3 = ["fmi3.c"] + [s for s in C_SOURCES if s != "fmi2.c"]
+
+
+def default_fmu3_path(sanitize: bool = False) -> Path:
+    """Where ``python -m fmu_build`` puts the FMI 3.0 FMU."""
+    name = f"{MODEL_IDENTIFIER3}-sanitize.fmu" if sanitize else f"{MODEL_IDENTIFIER3}.fmu"
+    return ROOT / "build" / name
+
+
+def fmi3_headers_dir() -> Path:
+    """The FMI 3.0 headers that ship inside the installed fmpy package."""
+    import fmpy
+
+    path = Path(fmpy.__file__).parent / "c-code"
+    if not (path / "fmi3Functions.h").is_file():
+        raise BuildError(f"FMI 3.0 headers not found in the fmpy package at {path}")
+    return path
+
+
+def platform_tuple() -> str:
+    """FMI 3.0's name of this machine's platform (binaries/<tuple>/), e.g. x86_64-linux."""
+    arch = {"x86_64": "x86_64", "amd64": "x86_64", "aarch64": "aarch64", "arm64": "aarch64"}.get(
+        platform.machine().lower())
+    if platform.system() != "Linux" or arch is None:
+        raise BuildError(f"building on {platform.system()} {platform.machine()} is not supported (Linux only)")
+    return f"{arch}-linux"
+
+
+def _sources_digest3() -> str:
+    h = hashlib.sha256()
+    for name in C_SOURCES3 + C_HEADERS:
+        h.update(name.encode())
+        h.update((C_DIR / name).read_bytes())
+    for name in ("build.py", "build3.py", "model_description.py", "model_description3.py", "variables.py"):
+        h.update((Path(__file__).parent / name).read_bytes())
+    return h.hexdigest()
+
+
+def build_fmu3(
+    out: Path | None = None,
+    sanitize: bool = False,
+    force: bool = False,
+    cc: str | None = None,
+) -> Path:
+    """Build RockingBlock3.fmu if its sources changed; return its path."""
+    out = Path(out) if out else default_fmu3_path(sanitize)
+    cc = cc or os.environ.get("CC", "cc")
+    if shutil.which(cc) is None:
+        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
+    flags = SANITIZE_FLAGS if sanitize else CFLAGS
+    tuple_ = platform_tuple()
+    sources_digest = _sources_digest3()
+    digest = hashlib.sha256((sources_digest + " ".join([cc, tuple_] + flags)).encode()).hexdigest()
+    stamp = out.with_name(out.name + ".sha256")
+    if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
+        return out
+
+    token = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
+    variables = read_variables(C_DIR / "variables.def")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp) / "fmu"
+        src = root / "sources"
+        bindir = root / "binaries" / tuple_
+        src.mkdir(parents=True)
+        bindir.mkdir(parents=True)
+        for name in C_SOURCES3 + C_HEADERS:
+            shutil.copy2(C_DIR / name, src / name)
+        (src / "config.h").write_text(
+            "/* Written by fmu_build: identifies this build of RockingBlock3 (the instantiationToken). */\n"
+            "#ifndef ROCKING_CONFIG_H\n#define ROCKING_CONFIG_H\n"
+            f'#define MODEL_GUID "{token}"\n#endif\n'
+        )
+        (src / "buildDescription.xml").write_text(build_description3(MODEL_IDENTIFIER3, C_SOURCES3))
+        (root / "modelDescription.xml").write_text(
+            model_description3(variables, MODEL_IDENTIFIER3, token, VERSION))
+        binary = bindir / f"{MODEL_IDENTIFIER3}.so"
+        cmd = [cc, *flags, "-I", str(src), "-I", str(fmi3_headers_dir()), "-o", str(binary)]
+        cmd += [str(src / s) for s in C_SOURCES3] + ["-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise BuildError(f"compilation failed:\n{proc.stderr.strip()}")
+        if proc.stderr.strip():
+            print(proc.stderr.strip())
+        partial = out.with_name(out.name + ".part")
+        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
+            for path in sorted(root.rglob("*")):
+                if path.is_file():
+                    zf.write(path, path.relative_to(root).as_posix())
+        partial.replace(out)
+    stamp.write_text(digest + "\n")
+    return out
