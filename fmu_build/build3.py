@@ -18,9 +18,11 @@ import uuid
 import zipfile
 from pathlib import Path
 
-from fmu_build.build import C_DIR, C_HEADERS, C_SOURCES, CFLAGS, ROOT, SANITIZE_FLAGS, VERSION, BuildError
+from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, CFLAGS, ROOT, SANITIZE_FLAGS, VERSION, BuildError,
+                             _sources_digest)
+from fmu_build.documentation import documentation_html
 from fmu_build.model_description3 import build_description3, model_description3
-from fmu_build.variables import read_variables
+from fmu_build.variables import read_enumerations, read_variables
 
 MODEL_IDENTIFIER3 = "RockingBlock3"
 C_SOURCES3 = ["fmi3.c"] + [s for s in C_SOURCES if s != "fmi2.c"]
@@ -52,11 +54,11 @@ def platform_tuple() -> str:
 
 
 def _sources_digest3() -> str:
-    h = hashlib.sha256()
-    for name in C_SOURCES3 + C_HEADERS:
-        h.update(name.encode())
-        h.update((C_DIR / name).read_bytes())
-    for name in ("build.py", "build3.py", "model_description.py", "model_description3.py", "variables.py"):
+    """The FMI 2.0 build's digest (every core source, the docs pages, the writers) and fmi3.c,
+    build3.py and model_description3.py."""
+    h = hashlib.sha256(_sources_digest().encode())
+    h.update((C_DIR / "fmi3.c").read_bytes())
+    for name in ("build3.py", "model_description3.py"):
         h.update((Path(__file__).parent / name).read_bytes())
     return h.hexdigest()
 
@@ -99,6 +101,10 @@ def build_fmu3(
         (src / "buildDescription.xml").write_text(build_description3(MODEL_IDENTIFIER3, C_SOURCES3))
         (root / "modelDescription.xml").write_text(
             model_description3(variables, MODEL_IDENTIFIER3, token, VERSION))
+        (root / "documentation").mkdir()
+        (root / "documentation" / "index.html").write_text(
+            documentation_html(variables, read_enumerations(C_DIR / "variables.def"), MODEL_IDENTIFIER3, VERSION),
+            encoding="utf-8")
         binary = bindir / f"{MODEL_IDENTIFIER3}.so"
         cmd = [cc, *flags, "-I", str(src), "-I", str(fmi3_headers_dir()), "-o", str(binary)]
         cmd += [str(src / s) for s in C_SOURCES3] + ["-lm"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.model_description import UNITS
+from fmu_build.model_description import DISPLAY_UNITS, UNITS
+from fmu_build.model_structure import DEPENDENCIES
 from fmu_build.variables import Variable
 
 # value reference of the independent variable "time" (TIME_VR in model/c/fmi3.c)
@@ -39,6 +40,8 @@ def _variable(v: Variable) -> str:
         attrs.append('intermediateUpdate="true"')  # readable from the intermediateUpdate callback
     if element == "Float64" and v.unit:
         attrs.append(f"unit={quoteattr(v.unit)}")
+        if v.unit in DISPLAY_UNITS:
+            attrs.append(f'displayUnit="{DISPLAY_UNITS[v.unit][0]}"')
     if v.causality == "output":  # initial = "calculated": no start value
         return f"    <{element} {' '.join(attrs)}/>"
     if element == "String":
@@ -78,7 +81,11 @@ def model_description3(
     w("  <UnitDefinitions>")
     for u in used_units:
         exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
-        w(f"    <Unit name={quoteattr(u)}><BaseUnit {exps}/></Unit>" if exps else f"    <Unit name={quoteattr(u)}/>")
+        base = f"<BaseUnit {exps}/>" if exps else ""
+        if u in DISPLAY_UNITS:
+            name, factor = DISPLAY_UNITS[u]
+            base += f'<DisplayUnit name="{name}" factor="{factor!r}"/>'
+        w(f"    <Unit name={quoteattr(u)}>{base}</Unit>" if base else f"    <Unit name={quoteattr(u)}/>")
     w("  </UnitDefinitions>")
     w("  <LogCategories>")
     w('    <Category name="logEvents" description="Impacts, peaks, uplift, rest and overturn with full-precision times"/>')
@@ -92,9 +99,14 @@ def model_description3(
         w(_variable(v))
     w("  </ModelVariables>")
     w("  <ModelStructure>")
+    # Co-Simulation has no states: an output's dependencies are the inputs it follows at once
+    ref = {v.name: v.value_reference for v in variables}
+    inputs = {v.name for v in variables if v.causality == "input"}
     outputs = [v.value_reference for v in variables if v.causality == "output"]
-    for vr in outputs:
-        w(f'    <Output valueReference="{vr}"/>')
+    for v in variables:
+        if v.causality == "output":
+            deps = " ".join(str(ref[n]) for n in DEPENDENCIES.get(v.name, ()) if n in inputs)
+            w(f'    <Output valueReference="{v.value_reference}" dependencies="{deps}"/>')
     for vr in outputs:
         w(f'    <InitialUnknown valueReference="{vr}"/>')
     w("  </ModelStructure>")

@@ -17,9 +17,18 @@
         if (instance_bad_call(I, allowed, fn)) return fmi2Error;   \
     } while (0)
 
+/* FMI 2.0's logger treats the message as a printf format: '%' doubled. */
 static void emit(const Instance *I, int status, const char *category, const char *message) {
     fmi2CallbackLogger logger = (fmi2CallbackLogger)I->logger;
-    if (logger) logger(I->env, I->name, (fmi2Status)status, category, message);
+    char text[2 * MSG_LEN];
+    size_t k = 0;
+    if (!logger) return;
+    for (const char *p = message; *p && k + 2 < sizeof(text); p++) {
+        if (*p == '%') text[k++] = '%';
+        text[k++] = *p;
+    }
+    text[k] = '\0';
+    logger(I->env, I->name, (fmi2Status)status, category, text);
 }
 
 /* ------------------------------------------------------------- life cycle */

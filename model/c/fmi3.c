@@ -32,19 +32,10 @@ typedef struct {
     int inCallback; /* inside intermediateUpdate: getters only */
 } Fmu3;
 
-/* FMI 3.0 messages are plain text: undo instance_log's doubling of '%' (a
- * printf convention of FMI 2.0's logger). */
+/* FMI 3.0 messages are plain text. */
 static void emit(const Instance *I, int status, const char *category, const char *message) {
     fmi3LogMessageCallback log = (fmi3LogMessageCallback)I->logger;
-    char text[2 * MSG_LEN];
-    size_t k = 0;
-    if (!log) return;
-    for (const char *p = message; *p && k + 1 < sizeof(text); p++) {
-        text[k++] = *p;
-        if (p[0] == '%' && p[1] == '%') p++;
-    }
-    text[k] = '\0';
-    log(I->env, (fmi3Status)status, category, text);
+    if (log) log(I->env, (fmi3Status)status, category, message);
 }
 
 /* Nonzero (after logging) unless the call is allowed now. */

@@ -28,22 +28,15 @@ void instance_log(const Instance *I, int status, const char *category, const cha
     va_end(ap);
     /* One line, whatever the message quotes (a path with a newline, escape codes);
      * numbers written with '.' whatever the importer's locale (event lines are read
-     * by programs, and printf follows LC_NUMERIC: ',' in German); '%' doubled,
-     * because the logger treats the message as a format. */
+     * by programs, and printf follows LC_NUMERIC: ',' in German). */
     const struct lconv *lc = localeconv();
     char point = (lc && lc->decimal_point && lc->decimal_point[0]) ? lc->decimal_point[0] : '.';
-    char out[2 * MSG_LEN];
-    size_t k = 0;
-    for (const char *p = buf; *p && k + 2 < sizeof(out); p++) {
-        char c = *p;
-        if ((unsigned char)c < 0x20 || c == 0x7f) c = '?';
-        if (point != '.' && c == point && p > buf && isdigit((unsigned char)p[-1]) && isdigit((unsigned char)p[1]))
-            c = '.';
-        if (c == '%') out[k++] = '%';
-        out[k++] = c;
+    for (char *p = buf; *p; p++) {
+        if ((unsigned char)*p < 0x20 || *p == 0x7f) *p = '?';
+        if (point != '.' && *p == point && p > buf && isdigit((unsigned char)p[-1]) && isdigit((unsigned char)p[1]))
+            *p = '.';
     }
-    out[k] = '\0';
-    I->emit(I, status, category, out);
+    I->emit(I, status, category, buf);
 }
 
 static void solver_log(void *ctx, int category, const char *message) {
