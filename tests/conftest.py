@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from fmu_build import build_fmu
+from fmu_build.build3 import build_fmu3
 from runners.engine.fmu import RockingFMU
 
 
@@ -19,6 +20,12 @@ from runners.engine.fmu import RockingFMU
 def fmu_path() -> Path:
     env = os.environ.get("ROCKING_FMU")
     return Path(env).resolve() if env else build_fmu()
+
+
+@pytest.fixture(scope="session")
+def fmu3_path() -> Path:
+    env = os.environ.get("ROCKING_FMU3")
+    return Path(env).resolve() if env else build_fmu3()
 
 
 @pytest.fixture(scope="session")

@@ -6,7 +6,6 @@ FMI 3.0 master. Both FMUs are real compiled binaries driven through fmpy."""
 from __future__ import annotations
 
 import ctypes
-import os
 import shutil
 import zipfile
 from dataclasses import dataclass, field
@@ -33,12 +32,6 @@ STATE2 = STATE1 + ["block2.theta", "block2.omega"]
 # events of their own (a rest is logged with the impact it comes with)
 STOPPING = {"impact", "uplift", "overturn", "settle", "open"}
 OK, DISCARD, ERROR = 0, 2, 3
-
-
-@pytest.fixture(scope="session")
-def fmu3_path() -> Path:
-    env = os.environ.get("ROCKING_FMU3")
-    return Path(env).resolve() if env else build_fmu3()
 
 
 @dataclass
