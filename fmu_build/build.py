@@ -9,6 +9,7 @@ import subprocess
 import tempfile
 import uuid
 import zipfile
+from collections.abc import Iterable
 from pathlib import Path
 
 from fmu_build.model_description import model_description
@@ -22,12 +23,18 @@ C_SOURCES = ["fmi2.c", "model.c", "ground.c", "record.c", "solver.c", "stack.c",
 C_HEADERS = ["model.h", "ground.h", "record.h", "solver.h", "stack.h", "stack_solver.h", "events.h", "taylor.h",
              "integrator.h", "variables.def"]
 VERSION = "0.1.0"
+PLATFORMS = ("linux64",)
+BINARY_SUFFIX = {"linux64": ".so"}
 
 CFLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra"]
 SANITIZE_FLAGS = [
     "-std=c99", "-O1", "-g", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra",
     "-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined",
 ]
+
+# Pins the glibc symbol versions of the linux64 binary to ones glibc 2.17 has (see the header)
+GLIBC_COMPAT = Path(__file__).resolve().parent / "glibc_compat"
+GLIBC_COMPAT_FILES = ["glibc_2_17.h", "glibc_2_17.c"]
 
 
 class BuildError(RuntimeError):
@@ -57,7 +64,46 @@ def _sources_digest() -> str:
         h.update((C_DIR / name).read_bytes())
     for name in ("build.py", "model_description.py", "variables.py"):
         h.update((Path(__file__).parent / name).read_bytes())
+    for name in GLIBC_COMPAT_FILES:
+        h.update((GLIBC_COMPAT / name).read_bytes())
     return h.hexdigest()
+
+
+def _targets_x86_64_glibc(cc: str) -> bool:
+    proc = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True)
+    return proc.returncode == 0 and proc.stdout.strip().startswith(("x86_64-linux-gnu", "x86_64-pc-linux-gnu"))
+
+
+def compile_binary(sources: list[Path], out: Path, platform: str, cc: str, flags: list[str],
+                   include_dirs: Iterable[Path] = ()) -> str:
+    """Compile ``sources`` into the shared library ``out`` for ``platform`` (linux64: a .so)
+    with the compiler ``cc`` and ``flags``; return what the compiler warned
+    (empty if nothing).
+
+    linux64 with a compiler for x86_64 glibc gets the glibc_compat files, so that the binary
+    loads on glibc 2.17 or newer; not a sanitizer build (``-fsanitize``), which needs the build
+    machine's sanitizer runtime anyway, and whose runtime defines __xstat too, which the linker
+    then leaves an empty PLT relocation for. Raises BuildError with the compiler's messages if
+    it fails.
+    """
+    if platform not in PLATFORMS:
+        raise BuildError(f"unknown platform '{platform}' (known: {', '.join(PLATFORMS)})")
+    cmd = [cc, *flags]
+    for d in include_dirs:
+        cmd += ["-I", str(d)]
+    cmd += ["-o", str(out), *map(str, sources)]
+    if platform == "linux64":
+        if not any(f.startswith("-fsanitize") for f in flags) and _targets_x86_64_glibc(cc):
+            cmd[1:1] = ["-include", str(GLIBC_COMPAT / "glibc_2_17.h")]
+            cmd.append(str(GLIBC_COMPAT / "glibc_2_17.c"))
+        cmd.append("-lm")
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as exc:
+        raise BuildError(f"{platform}: cannot run the C compiler '{cc}': {exc}") from None
+    if proc.returncode != 0:
+        raise BuildError(f"{platform}: compilation failed:\n{proc.stderr.strip()}")
+    return proc.stderr.strip()
 
 
 def build_fmu(
@@ -101,14 +147,10 @@ def build_fmu(
         (root / "modelDescription.xml").write_text(
             model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION)
         )
-        binary = bindir / f"{MODEL_IDENTIFIER}.so"
-        cmd = [cc, *flags, "-I", str(src), "-I", str(fmi_headers_dir()), "-o", str(binary)]
-        cmd += [str(src / s) for s in C_SOURCES] + ["-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise BuildError(f"compilation failed:\n{proc.stderr.strip()}")
-        if proc.stderr.strip():
-            print(proc.stderr.strip())
+        warnings = compile_binary([src / s for s in C_SOURCES], bindir / f"{MODEL_IDENTIFIER}.so", "linux64", cc,
+                                  flags, [src, fmi_headers_dir()])
+        if warnings:
+            print(warnings)
         partial = out.with_name(out.name + ".part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
             for path in sorted(root.rglob("*")):
