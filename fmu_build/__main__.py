@@ -17,9 +17,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out3", type=Path, help="output path of the FMI 3.0 FMU (default build/RockingBlock3.fmu)")
     parser.add_argument("--sanitize", action="store_true", help="build with AddressSanitizer and UBSan")
     parser.add_argument("--force", action="store_true", help="rebuild even if the sources did not change")
+    parser.add_argument("--platforms", type=lambda s: [p.strip() for p in s.split(",") if p.strip()],
+                        metavar="LIST", help="comma-separated binaries to build, of linux64,win64 (default: "
+                        "linux64, and win64 where the mingw-w64 cross compiler is installed); a platform named "
+                        "here that cannot be built is an error")
     args = parser.parse_args(argv)
     try:
-        path = build_fmu(args.out, sanitize=args.sanitize, force=args.force)
+        path = build_fmu(args.out, sanitize=args.sanitize, force=args.force, platforms=args.platforms)
         path3 = build_fmu3(args.out3, sanitize=args.sanitize, force=args.force)
     except (BuildError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

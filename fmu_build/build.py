@@ -1,4 +1,5 @@
-"""Compile model/c into RockingBlock.fmu with the system C compiler."""
+"""Compile model/c into RockingBlock.fmu: binaries/linux64 with the system C compiler and, where
+Debian's mingw-w64 cross compiler is installed, binaries/win64 with it."""
 
 from __future__ import annotations
 
@@ -6,9 +7,12 @@ import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import uuid
 import zipfile
+from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from fmu_build.documentation import DOCS, PAGES, documentation_html
@@ -29,6 +33,17 @@ SANITIZE_FLAGS = [
     "-std=c99", "-O1", "-g", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra",
     "-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined",
 ]
+# win64: the FMI functions are exported by FMI2_Export (__declspec(dllexport)) alone; libgcc
+# linked in, so that the DLL needs only Windows' own DLLs (KERNEL32, msvcrt); -s: without the
+# debugging sections of mingw-w64's static libraries (two thirds of the DLL)
+WIN64_CC = "x86_64-w64-mingw32-gcc"
+WIN64_CFLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-static-libgcc", "-s"]
+PLATFORMS = ("linux64", "win64")
+BINARY_SUFFIX = {"linux64": ".so", "win64": ".dll"}
+
+# Pins the glibc symbol versions of the linux64 binary to ones glibc 2.17 has (see the header)
+GLIBC_COMPAT = Path(__file__).resolve().parent / "glibc_compat"
+GLIBC_COMPAT_FILES = ["glibc_2_17.h", "glibc_2_17.c"]
 
 
 class BuildError(RuntimeError):
@@ -60,7 +75,56 @@ def _sources_digest() -> str:
         h.update((Path(__file__).parent / name).read_bytes())
     for page in PAGES:
         h.update((DOCS / page).read_bytes())
+    for name in GLIBC_COMPAT_FILES:
+        h.update((GLIBC_COMPAT / name).read_bytes())
     return h.hexdigest()
+
+
+def _targets_x86_64_glibc(cc: str) -> bool:
+    proc = subprocess.run([cc, "-dumpmachine"], capture_output=True, text=True)
+    return proc.returncode == 0 and proc.stdout.strip().startswith(("x86_64-linux-gnu", "x86_64-pc-linux-gnu"))
+
+
+def compile_binary(sources: list[Path], out: Path, platform: str, cc: str, flags: list[str],
+                   include_dirs: Iterable[Path] = ()) -> str:
+    """Compile ``sources`` into the shared library ``out`` for ``platform`` (linux64: a .so,
+    win64: a .dll) with the compiler ``cc`` and ``flags``; return what the compiler warned
+    (empty if nothing).
+
+    linux64 with a compiler for x86_64 glibc gets the glibc_compat files, so that the binary
+    loads on glibc 2.17 or newer; not a sanitizer build (``-fsanitize``), which needs the build
+    machine's sanitizer runtime anyway, and whose runtime defines __xstat too, which the linker
+    then leaves an empty PLT relocation for. Raises BuildError with the compiler's messages if
+    it fails.
+    """
+    if platform not in PLATFORMS:
+        raise BuildError(f"unknown platform '{platform}' (known: {', '.join(PLATFORMS)})")
+    cmd = [cc, *flags]
+    for d in include_dirs:
+        cmd += ["-I", str(d)]
+    cmd += ["-o", str(out), *map(str, sources)]
+    if platform == "linux64":
+        if not any(f.startswith("-fsanitize") for f in flags) and _targets_x86_64_glibc(cc):
+            cmd[1:1] = ["-include", str(GLIBC_COMPAT / "glibc_2_17.h")]
+            cmd.append(str(GLIBC_COMPAT / "glibc_2_17.c"))
+        cmd.append("-lm")
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as exc:
+        raise BuildError(f"{platform}: cannot run the C compiler '{cc}': {exc}") from None
+    if proc.returncode != 0:
+        raise BuildError(f"{platform}: compilation failed:\n{proc.stderr.strip()}")
+    return proc.stderr.strip()
+
+
+def _win64_cc_name() -> str:
+    return os.environ.get("CC_WIN64", WIN64_CC)
+
+
+def win64_compiler() -> str | None:
+    """The mingw-w64 cross compiler for win64 (CC_WIN64, else x86_64-w64-mingw32-gcc), if installed."""
+    cc = _win64_cc_name()
+    return cc if shutil.which(cc) else None
 
 
 def build_fmu(
@@ -68,22 +132,42 @@ def build_fmu(
     sanitize: bool = False,
     force: bool = False,
     cc: str | None = None,
+    platforms: list[str] | None = None,
 ) -> Path:
     """Build the FMU if its sources changed; return its path.
 
-    The build is skipped when ``out`` exists and was made from the same
-    sources and flags (a sha256 stamp next to it records that).
+    ``platforms`` lists the binaries to build (``linux64``, ``win64``); by default linux64,
+    and win64 too where the mingw-w64 cross compiler is installed (else a one-line note says
+    the FMU has no Windows binary). The sanitizer build is linux64 only.
+    The build is skipped when ``out`` exists and was made from the same sources, flags and
+    platforms (a sha256 stamp next to it records that).
     """
     out = Path(out) if out else default_fmu_path(sanitize)
     cc = cc or os.environ.get("CC", "cc")
     if shutil.which(cc) is None:
         raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
-    flags = SANITIZE_FLAGS if sanitize else CFLAGS
+    wincc = win64_compiler()
+    wanted = list(dict.fromkeys(platforms)) if platforms else None
+    for p in wanted or ():
+        if p not in PLATFORMS:
+            raise BuildError(f"unknown platform '{p}' (known: {', '.join(PLATFORMS)})")
+    if sanitize and wanted and wanted != ["linux64"]:
+        raise BuildError("the sanitizer build is for linux64 only")
+    if wanted and "win64" in wanted and wincc is None:
+        raise BuildError(f"win64: the cross compiler '{_win64_cc_name()}' is not installed "
+                         "(Debian: apt-get install gcc-mingw-w64-x86-64)")
+    if wanted is None:
+        wanted = ["linux64"] if sanitize or wincc is None else ["linux64", "win64"]
+    compilers = {"linux64": (cc, SANITIZE_FLAGS if sanitize else CFLAGS), "win64": (wincc, WIN64_CFLAGS)}
     sources_digest = _sources_digest()
-    digest = hashlib.sha256((sources_digest + " ".join([cc] + flags)).encode()).hexdigest()
+    build_line = " ".join(f"{p}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
+    digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
     stamp = out.with_name(out.name + ".sha256")
     if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
+    if not sanitize and platforms is None and wincc is None:
+        print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
+              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
 
     guid = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
     variables = read_variables(C_DIR / "variables.def")
@@ -91,9 +175,7 @@ def build_fmu(
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
-        bindir = root / "binaries" / "linux64"
         src.mkdir(parents=True)
-        bindir.mkdir(parents=True)
         for name in C_SOURCES + C_HEADERS:
             shutil.copy2(C_DIR / name, src / name)
         (src / "config.h").write_text(
@@ -108,14 +190,19 @@ def build_fmu(
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(
             documentation_html(variables, enumerations, MODEL_IDENTIFIER, VERSION), encoding="utf-8")
-        binary = bindir / f"{MODEL_IDENTIFIER}.so"
-        cmd = [cc, *flags, "-I", str(src), "-I", str(fmi_headers_dir()), "-o", str(binary)]
-        cmd += [str(src / s) for s in C_SOURCES] + ["-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise BuildError(f"compilation failed:\n{proc.stderr.strip()}")
-        if proc.stderr.strip():
-            print(proc.stderr.strip())
+        jobs = []
+        with ThreadPoolExecutor(max_workers=len(wanted)) as pool:  # the compilers run side by side
+            for platform in wanted:
+                bindir = root / "binaries" / platform
+                bindir.mkdir(parents=True)
+                pcc, flags = compilers[platform]
+                jobs.append(pool.submit(compile_binary, [src / s for s in C_SOURCES],
+                                        bindir / (MODEL_IDENTIFIER + BINARY_SUFFIX[platform]), platform, pcc, flags,
+                                        [src, fmi_headers_dir()]))
+        for job in jobs:
+            warnings = job.result()
+            if warnings:
+                print(warnings)
         partial = out.with_name(out.name + ".part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
             for path in sorted(root.rglob("*")):

@@ -12,14 +12,13 @@ import hashlib
 import os
 import platform
 import shutil
-import subprocess
 import tempfile
 import uuid
 import zipfile
 from pathlib import Path
 
 from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, CFLAGS, ROOT, SANITIZE_FLAGS, VERSION, BuildError,
-                             _sources_digest)
+                             _sources_digest, compile_binary)
 from fmu_build.documentation import documentation_html
 from fmu_build.model_description3 import build_description3, model_description3
 from fmu_build.variables import read_enumerations, read_variables
@@ -105,14 +104,11 @@ def build_fmu3(
         (root / "documentation" / "index.html").write_text(
             documentation_html(variables, read_enumerations(C_DIR / "variables.def"), MODEL_IDENTIFIER3, VERSION),
             encoding="utf-8")
-        binary = bindir / f"{MODEL_IDENTIFIER3}.so"
-        cmd = [cc, *flags, "-I", str(src), "-I", str(fmi3_headers_dir()), "-o", str(binary)]
-        cmd += [str(src / s) for s in C_SOURCES3] + ["-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise BuildError(f"compilation failed:\n{proc.stderr.strip()}")
-        if proc.stderr.strip():
-            print(proc.stderr.strip())
+        # the FMI 2.0 build's compiler call: on x86_64 glibc, loadable on glibc 2.17 or newer
+        warnings = compile_binary([src / name for name in C_SOURCES3], bindir / f"{MODEL_IDENTIFIER3}.so",
+                                  "linux64", cc, flags, [src, fmi3_headers_dir()])
+        if warnings:
+            print(warnings)
         partial = out.with_name(out.name + ".part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
             for path in sorted(root.rglob("*")):
