@@ -71,7 +71,18 @@ def _version(text: str) -> tuple[int, ...]:
 
 # ------------------------------------------------------------------------- linux64
 
-def test_the_linux_binary_needs_no_glibc_newer_than_2_17(so):
+@pytest.fixture(scope="module")
+def so3(fmu3_path, tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("unpacked3")
+    zipfile.ZipFile(fmu3_path).extractall(folder)
+    path = folder / "binaries" / "x86_64-linux" / "RockingBlock3.so"
+    assert path.is_file(), "the FMI 3.0 FMU has no x86_64-linux binary"
+    return path
+
+
+@pytest.mark.parametrize("edition", ["FMI 2.0", "FMI 3.0"])
+def test_the_linux_binary_needs_no_glibc_newer_than_2_17(edition, request):
+    so = request.getfixturevalue("so" if edition == "FMI 2.0" else "so3")
     objdump = _tool("objdump", "binutils")
     symbols = subprocess.run([objdump, "-T", str(so)], capture_output=True, text=True, check=True).stdout
     if "__asan_init" in symbols:
@@ -165,7 +176,7 @@ def _run(cmd: list[str], binary: str, model, settings: dict, resources: str = ""
     args = []
     for name, value in settings.items():
         v = variables[name]
-        args.append({"Real": "r", "Integer": "i", "String": "s"}[v.type] + f"{v.valueReference}={value}")
+        args.append({"Real": "r", "Integer": "i", "Enumeration": "i", "String": "s"}[v.type] + f"{v.valueReference}={value}")
     proc = _exec([*cmd, binary, guid, resources, repr(STOP), repr(STEP), outs, *args], env=env, timeout=timeout)
     assert proc.returncode == 0, f"exit status {proc.returncode}:\n{proc.stderr[-3000:]}"
     rows = np.array([line.split() for line in proc.stdout.splitlines()], dtype=float)
