@@ -1,0 +1,343 @@
+"""A hostile importer against RockingBlock.fmu's FMI 2.0 interface, Model Exchange above all:
+every function in every phase, NULL and wrongly sized arrays, non-finite and backward times,
+states set where no solver would put them, long Euler steps, inputs that lift or tip the
+block, the event iteration called over and over or not at all; in Co-Simulation, FMU states
+around a step that ends the run at an overturn, tolerances at and beyond their limits; many
+instances of both kinds in threads.
+
+Every call goes to the compiled FMU through ctypes with the status returned, not raised, so
+that a test sees exactly which status a call gives. Also run against the AddressSanitizer
+and UBSan build (make sanitize)."""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import random
+import threading
+from ctypes import POINTER, byref, c_char, c_double, c_int, c_size_t, c_uint, c_void_p
+
+import pytest
+from fmpy.fmi2 import (FMU2Model, FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2EventInfo, free)
+
+OK, DISCARD, ERROR = 0, 2, 3
+LAST_SUCCESSFUL_TIME, TERMINATED = 2, 3  # fmi2StatusKind
+PI2 = math.pi / 2
+
+# argument types of the functions called here (fmpy declares only those of its own class)
+_ARGS = {
+    "fmi2SetupExperiment": [c_int, c_double, c_double, c_int, c_double],
+    "fmi2EnterInitializationMode": [], "fmi2ExitInitializationMode": [], "fmi2Terminate": [], "fmi2Reset": [],
+    "fmi2SetReal": [POINTER(c_uint), c_size_t, POINTER(c_double)],
+    "fmi2GetReal": [POINTER(c_uint), c_size_t, POINTER(c_double)],
+    "fmi2SetInteger": [POINTER(c_uint), c_size_t, POINTER(c_int)],
+    "fmi2GetInteger": [POINTER(c_uint), c_size_t, POINTER(c_int)],
+    "fmi2SetBoolean": [POINTER(c_uint), c_size_t, POINTER(c_int)],
+    "fmi2GetBoolean": [POINTER(c_uint), c_size_t, POINTER(c_int)],
+    "fmi2SetTime": [c_double],
+    "fmi2SetContinuousStates": [POINTER(c_double), c_size_t],
+    "fmi2GetContinuousStates": [POINTER(c_double), c_size_t],
+    "fmi2GetDerivatives": [POINTER(c_double), c_size_t],
+    "fmi2GetEventIndicators": [POINTER(c_double), c_size_t],
+    "fmi2GetNominalsOfContinuousStates": [POINTER(c_double), c_size_t],
+    "fmi2NewDiscreteStates": [POINTER(fmi2EventInfo)],
+    "fmi2EnterEventMode": [], "fmi2EnterContinuousTimeMode": [],
+    "fmi2CompletedIntegratorStep": [c_int, POINTER(c_int), POINTER(c_int)],
+    "fmi2DoStep": [c_double, c_double, c_int],
+    "fmi2GetRealStatus": [c_int, POINTER(c_double)],
+    "fmi2GetBooleanStatus": [c_int, POINTER(c_int)],
+    "fmi2GetFMUstate": [POINTER(c_void_p)], "fmi2SetFMUstate": [c_void_p], "fmi2FreeFMUstate": [POINTER(c_void_p)],
+    "fmi2SerializedFMUstateSize": [c_void_p, POINTER(c_size_t)],
+    "fmi2SerializeFMUstate": [c_void_p, POINTER(c_char), c_size_t],
+    "fmi2DeSerializeFMUstate": [POINTER(c_char), c_size_t, POINTER(c_void_p)],
+}
+_LOAD = threading.Lock()
+
+
+class Raw:
+    """One instance (Model Exchange or Co-Simulation) with its log captured; calls return
+    the status."""
+
+    def __init__(self, fmu, kind="ME", name="hostile"):
+        self.messages: list[str] = []
+        self.fmu = fmu
+
+        def logger(env, instance, status, category, message):
+            self.messages.append((message or b"").decode(errors="replace"))
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb = cb
+        md = fmu.model_description
+        cls, ident = (FMU2Model, md.modelExchange) if kind == "ME" else (FMU2Slave, md.coSimulation)
+        with _LOAD:
+            self.model = cls(guid=md.guid, unzipDirectory=fmu.unzipdir, modelIdentifier=ident.modelIdentifier,
+                             instanceName=name)
+        self.model.instantiate(callbacks=cb, loggingOn=True)
+        self.c = c_void_p(self.model.component)
+        self.vr = {n: v.valueReference for n, v in fmu.vars.items()}
+        self.types = {n: v.type for n, v in fmu.vars.items()}
+
+    def call(self, fn, *args):
+        f = getattr(self.model.dll, fn)
+        f.argtypes, f.restype = [c_void_p] + _ARGS[fn], c_int
+        return f(self.c, *args)
+
+    def free(self):
+        self.model.dll.fmi2FreeInstance(self.c)
+
+    def said(self, text, since=0):
+        return any(text in m for m in self.messages[since:])
+
+    # variables
+    def set(self, **values):
+        for name, v in values.items():
+            name = name.replace("__", ".")
+            t = {"Real": ("fmi2SetReal", c_double), "Boolean": ("fmi2SetBoolean", c_int)}.get(
+                self.types[name], ("fmi2SetInteger", c_int))
+            st = self.call(t[0], byref(c_uint(self.vr[name])), 1, byref(t[1](v)))
+            assert st == OK, (name, v, self.messages[-1:])
+
+    def setp(self, params):
+        self.set(**{k.replace(".", "__"): v for k, v in params.items()})
+
+    def get(self, name):
+        t = self.types[name]
+        fn, ct = ("fmi2GetReal", c_double) if t == "Real" else (
+            ("fmi2GetBoolean", c_int) if t == "Boolean" else ("fmi2GetInteger", c_int))
+        x = ct()
+        assert self.call(fn, byref(c_uint(self.vr[name])), 1, byref(x)) == OK, self.messages[-1:]
+        return x.value if t != "Boolean" else bool(x.value)
+
+    # life cycle
+    def setup(self, tolerance=None, start=0.0, stop=None):
+        return self.call("fmi2SetupExperiment", int(tolerance is not None), tolerance or 0.0, start,
+                         int(stop is not None), stop or 0.0)
+
+    def start(self, params=None, iterate=True, **setup):
+        assert self.setup(**setup) == OK, self.messages[-1:]
+        self.setp(params or {})
+        assert self.call("fmi2EnterInitializationMode") == OK, self.messages[-1:]
+        assert self.call("fmi2ExitInitializationMode") == OK, self.messages[-1:]
+        if iterate and self.model.__class__ is FMU2Model:
+            assert self.nds()[0] == OK
+
+    # Model Exchange
+    def nds(self):
+        e = fmi2EventInfo()
+        st = self.call("fmi2NewDiscreteStates", byref(e))
+        return st, dict(needed=e.newDiscreteStatesNeeded, terminate=e.terminateSimulation,
+                        changed=e.valuesOfContinuousStatesChanged, timed=e.nextEventTimeDefined,
+                        next=e.nextEventTime)
+
+    def array(self, fn, n, size=None):
+        a = (c_double * max(size if size is not None else n, 1))()
+        return self.call(fn, a, n), list(a)[:n]
+
+    def x(self):
+        st, v = self.array("fmi2GetContinuousStates", 2)
+        assert st == OK, self.messages[-1:]
+        return v
+
+    def dx(self):
+        return self.array("fmi2GetDerivatives", 2)
+
+    def z(self):
+        return self.array("fmi2GetEventIndicators", 4)
+
+    def set_x(self, values):
+        return self.call("fmi2SetContinuousStates", (c_double * len(values))(*values), len(values))
+
+    def completed(self):
+        enter, term = c_int(7), c_int(7)
+        st = self.call("fmi2CompletedIntegratorStep", 1, byref(enter), byref(term))
+        return st, enter.value, term.value
+
+    def to_continuous(self):
+        assert self.call("fmi2EnterContinuousTimeMode") == OK, self.messages[-1:]
+
+    def event(self):
+        """Event mode, one event iteration (the FMU never asks for a second one), back to
+        continuous-time mode."""
+        assert self.call("fmi2EnterEventMode") == OK
+        st, info = self.nds()
+        assert st == OK and not info["needed"], self.messages[-1:]
+        self.to_continuous()
+        return info
+
+    # Co-Simulation
+    def step(self, t, h):
+        return self.call("fmi2DoStep", t, h, 1)
+
+    def status(self, kind):
+        if kind == TERMINATED:
+            b = c_int()
+            st = self.call("fmi2GetBooleanStatus", kind, byref(b))
+            return st, bool(b.value)
+        r = c_double()
+        st = self.call("fmi2GetRealStatus", kind, byref(r))
+        return st, r.value
+
+    def get_state(self):
+        s = c_void_p()
+        assert self.call("fmi2GetFMUstate", byref(s)) == OK, self.messages[-1:]
+        return s
+
+    def serialize(self, s):
+        n = c_size_t()
+        assert self.call("fmi2SerializedFMUstateSize", s, byref(n)) == OK
+        buf = (c_char * n.value)()
+        assert self.call("fmi2SerializeFMUstate", s, buf, n) == OK
+        return buf, n
+
+
+@pytest.fixture
+def new(fmu):
+    made: list[Raw] = []
+
+    def make(kind="ME", name="hostile"):
+        made.append(Raw(fmu, kind, name))
+        return made[-1]
+
+    yield make
+    for r in made:
+        r.free()
+
+
+PULSE = {"excitation.kind": 1, "excitation.amplitude": 4.0, "excitation.frequency": 2.0}
+OVERTURNING = {"excitation.kind": 1, "excitation.amplitude": 12.0, "excitation.frequency": 1.0}
+B, H, G = 0.1, 0.3, 9.81  # the FMU's default block and gravity
+THRESHOLD = G * B / H  # |ah| above which the ground tips a block at rest
+
+
+def _rhs(theta, side, ah=0.0, av=0.0):
+    R, alpha = math.sqrt(B * B + H * H), math.atan(B / H)
+    phi = side * alpha - theta
+    return -(3.0 / (4.0 * R)) * ((G + av) * math.sin(phi) + ah * math.cos(phi))
+
+
+# ------------------------------------------------------------ call sequences
+
+def _in_phase(r: Raw, phase: str) -> Raw:
+    if phase == "instantiated":
+        return r
+    r.setup()
+    r.set(block1__theta0=0.1)
+    assert r.call("fmi2EnterInitializationMode") == OK
+    if phase == "initialization":
+        return r
+    assert r.call("fmi2ExitInitializationMode") == OK
+    if phase == "event":
+        return r
+    if phase == "continuous":
+        r.to_continuous()
+    elif phase == "terminated":
+        assert r.call("fmi2Terminate") == OK
+    elif phase == "error":
+        r.set(ground__av=-20.0)  # the ground falls faster than g: the event update fails
+        assert r.nds()[0] == ERROR
+    return r
+
+
+CALLS = {
+    "SetTime": lambda r: r.call("fmi2SetTime", 0.5),
+    "SetContinuousStates": lambda r: r.set_x([0.05, 0.1]),
+    "GetContinuousStates": lambda r: r.array("fmi2GetContinuousStates", 2)[0],
+    "GetDerivatives": lambda r: r.dx()[0],
+    "GetEventIndicators": lambda r: r.z()[0],
+    "GetNominalsOfContinuousStates": lambda r: r.array("fmi2GetNominalsOfContinuousStates", 2)[0],
+    "NewDiscreteStates": lambda r: r.nds()[0],
+    "EnterEventMode": lambda r: r.call("fmi2EnterEventMode"),
+    "EnterContinuousTimeMode": lambda r: r.call("fmi2EnterContinuousTimeMode"),
+    "CompletedIntegratorStep": lambda r: r.completed()[0],
+    "SetInput": lambda r: r.call("fmi2SetReal", byref(c_uint(r.vr["ground.ah"])), 1, byref(c_double(1.0))),
+    "SetParameter": lambda r: r.call("fmi2SetReal", byref(c_uint(r.vr["block1.theta0"])), 1, byref(c_double(0.2))),
+    "GetReal": lambda r: r.call("fmi2GetReal", byref(c_uint(r.vr["block1.theta"])), 1, byref(c_double())),
+    "DoStep": lambda r: r.step(0.0, 0.1),
+    "GetFMUstate": lambda r: r.call("fmi2GetFMUstate", byref(c_void_p())),
+    "SerializedFMUstateSize": lambda r: r.call("fmi2SerializedFMUstateSize", None, byref(c_size_t())),
+    "GetBooleanStatus": lambda r: r.call("fmi2GetBooleanStatus", TERMINATED, byref(c_int())),
+}
+PHASES = ["instantiated", "initialization", "event", "continuous", "terminated", "error"]
+# the calls that succeed in each phase (FMI 2.0 Model Exchange state machine); all others are fmi2Error
+ALLOWED = {
+    "instantiated": {"GetNominalsOfContinuousStates", "SetInput", "SetParameter"},
+    "initialization": {"GetContinuousStates", "GetDerivatives", "GetEventIndicators", "GetNominalsOfContinuousStates",
+                       "SetInput", "SetParameter", "GetReal"},
+    "event": {"SetTime", "GetContinuousStates", "GetDerivatives", "GetEventIndicators",
+              "GetNominalsOfContinuousStates", "NewDiscreteStates", "EnterEventMode", "EnterContinuousTimeMode",
+              "SetInput", "GetReal"},
+    "continuous": {"SetTime", "SetContinuousStates", "GetContinuousStates", "GetDerivatives", "GetEventIndicators",
+                   "GetNominalsOfContinuousStates", "EnterEventMode", "CompletedIntegratorStep", "SetInput",
+                   "GetReal"},
+    "terminated": {"GetContinuousStates", "GetDerivatives", "GetEventIndicators", "GetNominalsOfContinuousStates",
+                   "GetReal"},
+    "error": {"GetContinuousStates", "GetNominalsOfContinuousStates", "GetReal", "GetEventIndicators"},
+}
+
+
+# ------------------------------------------------------------ the ground
+
+# ------------------------------------------------------------ states the importer sets
+
+# ------------------------------------------------------------ variables and instances
+
+@pytest.mark.parametrize("kind", ["ME", "CS"])
+def test_a_refused_value_leaves_the_feedthrough_outputs_current(new, kind):
+    """fmi2SetReal([ground.ah, block1.theta]): ground.ah is set, the output block1.theta is
+    refused. ground.ahTotal and alpha_dd stayed those of the old input."""
+    r = new(kind)
+    r.start({"block1.theta0": 0.1})
+    if kind == "ME":
+        r.to_continuous()
+    vr = (c_uint * 2)(r.vr["ground.ah"], r.vr["block1.theta"])
+    assert r.call("fmi2SetReal", vr, 2, (c_double * 2)(5.0, 0.0)) == ERROR
+    assert r.get("ground.ah") == 5.0
+    assert r.get("ground.ahTotal") == 5.0
+    assert r.get("block1.alpha_dd") == pytest.approx(_rhs(0.1, 1, ah=5.0), rel=1e-12)
+
+
+def test_fmu_state_functions_are_errors_on_model_exchange(new, fmu):
+    me = fmu.model_description.modelExchange
+    assert not me.canGetAndSetFMUstate and not me.canSerializeFMUstate
+    cs = new("CS")
+    cs.start({"block1.theta0": 0.1})
+    buf, n = cs.serialize(cs.get_state())
+    r = new()
+    r.start({})
+    size, state = c_size_t(0), c_void_p()
+    assert r.call("fmi2SerializedFMUstateSize", None, byref(size)) == ERROR and size.value == 0
+    assert r.call("fmi2DeSerializeFMUstate", buf, n, byref(state)) == ERROR and state.value is None
+    assert r.call("fmi2GetFMUstate", byref(state)) == ERROR and state.value is None
+    assert r.said("Co-Simulation only")
+
+
+# ------------------------------------------------------------ Co-Simulation
+
+# ------------------------------------------------------------ threads
+
+def _euler(r: Raw, steps=400, h=2e-3):
+    """A fixed-step Euler importer with state events by sign change and step events."""
+    r.to_continuous()
+    t, z = 0.0, r.z()[1]
+    for _ in range(steps):
+        x, dx = r.x(), r.dx()[1]
+        t += h
+        r.call("fmi2SetTime", t)
+        r.set_x([x[0] + h * dx[0], x[1] + h * dx[1]])
+        z1 = r.z()[1]
+        st, enter, _ = r.completed()
+        if enter or any((a > 0) != (b > 0) for a, b in zip(z, z1)):
+            r.event()
+            z1 = r.z()[1]
+        z = z1
+    return r.x(), r.get("impacts"), r.get("peaks"), r.get("block1.maxAbsTheta")
+
+
+def _co_simulation(r: Raw):
+    for k in range(40):
+        assert r.step(0.02 * k, 0.02) == OK
+    return r.get("block1.theta"), r.get("impacts"), r.get("peaks")
