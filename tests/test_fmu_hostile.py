@@ -281,6 +281,43 @@ ALLOWED = {
 
 # ------------------------------------------------------------ the ground
 
+@pytest.mark.parametrize("theta0", [0.1, 0.0], ids=["rocking", "at rest"])
+def test_ground_falling_faster_than_g_is_an_error_in_model_exchange(new, theta0):
+    """Co-Simulation's step fails once g + av <= 0 (the block would leave the ground). The
+    derivatives did not: the block went on with gravity reversed and fmi2OK."""
+    r = new()
+    r.start({"block1.theta0": theta0})
+    r.to_continuous()
+    assert r.dx()[0] == OK
+    r.set(ground__av=-20.0)
+    n = len(r.messages)
+    assert r.dx()[0] == ERROR
+    assert r.said("<= -g", n)
+    r.set(ground__av=-9.0)  # above -g again
+    assert r.dx() == (OK, [0.0, _rhs(0.1, 1, av=-9.0) if theta0 else 0.0])
+
+
+def test_derivatives_that_overflow_are_an_error(new):
+    """Huge finite inputs: the derivative overflowed to -inf and came back with fmi2OK, as did
+    an infinite event indicator."""
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    r.set(ground__ah=1e308, ground__av=1e308)
+    n = len(r.messages)
+    assert r.dx()[0] == ERROR
+    assert r.said("not finite", n)
+    # the uplift indicator (g + av) b/h - |ah| of a flat block at rest: +inf
+    flat = new()
+    flat.start({"restitution.law": 2, "block1.halfWidth": 10.0, "block1.halfHeight": 1e-5})
+    flat.to_continuous()
+    assert flat.z()[0] == OK
+    flat.set(ground__av=1e308)
+    n = len(flat.messages)
+    assert flat.z()[0] == ERROR
+    assert flat.said("event indicator 2 = inf", n)
+
+
 # ------------------------------------------------------------ states the importer sets
 
 # ------------------------------------------------------------ variables and instances
@@ -298,6 +335,23 @@ def test_a_refused_value_leaves_the_feedthrough_outputs_current(new, kind):
     assert r.get("ground.ah") == 5.0
     assert r.get("ground.ahTotal") == 5.0
     assert r.get("block1.alpha_dd") == pytest.approx(_rhs(0.1, 1, ah=5.0), rel=1e-12)
+
+
+def test_model_functions_refuse_two_blocks_set_in_initialization(new):
+    """nBlocks = 2 set in initialization mode: fmi2ExitInitializationMode refuses it, but the
+    derivatives, indicators and states came back with fmi2OK (zeros and ones of a model
+    Model Exchange does not run)."""
+    r = new()
+    r.setup()
+    assert r.call("fmi2EnterInitializationMode") == OK
+    r.set(nBlocks=2, block2__theta0=0.05)
+    for fn, n in (("fmi2GetDerivatives", 2), ("fmi2GetEventIndicators", 4), ("fmi2GetContinuousStates", 2)):
+        assert r.array(fn, n)[0] == ERROR
+    assert r.said("Model Exchange runs one block")
+    assert r.call("fmi2ExitInitializationMode") == ERROR
+    r.set(nBlocks=1)
+    assert r.call("fmi2ExitInitializationMode") == OK
+    assert r.dx() == (OK, [0.0, 0.0])
 
 
 def test_fmu_state_functions_are_errors_on_model_exchange(new, fmu):

@@ -87,8 +87,15 @@ Status me_set_states(Instance *I, const double *x, size_t nx, const char *fn) {
     return STATUS_OK;
 }
 
+/* The model functions need valid parameters, for Model Exchange (parameters set in
+ * initialization mode are checked when they are used). */
+static Status ready(Instance *I) {
+    if (instance_initialize(I) || me_check(I)) return STATUS_ERROR;
+    return STATUS_OK;
+}
+
 Status me_get_states(Instance *I, double *x, size_t nx, const char *fn) {
-    if (check_size(I, x, nx, ME_STATES, fn) || instance_initialize(I)) return STATUS_ERROR;
+    if (check_size(I, x, nx, ME_STATES, fn) || ready(I)) return STATUS_ERROR;
     x[0] = I->s.model.s.y[0];
     x[1] = I->s.model.s.y[1];
     return STATUS_OK;
@@ -105,32 +112,58 @@ Status me_get_nominals(Instance *I, double *x, size_t nx, const char *fn) {
     return STATUS_OK;
 }
 
-Status me_get_derivatives(Instance *I, double *dx, size_t nx, const char *fn) {
-    if (check_size(I, dx, nx, ME_STATES, fn) || instance_initialize(I)) return STATUS_ERROR;
+/* A block on the ground needs g + av > 0 (as the built-in solver's steps do): with the
+ * ground falling faster than g it would lift off, which the model does not cover. */
+static int ground_lets_go(Instance *I, const char *fn) {
     const Model *M = &I->s.model;
     const State *S = &M->s;
-    if (S->mode == MODE_ROCKING) {
-        model_rhs(M, S->t, S->y, S->side, dx);
-    } else {
-        dx[0] = dx[1] = 0.0;
+    if (S->mode != MODE_ROCKING && S->mode != MODE_REST) return 0;
+    double ah, av;
+    model_ground(M, S->t, &ah, &av);
+    if (M->v.g + av > 0) return 0;
+    INSTANCE_ERROR(I, "%s: vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not "
+                   "modelled)", fn, av, S->t);
+    return 1;
+}
+
+Status me_get_derivatives(Instance *I, double *dx, size_t nx, const char *fn) {
+    if (check_size(I, dx, nx, ME_STATES, fn) || ready(I)) return STATUS_ERROR;
+    const Model *M = &I->s.model;
+    const State *S = &M->s;
+    if (ground_lets_go(I, fn)) return STATUS_ERROR;
+    double d[2] = {0.0, 0.0};
+    if (S->mode == MODE_ROCKING) model_rhs(M, S->t, S->y, S->side, d);
+    if (!isfinite(d[0]) || !isfinite(d[1])) {
+        INSTANCE_ERROR(I, "%s: the derivatives (%g, %g) at t=%.17g are not finite (ground.ah %g, ground.av %g)", fn,
+                       d[0], d[1], S->t, M->v.ahIn, M->v.avIn);
+        return STATUS_ERROR;
     }
+    dx[0] = d[0];
+    dx[1] = d[1];
     return STATUS_OK;
 }
 
 Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn) {
-    if (check_size(I, z, nz, ME_INDICATORS, fn) || instance_initialize(I)) return STATUS_ERROR;
+    if (check_size(I, z, nz, ME_INDICATORS, fn) || ready(I)) return STATUS_ERROR;
     const Model *M = &I->s.model;
     const State *S = &M->s;
-    z[0] = z[1] = z[2] = z[3] = 1.0;
+    double w[ME_INDICATORS] = {1.0, 1.0, 1.0, 1.0};
     if (S->mode == MODE_ROCKING) {
-        z[0] = S->y[0];
-        z[1] = M_PI / 2 - fabs(S->y[0]);
-        z[3] = S->y[1];
+        w[0] = S->y[0];
+        w[1] = M_PI / 2 - fabs(S->y[0]);
+        w[3] = S->y[1];
     } else if (S->mode == MODE_REST) {
         double ah, av;
         model_ground(M, S->t, &ah, &av);
-        z[2] = (M->v.g + av) * M->d.upliftSlope - fabs(ah);
+        w[2] = (M->v.g + av) * M->d.upliftSlope - fabs(ah);
     }
+    for (int i = 0; i < ME_INDICATORS; i++)
+        if (!isfinite(w[i])) {
+            INSTANCE_ERROR(I, "%s: event indicator %d = %g at t=%.17g is not finite (ground.ah %g, ground.av %g)", fn,
+                           i, w[i], S->t, M->v.ahIn, M->v.avIn);
+            return STATUS_ERROR;
+        }
+    for (int i = 0; i < ME_INDICATORS; i++) z[i] = w[i];
     return STATUS_OK;
 }
 
@@ -140,7 +173,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     Logger log = instance_solver_logger(I);
     double t = S->t, ah, av;
     info->newDiscreteStatesNeeded = info->terminate = info->statesChanged = 0;
-    if (instance_initialize(I)) return -1;
+    if (ready(I)) return -1;
     model_ground(M, t, &ah, &av);
     if (!(M->v.g + av > 0)) {
         say(&log, LOG_ERROR,
