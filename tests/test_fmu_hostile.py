@@ -318,7 +318,142 @@ def test_derivatives_that_overflow_are_an_error(new):
     assert flat.said("event indicator 2 = inf", n)
 
 
+def test_a_block_the_ground_tips_at_the_start_rocks_without_an_event_iteration(new):
+    """An importer that goes from fmi2ExitInitializationMode straight to continuous-time mode:
+    the pulse is above the uplift threshold from the start, so the uplift indicator is
+    negative from the start and never changes sign; the block stayed at rest for ever."""
+    start = {"excitation.kind": 1, "excitation.amplitude": 8.0, "excitation.frequency": 2.0,
+             "excitation.startTime": -0.1}
+    r = new()
+    r.start(start, iterate=False)
+    r.to_continuous()
+    assert not r.get("atRest")
+    st, dx = r.dx()
+    ah = r.get("ground.ahTotal")
+    assert ah > THRESHOLD and st == OK
+    assert dx == [0.0, _rhs(0.0, -1, ah=ah)] and dx[1] < 0  # ah > 0 tips it towards theta < 0
+    # the same as with the event iteration
+    s = new()
+    s.start(start)
+    assert not s.get("atRest") and s.dx() == (OK, dx)
+
+
+def test_inputs_set_in_event_mode_after_the_iteration_tip_the_block(new):
+    r = new()
+    r.start({})
+    r.set(ground__ah=-2 * THRESHOLD)  # after the event iteration, before continuous-time mode
+    assert r.get("ground.ahTotal") == -2 * THRESHOLD  # feedthrough at once
+    r.to_continuous()
+    assert not r.get("atRest")
+    assert r.dx() == (OK, [0.0, _rhs(0.0, 1, ah=-2 * THRESHOLD)])
+    assert r.completed()[1] == 0  # nothing left for an event
+
+
+def test_rocking_flat_on_its_base_with_nothing_lifting_it_rests(new):
+    """After an uplift, the input that tipped the block is taken back in event mode: flat on
+    its base, it pivoted on a corner it was pushed away from, into the ground (theta's
+    indicator stays in its domain z <= 0), until it overturned on the other side."""
+    r = new()
+    r.start({})
+    r.set(ground__ah=2 * THRESHOLD)
+    r.to_continuous()
+    r.event()  # uplift towards theta < 0
+    assert not r.get("atRest")
+    assert r.call("fmi2EnterEventMode") == OK
+    assert r.nds()[0] == OK
+    r.set(ground__ah=0.0)
+    r.to_continuous()
+    assert r.get("atRest") and r.dx() == (OK, [0.0, 0.0])
+    # the same reached through states the importer sets on a rocking block
+    s = new()
+    s.start({"block1.theta0": 0.1})
+    s.to_continuous()
+    assert s.set_x([0.0, 0.0]) == OK
+    assert s.completed()[:2] == (OK, 1)  # a step event
+    s.event()
+    assert s.get("atRest") and s.x() == [0.0, 0.0] and s.get("impacts") == 0
+
+
 # ------------------------------------------------------------ states the importer sets
+
+def test_a_long_euler_step_overturns_the_block_on_the_side_it_reached(new):
+    """One Euler step from theta = 0.1 across theta = 0 and beyond -pi/2: the block was
+    overturned on the side it started from, theta jumping from -2 to +pi/2."""
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    assert r.call("fmi2SetTime", 0.5) == OK
+    assert r.set_x([-2.0, -3.0]) == OK
+    info = r.event()
+    assert info["changed"]
+    assert r.get("overturned") and r.x() == [-PI2, 0.0] and r.get("block1.theta") == -PI2
+    assert r.dx() == (OK, [0.0, 0.0])
+
+
+@pytest.mark.parametrize("x,overturned", [([0.05, 0.0], False), ([0.0, -0.3], False), ([2.0, 0.0], True),
+                                          ([-1.6, 1.0], True)])
+def test_states_set_on_a_resting_block_release_it(new, x, overturned):
+    """A block at rest kept any states an importer set, with zero derivatives and atRest true:
+    it hovered at theta = 2 with a negative energy. Now the step ends with a step event
+    (fmi2CompletedIntegratorStep, hence completedIntegratorStepNotNeeded="false") and the
+    block moves from the states set, or falls over."""
+    r = new()
+    assert r.fmu.model_description.modelExchange.needsCompletedIntegratorStep  # fmpy then calls it
+    r.start({})
+    r.to_continuous()
+    assert r.completed()[:2] == (OK, 0)
+    assert r.set_x(x) == OK
+    assert r.completed()[:2] == (OK, 1)
+    r.event()
+    assert not r.get("atRest") and r.get("overturned") == overturned
+    if overturned:
+        assert r.x() == [math.copysign(PI2, x[0]), 0.0]
+    else:
+        side = 1 if x[0] > 0 else -1 if x[0] < 0 else (1 if x[1] > 0 else -1)
+        assert r.x() == x and r.dx() == (OK, [x[1], _rhs(x[0], side)])
+    assert r.completed()[:2] == (OK, 0)
+
+
+def test_states_set_on_an_overturned_block_go_back_to_its_side(new):
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    assert r.set_x([1.7, 1.0]) == OK
+    r.event()
+    assert r.get("overturned") and r.x() == [PI2, 0.0]
+    assert r.set_x([0.3, -2.0]) == OK
+    assert r.get("block1.theta") == 0.3  # outputs follow the states at once
+    assert r.completed()[:2] == (OK, 1)
+    info = r.event()
+    assert info["changed"] and r.x() == [PI2, 0.0] and r.get("overturned") and r.get("block1.theta") == PI2
+
+
+def test_one_event_iteration_settles_any_state(new):
+    """The FMU never sets newDiscreteStatesNeeded: after one fmi2NewDiscreteStates, whatever
+    the states and inputs set before it, a second changes nothing and no step event is due
+    (else an importer would loop, or carry an inconsistent mode)."""
+    rnd = random.Random(17)
+    special = [0.0, -0.0, 5e-324, -5e-324, 0.1, -0.1, PI2, -PI2, 1.6, -2.0]
+    scenes = [{}, {"block1.theta0": 0.1}, {**PULSE, "excitation.amplitude": 8.0},
+              {"restitution.law": 2, "restitution.eta": 0.0, "block1.theta0": -0.05}]
+    for trial in range(40):
+        r = new()
+        r.start(rnd.choice(scenes))
+        r.to_continuous()
+        for k in range(5):
+            assert r.call("fmi2SetTime", rnd.uniform(0.0, 1.0)) == OK
+            x = [rnd.choice(special) if rnd.random() < 0.5 else rnd.uniform(-2, 2) for _ in range(2)]
+            assert r.set_x(x) == OK
+            if rnd.random() < 0.3:
+                r.set(ground__ah=rnd.choice([0.0, 3.3, -3.3, 10.0]))
+            assert r.call("fmi2EnterEventMode") == OK
+            assert r.nds()[0] == OK
+            settled = r.x()
+            st, again = r.nds()
+            assert st == OK and not again["changed"] and r.x() == settled, (x, settled, r.x())
+            r.to_continuous()
+            assert r.completed()[:2] == (OK, 0), (x, settled)
+
 
 # ------------------------------------------------------------ variables and instances
 
@@ -367,6 +502,21 @@ def test_fmu_state_functions_are_errors_on_model_exchange(new, fmu):
     assert r.call("fmi2DeSerializeFMUstate", buf, n, byref(state)) == ERROR and state.value is None
     assert r.call("fmi2GetFMUstate", byref(state)) == ERROR and state.value is None
     assert r.said("Co-Simulation only")
+
+
+def test_stop_at_overturn_in_model_exchange_terminates_every_time_asked(new):
+    r = new()
+    r.start({**OVERTURNING, "solver.stopAtOverturn": True})
+    r.to_continuous()
+    assert r.call("fmi2SetTime", 0.47) == OK
+    assert r.set_x([1.6, 3.0]) == OK
+    assert r.call("fmi2EnterEventMode") == OK
+    for _ in range(3):
+        st, info = r.nds()
+        assert st == OK and info["terminate"]
+    assert r.get("overturnTime") == 0.47 and r.x() == [PI2, 0.0]
+    assert r.call("fmi2GetBooleanStatus", TERMINATED, byref(c_int())) == ERROR  # a Co-Simulation function
+    assert r.call("fmi2Terminate") == OK
 
 
 # ------------------------------------------------------------ Co-Simulation

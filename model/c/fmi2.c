@@ -394,6 +394,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
     Instance *I = (Instance *)c;
     CHECK_ME(I, PHASE_EVENT, "fmi2EnterContinuousTimeMode");
+    me_enter_continuous(I);
     I->s.phase = PHASE_CONTINUOUS;
     return fmi2OK;
 }

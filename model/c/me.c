@@ -31,19 +31,80 @@ int me_check(Instance *I) {
     return 0;
 }
 
+/* The sign omega will have: its own, or for a block released with omega = 0, that of
+ * its acceleration (0 if balanced). */
+static int moving_sign(const Model *M) {
+    const State *S = &M->s;
+    if (sign_of(S->y[1])) return sign_of(S->y[1]);
+    double dy[2];
+    model_rhs(M, S->t, S->y, S->side, dy);
+    return sign_of(dy[1]);
+}
+
+/* The ground tips a block standing on its base at time t: the side it tips towards, else 0. */
+static int tipping_side(const Model *M, double t) {
+    double ah, av;
+    model_ground(M, t, &ah, &av);
+    if (!(fabs(ah) > (M->v.g + av) * M->d.upliftSlope)) return 0;
+    return ah > 0 ? -1 : 1; /* a_h > 0 tips it towards theta < 0 */
+}
+
+/* A rocking block flat on its base (theta = omega = 0) whose acceleration does not take it
+ * onto its pivot side: it stands on its base, and rests unless the ground tips it (to the
+ * other side: the ground tipping it to its pivot side, within rounding of the threshold,
+ * leaves it as it is). */
+static int flat_and_falling_back(const Model *M) {
+    const State *S = &M->s;
+    if (S->mode != MODE_ROCKING || S->y[0] != 0.0 || S->y[1] != 0.0) return 0;
+    double dy[2];
+    model_rhs(M, S->t, S->y, S->side, dy);
+    return !(S->side * dy[1] > 0) && tipping_side(M, S->t) != S->side;
+}
+
+/* Changes of the discrete state that leave the continuous states (0, 0) as they are:
+ * a block on its base that the ground tips over a corner, or one rocking flat on its base
+ * whose acceleration does not lift it on its pivot side (it stands, or tips the other way).
+ * At the start, and on entering continuous-time mode (inputs or the time set in event mode
+ * after the event iteration): the importer's solver would never see the uplift indicator
+ * change sign, negative from the start. Returns 1 if the mode or side changed. */
+static int settle(Instance *I, const Logger *log) {
+    Model *M = &I->s.model;
+    State *S = &M->s;
+    double t = S->t;
+    int flat = flat_and_falling_back(M);
+    if (!(S->mode == MODE_REST && S->y[0] == 0.0 && S->y[1] == 0.0) && !flat) return 0;
+    int side = tipping_side(M, t);
+    if (side) {
+        if (S->mode == MODE_ROCKING && S->side == side) return 0;
+        S->mode = MODE_ROCKING;
+        S->side = side;
+        S->omegaSign = side;
+        say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
+        return 1;
+    }
+    if (flat) {
+        S->mode = MODE_REST;
+        say(log, LOG_EVENTS, "rest t=%.17g", t);
+        return 1;
+    }
+    return 0;
+}
+
 void me_start(Instance *I) {
     Model *M = &I->s.model;
     State *S = &M->s;
     S->t = I->s.tc;
     S->denseValid = 0;
     S->nStepPeaks = 0;
-    S->omegaSign = sign_of(S->y[1]);
-    if (S->omegaSign == 0 && S->mode == MODE_ROCKING) { /* released at rest: it moves as it accelerates */
-        double dy[2];
-        model_rhs(M, S->t, S->y, S->side, dy);
-        S->omegaSign = sign_of(dy[1]);
-    }
+    S->omegaSign = S->mode == MODE_ROCKING ? moving_sign(M) : 0; /* released at rest: it moves as it accelerates */
+    Logger log = instance_solver_logger(I);
+    settle(I, &log);
     me_update_outputs(I);
+}
+
+void me_enter_continuous(Instance *I) {
+    Logger log = instance_solver_logger(I);
+    if (settle(I, &log)) me_update_outputs(I);
 }
 
 void me_update_outputs(Instance *I) {
@@ -167,6 +228,29 @@ Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn
     return STATUS_OK;
 }
 
+/* An impact due: theta on the far side of 0 from the pivot corner, or at 0 moving there. */
+static int past_impact(const State *S) {
+    double theta = S->y[0], omega = S->y[1];
+    return S->side * theta < 0 || (theta == 0 && S->side * omega < 0);
+}
+
+int me_event_pending(Instance *I) {
+    const Model *M = &I->s.model;
+    const State *S = &M->s;
+    if (I->s.dirty) return 0;
+    switch (S->mode) {
+    case MODE_REST:
+        return S->y[0] != 0.0 || S->y[1] != 0.0 || tipping_side(M, S->t) != 0;
+    case MODE_OVERTURNED:
+        return S->y[0] != S->side * M_PI / 2 || S->y[1] != 0.0;
+    case MODE_ROCKING:
+        return fabs(S->y[0]) >= M_PI / 2 || past_impact(S) || flat_and_falling_back(M) ||
+               S->y[1] * S->omegaSign < 0;
+    default:
+        return 0;
+    }
+}
+
 int me_event_update(Instance *I, MeEventInfo *info) {
     Model *M = &I->s.model;
     State *S = &M->s;
@@ -180,9 +264,26 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)", av, t);
         return -1;
     }
+    if (S->mode == MODE_REST && (S->y[0] != 0.0 || S->y[1] != 0.0)) {
+        /* the importer set the states of a block at rest: it moves from there (as one
+         * released with block1.theta0 and block1.omega0 would), on the corner it leans on */
+        S->mode = MODE_ROCKING;
+        S->side = S->y[0] > 0 ? 1 : S->y[0] < 0 ? -1 : S->y[1] > 0 ? 1 : -1;
+        S->omegaSign = moving_sign(M);
+        say(&log, LOG_EVENTS, "release t=%.17g theta=%.17g omega=%.17g", t, S->y[0], S->y[1]);
+    }
+    if (S->mode == MODE_OVERTURNED && (S->y[0] != S->side * M_PI / 2 || S->y[1] != 0.0)) {
+        /* an overturned block lies on its side: its states stay there */
+        S->y[0] = S->side * M_PI / 2;
+        S->y[1] = 0.0;
+        info->statesChanged = 1;
+    }
     if (S->mode == MODE_ROCKING) {
         double theta = S->y[0], omega = S->y[1];
         if (fabs(theta) >= M_PI / 2) {
+            /* on the side it fell to (an importer's long step may have carried it across
+             * theta = 0 and beyond the other corner) */
+            S->side = theta > 0 ? 1 : -1;
             S->mode = MODE_OVERTURNED;
             S->overturnTime = t;
             S->y[0] = S->side * M_PI / 2;
@@ -190,7 +291,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             S->maxAbsTheta = M_PI / 2;
             info->statesChanged = 1;
             say(&log, LOG_EVENTS, "overturn t=%.17g side=%d", t, S->side);
-        } else if (S->side * theta < 0 || (theta == 0 && S->side * omega < 0)) {
+        } else if (past_impact(S)) {
             /* block 1 lands on the corner of the other side: the impact map */
             double wp;
             int rest = model_impact(M, t, omega, &wp);
@@ -215,15 +316,10 @@ int me_event_update(Instance *I, MeEventInfo *info) {
         }
         if (S->mode == MODE_ROCKING && sign_of(S->y[1])) S->omegaSign = sign_of(S->y[1]);
         if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
-    } else if (S->mode == MODE_REST && fabs(ah) > (M->v.g + av) * M->d.upliftSlope) {
-        /* the ground tips the block over a corner: a_h > 0 towards theta < 0 */
-        S->mode = MODE_ROCKING;
-        S->side = ah > 0 ? -1 : 1;
-        S->y[0] = S->y[1] = 0.0;
-        S->omegaSign = S->side;
-        info->statesChanged = 1;
-        say(&log, LOG_EVENTS, "uplift t=%.17g side=%d", t, S->side);
     }
+    /* a block on its base: the ground tips it (uplift), or one rocking flat on its base
+     * stands on it */
+    if (settle(I, &log)) info->statesChanged = 1; /* the importer's solver restarts */
     if (S->mode == MODE_OVERTURNED && M->v.stopAtOverturn) {
         I->s.terminated = 1;
         info->terminate = 1;
@@ -246,7 +342,10 @@ int me_event_update(Instance *I, MeEventInfo *info) {
 }
 
 int me_completed_step(Instance *I, int *enterEventMode) {
-    *enterEventMode = 0;
-    (void)I;
+    /* a step event when the states no longer fit the discrete state in a way no event
+     * indicator shows: states the importer set on a block at rest or overturned, or
+     * rocking flat on its base (theta = 0 moving to the wrong side does not change the sign
+     * of theta's indicator from its domain z <= 0) */
+    *enterEventMode = me_event_pending(I);
     return 0;
 }
