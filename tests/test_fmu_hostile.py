@@ -213,7 +213,12 @@ B, H, G = 0.1, 0.3, 9.81  # the FMU's default block and gravity
 THRESHOLD = G * B / H  # |ah| above which the ground tips a block at rest
 
 
+def close(expected):
+    return pytest.approx(expected, rel=1e-12, abs=1e-300)
+
+
 def _rhs(theta, side, ah=0.0, av=0.0):
+    """theta'' of the equation of motion (model.h), written out here."""
     R, alpha = math.sqrt(B * B + H * H), math.atan(B / H)
     phi = side * alpha - theta
     return -(3.0 / (4.0 * R)) * ((G + av) * math.sin(phi) + ah * math.cos(phi))
@@ -262,7 +267,8 @@ CALLS = {
     "GetBooleanStatus": lambda r: r.call("fmi2GetBooleanStatus", TERMINATED, byref(c_int())),
 }
 PHASES = ["instantiated", "initialization", "event", "continuous", "terminated", "error"]
-# the calls that succeed in each phase (FMI 2.0 Model Exchange state machine); all others are fmi2Error
+# the calls that succeed in each phase (FMI 2.0's Model Exchange state machine; fmi2EnterEventMode is also
+# accepted in event mode, where it changes nothing); all others are fmi2Error
 ALLOWED = {
     "instantiated": {"GetNominalsOfContinuousStates", "SetInput", "SetParameter"},
     "initialization": {"GetContinuousStates", "GetDerivatives", "GetEventIndicators", "GetNominalsOfContinuousStates",
@@ -277,6 +283,68 @@ ALLOWED = {
                    "GetReal"},
     "error": {"GetContinuousStates", "GetNominalsOfContinuousStates", "GetReal", "GetEventIndicators"},
 }
+
+
+@pytest.mark.parametrize("phase", PHASES)
+def test_every_model_exchange_call_in_every_phase(new, phase):
+    """Each call on a fresh instance in the phase: fmi2OK where FMI 2.0 allows it, else
+    fmi2Error with a message; Co-Simulation calls and FMU states are errors on Model Exchange.
+    (In the error phase the derivatives are refused: the ground still falls faster than g.)"""
+    statuses = {}
+    for name, call in CALLS.items():
+        r = _in_phase(new(), phase)
+        n = len(r.messages)
+        statuses[name] = call(r)
+        if statuses[name] != OK:
+            assert r.messages[n:], f"{name} in {phase}: no message"
+    assert {n for n, st in statuses.items() if st == OK} == ALLOWED[phase], statuses
+    assert all(st == ERROR for n, st in statuses.items() if n not in ALLOWED[phase]), statuses
+
+
+def test_array_arguments_are_checked_and_nothing_is_written_past_them(new):
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    for fn in ("fmi2GetContinuousStates", "fmi2GetDerivatives", "fmi2GetNominalsOfContinuousStates",
+               "fmi2GetEventIndicators"):
+        want = 4 if fn == "fmi2GetEventIndicators" else 2
+        for n in (0, 1, want - 1, want + 1, 2**62):
+            buf = (c_double * 8)(*[123.0] * 8)
+            assert r.call(fn, buf, n) == ERROR, (fn, n)
+            assert list(buf) == [123.0] * 8, (fn, n)
+        assert r.call(fn, None, want) == ERROR
+        assert r.said("NULL array")
+    for n in (0, 1, 3, 2**62):
+        assert r.call("fmi2SetContinuousStates", (c_double * 4)(0.3, 0.3, 0.3, 0.3), n) == ERROR
+    assert r.call("fmi2SetContinuousStates", None, 2) == ERROR
+    for bad in ([math.nan, 0.0], [0.0, math.inf], [-math.inf, 0.0]):
+        assert r.set_x(bad) == ERROR
+    assert r.x() == [0.1, 0.0]  # nothing of the refused calls arrived
+    assert r.call("fmi2NewDiscreteStates", None) == ERROR
+    assert r.call("fmi2CompletedIntegratorStep", 1, None, None) == ERROR
+    assert r.call("fmi2SetReal", None, 1, None) == ERROR
+
+
+def test_times_non_finite_refused_backward_and_huge_accepted(new):
+    r = new()
+    r.start({"block1.theta0": 0.1, **PULSE})
+    r.to_continuous()
+    for t in (math.nan, math.inf, -math.inf):
+        assert r.call("fmi2SetTime", t) == ERROR
+    assert r.call("fmi2SetTime", 0.3) == OK
+    at_03 = r.dx()
+    assert r.call("fmi2SetTime", -5.0) == OK  # an importer's solver may go back within its step
+    assert r.call("fmi2SetTime", 0.3) == OK
+    assert r.dx() == at_03
+    for t in (1e15, 1e300):  # at rest under an endless harmonic: the uplift search ends at once
+        h = new()
+        h.start({"excitation.kind": 3, "excitation.displacement": 0.001, "excitation.frequency": 1.0,
+                 "excitation.cycles": 0})
+        h.to_continuous()
+        assert h.call("fmi2SetTime", t) == OK
+        assert h.call("fmi2EnterEventMode") == OK
+        st, info = h.nds()
+        assert st == OK and h.get("atRest") and h.dx() == (OK, [0.0, 0.0])
 
 
 # ------------------------------------------------------------ the ground
@@ -294,7 +362,7 @@ def test_ground_falling_faster_than_g_is_an_error_in_model_exchange(new, theta0)
     assert r.dx()[0] == ERROR
     assert r.said("<= -g", n)
     r.set(ground__av=-9.0)  # above -g again
-    assert r.dx() == (OK, [0.0, _rhs(0.1, 1, av=-9.0) if theta0 else 0.0])
+    assert r.dx() == (OK, close([0.0, _rhs(0.1, 1, av=-9.0) if theta0 else 0.0]))
 
 
 def test_derivatives_that_overflow_are_an_error(new):
@@ -331,7 +399,7 @@ def test_a_block_the_ground_tips_at_the_start_rocks_without_an_event_iteration(n
     st, dx = r.dx()
     ah = r.get("ground.ahTotal")
     assert ah > THRESHOLD and st == OK
-    assert dx == [0.0, _rhs(0.0, -1, ah=ah)] and dx[1] < 0  # ah > 0 tips it towards theta < 0
+    assert dx == close([0.0, _rhs(0.0, -1, ah=ah)]) and dx[1] < 0  # ah > 0 tips it towards theta < 0
     # the same as with the event iteration
     s = new()
     s.start(start)
@@ -345,8 +413,18 @@ def test_inputs_set_in_event_mode_after_the_iteration_tip_the_block(new):
     assert r.get("ground.ahTotal") == -2 * THRESHOLD  # feedthrough at once
     r.to_continuous()
     assert not r.get("atRest")
-    assert r.dx() == (OK, [0.0, _rhs(0.0, 1, ah=-2 * THRESHOLD)])
+    assert r.dx() == (OK, close([0.0, _rhs(0.0, 1, ah=-2 * THRESHOLD)]))
     assert r.completed()[1] == 0  # nothing left for an event
+    # set in continuous-time mode: the uplift indicator changes sign, and the step ends in an event
+    s = new()
+    s.start({})
+    s.to_continuous()
+    assert s.z()[1][2] > 0
+    s.set(ground__ah=2 * THRESHOLD)
+    assert s.z()[1][2] < 0 and s.completed()[:2] == (OK, 1)
+    info = s.event()
+    assert not s.get("atRest") and info["changed"] and s.completed()[:2] == (OK, 0)
+    assert s.dx() == (OK, close([0.0, _rhs(0.0, -1, ah=2 * THRESHOLD)]))
 
 
 def test_rocking_flat_on_its_base_with_nothing_lifting_it_rests(new):
@@ -410,7 +488,7 @@ def test_states_set_on_a_resting_block_release_it(new, x, overturned):
         assert r.x() == [math.copysign(PI2, x[0]), 0.0]
     else:
         side = 1 if x[0] > 0 else -1 if x[0] < 0 else (1 if x[1] > 0 else -1)
-        assert r.x() == x and r.dx() == (OK, [x[1], _rhs(x[0], side)])
+        assert r.x() == x and r.dx() == (OK, close([x[1], _rhs(x[0], side)]))
     assert r.completed()[:2] == (OK, 0)
 
 
@@ -455,6 +533,18 @@ def test_one_event_iteration_settles_any_state(new):
             assert r.completed()[:2] == (OK, 0), (x, settled)
 
 
+def test_new_discrete_states_many_times_after_an_impact_counts_it_once(new):
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    assert r.call("fmi2SetTime", 0.3) == OK
+    assert r.set_x([-1e-9, -1.0]) == OK
+    assert r.call("fmi2EnterEventMode") == OK
+    results = [r.nds() for _ in range(20)]
+    assert results[0][1]["changed"] and not any(info["changed"] for _, info in results[1:])
+    assert r.get("impacts") == 1 and r.get("lastImpactTime") == 0.3
+
+
 # ------------------------------------------------------------ variables and instances
 
 @pytest.mark.parametrize("kind", ["ME", "CS"])
@@ -469,7 +559,7 @@ def test_a_refused_value_leaves_the_feedthrough_outputs_current(new, kind):
     assert r.call("fmi2SetReal", vr, 2, (c_double * 2)(5.0, 0.0)) == ERROR
     assert r.get("ground.ah") == 5.0
     assert r.get("ground.ahTotal") == 5.0
-    assert r.get("block1.alpha_dd") == pytest.approx(_rhs(0.1, 1, ah=5.0), rel=1e-12)
+    assert r.get("block1.alpha_dd") == close(_rhs(0.1, 1, ah=5.0))
 
 
 def test_model_functions_refuse_two_blocks_set_in_initialization(new):
@@ -504,6 +594,26 @@ def test_fmu_state_functions_are_errors_on_model_exchange(new, fmu):
     assert r.said("Co-Simulation only")
 
 
+def test_reset_and_reuse_a_model_exchange_instance(new):
+    r = new()
+    r.start({"block1.theta0": 0.1, "solver.stopAtOverturn": True})
+    r.to_continuous()
+    assert r.set_x([1.7, 1.0]) == OK
+    assert r.call("fmi2EnterEventMode") == OK
+    st, info = r.nds()
+    assert st == OK and info["terminate"]
+    assert r.call("fmi2Reset") == OK
+    assert r.array("fmi2GetContinuousStates", 2)[0] == ERROR  # instantiated again
+    r.start({"block1.theta0": -0.2})
+    assert r.x() == [-0.2, 0.0] and not r.get("overturned") and not r.get("solver.stopAtOverturn")
+    fresh = new()
+    fresh.start({"block1.theta0": -0.2})
+    for m in (r, fresh):
+        m.to_continuous()
+        assert m.call("fmi2SetTime", 0.01) == OK
+    assert r.dx() == fresh.dx() and r.z() == fresh.z()
+
+
 def test_stop_at_overturn_in_model_exchange_terminates_every_time_asked(new):
     r = new()
     r.start({**OVERTURNING, "solver.stopAtOverturn": True})
@@ -520,6 +630,89 @@ def test_stop_at_overturn_in_model_exchange_terminates_every_time_asked(new):
 
 
 # ------------------------------------------------------------ Co-Simulation
+
+def test_stop_at_overturn_with_states_around_the_terminating_step(new):
+    """The state before the step that ends the run: restored, smaller steps end at the same
+    overturn; the terminated state, serialized and restored into another instance, stays
+    terminated (fmi2Discard for further steps, fmi2Terminated true)."""
+    r = new("CS")
+    r.start({**OVERTURNING, "solver.stopAtOverturn": True})
+    t = 0.0
+    while True:
+        before = r.get_state()
+        st = r.step(t, 0.25)
+        if st != OK:
+            break
+        r.call("fmi2FreeFMUstate", byref(before))
+        t += 0.25
+    assert st == DISCARD and r.status(TERMINATED) == (OK, True)
+    overturn = r.get("overturnTime")
+    assert t < overturn < t + 0.25 and r.status(LAST_SUCCESSFUL_TIME) == (OK, overturn)
+    assert r.step(overturn, 0.1) == DISCARD and r.said("the run ended at the overturn")
+    ended = r.get_state()
+    buf, n = r.serialize(ended)
+    r.call("fmi2FreeFMUstate", byref(ended))
+
+    assert r.call("fmi2SetFMUstate", before) == OK
+    assert r.status(TERMINATED) == (OK, False) and r.status(LAST_SUCCESSFUL_TIME) == (OK, t)
+    while r.step(t, 0.01) == OK:
+        t += 0.01
+    assert r.status(TERMINATED) == (OK, True) and r.get("overturnTime") == overturn
+    r.call("fmi2FreeFMUstate", byref(before))
+
+    other = new("CS")
+    other.start({})
+    state = c_void_p()
+    assert other.call("fmi2DeSerializeFMUstate", buf, n, byref(state)) == OK
+    assert other.call("fmi2SetFMUstate", state) == OK, other.messages[-1:]
+    assert other.status(TERMINATED) == (OK, True) and other.status(LAST_SUCCESSFUL_TIME) == (OK, overturn)
+    assert other.step(overturn, 0.1) == DISCARD
+    assert other.call("fmi2Terminate") == OK and other.step(overturn, 0.1) == ERROR
+    assert other.call("fmi2FreeFMUstate", byref(state)) == OK and state.value is None
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -1e-6, math.nan, math.inf, -math.inf, math.nextafter(0.1, 1.0), 1.0])
+def test_tolerances_outside_the_range_are_refused(new, tolerance):
+    r = new("CS")
+    assert r.setup(tolerance=tolerance) == ERROR and r.said("must be in (0, 0.1]")
+    assert r.setup(tolerance=1e-6) == OK  # nothing was kept of the refused one
+
+
+@pytest.mark.parametrize("tolerance", [5e-324, 1e-300, 1e-8, 0.1])
+def test_tolerances_in_the_range_run_and_survive_serialization(new, tolerance):
+    r = new("CS")
+    r.start({"block1.theta0": 0.15}, tolerance=tolerance)
+    assert r.get("solver.relTol") == tolerance
+    assert r.step(0.0, 0.5) == OK
+    buf, n = r.serialize(r.get_state())
+    assert r.step(0.5, 0.5) == OK
+    expected = r.get("block1.theta")
+    other = new("CS")
+    other.start({"block1.theta0": 0.15}, tolerance=1e-4)
+    state = c_void_p()
+    assert other.call("fmi2DeSerializeFMUstate", buf, n, byref(state)) == OK
+    assert other.call("fmi2SetFMUstate", state) == OK, other.messages[-1:]
+    assert other.get("solver.relTol") == tolerance
+    assert other.step(0.5, 0.5) == OK and other.get("block1.theta") == expected
+    other.call("fmi2FreeFMUstate", byref(state))
+
+
+def test_a_state_claiming_a_tolerance_its_parameters_do_not_have_is_refused(new):
+    r = new("CS")
+    r.start({"block1.theta0": 0.15}, tolerance=1e-6)
+    buf, n = r.serialize(r.get_state())
+    raw = bytearray(buf)
+    mine = c_double(1e-6)
+    at = [i for i in range(len(raw) - 7) if raw[i:i + 8] == bytes(mine)]
+    assert at  # solver.relTol and the tolerance
+    raw[at[-1]:at[-1] + 8] = bytes(c_double(1e-7))
+    bad = (c_char * len(raw)).from_buffer(raw)
+    state = c_void_p()
+    assert r.call("fmi2DeSerializeFMUstate", bad, n, byref(state)) == OK
+    assert r.call("fmi2SetFMUstate", state) == ERROR
+    assert r.get("solver.relTol") == 1e-6 and r.step(0.0, 0.1) == OK
+    r.call("fmi2FreeFMUstate", byref(state))
+
 
 # ------------------------------------------------------------ threads
 
@@ -545,3 +738,37 @@ def _co_simulation(r: Raw):
     for k in range(40):
         assert r.step(0.02 * k, 0.02) == OK
     return r.get("block1.theta"), r.get("impacts"), r.get("peaks")
+
+
+def test_model_exchange_and_co_simulation_instances_in_threads_share_nothing(fmu):
+    scenes = [{"block1.theta0": 0.02 * k, **PULSE} for k in range(6)]
+
+    def run(k):
+        me, cs = Raw(fmu, "ME", f"me{k}"), Raw(fmu, "CS", f"cs{k}")
+        try:
+            me.start(scenes[k])
+            cs.start(scenes[k])
+            return _euler(me), _co_simulation(cs)
+        finally:
+            me.free()
+            cs.free()
+
+    alone = [run(k) for k in range(len(scenes))]
+    assert len({a[0][1] for a in alone}) > 1  # the scenes differ
+    together: dict[int, list] = {}
+    errors = []
+
+    def work(k):
+        try:
+            together[k] = [run(k) for _ in range(2)]
+        except Exception as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(len(scenes))]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert not errors
+    for k, results in together.items():
+        assert results == [alone[k], alone[k]], k
