@@ -77,7 +77,7 @@ def model_description(
     )
     w(
         f'  <ModelExchange modelIdentifier="{model_identifier}" '
-        'needsExecutionTool="false" completedIntegratorStepNotNeeded="true" '
+        'needsExecutionTool="false" completedIntegratorStepNotNeeded="false" '
         'canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="false" '
         'canSerializeFMUstate="false">'
     )

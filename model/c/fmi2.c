@@ -141,7 +141,11 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Instance *I = (Instance *)c;
     if (instance_begin_access(I, 1, vr, nvr, value, "fmi2SetReal")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++)
-        if (instance_set_real(I, vr[i], value[i], "fmi2SetReal")) return fmi2Error;
+        if (instance_set_real(I, vr[i], value[i], "fmi2SetReal")) {
+            /* the values before the refused one are set: outputs that depend on them follow */
+            if (i > 0) inputs_changed(I);
+            return fmi2Error;
+        }
     inputs_changed(I);
     return fmi2OK;
 }
@@ -207,6 +211,14 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 
 /* -------------------------------------------------------------- FMU state */
 
+/* Model Exchange declares canGetAndSetFMUstate and canSerializeFMUstate false: the state
+ * functions are errors there (instance_get_state and instance_set_state refuse too). */
+static int no_states(Instance *I, const char *fn) {
+    if (I->s.type == INTERFACE_CS) return 0;
+    INSTANCE_ERROR(I, "%s: FMU states are available in Co-Simulation only", fn);
+    return 1;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
     return (fmi2Status)instance_get_state((Instance *)c, (void **)state, "fmi2GetFMUstate");
 }
@@ -224,6 +236,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
     Instance *I = (Instance *)c;
     CHECK(I, ANY_PHASE, "fmi2SerializedFMUstateSize");
+    if (no_states(I, "fmi2SerializedFMUstateSize")) return fmi2Error;
     (void)state;
     if (!size) {
         INSTANCE_ERROR(I, "fmi2SerializedFMUstateSize: size pointer is NULL");
@@ -236,12 +249,14 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[], size_t size) {
     Instance *I = (Instance *)c;
     CHECK(I, ANY_PHASE, "fmi2SerializeFMUstate");
+    if (no_states(I, "fmi2SerializeFMUstate")) return fmi2Error;
     return (fmi2Status)instance_serialize_state(I, state, (unsigned char *)bytes, size, "fmi2SerializeFMUstate");
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate *state) {
     Instance *I = (Instance *)c;
     CHECK(I, ANY_PHASE, "fmi2DeSerializeFMUstate");
+    if (no_states(I, "fmi2DeSerializeFMUstate")) return fmi2Error;
     return (fmi2Status)instance_deserialize_state(I, (const unsigned char *)bytes, size, (void **)state,
                                                   "fmi2DeSerializeFMUstate");
 }
@@ -388,6 +403,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
     Instance *I = (Instance *)c;
     CHECK_ME(I, PHASE_EVENT, "fmi2EnterContinuousTimeMode");
+    me_enter_continuous(I);
     I->s.phase = PHASE_CONTINUOUS;
     return fmi2OK;
 }

@@ -31,19 +31,80 @@ int me_check(Instance *I) {
     return 0;
 }
 
+/* The sign omega will have: its own, or for a block released with omega = 0, that of
+ * its acceleration (0 if balanced). */
+static int moving_sign(const Model *M) {
+    const State *S = &M->s;
+    if (sign_of(S->y[1])) return sign_of(S->y[1]);
+    double dy[2];
+    model_rhs(M, S->t, S->y, S->side, dy);
+    return sign_of(dy[1]);
+}
+
+/* The ground tips a block standing on its base at time t: the side it tips towards, else 0. */
+static int tipping_side(const Model *M, double t) {
+    double ah, av;
+    model_ground(M, t, &ah, &av);
+    if (!(fabs(ah) > (M->v.g + av) * M->d.upliftSlope)) return 0;
+    return ah > 0 ? -1 : 1; /* a_h > 0 tips it towards theta < 0 */
+}
+
+/* A rocking block flat on its base (theta = omega = 0) whose acceleration does not take it
+ * onto its pivot side: it stands on its base, and rests unless the ground tips it (to the
+ * other side: the ground tipping it to its pivot side, within rounding of the threshold,
+ * leaves it as it is). */
+static int flat_and_falling_back(const Model *M) {
+    const State *S = &M->s;
+    if (S->mode != MODE_ROCKING || S->y[0] != 0.0 || S->y[1] != 0.0) return 0;
+    double dy[2];
+    model_rhs(M, S->t, S->y, S->side, dy);
+    return !(S->side * dy[1] > 0) && tipping_side(M, S->t) != S->side;
+}
+
+/* Changes of the discrete state that leave the continuous states (0, 0) as they are:
+ * a block on its base that the ground tips over a corner, or one rocking flat on its base
+ * whose acceleration does not lift it on its pivot side (it stands, or tips the other way).
+ * At the start, and on entering continuous-time mode (inputs or the time set in event mode
+ * after the event iteration): the importer's solver would never see the uplift indicator
+ * change sign, negative from the start. Returns 1 if the mode or side changed. */
+static int settle(Instance *I, const Logger *log) {
+    Model *M = &I->s.model;
+    State *S = &M->s;
+    double t = S->t;
+    int flat = flat_and_falling_back(M);
+    if (!(S->mode == MODE_REST && S->y[0] == 0.0 && S->y[1] == 0.0) && !flat) return 0;
+    int side = tipping_side(M, t);
+    if (side) {
+        if (S->mode == MODE_ROCKING && S->side == side) return 0;
+        S->mode = MODE_ROCKING;
+        S->side = side;
+        S->omegaSign = side;
+        say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
+        return 1;
+    }
+    if (flat) {
+        S->mode = MODE_REST;
+        say(log, LOG_EVENTS, "rest t=%.17g", t);
+        return 1;
+    }
+    return 0;
+}
+
 void me_start(Instance *I) {
     Model *M = &I->s.model;
     State *S = &M->s;
     S->t = I->s.tc;
     S->denseValid = 0;
     S->nStepPeaks = 0;
-    S->omegaSign = sign_of(S->y[1]);
-    if (S->omegaSign == 0 && S->mode == MODE_ROCKING) { /* released at rest: it moves as it accelerates */
-        double dy[2];
-        model_rhs(M, S->t, S->y, S->side, dy);
-        S->omegaSign = sign_of(dy[1]);
-    }
+    S->omegaSign = S->mode == MODE_ROCKING ? moving_sign(M) : 0; /* released at rest: it moves as it accelerates */
+    Logger log = instance_solver_logger(I);
+    settle(I, &log);
     me_update_outputs(I);
+}
+
+void me_enter_continuous(Instance *I) {
+    Logger log = instance_solver_logger(I);
+    if (settle(I, &log)) me_update_outputs(I);
 }
 
 void me_update_outputs(Instance *I) {
@@ -87,8 +148,15 @@ Status me_set_states(Instance *I, const double *x, size_t nx, const char *fn) {
     return STATUS_OK;
 }
 
+/* The model functions need valid parameters, for Model Exchange (parameters set in
+ * initialization mode are checked when they are used). */
+static Status ready(Instance *I) {
+    if (instance_initialize(I) || me_check(I)) return STATUS_ERROR;
+    return STATUS_OK;
+}
+
 Status me_get_states(Instance *I, double *x, size_t nx, const char *fn) {
-    if (check_size(I, x, nx, ME_STATES, fn) || instance_initialize(I)) return STATUS_ERROR;
+    if (check_size(I, x, nx, ME_STATES, fn) || ready(I)) return STATUS_ERROR;
     x[0] = I->s.model.s.y[0];
     x[1] = I->s.model.s.y[1];
     return STATUS_OK;
@@ -105,33 +173,82 @@ Status me_get_nominals(Instance *I, double *x, size_t nx, const char *fn) {
     return STATUS_OK;
 }
 
-Status me_get_derivatives(Instance *I, double *dx, size_t nx, const char *fn) {
-    if (check_size(I, dx, nx, ME_STATES, fn) || instance_initialize(I)) return STATUS_ERROR;
+/* A block on the ground needs g + av > 0 (as the built-in solver's steps do): with the
+ * ground falling faster than g it would lift off, which the model does not cover. */
+static int ground_lets_go(Instance *I, const char *fn) {
     const Model *M = &I->s.model;
     const State *S = &M->s;
-    if (S->mode == MODE_ROCKING) {
-        model_rhs(M, S->t, S->y, S->side, dx);
-    } else {
-        dx[0] = dx[1] = 0.0;
+    if (S->mode != MODE_ROCKING && S->mode != MODE_REST) return 0;
+    double ah, av;
+    model_ground(M, S->t, &ah, &av);
+    if (M->v.g + av > 0) return 0;
+    INSTANCE_ERROR(I, "%s: vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not "
+                   "modelled)", fn, av, S->t);
+    return 1;
+}
+
+Status me_get_derivatives(Instance *I, double *dx, size_t nx, const char *fn) {
+    if (check_size(I, dx, nx, ME_STATES, fn) || ready(I)) return STATUS_ERROR;
+    const Model *M = &I->s.model;
+    const State *S = &M->s;
+    if (ground_lets_go(I, fn)) return STATUS_ERROR;
+    double d[2] = {0.0, 0.0};
+    if (S->mode == MODE_ROCKING) model_rhs(M, S->t, S->y, S->side, d);
+    if (!isfinite(d[0]) || !isfinite(d[1])) {
+        INSTANCE_ERROR(I, "%s: the derivatives (%g, %g) at t=%.17g are not finite (ground.ah %g, ground.av %g)", fn,
+                       d[0], d[1], S->t, M->v.ahIn, M->v.avIn);
+        return STATUS_ERROR;
     }
+    dx[0] = d[0];
+    dx[1] = d[1];
     return STATUS_OK;
 }
 
 Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn) {
-    if (check_size(I, z, nz, ME_INDICATORS, fn) || instance_initialize(I)) return STATUS_ERROR;
+    if (check_size(I, z, nz, ME_INDICATORS, fn) || ready(I)) return STATUS_ERROR;
     const Model *M = &I->s.model;
     const State *S = &M->s;
-    z[0] = z[1] = z[2] = z[3] = 1.0;
+    double w[ME_INDICATORS] = {1.0, 1.0, 1.0, 1.0};
     if (S->mode == MODE_ROCKING) {
-        z[0] = S->y[0];
-        z[1] = M_PI / 2 - fabs(S->y[0]);
-        z[3] = S->y[1];
+        w[0] = S->y[0];
+        w[1] = M_PI / 2 - fabs(S->y[0]);
+        w[3] = S->y[1];
     } else if (S->mode == MODE_REST) {
         double ah, av;
         model_ground(M, S->t, &ah, &av);
-        z[2] = (M->v.g + av) * M->d.upliftSlope - fabs(ah);
+        w[2] = (M->v.g + av) * M->d.upliftSlope - fabs(ah);
     }
+    for (int i = 0; i < ME_INDICATORS; i++)
+        if (!isfinite(w[i])) {
+            INSTANCE_ERROR(I, "%s: event indicator %d = %g at t=%.17g is not finite (ground.ah %g, ground.av %g)", fn,
+                           i, w[i], S->t, M->v.ahIn, M->v.avIn);
+            return STATUS_ERROR;
+        }
+    for (int i = 0; i < ME_INDICATORS; i++) z[i] = w[i];
     return STATUS_OK;
+}
+
+/* An impact due: theta on the far side of 0 from the pivot corner, or at 0 moving there. */
+static int past_impact(const State *S) {
+    double theta = S->y[0], omega = S->y[1];
+    return S->side * theta < 0 || (theta == 0 && S->side * omega < 0);
+}
+
+int me_event_pending(Instance *I) {
+    const Model *M = &I->s.model;
+    const State *S = &M->s;
+    if (I->s.dirty) return 0;
+    switch (S->mode) {
+    case MODE_REST:
+        return S->y[0] != 0.0 || S->y[1] != 0.0 || tipping_side(M, S->t) != 0;
+    case MODE_OVERTURNED:
+        return S->y[0] != S->side * M_PI / 2 || S->y[1] != 0.0;
+    case MODE_ROCKING:
+        return fabs(S->y[0]) >= M_PI / 2 || past_impact(S) || flat_and_falling_back(M) ||
+               S->y[1] * S->omegaSign < 0;
+    default:
+        return 0;
+    }
 }
 
 int me_event_update(Instance *I, MeEventInfo *info) {
@@ -140,16 +257,33 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     Logger log = instance_solver_logger(I);
     double t = S->t, ah, av;
     info->newDiscreteStatesNeeded = info->terminate = info->statesChanged = 0;
-    if (instance_initialize(I)) return -1;
+    if (ready(I)) return -1;
     model_ground(M, t, &ah, &av);
     if (!(M->v.g + av > 0)) {
         say(&log, LOG_ERROR,
             "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)", av, t);
         return -1;
     }
+    if (S->mode == MODE_REST && (S->y[0] != 0.0 || S->y[1] != 0.0)) {
+        /* the importer set the states of a block at rest: it moves from there (as one
+         * released with block1.theta0 and block1.omega0 would), on the corner it leans on */
+        S->mode = MODE_ROCKING;
+        S->side = S->y[0] > 0 ? 1 : S->y[0] < 0 ? -1 : S->y[1] > 0 ? 1 : -1;
+        S->omegaSign = moving_sign(M);
+        say(&log, LOG_EVENTS, "release t=%.17g theta=%.17g omega=%.17g", t, S->y[0], S->y[1]);
+    }
+    if (S->mode == MODE_OVERTURNED && (S->y[0] != S->side * M_PI / 2 || S->y[1] != 0.0)) {
+        /* an overturned block lies on its side: its states stay there */
+        S->y[0] = S->side * M_PI / 2;
+        S->y[1] = 0.0;
+        info->statesChanged = 1;
+    }
     if (S->mode == MODE_ROCKING) {
         double theta = S->y[0], omega = S->y[1];
         if (fabs(theta) >= M_PI / 2) {
+            /* on the side it fell to (an importer's long step may have carried it across
+             * theta = 0 and beyond the other corner) */
+            S->side = theta > 0 ? 1 : -1;
             S->mode = MODE_OVERTURNED;
             S->overturnTime = t;
             S->y[0] = S->side * M_PI / 2;
@@ -157,7 +291,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             S->maxAbsTheta = M_PI / 2;
             info->statesChanged = 1;
             say(&log, LOG_EVENTS, "overturn t=%.17g side=%d", t, S->side);
-        } else if (S->side * theta < 0 || (theta == 0 && S->side * omega < 0)) {
+        } else if (past_impact(S)) {
             /* block 1 lands on the corner of the other side: the impact map */
             double wp;
             int rest = model_impact(M, t, omega, &wp);
@@ -182,15 +316,10 @@ int me_event_update(Instance *I, MeEventInfo *info) {
         }
         if (S->mode == MODE_ROCKING && sign_of(S->y[1])) S->omegaSign = sign_of(S->y[1]);
         if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
-    } else if (S->mode == MODE_REST && fabs(ah) > (M->v.g + av) * M->d.upliftSlope) {
-        /* the ground tips the block over a corner: a_h > 0 towards theta < 0 */
-        S->mode = MODE_ROCKING;
-        S->side = ah > 0 ? -1 : 1;
-        S->y[0] = S->y[1] = 0.0;
-        S->omegaSign = S->side;
-        info->statesChanged = 1;
-        say(&log, LOG_EVENTS, "uplift t=%.17g side=%d", t, S->side);
     }
+    /* a block on its base: the ground tips it (uplift), or one rocking flat on its base
+     * stands on it */
+    if (settle(I, &log)) info->statesChanged = 1; /* the importer's solver restarts */
     if (S->mode == MODE_OVERTURNED && M->v.stopAtOverturn) {
         I->s.terminated = 1;
         info->terminate = 1;
@@ -213,7 +342,10 @@ int me_event_update(Instance *I, MeEventInfo *info) {
 }
 
 int me_completed_step(Instance *I, int *enterEventMode) {
-    *enterEventMode = 0;
-    (void)I;
+    /* a step event when the states no longer fit the discrete state in a way no event
+     * indicator shows: states the importer set on a block at rest or overturned, or
+     * rocking flat on its base (theta = 0 moving to the wrong side does not change the sign
+     * of theta's indicator from its domain z <= 0) */
+    *enterEventMode = me_event_pending(I);
     return 0;
 }

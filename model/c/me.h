@@ -33,8 +33,12 @@ typedef struct {
 
 /* Nonzero (after logging why) when the parameters are not for Model Exchange. */
 int me_check(Instance *I);
-/* Leave initialization: the discrete state at the start time. */
+/* Leave initialization: the discrete state at the start time (a block at rest that the
+ * ground tips over already rocks). */
 void me_start(Instance *I);
+/* Entering continuous-time mode: a block at rest that inputs or the time set in event mode
+ * made tip (or one rocking flat on its base that they hold down) changes its mode. */
+void me_enter_continuous(Instance *I);
 Status me_set_time(Instance *I, double t, const char *fn);
 Status me_set_states(Instance *I, const double *x, size_t nx, const char *fn);
 Status me_get_states(Instance *I, double *x, size_t nx, const char *fn);
@@ -43,7 +47,10 @@ Status me_get_derivatives(Instance *I, double *dx, size_t nx, const char *fn);
 Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn);
 /* Event iteration: apply what happened at the current time; nonzero on failure. */
 int me_event_update(Instance *I, MeEventInfo *info);
-/* After an accepted step of the importer's solver. */
+/* Would fmi2NewDiscreteStates change anything now (states set that do not fit the motion
+ * pattern, an event passed)? */
+int me_event_pending(Instance *I);
+/* After an accepted step of the importer's solver: enterEventMode when an event is pending. */
 int me_completed_step(Instance *I, int *enterEventMode);
 /* Outputs at the current time and states. */
 void me_update_outputs(Instance *I);
