@@ -49,9 +49,9 @@ def test_work_precision_gives_every_method_its_own_colour_and_marker(fmu_path):
             assert len(set(pairs)) == len(pairs), pairs
             for label, *style in styles:
                 assert seen.setdefault(label, tuple(style)) == tuple(style), label  # same in every panel
-        assert len(seen) == 12
-        assert len({s[:2] for s in seen.values()}) == 12  # across panels too
-        assert len({s[0] for s in seen.values()}) == 12 and len({s[1] for s in seen.values()}) == 12
+        assert len(seen) == len(STYLES)
+        assert len({s[:2] for s in seen.values()}) == len(STYLES)  # across panels too
+        assert len({s[0] for s in seen.values()}) == len(STYLES) and len({s[1] for s in seen.values()}) == len(STYLES)
         legend = [t.get_text() for t in fig.legends[0].get_texts()]
         assert sorted(legend) == sorted(methods)
         assert "Čeh & Jelenić 2022" in _texts(fig) and "seed" not in _texts(fig)
