@@ -50,19 +50,19 @@ class BuildError(RuntimeError):
     """The FMU could not be built (compiler missing or compilation failed)."""
 
 
-def default_fmu_path(sanitize: bool = False) -> Path:
-    """Where ``python -m fmu_build`` puts the FMU."""
-    name = f"{MODEL_IDENTIFIER}-sanitize.fmu" if sanitize else f"{MODEL_IDENTIFIER}.fmu"
+def default_fmu_path(sanitize: bool = False, model_identifier: str = MODEL_IDENTIFIER) -> Path:
+    """Where ``python -m fmu_build`` puts the FMU of ``model_identifier``."""
+    name = f"{model_identifier}-sanitize.fmu" if sanitize else f"{model_identifier}.fmu"
     return ROOT / "build" / name
 
 
-def fmi_headers_dir() -> Path:
-    """The FMI 2.0 headers that ship inside the installed fmpy package."""
+def fmi_headers_dir(version: str = "2") -> Path:
+    """The FMI headers (version "2" or "3") that ship inside the installed fmpy package."""
     import fmpy
 
     path = Path(fmpy.__file__).parent / "c-code"
-    if not (path / "fmi2Functions.h").is_file():
-        raise BuildError(f"FMI 2.0 headers not found in the fmpy package at {path}")
+    if not (path / f"fmi{version}Functions.h").is_file():
+        raise BuildError(f"FMI {version}.0 headers not found in the fmpy package at {path}")
     return path
 
 

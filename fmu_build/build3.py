@@ -17,8 +17,8 @@ import uuid
 import zipfile
 from pathlib import Path
 
-from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, CFLAGS, ROOT, SANITIZE_FLAGS, VERSION, BuildError,
-                             _sources_digest, compile_binary)
+from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, CFLAGS, SANITIZE_FLAGS, VERSION, BuildError,
+                             _sources_digest, compile_binary, default_fmu_path, fmi_headers_dir)
 from fmu_build.documentation import documentation_html
 from fmu_build.model_description3 import build_description3, model_description3
 from fmu_build.variables import read_enumerations, read_variables
@@ -29,18 +29,7 @@ C_SOURCES3 = ["fmi3.c"] + [s for s in C_SOURCES if s != "fmi2.c"]
 
 def default_fmu3_path(sanitize: bool = False) -> Path:
     """Where ``python -m fmu_build`` puts the FMI 3.0 FMU."""
-    name = f"{MODEL_IDENTIFIER3}-sanitize.fmu" if sanitize else f"{MODEL_IDENTIFIER3}.fmu"
-    return ROOT / "build" / name
-
-
-def fmi3_headers_dir() -> Path:
-    """The FMI 3.0 headers that ship inside the installed fmpy package."""
-    import fmpy
-
-    path = Path(fmpy.__file__).parent / "c-code"
-    if not (path / "fmi3Functions.h").is_file():
-        raise BuildError(f"FMI 3.0 headers not found in the fmpy package at {path}")
-    return path
+    return default_fmu_path(sanitize, MODEL_IDENTIFIER3)
 
 
 def platform_tuple() -> str:
@@ -106,7 +95,7 @@ def build_fmu3(
             encoding="utf-8")
         # the FMI 2.0 build's compiler call: on x86_64 glibc, loadable on glibc 2.17 or newer
         warnings = compile_binary([src / name for name in C_SOURCES3], bindir / f"{MODEL_IDENTIFIER3}.so",
-                                  "linux64", cc, flags, [src, fmi3_headers_dir()])
+                                  "linux64", cc, flags, [src, fmi_headers_dir("3")])
         if warnings:
             print(warnings)
         partial = out.with_name(out.name + ".part")

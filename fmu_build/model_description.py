@@ -32,6 +32,24 @@ DISPLAY_UNITS: dict[str, tuple[str, float]] = {
 NUMBER_OF_EVENT_INDICATORS = 4  # model/c/me.h ME_INDICATORS
 
 
+def unit_definitions(used_units: list[str]) -> list[str]:
+    """The <UnitDefinitions> lines (FMI 2.0 and 3.0 alike) of the units used, with the
+    display units of the angle units; ValueError for a unit without a definition."""
+    unknown = [u for u in used_units if u not in UNITS]
+    if unknown:
+        raise ValueError(f"unit(s) without a definition: {unknown}")
+    lines = ["  <UnitDefinitions>"]
+    for u in used_units:
+        exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
+        base = f"<BaseUnit {exps}/>" if exps else ""
+        if u in DISPLAY_UNITS:
+            name, factor = DISPLAY_UNITS[u]
+            base += f'<DisplayUnit name="{name}" factor="{factor!r}"/>'
+        lines.append(f"    <Unit name={quoteattr(u)}>{base}</Unit>" if base else f"    <Unit name={quoteattr(u)}/>")
+    lines.append("  </UnitDefinitions>")
+    return lines
+
+
 def _start(v: Variable) -> str:
     if v.type == "String":
         return v.start
@@ -61,9 +79,6 @@ def model_description(
         raise ValueError(f"model structure names unknown variable(s): {sorted(set(unknown_names))}")
     derivative_of = {der: state for state, der in STATES.items()}
     used_units = sorted({v.unit for v in variables if v.unit})
-    unknown = [u for u in used_units if u not in UNITS]
-    if unknown:
-        raise ValueError(f"unit(s) without a definition: {unknown}")
     out: list[str] = []
     w = out.append
     w('<?xml version="1.0" encoding="UTF-8"?>')
@@ -97,15 +112,7 @@ def model_description(
         w(f'      <File name="{f}"/>')
     w("    </SourceFiles>")
     w("  </CoSimulation>")
-    w("  <UnitDefinitions>")
-    for u in used_units:
-        exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
-        base = f"<BaseUnit {exps}/>" if exps else ""
-        if u in DISPLAY_UNITS:
-            name, factor = DISPLAY_UNITS[u]
-            base += f'<DisplayUnit name="{name}" factor="{factor!r}"/>'
-        w(f"    <Unit name={quoteattr(u)}>{base}</Unit>" if base else f"    <Unit name={quoteattr(u)}/>")
-    w("  </UnitDefinitions>")
+    out += unit_definitions(used_units)
     if enumerations:
         w("  <TypeDefinitions>")
         for enum in sorted({e.name: e for e in enumerations.values()}.values(), key=lambda e: e.name):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.model_description import DISPLAY_UNITS, UNITS
+from fmu_build.model_description import DISPLAY_UNITS, unit_definitions
 from fmu_build.model_structure import DEPENDENCIES
 from fmu_build.variables import Variable
 
@@ -59,9 +59,6 @@ def model_description3(
     if any(v.value_reference == TIME_VALUE_REFERENCE for v in variables):
         raise ValueError(f"value reference {TIME_VALUE_REFERENCE} is the FMI 3.0 'time': no variable may use it")
     used_units = sorted({v.unit for v in variables if v.unit} | {"s"})
-    unknown = [u for u in used_units if u not in UNITS]
-    if unknown:
-        raise ValueError(f"unit(s) without a definition: {unknown}")
     out: list[str] = []
     w = out.append
     w('<?xml version="1.0" encoding="UTF-8"?>')
@@ -78,15 +75,7 @@ def model_description3(
         'canReturnEarlyAfterIntermediateUpdate="true" '
         'canBeInstantiatedOnlyOncePerProcess="false" needsExecutionTool="false"/>'
     )
-    w("  <UnitDefinitions>")
-    for u in used_units:
-        exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
-        base = f"<BaseUnit {exps}/>" if exps else ""
-        if u in DISPLAY_UNITS:
-            name, factor = DISPLAY_UNITS[u]
-            base += f'<DisplayUnit name="{name}" factor="{factor!r}"/>'
-        w(f"    <Unit name={quoteattr(u)}>{base}</Unit>" if base else f"    <Unit name={quoteattr(u)}/>")
-    w("  </UnitDefinitions>")
+    out += unit_definitions(used_units)
     w("  <LogCategories>")
     w('    <Category name="logEvents" description="Impacts, peaks, uplift, rest and overturn with full-precision times"/>')
     w('    <Category name="logStatusError" description="Errors: invalid parameters, invalid call sequences, solver failures"/>')

@@ -467,6 +467,14 @@ static int snapshot_check(const Snapshot *snap, char *msg, size_t n) {
 
 
 
+/* The memory of a state: the importer's `state`, or new memory when it is NULL (NULL after
+ * logging when out of memory). */
+static Snapshot *state_memory(Instance *I, void *state, const char *fn) {
+    Snapshot *snap = state ? (Snapshot *)state : (Snapshot *)I->alloc(1, sizeof(Snapshot));
+    if (!snap) INSTANCE_ERROR(I, "%s: out of memory", fn);
+    return snap;
+}
+
 Status instance_get_state(Instance *I, void **state, const char *fn) {
     if (instance_bad_call(I, GET_PHASES | PHASE_INSTANTIATED, fn)) return STATUS_ERROR;
     if (I->s.type != INTERFACE_CS) {
@@ -477,14 +485,9 @@ Status instance_get_state(Instance *I, void **state, const char *fn) {
         INSTANCE_ERROR(I, "%s: state pointer is NULL", fn);
         return STATUS_ERROR;
     }
-    Snapshot *snap = (Snapshot *)*state;
-    if (!snap) {
-        snap = (Snapshot *)I->alloc(1, sizeof(Snapshot));
-        if (!snap) {
-            INSTANCE_ERROR(I, "%s: out of memory", fn);
-            return STATUS_ERROR;
-        }
-    } else if (snap->magic != SNAPSHOT_MAGIC) {
+    Snapshot *snap = state_memory(I, *state, fn);
+    if (!snap) return STATUS_ERROR;
+    if (*state && snap->magic != SNAPSHOT_MAGIC) {
         INSTANCE_ERROR(I, "%s: the state to overwrite was not made by this FMU", fn);
         return STATUS_ERROR;
     }
@@ -584,14 +587,8 @@ Status instance_deserialize_state(Instance *I, const unsigned char *bytes, size_
         INSTANCE_ERROR(I, "%s: bytes are not a state of this FMU", fn);
         return STATUS_ERROR;
     }
-    Snapshot *snap = (Snapshot *)*state;
-    if (!snap) {
-        snap = (Snapshot *)I->alloc(1, sizeof(Snapshot));
-        if (!snap) {
-            INSTANCE_ERROR(I, "%s: out of memory", fn);
-            return STATUS_ERROR;
-        }
-    }
+    Snapshot *snap = state_memory(I, *state, fn);
+    if (!snap) return STATUS_ERROR;
     *snap = tmp;
     *state = snap;
     return STATUS_OK;
