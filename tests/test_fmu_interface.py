@@ -6,8 +6,10 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 import threading
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +18,8 @@ from fmpy.validation import validate_fmu
 
 from conftest import Slave, build_container
 from runners.engine.fmu import FMUError
+
+ROOT = Path(__file__).resolve().parents[1]
 
 SCENE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
 OUT = ["block1.theta", "block1.omega", "impacts", "atRest", "energy", "peaks"]
@@ -225,6 +229,44 @@ def test_container_fmu_gives_the_same_trajectory(fmu_path, fmu, tmp_path):
     np.testing.assert_allclose(r["time"], ours.time, atol=1e-9)
     np.testing.assert_allclose(r["block1.theta"], ours.outputs["block1.theta"], rtol=0, atol=1e-12)
     np.testing.assert_array_equal(r["impacts"], ours.outputs["impacts"])
+
+
+LOGGER_PROBE = """
+import gc, sys
+from pathlib import Path
+from fmpy import simulate_fmu
+from fmpy.fmi2 import fmi2CallbackLoggerTYPE
+from conftest import build_container
+from runners.analysis import work_precision
+from runners.engine.fmu import RockingFMU
+
+fmu_path, folder = Path(sys.argv[1]), Path(sys.argv[2])
+with RockingFMU(fmu_path) as fmu:
+    fmu.run({"block1.theta0": 0.15}, 0.5, 0.1)  # Co-Simulation with our logger
+    points = work_precision.me_points(fmu, work_precision.free_rocking_case(), 1, quick=True)
+gc.collect()
+calls = []
+probe = fmi2CallbackLoggerTYPE(lambda *args: calls.append(args))  # takes a freed callback's place
+container = build_container(fmu_path, folder, 0.01)
+simulate_fmu(str(container), stop_time=0.1)  # the container logs through fmpy's default logger
+print(len(calls), min(p.error for p in points))
+"""
+
+
+def test_our_loggers_leave_fmpys_default_logger_alone(fmu_path, tmp_path):
+    """fmpy's native formatting proxy keeps one process-wide pointer to the last Python logger
+    handed to it. Our instances (Co-Simulation, and Model Exchange as the work-precision chart
+    runs it) must not hand it theirs: once collected, that pointer dangles, and the next FMU
+    that logs through fmpy's defaults (the container does, while it instantiates) called freed
+    memory: the full suite's intermittent segfault. A fresh callback made after ours are
+    collected takes their place, so a dangling pointer would show as calls to it."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), str(ROOT)])}
+    proc = subprocess.run([sys.executable, "-c", LOGGER_PROBE, str(fmu_path), str(tmp_path)], env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    calls, best_error = proc.stdout.split()[-2:]
+    assert int(calls) == 0, "the container's messages reached a callback fmpy's default logger does not own"
+    assert float(best_error) < 1e-6  # the Model Exchange runs did run
 
 
 def test_sources_rebuild_with_fmpy_build_platform_binary(fmu_path, fmu, tmp_path):

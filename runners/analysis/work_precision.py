@@ -207,18 +207,18 @@ ME_STEPS = [1e-3, 3e-4, 1e-4]  # s, fmpy's Euler steps from one output point to 
 def me_points(fmu: RockingFMU, case: Case, repeats: int, quick: bool = False) -> list[Point]:
     """The FMU's Model Exchange interface integrated by fmpy's CVode (several tolerances) and its
     forward Euler (fixed steps): one instance reset between runs, events from its log."""
-    from fmpy import instantiate_fmu, simulate_fmu
+    from fmpy import simulate_fmu
 
     events = []
 
-    def log(_env, _name, _status, category, message):
-        if category == b"logEvents":
-            ev = parse_event(message.decode())
+    def log(_status, category, message):
+        if category == "logEvents":
+            ev = parse_event(message)
             if ev:
                 events.append(ev)
 
     md = fmu.model_description
-    model = instantiate_fmu(fmu.unzipdir, md, "ModelExchange", debug_logging=True, logger=log)
+    model, _callbacks = fmu.instantiate(log, "me", interface="ModelExchange")
     params = {**BLOCK_PARAMETERS, **case.fmu_parameters}
     points = []
     try:

@@ -18,6 +18,7 @@ from typing import Callable, Iterable
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import (
+    FMU2Model,
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
     fmi2CallbackFreeMemoryTYPE,
@@ -183,8 +184,15 @@ class RockingFMU:
             raise KeyError(f"unknown FMU variable '{name}'") from None
 
     def instantiate(self, log: Callable[[int, str, str], None], instance_name: str = "block",
-                    logging_on: bool = True) -> tuple[FMU2Slave, fmi2CallbackFunctions]:
-        """Instantiate a slave whose log lines go to ``log(status, category, message)``."""
+                    logging_on: bool = True, interface: str = "CoSimulation",
+                    ) -> tuple[FMU2Slave | FMU2Model, fmi2CallbackFunctions]:
+        """Instantiate a slave (``interface="ModelExchange"``: a model) whose log lines go to
+        ``log(status, category, message)``. Keep the returned callbacks alive as long as the instance.
+
+        The FMU writes complete messages (no printf arguments), so its logger is called
+        directly; fmpy's native formatting proxy is not used: it keeps one process-wide
+        pointer to the last Python logger given to it, which dangles once that logger is
+        collected and then crashes any other FMU that logs through fmpy's defaults."""
 
         def logger(env, name, status, category, message):
             # the FMU writes a message as a printf format (FMI 2.0): a literal % is "%%"
@@ -194,15 +202,13 @@ class RockingFMU:
         callbacks.logger = fmi2CallbackLoggerTYPE(logger)
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        md = self.model_description
+        cls, kind = (FMU2Model, md.modelExchange) if interface == "ModelExchange" else (FMU2Slave, md.coSimulation)
         with _LOAD_LOCK:
-            slave = FMU2Slave(
-                guid=self.model_description.guid,
-                unzipDirectory=self.unzipdir,
-                modelIdentifier=self.model_description.coSimulation.modelIdentifier,
-                instanceName=instance_name,
-            )
-        slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
-        return slave, callbacks
+            instance = cls(guid=md.guid, unzipDirectory=self.unzipdir, modelIdentifier=kind.modelIdentifier,
+                           instanceName=instance_name)
+        instance.instantiate(callbacks=callbacks, loggingOn=logging_on)
+        return instance, callbacks
 
     def validate(self, parameters: dict[str, float | int | bool | str]) -> None:
         """FMUError with the FMU's message unless it accepts `parameters` (it initialises with them)."""
