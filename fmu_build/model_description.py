@@ -127,7 +127,7 @@ def model_description(
     w('    <Category name="logEvents" description="Impacts, peaks, uplift, rest and overturn with full-precision times"/>')
     w('    <Category name="logStatusError" description="Errors: invalid parameters, invalid call sequences, solver failures"/>')
     w("  </LogCategories>")
-    w('  <DefaultExperiment startTime="0" stopTime="5"/>')
+    w('  <DefaultExperiment startTime="0" stopTime="5" tolerance="1e-10"/>')
     w("  <ModelVariables>")
     outputs: list[int] = []
     for i, v in enumerate(variables, start=1):

@@ -80,7 +80,7 @@ def model_description3(
     w('    <Category name="logEvents" description="Impacts, peaks, uplift, rest and overturn with full-precision times"/>')
     w('    <Category name="logStatusError" description="Errors: invalid parameters, invalid call sequences, solver failures"/>')
     w("  </LogCategories>")
-    w('  <DefaultExperiment startTime="0" stopTime="5"/>')
+    w('  <DefaultExperiment startTime="0" stopTime="5" tolerance="1e-10"/>')
     w("  <ModelVariables>")
     w(f'    <Float64 name="time" valueReference="{TIME_VALUE_REFERENCE}" description="Simulation time" '
       'causality="independent" variability="continuous" unit="s"/>')

@@ -1,6 +1,6 @@
 """FMI 2.0 rules the FMU keeps beyond the call sequence: outputs after inputs are set,
 the declared ModelStructure, the importer's tolerance, ending a run at an overturn,
-Enumerations and display units."""
+Enumerations, display units and the default experiment."""
 
 from __future__ import annotations
 
@@ -8,11 +8,12 @@ import math
 
 import numpy as np
 import pytest
-from fmpy import simulate_fmu
+from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
 
 from conftest import Slave
 from fmu_build.model_structure import DEPENDENCIES, STATES
+from model.reference import Block, free_rocking
 
 ROCKING = {"block1.theta0": 0.15, "excitation.kind": 1, "excitation.amplitude": 4.0, "excitation.frequency": 2.0}
 STACK = {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": 0.08}
@@ -182,3 +183,34 @@ def test_angles_display_in_degrees(fmu):
     for u in ("rad", "rad/s", "rad/s2"):
         (display,) = units[u].displayUnits
         assert display.factor == pytest.approx(180.0 / math.pi, rel=1e-15)
+
+
+@pytest.mark.parametrize("edition, fmi_type", [("2", "CoSimulation"), ("2", "ModelExchange"), ("3", "CoSimulation")])
+def test_the_default_experiment_shows_free_rocking(fmu_path, fmu3_path, edition, fmi_type):
+    """An importer's "simulate" with nothing set: the start values tilt block 1 and the default
+    experiment lets it rock to rest. Its impacts are those of exact free rocking (Housner 1963,
+    eta = 1 - 1.5 sin^2(alpha)) at every output point up to the tenth impact."""
+    md = read_model_description(str(fmu_path))
+    start = {v.name: float(v.start) for v in md.modelVariables if v.start is not None and v.type == "Real"}
+    block = Block(start["block1.halfWidth"], start["block1.halfHeight"], start["g"])
+    theta0 = start["block1.theta0"]
+    assert 0 < theta0 < block.alpha
+    exact = free_rocking(block, theta0, 1 - 1.5 * math.sin(block.alpha) ** 2, 10).impact_times
+
+    r = simulate_fmu(str(fmu_path if edition == "2" else fmu3_path), fmi_type=fmi_type,
+                     output=["block1.theta", "impacts", "atRest"])
+    experiment = md.defaultExperiment
+    assert r["time"][-1] == float(experiment.stopTime) == 5 and float(experiment.tolerance) == 1e-10
+    assert r["block1.theta"][0] == theta0 and r["atRest"][-1]
+    # Model Exchange adds rows at its events: keep the rows away from the exact impact times
+    early = (r["time"] < exact[-1] - 1e-6) & (np.min(np.abs(r["time"][:, None] - exact), axis=1) > 1e-6)
+    expected = np.searchsorted(exact, r["time"][early], side="right")
+    np.testing.assert_array_equal(r["impacts"][early], expected)
+
+
+def test_the_runners_start_a_scene_at_rest(fmu):
+    """The runners' default of block1.theta0 is 0 (runners.engine.fmu.SCENE_DEFAULTS), not the
+    FMU's demonstration start value: a scene that leaves it out and has no excitation stays put."""
+    assert fmu.vars["block1.theta0"].start not in (None, "0", 0) and fmu.defaults()["block1.theta0"] == 0.0
+    r = fmu.run({}, 1.0, 0.1, outputs=["block1.theta", "impacts"], events=False)
+    assert np.all(r.outputs["block1.theta"] == 0.0) and r.outputs["impacts"][-1] == 0

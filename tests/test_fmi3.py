@@ -18,7 +18,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64, fmi3ValueReference
 
 from fmu_build.build3 import build_fmu3
-from runners.engine.fmu import parse_event
+from runners.engine.fmu import parse_event, with_scene_defaults
 
 FREE = {"block1.theta0": 0.1}
 PULSE = {"excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}  # uplift, rocking, rest
@@ -119,7 +119,7 @@ def run3(f, params, stop, step, names=STATE1, early=False, event_mode=False) -> 
     """A master over the grid of RockingFMU.run (the FMI 2.0 runner), returning early when allowed."""
     x = Instance(f, event_mode=event_mode, early=early)
     try:
-        x.set(params)
+        x.set(with_scene_defaults(params))  # as RockingFMU.run sets them
         x.slave.enterInitializationMode(startTime=0.0, stopTime=stop)
         x.slave.exitInitializationMode()
         if event_mode:
@@ -224,7 +224,7 @@ def test_stop_at_overturn_terminates_at_the_overturn_time(fmu, fmu3):
     # not allowed: the step computed only up to the overturn (fmi3Discard)
     x = Instance(fmu3)
     try:
-        x.set(params)
+        x.set(with_scene_defaults(params))
         x.slave.enterInitializationMode(startTime=0.0, stopTime=5.0)
         x.slave.exitInitializationMode()
         status, ev, term, early, last = x.do_step(0.0, 5.0)

@@ -21,6 +21,8 @@ import pytest
 from fmpy.fmi2 import (FMU2Model, FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2EventInfo, free)
 
+from runners.engine.fmu import with_scene_defaults
+
 OK, DISCARD, ERROR = 0, 2, 3
 LAST_SUCCESSFUL_TIME, TERMINATED = 2, 3  # fmi2StatusKind
 PI2 = math.pi / 2
@@ -119,7 +121,7 @@ class Raw:
 
     def start(self, params=None, iterate=True, **setup):
         assert self.setup(**setup) == OK, self.messages[-1:]
-        self.setp(params or {})
+        self.setp(with_scene_defaults(params or {}))  # at rest unless params tilt it
         assert self.call("fmi2EnterInitializationMode") == OK, self.messages[-1:]
         assert self.call("fmi2ExitInitializationMode") == OK, self.messages[-1:]
         if iterate and self.model.__class__ is FMU2Model:
@@ -568,6 +570,7 @@ def test_model_functions_refuse_two_blocks_set_in_initialization(new):
     Model Exchange does not run)."""
     r = new()
     r.setup()
+    r.set(block1__theta0=0.0)
     assert r.call("fmi2EnterInitializationMode") == OK
     r.set(nBlocks=2, block2__theta0=0.05)
     for fn, n in (("fmi2GetDerivatives", 2), ("fmi2GetEventIndicators", 4), ("fmi2GetContinuousStates", 2)):

@@ -13,6 +13,7 @@ from fmpy import simulate_fmu
 from fmpy.fmi2 import FMU2Model
 
 from model.reference import Block, free_rocking
+from runners.engine.fmu import with_scene_defaults
 
 OUT = ["block1.theta", "block1.omega", "impacts", "lastImpactTime", "peaks", "lastPeakTime", "lastPeakTheta",
        "overturned", "overturnTime", "atRest", "restTime"]
@@ -20,12 +21,12 @@ OUT = ["block1.theta", "block1.omega", "impacts", "lastImpactTime", "peaks", "la
 
 def _me(fmu_path, start, stop=3.0, solver="CVode", rtol=1e-10, step=None, interval=1e-3):
     return simulate_fmu(str(fmu_path), fmi_type="ModelExchange", solver=solver, relative_tolerance=rtol,
-                        step_size=step, start_values=start, stop_time=stop, output_interval=interval, output=OUT,
+                        step_size=step, start_values=with_scene_defaults(start), stop_time=stop, output_interval=interval, output=OUT,
                         record_events=False)
 
 
 def _cs(fmu_path, start, stop=3.0, interval=1e-3):
-    return simulate_fmu(str(fmu_path), fmi_type="CoSimulation", start_values=start, stop_time=stop,
+    return simulate_fmu(str(fmu_path), fmi_type="CoSimulation", start_values=with_scene_defaults(start), stop_time=stop,
                         output_interval=interval, output=OUT)
 
 

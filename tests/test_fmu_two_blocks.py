@@ -12,7 +12,7 @@ from fmpy import simulate_fmu
 
 from conftest import build_container
 from model import two_blocks as tb
-from runners.engine.fmu import FMUError
+from runners.engine.fmu import FMUError, with_scene_defaults
 
 TALL = dict(b1=0.1, h1=0.3, m1=10.0, b2=0.1, h2=0.2, m2=5.0)
 # seed 000 Table 2: Block 1 (lower) and Block 4 (upper), half dimensions
@@ -375,8 +375,8 @@ def test_invalid_two_block_parameters_are_errors(fmu, extra, text):
 # ------------------------------------------------------------- importers
 
 def test_two_blocks_through_fmpy_simulate_and_the_container(fmu_path, fmu, tmp_path):
-    p = params(SEED, **{"restitution.law": 2, "excitation.kind": 3, "excitation.frequency": 7.0,
-                        "excitation.displacement": 0.003, "excitation.cycles": 0})
+    p = with_scene_defaults(params(SEED, **{"restitution.law": 2, "excitation.kind": 3, "excitation.frequency": 7.0,
+                                            "excitation.displacement": 0.003, "excitation.cycles": 0}))
     ours = fmu.run(p, 3.0, 0.02, outputs=["block1.theta", "block2.theta", "impactsGround"], events=False)
     assert ours.outputs["impactsGround"][-1] > 10
     r = simulate_fmu(str(fmu_path), start_values=p, stop_time=3.0, output_interval=0.02,

@@ -22,7 +22,7 @@ from fmpy import read_model_description
 import statistics
 
 from fmu_build.build import fmi_headers_dir
-from runners.engine.fmu import RockingFMU
+from runners.engine.fmu import RockingFMU, with_scene_defaults
 
 BENCH_SOURCE = Path(__file__).resolve().parents[2] / "model" / "c" / "bench" / "bench_native.c"
 
@@ -58,7 +58,7 @@ class NativeTimer:
     def seconds(self, parameters: dict, stop_time: float, repeats: int) -> float:
         """Wall seconds per simulation (instantiate to free) of one scene."""
         args = []
-        for name, value in parameters.items():
+        for name, value in with_scene_defaults(parameters).items():
             v = self.vars[name]
             args.append(f"s{v.valueReference}={value}" if v.type == "String"
                         else f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean", "Enumeration")

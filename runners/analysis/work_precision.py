@@ -41,7 +41,7 @@ from model.reference import Block, free_rocking
 from model.solvers import Scene, sine_pulse, solve_event_driven, solve_fixed_step
 from model.two_block_solver import StackScene, solve_stack
 from runners.analysis.bench import NativeTimer
-from runners.engine.fmu import RockingFMU, parse_event
+from runners.engine.fmu import RockingFMU, parse_event, with_scene_defaults
 
 BLOCK = Block(0.1, 0.3)
 N_IMPACTS = 10
@@ -219,7 +219,7 @@ def me_points(fmu: RockingFMU, case: Case, repeats: int, quick: bool = False) ->
 
     md = fmu.model_description
     model, _callbacks = fmu.instantiate(log, "me", interface="ModelExchange")
-    params = {**BLOCK_PARAMETERS, **case.fmu_parameters}
+    params = with_scene_defaults({**BLOCK_PARAMETERS, **case.fmu_parameters})
     points = []
     try:
         for solver, settings in (("CVode", QUICK_TOLS if quick else ME_TOLS), ("Euler", ME_STEPS)):

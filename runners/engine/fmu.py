@@ -133,11 +133,24 @@ def parse_event(message: str) -> Event | None:
     return Event(m.group(1), values.pop("t"), values, labels)
 
 
+SCENE_DEFAULTS: dict[str, float] = {"block1.theta0": 0.0}
+"""Where the runners' defaults differ from the FMU's start values. A scene starts at rest;
+the FMU's start value of block1.theta0 (0.1 rad) makes an importer's default experiment
+show free rocking instead of a flat line."""
+
+
+def with_scene_defaults(parameters: dict) -> dict:
+    """`parameters` with :data:`SCENE_DEFAULTS` for the names they leave out."""
+    return {**SCENE_DEFAULTS, **parameters}
+
+
 class RockingFMU:
     """One extracted copy of the FMU; :meth:`run` simulates a scene with it.
 
     Extracting once and instantiating many times keeps sweeps cheap. Use as a
     context manager or call :meth:`close` to remove the extracted files.
+    Parameters a scene leaves out take the FMU's start values, except those in
+    :data:`SCENE_DEFAULTS` (a scene starts at rest).
     """
 
     def __init__(self, fmu_path: str | Path, unzipdir: str | None = None):
@@ -174,8 +187,10 @@ class RockingFMU:
         self.close()
 
     def defaults(self) -> dict[str, float]:
-        """Start values of the Real and Integer variables (the parameters a scene may leave out)."""
-        return {n: float(v.start) for n, v in self.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        """The values of the Real and Integer parameters a scene leaves out: the FMU's start
+        values with :data:`SCENE_DEFAULTS` over them."""
+        start = {n: float(v.start) for n, v in self.vars.items() if v.start is not None and v.type in ("Real", "Integer")}
+        return {**start, **SCENE_DEFAULTS}
 
     def variable(self, name: str):
         try:
@@ -227,7 +242,9 @@ class RockingFMU:
             slave.freeInstance()
 
     def set_parameters(self, slave: FMU2Slave, parameters: dict[str, float | int | bool]) -> None:
-        for name, value in parameters.items():
+        """Set a scene's parameters on an instance before initialisation, with
+        :data:`SCENE_DEFAULTS` for those it leaves out."""
+        for name, value in with_scene_defaults(parameters).items():
             v = self.variable(name)
             if v.type == "Real":
                 slave.setReal([v.valueReference], [float(value)])

@@ -43,7 +43,7 @@ from sqlalchemy.exc import IntegrityError
 from db.schema import Excitation, Run, RunSeries, RunSummary, Scene, Sweep
 from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
-from runners.engine.fmu import FMUError, RockingFMU
+from runners.engine.fmu import FMUError, RockingFMU, with_scene_defaults
 from runners.engine.intensity import G0, SCALING
 from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
 
@@ -403,7 +403,9 @@ def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, st
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
     names = ONE + (TWO if two else [])
-    _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, stop=stop_time, step=step,
+    # base: the scene's parameters; the FMU's start values fill the rest, but for SCENE_DEFAULTS
+    _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=with_scene_defaults(base),
+                        stop=stop_time, step=step,
                         names=names, vrs={n: fmu.variable(n) for n in names}, files=files or {})
 
 

@@ -139,13 +139,14 @@ def no_series(run_id: int, sweep_id: int | None, grid_index: int | None, model: 
 @lru_cache(maxsize=1)
 def fmu_defaults() -> dict[str, float]:
     """Start values of the FMU's Real and Integer parameters, from model/c/variables.def (the
-    table modelDescription.xml is generated from), as runners.engine.fmu.RockingFMU.defaults
-    reads them from the FMU: the values a scene leaves out."""
+    table modelDescription.xml is generated from), with the runners' SCENE_DEFAULTS over them,
+    as runners.engine.fmu.RockingFMU.defaults reads them from the FMU: the values a scene leaves out."""
     from fmu_build.build import C_DIR
     from fmu_build.variables import read_variables
+    from runners.engine.fmu import with_scene_defaults
 
-    return {v.name: float(v.start) for v in read_variables(C_DIR / "variables.def")
-            if v.causality == "parameter" and v.type in ("Real", "Integer")}
+    return with_scene_defaults({v.name: float(v.start) for v in read_variables(C_DIR / "variables.def")
+                                if v.causality == "parameter" and v.type in ("Real", "Integer")})
 
 
 @lru_cache(maxsize=1)
