@@ -28,9 +28,10 @@ run: fmu
 	$(BIN)/runners fragility latest --out fragility.png
 	$(BIN)/runners ida latest --out ida.png
 
-# --durations: the slowest tests, to keep the suite inside its 10 minutes
+# --durations: the slowest tests, to keep the suite inside its 10 minutes; -n: one pytest
+# worker per core (pytest-xdist), at most 4
 test: fmu
-	$(BIN)/python -m pytest --durations=15
+	$(BIN)/python -m pytest -n auto --maxprocesses 4 --durations=15
 
 # The FMU tests again, against FMUs (FMI 2.0 and 3.0) built with AddressSanitizer and UBSan.
 sanitize: $(INSTALLED)
