@@ -24,4 +24,9 @@ DEPENDENCIES: dict[str, tuple[str, ...]] = {
     "ground.ahTotal": ("ground.ah",),
     "ground.avTotal": ("ground.av",),
     "block2.alpha_dd": ("ground.ah", "ground.av"),
+    # Newton's law with the accelerations: the state and the ground's acceleration
+    "contact.groundT": ("block1.theta", "block1.omega", "ground.ah", "ground.av"),
+    "contact.groundN": ("block1.theta", "block1.omega", "ground.ah", "ground.av"),
+    "contact.interfaceT": ("ground.ah", "ground.av"),
+    "contact.interfaceN": ("ground.ah", "ground.av"),
 }

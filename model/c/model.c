@@ -105,6 +105,8 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (v->earlyOverturn)
             FAIL("solver.earlyOverturn is available for nBlocks = 1 only");
     }
+    if (!(v->muGround > 0)) FAIL("contact.muGround = %g must be > 0", v->muGround);
+    if (!(v->muInterface > 0)) FAIL("contact.muInterface = %g must be > 0", v->muInterface);
     if (ground_validate(v, msg, n)) return 1;
     if (v->method != 0 && v->method != 1)
         FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)) or 1 (Taylor series)", v->method);

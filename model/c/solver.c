@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "contact.h"
 #include "events.h"
 #include "ground.h"
 #include "integrator.h"
@@ -356,6 +357,9 @@ void solver_outputs(Model *M, double tc) {
     v->locked = v->overturned2 = 0;
     v->energy = model_energy(M, y[0], y[1]);
     model_ground(M, tc, &v->ahTotal, &v->avTotal);
+    contact_one_block(M, S->mode == MODE_ROCKING, y[0], y[1], v->alphaDD, side, v->ahTotal, v->avTotal,
+                      &v->groundT, &v->groundN);
+    v->interfaceT = v->interfaceN = 0.0;
 }
 
 void solver_log_pending(const Model *M, double tc, const Logger *log) {

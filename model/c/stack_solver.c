@@ -6,6 +6,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "contact.h"
 #include "events.h"
 #include "ground.h"
 #include "integrator.h"
@@ -508,6 +509,7 @@ void stack_outputs(Model *M, double tc) {
     v->lastPeakTheta = 0.0;
     v->ahTotal = ah;
     v->avTotal = av;
+    contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &v->groundT, &v->groundN, &v->interfaceT, &v->interfaceN);
 }
 
 void stack_rollback(Model *M, double tc) {

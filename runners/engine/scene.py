@@ -59,6 +59,10 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "eta_ground": ("restitution.etaGround", "real"),
         "eta_interface": ("restitution.etaInterface", "real"),
     },
+    "contact": {
+        "mu_ground": ("contact.muGround", "real"),
+        "mu_interface": ("contact.muInterface", "real"),
+    },
     "excitation": {
         "kind": ("excitation.kind", KINDS),
         "amplitude": ("excitation.amplitude", "real"),
