@@ -11,7 +11,6 @@ and UBSan build (make sanitize)."""
 
 from __future__ import annotations
 
-import ctypes
 import math
 import random
 import threading
