@@ -29,4 +29,9 @@ DEPENDENCIES: dict[str, tuple[str, ...]] = {
     "contact.groundN": ("block1.theta", "block1.omega", "ground.ah", "ground.av"),
     "contact.interfaceT": ("ground.ah", "ground.av"),
     "contact.interfaceN": ("ground.ah", "ground.av"),
+    # the monitors' extremes include the reactions at the output time
+    "friction.demandMaxGround": ("block1.theta", "block1.omega", "ground.ah", "ground.av"),
+    "contact.normalMinGround": ("block1.theta", "block1.omega", "ground.ah", "ground.av"),
+    "friction.demandMaxInterface": ("ground.ah", "ground.av"),
+    "contact.normalMinInterface": ("ground.ah", "ground.av"),
 }

@@ -450,7 +450,7 @@ def test_a_stack_on_a_record_agrees_with_the_independent_stack_solver(fmu, near_
                  "block2.halfWidth": st.b2, "block2.halfHeight": st.h2, "block2.mass": st.m2,
                  "excitation.kind": 4, "excitation.file": str(path), "excitation.scale": 1.2, **TIGHT}, 7.0, 7.0,
                 outputs=["impacts"])
-    ours = [(e.kind, e.labels.get("contact", ""), e.t) for e in r.events if e.kind != "peak"]
+    ours = [(e.kind, e.labels.get("contact", ""), e.t) for e in r.events if e.kind not in ("peak", "slide", "lift")]
     theirs = [(e.kind, e.contact, e.t) for e in ref.events]
     assert len(ours) == len(theirs) >= 10
     for x, y in zip(ours, theirs):

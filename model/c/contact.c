@@ -6,7 +6,11 @@
  * ground's acceleration (ah, av). */
 #include "contact.h"
 
+#include <float.h>
 #include <math.h>
+
+#include "events.h"
+#include "ground.h"
 
 /* Acceleration relative to the ground of the point rot(theta) (ux, uy). */
 static void arm_accel(double theta, double omega, double alpha, double ux, double uy, double a[2]) {
@@ -14,6 +18,34 @@ static void arm_accel(double theta, double omega, double alpha, double ux, doubl
     double w2 = omega * omega;
     a[0] = (-s * ux + c * uy) * alpha - (c * ux + s * uy) * w2;
     a[1] = (-c * ux - s * uy) * alpha - (-s * ux + c * uy) * w2;
+}
+
+/* Velocity relative to the ground of the point rot(theta) (ux, uy). */
+static void arm_velocity(double theta, double omega, double ux, double uy, double v[2]) {
+    double c = cos(theta), s = sin(theta);
+    v[0] = (-s * ux + c * uy) * omega;
+    v[1] = (-c * ux - s * uy) * omega;
+}
+
+void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y, double p[2][2]) {
+    const Variables *v = &M->v;
+    double v1[2] = {0.0, 0.0}, vK[2] = {0.0, 0.0}, v2[2] = {0.0, 0.0};
+    p[0][0] = p[0][1] = p[1][0] = p[1][1] = 0.0;
+    if (v->nBlocks != 2) {
+        if (mode != MODE_ROCKING) return;
+        arm_velocity(y[0], y[1], -s1 * v->halfWidth, v->halfHeight, v1);
+        p[0][0] = v->mass * v1[0];
+        p[0][1] = v->mass * v1[1];
+        return;
+    }
+    if (mode != MODE_UPPER && mode != MODE_LOCKED && mode != MODE_BOTH) return;
+    arm_velocity(y[0], y[1], -s1 * v->halfWidth, v->halfHeight, v1);
+    arm_velocity(y[0], y[1], s2 * M->d.c - s1 * v->halfWidth, 2.0 * v->halfHeight, vK);
+    arm_velocity(y[2], y[3], -s2 * M->d.c, v->halfHeight2, v2);
+    p[0][0] = v->mass * v1[0];
+    p[0][1] = v->mass * v1[1];
+    p[1][0] = v->mass2 * (vK[0] + v2[0]);
+    p[1][1] = v->mass2 * (vK[1] + v2[1]);
 }
 
 void contact_one_block(const Model *M, int moving, double theta, double omega, double alphaDD,
@@ -49,4 +81,138 @@ void contact_stack(const Model *M, Mode mode, int s1, int s2, const double y[4],
     double c1 = moving ? cos(y[0]) : 1.0, n1 = moving ? sin(y[0]) : 0.0;
     *Ti = Fx * c1 - Fy * n1;
     *Ni = Fx * n1 + Fy * c1;
+}
+
+/* ---------------------------------------------------------------- monitors */
+
+static int contacts(const Model *M) { return M->v.nBlocks == 2 ? 2 : 1; }
+
+static double mu(const Model *M, int c) { return c == 0 ? M->v.muGround : M->v.muInterface; }
+
+/* weight a contact carries: both blocks on the ground, block 2 on block 1 */
+static double weight(const Model *M, int c) {
+    const Variables *v = &M->v;
+    if (c == 1) return v->mass2 * v->g;
+    return (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
+}
+
+static const char *contact_name(int c) { return c == 0 ? "ground" : "interface"; }
+
+void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]) {
+    const Variables *v = &M->v;
+    double ah, av;
+    (void)inStep;
+    model_ground(M, t, &ah, &av);
+    double m1 = v->nBlocks == 2 ? v->mass + v->mass2 : v->mass;
+    T[0] = m1 * ah;
+    N[0] = m1 * (v->g + av);
+    T[1] = v->nBlocks == 2 ? v->mass2 * ah : 0.0;
+    N[1] = v->nBlocks == 2 ? v->mass2 * (v->g + av) : 0.0;
+}
+
+/* slide (kind 0): mu N - |T| < 0; lift (kind 1): N < 0 */
+static double indicator(const Model *M, int kind, int c, double T, double N) {
+    return kind == 0 ? mu(M, c) * N - fabs(T) : N;
+}
+
+/* First time in (a, b] at which the indicator turns negative along path, given
+ * that it is >= 0 at a and < 0 at b. */
+static double locate(const Model *M, ReactionsFn path, int kind, int c, double a, double b) {
+    double T[2], N[2];
+    for (int it = 0; it < 200 && b - a > 2.0 * DBL_EPSILON * fmax(1.0, fabs(b)); it++) {
+        double mid = 0.5 * (a + b);
+        path(M, mid, 1, T, N);
+        if (indicator(M, kind, c, T[c], N[c]) < 0) b = mid;
+        else a = mid;
+    }
+    return b;
+}
+
+void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
+                    const Logger *log) {
+    State *S = &M->s;
+    int continuous = path != NULL && S->monValid && S->monT < t;
+    for (int c = 0; c < contacts(M); c++) {
+        double W = weight(M, c), ratio = N[c] / W;
+        if (N[c] > 0 && fabs(T[c]) / N[c] > S->demandMax[c]) S->demandMax[c] = fabs(T[c]) / N[c];
+        if (!S->monValid || ratio < S->normalMin[c]) S->normalMin[c] = ratio;
+        for (int kind = 0; kind < 2; kind++) {
+            double *first = kind == 0 ? &S->slideTime : &S->liftTime;
+            if (*first >= 0 || !(indicator(M, kind, c, T[c], N[c]) < 0)) continue;
+            if (kind == 0 && !(N[c] > 0)) continue; /* no friction without compression: that is a lift */
+            double at = t;
+            if (continuous && indicator(M, kind, c, S->monTr[c], S->monN[c]) >= 0)
+                at = locate(M, path, kind, c, S->monT, t);
+            *first = at;
+            if (kind == 0)
+                say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c),
+                    fabs(T[c]) / N[c], mu(M, c));
+            else
+                say(log, LOG_EVENTS, "lift t=%.17g contact=%s normal=%.17g", at, contact_name(c), ratio);
+        }
+        S->monTr[c] = T[c];
+        S->monN[c] = N[c];
+    }
+    S->monT = t;
+    S->monValid = 1;
+}
+
+void contact_impulse(Model *M, double t, const double *y, Mode om, int o1, int o2, const double wm[2],
+                     Mode nm, int n1, int n2, const double wp[2], const Logger *log) {
+    State *S = &M->s;
+    int two = M->v.nBlocks == 2;
+    double ym[4] = {y[0], wm[0], two ? y[2] : 0.0, two ? wm[1] : 0.0};
+    double yp[4] = {y[0], wp[0], two ? y[2] : 0.0, two ? wp[1] : 0.0};
+    double p0[2][2], p1[2][2];
+    contact_momenta(M, om, o1, o2, ym, p0);
+    contact_momenta(M, nm, n1, n2, yp, p1);
+    double dx2 = p1[1][0] - p0[1][0], dy2 = p1[1][1] - p0[1][1];
+    double c1 = cos(y[0]), n1s = sin(y[0]);
+    double Pt[2] = {p1[0][0] - p0[0][0] + dx2, dx2 * c1 - dy2 * n1s};
+    double Pn[2] = {p1[0][1] - p0[0][1] + dy2, dx2 * n1s + dy2 * c1};
+    /* impulses at rounding level of the momenta: that contact took none */
+    double scale = 0.0;
+    for (int i = 0; i < 2; i++)
+        for (int k = 0; k < 2; k++) scale += fabs(p0[i][k]) + fabs(p1[i][k]);
+    for (int c = 0; c < contacts(M); c++) {
+        if (fabs(Pt[c]) + fabs(Pn[c]) <= 1e-9 * scale) continue;
+        if (!(Pn[c] > 0)) {
+            if (S->liftTime < 0) {
+                S->liftTime = t;
+                say(log, LOG_EVENTS, "lift t=%.17g contact=%s impulse=%.17g", t, contact_name(c), Pn[c]);
+            }
+            continue;
+        }
+        double d = fabs(Pt[c]) / Pn[c];
+        if (d > S->impulseDemandMax) S->impulseDemandMax = d;
+        if (d > mu(M, c) && S->slideTime < 0) {
+            S->slideTime = t;
+            say(log, LOG_EVENTS, "slide t=%.17g contact=%s impulse_demand=%.17g mu=%.17g", t, contact_name(c),
+                d, mu(M, c));
+        }
+    }
+}
+
+void contact_outputs(const Model *M, Variables *v) {
+    const State *S = &M->s;
+    double T[2] = {v->groundT, v->interfaceT}, N[2] = {v->groundN, v->interfaceN};
+    double dmax[2] = {0.0, 0.0}, nmin[2] = {1.0, 1.0};
+    for (int c = 0; c < contacts(M); c++) {
+        dmax[c] = S->demandMax[c];
+        nmin[c] = S->monValid ? S->normalMin[c] : INFINITY;
+        if (S->mode != MODE_OVERTURNED) { /* the reactions now count as well */
+            if (N[c] > 0 && fabs(T[c]) / N[c] > dmax[c]) dmax[c] = fabs(T[c]) / N[c];
+            if (N[c] / weight(M, c) < nmin[c]) nmin[c] = N[c] / weight(M, c);
+        }
+        if (!isfinite(nmin[c])) nmin[c] = 1.0;
+    }
+    v->demandMaxGround = dmax[0];
+    v->demandMaxInterface = dmax[1];
+    v->normalMinGround = nmin[0];
+    v->normalMinInterface = nmin[1];
+    v->slides = S->slideTime >= 0;
+    v->slideTime = S->slideTime;
+    v->lifts = S->liftTime >= 0;
+    v->liftTime = S->liftTime;
+    v->impulseDemandMax = S->impulseDemandMax;
 }

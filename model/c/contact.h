@@ -27,4 +27,46 @@ void contact_one_block(const Model *M, int moving, double theta, double omega, d
 void contact_stack(const Model *M, Mode mode, int s1, int s2, const double y[4], const double acc[2],
                    double ah, double av, double *Tg, double *Ng, double *Ti, double *Ni);
 
+/* Linear momenta relative to the ground (kg m/s) of block 1 and block 2 (0 with
+ * one block, and for bodies at rest or overturned) in pattern mode with pivots
+ * s1, s2 at y = (theta1, omega1[, theta2, omega2]). */
+void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y, double p[2][2]);
+
+/* ---------------------------------------------------------------- monitors
+ *
+ * Whether the reactions stay within what the rigid-rocking model assumes:
+ * |T| <= mu N (no sliding) and N >= 0 (no flight), at the ground [0] and, with
+ * two blocks, at the interface [1]. advance_to (events.c) takes samples at the
+ * start of every integrator step, just before and after every event, and at
+ * every edge of the excitation's monotone cells while the bodies rest (where
+ * the extremes of the rest reactions lie). A first sliding or lift-off between
+ * two samples joined by a continuous motion is located by bisection on that
+ * motion (the last step's dense output, or the rest reactions). */
+
+/* The reactions of the bodies at time t: of the current state (inStep = 0), or,
+ * for t inside the last step, of its dense output (inStep = 1). */
+typedef void (*ReactionsFn)(const Model *M, double t, int inStep, double T[2], double N[2]);
+
+/* Reactions of bodies resting on the ground (moving with it) at time t. */
+void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]);
+
+/* Take a sample at time t with reactions T, N. path (or NULL) gives the
+ * reactions between the previous sample and t if the motion between them is
+ * continuous. */
+void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
+                    const Logger *log);
+
+/* An impact at time t at the positions y, from the rates wm with pivots
+ * (o1, o2) in pattern om to the rates wp with pivots (n1, n2) in pattern nm
+ * (the impact map's, before any rest criterion stops the bodies): the impulses
+ * from the change of momentum, on block 1 from the ground (the change of the
+ * total momentum) and on block 2 from block 1 (in block 1's axes), and their
+ * friction demand |tangential| / normal. */
+void contact_impulse(Model *M, double t, const double *y, Mode om, int o1, int o2, const double wm[2],
+                     Mode nm, int n1, int n2, const double wp[2], const Logger *log);
+
+/* The monitor outputs at the output time: the samples so far and the
+ * reactions already in v (contact.groundT ...). */
+void contact_outputs(const Model *M, Variables *v);
+
 #endif

@@ -59,6 +59,8 @@ typedef struct {
     void (*start_moving)(Model *M, double t, int side, const Logger *log);
     /* called before each step or rest search (may be NULL) */
     void (*before_step)(Model *M, const Logger *log);
+    /* contact reactions of the moving bodies (contact.h) */
+    void (*reactions)(const Model *M, double t, int inStep, double T[2], double N[2]);
 } SolverOps;
 
 /* Advance M to tc: apply events once time reaches them, wait at rest for

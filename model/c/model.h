@@ -160,6 +160,16 @@ typedef struct {
 
     /* Model Exchange (me.c) */
     int omegaSign;        /* sign of omega after the last event (a peak is a change) */
+
+    /* contact monitors (contact.c), over the samples taken so far; index 0 the
+     * ground, 1 the interface of a stack */
+    int monValid;                 /* a sample has been taken */
+    double monT;                  /* time of the last sample, s */
+    double monTr[2], monN[2];     /* its reactions, N */
+    double demandMax[2];          /* largest |T| / N */
+    double normalMin[2];          /* smallest N / (weight carried) */
+    double slideTime, liftTime;   /* first sliding, first lift-off, s (-1: none) */
+    double impulseDemandMax;      /* largest |tangential| / normal impulse of an impact */
 } State;
 
 typedef struct {

@@ -56,6 +56,10 @@ static int apply_event(Model *M, const Logger *log) {
     if (S->pending == EVENT_IMPACT) {
         double wm = S->y[1], wp;
         int rest = model_impact(M, S->t, wm, &wp);
+        {
+            double y0[2] = {0.0, 0.0}, w0[2] = {wm, 0.0}, w1[2] = {wp, 0.0};
+            contact_impulse(M, S->t, y0, MODE_ROCKING, S->side, 0, w0, MODE_ROCKING, -S->side, 0, w1, log);
+        }
         S->impacts++;
         S->lastImpactTime = S->t;
         S->y[0] = 0.0;
@@ -291,7 +295,23 @@ static void start_rocking(Model *M, double t, int side, const Logger *log) {
     say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
 }
 
-static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks};
+/* Contact reactions of the rocking block at time t (contact.h). */
+static void reactions(const Model *M, double t, int inStep, double T[2], double N[2]) {
+    const State *S = &M->s;
+    double y[2] = {S->y[0], S->y[1]}, dy[2], ah, av;
+    int side = S->side;
+    if (inStep && S->denseValid && S->hDense > 0) {
+        double s = (t - S->tOld) / S->hDense;
+        dense_state(S, s < 0 ? 0 : s > 1 ? 1 : s, y);
+        side = S->denseSide;
+    }
+    model_rhs(M, t, y, side, dy);
+    model_ground(M, t, &ah, &av);
+    contact_one_block(M, 1, y[0], y[1], dy[1], side, ah, av, &T[0], &N[0]);
+    T[1] = N[1] = 0.0;
+}
+
+static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions};
 
 void solver_initialize(Model *M, double t0) {
     model_initialize(M, t0);
@@ -360,6 +380,7 @@ void solver_outputs(Model *M, double tc) {
     contact_one_block(M, S->mode == MODE_ROCKING, y[0], y[1], v->alphaDD, side, v->ahTotal, v->avTotal,
                       &v->groundT, &v->groundN);
     v->interfaceT = v->interfaceN = 0.0;
+    contact_outputs(M, v);
 }
 
 void solver_log_pending(const Model *M, double tc, const Logger *log) {

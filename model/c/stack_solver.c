@@ -209,6 +209,7 @@ static void apply_impact(Model *M, const Logger *log) {
         wp[0] *= f;
         wp[1] *= f;
     }
+    contact_impulse(M, S->t, y, om, o1, o2, wm, nm, n1, n2, wp, log);
     if (ground) S->impactsGround++;
     else S->impactsInterface++;
     S->impacts++;
@@ -449,7 +450,20 @@ static int take_step(Model *M, const Logger *log) {
     return 0;
 }
 
-static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL};
+static int state_at(const Model *M, double tc, double y[4], int *s1, int *s2, double *s);
+
+/* Contact reactions of the stack at time t (contact.h). */
+static void reactions(const Model *M, double t, int inStep, double T[2], double N[2]) {
+    const State *S = &M->s;
+    double y[4], s = 1.0, ah, av, acc[2] = {0.0, 0.0};
+    int s1, s2;
+    state_at(M, inStep ? t : S->t, y, &s1, &s2, &s);
+    model_ground(M, t, &ah, &av);
+    if (moving(S->mode)) stack_accel(M, S->mode, s1, s2, y, ah, av, acc);
+    contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
+}
+
+static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL, reactions};
 
 int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     return advance_to(M, tc, log, &TWO_BLOCKS, stop);
@@ -510,6 +524,7 @@ void stack_outputs(Model *M, double tc) {
     v->ahTotal = ah;
     v->avTotal = av;
     contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &v->groundT, &v->groundN, &v->interfaceT, &v->interfaceN);
+    contact_outputs(M, v);
 }
 
 void stack_rollback(Model *M, double tc) {

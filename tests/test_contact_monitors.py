@@ -1,0 +1,160 @@
+"""The FMU's monitors of the rigid-rocking assumptions (friction.demandMax*,
+contact.normalMin*, slides/slideTime, lifts/liftTime, friction.impulseDemandMax),
+checked against closed forms and against the reactions of the independent
+reference (model/contact.py) at the times the FMU reports."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from model.contact import one_block_reactions
+from model.reference import Block, free_rocking
+
+G = 9.81
+MON = ["friction.demandMaxGround", "contact.normalMinGround", "slides", "slideTime", "lifts", "liftTime",
+       "friction.impulseDemandMax", "impacts"]
+STATE = ["block1.theta", "block1.omega", "ground.ahTotal", "ground.avTotal", "atRest"]
+SLENDER = {"block1.halfWidth": 0.1, "block1.halfHeight": 0.5, "block1.mass": 20.0}
+SQUAT = {"block1.halfWidth": 0.25, "block1.halfHeight": 0.3, "block1.mass": 20.0, "restitution.law": 2}  # h/b = 1.2
+
+
+def _final(fmu, params, stop, step=0.01, outputs=MON):
+    r = fmu.run(params, stop, step, outputs=list(outputs))
+    return {k: float(v[-1]) for k, v in r.outputs.items()}, r
+
+
+def _state_at(fmu, params, t):
+    """The outputs at time t exactly (a run that stops there)."""
+    out, _ = _final(fmu, params, t, t, outputs=STATE + ["contact.groundT", "contact.groundN"])
+    return out
+
+
+def test_free_rocking_of_a_slender_block_keeps_the_assumptions(fmu):
+    """mu = 0.7: no sliding, no flight. The extremes of the demand and of the normal force lie
+    at the impacts (the slowest and the fastest states on a corner), where exact free rocking
+    gives the rates: the monitors must equal the reference's reactions there. Each impact
+    needs |Pt| / Pn = h (1 - eta) / (b (1 + eta)) (the momentum change about the new corner,
+    eta = 1 - 1.5 sin^2(alpha), Housner 1963)."""
+    b, h = SLENDER["block1.halfWidth"], SLENDER["block1.halfHeight"]
+    alpha = math.atan2(b, h)
+    eta = 1 - 1.5 * math.sin(alpha) ** 2
+    exact = free_rocking(Block(b, h, G), 0.15, eta, 6)
+    stop = 0.5 * (exact.impact_times[4] + exact.impact_times[5])  # five impacts, no rest yet
+    out, r = _final(fmu, {**SLENDER, "block1.theta0": 0.15}, stop, 0.001, MON + STATE)
+    assert out["impacts"] == 5 and not out["slides"] and not out["lifts"]
+    assert out["slideTime"] == out["liftTime"] == -1
+    assert out["friction.impulseDemandMax"] == pytest.approx(h * (1 - eta) / (b * (1 + eta)), rel=1e-12)
+
+    def on_corner(w_toward_zero, w):  # reactions at theta = 0 on the corner the block turns about
+        return one_block_reactions(math.copysign(1e-300, -w_toward_zero), w, 0.0, 0.0, b, h, 1.0, G)
+
+    at_impacts = [on_corner(w, w) for w in exact.omega_minus[:5]]  # just before
+    at_impacts += [on_corner(-w, eta * w) for w in exact.omega_minus[:5]]  # just after, on the other corner
+    demand = max(abs(T) / N for T, N in at_impacts)
+    normal = min(N / G for _, N in at_impacts)
+    assert out["friction.demandMaxGround"] == pytest.approx(demand, rel=1e-8)
+    assert out["contact.normalMinGround"] == pytest.approx(normal, rel=1e-8)
+    # and no state of the run, sampled every millisecond, exceeds them
+    o = r.outputs
+    TN = np.array([one_block_reactions(th, w, ah, av, b, h, 1.0, G) for th, w, ah, av in
+                   zip(o["block1.theta"], o["block1.omega"], o["ground.ahTotal"], o["ground.avTotal"]) if th != 0])
+    assert np.max(np.abs(TN[:, 0]) / TN[:, 1]) <= demand and np.min(TN[:, 1]) / G >= normal
+    assert 0 < demand < 0.7 and normal > 0
+
+
+@pytest.mark.parametrize("mu", [0.5, 0.7])
+def test_a_squat_block_slides_before_it_uplifts(fmu, mu):
+    """mu < b/h: the table's pulse A sin(2 pi f t) reaches mu g (sliding) before g tan(alpha)
+    (uplift); the slide is at asin(mu g / A) / (2 pi f) exactly."""
+    A, f = 9.0, 2.0
+    p = {**SQUAT, "contact.muGround": mu, "excitation.kind": 1, "excitation.amplitude": A, "excitation.frequency": f}
+    out, r = _final(fmu, p, 2.0)
+    b, h = SQUAT["block1.halfWidth"], SQUAT["block1.halfHeight"]
+    assert mu < b / h < A / G
+    t_slide = math.asin(mu * G / A) / (2 * math.pi * f)
+    assert out["slides"] and abs(out["slideTime"] - t_slide) <= 1e-9
+    uplift = r.event_times("uplift")
+    assert len(uplift) and uplift[0] == pytest.approx(math.asin(G * b / h / A) / (2 * math.pi * f), abs=1e-9)
+    assert out["slideTime"] < uplift[0]
+    slides = [e for e in r.events if e.kind == "slide"]
+    assert len(slides) == 1 and slides[0].t == out["slideTime"] and slides[0].labels["contact"] == "ground"
+
+
+def test_a_block_with_enough_friction_rocks_and_is_clean(fmu):
+    """mu above b/h and a_h above g tan(alpha): it rocks, and neither slides nor lifts."""
+    p = {**SQUAT, "contact.muGround": 1.0, "excitation.kind": 1, "excitation.amplitude": 8.5,
+         "excitation.frequency": 2.0}
+    out, r = _final(fmu, p, 3.0)
+    b, h = SQUAT["block1.halfWidth"], SQUAT["block1.halfHeight"]
+    assert 1.0 > b / h and 8.5 > G * b / h
+    assert len(r.event_times("uplift")) and out["impacts"] > 0
+    assert not out["slides"] and not out["lifts"] and out["friction.demandMaxGround"] < 1.0
+
+
+def test_sliding_while_rocking_is_where_the_reference_demand_reaches_mu(fmu):
+    """Under a strong pulse the rocking block's demand |T| / N reaches mu: at the reported
+    time the reference's reactions give exactly mu (the FMU located it on its dense output)."""
+    b, h = SQUAT["block1.halfWidth"], SQUAT["block1.halfHeight"]
+    p = {**SQUAT, "contact.muGround": 2.0, "excitation.kind": 1, "excitation.amplitude": 20.0,
+         "excitation.frequency": 2.0}
+    out, r = _final(fmu, p, 1.0)
+    assert out["slides"] and r.event_times("uplift")[0] < out["slideTime"]
+    s = _state_at(fmu, p, out["slideTime"])
+    T, N = one_block_reactions(s["block1.theta"], s["block1.omega"], s["ground.ahTotal"], s["ground.avTotal"],
+                               b, h, SQUAT["block1.mass"], G)
+    assert abs(abs(T) - 2.0 * N) <= 1e-7 * SQUAT["block1.mass"] * G
+    assert (T, N) == pytest.approx((s["contact.groundT"], s["contact.groundN"]), abs=1e-9 * SQUAT["block1.mass"] * G)
+
+
+def test_flight_while_rocking_is_where_the_reference_normal_force_vanishes(fmu):
+    """The same pulse, reversing while the block still rocks on its corner, pulls the
+    corner off the ground: the reported lift time is where the reference's N = 0."""
+    b, h = SQUAT["block1.halfWidth"], SQUAT["block1.halfHeight"]
+    p = {**SQUAT, "contact.muGround": 100.0, "excitation.kind": 1, "excitation.amplitude": 20.0,
+         "excitation.frequency": 2.0}
+    out, r = _final(fmu, p, 1.0)
+    assert out["lifts"] and not out["slides"] and out["contact.normalMinGround"] < 0
+    s = _state_at(fmu, p, out["liftTime"])
+    T, N = one_block_reactions(s["block1.theta"], s["block1.omega"], s["ground.ahTotal"], s["ground.avTotal"],
+                               b, h, SQUAT["block1.mass"], G)
+    assert abs(N) <= 1e-7 * SQUAT["block1.mass"] * G
+    assert [e.t for e in r.events if e.kind == "lift"] == [out["liftTime"]]
+
+
+def test_a_block_spun_hard_leaves_its_corner_at_once(fmu):
+    """omega0 with R omega^2 cos(phi) above G (1 - 3/4 sin^2 phi): N < 0 at the start."""
+    b, h = SLENDER["block1.halfWidth"], SLENDER["block1.halfHeight"]
+    th, w = 0.05, 6.0
+    T, N = one_block_reactions(th, w, 0.0, 0.0, b, h, 1.0, G)
+    assert N < 0
+    out, _ = _final(fmu, {**SLENDER, "block1.theta0": th, "block1.omega0": w}, 0.2)
+    assert out["lifts"] and out["liftTime"] == 0.0
+
+
+def test_monitors_do_not_depend_on_the_communication_step(fmu):
+    p = {**SQUAT, "contact.muGround": 0.7, "excitation.kind": 1, "excitation.amplitude": 9.0,
+         "excitation.frequency": 2.0}
+    finals = [_final(fmu, p, 3.0, step)[0] for step in (0.01, 0.0037, 3.0)]
+    for k in MON:
+        assert finals[1][k] == pytest.approx(finals[0][k], rel=1e-12, abs=1e-12), k
+        assert finals[2][k] == pytest.approx(finals[0][k], rel=1e-12, abs=1e-12), k
+
+
+def test_stack_interface_monitors_against_the_reference(fmu):
+    """Two blocks under a harmonic table motion with a slippery interface: the interface slides
+    first; where its demand first reaches mu, the reference's interface forces agree."""
+    p = {"nBlocks": 2, "block1.halfWidth": 0.2, "block1.halfHeight": 0.4, "block1.mass": 30.0,
+         "block2.halfWidth": 0.12, "block2.halfHeight": 0.3, "block2.mass": 12.0, "restitution.law": 2,
+         "excitation.kind": 3, "excitation.displacement": 0.03, "excitation.frequency": 2.5, "excitation.cycles": 4,
+         "contact.muInterface": 0.3, "contact.muGround": 5.0}
+    out, r = _final(fmu, p, 2.0, outputs=MON + ["friction.demandMaxInterface", "contact.normalMinInterface"])
+    slides = [e for e in r.events if e.kind == "slide"]
+    assert out["slides"] and slides[0].labels["contact"] == "interface" and slides[0].t == out["slideTime"]
+    names = ["block1.theta", "block1.omega", "block1.alpha_dd", "block2.theta", "block2.omega", "block2.alpha_dd",
+             "ground.ahTotal", "ground.avTotal", "contact.interfaceT", "contact.interfaceN"]
+    s, _ = _final(fmu, p, out["slideTime"], out["slideTime"], outputs=names)
+    assert abs(abs(s["contact.interfaceT"]) - 0.3 * s["contact.interfaceN"]) <= 1e-7 * 12.0 * G
+    assert out["friction.demandMaxInterface"] >= 0.3
