@@ -48,14 +48,28 @@ void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y,
     p[1][1] = v->mass2 * (vK[1] + v2[1]);
 }
 
+/* One block: the centre of mass sits at R (-sin(phi), cos(phi)) from the pivot,
+ * phi = side alpha - theta, so it accelerates relative to the ground by
+ * R (cos(phi) theta'' + sin(phi) theta'^2, sin(phi) theta'' - cos(phi) theta'^2). */
+void contact_one_block_terms(const Model *M, double omega, double alphaDD, const RhsTerms *k, double *T,
+                             double *N) {
+    const Variables *v = &M->v;
+    double R = M->d.R, w2 = omega * omega;
+    *T = v->mass * (k->ah + R * (k->cphi * alphaDD + k->sphi * w2));
+    *N = v->mass * (v->g + k->av + R * (k->sphi * alphaDD - k->cphi * w2));
+}
+
 void contact_one_block(const Model *M, int moving, double theta, double omega, double alphaDD,
                        int side, double ah, double av, double *T, double *N) {
-    const Variables *v = &M->v;
-    double a[2] = {0.0, 0.0};
-    /* centre of mass from the pivot: (-side b, h) in the block's frame */
-    if (moving) arm_accel(theta, omega, alphaDD, -side * v->halfWidth, v->halfHeight, a);
-    *T = v->mass * (ah + a[0]);
-    *N = v->mass * (v->g + av + a[1]);
+    RhsTerms k = {ah, av, 0.0, 1.0};
+    if (moving) {
+        double phi = side * M->d.alpha - theta;
+        k.sphi = sin(phi);
+        k.cphi = cos(phi);
+    } else {
+        omega = alphaDD = 0.0; /* it moves with the ground */
+    }
+    contact_one_block_terms(M, omega, alphaDD, &k, T, N);
 }
 
 void contact_stack(const Model *M, Mode mode, int s1, int s2, const double y[4], const double acc[2],
@@ -90,11 +104,7 @@ static int contacts(const Model *M) { return M->v.nBlocks == 2 ? 2 : 1; }
 static double mu(const Model *M, int c) { return c == 0 ? M->v.muGround : M->v.muInterface; }
 
 /* weight a contact carries: both blocks on the ground, block 2 on block 1 */
-static double weight(const Model *M, int c) {
-    const Variables *v = &M->v;
-    if (c == 1) return v->mass2 * v->g;
-    return (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
-}
+static double weight(const Model *M, int c) { return M->d.weight[c]; }
 
 static const char *contact_name(int c) { return c == 0 ? "ground" : "interface"; }
 
@@ -116,42 +126,67 @@ static double indicator(const Model *M, int kind, int c, double T, double N) {
 }
 
 /* First time in (a, b] at which the indicator turns negative along path, given
- * that it is >= 0 at a and < 0 at b. */
+ * that it is >= 0 at a and < 0 at b: regula falsi with the Illinois change (a
+ * few evaluations for a smooth indicator), falling back to halving when an end
+ * stays put, until the bracket is a few units of rounding wide. */
 static double locate(const Model *M, ReactionsFn path, int kind, int c, double a, double b) {
     double T[2], N[2];
+    path(M, a, 1, T, N);
+    double fa = indicator(M, kind, c, T[c], N[c]);
+    path(M, b, 1, T, N);
+    double fb = indicator(M, kind, c, T[c], N[c]);
+    if (!(fa >= 0)) fa = 0.0; /* a tie at the previous sample */
+    int side = 0;
     for (int it = 0; it < 200 && b - a > 2.0 * DBL_EPSILON * fmax(1.0, fabs(b)); it++) {
-        double mid = 0.5 * (a + b);
-        path(M, mid, 1, T, N);
-        if (indicator(M, kind, c, T[c], N[c]) < 0) b = mid;
-        else a = mid;
+        double x = (fa - fb > 0 && it % 4 != 3) ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+        if (!(x > a && x < b)) x = 0.5 * (a + b);
+        path(M, x, 1, T, N);
+        double fx = indicator(M, kind, c, T[c], N[c]);
+        if (fx < 0) {
+            b = x, fb = fx;
+            if (side == -1) fa *= 0.5;
+            side = -1;
+        } else {
+            a = x, fa = fx;
+            if (side == 1) fb *= 0.5;
+            side = 1;
+        }
     }
     return b;
+}
+
+/* The first sliding (kind 0) or lift-off (kind 1) of contact c, seen at the sample t. */
+static void first_violation(Model *M, int kind, int c, double t, const double T[2], const double N[2],
+                            ReactionsFn path, const Logger *log) {
+    State *S = &M->s;
+    double at = t;
+    if (path != NULL && S->monValid && S->monT < t && indicator(M, kind, c, S->monTr[c], S->monN[c]) >= 0)
+        at = locate(M, path, kind, c, S->monT, t);
+    if (kind == 0) {
+        S->slideTime = at;
+        say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c),
+            fabs(T[c]) / N[c], mu(M, c));
+    } else {
+        S->liftTime = at;
+        say(log, LOG_EVENTS, "lift t=%.17g contact=%s normal=%.17g", at, contact_name(c), N[c] / weight(M, c));
+    }
 }
 
 void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
                     const Logger *log) {
     State *S = &M->s;
-    int continuous = path != NULL && S->monValid && S->monT < t;
-    for (int c = 0; c < contacts(M); c++) {
-        double W = weight(M, c), ratio = N[c] / W;
-        if (N[c] > 0 && fabs(T[c]) / N[c] > S->demandMax[c]) S->demandMax[c] = fabs(T[c]) / N[c];
-        if (!S->monValid || ratio < S->normalMin[c]) S->normalMin[c] = ratio;
-        for (int kind = 0; kind < 2; kind++) {
-            double *first = kind == 0 ? &S->slideTime : &S->liftTime;
-            if (*first >= 0 || !(indicator(M, kind, c, T[c], N[c]) < 0)) continue;
-            if (kind == 0 && !(N[c] > 0)) continue; /* no friction without compression: that is a lift */
-            double at = t;
-            if (continuous && indicator(M, kind, c, S->monTr[c], S->monN[c]) >= 0)
-                at = locate(M, path, kind, c, S->monT, t);
-            *first = at;
-            if (kind == 0)
-                say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c),
-                    fabs(T[c]) / N[c], mu(M, c));
-            else
-                say(log, LOG_EVENTS, "lift t=%.17g contact=%s normal=%.17g", at, contact_name(c), ratio);
+    int n = M->v.nBlocks == 2 ? 2 : 1;
+    for (int c = 0; c < n; c++) {
+        /* every step samples: compare by products, divide only for a new extreme */
+        double aT = fabs(T[c]), Nc = N[c];
+        if (aT > S->demandMax[c] * Nc && Nc > 0) S->demandMax[c] = aT / Nc;
+        if (Nc < S->normalMin[c] * M->d.weight[c] || !S->monValid) S->normalMin[c] = Nc / M->d.weight[c];
+        if (aT > (c ? M->v.muInterface : M->v.muGround) * Nc || Nc < 0) { /* rarely */
+            if (S->slideTime < 0 && Nc > 0) first_violation(M, 0, c, t, T, N, path, log);
+            if (S->liftTime < 0 && Nc < 0) first_violation(M, 1, c, t, T, N, path, log);
         }
         S->monTr[c] = T[c];
-        S->monN[c] = N[c];
+        S->monN[c] = Nc;
     }
     S->monT = t;
     S->monValid = 1;

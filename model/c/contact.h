@@ -21,6 +21,11 @@
 void contact_one_block(const Model *M, int moving, double theta, double omega, double alphaDD,
                        int side, double ah, double av, double *T, double *N);
 
+/* The same for a rocking block from one evaluation of its equation of motion
+ * (the rate omega, the acceleration alphaDD it gave, and its terms k). */
+void contact_one_block_terms(const Model *M, double omega, double alphaDD, const RhsTerms *k, double *T,
+                             double *N);
+
 /* Reactions of a stack in pattern `mode` with pivots s1, s2 at y =
  * (theta1, omega1, theta2, omega2) with angular accelerations acc: ground
  * on block 1 (Tg, Ng) and block 1 on block 2 (Ti, Ni). */

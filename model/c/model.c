@@ -149,15 +149,24 @@ void model_derive(Model *M) {
     ground_derive(M);
     d->upliftSlope = d->tanAlpha;
     if (v->nBlocks == 2) stack_derive(v, d);
+    d->weight[0] = (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
+    d->weight[1] = v->mass2 * v->g;
+}
+
+void model_rhs_terms(const Model *M, double t, const double y[2], int side, int piece, double dy[2],
+                     RhsTerms *k) {
+    model_ground_piece(M, t, piece, &k->ah, &k->av);
+    double phi = side * M->d.alpha - y[0];
+    k->sphi = sin(phi);
+    k->cphi = cos(phi);
+    dy[0] = y[1];
+    dy[1] = -M->d.mROverI0 * ((M->v.g + k->av) * k->sphi + k->ah * k->cphi);
 }
 
 void model_rhs_piece(const Model *M, double t, const double y[2], int side,
                      int piece, double dy[2]) {
-    double ah, av;
-    model_ground_piece(M, t, piece, &ah, &av);
-    double phi = side * M->d.alpha - y[0];
-    dy[0] = y[1];
-    dy[1] = -M->d.mROverI0 * ((M->v.g + av) * sin(phi) + ah * cos(phi));
+    RhsTerms k;
+    model_rhs_terms(M, t, y, side, piece, dy, &k);
 }
 
 void model_rhs(const Model *M, double t, const double y[2], int side, double dy[2]) {

@@ -82,6 +82,7 @@ typedef struct {
     int recN;
     unsigned long long recHash;
     double upliftSlope; /* at rest the ground tips the body once |ah| > upliftSlope (g + av) */
+    double weight[2];   /* weight carried by the ground (both blocks) and by block 1 (block 2), N */
 
     /* two stacked blocks (nBlocks = 2), see stack.h */
     double c;          /* half width of the contact between the blocks, m */
@@ -170,6 +171,10 @@ typedef struct {
     double normalMin[2];          /* smallest N / (weight carried) */
     double slideTime, liftTime;   /* first sliding, first lift-off, s (-1: none) */
     double impulseDemandMax;      /* largest |tangential| / normal impulse of an impact */
+    /* one block: the reactions at the end of the last step, from its last evaluation
+     * of the equation of motion (valid with fValid: while t, y, f are that end's) */
+    int endValid;
+    double endTr, endN;
 } State;
 
 typedef struct {
@@ -235,6 +240,14 @@ double model_energy(const Model *M, double theta, double omega);
 
 void model_rhs_piece(const Model *M, double t, const double y[2], int side,
                      int piece, double dy[2]);
+/* The terms of one evaluation of the equation of motion: the ground's
+ * accelerations and the sine and cosine of phi = side alpha - theta (the
+ * contact reactions reuse them, contact.h). */
+typedef struct {
+    double ah, av, sphi, cphi;
+} RhsTerms;
+void model_rhs_terms(const Model *M, double t, const double y[2], int side, int piece, double dy[2],
+                     RhsTerms *k);
 /* Uplift indicator of a block at rest for tipping towards side: positive
  * when the ground pushes it over its corner on that side. */
 double model_uplift_indicator_piece(const Model *M, double t, int side, int piece);

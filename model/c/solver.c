@@ -22,11 +22,12 @@ typedef struct {
     const Model *M;
     int side;
     int piece;
+    RhsTerms k; /* of the last evaluation */
 } RhsCtx;
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
-    const RhsCtx *c = (const RhsCtx *)ctx;
-    model_rhs_piece(c->M, t, y, c->side, c->piece, dy);
+    RhsCtx *c = (RhsCtx *)ctx; /* the integrator hands our own (non-const) context back */
+    model_rhs_terms(c->M, t, y, c->side, c->piece, dy, &c->k);
 }
 
 /* Step length so that component comp of the step result equals target. */
@@ -123,7 +124,7 @@ static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     if (v->method == 1) return take_step_taylor(M, log);
-    RhsCtx c = {M, S->side, model_piece(M, S->t)};
+    RhsCtx c = {.M = M, .side = S->side, .piece = model_piece(M, S->t)};
     double bp = next_breakpoint(M, S->t, c.piece);
     double hmax = bp - S->t;
     /* zeroed: the step fills components 0 and 1 only, and the whole array goes
@@ -135,6 +136,7 @@ static int take_step(Model *M, const Logger *log) {
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
+        S->endValid = 0; /* the reactions stored are not this state's */
     }
     if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                       cont, &hNext, &hitBp, &S->rejected)) {
@@ -142,6 +144,8 @@ static int take_step(Model *M, const Logger *log) {
         return -1;
     }
     S->steps++;
+    /* the accepted step's last evaluation was its first-same-as-last stage at its end */
+    RhsTerms endTerms = c.k;
 
     /* events on the dense output */
     int side = S->side;
@@ -211,6 +215,9 @@ static int take_step(Model *M, const Logger *log) {
     S->fValid = (ev == EVENT_NONE && !hitBp);
     S->h = hNext;
     S->pending = ev;
+    /* the contact reactions at the step's end, from that evaluation: a few products */
+    S->endValid = S->fValid;
+    if (S->endValid) contact_one_block_terms(M, S->y[1], S->f[1], &endTerms, &S->endTr, &S->endN);
     return finish_step(M, log, c.piece, side, ev);
 }
 
@@ -272,6 +279,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
     S->y[0] = th1;
     S->y[1] = om1;
     S->fValid = 0;
+    S->endValid = 0;
     S->pending = ev;
     return finish_step(M, log, piece, side, ev);
 }
@@ -298,17 +306,22 @@ static void start_rocking(Model *M, double t, int side, const Logger *log) {
 /* Contact reactions of the rocking block at time t (contact.h). */
 static void reactions(const Model *M, double t, int inStep, double T[2], double N[2]) {
     const State *S = &M->s;
-    double y[2] = {S->y[0], S->y[1]}, dy[2], ah, av;
+    double y[2] = {S->y[0], S->y[1]}, dy[2];
     int side = S->side;
+    T[1] = N[1] = 0.0;
+    if (!inStep && S->fValid && S->endValid) { /* (t, y) is still the last step's end */
+        T[0] = S->endTr;
+        N[0] = S->endN;
+        return;
+    }
     if (inStep && S->denseValid && S->hDense > 0) {
         double s = (t - S->tOld) / S->hDense;
         dense_state(S, s < 0 ? 0 : s > 1 ? 1 : s, y);
         side = S->denseSide;
     }
-    model_rhs(M, t, y, side, dy);
-    model_ground(M, t, &ah, &av);
-    contact_one_block(M, 1, y[0], y[1], dy[1], side, ah, av, &T[0], &N[0]);
-    T[1] = N[1] = 0.0;
+    RhsTerms k;
+    model_rhs_terms(M, t, y, side, model_piece(M, t), dy, &k);
+    contact_one_block_terms(M, y[1], dy[1], &k, &T[0], &N[0]);
 }
 
 static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions};
@@ -429,7 +442,7 @@ static void state_rhs(const Model *M, double f[NMAX]) {
         stack_state_rhs(M, f);
         return;
     }
-    RhsCtx c = {M, S->side, model_piece(M, S->t)};
+    RhsCtx c = {.M = M, .side = S->side, .piece = model_piece(M, S->t)};
     rhs_cb(&c, S->t, S->y, f);
 }
 
@@ -449,7 +462,7 @@ static void replay_step(const Model *M, double y1[NMAX], double cont[5][NMAX], d
         taylor_eval(x, S->tayN, S->hDense, &y1[0], &y1[1]);
         return;
     }
-    RhsCtx c = {M, S->denseSide, piece};
+    RhsCtx c = {.M = M, .side = S->denseSide, .piece = piece};
     double y0[NMAX] = {S->cont[0][0], S->cont[0][1], 0.0, 0.0}, f0[NMAX] = {0}, err[NMAX];
     rhs_cb(&c, S->tOld, y0, f0);
     dopri5_step(rhs_cb, &c, 2, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
@@ -593,6 +606,9 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         {"lastPeakTime", &S->lastPeakTime, 1}, {"lastPeakTheta", &S->lastPeakTheta, 1},
         {"maxAbsTheta", &S->maxAbsTheta, 1}, {"overturnTime", &S->overturnTime, 1}, {"restTime", &S->restTime, 1},
         {"maxAbsTheta2", &S->maxAbsTheta2, 1}, {"maxPrev", &S->maxPrev, 1}, {"maxPrev2", &S->maxPrev2, 1},
+        {"monT", &S->monT, 1}, {"monTr", S->monTr, 2}, {"monN", S->monN, 2}, {"demandMax", S->demandMax, 2},
+        {"normalMin", S->normalMin, 2}, {"slideTime", &S->slideTime, 1}, {"liftTime", &S->liftTime, 1},
+        {"impulseDemandMax", &S->impulseDemandMax, 1}, {"endTr", &S->endTr, 1}, {"endN", &S->endN, 1},
     };
     for (size_t k = 0; k < sizeof(numbers) / sizeof(numbers[0]); k++) {
         int i = not_finite(numbers[k].x, numbers[k].count);
@@ -651,6 +667,27 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         FAIL("overturnTime = %.17g does not fit pattern %d", S->overturnTime, mode);
     if (S->restTime != -1 && !within(S->restTime, lo, hi))
         FAIL("restTime = %.17g is not a time in [start, t]", S->restTime);
+    if (!flag(S->monValid) || !flag(S->endValid))
+        FAIL("monValid = %d, endValid = %d must be 0 or 1", S->monValid, S->endValid);
+    if (S->endValid) { /* the reactions kept for the state must be the state's: recomputed, to the bit */
+        double T[2], N[2];
+        RhsTerms k;
+        double dy[2];
+        if (two || mode != MODE_ROCKING || !S->fValid)
+            FAIL("endValid = 1 belongs to a rocking block at the end of a step");
+        model_rhs_terms(M, S->t, S->y, S->side, model_piece(M, S->t), dy, &k);
+        contact_one_block_terms(M, S->y[1], S->f[1], &k, &T[0], &N[0]);
+        if (T[0] != S->endTr || N[0] != S->endN)
+            FAIL("the stored contact reactions (%g, %g) are not those of the state (%g, %g)", S->endTr, S->endN,
+                 T[0], N[0]);
+    }
+    if (S->monValid && !within(S->monT, lo, hi)) FAIL("monT = %.17g is not a time in [start, t]", S->monT);
+    if (S->slideTime != -1 && !within(S->slideTime, lo, hi))
+        FAIL("slideTime = %.17g is not a time in [start, t] (or -1)", S->slideTime);
+    if (S->liftTime != -1 && !within(S->liftTime, lo, hi))
+        FAIL("liftTime = %.17g is not a time in [start, t] (or -1)", S->liftTime);
+    if (!(S->demandMax[0] >= 0 && S->demandMax[1] >= 0 && S->impulseDemandMax >= 0))
+        FAIL("the friction demands must be >= 0");
     if (two && S->lastSwitchTime != -INFINITY && !within(S->lastSwitchTime, lo, hi))
         FAIL("lastSwitchTime = %.17g is not a time in [start, t]", S->lastSwitchTime);
     for (int i = 0; i < S->nStepPeaks; i++)

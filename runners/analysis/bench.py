@@ -90,6 +90,63 @@ def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
     return "\n".join(out)
 
 
+def _instructions(exe: Path, lib: Path, guid: str, case: int, repeats: int) -> float:
+    """Instructions per simulation of one case of the native harness, counted by valgrind's
+    cachegrind (exact and unaffected by other work on the machine): a run of `repeats`
+    simulations less one of none (loading, instantiating nothing)."""
+    def count(n: int) -> int:
+        proc = subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=no", "--cachegrind-out-file=/dev/null",
+                               str(exe), str(lib), guid, str(n), str(case)], capture_output=True, text=True)
+        for line in proc.stderr.splitlines():
+            if "I" in line and "refs:" in line:
+                return int(line.split("refs:")[1].replace(",", "").split()[0])
+        raise OSError(f"valgrind gave no instruction count: {proc.stderr.strip()[-300:]}")
+
+    return (count(repeats) - count(0)) / repeats
+
+
+def run_native_against(fmu_path: Path, other: Path, repeats: int = 2000, rounds: int = 5,
+                       count_repeats: int = 5) -> str:
+    """The native benchmark of two FMUs (this one and `other`, say a build before a change),
+    interleaved round by round, as a Markdown table of the smallest time per case and the
+    ratio this / other: the cost of the change. Where valgrind is installed, also the ratio of
+    instructions per simulation (exact: on a shared machine times vary by tens of percent)."""
+    if repeats < 1 or rounds < 1:
+        raise ValueError("--repeats must be >= 1")
+    for path in (fmu_path, other):  # one clear line for a missing or foreign file
+        RockingFMU(path).close()
+    valgrind = shutil.which("valgrind") is not None
+    with tempfile.TemporaryDirectory() as tmp:
+        natives = [_compile_native(Path(p), Path(tmp) / name) for p, name in ((fmu_path, "this"), (other, "other"))]
+        best: list[dict[str, float]] = [{}, {}]
+        impacts: dict[str, str] = {}
+        for _ in range(rounds):
+            for k, (exe, lib, guid) in enumerate(natives):
+                proc = subprocess.run([str(exe), str(lib), guid, str(repeats)], capture_output=True, text=True)
+                if proc.returncode != 0:
+                    raise OSError(f"native benchmark failed: {proc.stderr.strip()}")
+                for row in (line.split("\t") for line in proc.stdout.strip().splitlines()):
+                    best[k][row[0]] = min(best[k].get(row[0], float("inf")), float(row[1]))
+                    if k == 0:
+                        impacts[row[0]] = row[2]
+        counts = {case: [_instructions(*n, index, count_repeats) for n in natives]
+                  for index, case in enumerate(best[0])} if valgrind else {}
+    head = (f"Native cost per simulation of {fmu_path.name} against {other}: smallest of {rounds} interleaved "
+            f"rounds of {repeats} runs each")
+    if valgrind:
+        head += f"; instructions per simulation counted by valgrind (cachegrind) over {count_repeats} runs"
+    out = [head, "", "| case | us / simulation | us, other | ratio | instructions | instructions, other | ratio "
+                     "| impacts |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for case, us in best[0].items():
+        ref = best[1].get(case, float("nan"))
+        ir = counts.get(case, [float("nan"), float("nan")])
+        out.append(f"| {case} | {us:.1f} | {ref:.1f} | {us / ref:.3f} | {ir[0]:,.0f} | {ir[1]:,.0f} | "
+                   f"{ir[0] / ir[1]:.3f} | {impacts[case]} |")
+    if not valgrind:
+        out.append("\nvalgrind is not installed (Debian: valgrind): no instruction counts")
+    return "\n".join(out)
+
+
 # Anagnostopoulos (BEng thesis) Fig. 17A: Blocks 1 (lower) and 4 (upper), 7 Hz / 3 mm harmonic table motion
 STACK_7HZ = {
     "nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,

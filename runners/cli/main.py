@@ -127,6 +127,8 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
 
     if args.interfaces:
         return [("FMI interfaces", interfaces)]
+    if args.against:
+        return [("native, against another build", lambda: b.run_native_against(fmu, Path(args.against), args.repeats))]
     if args.dask:
         return [("sweep executors (Dask)", lambda: b.run_dask_bench(fmu))]
     if args.sweep_size:
@@ -160,9 +162,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise ValueError("--charts writes its charts to a folder: give --out DIR")
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
-    if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces))) > 1:
-        raise ValueError("give one of --charts, --dask, --records, --sweep-size and --interfaces (or none: every "
-                         "benchmark)")
+    if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against))) > 1:
+        raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces and --against (or "
+                         "none: every benchmark)")
     fmu = fmu_path_from(args.fmu)
     stages = dict(_bench_stages(args, fmu))
     texts = []

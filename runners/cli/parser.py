@@ -183,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--interfaces", action="store_true",
                        help="only the cost of one run through each FMI interface (Co-Simulation, Model Exchange "
                             "with CVode and Euler, FMI 3.0 with early return)")
+    bench.add_argument("--against", metavar="FMU",
+                       help="only the native benchmark of the FMU against another build of it (say one from "
+                            "before a change), interleaved in one run, with the ratios")
     common(bench, fmu=True)
     bench.set_defaults(func=f"{main}:cmd_bench", chart=None)
 

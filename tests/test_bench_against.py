@@ -1,0 +1,32 @@
+"""runners bench --against: the native benchmark of this FMU against another build, with
+instruction counts where valgrind is installed."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from conftest import run_cli
+from runners.analysis.bench import run_native_against
+
+
+def test_a_missing_build_to_compare_with_is_one_line(db_url, fmu_path, tmp_path):
+    p = run_cli("bench", "--against", str(tmp_path / "nope.fmu"), db=db_url, fmu_path=fmu_path)
+    assert p.returncode != 0
+    assert p.stderr.strip().count("\n") == 0 and "nope.fmu" in p.stderr and "Traceback" not in p.stderr
+
+
+@pytest.mark.slow
+def test_the_same_build_costs_the_same_instructions(fmu_path, tmp_path):
+    if shutil.which("valgrind") is None:
+        pytest.skip("valgrind is not installed (Debian: valgrind)")
+    copy = tmp_path / "same.fmu"
+    shutil.copy(fmu_path, copy)
+    table = run_native_against(fmu_path, copy, repeats=2, rounds=1, count_repeats=2)
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in table.splitlines()
+            if line.startswith("| ") and not line.startswith("| case")]
+    assert len(rows) > 5
+    for r in rows:
+        assert float(r[1]) > 0 and float(r[2]) > 0
+        assert float(r[6]) == pytest.approx(1.0, abs=1e-3), r  # instructions: the same code does the same work
