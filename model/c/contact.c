@@ -33,7 +33,12 @@ void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y,
     p[0][0] = p[0][1] = p[1][0] = p[1][1] = 0.0;
     if (v->nBlocks != 2) {
         if (mode != MODE_ROCKING) return;
-        arm_velocity(y[0], y[1], -s1 * v->halfWidth, v->halfHeight, v1);
+        if (y[0] == 0.0) { /* on the ground, where impacts happen: rot(0) = identity */
+            v1[0] = v->halfHeight * y[1];
+            v1[1] = s1 * v->halfWidth * y[1];
+        } else {
+            arm_velocity(y[0], y[1], -s1 * v->halfWidth, v->halfHeight, v1);
+        }
         p[0][0] = v->mass * v1[0];
         p[0][1] = v->mass * v1[1];
         return;
@@ -57,19 +62,6 @@ void contact_one_block_terms(const Model *M, double omega, double alphaDD, const
     double R = M->d.R, w2 = omega * omega;
     *T = v->mass * (k->ah + R * (k->cphi * alphaDD + k->sphi * w2));
     *N = v->mass * (v->g + k->av + R * (k->sphi * alphaDD - k->cphi * w2));
-}
-
-void contact_one_block(const Model *M, int moving, double theta, double omega, double alphaDD,
-                       int side, double ah, double av, double *T, double *N) {
-    RhsTerms k = {ah, av, 0.0, 1.0};
-    if (moving) {
-        double phi = side * M->d.alpha - theta;
-        k.sphi = sin(phi);
-        k.cphi = cos(phi);
-    } else {
-        omega = alphaDD = 0.0; /* it moves with the ground */
-    }
-    contact_one_block_terms(M, omega, alphaDD, &k, T, N);
 }
 
 void contact_stack(const Model *M, Mode mode, int s1, int s2, const double y[4], const double acc[2],
@@ -172,8 +164,11 @@ static void first_violation(Model *M, int kind, int c, double t, const double T[
     }
 }
 
-void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
-                    const Logger *log) {
+/* Take a sample at time t with reactions T, N. path (or NULL) gives the
+ * reactions between the previous sample and t if the motion between them is
+ * continuous. */
+static void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
+                           const Logger *log) {
     State *S = &M->s;
     int n = M->v.nBlocks == 2 ? 2 : 1;
     for (int c = 0; c < n; c++) {
@@ -192,6 +187,33 @@ void contact_sample(Model *M, double t, const double T[2], const double N[2], Re
     S->monValid = 1;
 }
 
+void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int continuous) {
+    State *S = &M->s;
+    if (S->mode == MODE_OVERTURNED) return;
+    double T[2], N[2];
+    int rest = S->mode == MODE_REST;
+    (rest ? contact_rest : moving)(M, S->t, 0, T, N);
+    ReactionsFn path = NULL;
+    if (continuous && rest) path = contact_rest;
+    else if (continuous && S->denseValid && S->monValid && S->monT >= S->tOld) path = moving;
+    contact_sample(M, S->t, T, N, path, log);
+}
+
+void contact_sample_rest(Model *M, double end, const Logger *log) {
+    double a = M->s.t, T[2], N[2];
+    int piece = model_piece(M, a);
+    for (;;) {
+        double b = next_cell_edge(M, a, piece);
+        if (!(b > a && b < end)) break;
+        contact_rest(M, b, 0, T, N);
+        contact_sample(M, b, T, N, contact_rest, log);
+        piece = next_piece(M, piece, b);
+        a = b;
+    }
+    contact_rest(M, end, 0, T, N);
+    contact_sample(M, end, T, N, contact_rest, log);
+}
+
 void contact_impulse(Model *M, double t, const double *y, Mode om, int o1, int o2, const double wm[2],
                      Mode nm, int n1, int n2, const double wp[2], const Logger *log) {
     State *S = &M->s;
@@ -202,7 +224,7 @@ void contact_impulse(Model *M, double t, const double *y, Mode om, int o1, int o
     contact_momenta(M, om, o1, o2, ym, p0);
     contact_momenta(M, nm, n1, n2, yp, p1);
     double dx2 = p1[1][0] - p0[1][0], dy2 = p1[1][1] - p0[1][1];
-    double c1 = cos(y[0]), n1s = sin(y[0]);
+    double c1 = two ? cos(y[0]) : 1.0, n1s = two ? sin(y[0]) : 0.0;
     double Pt[2] = {p1[0][0] - p0[0][0] + dx2, dx2 * c1 - dy2 * n1s};
     double Pn[2] = {p1[0][1] - p0[0][1] + dy2, dx2 * n1s + dy2 * c1};
     /* impulses at rounding level of the momenta: that contact took none */

@@ -14,15 +14,10 @@
 
 #include "model.h"
 
-/* Reaction of the ground on one block: rocking on the corner `side` at
- * (theta, omega) with angular acceleration alphaDD, or at rest / lying
- * overturned (moving = 0: it moves with the ground), under the total ground
- * acceleration (ah, av). */
-void contact_one_block(const Model *M, int moving, double theta, double omega, double alphaDD,
-                       int side, double ah, double av, double *T, double *N);
-
-/* The same for a rocking block from one evaluation of its equation of motion
- * (the rate omega, the acceleration alphaDD it gave, and its terms k). */
+/* Reaction of the ground on one block rocking on a corner, from one evaluation
+ * of its equation of motion: the rate omega, the acceleration alphaDD it gave
+ * and its terms k. A block at rest (or lying overturned) moves with the ground:
+ * omega = alphaDD = 0 and any k.sphi, k.cphi. */
 void contact_one_block_terms(const Model *M, double omega, double alphaDD, const RhsTerms *k, double *T,
                              double *N);
 
@@ -55,11 +50,14 @@ typedef void (*ReactionsFn)(const Model *M, double t, int inStep, double T[2], d
 /* Reactions of bodies resting on the ground (moving with it) at time t. */
 void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]);
 
-/* Take a sample at time t with reactions T, N. path (or NULL) gives the
- * reactions between the previous sample and t if the motion between them is
- * continuous. */
-void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
-                    const Logger *log);
+/* A sample of the current state, whose moving bodies' reactions `moving`
+ * gives. continuous: the motion since the last sample is the last step's
+ * (or, at rest, the rest's), which locates a first violation between them. */
+void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int continuous);
+
+/* Samples of bodies at rest at every edge of the excitation's monotone cells
+ * in (t, end), and at end: the rest reactions take their extremes there. */
+void contact_sample_rest(Model *M, double end, const Logger *log);
 
 /* An impact at time t at the positions y, from the rates wm with pivots
  * (o1, o2) in pattern om to the rates wp with pivots (n1, n2) in pattern nm

@@ -159,43 +159,12 @@ static int stops_here(const Model *M, EventStop *stop) {
     return 1;
 }
 
-/* A contact monitor sample of the current state (contact.h). continuous: the
- * motion since the last sample is the last step's (or, at rest, the rest's). */
-static void sample_now(Model *M, const SolverOps *ops, const Logger *log, int continuous) {
-    State *S = &M->s;
-    if (S->mode == MODE_OVERTURNED) return;
-    double T[2], N[2];
-    int rest = S->mode == MODE_REST;
-    (rest ? contact_rest : ops->reactions)(M, S->t, 0, T, N);
-    ReactionsFn path = NULL;
-    if (continuous && rest) path = contact_rest;
-    else if (continuous && S->denseValid && S->monValid && S->monT >= S->tOld) path = ops->reactions;
-    contact_sample(M, S->t, T, N, path, log);
-}
-
-/* Samples of bodies at rest at every edge of the excitation's monotone cells in
- * (S->t, end), and at end: the rest reactions take their extremes there. */
-static void sample_rest(Model *M, double end, const Logger *log) {
-    double a = M->s.t, T[2], N[2];
-    int piece = model_piece(M, a);
-    for (;;) {
-        double b = next_cell_edge(M, a, piece);
-        if (!(b > a && b < end)) break;
-        contact_rest(M, b, 0, T, N);
-        contact_sample(M, b, T, N, contact_rest, log);
-        piece = next_piece(M, piece, b);
-        a = b;
-    }
-    contact_rest(M, end, 0, T, N);
-    contact_sample(M, end, T, N, contact_rest, log);
-}
-
 /* An event is applied, with samples just before it (joined to the last step)
  * and after it. */
 static int apply_sampled(Model *M, const SolverOps *ops, const Logger *log) {
-    sample_now(M, ops, log, 1);
+    contact_sample_state(M, ops->reactions, log, 1);
     if (ops->apply_event(M, log)) return -1;
-    sample_now(M, ops, log, 0);
+    contact_sample_state(M, ops->reactions, log, 0);
     return 0;
 }
 
@@ -217,7 +186,7 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops, Eve
         }
         if (S->t >= tc) return 0;
         if (ops->before_step) ops->before_step(M, log);
-        sample_now(M, ops, log, 1);
+        contact_sample_state(M, ops->reactions, log, 1);
         if (S->mode == MODE_OVERTURNED) {
             S->t = tc;
             S->denseValid = 0;
@@ -229,7 +198,7 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops, Eve
                 say(log, LOG_ERROR, "at rest at t=%.17g: the time is too large to resolve the excitation", S->t);
                 return -1;
             }
-            sample_rest(M, side ? tu : tc, log);
+            contact_sample_rest(M, side ? tu : tc, log);
             if (side) {
                 ops->start_moving(M, tu, side, log);
                 if (stops_here(M, stop)) return 0;

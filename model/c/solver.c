@@ -89,12 +89,13 @@ static int apply_event(Model *M, const Logger *log) {
 }
 
 /* Checks after a step, and the early overturn decision. */
-static int finish_step(Model *M, const Logger *log, int piece, int side, EventKind ev) {
+static int finish_step(Model *M, const Logger *log, int piece, int side, EventKind ev, const double *avEnd) {
     State *S = &M->s;
     const Variables *v = &M->v;
     {
         double ah, av;
-        model_ground_piece(M, S->t, piece, &ah, &av);
+        if (avEnd) av = *avEnd; /* the step's last evaluation was at its end */
+        else model_ground_piece(M, S->t, piece, &ah, &av);
         if (!(M->v.g + av > 0)) {
             say(log, LOG_ERROR,
                 "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)",
@@ -218,7 +219,7 @@ static int take_step(Model *M, const Logger *log) {
     /* the contact reactions at the step's end, from that evaluation: a few products */
     S->endValid = S->fValid;
     if (S->endValid) contact_one_block_terms(M, S->y[1], S->f[1], &endTerms, &S->endTr, &S->endN);
-    return finish_step(M, log, c.piece, side, ev);
+    return finish_step(M, log, c.piece, side, ev, S->endValid ? &endTerms.av : NULL);
 }
 
 /* One step of the Taylor-series integrator (solver.method = 1). */
@@ -281,7 +282,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
     S->fValid = 0;
     S->endValid = 0;
     S->pending = ev;
-    return finish_step(M, log, piece, side, ev);
+    return finish_step(M, log, piece, side, ev, NULL);
 }
 
 /* theta, omega at the fraction s of the last step, from its dense output. */
@@ -354,11 +355,17 @@ void solver_outputs(Model *M, double tc) {
     }
     v->theta = y[0];
     v->omega = y[1];
-    if (S->mode == MODE_ROCKING) {
+    /* the equation of motion's terms also give the ground's accelerations and the reactions */
+    RhsTerms k;
+    int rocking = S->mode == MODE_ROCKING;
+    if (rocking) {
         double dy[2];
-        model_rhs(M, tc, y, side, dy);
+        model_rhs_terms(M, tc, y, side, model_piece(M, tc), dy, &k);
         v->alphaDD = dy[1];
     } else {
+        model_ground(M, tc, &k.ah, &k.av);
+        k.sphi = 0.0;
+        k.cphi = 1.0;
         v->alphaDD = 0.0;
     }
     int peaks = S->peaks;
@@ -389,9 +396,10 @@ void solver_outputs(Model *M, double tc) {
     v->impactsInterface = 0;
     v->locked = v->overturned2 = 0;
     v->energy = model_energy(M, y[0], y[1]);
-    model_ground(M, tc, &v->ahTotal, &v->avTotal);
-    contact_one_block(M, S->mode == MODE_ROCKING, y[0], y[1], v->alphaDD, side, v->ahTotal, v->avTotal,
-                      &v->groundT, &v->groundN);
+    v->ahTotal = k.ah;
+    v->avTotal = k.av;
+    /* at rest or overturned the block moves with the ground (omega = alpha_dd = 0) */
+    contact_one_block_terms(M, rocking ? y[1] : 0.0, v->alphaDD, &k, &v->groundT, &v->groundN);
     v->interfaceT = v->interfaceN = 0.0;
     contact_outputs(M, v);
 }
