@@ -161,6 +161,15 @@ class RunSummary(Base):
     impacts_ground: Mapped[int | None] = mapped_column(Integer)
     impacts_interface: Mapped[int | None] = mapped_column(Integer)
     rest_time: Mapped[float | None] = mapped_column(Float)  # s
+    # the rigid-rocking assumptions (docs/contact.md); None where the method does not monitor them
+    assumptions_held: Mapped[bool | None] = mapped_column(Boolean)  # no contact slid or lifted off
+    slide_time: Mapped[float | None] = mapped_column(Float)  # s, first sliding (None: none)
+    lift_time: Mapped[float | None] = mapped_column(Float)  # s, first lift-off (None: none)
+    friction_demand_max: Mapped[float | None] = mapped_column(Float)  # largest |T| / N on the ground
+    normal_min: Mapped[float | None] = mapped_column(Float)  # smallest N of the ground / weight carried
+    friction_demand_max_interface: Mapped[float | None] = mapped_column(Float)  # two blocks
+    normal_min_interface: Mapped[float | None] = mapped_column(Float)  # two blocks: over block 2's weight
+    impulse_demand_max: Mapped[float | None] = mapped_column(Float)  # largest |Pt| / Pn of an impact
     run: Mapped[Run] = relationship(back_populates="summary")
 
 

@@ -138,7 +138,7 @@ def simulate(
     """
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.records import prepare_scene
-    from runners.engine.summary import SUMMARY_OUTPUTS, format_summary, summarize
+    from runners.engine.summary import MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_summary, summarize
     from runners.engine.tables import events_frame, series_frame
 
     if method not in METHODS:
@@ -236,7 +236,7 @@ def simulate(
                     combined = combined_block_parameters(merged)
                     sc = replace(sc, parameters={k: v for k, v in combined.items()
                                                  if k in sc.parameters or k.startswith("block1.")})
-                wanted = list(SUMMARY_OUTPUTS) + [o for o in (outputs or ()) if o not in SUMMARY_OUTPUTS]
+                wanted = list(dict.fromkeys([*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *(outputs or ())]))
                 result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
                 s = summarize(sc, result, defaults)
                 s["model"], s["model_reason"] = model, why
@@ -249,7 +249,7 @@ def simulate(
                 if notes:
                     s["notes"] = notes
                 report = format_summary({k: v for k, v in s.items() if k != "notes"})  # notes: summary["notes"]
-                keep = list(outputs) if outputs else list(SUMMARY_OUTPUTS)  # as stored and exported
+                keep = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS]  # as stored and exported
                 series = series_frame(result.time, {k: result.outputs[k] for k in keep})
                 events = events_frame([e.as_dict() for e in result.events])
         merged = {name: int(v) if fm.vars[name].type == "Integer" else bool(v) if fm.vars[name].type == "Boolean"

@@ -46,7 +46,20 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(run.report)
     for text in run.summary.get("notes", ()):
         output.note(text)
+    if args.strict:
+        from runners.engine.summary import violations
+
+        held = run.summary.get("assumptions")
+        if held is None:
+            raise ValueError(f"--strict: the {run.summary.get('model', args.method)} run does not monitor the "
+                             "contacts (the FMU does: --method fmu)")
+        if not held["held"]:
+            print(f"error: rigid rocking did not hold (--strict): {violations(held)}", file=sys.stderr)
+            return STRICT_EXIT
     return 0
+
+
+STRICT_EXIT = 4  # runners simulate --strict: the run finished, but its assumptions did not hold
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

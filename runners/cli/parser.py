@@ -91,6 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--h", type=positive, help="fixed step (s) of rk4, rk4-located, newmark, euler (default 1e-4)")
     sim.add_argument("--rtol", type=tolerance, help="relative tolerance of --method scipy (default 1e-10)")
     sim.add_argument("--no-store", action="store_true", help="do not store the run in the database")
+    sim.add_argument("--strict", action="store_true",
+                     help="exit with status 4 if the rigid-rocking assumptions did not hold: a contact slid or "
+                          "lifted off (docs/contact.md)")
     sim.add_argument("--out", dest="rrd", type=output_file, metavar="RRD",
                      help="also write the run's Rerun recording (.rrd) to this file")
     renamed(sim, "--rrd", "--out", dest="rrd", type=output_file)

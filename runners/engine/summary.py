@@ -34,6 +34,19 @@ SUMMARY_OUTPUTS = (
     "ground.avTotal",
 )
 
+# the monitors of the rigid-rocking assumptions (docs/contact.md): final values are enough
+MONITOR_OUTPUTS = (
+    "friction.demandMaxGround",
+    "contact.normalMinGround",
+    "friction.impulseDemandMax",
+    "slides",
+    "slideTime",
+    "lifts",
+    "liftTime",
+    "friction.demandMaxInterface",
+    "contact.normalMinInterface",
+)
+
 PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking alone",
             4: "locked pair rocking", 5: "both blocks rocking"}
 
@@ -88,6 +101,9 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         "final_energy_J": float(out["energy"][-1]),
         "wall_time_s": result.wall_time,
     }
+    held = assumptions(result, p, two)
+    if held is not None:
+        summary["assumptions"] = held
     if two:
         threshold, first = _stack_threshold(p)
         summary.update({
@@ -102,6 +118,66 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
             "peaks": None,
         })
     return summary
+
+
+def assumptions(result: RunResult, p: dict[str, float], two: bool) -> dict[str, Any] | None:
+    """Whether the run kept to rigid rocking: no contact needed more friction than its mu, no
+    normal reaction turned tensile (docs/contact.md). None if the run lacks MONITOR_OUTPUTS.
+    Demands are |T| / N (1), normal forces over the weight the contact carries (1), times in s."""
+    out = result.outputs
+    if any(k not in out for k in MONITOR_OUTPUTS):
+        return None
+
+    def first(kind: str) -> dict[str, Any] | None:
+        ev = next((e for e in result.events if e.kind == kind), None)
+        t = float(out[f"{kind}Time"][-1])
+        if t < 0:
+            return None
+        return {"t_s": t, "contact": ev.labels.get("contact", "ground") if ev else "ground",
+                "at_impact": bool(ev and ("impulse_demand" in ev.values or "impulse" in ev.values))}
+
+    a: dict[str, Any] = {
+        "slides": first("slide"),
+        "lifts": first("lift"),
+        "mu_ground": float(p["contact.muGround"]),
+        "friction_demand_max_ground": float(out["friction.demandMaxGround"][-1]),
+        "normal_min_ground": float(out["contact.normalMinGround"][-1]),
+        "impulse_demand_max": float(out["friction.impulseDemandMax"][-1]),
+    }
+    if two:
+        a.update({"mu_interface": float(p["contact.muInterface"]),
+                  "friction_demand_max_interface": float(out["friction.demandMaxInterface"][-1]),
+                  "normal_min_interface": float(out["contact.normalMinInterface"][-1])})
+    a["held"] = a["slides"] is None and a["lifts"] is None
+    return a
+
+
+def format_assumptions(a: dict[str, Any]) -> str:
+    """One line: whether rigid rocking held, with the margins, or when and where it stopped holding."""
+    two = "mu_interface" in a
+    if a["held"]:
+        text = (f"held: no sliding (friction demand at most {a['friction_demand_max_ground']:.3g}, mu "
+                f"{a['mu_ground']:g}); no flight (normal force at least {a['normal_min_ground']:.3g} of the weight)")
+        if two:
+            text += (f"; between the blocks demand {a['friction_demand_max_interface']:.3g} (mu {a['mu_interface']:g}),"
+                     f" normal force at least {a['normal_min_interface']:.3g} of block 2's weight")
+        return text
+    first = min((a[k]["t_s"] for k in ("slides", "lifts") if a[k] is not None))
+    return f"NOT HELD: {violations(a)}: rigid rocking does not describe the motion after t = {first:.6g} s"
+
+
+def violations(a: dict[str, Any]) -> str:
+    """What broke the rigid-rocking assumptions, where and when ("" if nothing did)."""
+    parts = []
+    for kind, what in (("slides", "slides"), ("lifts", "lifts off")):
+        ev = a[kind]
+        if ev is not None:
+            where = "between the blocks" if ev["contact"] == "interface" else "on the ground"
+            parts.append(f"{what} {where} at t = {ev['t_s']:.6g} s{' (at an impact)' if ev['at_impact'] else ''}")
+    if a["slides"] is not None:
+        c = a["slides"]["contact"]
+        parts[0] += f" (friction demand up to {a[f'friction_demand_max_{c}']:.3g}, mu {a[f'mu_{c}']:g})"
+    return "; ".join(parts)
 
 
 def format_summary(s: dict[str, Any]) -> str:
@@ -138,13 +214,17 @@ def format_summary(s: dict[str, Any]) -> str:
             f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
             f"peak |theta|     block 1 {s['max_abs_theta_rad']:.6f} rad, block 2 {s['max_abs_theta2_rad']:.6f} rad",
         ]
-        return "\n".join(lines + _notes(s))
+        return "\n".join(lines + _assumption_lines(s) + _notes(s))
     lines += [
         f"outcome          {outcome}",
         f"impacts          {s['impacts']}",
         f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad = {s['max_abs_theta_over_alpha']:.4f} alpha",
     ]
-    return "\n".join(lines + _notes(s))
+    return "\n".join(lines + _assumption_lines(s) + _notes(s))
+
+
+def _assumption_lines(s: dict[str, Any]) -> list[str]:
+    return [f"assumptions      {format_assumptions(s['assumptions'])}"] if "assumptions" in s else []
 
 
 def _notes(s: dict[str, Any]) -> list[str]:
@@ -169,6 +249,13 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
         "impacts_interface": s.get("impacts_interface"),
         "rest_time": s.get("rest_time_s"),
     }
+    a = s.get("assumptions")
+    if a is not None:
+        row.update(assumptions_held=a["held"], slide_time=a["slides"] and a["slides"]["t_s"],
+                   lift_time=a["lifts"] and a["lifts"]["t_s"], friction_demand_max=a["friction_demand_max_ground"],
+                   normal_min=a["normal_min_ground"], impulse_demand_max=a["impulse_demand_max"],
+                   friction_demand_max_interface=a.get("friction_demand_max_interface"),
+                   normal_min_interface=a.get("normal_min_interface"))
     if two:
         alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
         row["peak2_over_alpha"] = s["max_abs_theta2_rad"] / alpha2

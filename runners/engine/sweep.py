@@ -48,8 +48,10 @@ from runners.engine.intensity import G0, SCALING
 from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
-ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest"]
-TWO = ["block2.maxAbsTheta", "impactsGround", "impactsInterface", "block1.overturned", "block2.overturned"]
+ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest",
+       "slideTime", "liftTime", "friction.demandMaxGround", "contact.normalMinGround", "friction.impulseDemandMax"]
+TWO = ["block2.maxAbsTheta", "impactsGround", "impactsInterface", "block1.overturned", "block2.overturned",
+       "friction.demandMaxInterface", "contact.normalMinInterface"]
 
 
 @dataclass(frozen=True)
@@ -517,9 +519,17 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
            "overturned": bool(out["overturned"]), "overturned_blocks": None,
            "overturn_time": out["overturnTime"] if out["overturned"] else None, "impacts": int(out["impacts"]),
            "impacts_ground": None, "impacts_interface": None,
-           "rest_time": out["restTime"] if out["atRest"] and out["restTime"] >= 0 else None}
+           "rest_time": out["restTime"] if out["atRest"] and out["restTime"] >= 0 else None,
+           "slide_time": out["slideTime"] if out["slideTime"] >= 0 else None,
+           "lift_time": out["liftTime"] if out["liftTime"] >= 0 else None,
+           "friction_demand_max": out["friction.demandMaxGround"], "normal_min": out["contact.normalMinGround"],
+           "impulse_demand_max": out["friction.impulseDemandMax"],
+           "friction_demand_max_interface": None, "normal_min_interface": None}
+    row["assumptions_held"] = row["slide_time"] is None and row["lift_time"] is None
     if two:
         alpha2 = math.atan2(merged["block2.halfWidth"], merged["block2.halfHeight"])
+        row.update(friction_demand_max_interface=out["friction.demandMaxInterface"],
+                   normal_min_interface=out["contact.normalMinInterface"])
         row.update(peak2_over_alpha=out["block2.maxAbsTheta"] / alpha2, impacts_ground=int(out["impactsGround"]),
                    impacts_interface=int(out["impactsInterface"]),
                    overturned_blocks=",".join(str(i) for i in (1, 2) if out[f"block{i}.overturned"]) or None)
