@@ -91,3 +91,25 @@ def test_runs_and_sweep_points_store_the_assumptions(tmp_path, db_url, fmu_path)
     slid, clean = points[0.5], points[1.0]
     assert slid.assumptions_held is False and abs(slid.slide_time - math.asin(0.5 * 9.81 / 9.0) / (4 * math.pi)) <= 1e-9
     assert clean.assumptions_held is True and clean.slide_time is None and clean.friction_demand_max < 1.0
+
+
+def test_the_recording_shows_the_friction_demand_against_mu(tmp_path, fmu_path):
+    """The .rrd read back: /contact/ground/demand is |T| / N of the run's reactions, /mu the line
+    it must stay under, and the demand crosses it where the run reports sliding."""
+    import numpy as np
+
+    import runners
+    from test_recording import column, read_back
+
+    rrd = tmp_path / "squat.rrd"
+    run = runners.simulate(_squat(tmp_path), fmu=fmu_path, recording=rrd, db=f"sqlite:///{tmp_path / 'r.db'}")
+    table = read_back(rrd)
+    t, rows = column(table, "/contact/ground/demand")
+    demand = np.array([r[1][0] if r[1] else np.nan for r in rows], float)
+    T, N = run.series["contact.groundT"].to_numpy(), run.series["contact.groundN"].to_numpy()
+    np.testing.assert_allclose(t, run.series.index.to_numpy(), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(demand, np.abs(T) / N, rtol=1e-12)
+    _, mu_rows = column(table, "/contact/ground/mu")
+    assert {r[1][0] for r in mu_rows} == {0.7}
+    slide = run.summary["assumptions"]["slides"]["t_s"]
+    assert np.all(demand[t < slide - 0.01] <= 0.7) and np.any(demand[t > slide] > 0.7)

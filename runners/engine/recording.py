@@ -14,8 +14,12 @@ A recording holds, on the ``sim_time`` timeline (s):
 - for a run driven by a record: ``/record/ah`` (and ``/record/av``), the
   record's own samples times its scale (m/s^2), and ``/record/about``, a text
   with its name, provenance, scale and intensity measures;
-- a blueprint that opens on the scene, the angles, the velocities and the
-  excitation (and the record's text), each plot with a y range symmetric
+- ``/contact/ground/demand`` (and ``/contact/interface/demand`` for a stack):
+  the friction demand ``|T| / N`` the contact needs (docs/contact.md), with
+  ``.../mu``, its coefficient of friction, as a line: rigid rocking holds while
+  the demand stays below it; no value while ``N <= 0`` (flight);
+- a blueprint that opens on the scene, the angles, the velocities, the
+  excitation and the friction demand (and the record's text), each plot with a y range symmetric
   about 0 chosen so that the viewer labels several ticks (axis_range).
 
 Time series go through the columnar API (``send_columns``). Conventions:
@@ -179,6 +183,8 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
                 plot("omega (rad/s)", "omega"),
                 rrb.TimeSeriesView(name="ground (m/s2)", contents=["/ground/**", "/record/ah", "/record/av"],
                                    axis_y=y_axis("ground")),
+                rrb.TimeSeriesView(name="friction demand |T|/N against mu", contents=["/contact/**"],
+                                   axis_y=y_axis("demand")),
             ),
             column_shares=[2, 3],
         ),
@@ -189,7 +195,24 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
 
 
 COLOURS = {"block1": (70, 110, 200), "block2": (200, 90, 70), "ground/ah": (60, 60, 60),
-           "ground/av": (150, 150, 150), "record": (220, 150, 40), "energy": (120, 80, 160)}
+           "ground/av": (150, 150, 150), "record": (220, 150, 40), "energy": (120, 80, 160),
+           "demand": (40, 150, 90), "mu": (200, 40, 40)}
+
+
+def friction_demand(out: dict[str, np.ndarray], p: dict[str, Any], two: bool
+                    ) -> dict[str, tuple[np.ndarray, float]]:
+    """contact -> (|T| / N at the samples, NaN where N <= 0; its mu), for the contacts the
+    run's outputs have reactions of (docs/contact.md)."""
+    result = {}
+    for contact, name, mu in (("ground", "ground", "contact.muGround"),
+                              ("interface", "interface", "contact.muInterface")):
+        T, N = out.get(f"contact.{name}T"), out.get(f"contact.{name}N")
+        if T is None or N is None or (contact == "interface" and not two):
+            continue
+        T, N = np.asarray(T, float), np.asarray(N, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            result[contact] = (np.where(N > 0, np.abs(T) / N, np.nan), float(p.get(mu, 0.7)))
+    return result
 
 
 def _colour(entity: str, shade: float = 1.0) -> tuple[int, int, int]:
@@ -269,6 +292,9 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
               for var in ("theta", "omega")}
     ranges["ground"] = axis_range(*[np.asarray(out[k], float) for k in ("ground.ahTotal", "ground.avTotal")
                                     if k in out])
+    demand = friction_demand(out, p, two)
+    if demand:
+        ranges["demand"] = (0.0, 2.0 * max(mu for _, mu in demand.values()))
     rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges))
     rec.send_property("run", rr.AnyValues(name=name))
     if record is not None:
@@ -292,6 +318,13 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
             rec.send_columns(entity, indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(out[var], float)))
     for block, piv in pivots(out, two).items():
         rec.send_columns(f"/{block}/pivot", indexes=idx, columns=rr.Scalars.columns(scalars=piv))
+    for contact, (values, mu) in demand.items():
+        rec.log(f"/contact/{contact}/demand", rr.SeriesLines(colors=[_colour("demand")], names=[f"{contact} |T|/N"]),
+                static=True)
+        rec.send_columns(f"/contact/{contact}/demand", indexes=idx, columns=rr.Scalars.columns(scalars=values))
+        rec.log(f"/contact/{contact}/mu", rr.SeriesLines(colors=[_colour("mu")], names=[f"{contact} mu"]), static=True)
+        rec.send_columns(f"/contact/{contact}/mu", indexes=[rr.TimeColumn("sim_time", duration=time[[0, -1]])],
+                         columns=rr.Scalars.columns(scalars=np.array([mu, mu])))
     for entity, (mt, mv) in zip(measured_paths, measured.values()):
         rec.log(f"/measured/{entity}", rr.SeriesPoints(colors=[_colour(entity, 0.6)], markers="circle",
                                                         marker_sizes=3.0, names=[f"measured {entity}"]), static=True)

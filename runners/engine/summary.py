@@ -32,6 +32,10 @@ SUMMARY_OUTPUTS = (
     "block1.alpha_dd",
     "block2.alpha_dd",
     "ground.avTotal",
+    "contact.groundT",
+    "contact.groundN",
+    "contact.interfaceT",
+    "contact.interfaceN",
 )
 
 # the monitors of the rigid-rocking assumptions (docs/contact.md): final values are enough
