@@ -105,11 +105,13 @@ void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]
     double ah, av;
     (void)inStep;
     model_ground(M, t, &ah, &av);
-    double m1 = v->nBlocks == 2 ? v->mass + v->mass2 : v->mass;
-    T[0] = m1 * ah;
-    N[0] = m1 * (v->g + av);
-    T[1] = v->nBlocks == 2 ? v->mass2 * ah : 0.0;
-    N[1] = v->nBlocks == 2 ? v->mass2 * (v->g + av) : 0.0;
+    /* the mass each contact carries, moving with the ground: both blocks on the ground, block 2 on block 1 */
+    int two = contacts(M) == 2;
+    double carried[2] = {two ? v->mass + v->mass2 : v->mass, two ? v->mass2 : 0.0};
+    for (int c = 0; c < 2; c++) {
+        T[c] = carried[c] * ah;
+        N[c] = carried[c] * (v->g + av);
+    }
 }
 
 /* slide (kind 0): mu N - |T| < 0; lift (kind 1): N < 0 */
@@ -170,13 +172,12 @@ static void first_violation(Model *M, int kind, int c, double t, const double T[
 static void contact_sample(Model *M, double t, const double T[2], const double N[2], ReactionsFn path,
                            const Logger *log) {
     State *S = &M->s;
-    int n = M->v.nBlocks == 2 ? 2 : 1;
-    for (int c = 0; c < n; c++) {
+    for (int c = 0; c < contacts(M); c++) {
         /* every step samples: compare by products, divide only for a new extreme */
-        double aT = fabs(T[c]), Nc = N[c];
+        double aT = fabs(T[c]), Nc = N[c], W = weight(M, c);
         if (aT > S->demandMax[c] * Nc && Nc > 0) S->demandMax[c] = aT / Nc;
-        if (Nc < S->normalMin[c] * M->d.weight[c] || !S->monValid) S->normalMin[c] = Nc / M->d.weight[c];
-        if (aT > (c ? M->v.muInterface : M->v.muGround) * Nc || Nc < 0) { /* rarely */
+        if (Nc < S->normalMin[c] * W || !S->monValid) S->normalMin[c] = Nc / W;
+        if (aT > mu(M, c) * Nc || Nc < 0) { /* rarely */
             if (S->slideTime < 0 && Nc > 0) first_violation(M, 0, c, t, T, N, path, log);
             if (S->liftTime < 0 && Nc < 0) first_violation(M, 1, c, t, T, N, path, log);
         }

@@ -70,16 +70,20 @@ class NativeTimer:
         return float(proc.stdout.split()[0]) * 1e-6
 
 
+def _native_rows(exe: Path, lib: Path, guid: str, repeats: int) -> list[list[str]]:
+    """The harness's built-in cases: (case, us per simulation, impacts, outcome, simulated time) each."""
+    proc = subprocess.run([str(exe), str(lib), guid, str(repeats)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise OSError(f"native benchmark failed: {proc.stderr.strip()}")
+    return [line.split("\t") for line in proc.stdout.strip().splitlines()]
+
+
 def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
     """Run the native benchmark and return a Markdown table of the results."""
     if repeats < 1:
         raise ValueError("--repeats must be >= 1")
     with tempfile.TemporaryDirectory() as tmp:
-        exe, lib, guid = _compile_native(fmu_path, Path(tmp))
-        proc = subprocess.run([str(exe), str(lib), guid, str(repeats)], capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise OSError(f"native benchmark failed: {proc.stderr.strip()}")
-    rows = [line.split("\t") for line in proc.stdout.strip().splitlines()]
+        rows = _native_rows(*_compile_native(fmu_path, Path(tmp)), repeats)
     out = [
         f"Native cost per simulation, mean of {repeats} runs (instantiate to free, one process, one core)",
         "",
@@ -121,11 +125,8 @@ def run_native_against(fmu_path: Path, other: Path, repeats: int = 2000, rounds:
         best: list[dict[str, float]] = [{}, {}]
         impacts: dict[str, str] = {}
         for _ in range(rounds):
-            for k, (exe, lib, guid) in enumerate(natives):
-                proc = subprocess.run([str(exe), str(lib), guid, str(repeats)], capture_output=True, text=True)
-                if proc.returncode != 0:
-                    raise OSError(f"native benchmark failed: {proc.stderr.strip()}")
-                for row in (line.split("\t") for line in proc.stdout.strip().splitlines()):
+            for k, native in enumerate(natives):
+                for row in _native_rows(*native, repeats):
                     best[k][row[0]] = min(best[k].get(row[0], float("inf")), float(row[1]))
                     if k == 0:
                         impacts[row[0]] = row[2]
