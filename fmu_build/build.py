@@ -203,7 +203,7 @@ def build_fmu(
             warnings = job.result()
             if warnings:
                 print(warnings)
-        partial = out.with_name(out.name + ".part")
+        partial = out.with_name(f"{out.name}.{os.getpid()}.part")  # builds side by side (test workers) do not mix
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
             for path in sorted(root.rglob("*")):
                 if path.is_file():

@@ -98,7 +98,7 @@ def build_fmu3(
                                   "linux64", cc, flags, [src, fmi_headers_dir("3")])
         if warnings:
             print(warnings)
-        partial = out.with_name(out.name + ".part")
+        partial = out.with_name(f"{out.name}.{os.getpid()}.part")  # builds side by side do not mix
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
             for path in sorted(root.rglob("*")):
                 if path.is_file():

@@ -158,3 +158,59 @@ def test_stack_interface_monitors_against_the_reference(fmu):
     s, _ = _final(fmu, p, out["slideTime"], out["slideTime"], outputs=names)
     assert abs(abs(s["contact.interfaceT"]) - 0.3 * s["contact.interfaceN"]) <= 1e-7 * 12.0 * G
     assert out["friction.demandMaxInterface"] >= 0.3
+
+
+# ------------------------------------------------------- flight from the ground's vertical motion
+
+def _linear_crossing(t: np.ndarray, a: np.ndarray, level: float) -> float:
+    """First time the piecewise-linear samples a(t) fall below level."""
+    i = int(np.argmax(a < level))
+    assert i > 0 and a[i] < level
+    return float(t[i - 1] + (level - a[i - 1]) / (a[i] - a[i - 1]) * (t[i] - t[i - 1]))
+
+
+@pytest.mark.parametrize("blocks", [1, 2])
+def test_a_vertical_record_below_minus_g_reports_flight_at_its_first_crossing(fmu, tmp_path, blocks):
+    """A record whose vertical column falls below -g (no horizontal motion): the block on the
+    ground would fly. The model holds it on its base, so the run goes on to the end, and
+    reports the flight at the first instant g + a_v = 0 on the record's linear segments."""
+    t = np.arange(0.0, 2.0 + 1e-9, 0.01)
+    av = -12.0 * np.sin(2 * math.pi * 1.5 * t)
+    path = tmp_path / "vertical.txt"
+    np.savetxt(path, np.column_stack([t, 0.0 * t, av]), fmt="%.17g")
+    p = {"excitation.kind": 4, "excitation.file": str(path), "nBlocks": blocks}
+    out, r = _final(fmu, p, 2.0, outputs=MON + ["block1.theta", "atRest"])
+    exact = _linear_crossing(t, av, -G)
+    assert out["lifts"] == 1 and abs(out["liftTime"] - exact) <= 1e-9
+    assert [e.kind for e in r.events] == ["lift"] and r.events[0].t == out["liftTime"]
+    assert out["contact.normalMinGround"] == pytest.approx(1 + av.min() / G, rel=1e-12)  # at the deepest sample
+    assert np.all(r.outputs["block1.theta"] == 0.0) and out["atRest"] == 1 and not out["slides"]
+
+
+def test_a_pulse_with_a_vertical_amplitude_above_g_reports_flight_where_it_passes_minus_g(fmu):
+    """A sine pulse with vertical acceleration V sin(2 pi f (t - t0)), V = -12 m/s2: the
+    flight starts at t0 + asin(g / 12) / (2 pi f), to 1e-9 s."""
+    f, t0 = 2.0, 0.1
+    p = {"excitation.kind": 1, "excitation.amplitude": 0.0, "excitation.verticalAmplitude": -12.0,
+         "excitation.frequency": f, "excitation.startTime": t0}
+    out, r = _final(fmu, p, 1.0)
+    assert out["lifts"] and abs(out["liftTime"] - (t0 + math.asin(G / 12.0) / (2 * math.pi * f))) <= 1e-9
+    assert out["impacts"] == 0 and not r.event_times("uplift").size
+
+
+def test_a_rocking_block_under_a_vertical_record_below_minus_g_lifts_where_the_reference_n_vanishes(fmu, tmp_path):
+    """With a horizontal component the block uplifts first (g + a_v shrinks the threshold), and
+    rocks on through the flight the model cannot follow; the reported lift-off is where the
+    reference's normal force on its corner vanishes."""
+    b, h = SQUAT["block1.halfWidth"], SQUAT["block1.halfHeight"]
+    t = np.arange(0.0, 2.0 + 1e-9, 0.01)
+    ah, av = 4.0 * np.sin(2 * math.pi * t), -12.0 * np.sin(2 * math.pi * 1.5 * t)
+    path = tmp_path / "both.txt"
+    np.savetxt(path, np.column_stack([t, ah, av]), fmt="%.17g")
+    p = {**SQUAT, "excitation.kind": 4, "excitation.file": str(path), "contact.muGround": 100.0}
+    out, r = _final(fmu, p, 2.0)
+    assert out["lifts"] and r.event_times("uplift")[0] < out["liftTime"]
+    s = _state_at(fmu, p, out["liftTime"])
+    T, N = one_block_reactions(s["block1.theta"], s["block1.omega"], s["ground.ahTotal"], s["ground.avTotal"],
+                               b, h, SQUAT["block1.mass"], G)
+    assert abs(N) <= 1e-7 * SQUAT["block1.mass"] * G

@@ -193,7 +193,11 @@ double model_energy(const Model *M, double theta, double omega) {
 double model_uplift_indicator_piece(const Model *M, double t, int side, int piece) {
     double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
-    return -side * ah - (M->v.g + av) * M->d.upliftSlope;
+    /* positive once the ground tips the block over that corner; never while g + av <= 0,
+     * when the ground falls faster than the block: the block is held where it stands (it
+     * would fly, which the model does not cover; the lift monitor reports it) */
+    double ge = M->v.g + av;
+    return fmin(-side * ah - ge * M->d.upliftSlope, ge);
 }
 
 void model_initialize(Model *M, double t0) {

@@ -234,8 +234,6 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
         if (r->vertical) {
             r->av[k] = v[2];
             r->peak = fmax(r->peak, fabs(v[2]));
-            if (k == 0 || v[2] < r->avMin) r->avMin = v[2], r->avMinTime = v[0];
-            if (k == 0 || v[2] > r->avMax) r->avMax = v[2], r->avMaxTime = v[0];
         }
         k++;
     }

@@ -36,8 +36,6 @@ typedef struct {
     double *av;        /* vertical ground acceleration, m/s^2 (NULL without the column) */
     unsigned long long hash; /* FNV-1a of the samples: identifies the content */
     double peak;             /* largest |ah| and |av|, m/s^2 */
-    double avMin, avMax;     /* smallest and largest av (vertical column), m/s^2 */
-    double avMinTime, avMaxTime; /* their sample times, s */
 } Record;
 
 typedef void *(*RecordAlloc)(size_t n, size_t size); /* zeroed memory, like calloc */

@@ -89,20 +89,9 @@ static int apply_event(Model *M, const Logger *log) {
 }
 
 /* Checks after a step, and the early overturn decision. */
-static int finish_step(Model *M, const Logger *log, int piece, int side, EventKind ev, const double *avEnd) {
+static int finish_step(Model *M, const Logger *log, int side, EventKind ev) {
     State *S = &M->s;
     const Variables *v = &M->v;
-    {
-        double ah, av;
-        if (avEnd) av = *avEnd; /* the step's last evaluation was at its end */
-        else model_ground_piece(M, S->t, piece, &ah, &av);
-        if (!(M->v.g + av > 0)) {
-            say(log, LOG_ERROR,
-                "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)",
-                av, S->t);
-            return -1;
-        }
-    }
     if (!isfinite(S->y[0]) || !isfinite(S->y[1])) {
         say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
         return -1;
@@ -219,7 +208,7 @@ static int take_step(Model *M, const Logger *log) {
     /* the contact reactions at the step's end, from that evaluation: a few products */
     S->endValid = S->fValid;
     if (S->endValid) contact_one_block_terms(M, S->y[1], S->f[1], &endTerms, &S->endTr, &S->endN);
-    return finish_step(M, log, c.piece, side, ev, S->endValid ? &endTerms.av : NULL);
+    return finish_step(M, log, side, ev);
 }
 
 /* One step of the Taylor-series integrator (solver.method = 1). */
@@ -282,7 +271,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
     S->fValid = 0;
     S->endValid = 0;
     S->pending = ev;
-    return finish_step(M, log, piece, side, ev, NULL);
+    return finish_step(M, log, side, ev);
 }
 
 /* theta, omega at the fraction s of the last step, from its dense output. */

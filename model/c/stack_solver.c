@@ -435,13 +435,6 @@ static int take_step(Model *M, const Logger *log) {
     S->h = hNext;
     S->pending = ev;
 
-    model_ground_piece(M, S->t, c.piece, &ah, &av);
-    if (!(v->g + av > 0)) {
-        say(log, LOG_ERROR,
-            "vertical ground acceleration %g <= -g at t=%.17g: the blocks would leave the ground (not modelled)",
-            av, S->t);
-        return -1;
-    }
     for (int i = 0; i < 4; i++)
         if (!isfinite(S->y[i])) {
             say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);

@@ -54,9 +54,10 @@ def unit_notes(rec: Record) -> list[str]:
     return []
 
 
-def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float, g: float) -> None:
+def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float) -> None:
     """The FMU's checks of a scaled record, made here first so the message names the record, not
-    the cached file the FMU reads: peak at most 1000 m/s2, g + a_v above zero."""
+    the cached file the FMU reads: peak at most 1000 m/s2. (A vertical column below -g is
+    allowed: the run reports the flight, docs/contact.md.)"""
     pga = abs(scale) * float(np.max(np.abs(ah))) / G0
     if not pga <= MAX_PGA_G:
         raise ValueError(f"{label}: scale {scale:g} brings its PGA to {pga:.3g} g, beyond {MAX_PGA_G:g} g (the largest "
@@ -65,10 +66,6 @@ def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float
     if not abs(scale) * top <= 1000.0:
         raise ValueError(f"{label}: scale {scale:g} brings its peak acceleration to {abs(scale) * top:g} m/s2, beyond "
                          "1000 m/s2 (about 100 g)")
-    if av is not None and not np.all(g + scale * av > 0):
-        raise ValueError(f"{label}: scale {scale:g} times its vertical acceleration reaches "
-                         f"{float(np.min(scale * av)):g} m/s2, at or below -g: the block would leave the ground "
-                         "(not modelled)")
 
 
 def fill_missing_measures(session) -> int:
@@ -298,7 +295,6 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
     [simulation] stop_time, run until the record ends plus TAIL seconds. None otherwise."""
     if not scene.is_record:
         return None
-    g = float(scene.parameters.get("g", 9.81))
 
     def scale_of(pga: float) -> float:  # the scene's scale, or the one that gives its PGA (in g)
         if scene.pga is not None:
@@ -319,7 +315,7 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
             session.expunge(rec)
     else:
         t, ah, av, prov = read_any(scene.file)
-        check_scaled(f"record file {scene.file}", ah, av, scale_of(float(np.max(np.abs(ah)))), g)
+        check_scaled(f"record file {scene.file}", ah, av, scale_of(float(np.max(np.abs(ah)))))
         if factory is None:
             m = measures(t, ah)
             rec = Record(id=None, name=Path(scene.file).stem, names=["ah"] + (["av"] if av is not None else []),
@@ -333,7 +329,7 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
             session.flush()
             session.expunge(rec)
     t, ah, av = samples(rec)
-    check_scaled(f"record {rec.name}", ah, av, scale_of(float(np.max(np.abs(ah)))), g)
+    check_scaled(f"record {rec.name}", ah, av, scale_of(float(np.max(np.abs(ah)))))
     return _finish(scene, rec, file_of(rec), float(t[-1]))
 
 
