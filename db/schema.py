@@ -170,6 +170,7 @@ class RunSummary(Base):
     friction_demand_max_interface: Mapped[float | None] = mapped_column(Float)  # two blocks
     normal_min_interface: Mapped[float | None] = mapped_column(Float)  # two blocks: over block 2's weight
     impulse_demand_max: Mapped[float | None] = mapped_column(Float)  # largest |Pt| / Pn of an impact
+    fall_time: Mapped[float | None] = mapped_column(Float)  # s, start of the overturning fall (None: none)
     run: Mapped[Run] = relationship(back_populates="summary")
 
 

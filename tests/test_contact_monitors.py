@@ -214,3 +214,33 @@ def test_a_rocking_block_under_a_vertical_record_below_minus_g_lifts_where_the_r
     T, N = one_block_reactions(s["block1.theta"], s["block1.omega"], s["ground.ahTotal"], s["ground.avTotal"],
                                b, h, SQUAT["block1.mass"], G)
     assert abs(N) <= 1e-7 * SQUAT["block1.mass"] * G
+
+
+# ------------------------------------------------------- the start of an overturning fall
+
+@pytest.mark.parametrize("blocks", [1, 2])
+def test_fall_time_is_where_the_blocks_last_passed_their_limits_before_overturning(fmu, blocks):
+    """fallTime: the last sample with every block within its stability limit before the
+    overturn. Sampled every millisecond, the motion stays beyond the limit from at most one
+    integrator step after fallTime until the overturn; a run that does not overturn has -1."""
+    p = {"nBlocks": blocks, "block1.halfWidth": 0.15, "block1.halfHeight": 0.6, "excitation.kind": 1,
+         "excitation.amplitude": 9.0, "excitation.frequency": 1.5, "block2.halfWidth": 0.1, "block2.halfHeight": 0.4,
+         "block1.mass": 10.0, "block2.mass": 5.0}
+    names = ["block1.theta", "block2.theta", "overturned", "overturnTime", "fallTime"]
+    r = fmu.run(p, 3.0, 1e-3, outputs=names)
+    out = {k: float(v[-1]) for k, v in r.outputs.items()}
+    assert out["overturned"] == 1 and 0 < out["fallTime"] < out["overturnTime"]
+    b1, h1 = p["block1.halfWidth"], p["block1.halfHeight"]
+    if blocks == 1:
+        beyond = np.abs(r.outputs["block1.theta"]) > math.atan2(b1, h1)
+    else:  # the pair about a ground corner (its centre of mass), block 2 about an end of the contact
+        m1, m2, b2, h2 = p["block1.mass"], p["block2.mass"], p["block2.halfWidth"], p["block2.halfHeight"]
+        y_g = (m1 * h1 + m2 * (2 * h1 + h2)) / (m1 + m2)
+        beyond = (np.abs(r.outputs["block1.theta"]) > math.atan2(b1, y_g)) | \
+                 (np.abs(r.outputs["block2.theta"]) > math.atan2(min(b1, b2), h2))
+    falling = (r.time > out["fallTime"]) & (r.time <= out["overturnTime"])
+    last_within = r.time[falling & ~beyond].max(initial=out["fallTime"])
+    assert last_within - out["fallTime"] <= 0.05  # an integrator step at most
+    assert np.any(beyond[falling])
+    calm = fmu.run({**p, "excitation.amplitude": 2.0}, 3.0, 0.1, outputs=["overturned", "fallTime"])
+    assert calm.outputs["overturned"][-1] == 0 and calm.outputs["fallTime"][-1] == -1

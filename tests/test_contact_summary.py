@@ -113,3 +113,79 @@ def test_the_recording_shows_the_friction_demand_against_mu(tmp_path, fmu_path):
     assert {r[1][0] for r in mu_rows} == {0.7}
     slide = run.summary["assumptions"]["slides"]["t_s"]
     assert np.all(demand[t < slide - 0.01] <= 0.7) and np.any(demand[t > slide] > 0.7)
+
+
+def test_a_run_that_slides_only_while_it_falls_held_until_the_fall(tmp_path, db_url, fmu_path):
+    """A block toppled by a pulse slides or lifts off while it falls past its corner; rigid
+    rocking still decided that it falls: the line says so and --strict passes. At the reported
+    violation the block is already beyond its stability limit."""
+    from runners.engine.fmu import RockingFMU
+
+    scene = tmp_path / "topple.toml"
+    scene.write_text('name = "h/b = 2 toppled"\n[block]\nhalf_width = 0.03\nhalf_height = 0.06\n'
+                     '[excitation]\nkind = "sine-pulse"\namplitude = 6.0\nfrequency = 1.5\n'
+                     "[simulation]\nstop_time = 3.0\n")
+    p = run_cli("simulate", str(scene), "--strict", "--json", db=db_url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    s = json.loads(p.stdout)
+    a = s["assumptions"]
+    assert s["overturned"] and not a["held"] and a["outcome_held"]
+    first = min(a[k]["t_s"] for k in ("slides", "lifts") if a[k])
+    assert a["fall_time_s"] < first < s["overturn_time_s"]
+    params = {"block1.halfWidth": 0.03, "block1.halfHeight": 0.06, "excitation.kind": 1,
+              "excitation.amplitude": 6.0, "excitation.frequency": 1.5}
+    with RockingFMU(fmu_path) as fmu:
+        theta = fmu.run(params, first, first, outputs=["block1.theta"]).outputs["block1.theta"][-1]
+    assert abs(theta) > math.atan2(0.03, 0.06)
+    text = run_cli("simulate", str(scene), "--no-store", db=db_url, fmu_path=fmu_path).stdout
+    assert "assumptions      held until the overturning fall (from t = " in text
+
+
+def test_the_map_marks_points_where_rigid_rocking_broke_first(tmp_path, fmu_path):
+    """A 6 x 6 map of Anagnostopoulos's h/b = 2 block: the marked points are exactly those whose
+    first sliding or lift-off came while every state so far was within the block's limit, which
+    a single run at the violation time confirms (|theta| <= alpha there; beyond alpha for the
+    points that overturned and slid only during the fall). The PNG shows the marks."""
+    import matplotlib.image as mpimg
+    import numpy as np
+    from sqlalchemy import select
+
+    from db.schema import Run
+    from db.session import open_database
+    from runners.analysis.sweep_map import BROKE_COLOUR, broke
+    from runners.engine.fmu import RockingFMU
+
+    db = f"sqlite:///{tmp_path / 'map.db'}"
+    p = run_cli("sweep", "examples/fig18_housner.toml", "--grid", "w=1:8:6", "--grid", "a=1.5:6:6", "--quiet",
+                db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    png = tmp_path / "map.png"
+    m = run_cli("map", "latest", "--out", str(png), db=db, fmu_path=fmu_path)
+    assert m.returncode == 0, m.stderr
+    n_broke = int(m.stdout.split("rigid rocking broke first at ")[1].split(";")[0])
+    with open_database(db)() as s:
+        runs = list(s.scalars(select(Run).where(Run.sweep_id == 1)))
+        points = [(r.point["w"], r.point["a"], broke(r), r.summary.overturned,
+                   min(t for t in (r.summary.slide_time, r.summary.lift_time, math.inf) if t is not None))
+                  for r in runs]
+    assert 0 < n_broke == sum(b for *_, b, _, _ in points) < 36
+    b, h, g = 0.03, 0.06, 9.81
+    alpha, pf = math.atan2(b, h), math.sqrt(3 * g / (4 * math.hypot(b, h)))
+    checked = {"inside": 0, "falling": 0}
+    with RockingFMU(fmu_path) as fmu:
+        for w, a, mark, fell, first in points:
+            if not fell or not math.isfinite(first):
+                continue
+            params = {"block1.halfWidth": b, "block1.halfHeight": h, "excitation.kind": 1,
+                      "excitation.amplitude": a * g * b / h, "excitation.frequency": w * pf / (2 * math.pi)}
+            theta = fmu.run(params, first, first, outputs=["block1.theta"]).outputs["block1.theta"][-1]
+            if mark:
+                assert abs(theta) <= alpha, (w, a)
+                checked["inside"] += 1
+            else:
+                assert abs(theta) > alpha, (w, a)
+                checked["falling"] += 1
+    assert checked["inside"] and checked["falling"]
+    image = mpimg.imread(png)[..., :3]
+    colour = np.array([int(BROKE_COLOUR[i:i + 2], 16) / 255 for i in (1, 3, 5)])
+    assert np.sum(np.all(np.abs(image - colour) < 0.02, axis=-1)) > 50

@@ -89,3 +89,18 @@ def test_few_records_fall_back_to_model_based_intervals_and_say_so():
     assert f.interval_method.startswith("model-based (fewer than 5 records")
     assert f.median_interval[0] < f.median < f.median_interval[1]
     assert f.beta_interval[0] < f.beta < f.beta_interval[1]
+
+
+def test_a_record_whose_removal_leaves_no_fit_gives_model_based_intervals_around_the_estimate():
+    """Six records at five levels; only record 0 topples the block below the top level, so
+    leaving it out separates the outcomes. The jackknife cannot be made: the intervals are the
+    model-based ones and contain the estimates (they once came from the incomplete jackknife,
+    of zero width and away from the median)."""
+    x = np.tile([0.15, 0.35, 0.55, 0.75, 0.95], 6)
+    g = np.repeat(np.arange(6), 5)
+    y = np.zeros(30, bool)
+    y[[3, 4, 9, 14]] = True  # record 0 at 0.75 and 0.95 g; records 1 and 2 at 0.95 g
+    f = fit(x, y, g)
+    assert f.interval_method.startswith("model-based (leaving a record out: ")
+    assert f.median_interval[0] < f.median < f.median_interval[1]
+    assert f.beta_interval[0] < f.beta < f.beta_interval[1]

@@ -339,3 +339,37 @@ def test_what_the_study_commands_say_when_the_data_fall_short(db, fmu_path, stat
     assert p.returncode == 2 and "separate completely" in p.stderr and "0.1 g stands" in p.stderr
     assert "the fractions overturned are drawn in fragility-2.png" in p.stderr
     assert Path("fragility-2.png").stat().st_size > 10_000
+
+
+def test_a_study_marks_the_runs_where_rigid_rocking_broke_first(db, fmu_path, tmp_path):
+    """A cabinet (b/h = 0.5) on a floor with mu = 0.3 < b/h: at rest it slides once |a_h| > mu g,
+    before it can tip (Ishiyama 1982), so a run breaks rigid rocking exactly when its record's
+    PGA exceeds mu g, and at the first sample where |a_h| does. The IDA and fragility outputs
+    mark and count those runs."""
+    scene = tmp_path / "cabinet.toml"
+    scene.write_text('name = "cabinet on a smooth floor"\n[block]\nhalf_width = 0.25\nhalf_height = 0.5\n'
+                     "mass = 80\n[contact]\nmu_ground = 0.3\n")
+    p = cli("sweep", str(scene), "--records", "1,2,3,4,5,6", "--im", "pga=0.15:0.95:5", "--quiet", db=db,
+            fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    ida = json.loads(cli("ida", "1", "--out", str(tmp_path / "ida.png"), "--json", db=db, fmu_path=fmu_path).stdout)
+    runs = ida["runs"]
+    assert len(runs) == 30
+    for r in runs:
+        assert r["rigid_rocking_held"] == (r["x"] * G0 <= 0.3 * 9.81), r
+    with open_database(db)() as s:
+        rows = s.execute(select(RunSummary.slide_time, Run.point).join(Run, Run.id == RunSummary.run_id)).all()
+        for slide, point in rows:
+            if slide is None:
+                continue
+            t, ah, _ = samples(find_record(s, point["record"]))
+            scaled = np.abs(ah * point["scale"])
+            first = int(np.argmax(scaled > 0.3 * 9.81))  # the record's first sample beyond mu g
+            assert t[first - 1] < slide <= t[first] + 1e-12
+    n = sum(not r["rigid_rocking_held"] for r in runs)
+    assert 0 < n < 30
+    png = tmp_path / "fragility.png"
+    text = cli("fragility", "1", "--out", str(png), db=db, fmu_path=fmu_path)
+    assert text.returncode == 0, text.stderr
+    assert f"rigid rocking    did not hold in {n} of 30 runs" in text.stdout
+    assert png.stat().st_size > 30_000

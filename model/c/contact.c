@@ -188,6 +188,16 @@ static void contact_sample(Model *M, double t, const double T[2], const double N
     S->monValid = 1;
 }
 
+/* Every block within its stability limit: one block |theta| <= alpha; a stack, block 1
+ * within the pair's limit about a ground corner and block 2 (absolute angle) within its
+ * limit about an end of the contact. Past it the block falls unless driven back. */
+static int within_limits(const Model *M) {
+    const State *S = &M->s;
+    if (S->mode == MODE_REST) return 1;
+    if (M->v.nBlocks != 2) return fabs(S->y[0]) <= M->d.alpha;
+    return fabs(S->y[0]) <= M->d.alphaL && fabs(S->y[2]) <= M->d.alphaI;
+}
+
 void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int continuous) {
     State *S = &M->s;
     if (S->mode == MODE_OVERTURNED) return;
@@ -198,6 +208,7 @@ void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int c
     if (continuous && rest) path = contact_rest;
     else if (continuous && S->denseValid && S->monValid && S->monT >= S->tOld) path = moving;
     contact_sample(M, S->t, T, N, path, log);
+    if (within_limits(M)) S->withinTime = S->t;
 }
 
 void contact_sample_rest(Model *M, double end, const Logger *log) {
@@ -213,6 +224,7 @@ void contact_sample_rest(Model *M, double end, const Logger *log) {
     }
     contact_rest(M, end, 0, T, N);
     contact_sample(M, end, T, N, contact_rest, log);
+    M->s.withinTime = end;
 }
 
 void contact_impulse(Model *M, double t, const double *y, Mode om, int o1, int o2, const double wm[2],
@@ -272,5 +284,6 @@ void contact_outputs(const Model *M, Variables *v) {
     v->slideTime = S->slideTime;
     v->lifts = S->liftTime >= 0;
     v->liftTime = S->liftTime;
+    v->fallTime = S->mode == MODE_OVERTURNED ? S->withinTime : -1;
     v->impulseDemandMax = S->impulseDemandMax;
 }

@@ -606,6 +606,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         {"monT", &S->monT, 1}, {"monTr", S->monTr, 2}, {"monN", S->monN, 2}, {"demandMax", S->demandMax, 2},
         {"normalMin", S->normalMin, 2}, {"slideTime", &S->slideTime, 1}, {"liftTime", &S->liftTime, 1},
         {"impulseDemandMax", &S->impulseDemandMax, 1}, {"endTr", &S->endTr, 1}, {"endN", &S->endN, 1},
+        {"withinTime", &S->withinTime, 1},
     };
     for (size_t k = 0; k < sizeof(numbers) / sizeof(numbers[0]); k++) {
         int i = not_finite(numbers[k].x, numbers[k].count);
@@ -683,6 +684,8 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         FAIL("slideTime = %.17g is not a time in [start, t] (or -1)", S->slideTime);
     if (S->liftTime != -1 && !within(S->liftTime, lo, hi))
         FAIL("liftTime = %.17g is not a time in [start, t] (or -1)", S->liftTime);
+    if (S->withinTime != -1 && !(S->monValid && within(S->withinTime, lo, hi) && S->withinTime <= S->monT))
+        FAIL("withinTime = %.17g is not a sample time in [start, monT] (or -1)", S->withinTime);
     if (!(S->demandMax[0] >= 0 && S->demandMax[1] >= 0 && S->impulseDemandMax >= 0))
         FAIL("the friction demands must be >= 0");
     if (two && S->lastSwitchTime != -INFINITY && !within(S->lastSwitchTime, lo, hi))

@@ -165,8 +165,9 @@ def fit(x: np.ndarray, overturned: np.ndarray, groups: np.ndarray | None = None,
             for r in uniq:
                 keep = labels != r
                 jack.append(_mle(x[keep], y[keep])[:2])
-        except FragilityError as exc:
+        except FragilityError as exc:  # no jackknife then: the fits made so far are dropped
             method = f"model-based (leaving a record out: {exc})"
+            jack = []
     if jack:
         ab = np.array(jack)
         mean = ab.mean(axis=0)

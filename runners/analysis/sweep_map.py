@@ -2,7 +2,9 @@
 
 Each grid point is safe (rocks and settles, or never lifts), overturns after
 one or more impacts, or overturns without impact (Anagnostopoulos Fig. 18's three
-regions), or failed. A (w, a) grid is drawn in the dimensionless groups of
+regions), or failed. Points whose contacts slid or lifted off before the outcome was
+decided (docs/contact.md) are marked on top in their own colour and counted: rigid
+rocking's outcome is drawn there, but it does not answer for the block. A (w, a) grid is drawn in the dimensionless groups of
 Dimitrakopoulos & DeJong (2012): omega_g/p and the amplitude over the uplift
 acceleration, a_g / (g tan alpha) for one block (1 = uplift; their a_g/(g alpha)
 is its slender-block limit). A one-block grid under a one-sine pulse gets their
@@ -23,9 +25,10 @@ import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import selectinload
 
-from db.schema import Run, Scene, Sweep
+from db.schema import Run, RunSummary, Scene, Sweep
 from model import closed_form as cf
 from runners.analysis.least_model import restitution
+from runners.engine.summary import outcome_held
 from runners.engine.sweep import scales
 
 # the axes of every overturning map (Dimitrakopoulos & DeJong 2012's dimensionless groups)
@@ -35,14 +38,30 @@ AMPLITUDE = ("a_g / (g tan alpha)   (1 = uplift)\nDimitrakopoulos & DeJong (2012
 
 REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "failed"]
 COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]
+BROKE_COLOUR = "#e07000"  # points where rigid rocking broke first, in every map and study figure
+BROKE_LABEL = "rigid rocking broke first: a contact slid or lifted off before the outcome was decided"
+
+
+def rigid_rocking_held(summary: RunSummary) -> bool:
+    """Whether rigid rocking decided this run's outcome (runners.engine.summary.outcome_held):
+    True where the method did not monitor the contacts."""
+    if summary.assumptions_held is None or summary.assumptions_held:
+        return True
+    return outcome_held(summary.overturned, summary.slide_time, summary.lift_time, summary.fall_time)
 
 
 def region(run: Run) -> int:
+    """The outcome of a point (REGIONS index), as rigid rocking gives it."""
     if run.status != "ok" or run.summary is None:
         return 3
     if not run.summary.overturned:
         return 0
     return 1 if (run.summary.impacts or 0) > 0 else 2
+
+
+def broke(run: Run) -> bool:
+    """A point whose contacts slid or lifted off before its outcome was decided."""
+    return run.status == "ok" and run.summary is not None and not rigid_rocking_held(run.summary)
 
 
 def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
@@ -108,7 +127,7 @@ def block_title(p: dict) -> str:
 
 def map_figure(factory, sweep_id: str):
     """The map of a stored sweep as a matplotlib Figure, and the count of points per region
-    (REGIONS order)."""
+    (REGIONS order) followed by the count of points where rigid rocking broke first."""
     import matplotlib.pyplot as plt
 
     sw, scene, runs = load(factory, sweep_id)
@@ -122,9 +141,10 @@ def map_figure(factory, sweep_id: str):
     if not runs:
         raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
     p = {**sw.grid["defaults"], **scene.parameters}
-    counts = [0, 0, 0, 0]
+    counts = [0] * len(REGIONS)
     for r in runs:
         counts[region(r)] += 1
+    n_broke = sum(broke(r) for r in runs)
     fig, ax = plt.subplots(figsize=(9, 7.5))
     if len(axes) == 2:
         xs = sorted({r.point[axes[0]] for r in runs})
@@ -134,7 +154,12 @@ def map_figure(factory, sweep_id: str):
             field[ys.index(r.point[axes[1]]), xs.index(r.point[axes[0]])] = region(r)
         from matplotlib.colors import ListedColormap
 
-        ax.pcolormesh(xs, ys, field, cmap=ListedColormap(COLOURS), vmin=-0.5, vmax=3.5, shading="nearest")
+        ax.pcolormesh(xs, ys, field, cmap=ListedColormap(COLOURS), vmin=-0.5, vmax=len(REGIONS) - 0.5,
+                      shading="nearest")
+        bx = [r.point[axes[0]] for r in runs if broke(r)]
+        by = [r.point[axes[1]] for r in runs if broke(r)]
+        size = max(1.5, min(30.0, 2.2e4 / len(runs)))  # dots that leave the colour beneath visible
+        ax.scatter(bx, by, s=size, marker="o", color=BROKE_COLOUR, lw=0)
         if axes == ["w", "a"]:
             ws = np.linspace(min(xs), max(xs), 25)
             curves = closed_form_curves(p, ws)
@@ -143,8 +168,10 @@ def map_figure(factory, sweep_id: str):
             ax.set_ylim(min(ys), max(ys))
     else:
         xs = [r.point[axes[0]] for r in runs]
-        ax.scatter(xs, [region(r) for r in runs], c=[COLOURS[region(r)] for r in runs], edgecolors="k")
-        ax.set_yticks(range(4), REGIONS)
+        ax.scatter(xs, [region(r) for r in runs], c=[COLOURS[region(r)] for r in runs],
+                   edgecolors=[BROKE_COLOUR if broke(r) else "k" for r in runs], linewidths=[
+                       2.0 if broke(r) else 0.8 for r in runs])
+        ax.set_yticks(range(len(REGIONS)), REGIONS)
     names = {"w": FREQUENCY, "a": amplitude_label(p)}
     ax.set_xlabel(names.get(axes[0], axes[0]))
     if len(axes) == 2:
@@ -155,13 +182,15 @@ def map_figure(factory, sweep_id: str):
                                                    lambda f: f * 2 * math.pi / pf))
         top.set_xlabel("pulse frequency f_g = omega_g / 2 pi (Hz)", fontsize=9)
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in COLOURS]
+    handles.append(plt.Line2D([], [], ls="", marker="o", color=BROKE_COLOUR))
+    labels = [f"{n} ({c})" for n, c in zip(REGIONS, counts)] + [f"{BROKE_LABEL} ({n_broke})"]
     h2, l2 = ax.get_legend_handles_labels()
-    ax.legend(handles + h2, [f"{n} ({c})" for n, c in zip(REGIONS, counts)] + l2, fontsize=8, ncol=2,
+    ax.legend(handles + h2, labels + l2, fontsize=8, ncol=2,
               loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
     title = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points)", 100)
     ax.set_title(title + "\n" + textwrap.fill(block_title(p), 110), fontsize=8.5)
     fig.tight_layout()
-    return fig, counts, sw
+    return fig, counts + [n_broke], sw
 
 
 def draw(factory, sweep_id: str, out: Path) -> str:
@@ -175,4 +204,4 @@ def draw(factory, sweep_id: str, out: Path) -> str:
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))
-            + f"; map written to {out}")
+            + f"; rigid rocking broke first at {counts[-1]}; map written to {out}")

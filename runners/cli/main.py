@@ -53,7 +53,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if held is None:
             raise ValueError(f"--strict: the {run.summary.get('model', args.method)} run does not monitor the "
                              "contacts (the FMU does: --method fmu)")
-        if not held["held"]:
+        if not held["outcome_held"]:
             print(f"error: rigid rocking did not hold (--strict): {violations(held)}", file=sys.stderr)
             return STRICT_EXIT
     return 0

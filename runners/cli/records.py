@@ -193,6 +193,7 @@ def cmd_fragility(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
                    "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **frag.as_dict(),
+                   "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
                    "notes": study.fragility_notes(frag, oc), "figure": str(out)})
         return 0
     print(study.format_fragility(frag, oc) + f"\nfigure           {out}")
@@ -205,8 +206,9 @@ def cmd_ida(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
                    "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
-                   "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1)}
-                            for r, x, o, p1 in zip(oc.record, oc.x, oc.overturned, oc.peak1)],
+                   "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1),
+                             "rigid_rocking_held": None if oc.broke is None else not bool(oc.broke[i])}
+                            for i, (r, x, o, p1) in enumerate(zip(oc.record, oc.x, oc.overturned, oc.peak1))],
                    "figure": str(out)})
         return 0
     print(study.format_ida(oc) + f"\nfigure           {out}")

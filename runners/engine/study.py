@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from runners.analysis.fragility import Fragility, fit
+from runners.analysis.sweep_map import BROKE_COLOUR
 from runners.engine.intensity import G0, SCALING
 
 if TYPE_CHECKING:
@@ -51,6 +52,25 @@ class Outcomes:
     params: dict  # the scene's FMU parameters with defaults
     failed: int = 0  # runs that ended in an error (left out)
     notes: list[str] = field(default_factory=list)
+    # bool per run: a contact slid or lifted off before the outcome was decided, so rigid rocking
+    # does not answer for it (docs/contact.md); None where the runs did not monitor the contacts
+    broke: np.ndarray | None = None
+
+    @property
+    def n_broke(self) -> int:
+        return 0 if self.broke is None else int(np.sum(self.broke))
+
+    def broke_text(self) -> str | None:
+        """One line on the runs whose rigid-rocking assumptions failed first, or None."""
+        if self.broke is None:
+            return None
+        if not self.n_broke:
+            return (f"held in all {len(self.x)} runs: no contact slid or lifted off before the outcome was "
+                    "decided")
+        at = self.x[self.broke]
+        return (f"did not hold in {self.n_broke} of {len(self.x)} runs ({at.min():.3g} to {at.max():.3g} "
+                f"{self.unit}): a contact slid or lifted off first, so their outcomes are rigid rocking's, "
+                "not necessarily the block's (docs/contact.md)")
 
     def __repr__(self) -> str:
         return (f"Outcomes(sweep {self.sweep_id}, {self.scene!r}: {len(self.x)} runs against {self.label} in "
@@ -58,13 +78,16 @@ class Outcomes:
 
     def to_pandas(self) -> "pd.DataFrame":
         """One row per run: record, intensity (column named after the measure, in its unit),
-        overturned, peak1_over_alpha (and peak2_over_alpha for two blocks)."""
+        overturned, peak1_over_alpha (and peak2_over_alpha for two blocks), and
+        rigid_rocking_held where the runs monitored the contacts."""
         import pandas as pd
 
         columns = {"record": self.record, f"{self.measure}_{self.unit.replace('/', '_per_')}": self.x,
                    "overturned": np.asarray(self.overturned, bool), "peak1_over_alpha": self.peak1}
         if self.peak2 is not None:
             columns["peak2_over_alpha"] = self.peak2
+        if self.broke is not None:
+            columns["rigid_rocking_held"] = ~np.asarray(self.broke, bool)
         return pd.DataFrame(columns)
 
     @property
@@ -114,7 +137,7 @@ class Outcomes:
 
 def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
     """The runs of a sweep over records (runners sweep --records)."""
-    from runners.analysis.sweep_map import load
+    from runners.analysis.sweep_map import broke, load
 
     measure = measure.lower()
     if measure not in SCALING:
@@ -139,6 +162,8 @@ def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
                   [r.point["record"] for r in ok], np.array([r.summary.peak1_over_alpha for r in ok]),
                   np.array([r.summary.peak2_over_alpha for r in ok]) if two else None,
                   {**sw.grid["defaults"], **scene.parameters}, failed=len(runs) - len(ok))
+    if all(r.summary.assumptions_held is not None for r in ok):
+        oc.broke = np.array([broke(r) for r in ok])
     if len(ok) < sw.total:
         oc.notes.append(f"{sw.total - len(runs)} of {sw.total} points not run yet, {oc.failed} failed")
     return oc
@@ -230,6 +255,10 @@ def fragility_figure(frag: Fragility | None, oc: Outcomes):
         ax.axvline(frag.median, color="#08519c", lw=0.8, ls="--")
         ax.axvspan(*frag.median_interval, color="#08519c", alpha=0.08,
                    label=f"median 95 %: {frag.median_interval[0]:.3g}-{frag.median_interval[1]:.3g} {oc.unit}")
+    if oc.n_broke:
+        b = np.array([int(oc.broke[g].sum()) for g in groups])
+        ax.scatter(xs[b > 0], (b / n)[b > 0], s=30, marker="D", color=BROKE_COLOUR, zorder=4, edgecolor="k", lw=0.4,
+                   label=f"fraction where rigid rocking broke first ({oc.n_broke} of {len(oc.x)} runs)")
     thr = oc.uplift_threshold()
     if thr is not None:
         ax.axvline(thr, color="#238b45", lw=1.2, ls=":", label=f"static uplift threshold {thr:.3g} g")
@@ -238,7 +267,8 @@ def fragility_figure(frag: Fragility | None, oc: Outcomes):
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(0, grid.max())
     ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs, "
-                 f"{int(oc.overturned.sum())} overturned", fontsize=9)
+                 f"{int(oc.overturned.sum())} overturned"
+                 + (f", {oc.n_broke} outside rigid rocking" if oc.n_broke else ""), fontsize=9)
     ax.legend(fontsize=8, loc="best")
     foot = f"intervals: {frag.interval_method}" if frag is not None else "no fit: the outcomes do not determine one"
     fig.text(0.01, 0.005, "\n".join(textwrap.wrap(foot, 150)), fontsize=6.5, color="0.35")
@@ -268,6 +298,10 @@ def ida_figure(oc: Outcomes):
             ys = np.where(fell, top, np.minimum(ys, top))
             ax.plot(xs, ys, lw=0.8, color=cmap(i), alpha=0.8, label=name if len(names) <= 12 else None)
             ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(i), lw=1)
+            if oc.n_broke:
+                broke = oc.broke[sel][order]
+                ax.scatter(xs[broke], ys[broke], marker="o", s=40, facecolors="none", edgecolors=BROKE_COLOUR,
+                           lw=1.2, label="rigid rocking broke first" if i == 0 else None)
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
         ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
@@ -297,6 +331,8 @@ def format_fragility(frag: Fragility, oc: Outcomes) -> str:
     thr = oc.uplift_threshold()
     if thr is not None:
         lines.append(f"uplift           no record below PGA {thr:.4g} g can lift the block from rest")
+    if oc.broke_text():
+        lines.append(f"rigid rocking    {oc.broke_text()}")
     lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc)]
     return "\n".join(lines)
 
@@ -316,5 +352,7 @@ def format_ida(oc: Outcomes) -> str:
     if back:
         lines.append(f"not monotonic    {len(back)} records overturn the block at one level but not at a higher "
                      f"one (rocking is not monotonic in intensity): {', '.join(back)}")
+    if oc.broke_text():
+        lines.append(f"rigid rocking    {oc.broke_text()}")
     lines += [f"note             {n}" for n in oc.notes]
     return "\n".join(lines)

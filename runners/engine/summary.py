@@ -49,6 +49,7 @@ MONITOR_OUTPUTS = (
     "liftTime",
     "friction.demandMaxInterface",
     "contact.normalMinInterface",
+    "fallTime",
 )
 
 PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking alone",
@@ -153,7 +154,25 @@ def assumptions(result: RunResult, p: dict[str, float], two: bool) -> dict[str, 
                   "friction_demand_max_interface": float(out["friction.demandMaxInterface"][-1]),
                   "normal_min_interface": float(out["contact.normalMinInterface"][-1])})
     a["held"] = a["slides"] is None and a["lifts"] is None
+    fall = float(out["fallTime"][-1])
+    a["fall_time_s"] = fall if fall >= 0 else None
+    a["outcome_held"] = outcome_held(bool(out["overturned"][-1]), a["slides"] and a["slides"]["t_s"],
+                                     a["lifts"] and a["lifts"]["t_s"], a["fall_time_s"])
     return a
+
+
+def outcome_held(overturned: bool, slide_time: float | None, lift_time: float | None,
+                 fall_time: float | None) -> bool:
+    """Whether rigid rocking decided the run's outcome: no contact slid or lifted off, or the
+    first one did so only during the overturning fall, after ``fall_time`` (the last time every
+    block was within its stability limit; the FMU's fallTime). A falling block nearly always
+    slides or flies before it lands on its side, and that does not change that it fell.
+    Times in s; None for none. Without a fall time an overturned run with a violation counts
+    as not held."""
+    first = min((t for t in (slide_time, lift_time) if t is not None), default=None)
+    if first is None:
+        return True
+    return overturned and fall_time is not None and first > fall_time
 
 
 def format_assumptions(a: dict[str, Any]) -> str:
@@ -166,6 +185,9 @@ def format_assumptions(a: dict[str, Any]) -> str:
             text += (f"; between the blocks demand {a['friction_demand_max_interface']:.3g} (mu {a['mu_interface']:g}),"
                      f" normal force at least {a['normal_min_interface']:.3g} of block 2's weight")
         return text
+    if a.get("outcome_held"):
+        return (f"held until the overturning fall (from t = {a['fall_time_s']:.6g} s), which then {violations(a)}: "
+                "the block fell either way")
     first = min((a[k]["t_s"] for k in ("slides", "lifts") if a[k] is not None))
     return f"NOT HELD: {violations(a)}: rigid rocking does not describe the motion after t = {first:.6g} s"
 
@@ -255,7 +277,8 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
     }
     a = s.get("assumptions")
     if a is not None:
-        row.update(assumptions_held=a["held"], slide_time=a["slides"] and a["slides"]["t_s"],
+        row.update(assumptions_held=a["held"], fall_time=a.get("fall_time_s"),
+                   slide_time=a["slides"] and a["slides"]["t_s"],
                    lift_time=a["lifts"] and a["lifts"]["t_s"], friction_demand_max=a["friction_demand_max_ground"],
                    normal_min=a["normal_min_ground"], impulse_demand_max=a["impulse_demand_max"],
                    friction_demand_max_interface=a.get("friction_demand_max_interface"),

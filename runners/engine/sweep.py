@@ -49,7 +49,7 @@ from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest",
-       "slideTime", "liftTime", "friction.demandMaxGround", "contact.normalMinGround", "friction.impulseDemandMax"]
+       "slideTime", "liftTime", "friction.demandMaxGround", "contact.normalMinGround", "friction.impulseDemandMax", "fallTime"]
 TWO = ["block2.maxAbsTheta", "impactsGround", "impactsInterface", "block1.overturned", "block2.overturned",
        "friction.demandMaxInterface", "contact.normalMinInterface"]
 
@@ -526,6 +526,7 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
            "impulse_demand_max": out["friction.impulseDemandMax"],
            "friction_demand_max_interface": None, "normal_min_interface": None}
     row["assumptions_held"] = row["slide_time"] is None and row["lift_time"] is None
+    row["fall_time"] = out["fallTime"] if out["fallTime"] >= 0 else None
     if two:
         alpha2 = math.atan2(merged["block2.halfWidth"], merged["block2.halfHeight"])
         row.update(friction_demand_max_interface=out["friction.demandMaxInterface"],
