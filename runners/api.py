@@ -138,7 +138,8 @@ def simulate(
     """
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.records import prepare_scene
-    from runners.engine.summary import MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_summary, summarize
+    from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, assumptions, format_assumptions,
+                                        format_summary, model_check_line, summarize)
     from runners.engine.tables import events_frame, series_frame
 
     if method not in METHODS:
@@ -229,6 +230,11 @@ def simulate(
             if model == "closed form":
                 s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
                 report = format_closed_form(sc.name, why, s)
+                if method == "auto":  # the closed form is rigid rocking too: the FMU's monitors check that
+                    check = fm.run(sc.parameters, sc.stop_time, sc.step,
+                                   outputs=[*MONITOR_OUTPUTS, "overturned"], events=True)
+                    s["assumptions"] = assumptions(check, merged, False)
+                    report += f"\nassumptions      {format_assumptions(s['assumptions'])}"
             else:
                 if model == "one block" and int(merged["nBlocks"]) == 2:
                     sc = replace(sc, parameters=one_block_parameters(sc.parameters))
@@ -252,6 +258,9 @@ def simulate(
                 keep = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS]  # as stored and exported
                 series = series_frame(result.time, {k: result.outputs[k] for k in keep})
                 events = events_frame([e.as_dict() for e in result.events])
+        if method == "auto" and "assumptions" in s:  # the least model must also be a model that holds
+            s["model_sufficient"] = s["assumptions"]["outcome_held"]
+            report += "\n" + model_check_line(s)
         merged = {name: int(v) if fm.vars[name].type == "Integer" else bool(v) if fm.vars[name].type == "Boolean"
                   else v for name, v in {**defaults, **sc.parameters}.items()}
     written = None

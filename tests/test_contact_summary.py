@@ -189,3 +189,46 @@ def test_the_map_marks_points_where_rigid_rocking_broke_first(tmp_path, fmu_path
     image = mpimg.imread(png)[..., :3]
     colour = np.array([int(BROKE_COLOUR[i:i + 2], 16) / 255 for i in (1, 3, 5)])
     assert np.sum(np.all(np.abs(image - colour) < 0.02, axis=-1)) > 50
+
+
+SLENDER_PULSE = """name = "slender block, one-sine pulse"
+[block]
+half_width = 0.05
+half_height = 0.5
+[contact]
+mu_ground = {mu}
+[excitation]
+kind = "sine-pulse"
+amplitude = 3.0
+frequency = 2.0
+[simulation]
+stop_time = 3.0
+"""
+
+
+def test_method_auto_refuses_to_call_a_scene_fine_when_rigid_rocking_breaks(tmp_path, db_url, fmu_path):
+    """auto picks the closed form for a slender block under a one-sine pulse. On a slippery floor
+    (mu = 0.05 < b/h = 0.1, the pulse above mu g) the block slides before it can tip: auto says
+    that no model here suffices and exits 4, with one error line. With mu = 0.7 the same choice
+    is called sufficient. A scene auto runs on the FMU is judged the same way."""
+    scene = tmp_path / "slender.toml"
+    scene.write_text(SLENDER_PULSE.format(mu=0.05))
+    p = run_cli("simulate", str(scene), "--method", "auto", "--accuracy", "0.05", "--json", db=db_url,
+                fmu_path=fmu_path)
+    assert p.returncode == 4
+    s = json.loads(p.stdout)
+    assert s["model"] == "closed form" and s["model_sufficient"] is False
+    assert abs(s["assumptions"]["slides"]["t_s"] - math.asin(0.05 * 9.81 / 3.0) / (4 * math.pi)) <= 1e-9
+    assert p.stderr.strip().splitlines() == [
+        f"error: --method auto: no model here suffices, rigid rocking did not hold: slides on the ground at t = "
+        f"{s['assumptions']['slides']['t_s']:.6g} s (friction demand up to "
+        f"{s['assumptions']['friction_demand_max_ground']:.3g}, mu 0.05)"
+        + (f"; lifts off on the ground at t = {s['assumptions']['lifts']['t_s']:.6g} s" if s["assumptions"]["lifts"]
+           else "")]
+    scene.write_text(SLENDER_PULSE.format(mu=0.7))
+    ok = run_cli("simulate", str(scene), "--method", "auto", "--accuracy", "0.05", db=db_url, fmu_path=fmu_path)
+    assert ok.returncode == 0, ok.stderr
+    assert "model check      sufficient: rigid rocking held until the outcome was decided" in ok.stdout
+    fmu_run = run_cli("simulate", _squat(tmp_path), "--method", "auto", "--json", db=db_url, fmu_path=fmu_path)
+    assert fmu_run.returncode == 4
+    assert json.loads(fmu_run.stdout)["model"] == "one block" and "slides on the ground" in fmu_run.stderr

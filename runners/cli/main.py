@@ -46,6 +46,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(run.report)
     for text in run.summary.get("notes", ()):
         output.note(text)
+    if run.summary.get("model_sufficient") is False:
+        from runners.engine.summary import violations
+
+        print(f"error: --method auto: no model here suffices, rigid rocking did not hold: "
+              f"{violations(run.summary['assumptions'])}", file=sys.stderr)
+        return STRICT_EXIT
     if args.strict:
         from runners.engine.summary import violations
 
@@ -59,7 +65,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-STRICT_EXIT = 4  # runners simulate --strict: the run finished, but its assumptions did not hold
+STRICT_EXIT = 4  # runners simulate --strict or --method auto: the run finished, but its assumptions did not hold
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

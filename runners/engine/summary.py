@@ -192,6 +192,15 @@ def format_assumptions(a: dict[str, Any]) -> str:
     return f"NOT HELD: {violations(a)}: rigid rocking does not describe the motion after t = {first:.6g} s"
 
 
+def model_check_line(s: dict[str, Any]) -> str:
+    """--method auto's verdict: whether the model it chose (rigid rocking, in every case)
+    answers for the scene."""
+    if s["model_sufficient"]:
+        return "model check      sufficient: rigid rocking held until the outcome was decided"
+    return ("model check      NOT SUFFICIENT: no model here answers for this scene: rigid rocking's assumptions "
+            f"fail ({violations(s['assumptions'])}); it needs sliding or flight (docs/contact.md)")
+
+
 def violations(a: dict[str, Any]) -> str:
     """What broke the rigid-rocking assumptions, where and when ("" if nothing did)."""
     parts = []
