@@ -333,3 +333,28 @@ def friction_demand(T: float, N: float) -> float:
     if N > 0:
         return abs(T) / N
     return math.inf
+
+
+def rocking_slide_threshold(b: float, h: float, mu: float) -> float:
+    """Horizontal ground acceleration over G = g + a_v at which a block that has just
+    uplifted (theta -> 0 on the corner the ground tips it to, omega = 0) needs more
+    friction than ``mu``. From :func:`one_block_reactions` with ``phi = alpha`` and
+    ``s a_h < 0`` (the ground tips the block away from its direction of motion)::
+
+        |T| / N = (x (1 - 3/4 cos^2 a) + 3/4 sin a cos a) / ((1 - 3/4 sin^2 a) + 3/4 x sin a cos a)
+
+    with ``x = |a_h| / G``; it equals ``tan(alpha)`` at uplift (``x = tan(alpha)``) and
+    grows with ``x``. Solving ``|T| / N = mu``::
+
+        x = (mu (1 - 3/4 sin^2 a) - 3/4 sin a cos a) / ((1 - 3/4 cos^2 a) - 3/4 mu sin a cos a)
+
+    Returns that ``x`` (dimensionless; inf when no ``|a_h|`` reaches ``mu``, the
+    denominator being <= 0). For ``mu < tan(alpha)`` the block slides before it
+    uplifts, at ``x = mu``, and this is not the threshold that applies.
+    """
+    a = math.atan2(b, h)
+    s, c = math.sin(a), math.cos(a)
+    den = (1.0 - 0.75 * c * c) - 0.75 * mu * s * c
+    if den <= 0:
+        return math.inf
+    return (mu * (1.0 - 0.75 * s * s) - 0.75 * s * c) / den

@@ -391,3 +391,23 @@ def test_stack_static(s1, s2):
         assert r["interface_y"] == pytest.approx(m2 * (G0 + a_v), rel=1e-13)
         assert r["ground_T"] == pytest.approx((m1 + m2) * a_h, rel=1e-13)
         assert r["ground_N"] == pytest.approx((m1 + m2) * (G0 + a_v), rel=1e-13)
+
+
+@pytest.mark.parametrize("ratio", [1.5, 2.0, 2.25, 3.0, 4.0])
+def test_the_sliding_threshold_of_a_block_just_uplifted_is_where_the_reactions_need_mu(ratio):
+    """rocking_slide_threshold: at theta -> 0 on the tipped-to corner, omega = 0, the reactions
+    (one_block_reactions) need exactly mu at that |a_h| / G (found here by root finding), and
+    the demand at uplift (|a_h| / G = tan alpha) is tan alpha."""
+    from scipy.optimize import brentq
+
+    from model.contact import rocking_slide_threshold
+
+    b, h, mu, g = 0.5 / ratio, 0.5, 0.7, 9.81
+
+    def demand(x):  # a_h > 0 tips the block onto its left corner (theta < 0)
+        T, N = one_block_reactions(-1e-300, 0.0, x * g, 0.0, b, h, 1.0, g)
+        return friction_demand(T, N)
+
+    assert demand(b / h) == pytest.approx(b / h, rel=1e-12)
+    root = brentq(lambda x: demand(x) - mu, b / h, 50.0, xtol=1e-14)
+    assert rocking_slide_threshold(b, h, mu) == pytest.approx(root, rel=1e-10)

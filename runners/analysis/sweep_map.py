@@ -126,8 +126,8 @@ def block_title(p: dict) -> str:
 
 
 def map_figure(factory, sweep_id: str):
-    """The map of a stored sweep as a matplotlib Figure, and the count of points per region
-    (REGIONS order) followed by the count of points where rigid rocking broke first."""
+    """The map of a stored sweep as a matplotlib Figure, the count of points per region
+    (REGIONS order), the count of points where rigid rocking broke first, and the sweep."""
     import matplotlib.pyplot as plt
 
     sw, scene, runs = load(factory, sweep_id)
@@ -190,7 +190,7 @@ def map_figure(factory, sweep_id: str):
     title = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points)", 100)
     ax.set_title(title + "\n" + textwrap.fill(block_title(p), 110), fontsize=8.5)
     fig.tight_layout()
-    return fig, counts + [n_broke], sw
+    return fig, counts, n_broke, sw
 
 
 def draw(factory, sweep_id: str, out: Path) -> str:
@@ -200,8 +200,8 @@ def draw(factory, sweep_id: str, out: Path) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, counts, sw = map_figure(factory, sweep_id)
+    fig, counts, n_broke, sw = map_figure(factory, sweep_id)
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))
-            + f"; rigid rocking broke first at {counts[-1]}; map written to {out}")
+            + f"; rigid rocking broke first at {n_broke}; map written to {out}")

@@ -263,12 +263,12 @@ def fragility_figure(frag: Fragility | None, oc: Outcomes):
     if thr is not None:
         ax.axvline(thr, color="#238b45", lw=1.2, ls=":", label=f"static uplift threshold {thr:.3g} g")
     ax.set_xlabel(f"{oc.label} ({oc.unit})")
-    ax.set_ylabel("P(overturn)")
+    ax.set_ylabel("P(overturn)" + ("; fraction where rigid rocking broke first" if oc.n_broke else ""))
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(0, grid.max())
-    ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs, "
-                 f"{int(oc.overturned.sum())} overturned"
-                 + (f", {oc.n_broke} outside rigid rocking" if oc.n_broke else ""), fontsize=9)
+    ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n" + textwrap.fill(
+        f"{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs, {int(oc.overturned.sum())} overturned"
+        + (f", {oc.n_broke} where rigid rocking broke first" if oc.n_broke else ""), 105), fontsize=9)
     ax.legend(fontsize=8, loc="best")
     foot = f"intervals: {frag.interval_method}" if frag is not None else "no fit: the outcomes do not determine one"
     fig.text(0.01, 0.005, "\n".join(textwrap.wrap(foot, 150)), fontsize=6.5, color="0.35")

