@@ -30,7 +30,7 @@ DISPLAY_UNITS: dict[str, tuple[str, float]] = {
     "rad/s2": ("deg/s2", 180.0 / 3.141592653589793),
 }
 
-NUMBER_OF_EVENT_INDICATORS = 4  # model/c/me.h ME_INDICATORS
+NUMBER_OF_EVENT_INDICATORS = 6  # model/c/me.h ME_INDICATORS
 
 
 def unit_definitions(used_units: list[str]) -> list[str]:

@@ -116,12 +116,19 @@ def test_flight_while_rocking_is_where_the_reference_normal_force_vanishes(fmu):
     p = {**SQUAT, "contact.muGround": 100.0, "excitation.kind": 1, "excitation.amplitude": 20.0,
          "excitation.frequency": 2.0}
     out, r = _final(fmu, p, 1.0)
-    assert out["lifts"] and not out["slides"] and out["contact.normalMinGround"] < 0
+    assert out["lifts"] and out["contact.normalMinGround"] < 0
     s = _state_at(fmu, p, out["liftTime"])
     T, N = one_block_reactions(s["block1.theta"], s["block1.omega"], s["ground.ahTotal"], s["ground.avTotal"],
                                b, h, SQUAT["block1.mass"], G)
     assert abs(N) <= 1e-7 * SQUAT["block1.mass"] * G
     assert [e.t for e in r.events if e.kind == "lift"] == [out["liftTime"]]
+    # as N falls to zero with T != 0 the demand |T| / N passes any mu: even mu = 100 is
+    # exceeded just before, and the sliding is reported where the reference needs exactly mu
+    assert out["slides"] and 0 < out["liftTime"] - out["slideTime"] < 1e-2
+    s = _state_at(fmu, p, out["slideTime"])
+    T, N = one_block_reactions(s["block1.theta"], s["block1.omega"], s["ground.ahTotal"], s["ground.avTotal"],
+                               b, h, SQUAT["block1.mass"], G)
+    assert N > 0 and abs(abs(T) - 100.0 * N) <= 1e-7 * SQUAT["block1.mass"] * G
 
 
 def test_a_block_spun_hard_leaves_its_corner_at_once(fmu):
@@ -244,3 +251,38 @@ def test_fall_time_is_where_the_blocks_last_passed_their_limits_before_overturni
     assert np.any(beyond[falling])
     calm = fmu.run({**p, "excitation.amplitude": 2.0}, 3.0, 0.1, outputs=["overturned", "fallTime"])
     assert calm.outputs["overturned"][-1] == 0 and calm.outputs["fallTime"][-1] == -1
+
+
+# ------------------------------------------------------- Model Exchange
+
+@pytest.mark.parametrize("case", ["slides", "lifts while rocking", "free rocking", "falls"])
+def test_model_exchange_locates_the_monitors_as_co_simulation_does(fmu_path, case):
+    """fmpy's CVode at rtol 1e-10 integrates; the event indicators (mu N - |T|) / W and N / W
+    locate the first sliding and lift-off: the times agree with Co-Simulation's to 1e-8 s,
+    as do fallTime to an output interval, and, on runs without a lift-off, the extremes."""
+    from fmpy import simulate_fmu
+
+    from runners.engine.fmu import with_scene_defaults
+
+    pulse = {"excitation.kind": 1, "excitation.frequency": 2.0}
+    params = {"slides": {**SQUAT, "contact.muGround": 0.7, **pulse, "excitation.amplitude": 9.0},
+              "lifts while rocking": {**SQUAT, "contact.muGround": 100.0, **pulse, "excitation.amplitude": 20.0},
+              "free rocking": {**SLENDER, "block1.theta0": 0.15},
+              "falls": {"block1.halfWidth": 0.03, "block1.halfHeight": 0.06, "excitation.kind": 1,
+                        "excitation.amplitude": 6.0, "excitation.frequency": 1.5}}[case]
+    names = MON + ["fallTime"]
+    runs = [simulate_fmu(str(fmu_path), fmi_type=fmi, start_values=with_scene_defaults(params), stop_time=2.0,
+                         output_interval=1e-3, output=names, **kw)
+            for fmi, kw in (("CoSimulation", {}),
+                            ("ModelExchange", {"solver": "CVode", "relative_tolerance": 1e-10}))]
+    cs, me = ({k: float(r[k][-1]) for k in names} for r in runs)
+    for k in ("slides", "lifts", "impacts"):
+        assert me[k] == cs[k], k
+    for k in ("slideTime", "liftTime"):
+        assert abs(me[k] - cs[k]) <= 1e-8, k
+    assert abs(me["fallTime"] - cs["fallTime"]) <= 2e-3
+    assert me["friction.impulseDemandMax"] == pytest.approx(cs["friction.impulseDemandMax"], rel=1e-7)
+    if not cs["lifts"]:
+        for k in ("friction.demandMaxGround", "contact.normalMinGround"):
+            assert me[k] == pytest.approx(cs[k], rel=1e-5), k
+    assert (case == "free rocking") == (not cs["slides"] and not cs["lifts"])

@@ -147,7 +147,7 @@ class Raw:
         return self.array("fmi2GetDerivatives", 2)
 
     def z(self):
-        return self.array("fmi2GetEventIndicators", 4)
+        return self.array("fmi2GetEventIndicators", 6)
 
     def set_x(self, values):
         return self.call("fmi2SetContinuousStates", (c_double * len(values))(*values), len(values))
@@ -308,7 +308,7 @@ def test_array_arguments_are_checked_and_nothing_is_written_past_them(new):
     r.to_continuous()
     for fn in ("fmi2GetContinuousStates", "fmi2GetDerivatives", "fmi2GetNominalsOfContinuousStates",
                "fmi2GetEventIndicators"):
-        want = 4 if fn == "fmi2GetEventIndicators" else 2
+        want = 6 if fn == "fmi2GetEventIndicators" else 2
         for n in (0, 1, want - 1, want + 1, 2**62):
             buf = (c_double * 8)(*[123.0] * 8)
             assert r.call(fn, buf, n) == ERROR, (fn, n)
@@ -573,7 +573,7 @@ def test_model_functions_refuse_two_blocks_set_in_initialization(new):
     r.set(block1__theta0=0.0)
     assert r.call("fmi2EnterInitializationMode") == OK
     r.set(nBlocks=2, block2__theta0=0.05)
-    for fn, n in (("fmi2GetDerivatives", 2), ("fmi2GetEventIndicators", 4), ("fmi2GetContinuousStates", 2)):
+    for fn, n in (("fmi2GetDerivatives", 2), ("fmi2GetEventIndicators", 6), ("fmi2GetContinuousStates", 2)):
         assert r.array(fn, n)[0] == ERROR
     assert r.said("Model Exchange runs one block")
     assert r.call("fmi2ExitInitializationMode") == ERROR

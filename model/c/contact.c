@@ -166,6 +166,21 @@ static void first_violation(Model *M, int kind, int c, double t, const double T[
     }
 }
 
+/* A contact whose N turned tensile since the last sample needed more than mu N just
+ * before, while N was still positive, unless T vanished with N (a block at rest on a
+ * ground falling faster than g): the sliding is where mu N - |T| crossed zero, if N > 0
+ * there. */
+static void slide_before_lift(Model *M, int c, double t, ReactionsFn path, const Logger *log) {
+    State *S = &M->s;
+    if (path == NULL || !S->monValid || !(S->monT < t) || indicator(M, 0, c, S->monTr[c], S->monN[c]) < 0) return;
+    double at = locate(M, path, 0, c, S->monT, t), T[2], N[2];
+    path(M, at, 1, T, N);
+    if (!(N[c] > 0)) return;
+    S->slideTime = at;
+    say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c), fabs(T[c]) / N[c],
+        mu(M, c));
+}
+
 /* Take a sample at time t with reactions T, N. path (or NULL) gives the
  * reactions between the previous sample and t if the motion between them is
  * continuous. */
@@ -179,6 +194,7 @@ static void contact_sample(Model *M, double t, const double T[2], const double N
         if (Nc < S->normalMin[c] * W || !S->monValid) S->normalMin[c] = Nc / W;
         if (aT > mu(M, c) * Nc || Nc < 0) { /* rarely */
             if (S->slideTime < 0 && Nc > 0) first_violation(M, 0, c, t, T, N, path, log);
+            if (S->slideTime < 0 && Nc <= 0) slide_before_lift(M, c, t, path, log);
             if (S->liftTime < 0 && Nc < 0) first_violation(M, 1, c, t, T, N, path, log);
         }
         S->monTr[c] = T[c];

@@ -6,6 +6,7 @@
 #include <math.h>
 #include <stdio.h>
 
+#include "contact.h"
 #include "events.h"
 #include "ground.h"
 #include "solver.h"
@@ -208,7 +209,7 @@ Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn
     if (check_size(I, z, nz, ME_INDICATORS, fn) || ready(I)) return STATUS_ERROR;
     const Model *M = &I->s.model;
     const State *S = &M->s;
-    double w[ME_INDICATORS] = {1.0, 1.0, 1.0, 1.0};
+    double w[ME_INDICATORS] = {1.0, 1.0, 1.0, 1.0, 1.0, 1.0};
     if (S->mode == MODE_ROCKING) {
         w[0] = S->y[0];
         w[1] = M_PI / 2 - fabs(S->y[0]);
@@ -217,6 +218,14 @@ Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn
         double ah, av;
         model_ground(M, S->t, &ah, &av);
         w[2] = (M->v.g + av) * M->d.upliftSlope - fabs(ah);
+    }
+    if (S->mode != MODE_OVERTURNED && (S->slideTime < 0 || S->liftTime < 0)) {
+        /* the contact monitors until their first violation: mu N - |T| (sliding) and N
+         * (lift-off), over the weight; the event samples them (solver_sample_contacts) */
+        double T, N, W = M->d.weight[0];
+        solver_contact_now(M, &T, &N);
+        if (S->slideTime < 0) w[4] = (M->v.muGround * N - fabs(T)) / W;
+        if (S->liftTime < 0) w[5] = N / W;
     }
     for (int i = 0; i < ME_INDICATORS; i++)
         if (!isfinite(w[i])) {
@@ -264,6 +273,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)", av, t);
         return -1;
     }
+    solver_sample_contacts(M, &log); /* as the importer's solver left it: a located violation */
     if (S->mode == MODE_REST && (S->y[0] != 0.0 || S->y[1] != 0.0)) {
         /* the importer set the states of a block at rest: it moves from there (as one
          * released with block1.theta0 and block1.omega0 would), on the corner it leans on */
@@ -295,6 +305,10 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             /* block 1 lands on the corner of the other side: the impact map */
             double wp;
             int rest = model_impact(M, t, omega, &wp);
+            {
+                double y0[2] = {0.0, 0.0}, w0[2] = {omega, 0.0}, w1[2] = {wp, 0.0};
+                contact_impulse(M, t, y0, MODE_ROCKING, S->side, 0, w0, MODE_ROCKING, -S->side, 0, w1, &log);
+            }
             S->impacts++;
             S->lastImpactTime = t;
             S->y[1] = wp;
@@ -337,6 +351,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     }
     info->nextTimeDefined = isfinite(next) && next > t;
     info->nextTime = info->nextTimeDefined ? next : 0.0;
+    solver_sample_contacts(M, &log); /* after the event */
     me_update_outputs(I);
     return 0;
 }
@@ -347,5 +362,9 @@ int me_completed_step(Instance *I, int *enterEventMode) {
      * rocking flat on its base (theta = 0 moving to the wrong side does not change the sign
      * of theta's indicator from its domain z <= 0) */
     *enterEventMode = me_event_pending(I);
+    if (!I->s.dirty && !*enterEventMode) { /* the monitors' extremes at the importer's steps */
+        Logger log = instance_solver_logger(I);
+        solver_sample_contacts(&I->s.model, &log);
+    }
     return 0;
 }

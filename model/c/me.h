@@ -21,7 +21,7 @@
 #include "instance.h"
 
 #define ME_STATES 2
-#define ME_INDICATORS 4
+#define ME_INDICATORS 6
 
 typedef struct {
     int newDiscreteStatesNeeded;

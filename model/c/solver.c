@@ -316,6 +316,15 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
 
 static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions};
 
+void solver_sample_contacts(Model *M, const Logger *log) { contact_sample_state(M, reactions, log, 0); }
+
+void solver_contact_now(const Model *M, double *T, double *N) {
+    double Tc[2], Nc[2];
+    (M->s.mode == MODE_REST ? contact_rest : reactions)(M, M->s.t, 0, Tc, Nc);
+    *T = Tc[0];
+    *N = Nc[0];
+}
+
 void solver_initialize(Model *M, double t0) {
     model_initialize(M, t0);
     if (M->v.nBlocks == 2) stack_initialize(M);

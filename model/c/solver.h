@@ -21,6 +21,14 @@ void solver_initialize(Model *M, double t0);
  * (an impact, uplift, overturn or pattern change; or an overturn only). */
 int solver_advance(Model *M, double tc, const Logger *log, EventStop *stop);
 
+/* A sample of the contact monitors at the current state of one block (Model
+ * Exchange: at the importer's steps and events, where its event indicators
+ * located a first sliding or lift-off). */
+void solver_sample_contacts(Model *M, const Logger *log);
+
+/* The ground's reaction (T, N) on one block in its current state, N. */
+void solver_contact_now(const Model *M, double *T, double *N);
+
 /* Write the output variables of M->v for time tc (<= integrator time). */
 void solver_outputs(Model *M, double tc);
 
