@@ -140,7 +140,9 @@ def test_sweep_export_has_one_row_per_grid_point(stored, fmu_path, tmp_path):
     for got in (csv, js):
         assert got["overturned"].tolist() == [bool(r.overturned) for r in rows]
         assert got["impacts"].tolist() == [r.impacts for r in rows]
-        for name in ("peak1_over_alpha", "overturn_time", "rest_time"):
+        assert got["assumptions_held"].tolist() == [bool(r.assumptions_held) for r in rows]
+        for name in ("peak1_over_alpha", "overturn_time", "rest_time", "slide_time", "fall_time",
+                     "friction_demand_max", "normal_min"):
             want = np.array([np.nan if getattr(r, name) is None else getattr(r, name) for r in rows])
             assert np.array_equal(_bits(got[name].to_numpy(dtype="float64")), _bits(want)), name
     assert any(r.overturned for r in rows) and not all(r.overturned for r in rows)

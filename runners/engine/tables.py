@@ -43,6 +43,16 @@ OUTCOMES: dict[str, str] = {
     "impacts_ground": "Int64",
     "impacts_interface": "Int64",
     "rest_time": "float64",  # s
+    # the rigid-rocking assumptions (docs/contact.md); empty for methods that do not monitor them
+    "assumptions_held": "boolean",  # no contact slid or lifted off at all
+    "slide_time": "float64",  # s, first sliding
+    "lift_time": "float64",  # s, first lift-off
+    "fall_time": "float64",  # s, start of the overturning fall
+    "friction_demand_max": "float64",  # largest |T| / N on the ground
+    "normal_min": "float64",  # smallest N of the ground over the weight it carries
+    "friction_demand_max_interface": "float64",
+    "normal_min_interface": "float64",
+    "impulse_demand_max": "float64",  # largest |tangential| / normal impulse of an impact
 }
 EVENT_COLUMNS = ("time", "kind")  # every events frame starts with these: time in s, kind of event
 SCALED = ("pga", "pgv", "pgd", "arias")  # a scaled record's measures a sweep point stores (SI)
