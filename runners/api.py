@@ -227,6 +227,7 @@ def simulate(
                 if method == "closed-form" and model != "closed form":
                     raise ValueError("method closed-form does not apply to this scene: "
                                      f"{why.removeprefix('no closed form: ')}")
+            stack_parameters = dict(sc.parameters)
             if model == "closed form":
                 s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
                 report = format_closed_form(sc.name, why, s)
@@ -246,6 +247,11 @@ def simulate(
                 result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
                 s = summarize(sc, result, defaults)
                 s["model"], s["model_reason"] = model, why
+                if method == "auto" and int(merged["nBlocks"]) == 2 and model != "two blocks":
+                    # a stack run as one block: only the two-block model sees its interface
+                    check = fm.run(stack_parameters, sc.stop_time, sc.step,
+                                   outputs=[*MONITOR_OUTPUTS, "overturned"], events=True)
+                    s["assumptions"] = assumptions(check, merged, True)
                 if rec is not None:
                     sc_scale = float({**defaults, **sc.parameters}["excitation.scale"])
                     s["excitation"] = rec.describe(sc_scale)

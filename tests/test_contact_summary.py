@@ -66,9 +66,18 @@ def test_the_summary_line_of_a_clean_run(db_url, fmu_path):
 
 
 def test_strict_needs_a_method_that_monitors_the_contacts(db_url, fmu_path):
-    p = run_cli("simulate", ROOT_EXAMPLE, "--method", "rk4", "--strict", "--no-store", db=db_url, fmu_path=fmu_path)
-    assert p.returncode == 2
-    assert p.stderr.strip().count("\n") == 0 and "--strict" in p.stderr and "--method fmu" in p.stderr
+    """Refused before the run: nothing printed, nothing stored."""
+    from sqlalchemy import func, select
+
+    from db.schema import Run
+    from db.session import open_database
+
+    for method in ("rk4", "closed-form"):
+        p = run_cli("simulate", ROOT_EXAMPLE, "--method", method, "--strict", db=db_url, fmu_path=fmu_path)
+        assert p.returncode == 2 and p.stdout == ""
+        assert p.stderr.strip().count("\n") == 0 and "--strict" in p.stderr and "--method fmu" in p.stderr
+    with open_database(db_url)() as s:
+        assert s.scalar(select(func.count()).select_from(Run)) == 0
 
 
 def test_runs_and_sweep_points_store_the_assumptions(tmp_path, db_url, fmu_path):
@@ -163,6 +172,9 @@ def test_the_map_marks_points_where_rigid_rocking_broke_first(tmp_path, fmu_path
     m = run_cli("map", "latest", "--out", str(png), db=db, fmu_path=fmu_path)
     assert m.returncode == 0, m.stderr
     n_broke = int(m.stdout.split("rigid rocking broke first at ")[1].split(";")[0])
+    js = json.loads(run_cli("map", "latest", "--out", str(tmp_path / "again.png"), "--json", db=db,
+                            fmu_path=fmu_path).stdout)
+    assert js["rigid_rocking_broke"] == n_broke and sum(js["regions"].values()) == 36
     with open_database(db)() as s:
         runs = list(s.scalars(select(Run).where(Run.sweep_id == 1)))
         points = [(r.point["w"], r.point["a"], broke(r), r.summary.overturned,
@@ -232,3 +244,38 @@ def test_method_auto_refuses_to_call_a_scene_fine_when_rigid_rocking_breaks(tmp_
     fmu_run = run_cli("simulate", _squat(tmp_path), "--method", "auto", "--json", db=db_url, fmu_path=fmu_path)
     assert fmu_run.returncode == 4
     assert json.loads(fmu_run.stdout)["model"] == "one block" and "slides on the ground" in fmu_run.stderr
+
+
+def test_method_auto_checks_the_interface_of_a_stack_it_runs_as_one_block(tmp_path, db_url, fmu_path):
+    """A negligible upper block lets auto run the lower block alone, but only the two-block
+    model sees the interface: on a slippery one (mu 0.01) auto must not call the scene fine."""
+    scene = tmp_path / "stack.toml"
+    scene.write_text('name = "negligible upper block"\n[block]\nhalf_width = 0.1\nhalf_height = 0.3\nmass = 10.0\n'
+                     "[block2]\nhalf_width = 0.1\nhalf_height = 0.2\nmass = 0.00001\n[contact]\nmu_interface = 0.01\n"
+                     '[excitation]\nkind = "sine-pulse"\namplitude = 5.0\nfrequency = 3.0\n'
+                     "[simulation]\nstop_time = 2.0\n")
+    p = run_cli("simulate", str(scene), "--method", "auto", "--json", db=db_url, fmu_path=fmu_path)
+    assert p.returncode == 4
+    s = json.loads(p.stdout)
+    assert s["model"] == "one block" and s["assumptions"]["slides"]["contact"] == "interface"
+    assert "slides between the blocks" in p.stderr and p.stderr.count("\n") == 1
+
+
+def test_a_block_released_beyond_its_limit_falls_from_the_start(db_url, fmu_path, tmp_path):
+    """theta0 > alpha and nothing else: it falls; what slides or lifts on the way down does
+    not change that, so the run held until its fall, which starts at t = 0."""
+    scene = tmp_path / "tilted.toml"
+    scene.write_text('name = "released past its corner"\n[block]\nhalf_width = 0.1\nhalf_height = 0.3\n'
+                     "theta0 = 0.4\n[simulation]\nstop_time = 3.0\n")
+    p = run_cli("simulate", str(scene), "--strict", "--json", db=db_url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    s = json.loads(p.stdout)
+    assert s["overturned"] and s["assumptions"]["fall_time_s"] == 0.0 and s["assumptions"]["outcome_held"]
+
+
+def test_a_one_block_scene_with_an_interface_friction_gets_a_note(tmp_path, db_url, fmu_path):
+    scene = tmp_path / "one.toml"
+    scene.write_text('name = "one block"\n[block]\nhalf_width = 0.1\nhalf_height = 0.3\n[contact]\nmu_interface = 0.2\n'
+                     "[simulation]\nstop_time = 0.5\n")
+    p = run_cli("simulate", str(scene), "--no-store", db=db_url, fmu_path=fmu_path)
+    assert p.returncode == 0 and "contact.muInterface is the friction between two blocks" in p.stderr

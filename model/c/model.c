@@ -231,5 +231,5 @@ void model_initialize(Model *M, double t0) {
     S->restTime = -1;
     S->maxAbsTheta = fabs(M->v.theta0);
     S->slideTime = S->liftTime = -1;
-    S->withinTime = -1;
+    S->withinTime = t0; /* a block released beyond its limit falls from the start */
 }

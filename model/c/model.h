@@ -171,7 +171,7 @@ typedef struct {
     double normalMin[2];          /* smallest N / (weight carried) */
     double slideTime, liftTime;   /* first sliding, first lift-off, s (-1: none) */
     double impulseDemandMax;      /* largest |tangential| / normal impulse of an impact */
-    double withinTime;            /* last sample with every block within its stability limit, s (-1: none) */
+    double withinTime;            /* last sample with every block within its stability limit, s (the start: none) */
     /* one block: the reactions at the end of the last step, from its last evaluation
      * of the equation of motion (valid with fValid: while t, y, f are that end's) */
     int endValid;

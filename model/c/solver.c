@@ -693,8 +693,8 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         FAIL("slideTime = %.17g is not a time in [start, t] (or -1)", S->slideTime);
     if (S->liftTime != -1 && !within(S->liftTime, lo, hi))
         FAIL("liftTime = %.17g is not a time in [start, t] (or -1)", S->liftTime);
-    if (S->withinTime != -1 && !(S->monValid && within(S->withinTime, lo, hi) && S->withinTime <= S->monT))
-        FAIL("withinTime = %.17g is not a sample time in [start, monT] (or -1)", S->withinTime);
+    if (!within(S->withinTime, lo, hi) || (S->monValid && S->withinTime > S->monT))
+        FAIL("withinTime = %.17g is not the start or a sample time in [start, monT]", S->withinTime);
     if (!(S->demandMax[0] >= 0 && S->demandMax[1] >= 0 && S->impulseDemandMax >= 0))
         FAIL("the friction demands must be >= 0");
     if (two && S->lastSwitchTime != -INFINITY && !within(S->lastSwitchTime, lo, hi))

@@ -81,7 +81,8 @@ def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
 
 def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] | None:
     """Dimitrakopoulos & DeJong (2012)'s smallest overturning a and its no-impact boundary, in a_g/(g tan alpha); None if they do not apply."""
-    if int(p.get("nBlocks", 1)) != 1 or int(p["excitation.kind"]) != 1 or p["excitation.cycles"] != 1:
+    if (int(p.get("nBlocks", 1)) != 1 or int(p["excitation.kind"]) != 1 or p["excitation.cycles"] != 1
+            or p.get("excitation.verticalAmplitude", 0.0) != 0):  # theirs is a horizontal pulse
         return None
     alpha = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
     eta = restitution(p, alpha)
@@ -195,6 +196,12 @@ def map_figure(factory, sweep_id: str):
 
 def draw(factory, sweep_id: str, out: Path) -> str:
     """Write the map of a stored sweep as a PNG; return a one-line summary."""
+    return draw_counted(factory, sweep_id, out)[0]
+
+
+def draw_counted(factory, sweep_id: str, out: Path) -> tuple[str, dict[str, int], int]:
+    """draw, and the count of points per region (by name) and of points where rigid rocking
+    broke first."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -203,5 +210,6 @@ def draw(factory, sweep_id: str, out: Path) -> str:
     fig, counts, n_broke, sw = map_figure(factory, sweep_id)
     fig.savefig(out, dpi=110)
     plt.close(fig)
-    return (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))
+    text = (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))
             + f"; rigid rocking broke first at {n_broke}; map written to {out}")
+    return text, dict(zip(REGIONS, counts)), n_broke

@@ -30,6 +30,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise ValueError("--measured overlays a measurement on a recording: give --out RUN.rrd too")
     if args.scale is not None and args.pga is not None:
         raise ValueError("give --scale or --pga, not both")
+    if args.strict and args.method not in ("fmu", "auto"):  # before anything runs or is stored
+        raise ValueError(f"--strict: method {args.method} does not monitor the contacts (the FMU does: "
+                         "--method fmu or auto)")
     if args.motion is not None:  # the record a stored ground or table motion amounts to
         from db.session import open_database
         from runners.cli.measured import motion_record
@@ -55,10 +58,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.strict:
         from runners.engine.summary import violations
 
-        held = run.summary.get("assumptions")
-        if held is None:
-            raise ValueError(f"--strict: the {run.summary.get('model', args.method)} run does not monitor the "
-                             "contacts (the FMU does: --method fmu)")
+        held = run.summary["assumptions"]  # fmu and auto runs monitor the contacts
         if not held["outcome_held"]:
             print(f"error: rigid rocking did not hold (--strict): {violations(held)}", file=sys.stderr)
             return STRICT_EXIT
@@ -103,7 +103,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_map(args: argparse.Namespace) -> int:
     from db.schema import Sweep
-    from runners.analysis.sweep_map import draw
+    from runners.analysis.sweep_map import draw_counted
     from runners.cli.parser import resolve_latest
 
     from db.session import open_database
@@ -111,9 +111,10 @@ def cmd_map(args: argparse.Namespace) -> int:
     factory = open_database(args.db, write=False)  # reads only: a mistyped path is not created
     sweep_id = resolve_latest(factory, Sweep, args.sweep, "sweep")
     with output.busy(f"map of sweep {sweep_id}"):
-        text = draw(factory, str(sweep_id), Path(args.out))
+        text, regions, n_broke = draw_counted(factory, str(sweep_id), Path(args.out))
     if args.json:
-        output.emit_json({"sweep": sweep_id, "figure": str(args.out), "summary": text})
+        output.emit_json({"sweep": sweep_id, "figure": str(args.out), "summary": text, "regions": regions,
+                          "rigid_rocking_broke": n_broke})
     else:
         print(text)
     return 0

@@ -206,6 +206,7 @@ def cmd_ida(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
                    "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
+                   "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
                    "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1),
                              "rigid_rocking_held": None if oc.broke is None else not bool(oc.broke[i])}
                             for i, (r, x, o, p1) in enumerate(zip(oc.record, oc.x, oc.overturned, oc.peak1))],

@@ -116,6 +116,8 @@ def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
         return "restitution.eta is used by the constant law (law = \"constant\") of one block only"
     if name in ("restitution.etaGround", "restitution.etaInterface") and not (two and law == 2):
         return f"{name} is used by the constant law (law = \"constant\") of two blocks only"
+    if name == "contact.muInterface" and not two:
+        return "contact.muInterface is the friction between two blocks, and the scene has one"
     if name == "restitution.correction" and two:
         return "restitution.correction is 1 for two blocks (use the constant law's eta_ground, eta_interface)"
     return None

@@ -68,9 +68,10 @@ class Outcomes:
             return (f"held in all {len(self.x)} runs: no contact slid or lifted off before the outcome was "
                     "decided")
         at = self.x[self.broke]
-        return (f"did not hold in {self.n_broke} of {len(self.x)} runs ({at.min():.3g} to {at.max():.3g} "
-                f"{self.unit}): a contact slid or lifted off first, so their outcomes are rigid rocking's, "
-                "not necessarily the block's (docs/contact.md)")
+        where = (f"at {at.min():.3g} {self.unit}" if at.min() == at.max() else
+                 f"{at.min():.3g} to {at.max():.3g} {self.unit}")
+        return (f"did not hold in {self.n_broke} of {len(self.x)} runs ({where}): a contact slid or lifted off "
+                "first, so their outcomes are rigid rocking's, not necessarily the block's (docs/contact.md)")
 
     def __repr__(self) -> str:
         return (f"Outcomes(sweep {self.sweep_id}, {self.scene!r}: {len(self.x)} runs against {self.label} in "

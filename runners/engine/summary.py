@@ -202,17 +202,18 @@ def model_check_line(s: dict[str, Any]) -> str:
 
 
 def violations(a: dict[str, Any]) -> str:
-    """What broke the rigid-rocking assumptions, where and when ("" if nothing did)."""
+    """What broke the rigid-rocking assumptions, where and when, earliest first ("" if nothing did)."""
     parts = []
     for kind, what in (("slides", "slides"), ("lifts", "lifts off")):
         ev = a[kind]
         if ev is not None:
             where = "between the blocks" if ev["contact"] == "interface" else "on the ground"
-            parts.append(f"{what} {where} at t = {ev['t_s']:.6g} s{' (at an impact)' if ev['at_impact'] else ''}")
-    if a["slides"] is not None:
-        c = a["slides"]["contact"]
-        parts[0] += f" (friction demand up to {a[f'friction_demand_max_{c}']:.3g}, mu {a[f'mu_{c}']:g})"
-    return "; ".join(parts)
+            text = f"{what} {where} at t = {ev['t_s']:.6g} s{' (at an impact)' if ev['at_impact'] else ''}"
+            if kind == "slides":
+                c = ev["contact"]
+                text += f" (friction demand up to {a[f'friction_demand_max_{c}']:.3g}, mu {a[f'mu_{c}']:g})"
+            parts.append((ev["t_s"], text))
+    return "; ".join(text for _, text in sorted(parts, key=lambda p: p[0]))
 
 
 def format_summary(s: dict[str, Any]) -> str:
@@ -237,7 +238,10 @@ def format_summary(s: dict[str, Any]) -> str:
     elif s["rest_time_s"] is not None:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
     elif s["final_state"] == "at rest":
-        outcome += " (never lifted: the excitation stayed below the uplift threshold)"
+        flew = (s.get("assumptions") or {}).get("lifts")
+        outcome += (" (never tipped: the excitation stayed below the uplift threshold)" if not flew else
+                    f" (never tipped; from t = {flew['t_s']:.6g} s the ground fell faster than g and the block, "
+                    "held to it by the model, would have flown: see assumptions)")
     if s["blocks"] == 2:
         if s["overturned"]:
             which = " and ".join(f"block {i}" for i in s["overturned_blocks"])
