@@ -452,7 +452,12 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     int s1, s2;
     state_at(M, inStep ? t : S->t, y, &s1, &s2, &s);
     model_ground(M, t, &ah, &av);
-    if (moving(S->mode)) stack_accel(M, S->mode, s1, s2, y, ah, av, acc);
+    if (moving(S->mode) && !inStep && S->fValid) { /* (t, y) is the last step's end: its last evaluation */
+        acc[0] = S->f[1];
+        acc[1] = S->f[3];
+    } else if (moving(S->mode)) {
+        stack_accel(M, S->mode, s1, s2, y, ah, av, acc);
+    }
     contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
 }
 
