@@ -170,7 +170,8 @@ def test_an_old_database_is_migrated_without_losing_rows(tmp_path):
 
 
 def test_catalogue_blocks_named_by_file_number_are_renamed_after_their_source(tmp_path):
-    """Revision 0007: seed000-blockN (a source document's file number) becomes anagnostopoulos-blockN."""
+    """Revision 0007: a block named by a source document's file number (the old catalogue name) becomes
+    anagnostopoulos-blockN."""
     from db.schema import Block
 
     url, engine = _database_at_revision(tmp_path, "0006")

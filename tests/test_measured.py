@@ -136,7 +136,7 @@ def test_a_file_in_other_units_and_signs_is_stored_in_ours(tmp_path, fmu_path, d
 
 
 @pytest.mark.parametrize("name", ["anagnostopoulos-block1", "anagnostopoulos-block2", "anagnostopoulos-block3"])
-def test_seed000_table3_in_spirit_calibration_returns_the_correction_factor(tmp_path, fmu, fmu_path, db, name):
+def test_anagnostopoulos_table3_in_spirit_calibration_returns_the_correction_factor(tmp_path, fmu, fmu_path, db, name):
     """A decay made with Housner's r times Table 3's factor; --law correction gets the factor back."""
     factor = next(c for c in CATALOGUE if c["name"] == name)["correction"]
     block = catalogue_block(name)

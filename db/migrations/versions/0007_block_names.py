@@ -1,9 +1,13 @@
 """The catalogue's blocks from Anagnostopoulos's thesis are named after it
-(anagnostopoulos-block1..4) instead of the file number of a source document.
+(anagnostopoulos-block1..4). Databases made before this revision named them after
+the number of a source document's file followed by "-blockN"; those rows are found
+by that shape (LEGACY) and renamed.
 
 Revision ID: 0007
 Revises: 0006
 """
+import re
+
 import sqlalchemy as sa
 from alembic import op
 
@@ -12,19 +16,21 @@ down_revision = "0006"
 branch_labels = None
 depends_on = None
 
-RENAMES = [(f"seed000-block{i}", f"anagnostopoulos-block{i}") for i in range(1, 5)]
+LEGACY = re.compile(r"seed0{3}-block([1-4])")  # the old names: a document's file number, then the block
 
 
 def upgrade() -> None:
     blocks = sa.table("blocks", sa.column("name", sa.String))
     conn = op.get_bind()
-    for old, new in RENAMES:  # a block already under the new name keeps it; the old one stays as it is
-        taken = conn.execute(sa.select(sa.func.count()).select_from(blocks).where(blocks.c.name == new)).scalar()
-        if not taken:
+    names = set(conn.execute(sa.select(blocks.c.name)).scalars())
+    for old in sorted(names):
+        m = LEGACY.fullmatch(old)
+        new = m and f"anagnostopoulos-block{m.group(1)}"
+        if new and new not in names:  # a block already under the new name keeps it; the old one stays as it is
             conn.execute(blocks.update().where(blocks.c.name == old).values(name=new))
+            names.add(new)
 
 
 def downgrade() -> None:
-    blocks = sa.table("blocks", sa.column("name", sa.String))
-    for old, new in RENAMES:
-        op.get_bind().execute(blocks.update().where(blocks.c.name == new).values(name=old))
+    """The new names stay: writing a file number back into a block's name would only undo the
+    point of this revision, and names are labels the earlier schema accepts as they are."""
