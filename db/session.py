@@ -32,6 +32,8 @@ from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 
+from runners.errors import RockingError
+
 DEFAULT_URL = "sqlite:///rocking.db"
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 MAX_ID = 2 ** 63 - 1  # ids are 64-bit integers at most (SQLite's INTEGER); larger ones name no row
@@ -40,7 +42,7 @@ SQLITE_MAGIC = b"SQLite format 3\x00"
 _READ_ONLY: weakref.WeakKeyDictionary[Engine, str] = weakref.WeakKeyDictionary()  # our read-only engines: their file
 
 
-class DatabaseError(RuntimeError):
+class DatabaseError(RockingError, RuntimeError):
     """The database cannot be opened or used; str() is a one-line message."""
 
 

@@ -15,6 +15,7 @@ Subpackages: runners.engine (scenes, the FMU, sweeps, records, recordings), runn
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
+from runners.errors import ArgumentError, RockingError
 from runners.api import (METHODS, RunResult, Scene, SceneError, SweepResult, SweepStopped, as_scene, import_records,
                          open_db, simulate, sweep)
 
@@ -24,4 +25,4 @@ except PackageNotFoundError:  # run from a source tree that was not installed
     __version__ = "0+unknown"
 
 __all__ = ["simulate", "sweep", "open_db", "import_records", "as_scene", "RunResult", "SweepResult", "SweepStopped", "Scene",
-           "SceneError", "METHODS", "__version__"]
+           "SceneError", "RockingError", "ArgumentError", "METHODS", "__version__"]

@@ -25,6 +25,7 @@ from typing import Any, Mapping, Sequence
 
 from runners.engine.results import RunResult, SweepResult
 from runners.engine.scene import Scene, SceneError, check_times, load_scene, scene_from_dict, unused_parameter
+from runners.errors import RockingError
 
 PYTHON_METHODS = ("scipy", "rk4", "rk4-located", "newmark", "euler")
 METHODS = ("fmu", "auto", "closed-form", *PYTHON_METHODS)
@@ -349,7 +350,7 @@ def _axes_from(grid: Mapping[str, Any] | Sequence[str] | None) -> list[str]:
     return list(grid)
 
 
-class SweepStopped(Exception):
+class SweepStopped(RockingError):
     """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM) or its workers failed.
     The points run so far are stored; ``sweep(resume=sweep_id)`` finishes it."""
 

@@ -39,11 +39,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import log_ndtr, ndtr, ndtri, stdtrit
 
+from runners.errors import RockingError
+
 Z95 = float(ndtri(0.975))
 MIN_RECORDS = 5  # fewest records for the jackknife intervals
 
 
-class FragilityError(ValueError):
+class FragilityError(RockingError, ValueError):
     """The outcomes do not determine a fragility curve; str() says why in one line."""
 
 

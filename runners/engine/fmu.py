@@ -28,6 +28,8 @@ from fmpy.fmi2 import (
     fmi2Terminated,
 )
 
+from runners.errors import RockingError
+
 def _allocator():
     """calloc and free for the FMU's callbacks. On POSIX from the process's global symbol
     namespace, so that an AddressSanitizer preloaded by make sanitize sees (and guards) the
@@ -79,7 +81,7 @@ def fmu_path_from(arg: str | None) -> Path:
     return build_fmu()
 
 
-class FMUError(RuntimeError):
+class FMUError(RockingError, RuntimeError):
     """The FMU returned an error; the message is the FMU's own log line."""
 
 

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from runners.errors import RockingError
+
 MAX_SAMPLES = 10_000_000
 MIN_INTERVAL, MAX_INTERVAL = 1e-6, 100.0  # s
 MAX_TIME = 1e6  # s
@@ -33,7 +35,7 @@ MAX_TOKEN = 512  # characters: a number written out longer than this is not a sa
 _SPACE = " \t\r\v\f"
 
 
-class RecordFileError(ValueError):
+class RecordFileError(RockingError, ValueError):
     """A record file the FMU would refuse; str() is one line naming the file and the line."""
 
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from runners.errors import RockingError
+
 # "housner" is the momentum law: Housner's coefficient for one block, the
 # projection of docs/two_blocks.md for two ("momentum" is its other name).
 LAWS = {"housner": 0, "momentum": 0, "modified": 1, "constant": 2}
@@ -123,7 +125,7 @@ def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
     return None
 
 
-class SceneError(ValueError):
+class SceneError(RockingError, ValueError):
     """A scene file is unreadable or invalid; str() is a one-line message."""
 
 

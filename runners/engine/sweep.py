@@ -46,6 +46,7 @@ from db.store import add_scene, code_version, file_sha256
 from runners.engine.fmu import FMUError, RockingFMU, with_scene_defaults
 from runners.engine.intensity import G0, SCALING
 from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
+from runners.errors import RockingError
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest",
@@ -692,7 +693,7 @@ def _run_chunk(tasks: list) -> list[tuple]:
     return [_run_point(t) for t in tasks]
 
 
-class SweepError(RuntimeError):
+class SweepError(RockingError, RuntimeError):
     """A sweep cannot go on (e.g. a worker process died); str() is a one-line message."""
 
 
