@@ -16,7 +16,6 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from fmu_build.documentation import DOCS, PAGES, documentation_html
-from fmu_build.model_description import model_description
 from fmu_build.variables import read_enumerations, read_variables
 
 MODEL_IDENTIFIER = "RockingBlock"
@@ -168,6 +167,8 @@ def build_fmu(
     if not sanitize and platforms is None and wincc is None:
         print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
               "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
+
+    from fmu_build.model_description import model_description  # only to build: it loads xml.sax and urllib
 
     guid = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
     variables = read_variables(C_DIR / "variables.def")

@@ -20,7 +20,6 @@ from pathlib import Path
 from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, CFLAGS, SANITIZE_FLAGS, VERSION, BuildError,
                              _sources_digest, compile_binary, default_fmu_path, fmi_headers_dir)
 from fmu_build.documentation import documentation_html
-from fmu_build.model_description3 import build_description3, model_description3
 from fmu_build.variables import read_enumerations, read_variables
 
 MODEL_IDENTIFIER3 = "RockingBlock3"
@@ -69,6 +68,8 @@ def build_fmu3(
     stamp = out.with_name(out.name + ".sha256")
     if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
+
+    from fmu_build.model_description3 import build_description3, model_description3  # only to build
 
     token = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
     variables = read_variables(C_DIR / "variables.def")

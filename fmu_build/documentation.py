@@ -12,8 +12,6 @@ import html
 import re
 from pathlib import Path
 
-import markdown
-
 from fmu_build.variables import Enumeration, Variable
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
@@ -30,6 +28,8 @@ code { background: #f4f4f4; }
 
 
 def _markdown(text: str) -> str:
+    import markdown  # only when an FMU is built: every command that finds it built starts without it
+
     return markdown.markdown(_LOCAL_LINK.sub(r"\1", text), extensions=["tables", "fenced_code"])
 
 

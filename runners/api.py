@@ -138,10 +138,9 @@ def simulate(
     refuses a parameter.
     """
     from runners.engine.fmu import RockingFMU, fmu_path_from
-    from runners.engine.records import prepare_scene
     from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_assumptions, format_summary,
                                         model_check_line, summarize)
-    from runners.engine.tables import events_frame, series_frame
+    from runners.engine.results import events_later, series_later
 
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
@@ -194,7 +193,7 @@ def simulate(
         sc.pga = pga
         if scale is not None:
             sc.parameters["excitation.scale"] = float(scale)
-    rec = prepare_scene(sc, factory if factory is not None or sc.record is None else _factory(db))
+    rec = _prepare_record(sc, factory if factory is not None or sc.record is None else _factory(db))
     check_times(sc.stop_time, sc.step, "the stop time", "the output step")
     result = None
     series = events = None
@@ -259,8 +258,8 @@ def simulate(
                     s["notes"] = notes
                 report = format_summary({k: v for k, v in s.items() if k != "notes"})  # notes: summary["notes"]
                 keep = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS]  # as stored and exported
-                series = series_frame(result.time, {k: result.outputs[k] for k in keep})
-                events = events_frame([e.as_dict() for e in result.events])
+                series = series_later(result.time, {k: result.outputs[k] for k in keep})
+                events = events_later([e.as_dict() for e in result.events])
         if method == "auto" and "assumptions" in s:  # the least model must also be a model that holds
             s["model_sufficient"] = s["assumptions"]["outcome_held"]
             report += "\n" + model_check_line(s)
@@ -283,7 +282,7 @@ def simulate(
         s["run_id"] = run_id
         report += f"\nstored           run {run_id} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
     if series is None:
-        series, events = series_frame(_empty(), {}), events_frame([])
+        series, events = series_later(_empty(), {}), events_later([])
     return RunResult(scene=sc.name, series=series, events=events, summary=s, parameters=merged, run_id=run_id,
                      recording=written, report=report)
 
@@ -301,6 +300,16 @@ def _empty():
     import numpy as np
 
     return np.empty(0)
+
+
+def _prepare_record(scene: Scene, factory=None):
+    """runners.engine.records.prepare_scene, imported for a record scene only: it loads SQLAlchemy
+    and SciPy, which a scene without a record does not need (tests/test_startup.py)."""
+    if not scene.is_record:
+        return None
+    from runners.engine.records import prepare_scene
+
+    return prepare_scene(scene, factory)
 
 
 def _factory(url: str | None):

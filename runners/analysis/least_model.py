@@ -28,9 +28,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from model import closed_form as cf
-from model.reference import housner_restitution, modified_restitution
-
 TWO_BLOCK_PARAMETERS = ("block2.halfWidth", "block2.halfHeight", "block2.mass", "block2.theta0", "block2.omega0",
                         "restitution.etaGround", "restitution.etaInterface")
 
@@ -88,6 +85,8 @@ def one_block_parameters(p: dict[str, Any]) -> dict[str, Any]:
 
 def restitution(p: dict[str, Any], alpha: float) -> float:
     """The one-block coefficient of restitution of the scene (as the FMU computes it)."""
+    from model.reference import housner_restitution, modified_restitution  # loads SciPy: only when used
+
     law = int(p["restitution.law"])
     if law == 0:
         eta = housner_restitution(alpha)
@@ -100,6 +99,8 @@ def restitution(p: dict[str, Any], alpha: float) -> float:
 
 def closed_form_summary(p: dict[str, Any]) -> dict[str, Any]:
     """The closed forms' answer for a scene that choose_model sent to them."""
+    from model import closed_form as cf  # loads SciPy: only when used
+
     b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
     alpha, R = math.atan2(b, h), math.hypot(b, h)
     pf = math.sqrt(3 * g / (4 * R))

@@ -27,7 +27,6 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 G0 = 9.80665  # m/s^2, standard gravity (Arias intensity, accelerations "in g")
 MEAN_PERIOD_BAND = (0.25, 20.0)  # Hz
@@ -171,6 +170,8 @@ def _arias_time(t: np.ndarray, a: np.ndarray, cum: np.ndarray, target: float) ->
         return float(t[i])
     if f(h) <= 0.0:
         return float(t[i + 1])
+    from scipy.optimize import brentq  # SciPy loads only for the measures that need it
+
     return float(t[i] + brentq(f, 0.0, h, xtol=1e-14 * max(1.0, t[i + 1]), rtol=1e-15))
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -19,7 +19,6 @@ if TYPE_CHECKING:
     from sqlalchemy.orm import sessionmaker
 
 
-@dataclass
 class RunResult:
     """One simulated (or stored) run.
 
@@ -35,16 +34,34 @@ class RunResult:
     recording: the Rerun recording (.rrd) written, if any.
     report: the summary for people, as ``runners simulate`` prints it; its notes (scene
         parameters the run does not use, record units...) are in ``summary["notes"]``.
+
+    series and events may be given as functions that build them: they are then built on first
+    use, so that pandas loads only for a caller that reads them (runners simulate prints the
+    summary only).
     """
 
-    scene: str
-    series: "pd.DataFrame"
-    events: "pd.DataFrame"
-    summary: dict[str, Any]
-    parameters: dict[str, Any] = field(default_factory=dict)
-    run_id: int | None = None
-    recording: Path | None = None
-    report: str = ""
+    def __init__(self, scene: str, series: "pd.DataFrame | Callable[[], pd.DataFrame]",
+                 events: "pd.DataFrame | Callable[[], pd.DataFrame]", summary: dict[str, Any],
+                 parameters: dict[str, Any] | None = None, run_id: int | None = None,
+                 recording: Path | None = None, report: str = "") -> None:
+        self.scene, self.summary, self.parameters = scene, summary, {} if parameters is None else parameters
+        self.run_id, self.recording, self.report = run_id, recording, report
+        self._series, self._events = series, events
+
+    def __repr__(self) -> str:
+        return f"RunResult(scene={self.scene!r}, run_id={self.run_id!r}, overturned={self.overturned})"
+
+    @property
+    def series(self) -> "pd.DataFrame":
+        if callable(self._series):
+            self._series = self._series()
+        return self._series
+
+    @property
+    def events(self) -> "pd.DataFrame":
+        if callable(self._events):
+            self._events = self._events()
+        return self._events
 
     @property
     def overturned(self) -> bool:
@@ -82,3 +99,23 @@ class SweepResult:
         from runners.engine import study
 
         return study.fragility(self.outcomes(measure))
+
+
+def series_later(time, outputs: dict[str, Any]) -> Callable[[], "pd.DataFrame"]:
+    """A function building runners.engine.tables.series_frame(time, outputs) when called (a
+    RunResult's series, built on first use: tables loads pandas and SQLAlchemy)."""
+    def build() -> "pd.DataFrame":
+        from runners.engine.tables import series_frame
+
+        return series_frame(time, outputs)
+    return build
+
+
+def events_later(events: list[dict[str, Any]]) -> Callable[[], "pd.DataFrame"]:
+    """A function building runners.engine.tables.events_frame(events) when called (a RunResult's
+    events, built on first use)."""
+    def build() -> "pd.DataFrame":
+        from runners.engine.tables import events_frame
+
+        return events_frame(events)
+    return build

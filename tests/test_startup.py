@@ -1,0 +1,97 @@
+"""A command loads only the libraries it uses (docs/cli.md, "Start-up time"): `runners simulate
+--no-store` of a scene without a record starts without pandas, SciPy, SQLAlchemy, Alembic,
+Matplotlib, Rerun or pyarrow; `runners db list` on an up-to-date database with SQLAlchemy alone.
+
+Nothing here is timed (times depend on the machine): each test drives the real command in a fresh
+Python process and lists the heavy libraries loaded by the end of it. A top-level import of one
+of them in a module on these paths fails the test; move it into the function that needs it."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "examples"
+HEAVY = ("pandas", "scipy", "sqlalchemy", "alembic", "matplotlib", "rerun", "pyarrow")
+
+# runs the command line in this process, then prints (exit code, the heavy libraries loaded)
+DRIVE = """\
+import json, sys
+from runners.cli import parser
+code = parser.main(sys.argv[1:])
+print(json.dumps([code, sorted({m.split(".")[0] for m in sys.modules} & set(%r))]))
+""" % (HEAVY,)
+
+
+def loaded_by(*args: str, db: str, fmu_path: Path) -> list[str]:
+    """The heavy libraries a fresh process has loaded after running `runners ARGS` (which must succeed)."""
+    env = {**os.environ, "ROCKING_DB": db, "ROCKING_FMU": str(fmu_path)}
+    p = subprocess.run([sys.executable, "-c", DRIVE, *args], capture_output=True, text=True, cwd=ROOT, env=env,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    code, heavy = json.loads(p.stdout.strip().splitlines()[-1])
+    assert code == 0, p.stdout + p.stderr
+    return heavy
+
+
+@pytest.fixture(scope="module")
+def up_to_date(tmp_path_factory, fmu_path) -> str:
+    """An SQLite database at the newest schema revision, with one stored run."""
+    db = f"sqlite:///{tmp_path_factory.mktemp('startup') / 's.db'}"
+    for args in (("db", "init"), ("simulate", str(EX / "free_rocking.toml"))):
+        p = run_cli(*args, db=db, fmu_path=fmu_path)
+        assert p.returncode == 0, p.stderr
+    return db
+
+
+def test_simulate_no_store_loads_no_heavy_library(up_to_date, fmu_path):
+    assert loaded_by("simulate", str(EX / "free_rocking.toml"), "--no-store", db=up_to_date, fmu_path=fmu_path) == []
+
+
+def test_simulate_no_store_as_json_loads_no_heavy_library(up_to_date, fmu_path):
+    heavy = loaded_by("simulate", str(EX / "sine_pulse.toml"), "--no-store", "--json", db=up_to_date,
+                      fmu_path=fmu_path)
+    assert heavy == []
+
+
+@pytest.mark.parametrize("table", ["runs", "blocks", "scenes"])
+def test_db_list_loads_sqlalchemy_alone(up_to_date, fmu_path, table):
+    """An up-to-date database is opened without Alembic: its revision is the newest one the
+    migration scripts name, which db.session reads from them without loading Alembic."""
+    assert loaded_by("db", "list", table, db=up_to_date, fmu_path=fmu_path) == ["sqlalchemy"]
+
+
+def test_the_plain_reading_of_the_newest_revision_is_alembics():
+    """db.session reads the newest revision from the migration scripts' lines; Alembic, which
+    decides when a database is migrated, must find the same one."""
+    from alembic.config import Config
+    from alembic.script import ScriptDirectory
+
+    from db.session import MIGRATIONS, _plain_head
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(MIGRATIONS))
+    assert _plain_head() is not None
+    assert _plain_head() == ScriptDirectory.from_config(cfg).get_current_head()
+
+
+def test_the_package_loads_its_api_on_first_use():
+    """`import runners` (which every command does first) does not load runners.api; its names do,
+    on first use, and are runners.api's own."""
+    code = ("import sys, runners; before = 'runners.api' in sys.modules; import runners.api as api; "
+            "print(before, runners.simulate is api.simulate, runners.RunResult is api.RunResult, "
+            "'simulate' in dir(runners), bool(runners.__version__))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["False", "True", "True", "True", "True"]
+    p = subprocess.run([sys.executable, "-c", "import runners; runners.no_such_name"], capture_output=True, text=True,
+                       cwd=ROOT, timeout=120)
+    assert p.returncode == 1 and "AttributeError: module 'runners' has no attribute 'no_such_name'" in p.stderr
