@@ -95,3 +95,26 @@ def test_the_package_loads_its_api_on_first_use():
     p = subprocess.run([sys.executable, "-c", "import runners; runners.no_such_name"], capture_output=True, text=True,
                        cwd=ROOT, timeout=120)
     assert p.returncode == 1 and "AttributeError: module 'runners' has no attribute 'no_such_name'" in p.stderr
+
+
+def test_bench_startup_times_both_commands_of_both_installations():
+    """runners bench --startup --baseline PYTHON: each command's CPU time by both installations,
+    with and without cached bytecode, and the ratio (here both are this one: the values are the
+    machine's, only their presence and consistency are checked)."""
+    from runners.analysis.bench import markdown_sections
+    from runners.analysis.bench_startup import run_startup_bench
+
+    (section,) = markdown_sections(run_startup_bench(sys.executable, repeats=1))
+    assert section["columns"] == ["command", "bytecode", "CPU s, baseline", "CPU s, this", "ratio this / baseline"]
+    assert len(section["rows"]) == 6
+    for command, _, old, new, ratio in section["rows"]:
+        rounding = ratio * (5e-4 / old + 5e-4 / new) + 5e-4  # the table's three decimals
+        assert old > 0 and new > 0 and abs(ratio - new / old) <= rounding, (command, old, new, ratio)
+    until_fmu, whole = section["rows"][0][3], section["rows"][1][3]
+    assert until_fmu < whole  # the start-up is part of the command
+
+
+def test_bench_baseline_without_startup_is_a_one_line_error(fmu_path, tmp_path):
+    p = run_cli("bench", "--baseline", sys.executable, db=f"sqlite:///{tmp_path / 'b.db'}", fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stdout == "" and p.stderr.strip() == "error: --baseline is the other installation " \
+                                                                        "of --startup"

@@ -145,6 +145,10 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
 
         return run_interface_bench(fmu, fmu3_for(fmu))
 
+    if args.startup:
+        from runners.analysis.bench_startup import run_startup_bench
+
+        return [("start-up", lambda: run_startup_bench(args.baseline))]
     if args.interfaces:
         return [("FMI interfaces", interfaces)]
     if args.against:
@@ -182,9 +186,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise ValueError("--charts writes its charts to a folder: give --out DIR")
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
-    if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against))) > 1:
-        raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces and --against (or "
-                         "none: every benchmark)")
+    if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against,
+                      args.startup))) > 1:
+        raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against and "
+                         "--startup (or none: every benchmark)")
+    if args.baseline and not args.startup:
+        raise ValueError("--baseline is the other installation of --startup")
     fmu = fmu_path_from(args.fmu)
     stages = dict(_bench_stages(args, fmu))
     texts = []

@@ -189,6 +189,12 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--against", metavar="FMU",
                        help="only the native benchmark of the FMU against another build of it (say one from "
                             "before a change), interleaved in one run, with the ratios")
+    bench.add_argument("--startup", action="store_true",
+                       help="only the start-up: CPU time of runners simulate --no-store and runners db list, each "
+                            "in a fresh process")
+    bench.add_argument("--baseline", metavar="PYTHON",
+                       help="with --startup: also the Python of another installation (say a checkout from before "
+                            "a change), alternating in one run, with the ratios")
     common(bench, fmu=True)
     bench.set_defaults(func=f"{main}:cmd_bench", chart=None)
 
