@@ -6,7 +6,9 @@ line runs them:
 - ``runners simulate examples/free_rocking.toml --no-store``: the CPU time from the process's
   start to the moment it instantiates the FMU (runners.engine.fmu.RockingFMU), and the whole
   command's;
-- ``runners db list runs`` on an up-to-date SQLite database: the whole command's.
+- ``runners db list runs`` on an up-to-date SQLite database: the whole command's;
+
+and, for scale, ``python -c "import fmpy"``: the least a command that runs the FMU loads.
 
 With ``--baseline PYTHON`` (the Python of another installation of this tool, say a checkout
 before a change) both installations run the commands in turn, alternating, in one run: the
@@ -66,7 +68,8 @@ def _run(python: str, args: list[str], env: dict[str, str], cwd: str) -> float:
 MODES = {"cached": "cached", "compiled": "not written (PYTHONDONTWRITEBYTECODE=1)"}  # the bytecode of the modules
 ROWS = [("until_fmu", "`runners simulate examples/free_rocking.toml --no-store`, until the FMU starts"),
         ("simulate", "`runners simulate examples/free_rocking.toml --no-store`, whole command"),
-        ("db_list", "`runners db list runs`, whole command (up-to-date SQLite database)")]
+        ("db_list", "`runners db list runs`, whole command (up-to-date SQLite database)"),
+        ("fmpy", "`python -c \"import fmpy\"`: Python, NumPy and fmpy, which any run of the FMU loads")]
 
 
 def _environment(folder: Path, label: str, mode: str) -> dict[str, str]:
@@ -91,7 +94,8 @@ def _measure(python: str, folder: Path, label: str, mode: str) -> dict[str, floa
     whole = _run(python, ["-c", _UNTIL_FMU, str(noted), "simulate", str(SCENE), "--no-store"], env, str(folder))
     until_fmu = float(noted.read_text().split()[0])
     listing = _run(python, ["-m", "runners.cli", "db", "list", "runs"], env, str(folder))
-    return {"until_fmu": until_fmu, "simulate": whole, "db_list": listing}
+    fmpy = _run(python, ["-c", "import fmpy"], env, str(folder))
+    return {"until_fmu": until_fmu, "simulate": whole, "db_list": listing, "fmpy": fmpy}
 
 
 def run_startup_bench(baseline: str | None = None, repeats: int = REPEATS) -> str:
