@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import common, object_id, output_file, renamed
+from runners.cli.args import Once, common, object_id, output_file, renamed
 from runners.cli.output import emit_json, note
 
 
@@ -251,7 +251,7 @@ def add_parser(sub) -> None:
             ("ida", cmd_ida, "IDA curves of a sweep over records: peak |theta|/alpha against intensity")):
         st = sub.add_parser(name, help=what)
         st.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
-        st.add_argument("--im", default="pga",
+        st.add_argument("--im", default="pga", action=Once,
                         help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
         st.add_argument("--out", type=output_file, metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
         st.set_defaults(func=func)

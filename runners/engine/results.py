@@ -71,8 +71,10 @@ class SweepResult:
     def outcomes(self, measure: str = "pga") -> "Outcomes":
         """A record sweep's runs against intensity ``measure`` (pga in g, pgv in m/s, pgd in m,
         arias in m/s): runners.engine.study.Outcomes, the data of the fragility and IDA curves."""
+        from runners import arguments
         from runners.engine import study
 
+        measure = arguments.text(measure, "measure", "an intensity measure (str): pga, pgv, pgd or arias")
         return study.outcomes(self.factory, self.sweep_id, measure)
 
     def fragility(self, measure: str = "pga") -> "Fragility":

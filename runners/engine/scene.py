@@ -16,6 +16,7 @@ until its record ends plus a few seconds (runners.engine.records.TAIL).
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -152,8 +153,8 @@ class Scene:
 
 
 def _value(where: str, value: Any, kind: Any) -> float | int | bool:
-    if kind == "real":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if kind == "real":  # numpy's scalars too (a dict scene built in Python)
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise SceneError(f"{where}: expected a number, got {value!r}")
         if not math.isfinite(value):
             raise SceneError(f"{where}: {value!r} is not a finite number")
@@ -167,9 +168,9 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
             raise SceneError(f"{where}: expected a non-empty text, got {value!r}")
         return value
     if kind == "record":
-        if isinstance(value, bool) or not isinstance(value, (str, int)) or not str(value).strip():
+        if isinstance(value, bool) or not isinstance(value, (str, numbers.Integral)) or not str(value).strip():
             raise SceneError(f"{where}: expected a record name or database id, got {value!r}")
-        return str(value).strip()
+        return str(value).strip() if isinstance(value, str) else str(int(value))
     if not isinstance(value, str) or value not in kind:
         raise SceneError(f"{where}: expected one of {', '.join(kind)}, got {value!r}")
     return kind[value]
@@ -177,7 +178,10 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
 
 def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     """Validate a parsed TOML document into a :class:`Scene`."""
-    scene = Scene(name=str(data.get("name", Path(source).stem)), source=source)
+    name = data.get("name", Path(source).stem)
+    if not isinstance(name, str) or not name.strip():
+        raise SceneError(f"{source}: name must be a text (name = \"statue\"), got {name!r}")
+    scene = Scene(name=name, source=source)
     for table, content in data.items():
         if table == "name":
             continue
