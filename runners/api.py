@@ -25,7 +25,8 @@ from typing import Any, Mapping, Sequence
 
 from runners import arguments as args
 from runners.engine.results import RunResult, SweepResult
-from runners.engine.scene import Scene, SceneError, check_times, load_scene, scene_from_dict, unused_parameter
+from runners.engine.scene import (Scene, SceneError, check_times, implausible_sizes, load_scene, scene_from_dict,
+                                  unused_parameter)
 from runners.errors import ArgumentError, RockingError
 
 PYTHON_METHODS = ("scipy", "rk4", "rk4-located", "newmark", "euler")
@@ -164,8 +165,8 @@ def simulate(
         see docs/database.md); its id is ``result.run_id``.
     fmu: the FMU (default build/RockingBlock.fmu, built if needed).
 
-    Raises SceneError or ValueError (a one-line message) for invalid input, FMUError when the FMU
-    refuses a parameter.
+    Numbers may be numpy scalars. Raises ArgumentError (an argument of the wrong type or value) or
+    SceneError (a one-line message) for invalid input, FMUError when the FMU refuses a parameter.
     """
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.records import prepare_scene
@@ -246,6 +247,7 @@ def simulate(
         merged = {**defaults, **sc.parameters}
         notes += [f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
                   and (why := unused_parameter(k, merged))]
+        notes += implausible_sizes(merged)
         if method in PYTHON_METHODS:
             from runners.engine.python_methods import format_python, run_python
 
@@ -458,14 +460,16 @@ def sweep(
     resume: finish the interrupted sweep with this id instead.
     stop_time: s, replaces the scene's. workers: local worker processes (default: all cores).
     db: SQLAlchemy URL (None: the default SQLite file). progress: show a progress bar.
-    record, record_dir: grid points to simulate in full and record as .rrd (``"0,17,40-45"``).
+    record, record_dir: grid points to simulate in full and record as .rrd (``"0,17,40-45"`` or
+        a list of indices).
     executor, scheduler, chunk: "local" (default) or "dask" with the scheduler's address
         (``tcp://HOST:PORT`` or ``local:N``) and the points per task (docs/cluster.md).
     on_note: called with each note (a str) about the scene, e.g. ``print``.
 
     The returned SweepResult's ``stats`` count the points stored and failed and the time spent;
-    its ``to_pandas()`` reads the points back. Raises ValueError/SceneError (one-line messages) for
-    invalid input, and SweepStopped when interrupted or when workers fail (the sweep stays resumable).
+    its ``to_pandas()`` reads the points back. Numbers may be numpy scalars. Raises ArgumentError
+    or SceneError (one-line messages) for invalid input, before anything is stored, and
+    SweepStopped when interrupted or when workers fail (the sweep stays resumable).
     """
     from db.schema import Sweep
     from db.session import open_database, require_writable
@@ -477,7 +481,7 @@ def sweep(
     specs = _axes_from(grid)
     records = _records_spec(records)
     im = args.optional(args.text, im, "im", "a text such as 'pga=0.1:1.5:15' (g) or 'pgv=...' (m/s)")
-    resume = args.optional(args.whole, resume, "resume", 1)
+    resume = args.optional(args.whole, resume, "resume")
     stop_time = args.optional(_seconds, stop_time, "stop_time")
     workers = args.optional(args.whole, workers, "workers", 1)
     chunk = args.optional(args.whole, chunk, "chunk", 1)
@@ -485,6 +489,7 @@ def sweep(
     fmu = args.optional(args.path, fmu, "fmu", "an FMU file's path")
     progress = args.flag(progress, "progress")
     if record is not None and not isinstance(record, str):  # grid indices: "0,17,40-45", or a list of them
+        record = [record] if args.is_whole(record) else record
         if not isinstance(record, (list, tuple)) or not all(args.is_whole(i) for i in record):
             raise ArgumentError(f"record must be grid indices as a text ('0,17,40-45', 'all') or a list of whole "
                                 f"numbers, got {record!r}"[:200])
@@ -541,6 +546,7 @@ def sweep(
             check_size(full.total, factory)
             if not recs:  # the FMU's own checks, at the grid's corners, before the sweep exists
                 notes += check_corners(fm, full, {**defaults, **sc.parameters})
+            notes += implausible_sizes({**defaults, **sc.parameters})
         for note in notes:
             if on_note is not None:
                 on_note(note)

@@ -65,7 +65,7 @@ class Database:
 
         sweep: only the points of this sweep; single: only runs in no sweep; limit: the
         newest N. A sweep of a million points makes a million rows: filter."""
-        sweep, limit = arguments.optional(arguments.whole, sweep, "sweep", 1), arguments.optional(arguments.whole,
+        sweep, limit = arguments.optional(arguments.whole, sweep, "sweep"), arguments.optional(arguments.whole,
                                                                                                 limit, "limit", 0)
         single = arguments.flag(single, "single")
         return stored_table(self.factory, "runs", sweep=sweep, single=single, limit=limit)
@@ -99,7 +99,7 @@ class Database:
         from db import series as packed
         from runners.engine.tables import events_frame, series_frame
 
-        run_id = arguments.whole(run_id, "run_id", 1)  # np.int64 included: a plain int for the database
+        run_id = arguments.whole(run_id, "run_id")  # np.int64 included: a plain int for the database
         with self.factory() as session:
             run = session.get(Run, run_id)
             if run is None:
@@ -127,7 +127,7 @@ class Database:
         sweep that is not there."""
         from runners.engine.tables import grid_text
 
-        sweep_id = arguments.whole(sweep_id, "sweep_id", 1)
+        sweep_id = arguments.whole(sweep_id, "sweep_id")
         with self.factory() as session:
             sw = session.get(Sweep, sweep_id)
             if sw is None:

@@ -111,6 +111,8 @@ def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol:
 
 
 def format_python(name: str, s: dict[str, Any], stop_time: float) -> str:
+    from runners.engine.summary import peak_line
+
     outcome = s["final_state"]
     if s["overturned"]:
         outcome += f" at t = {s['overturn_time_s']:.4f} s"
@@ -121,7 +123,7 @@ def format_python(name: str, s: dict[str, Any], stop_time: float) -> str:
              f"outcome          {outcome}"]
     if s["blocks"] == 2:
         lines += [f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
-                  f"peak |theta|     block 1 {s['max_abs_theta_rad']:.6f} rad, block 2 {s['max_abs_theta2_rad']:.6f} rad"]
+                  peak_line(s)]
     else:
-        lines += [f"impacts          {s['impacts']}", f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad"]
+        lines += [f"impacts          {s['impacts']}", peak_line(s)]
     return "\n".join(lines)

@@ -126,6 +126,22 @@ def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
     return None
 
 
+# m: a block's half width or half height above this is most likely entered in millimetres
+PLAUSIBLE_HALF_SIZE = 10.0
+
+
+def implausible_sizes(p: dict[str, Any]) -> list[str]:
+    """Notes (not errors) for blocks of parameters `p` (defaults included) with a half size above
+    PLAUSIBLE_HALF_SIZE: a 400 mm x 1600 mm block entered as 400 x 1600 runs as a building."""
+    notes = []
+    for i in (1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,):
+        b, h = float(p.get(f"block{i}.halfWidth", 0.0)), float(p.get(f"block{i}.halfHeight", 0.0))
+        if max(b, h) > PLAUSIBLE_HALF_SIZE:
+            notes.append(f"block{i} is {2 * b:g} m x {2 * h:g} m (half_width {b:g} m, half_height {h:g} m): sizes "
+                         "are in metres (docs/scenes.md)")
+    return notes
+
+
 class SceneError(RockingError, ValueError):
     """A scene file is unreadable or invalid; str() is a one-line message."""
 
