@@ -292,8 +292,8 @@ def peak_line(s: dict[str, Any]) -> str:
     overturned has no peak: its largest angle is where the run stopped following its fall
     (pi/2 or so), not a demand, so the line says when it overturned instead."""
     when = f"overturned at t = {s['overturn_time_s']:.4f} s" if s.get("overturn_time_s") is not None else "overturned"
-    if s["blocks"] == 2:
-        fell = s.get("overturned_blocks") or ([1, 2] if s["overturned"] else [])  # (a method that does not say which)
+    if s["blocks"] == 2 and not (s["overturned"] and "overturned_blocks" not in s):  # (which one fell unknown)
+        fell = s.get("overturned_blocks") or []
         parts = [f"block {i} " + ("overturned" if i in fell else f"{s[key]:.6f} rad")
                  for i, key in ((1, "max_abs_theta_rad"), (2, "max_abs_theta2_rad"))]
         return f"peak |theta|     {', '.join(parts)}"  # the outcome line says when
