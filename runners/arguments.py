@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from pathlib import Path
 from typing import Any
 
 from runners.errors import ArgumentError
@@ -89,10 +88,9 @@ def optional(check, value: Any, name: str, *args: Any) -> Any:
 
 def database_url(value: Any, name: str = "db") -> str | None:
     """A database: None (the default), an SQLAlchemy URL or an SQLite file's path."""
-    if value is None:
-        return None
-    url = path(value, name, "an SQLAlchemy URL or an SQLite file's path (str), or None for the default")
-    return url if isinstance(value, str) else str(Path(url))
+    if value is None or isinstance(value, str):  # (the database layer judges the text: empty, in-memory...)
+        return value
+    return path(value, name, "an SQLAlchemy URL or an SQLite file's path (str), or None for the default")
 
 
 def names(value: Any, name: str, what: str) -> list[str]:
