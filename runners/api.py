@@ -117,7 +117,8 @@ def _check_fmu(fm, fmu_path: Path) -> None:
     if "nBlocks" not in fm.defaults():
         version = getattr(fm.model_description, "fmiVersion", "?")
         raise ArgumentError(f"fmu {fmu_path}: an FMI {version} FMU whose parameters (nBlocks...) runners does not "
-                            "read: give the FMI 2.0 RockingBlock.fmu (python -m fmu_build builds build/RockingBlock.fmu)")
+                            "read: give the FMI 2.0 RockingBlock.fmu (python -m fmu_build builds "
+                            "build/RockingBlock.fmu)")
 
 
 def simulate(

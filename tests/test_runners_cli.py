@@ -121,8 +121,8 @@ def test_an_overturned_block_has_no_peak_but_its_overturning_time(fmu_path, tmp_
 
 def test_an_overturned_block_of_a_stack_has_no_peak(fmu_path, tmp_path):
     scene = tmp_path / "stack.toml"
-    scene.write_text((ROOT / "examples" / "two_blocks_harmonic.toml").read_text()
-                     .replace("displacement = 0.003", "displacement = 0.02").replace("frequency = 7.0", "frequency = 3.0"))
+    text = (ROOT / "examples" / "two_blocks_harmonic.toml").read_text()
+    scene.write_text(text.replace("displacement = 0.003", "displacement = 0.02").replace("frequency = 7.0", "frequency = 3.0"))
     p = runners("simulate", str(scene), "--no-store", fmu_path=fmu_path)
     s = json.loads(runners("simulate", str(scene), "--no-store", "--json", fmu_path=fmu_path).stdout)
     assert p.returncode == 0 and s["overturned_blocks"], p.stderr
