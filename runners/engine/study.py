@@ -716,7 +716,8 @@ def _ida_column(axes, oc: Outcomes) -> None:
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
         ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
-        ax.text(levels.min(), top, f" x {title} overturned", va="bottom", fontsize=8, color="0.3")
+        ax.text(levels.min(), top, f" x {title + ' ' if oc.two else ''}overturned", va="bottom", fontsize=8,
+                color="0.3")
         ax.set_ylim(0, top + 0.07)
         ax.set_ylabel(f"peak |theta| / alpha, {title}")
         ax.legend(fontsize=7 if len(names) <= 12 else 8, loc="center right")
