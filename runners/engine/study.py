@@ -434,10 +434,11 @@ class Curve:
         if self.fragility is not None:
             f = self.fragility
             out.update(median=f.median, beta=f.beta, median_95=list(f.median_interval), beta_95=list(f.beta_interval),
-                       intervals=f.interval_method, notes=oc.notes + fragility_notes(f, oc), why=None)
+                       intervals=f.interval_method, notes=oc.notes + fragility_notes(f, oc)
+                       + state_notes(self.state, oc), why=None)
         else:
-            out.update(median=None, beta=None, median_95=None, beta_95=None, intervals=None, notes=list(oc.notes),
-                       why=self.why)
+            out.update(median=None, beta=None, median_95=None, beta_95=None, intervals=None,
+                       notes=oc.notes + state_notes(self.state, oc), why=self.why)
         out["levels"] = [{"x": float(v), "runs": int((oc.x == v).sum()), "reached": int(y[oc.x == v].sum())}
                          for v in np.unique(oc.x)]
         out["points"] = [{"record": r, "x": float(x), "reached": bool(h)} for r, x, h in zip(oc.record, oc.x, y)]
@@ -466,6 +467,25 @@ def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = Non
                 why = str(exc) if ds.kind == "overturn" else str(exc).replace("overturned", "reached it")
                 out.append(Curve(oc, ds, y, None, why))
     return out
+
+
+def censored_note(oc: Outcomes) -> str | None:
+    """For a stack: the runs that ended when block 2 fell off while block 1 stood (the model has no
+    contact for a fallen block, so the run stops there, docs/two_blocks.md), or None."""
+    if not oc.two:
+        return None
+    n = int(np.sum(np.asarray(oc.over2, bool) & ~np.asarray(oc.over1, bool)))
+    if not n:
+        return None
+    return (f"in {n} of {len(oc.x)} runs block 2 fell off first and the run ended there (the model has no contact "
+            "for a fallen block, docs/two_blocks.md): block 1's peak and overturning are those up to that moment, "
+            "so a block 1 state counts it being reached before block 2 fell off")
+
+
+def state_notes(state: DamageState, oc: Outcomes) -> list[str]:
+    """What a damage state's curve does not say: block 1's demands cut short where block 2 fell."""
+    note = censored_note(oc) if state.block == "1" and state.kind != "slides" else None
+    return [note] if note else []
 
 
 def fragility_notes(frag: Fragility, oc: Outcomes) -> list[str]:
@@ -642,6 +662,10 @@ def curves_figure(cs: list[Curve]):
     several = any(len(g) > 1 for g in groups)
     foot = (["markers: the fraction of each level's runs that reached the state; curves: lognormal, maximum "
              "likelihood (Baker 2015)"] if several else []) + [f"intervals: {m}" for m in methods]
+    cut = [c.outcomes for c in cs if state_notes(c.state, c.outcomes)]
+    if cut:
+        foot.append("block 1 states: where block 2 fell off first the run ended there (docs/two_blocks.md), so they "
+                    "count block 1 reaching the state before that")
     foot += [f"no fit ({c.state.spec}" + (f", {c.outcomes.combination_text()}" if c.outcomes.combination else "")
              + f"): {c.why}" for c in cs if c.fragility is None]
     text = "\n".join(line for f in foot for line in textwrap.wrap(f, 150)) or ""
@@ -757,7 +781,7 @@ def format_fragility(frag: Fragility, oc: Outcomes, state: DamageState | None = 
         f"intervals        {frag.interval_method}",
     ]
     lines += _context(oc)
-    lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc)]
+    lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc) + state_notes(state, oc)]
     return "\n".join(lines)
 
 
@@ -787,6 +811,8 @@ def format_curves(cs: list[Curve]) -> str:
                          f"{f.median_interval[1]:.4g}], beta {f.beta:.4g} [{f.beta_interval[0]:.4g}, "
                          f"{f.beta_interval[1]:.4g}]")
             notes += [f"{c.state.spec}: {n}" for n in fragility_notes(f, oc)]
+        if any(state_notes(c.state, oc) for c in group):
+            notes += [f"block 1 states: {censored_note(oc)}"]
         methods = list(dict.fromkeys(c.fragility.interval_method for c in group if c.fragility is not None))
         lines += [f"intervals        {m}" for m in methods]
         lines += _context(oc)
@@ -809,6 +835,8 @@ def format_ida(oc: Outcomes) -> str:
         o1, o2 = np.asarray(oc.over1, bool), np.asarray(oc.over2, bool)
         lines.append(f"per block        block 1 overturned in {int(o1.sum())} runs, block 2 in {int(o2.sum())} "
                      f"(both in {int((o1 & o2).sum())}) of {len(oc.x)}")
+        if censored_note(oc):
+            lines.append(f"note             {censored_note(oc)}")
     never = [name for name, v in first.items() if v is None]
     if never:
         lines.append(f"never overturned {', '.join(never)}")
