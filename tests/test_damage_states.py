@@ -156,6 +156,10 @@ def test_a_statue_on_a_plinth_gives_a_curve_per_block_and_damage_state_equal_to_
         assert independent_fit(curve["points"]) == pytest.approx((curve["median"], curve["beta"]), rel=1e-9)
     # the blocks fall separately: the statue alone most often, the plinth sometimes
     assert 0 < counts["block1:overturn"] < counts["block2:overturn"] <= counts["rot>0.5alpha"] < 156
+    # the run ends when the statue falls off: the plinth's curve says what it counts
+    alone = sum(1 for _, s in stored.values() if s.overturned_blocks == "2")
+    assert alone > 0 and any(f"in {alone} of 156 runs block 2 fell off first" in n for n in out["curves"][0]["notes"])
+    assert not any("fell off first" in n for c in out["curves"][1:] for n in c["notes"])
     assert png.stat().st_size > 30_000
     text = _run("fragility", "1", *[a for ds in states for a in ("--ds", ds)], "--out", str(png), db=db,
                 fmu_path=fmu_path).stdout
