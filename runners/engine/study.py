@@ -227,8 +227,9 @@ def _choose(sweep_id: int, axes: list[tuple[str, np.ndarray]], select: dict[str,
     names = [n for n, _ in axes]
     for name, v in select.items():
         if name not in names:
-            have = ("its --grid axes besides records and intensity are " + "; ".join(
-                f"{n} ({', '.join(f'{x:g}' for x in vals)})" for n, vals in axes)) if axes else                 "it has no --grid axes besides records and intensity"
+            listed = "; ".join(f"{n} ({', '.join(f'{x:g}' for x in vals)})" for n, vals in axes)
+            have = (f"its --grid axes besides records and intensity are {listed}" if axes else
+                    "it has no --grid axes besides records and intensity")
             raise StudyError(f"select {name}: sweep {sweep_id} does not vary {name}: {have}")
         vals = dict(axes)[name]
         if not any(_same(v, x) for x in vals):
@@ -291,8 +292,8 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
             oc.notes.append(f"{expected - len(done)} of {expected} points not run yet, {oc.failed} failed")
         out.append(oc)
     if not out:
-        raise StudyError(f"sweep {sw.id} has no finished runs at {', '.join(f'{k} = {v:g}' for k, v in combos[0].items())}"
-                         f" yet (runners sweep {sw.id})")
+        at = ", ".join(f"{k} = {v:g}" for k, v in combos[0].items())
+        raise StudyError(f"sweep {sw.id} has no finished runs at {at} yet (runners sweep {sw.id})")
     return out
 
 
