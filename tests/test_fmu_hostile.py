@@ -674,14 +674,44 @@ def test_stop_at_overturn_with_states_around_the_terminating_step(new):
     assert other.call("fmi2FreeFMUstate", byref(state)) == OK and state.value is None
 
 
-@pytest.mark.parametrize("tolerance", [0.0, -1e-6, math.nan, math.inf, -math.inf, math.nextafter(0.1, 1.0), 1.0])
+@pytest.mark.parametrize("tolerance", [0.0, -1e-6, math.nan, math.inf, -math.inf, math.nextafter(0.1, 1.0), 1.0,
+                                       5e-324, 1e-300, math.nextafter(1e-14, 0.0)])
 def test_tolerances_outside_the_range_are_refused(new, tolerance):
+    """Below 1e-14 no integrator meets the tolerance in double precision (the Taylor series
+    stepped by eps^(1/N) and never returned)."""
     r = new("CS")
-    assert r.setup(tolerance=tolerance) == ERROR and r.said("must be in (0, 0.1]")
+    assert r.setup(tolerance=tolerance) == ERROR and r.said("must be in [1e-14, 0.1]")
     assert r.setup(tolerance=1e-6) == OK  # nothing was kept of the refused one
 
 
-@pytest.mark.parametrize("tolerance", [5e-324, 1e-300, 1e-8, 0.1])
+@pytest.mark.parametrize("method", [0, 1], ids=["dormand-prince", "taylor"])
+@pytest.mark.parametrize("tols", [(1e-300, 1e-300), (1e-300, 1e-12), (1e-10, 1e-300)])
+def test_tolerances_no_integrator_meets_are_refused_when_initialization_starts(new, method, tols):
+    """solver.relTol = solver.absTol = 1e-300 with the Taylor series: fmi2DoStep(0, 5) never
+    returned (Dormand-Prince refused the same at its first step). Now both refuse at
+    fmi2EnterInitializationMode, saying the range."""
+    r = new("CS")
+    assert r.setup() == OK
+    r.setp(with_scene_defaults({"block1.theta0": 0.2, "solver.method": method, "solver.relTol": tols[0],
+                                "solver.absTol": tols[1]}))
+    assert r.call("fmi2EnterInitializationMode") == ERROR
+    assert r.said("[1e-14, 0.1]") if tols[0] < 1e-14 else r.said("[1e-20, 1e-3]")
+
+
+@pytest.mark.parametrize("method", [0, 1], ids=["dormand-prince", "taylor"])
+def test_the_tightest_tolerances_allowed_run_to_the_end(new, method):
+    """solver.relTol = 1e-14, solver.absTol = 1e-20 (the ends of the ranges) under a pulse
+    that rocks the block: the run ends, as one at the default tolerances does."""
+    runs = []
+    for tols in ((1e-14, 1e-20), (1e-10, 1e-12)):
+        r = new("CS")
+        r.start({**PULSE, "solver.method": method, "solver.relTol": tols[0], "solver.absTol": tols[1]})
+        assert r.step(0.0, 5.0) == OK, r.messages[-1:]
+        runs.append((r.get("impacts"), r.get("block1.maxAbsTheta")))
+    assert runs[0][0] == runs[1][0] > 5 and runs[0][1] == pytest.approx(runs[1][1], rel=1e-8)
+
+
+@pytest.mark.parametrize("tolerance", [1e-14, 1e-8, 0.1])
 def test_tolerances_in_the_range_run_and_survive_serialization(new, tolerance):
     r = new("CS")
     r.start({"block1.theta0": 0.15}, tolerance=tolerance)
