@@ -327,6 +327,9 @@ def test_array_arguments_are_checked_and_nothing_is_written_past_them(new):
 
 
 def test_times_non_finite_refused_backward_and_huge_accepted(new):
+    """Non-finite times are errors; an importer's solver may go back within the step it is
+    taking (a rejected trial), but not before the last completed step or event: fmi2SetTime
+    accepted -5 after a start at 0, Model Exchange having no FMU state to go back to."""
     r = new()
     r.start({"block1.theta0": 0.1, **PULSE})
     r.to_continuous()
@@ -334,9 +337,18 @@ def test_times_non_finite_refused_backward_and_huge_accepted(new):
         assert r.call("fmi2SetTime", t) == ERROR
     assert r.call("fmi2SetTime", 0.3) == OK
     at_03 = r.dx()
-    assert r.call("fmi2SetTime", -5.0) == OK  # an importer's solver may go back within its step
+    assert r.call("fmi2SetTime", 0.1) == OK  # back within the step from 0
+    n = len(r.messages)
+    for t in (-5.0, math.nextafter(0.0, -1.0)):
+        assert r.call("fmi2SetTime", t) == ERROR and r.said("goes back before 0, the last completed", n)
     assert r.call("fmi2SetTime", 0.3) == OK
     assert r.dx() == at_03
+    assert r.completed()[:2] == (OK, 0)  # the step to 0.3 is accepted
+    assert r.call("fmi2SetTime", 0.2) == ERROR and r.said("before 0.29999999999999999")
+    assert r.call("fmi2SetTime", 0.3) == OK and r.dx() == at_03
+    r.call("fmi2EnterEventMode")
+    assert r.call("fmi2SetTime", 0.35) == OK and r.nds()[0] == OK  # an event at 0.35
+    assert r.call("fmi2SetTime", 0.32) == ERROR
     for t in (1e15, 1e300):  # at rest under an endless harmonic: the uplift search ends at once
         h = new()
         h.start({"excitation.kind": 3, "excitation.displacement": 0.001, "excitation.frequency": 1.0,
@@ -494,6 +506,24 @@ def test_states_set_on_a_resting_block_release_it(new, x, overturned):
     assert r.completed()[:2] == (OK, 0)
 
 
+@pytest.mark.parametrize("x", [[math.nextafter(math.pi, 4.0), 0.0], [-4.0, 0.0], [1e300, 1.0], [0.1, 1e300],
+                               [0.1, -1e12]])
+def test_states_beyond_the_blocks_range_are_refused(new, x):
+    """fmi2SetContinuousStates took theta beyond a half turn and omega of 1e300 rad/s with
+    fmi2OK (the event iteration then laid the block on its side, overturned). Now fmi2Error
+    with a message naming the state, and the states stay as they were; the limits themselves
+    (|theta| = pi, omega = 1e6 sqrt(g / R)) are accepted."""
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    n = len(r.messages)
+    assert r.set_x(x) == ERROR
+    assert r.said("block1.theta" if abs(x[0]) > math.pi else "block1.omega", n)
+    assert r.x() == [0.1, 0.0]
+    limit = 1e6 * math.sqrt(G / math.hypot(B, H))
+    assert r.set_x([-math.pi, 0.999999 * limit]) == OK and r.x() == [-math.pi, 0.999999 * limit]
+
+
 def test_states_set_on_an_overturned_block_go_back_to_its_side(new):
     r = new()
     r.start({"block1.theta0": 0.1})
@@ -520,8 +550,10 @@ def test_one_event_iteration_settles_any_state(new):
         r = new()
         r.start(rnd.choice(scenes))
         r.to_continuous()
+        t = 0.0
         for k in range(5):
-            assert r.call("fmi2SetTime", rnd.uniform(0.0, 1.0)) == OK
+            t += rnd.uniform(0.0, 0.2)  # forward: the event of the last round is the earliest time allowed
+            assert r.call("fmi2SetTime", t) == OK
             x = [rnd.choice(special) if rnd.random() < 0.5 else rnd.uniform(-2, 2) for _ in range(2)]
             assert r.set_x(x) == OK
             if rnd.random() < 0.3:
