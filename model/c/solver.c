@@ -410,7 +410,14 @@ void solver_outputs(Model *M, double tc) {
     v->ahTotal = k.ah;
     v->avTotal = k.av;
     /* at rest or overturned the block moves with the ground (omega = alpha_dd = 0) */
-    contact_one_block_terms(M, rocking ? y[1] : 0.0, v->alphaDD, &k, &v->groundT, &v->groundN);
+    if (S->mode == MODE_REST && contact_tipping_side(M, tc)) { /* the rocking that starts, if the ground tips it at tc (contact_rest) */
+        double T[2], N[2];
+        contact_rest(M, tc, 0, T, N);
+        v->groundT = T[0];
+        v->groundN = N[0];
+    } else {
+        contact_one_block_terms(M, rocking ? y[1] : 0.0, v->alphaDD, &k, &v->groundT, &v->groundN);
+    }
     v->interfaceT = v->interfaceN = 0.0;
     contact_outputs(M, v);
 }
