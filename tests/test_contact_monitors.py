@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from model.contact import one_block_reactions
+from model.contact import one_block_reactions, stack_reactions
 from model.reference import Block, free_rocking
 
 G = 9.81
@@ -286,3 +286,65 @@ def test_model_exchange_locates_the_monitors_as_co_simulation_does(fmu_path, cas
         for k in ("friction.demandMaxGround", "contact.normalMinGround"):
             assert me[k] == pytest.approx(cs[k], rel=1e-5), k
     assert (case == "free rocking") == (not cs["slides"] and not cs["lifts"])
+
+
+def _locked_start_demand(A: float, side: int, b1: float, h1: float, m1: float, b2: float, h2: float, m2: float):
+    """Ground reactions (T, N) of a locked pair that a step a_h = A starts rocking from rest on
+    block 1's corner `side`: its angular acceleration from the pair's moment balance about the
+    corner (one rigid body, theta = omega = 0), the reactions from the reference's Newton
+    equations (model.contact.stack_reactions, which do not depend on how the interface
+    carries its moment)."""
+    px = side * b1
+    bodies = [(m1, b1, h1, (0.0 - px, h1)), (m2, b2, h2, (0.0 - px, 2 * h1 + h2))]
+    inertia = sum(m * ((b * b + h * h) / 3 + d[0] ** 2 + d[1] ** 2) for m, b, h, d in bodies)
+    moment = sum(d[0] * (-m * G) - d[1] * (-m * A) for m, b, h, d in bodies)  # counterclockwise
+    alpha = -moment / inertia  # clockwise
+    r = stack_reactions(0.0, 0.0, alpha, 0.0, 0.0, alpha, side, side, A, 0.0, b1, h1, m1, b2, h2, m2, G)
+    return r["ground_T"], r["ground_N"]
+
+
+@pytest.mark.parametrize("start", [0.0, 0.2], ids=["at the start", "mid-run"])
+def test_a_step_judges_the_instant_by_the_rocking_that_starts(fmu, start):
+    """A cosine pulse is a step of a_h = A from rest (at its start time). With A / g = 0.82 above
+    mu = 0.7 the slender block tips at that instant (A above g b / h): `slides` was reported at
+    the step from the rest reactions m a_h, which a block that does not stay at rest never
+    carries. The rocking that starts needs the reference's reactions at theta = 0+, omega = 0
+    (a demand of 0.34 < mu): no sliding, and that demand is the run's first sample. With mu
+    below that demand the slide is reported at the step."""
+    b, h = SLENDER["block1.halfWidth"], SLENDER["block1.halfHeight"]
+    A = 8.0
+    T0, N0 = one_block_reactions(-1e-300, 0.0, A, 0.0, b, h, 1.0, G)  # a_h > 0 tips it onto its left corner
+    demand0 = abs(T0) / N0
+    assert A / G > 0.7 > demand0 and A > G * b / h
+    p = {**SLENDER, "contact.muGround": 0.7, "excitation.kind": 2, "excitation.amplitude": A,
+         "excitation.frequency": 1.0, "excitation.startTime": start}
+    out, r = _final(fmu, p, start + 0.01, 0.001, MON + ["pattern"])
+    assert r.event_times("uplift")[0] == start
+    assert not out["slides"] and out["slideTime"] == -1 and not [e for e in r.events if e.kind == "slide"]
+    assert out["friction.demandMaxGround"] == pytest.approx(demand0, rel=1e-12)  # the largest: the block speeds up
+    tight = {**p, "contact.muGround": 0.3}
+    assert demand0 > 0.3
+    out, r = _final(fmu, tight, start + 0.01, 0.001)
+    assert out["slides"] and out["slideTime"] == start
+    assert [e.values["demand"] for e in r.events if e.kind == "slide"] == [pytest.approx(demand0, rel=1e-12)]
+
+
+@pytest.mark.parametrize("start", [0.0, 0.2], ids=["at the start", "mid-run"])
+def test_a_step_under_a_stack_judges_the_instant_by_the_pattern_that_starts(fmu, start):
+    """The same for two blocks: the cosine pulse's step tips the pair, which starts rocking
+    locked on block 1's left corner. `slides` was reported at the step with the demand A / g of
+    the pair moving with the ground (0.82 > mu = 0.7); the locked pair's reactions give 0.36."""
+    b1, h1, m1, b2, h2, m2, A = 0.1, 0.3, 10.0, 0.1, 0.2, 5.0, 8.0
+    T0, N0 = _locked_start_demand(A, -1, b1, h1, m1, b2, h2, m2)
+    demand0 = abs(T0) / N0
+    assert A / G > 0.7 > demand0
+    p = {"nBlocks": 2, "block1.halfWidth": b1, "block1.halfHeight": h1, "block1.mass": m1, "block2.halfWidth": b2,
+         "block2.halfHeight": h2, "block2.mass": m2, "restitution.law": 0, "contact.muGround": 0.7,
+         "excitation.kind": 2, "excitation.amplitude": A, "excitation.frequency": 1.0, "excitation.startTime": start}
+    out, r = _final(fmu, p, start + 0.01, 0.001)
+    up = [e for e in r.events if e.kind == "uplift"]
+    assert up[0].t == start and up[0].labels["pattern"] == "locked"
+    assert not out["slides"] and out["slideTime"] == -1
+    assert out["friction.demandMaxGround"] == pytest.approx(demand0, rel=1e-12)
+    out, r = _final(fmu, {**p, "contact.muGround": 0.9 * demand0}, start + 0.01, 0.001)
+    assert out["slides"] and out["slideTime"] == start

@@ -88,7 +88,7 @@ def test_runs_and_sweep_points_store_the_assumptions(tmp_path, db_url, fmu_path)
 
     p = run_cli("simulate", _squat(tmp_path), db=db_url, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
-    p = run_cli("sweep", _squat(tmp_path), "--grid", "contact.muGround=0.5:1.0:2", "--quiet", db=db_url,
+    p = run_cli("sweep", _squat(tmp_path), "--grid", "excitation.amplitude=4.5:9.0:2", "--quiet", db=db_url,
                 fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
     with open_database(db_url)() as s:
@@ -96,10 +96,31 @@ def test_runs_and_sweep_points_store_the_assumptions(tmp_path, db_url, fmu_path)
         assert single.assumptions_held is False and single.lift_time is None
         assert abs(single.slide_time - math.asin(0.7 * 9.81 / 9.0) / (4 * math.pi)) <= 1e-9
         assert single.friction_demand_max > 0.7 and single.normal_min > 0
-        points = {r.point["contact.muGround"]: r.summary for r in s.scalars(select(Run).where(Run.sweep_id.is_not(None)))}
-    slid, clean = points[0.5], points[1.0]
-    assert slid.assumptions_held is False and abs(slid.slide_time - math.asin(0.5 * 9.81 / 9.0) / (4 * math.pi)) <= 1e-9
-    assert clean.assumptions_held is True and clean.slide_time is None and clean.friction_demand_max < 1.0
+        points = {r.point["excitation.amplitude"]: r.summary
+                  for r in s.scalars(select(Run).where(Run.sweep_id.is_not(None)))}
+    slid, clean = points[9.0], points[4.5]
+    assert slid.assumptions_held is False and abs(slid.slide_time - math.asin(0.7 * 9.81 / 9.0) / (4 * math.pi)) <= 1e-9
+    assert clean.assumptions_held is True and clean.slide_time is None and clean.friction_demand_max < 0.7
+
+
+def test_a_sweep_over_friction_is_refused_because_friction_does_not_change_the_motion(tmp_path, db_url, fmu_path):
+    """The friction coefficients enter the contact monitors only: a grid over them would run one
+    simulation many times. The sweep says so in one line, stores nothing, and names what each run
+    stores instead (the friction demand, against which any mu can be read)."""
+    from sqlalchemy import func, select
+
+    from db.schema import Sweep
+    from db.session import open_database
+
+    stack = tmp_path / "stack.toml"
+    stack.write_text(SQUAT.format(mu=0.7) + "[block2]\nhalf_width = 0.1\nhalf_height = 0.2\n")
+    for scene, axis, column in ((_squat(tmp_path), "contact.muGround=0.5:1.0:2", "friction_demand_max"),
+                                (str(stack), "contact.muInterface=0.3:0.9:3", "friction_demand_max_interface")):
+        p = run_cli("sweep", scene, "--grid", axis, "--quiet", db=db_url, fmu_path=fmu_path)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+        assert "friction does not change the motion" in p.stderr and column in p.stderr
+    with open_database(db_url)() as s:
+        assert s.scalar(select(func.count()).select_from(Sweep)) == 0
 
 
 def test_the_recording_shows_the_friction_demand_against_mu(tmp_path, fmu_path):

@@ -238,6 +238,9 @@ def test_events_frame_keeps_its_columns_without_events():
     (["1", "--sweep", "1"], "give a RUN_ID, or --sweep SWEEP_ID"),
     (["1", "--format", "xlsx"], "argument --format: invalid choice"),
     (["1", "--format", "csv", "--out", "x.parquet"], "names a parquet file, and --format is csv"),
+    (["--sweep", "1", "--out", "x.xlsx"], "writes csv, parquet or json files (.csv, .parquet or .pq, .json), not "
+                                          ".xlsx"),
+    (["1", "--format", "csv", "--out", "x.XLS"], "not .xls"),
     (["0"], "no run 0 in the database"),
     (["1", "--out", "/proc/rocking/x.csv"], "cannot write /proc/rocking/x.csv"),
 ])

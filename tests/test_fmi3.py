@@ -455,3 +455,25 @@ def test_the_fmi3_build_is_valid_and_rebuilt_only_when_its_sources_change(fmu3_p
     assert "sources/fmi2.c" not in names
     stamp = out.stat().st_mtime_ns
     assert build_fmu3(out) == out and out.stat().st_mtime_ns == stamp  # unchanged sources: nothing to do
+
+
+def test_the_runners_refuse_the_fmi3_fmu_in_one_line(fmu3_path, tmp_path):
+    """`runners simulate ... --fmu RockingBlock3.fmu` failed with "unexpected KeyError:
+    'nBlocks'", and runners.simulate(fmu=...) raised the KeyError: both now say that the runners
+    take the FMI 2.0 FMU, naming the file given; nothing is stored."""
+    import runners
+    from conftest import run_cli
+
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    p = run_cli("simulate", "examples/sine_pulse.toml", "--fmu", str(fmu3_path), db=db, fmu_path=fmu3_path)
+    assert p.returncode == 2 and p.stdout == "", p.stderr
+    assert p.stderr.count("\n") == 1 and "FMI 3.0" in p.stderr and "FMI 2.0 FMU" in p.stderr, p.stderr
+    assert str(fmu3_path) in p.stderr
+    with pytest.raises(runners.RockingError, match="the runners take the FMI 2.0 FMU") as err:
+        runners.simulate(Path(__file__).parent.parent / "examples" / "sine_pulse.toml", fmu=fmu3_path, db=db)
+    assert "\n" not in str(err.value)
+    if (tmp_path / "r.db").exists():
+        import sqlite3
+        with sqlite3.connect(tmp_path / "r.db") as con:
+            tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+            assert "runs" not in tables or con.execute("SELECT count(*) FROM runs").fetchone()[0] == 0

@@ -327,6 +327,9 @@ def test_array_arguments_are_checked_and_nothing_is_written_past_them(new):
 
 
 def test_times_non_finite_refused_backward_and_huge_accepted(new):
+    """Non-finite times are errors; an importer's solver may go back within the step it is
+    taking (a rejected trial), but not before the last completed step or event: fmi2SetTime
+    accepted -5 after a start at 0, Model Exchange having no FMU state to go back to."""
     r = new()
     r.start({"block1.theta0": 0.1, **PULSE})
     r.to_continuous()
@@ -334,9 +337,18 @@ def test_times_non_finite_refused_backward_and_huge_accepted(new):
         assert r.call("fmi2SetTime", t) == ERROR
     assert r.call("fmi2SetTime", 0.3) == OK
     at_03 = r.dx()
-    assert r.call("fmi2SetTime", -5.0) == OK  # an importer's solver may go back within its step
+    assert r.call("fmi2SetTime", 0.1) == OK  # back within the step from 0
+    n = len(r.messages)
+    for t in (-5.0, math.nextafter(0.0, -1.0)):
+        assert r.call("fmi2SetTime", t) == ERROR and r.said("goes back before 0, the last completed", n)
     assert r.call("fmi2SetTime", 0.3) == OK
     assert r.dx() == at_03
+    assert r.completed()[:2] == (OK, 0)  # the step to 0.3 is accepted
+    assert r.call("fmi2SetTime", 0.2) == ERROR and r.said("before 0.29999999999999999")
+    assert r.call("fmi2SetTime", 0.3) == OK and r.dx() == at_03
+    r.call("fmi2EnterEventMode")
+    assert r.call("fmi2SetTime", 0.35) == OK and r.nds()[0] == OK  # an event at 0.35
+    assert r.call("fmi2SetTime", 0.32) == ERROR
     for t in (1e15, 1e300):  # at rest under an endless harmonic: the uplift search ends at once
         h = new()
         h.start({"excitation.kind": 3, "excitation.displacement": 0.001, "excitation.frequency": 1.0,
@@ -494,6 +506,24 @@ def test_states_set_on_a_resting_block_release_it(new, x, overturned):
     assert r.completed()[:2] == (OK, 0)
 
 
+@pytest.mark.parametrize("x", [[math.nextafter(math.pi, 4.0), 0.0], [-4.0, 0.0], [1e300, 1.0], [0.1, 1e300],
+                               [0.1, -1e12]])
+def test_states_beyond_the_blocks_range_are_refused(new, x):
+    """fmi2SetContinuousStates took theta beyond a half turn and omega of 1e300 rad/s with
+    fmi2OK (the event iteration then laid the block on its side, overturned). Now fmi2Error
+    with a message naming the state, and the states stay as they were; the limits themselves
+    (|theta| = pi, omega = 1e6 sqrt(g / R)) are accepted."""
+    r = new()
+    r.start({"block1.theta0": 0.1})
+    r.to_continuous()
+    n = len(r.messages)
+    assert r.set_x(x) == ERROR
+    assert r.said("block1.theta" if abs(x[0]) > math.pi else "block1.omega", n)
+    assert r.x() == [0.1, 0.0]
+    limit = 1e6 * math.sqrt(G / math.hypot(B, H))
+    assert r.set_x([-math.pi, 0.999999 * limit]) == OK and r.x() == [-math.pi, 0.999999 * limit]
+
+
 def test_states_set_on_an_overturned_block_go_back_to_its_side(new):
     r = new()
     r.start({"block1.theta0": 0.1})
@@ -520,8 +550,10 @@ def test_one_event_iteration_settles_any_state(new):
         r = new()
         r.start(rnd.choice(scenes))
         r.to_continuous()
+        t = 0.0
         for k in range(5):
-            assert r.call("fmi2SetTime", rnd.uniform(0.0, 1.0)) == OK
+            t += rnd.uniform(0.0, 0.2)  # forward: the event of the last round is the earliest time allowed
+            assert r.call("fmi2SetTime", t) == OK
             x = [rnd.choice(special) if rnd.random() < 0.5 else rnd.uniform(-2, 2) for _ in range(2)]
             assert r.set_x(x) == OK
             if rnd.random() < 0.3:
@@ -674,14 +706,44 @@ def test_stop_at_overturn_with_states_around_the_terminating_step(new):
     assert other.call("fmi2FreeFMUstate", byref(state)) == OK and state.value is None
 
 
-@pytest.mark.parametrize("tolerance", [0.0, -1e-6, math.nan, math.inf, -math.inf, math.nextafter(0.1, 1.0), 1.0])
+@pytest.mark.parametrize("tolerance", [0.0, -1e-6, math.nan, math.inf, -math.inf, math.nextafter(0.1, 1.0), 1.0,
+                                       5e-324, 1e-300, math.nextafter(1e-14, 0.0)])
 def test_tolerances_outside_the_range_are_refused(new, tolerance):
+    """Below 1e-14 no integrator meets the tolerance in double precision (the Taylor series
+    stepped by eps^(1/N) and never returned)."""
     r = new("CS")
-    assert r.setup(tolerance=tolerance) == ERROR and r.said("must be in (0, 0.1]")
+    assert r.setup(tolerance=tolerance) == ERROR and r.said("must be in [1e-14, 0.1]")
     assert r.setup(tolerance=1e-6) == OK  # nothing was kept of the refused one
 
 
-@pytest.mark.parametrize("tolerance", [5e-324, 1e-300, 1e-8, 0.1])
+@pytest.mark.parametrize("method", [0, 1], ids=["dormand-prince", "taylor"])
+@pytest.mark.parametrize("tols", [(1e-300, 1e-300), (1e-300, 1e-12), (1e-10, 1e-300)])
+def test_tolerances_no_integrator_meets_are_refused_when_initialization_starts(new, method, tols):
+    """solver.relTol = solver.absTol = 1e-300 with the Taylor series: fmi2DoStep(0, 5) never
+    returned (Dormand-Prince refused the same at its first step). Now both refuse at
+    fmi2EnterInitializationMode, saying the range."""
+    r = new("CS")
+    assert r.setup() == OK
+    r.setp(with_scene_defaults({"block1.theta0": 0.2, "solver.method": method, "solver.relTol": tols[0],
+                                "solver.absTol": tols[1]}))
+    assert r.call("fmi2EnterInitializationMode") == ERROR
+    assert r.said("[1e-14, 0.1]") if tols[0] < 1e-14 else r.said("[1e-20, 1e-3]")
+
+
+@pytest.mark.parametrize("method", [0, 1], ids=["dormand-prince", "taylor"])
+def test_the_tightest_tolerances_allowed_run_to_the_end(new, method):
+    """solver.relTol = 1e-14, solver.absTol = 1e-20 (the ends of the ranges) under a pulse
+    that rocks the block: the run ends, as one at the default tolerances does."""
+    runs = []
+    for tols in ((1e-14, 1e-20), (1e-10, 1e-12)):
+        r = new("CS")
+        r.start({**PULSE, "solver.method": method, "solver.relTol": tols[0], "solver.absTol": tols[1]})
+        assert r.step(0.0, 5.0) == OK, r.messages[-1:]
+        runs.append((r.get("impacts"), r.get("block1.maxAbsTheta")))
+    assert runs[0][0] == runs[1][0] > 5 and runs[0][1] == pytest.approx(runs[1][1], rel=1e-8)
+
+
+@pytest.mark.parametrize("tolerance", [1e-14, 1e-8, 0.1])
 def test_tolerances_in_the_range_run_and_survive_serialization(new, tolerance):
     r = new("CS")
     r.start({"block1.theta0": 0.15}, tolerance=tolerance)

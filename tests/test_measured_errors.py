@@ -171,6 +171,16 @@ def test_a_latin1_byte_in_a_data_row_names_the_file_and_line(tmp_path, fmu_path,
     assert count(db, Measurement) == 0
 
 
+@pytest.mark.parametrize("cell", ["nan", "NaN", " -nan"])
+def test_a_nan_measured_peak_is_refused_naming_the_file_and_line(tmp_path, fmu_path, db, cell):
+    """A peak written as NaN is not a measured value (an empty cell is the way to leave one out)."""
+    csv = tmp_path / "nan.csv"
+    csv.write_text(HEADER + f"time,theta\n0,10\n0.3,{cell}\n0.55,5\n")
+    err = one_line_error(run_cli("import-measured", str(csv), db=db, fmu_path=fmu_path))
+    assert f"{csv}, line 7: values must be finite numbers, not {cell.strip()!r}" in err, err
+    assert count(db, Measurement) == 0
+
+
 def test_a_binary_file_is_refused_naming_the_file_and_line(tmp_path, fmu_path, db):
     """A PNG given as a measured file: refused as not text, with the file and the line."""
     png = tmp_path / "plot.csv"

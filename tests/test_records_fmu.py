@@ -139,7 +139,9 @@ BAD_RECORDS = [
     ("coarse.txt", "0 0\n1000 1\n", "line 2: sample interval 1000 s is above"),
     ("columns.txt", "0 0 0\n0.01 1\n", "line 2: 2 values, but line 1 has 3"),
     ("four.txt", "0 0 0 0\n", "line 1: 4 values, expected 2 or 3"),
-    ("header.txt", "time,ah\n0,0\n0.01,1\n", "line 1: 'time' is not a number"),
+    ("header.txt", "time,ah\n0,0\n0.01,1\n", "line 1: not a record file: its first data line is not two or three"
+                                             " numbers (time in s, horizontal acceleration in m/s2, optional vertical;"
+                                             " a header line must start with '#')"),
     ("empty_value.txt", "0,,1\n", "line 1: an empty value between separators"),
     ("garbage.txt", "0 0\n0.01 1x\n", "line 2: '1x' is not a number"),
     ("units.txt", "0 0\n0.01 250\n", "line 2: |horizontal acceleration| = 250 m/s2 exceeds 10 g"),
@@ -160,6 +162,24 @@ def test_a_bad_record_file_is_refused_with_its_name_and_line(fmu, tmp_path, name
     message = str(exc.value)
     assert f"record file '{path}'" in message and expected in message, message
     assert "\n" not in message
+
+
+@pytest.mark.parametrize("first", ["root:x:0:0:root:/root:/bin/bash", "secret 42", "token=abc123 0",
+                                   "# a comment\n\nprivate-key 7 8"])
+def test_a_file_that_is_not_a_record_has_nothing_quoted(fmu, tmp_path, first):
+    """excitation.file pointed at a file that is not a record (a system file such as the
+    password database): the FMU's log quoted its first line's first word ('root:x:0:0:root:/'),
+    so any file the importer can read leaked through the error. Now it says what is wrong
+    and quotes nothing of it."""
+    path = tmp_path / "not_a_record"
+    path.write_text(first + "\nline two 1 2\n")
+    with pytest.raises(FMUError) as exc:
+        fmu.run({"excitation.kind": 4, "excitation.file": str(path)}, 1.0, 0.1)
+    message = str(exc.value).replace(str(path), "PATH")
+    assert "not a record file" in message and "\n" not in message, message
+    words = {w for line in first.splitlines() if not line.startswith("#") for w in line.split()}
+    words |= {part for w in words for part in w.split(":")}
+    assert not any(w in message for w in words if len(w) > 2), message
 
 
 def test_record_files_written_in_other_accepted_ways_give_the_same_run(fmu, tmp_path):

@@ -56,6 +56,8 @@ BAD_SCENES = {
     "bad toml": ("[block\n", "invalid TOML"),
     "negative width": ("[block]\nhalf_width = -0.1\n", "block1.halfWidth"),
     "bad step": ("[simulation]\nstep = 0\n", "step must be a finite time > 0 s"),
+    "name a table": ("name = {a = 1}\n", "name must be a text"),
+    "name a number": ("name = 5\n", "name must be a text"),
 }
 
 
@@ -86,6 +88,77 @@ def test_two_block_scene_summary_names_both_blocks(fmu_path):
     s = json.loads(runners("simulate", "examples/two_blocks_free.toml", "--json", fmu_path=fmu_path).stdout)
     assert s["blocks"] == 2 and s["impacts"] == s["impacts_ground"] + s["impacts_interface"]
     assert s["restitution_law"] == "momentum"
+
+
+FALLS = """name = "falls"
+[block]
+half_width = 0.1
+half_height = 0.3
+[excitation]
+kind = "sine-pulse"
+amplitude = 15.0
+frequency = 1.0
+cycles = 1
+[simulation]
+stop_time = 2.0
+"""
+
+
+def _peak_line(stdout: str) -> str:
+    return next(line for line in stdout.splitlines() if line.startswith("peak |theta|"))
+
+
+@pytest.mark.parametrize("method", ["fmu", "rk4"])
+def test_an_overturned_block_has_no_peak_but_its_overturning_time(fmu_path, tmp_path, method):
+    scene = tmp_path / "falls.toml"
+    scene.write_text(FALLS)
+    p = runners("simulate", str(scene), "--no-store", "--method", method, fmu_path=fmu_path)
+    s = json.loads(runners("simulate", str(scene), "--no-store", "--method", method, "--json",
+                           fmu_path=fmu_path).stdout)
+    assert p.returncode == 0 and s["overturned"], p.stderr
+    assert _peak_line(p.stdout) == f"peak |theta|     none: overturned at t = {s['overturn_time_s']:.4f} s"
+
+
+def test_an_overturned_block_of_a_stack_has_no_peak(fmu_path, tmp_path):
+    scene = tmp_path / "stack.toml"
+    text = (ROOT / "examples" / "two_blocks_harmonic.toml").read_text()
+    scene.write_text(text.replace("displacement = 0.003", "displacement = 0.02").replace("frequency = 7.0", "frequency = 3.0"))
+    p = runners("simulate", str(scene), "--no-store", fmu_path=fmu_path)
+    s = json.loads(runners("simulate", str(scene), "--no-store", "--json", fmu_path=fmu_path).stdout)
+    assert p.returncode == 0 and s["overturned_blocks"], p.stderr
+    line = _peak_line(p.stdout)
+    for i, theta in ((1, s["max_abs_theta_rad"]), (2, s["max_abs_theta2_rad"])):
+        assert (f"block {i} overturned" if i in s["overturned_blocks"] else f"block {i} {theta:.6f} rad") in line
+
+
+def test_a_block_entered_in_millimetres_runs_with_a_note(fmu_path, tmp_path):
+    scene = tmp_path / "mm.toml"
+    scene.write_text("[block]\nhalf_width = 200\nhalf_height = 800\n[simulation]\nstop_time = 0.1\n")
+    p = runners("simulate", str(scene), "--no-store", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert "note: block1 is 400 m x 1600 m (half_width 200 m, half_height 800 m): sizes are in metres" in p.stderr
+    p = runners("simulate", "examples/sine_pulse.toml", "--no-store", fmu_path=fmu_path)
+    assert p.returncode == 0 and "sizes are in metres" not in p.stderr
+
+
+def test_a_pulse_that_ends_before_the_run_starts_is_said_so(fmu_path, tmp_path):
+    scene = tmp_path / "early.toml"
+    scene.write_text((ROOT / "examples" / "sine_pulse.toml").read_text().replace("[excitation]",
+                                                                                 "[excitation]\nstart_time = -1.0"))
+    p = runners("simulate", str(scene), "--no-store", fmu_path=fmu_path)
+    s = json.loads(runners("simulate", str(scene), "--no-store", "--json", fmu_path=fmu_path).stdout)
+    assert p.returncode == 0 and s["final_state"] == "at rest" and s["rest_time_s"] is None, p.stderr
+    assert s["excitation_end_s"] == pytest.approx(-1.0 + 1 / 3.0, rel=1e-12)  # start + cycles / frequency
+    assert "ended at t = -0.666667 s, before the run started" in p.stdout and "stayed below" not in p.stdout
+
+
+@pytest.mark.parametrize("command", [["sweep", "examples/statue.toml", "--records", "x", "--im", "pga=0.1:1:3",
+                                      "--im", "pgv=0.1:1:3"],
+                                     ["fragility", "1", "--im", "pga", "--im", "pgv"]])
+def test_two_im_flags_are_refused_not_one_dropped(fmu_path, tmp_path, command):
+    p = runners(*command, "--db", str(tmp_path / "im.db"), fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+    assert "argument --im: given twice" in p.stderr and not (tmp_path / "im.db").exists()
 
 
 def test_bad_two_block_scene_is_a_one_line_error(fmu_path, tmp_path):

@@ -89,3 +89,27 @@ def test_overturning_pulse_overturns_in_every_method(fmu):
     for s in sols:
         assert s.overturned, s.method
         assert abs(s.overturn_time - r.outputs["overturnTime"][-1]) < 1e-3
+
+
+@pytest.mark.parametrize("rtol", ["1e-14", "1e-300"])
+def test_scipy_refuses_a_tolerance_below_what_it_meets_in_one_line(fmu_path, rtol):
+    """`--method scipy --rtol 1e-14` printed scipy's raw UserWarning (it raises rtol to 100
+    machine epsilons), and `--rtol 1e-300` never returned. Both: one line, exit 2, no warning;
+    the smallest rtol scipy meets runs."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+
+    def simulate(r: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "runners.cli", "simulate", "examples/sine_pulse.toml",
+                               "--method", "scipy", "--rtol", r, "--no-store", "-q"], capture_output=True,
+                              text=True, cwd=root, env={**os.environ, "ROCKING_FMU": str(fmu_path)}, timeout=600)
+
+    p = simulate(rtol)
+    assert p.returncode == 2 and p.stdout == ""
+    assert p.stderr.count("\n") == 1 and "below what scipy" in p.stderr and "3e-14" in p.stderr, p.stderr
+    ok = simulate("3e-14")
+    assert ok.returncode == 0 and "Warning" not in ok.stderr and "impacts" in ok.stdout, ok.stderr

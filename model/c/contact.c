@@ -11,6 +11,8 @@
 
 #include "events.h"
 #include "ground.h"
+#include "stack.h"
+#include "stack_solver.h"
 
 /* Acceleration relative to the ground of the point rot(theta) (ux, uy). */
 static void arm_accel(double theta, double omega, double alpha, double ux, double uy, double a[2]) {
@@ -100,13 +102,40 @@ static double weight(const Model *M, int c) { return M->d.weight[c]; }
 
 static const char *contact_name(int c) { return c == 0 ? "ground" : "interface"; }
 
+int contact_tipping_side(const Model *M, double t) {
+    int piece = model_piece(M, t);
+    for (int side = 1; side >= -1; side -= 2) /* in find_uplift's order */
+        if (model_uplift_indicator_piece(M, t, side, piece) > 0) return side;
+    return 0;
+}
+
 void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]) {
     const Variables *v = &M->v;
     double ah, av;
     (void)inStep;
+    int two = contacts(M) == 2, side = contact_tipping_side(M, t);
+    /* The ground tips the body at this very instant (a step of the excitation, or one at the
+     * start): it does not stay at rest, so the contacts carry the reactions of the motion that
+     * starts from theta = omega = 0 (a stack in the pattern it starts in), not those of a body
+     * moving with the ground. At a smooth uplift both are equal. */
+    if (side) {
+        if (two) {
+            double y[4] = {0.0, 0.0, 0.0, 0.0}, acc[2] = {0.0, 0.0};
+            Mode mode = stack_start_pattern(M, t, side);
+            model_ground(M, t, &ah, &av);
+            stack_accel(M, mode, side, side, y, ah, av, acc);
+            contact_stack(M, mode, side, side, y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
+        } else {
+            double y[2] = {0.0, 0.0}, dy[2];
+            RhsTerms k;
+            model_rhs_terms(M, t, y, side, model_piece(M, t), dy, &k);
+            contact_one_block_terms(M, 0.0, dy[1], &k, &T[0], &N[0]);
+            T[1] = N[1] = 0.0;
+        }
+        return;
+    }
     model_ground(M, t, &ah, &av);
     /* the mass each contact carries, moving with the ground: both blocks on the ground, block 2 on block 1 */
-    int two = contacts(M) == 2;
     double carried[2] = {two ? v->mass + v->mass2 : v->mass, two ? v->mass2 : 0.0};
     for (int c = 0; c < 2; c++) {
         T[c] = carried[c] * ah;

@@ -47,7 +47,11 @@ void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y,
  * for t inside the last step, of its dense output (inStep = 1). */
 typedef void (*ReactionsFn)(const Model *M, double t, int inStep, double T[2], double N[2]);
 
-/* Reactions of bodies resting on the ground (moving with it) at time t. */
+/* The side towards which the ground tips a body resting at time t (1 or -1), or 0. */
+int contact_tipping_side(const Model *M, double t);
+
+/* Reactions of bodies resting on the ground (moving with it) at time t; bodies that the
+ * ground tips at t itself (a step) carry those of the motion that starts there. */
 void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]);
 
 /* The reactions of the current state: at rest contact_rest's, else `moving`'s. */

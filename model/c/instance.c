@@ -250,8 +250,8 @@ Status instance_setup_experiment(Instance *I, int toleranceDefined, double toler
         INSTANCE_ERROR(I, "%s: invalid start time %g or stop time %g", fn, startTime, stopTime);
         return STATUS_ERROR;
     }
-    if (toleranceDefined && !(tolerance > 0 && tolerance <= 0.1)) {
-        INSTANCE_ERROR(I, "%s: tolerance %g must be in (0, 0.1] (it becomes solver.relTol)", fn, tolerance);
+    if (toleranceDefined && !(tolerance >= REL_TOL_MIN && tolerance <= 0.1)) {
+        INSTANCE_ERROR(I, "%s: tolerance %g must be in [1e-14, 0.1] (it becomes solver.relTol)", fn, tolerance);
         return STATUS_ERROR;
     }
     I->s.startTime = startTime;

@@ -82,6 +82,8 @@ typedef struct Instance {
     int logEvents;
     Record rec; /* the record of excitation.kind = 4, read once per file */
     FileStamp recFile;
+    double meTimeFloor; /* Model Exchange: the last event's or completed step's time, which
+                           fmi2SetTime may not go back past (no FMU states to restore) */
 } Instance;
 
 #define MSG_LEN (STRING_CAPACITY + 512)

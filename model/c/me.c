@@ -95,6 +95,7 @@ void me_start(Instance *I) {
     Model *M = &I->s.model;
     State *S = &M->s;
     S->t = I->s.tc;
+    I->meTimeFloor = S->t;
     S->denseValid = 0;
     S->nStepPeaks = 0;
     S->omegaSign = S->mode == MODE_ROCKING ? moving_sign(M) : 0; /* released at rest: it moves as it accelerates */
@@ -116,6 +117,14 @@ void me_update_outputs(Instance *I) {
 Status me_set_time(Instance *I, double t, const char *fn) {
     if (!isfinite(t)) {
         INSTANCE_ERROR(I, "%s: time %g is not finite", fn, t);
+        return STATUS_ERROR;
+    }
+    /* an importer's solver may go back within the step it is taking (a rejected trial), not
+     * before the last completed step or event: that would take an FMU state, which Model
+     * Exchange does not offer (canGetAndSetFMUstate is Co-Simulation's) */
+    if (t < I->meTimeFloor) {
+        INSTANCE_ERROR(I, "%s: time %.17g goes back before %.17g, the last completed integrator step or event "
+                       "(Model Exchange keeps no earlier state)", fn, t, I->meTimeFloor);
         return STATUS_ERROR;
     }
     I->s.model.s.t = t;
@@ -140,6 +149,20 @@ Status me_set_states(Instance *I, const double *x, size_t nx, const char *fn) {
     if (check_size(I, x, nx, ME_STATES, fn)) return STATUS_ERROR;
     if (!isfinite(x[0]) || !isfinite(x[1])) {
         INSTANCE_ERROR(I, "%s: state (%g, %g) is not finite", fn, x[0], x[1]);
+        return STATUS_ERROR;
+    }
+    /* past pi/2 the block has overturned (the event iteration lays it on its side); past a
+     * half turn it would be upside down, which no step from a state of the block reaches */
+    if (!(fabs(x[0]) <= M_PI)) {
+        INSTANCE_ERROR(I, "%s: block1.theta = %g rad lies beyond a half turn (|theta| <= pi; past pi/2 the block "
+                       "has overturned)", fn, x[0]);
+        return STATUS_ERROR;
+    }
+    const Derived *d = &I->s.model.d;
+    double rateMax = 1e6 * sqrt(I->s.model.v.g / d->R); /* as a state of the built-in solver */
+    if (!(fabs(x[1]) <= rateMax)) {
+        INSTANCE_ERROR(I, "%s: block1.omega = %g rad/s exceeds 1e6 sqrt(g / R) = %g rad/s (no rocking turns that fast)",
+                       fn, x[1], rateMax);
         return STATUS_ERROR;
     }
     State *S = &I->s.model.s;
@@ -353,6 +376,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     info->nextTime = info->nextTimeDefined ? next : 0.0;
     solver_sample_contacts(M, &log); /* after the event */
     me_update_outputs(I);
+    I->meTimeFloor = t;
     return 0;
 }
 
@@ -362,6 +386,7 @@ int me_completed_step(Instance *I, int *enterEventMode) {
      * rocking flat on its base (theta = 0 moving to the wrong side does not change the sign
      * of theta's indicator from its domain z <= 0) */
     *enterEventMode = me_event_pending(I);
+    I->meTimeFloor = I->s.model.s.t; /* the step is accepted: the importer goes on from here */
     if (!I->s.dirty && !*enterEventMode) { /* the monitors' extremes at the importer's steps */
         Logger log = instance_solver_logger(I);
         solver_sample_contacts(&I->s.model, &log);

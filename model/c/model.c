@@ -112,9 +112,12 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)) or 1 (Taylor series)", v->method);
     if (v->method == 1 && v->nBlocks == 2)
         FAIL("solver.method = 1 (Taylor series) is available for nBlocks = 1 only");
-    if (!(v->relTol > 0 && v->relTol <= 0.1)) FAIL("solver.relTol = %g must be in (0, 0.1]", v->relTol);
-    if (!(v->absTol > 0 && v->absTol <= 1e-3))
-        FAIL("solver.absTol = %g must be in (0, 1e-3] (rad and rad/s: a looser one misses impacts)", v->absTol);
+    if (!(v->relTol >= REL_TOL_MIN && v->relTol <= 0.1))
+        FAIL("solver.relTol = %g must be in [1e-14, 0.1] (a tighter one is below double precision's rounding)",
+             v->relTol);
+    if (!(v->absTol >= ABS_TOL_MIN && v->absTol <= 1e-3))
+        FAIL("solver.absTol = %g must be in [1e-20, 1e-3] (rad and rad/s: a looser one misses impacts, a tighter "
+             "one is below double precision's rounding)", v->absTol);
     if (!(v->restRatio > 0 && v->restRatio < 1))
         FAIL("solver.restRatio = %g must be in (0, 1)", v->restRatio);
     return 0;

@@ -115,6 +115,12 @@ typedef enum {
 
 #define MAX_STEP_PEAKS 4
 #define TAYLOR_MAX 30 /* highest order of the Taylor-series integrator */
+/* The tightest tolerances the integrators can meet in double precision: a local error
+ * below 1e-14 |y| (45 machine epsilons) is lost in the rounding of a step's own
+ * arithmetic, and an absolute one below 1e-20 rad (or rad/s) in that of the relative
+ * part. Tighter ones never returned (the Taylor series steps by eps^(1/N)). */
+#define REL_TOL_MIN 1e-14
+#define ABS_TOL_MIN 1e-20
 
 /* Integrator and discrete state. The integrator may run ahead of the last
  * communication point: outputs there are taken from the dense output of the

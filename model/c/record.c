@@ -184,6 +184,11 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
         double v[4];
         char bad[24];
         int c = split_values(p, e, v, bad, sizeof(bad));
+        /* Quote nothing of a file that has not shown a sample yet: it may not be a record
+         * at all (pointed at /etc/passwd, the log printed its first line). */
+        if (c == -1 && k == 0)
+            FAIL_LINE("not a record file: its first data line is not two or three numbers (time in s, horizontal "
+                      "acceleration in m/s2, optional vertical; a header line must start with '#')");
         if (c == -1) FAIL_LINE("'%s' is not a number", bad);
         if (c == -2) FAIL_LINE("an empty value between separators");
         if (c == -3)

@@ -17,6 +17,11 @@
 
 /* Samples per Taylor step when looking for events. */
 #define TAYLOR_SAMPLES 16
+/* The shortest Taylor step (before a break point cuts it), in units of the block's time
+ * scale 1 / (p + |omega|) (1/p, or the time to turn by a radian): at the tolerances allowed
+ * it is at least 0.1 of the series' radius (eps^(1/N) with N <= 22), far above this. A
+ * shorter one would take 1e6 steps per time scale, a run that never returns: an error. */
+#define TAYLOR_STEP_FLOOR 1e-6
 
 typedef struct {
     const Model *M;
@@ -219,6 +224,14 @@ static int take_step_taylor(Model *M, const Logger *log) {
     double x[TAYLOR_MAX + 1] = {0}, bp = next_breakpoint(M, S->t, piece); /* x[N + 1..]: 0 in the state */
     taylor_series(M, S->t, S->y[0], S->y[1], side, piece, N, x);
     double h = taylor_step(x, N, v->absTol + v->relTol * fabs(S->y[0]));
+    double hFloor = TAYLOR_STEP_FLOOR / (sqrt(M->d.p2) + fabs(S->y[1]));
+    if (!(h >= hFloor)) {
+        say(log, LOG_ERROR,
+            "the Taylor step %g s at t=%.17g is below %g s (1e-6 / (p + |omega|)): solver.relTol = %g, solver.absTol = %g cannot "
+            "be met here",
+            h, S->t, hFloor, v->relTol, v->absTol);
+        return -1;
+    }
     int hitBp = 0;
     if (S->t + h >= bp) {
         h = bp - S->t;
@@ -397,7 +410,14 @@ void solver_outputs(Model *M, double tc) {
     v->ahTotal = k.ah;
     v->avTotal = k.av;
     /* at rest or overturned the block moves with the ground (omega = alpha_dd = 0) */
-    contact_one_block_terms(M, rocking ? y[1] : 0.0, v->alphaDD, &k, &v->groundT, &v->groundN);
+    if (S->mode == MODE_REST && contact_tipping_side(M, tc)) { /* the rocking that starts, if the ground tips it at tc (contact_rest) */
+        double T[2], N[2];
+        contact_rest(M, tc, 0, T, N);
+        v->groundT = T[0];
+        v->groundN = N[0];
+    } else {
+        contact_one_block_terms(M, rocking ? y[1] : 0.0, v->alphaDD, &k, &v->groundT, &v->groundN);
+    }
     v->interfaceT = v->interfaceN = 0.0;
     contact_outputs(M, v);
 }

@@ -149,18 +149,19 @@ void stack_initialize(Model *M) {
 
 /* From rest at the time t the ground starts to tip the stack towards side:
  * the static check of each candidate pattern, least motion first. */
+Mode stack_start_pattern(const Model *M, double t, int side) {
+    static const Mode order[3] = {MODE_LOCKED, MODE_UPPER, MODE_BOTH};
+    double ah, av, y[4] = {0.0, 0.0, 0.0, 0.0};
+    model_ground(M, t, &ah, &av);
+    for (int i = 0; i < 3; i++)
+        if (admissible(M, order[i], side, side, y, ah, av)) return order[i];
+    return MODE_BOTH;
+}
+
 static void start_from_rest(Model *M, double t, int side, const Logger *log) {
     State *S = &M->s;
-    static const Mode order[3] = {MODE_LOCKED, MODE_UPPER, MODE_BOTH};
-    double ah, av;
     memset(S->y, 0, sizeof(S->y));
-    model_ground(M, t, &ah, &av);
-    Mode chosen = MODE_BOTH;
-    for (int i = 0; i < 3; i++)
-        if (admissible(M, order[i], side, side, S->y, ah, av)) {
-            chosen = order[i];
-            break;
-        }
+    Mode chosen = stack_start_pattern(M, t, side);
     S->t = t;
     S->h = 0.0;
     S->denseValid = 0;
@@ -521,7 +522,13 @@ void stack_outputs(Model *M, double tc) {
     v->lastPeakTheta = 0.0;
     v->ahTotal = ah;
     v->avTotal = av;
-    contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &v->groundT, &v->groundN, &v->interfaceT, &v->interfaceN);
+    if (S->mode == MODE_REST && contact_tipping_side(M, tc)) { /* the motion that starts, if the ground tips the stack at tc (contact_rest) */
+        double T[2], N[2];
+        contact_rest(M, tc, 0, T, N);
+        v->groundT = T[0], v->groundN = N[0], v->interfaceT = T[1], v->interfaceN = N[1];
+    } else {
+        contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &v->groundT, &v->groundN, &v->interfaceT, &v->interfaceN);
+    }
     contact_outputs(M, v);
 }
 

@@ -21,6 +21,10 @@
 void stack_initialize(Model *M);
 
 int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop);
+
+/* The pattern a stack resting at time t starts in when the ground tips it towards side:
+ * the most settled admissible one (locked, upper, both), from theta = omega = 0. */
+Mode stack_start_pattern(const Model *M, double t, int side);
 void stack_outputs(Model *M, double tc);
 void stack_rollback(Model *M, double tc);
 

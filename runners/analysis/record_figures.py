@@ -6,7 +6,9 @@
   the rotation gap and its bound (model.ground_motions.sampled_sine_bound);
 - records_imperial_valley.png: FEMA P695 near-field record 1a, its velocity and displacement;
 - records_statue_fragility.png and records_statue_ida.png: the worked example, a museum statue
-  (0.25 m x 1.0 m) under the 28 near-field pulse components at 20 PGA levels.
+  (0.25 m x 1.0 m) under the 28 near-field pulse components at 20 PGA levels;
+- records_plinth_states.png: damage states of a statue on a plinth under the same records: each
+  block overturning, and either block's rotation beyond 0.5 alpha, on one figure.
 
 Units SI, angles in radians (docs/conventions.md).
 """
@@ -27,6 +29,8 @@ from runners.engine.fmu import RockingFMU  # noqa: E402
 
 STATUE = {"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 150.0}
 STATUE_NAME = "museum statue 0.25 m x 1.0 m"
+PLINTH_SCENE = Path(__file__).resolve().parents[2] / "examples" / "statue_on_plinth.toml"
+PLINTH_STATES = ["block1:overturn", "block2:overturn", "rot>0.5alpha"]
 PULSES = [  # (label with its source, short name, kind, extra parameters)
     ("one-sine pulse (Housner 1963; Dimitrakopoulos & DeJong 2012)", "one-sine", 1, {}),
     ("Ricker wavelet (Ricker 1943)", "Ricker", 5, {}),
@@ -147,9 +151,24 @@ def statue_study(fmu: RockingFMU, out: Path) -> list[Path]:
         return [study.plot_fragility(out, frag, oc), study.plot_ida(out.with_name("records_statue_ida.png"), oc)]
 
 
+def plinth_states(fmu: RockingFMU, out: Path) -> Path:
+    """Damage states of examples/statue_on_plinth.toml under the 28 near-field pulse components at
+    15 PGA levels: block 1 overturning, block 2 overturning, rotation beyond 0.5 alpha."""
+    from db.session import open_database
+    from runners.engine import study
+    from runners.engine.scene import load_scene
+
+    scene = load_scene(PLINTH_SCENE)
+    with tempfile.TemporaryDirectory() as tmp:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
+        oc = record_study(factory, fmu, scene.name, scene.parameters, suite_refs(factory), "pga=0.1:1.5:15")
+        return study.plot_curves(out, study.curves(oc, PLINTH_STATES))
+
+
 FIGURES = {
     "records_pulses.png": pulse_families,
     "records_interpolation.png": record_vs_pulse,
     "records_imperial_valley.png": imperial_valley,
     "records_statue_fragility.png": statue_study,
+    "records_plinth_states.png": plinth_states,
 }

@@ -124,6 +124,19 @@ def object_id(text: str) -> int | str:
     return int(text)
 
 
+class Once(argparse.Action):
+    """An option that takes one value and may be given once: a second one is refused (argparse
+    would keep the last and drop the first without a word)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = getattr(namespace, "_once", None) or {}
+        if self.dest in given:
+            raise argparse.ArgumentError(self, f"given twice ({given[self.dest]} and {values}): give it once")
+        given[self.dest] = values
+        namespace._once = given
+        setattr(namespace, self.dest, values)
+
+
 class Renamed(argparse.Action):
     """An option's former spelling: it still works, stores into the new option's dest, and
     leaves a one-line note (printed after parsing, unless --quiet)."""

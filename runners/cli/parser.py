@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import (Parser, common, count, finite, folder, object_id, output_file, positive,
+from runners.cli.args import (Once, Parser, common, count, finite, folder, object_id, output_file, positive,
                               renamed, tolerance)
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
@@ -122,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--records", metavar="SUITE|NAMES|FOLDER",
                     help="run every record of a suite (e.g. fema-p695/nearfield_pulse), of a comma-separated list "
                          "of record names or ids, or of a folder of record files (docs/records.md)")
-    sw.add_argument("--im", metavar="pga=START:STOP:COUNT",
+    sw.add_argument("--im", action=Once, metavar="pga=START:STOP:COUNT",
                     help="scale each record so that its PGA (in g) or PGV (pgv=..., in m/s) takes COUNT levels")
     renamed(sw, "--resume", "the positional SWEEP_ID (runners sweep SWEEP_ID)", dest="resume", type=object_id)
     sw.add_argument("--workers", type=count, help="worker processes (default: all cores)")

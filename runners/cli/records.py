@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import common, object_id, output_file, renamed
+from runners.cli.args import Once, common, object_id, output_file, renamed
 from runners.cli.output import emit_json, note
 
 
@@ -176,43 +176,67 @@ def _study(args: argparse.Namespace):
     from runners.engine import study
 
     factory = open_database(args.db, write=False)  # reads only: a mistyped path is not created
-    oc = study.outcomes(factory, resolve_latest(factory, Sweep, args.sweep, "sweep"), args.im)
-    return study, oc, Path(args.out or f"{args.command}-{oc.sweep_id}.png")
+    sets = study.outcome_sets(factory, resolve_latest(factory, Sweep, args.sweep, "sweep"), args.im, args.select)
+    return study, sets, Path(args.out or f"{args.command}-{sets[0].sweep_id}.png")
+
+
+def _head(sets) -> dict:
+    oc = sets[0]
+    return {"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
+            "axes": list(oc.combination)}
 
 
 def cmd_fragility(args: argparse.Namespace) -> int:
     from runners.analysis.fragility import FragilityError
 
-    study, oc, out = _study(args)
-    try:
-        frag = study.fragility(oc)
-    except FragilityError as exc:  # still show what was observed
-        study.plot_fragility(out, None, oc)
-        raise FragilityError(f"{exc} (the fractions overturned are drawn in {out})") from None
-    study.plot_fragility(out, frag, oc)
+    study, sets, out = _study(args)
+    cs = study.curves(sets, args.ds)
+    study.plot_curves(out, cs)
+    if all(c.fragility is None for c in cs):  # still show what was observed
+        if len(cs) == 1:
+            raise FragilityError(f"{cs[0].why} (the fractions {'overturned' if args.ds is None else 'reached'} are "
+                                 f"drawn in {out})")
+        raise FragilityError(f"none of the {len(cs)} curves has a fit ({cs[0].state.spec}: {cs[0].why}); the "
+                             f"fractions reached are drawn in {out}")
     if args.json:
-        emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
-                   "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **frag.as_dict(),
+        doc = {**_head(sets), "damage_states": list(dict.fromkeys(c.state.spec for c in cs)),
+               "curves": [c.as_dict() for c in cs], "figure": str(out)}
+        one = cs[0]
+        if len(cs) == 1 and one.state == study.DamageState("overturn"):  # the fields as before, at the top too
+            oc = one.outcomes
+            doc = {**doc, "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **one.fragility.as_dict(),
                    "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
-                   "notes": study.fragility_notes(frag, oc), "figure": str(out)})
+                   "notes": study.fragility_notes(one.fragility, oc)}
+        emit_json(doc)
         return 0
-    print(study.format_fragility(frag, oc) + f"\nfigure           {out}")
+    print(study.format_curves(cs) + f"\nfigure           {out}")
     return 0
 
 
+def _ida_run(oc, i: int) -> dict:
+    """One run of an IDA as ida --json lists it: each block's own peak and overturn."""
+    row = {"record": oc.record[i], "x": float(oc.x[i]), **oc.combination, "overturned": bool(oc.overturned[i]),
+           "peak1_over_alpha": float(oc.peak1[i])}
+    if oc.two:
+        row.update(peak2_over_alpha=float(oc.peak2[i]), block1_overturned=bool(oc.over1[i]),
+                   block2_overturned=bool(oc.over2[i]))
+    row["rigid_rocking_held"] = None if oc.broke is None else not bool(oc.broke[i])
+    return row
+
+
 def cmd_ida(args: argparse.Namespace) -> int:
-    study, oc, out = _study(args)
-    study.plot_ida(out, oc)
+    study, sets, out = _study(args)
+    study.plot_ida(out, sets)
     if args.json:
-        emit_json({"sweep": oc.sweep_id, "scene": oc.scene, "measure": oc.measure, "unit": oc.unit,
-                   "first_overturn": study.first_overturn(oc), "not_monotonic": study.resurrections(oc),
-                   "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
-                   "runs": [{"record": r, "x": float(x), "overturned": bool(o), "peak1_over_alpha": float(p1),
-                             "rigid_rocking_held": None if oc.broke is None else not bool(oc.broke[i])}
-                            for i, (r, x, o, p1) in enumerate(zip(oc.record, oc.x, oc.overturned, oc.peak1))],
-                   "figure": str(out)})
+        combos = [{"combination": oc.combination, "first_overturn": study.first_overturn(oc),
+                   "not_monotonic": study.resurrections(oc),
+                   "rigid_rocking_broke": None if oc.broke is None else oc.n_broke} for oc in sets]
+        doc = {**_head(sets), **({k: v for k, v in combos[0].items() if k != "combination"} if len(sets) == 1 else {}),
+               "combinations": combos, "runs": [_ida_run(oc, i) for oc in sets for i in range(len(oc.x))],
+               "figure": str(out)}
+        emit_json(doc)
         return 0
-    print(study.format_ida(oc) + f"\nfigure           {out}")
+    print("\n\n".join(study.format_ida(oc) for oc in sets) + f"\nfigure           {out}")
     return 0
 
 
@@ -247,13 +271,23 @@ def add_parser(sub) -> None:
     ex.set_defaults(func=cmd_export)
     studies = []
     for name, func, what in (
-            ("fragility", cmd_fragility, "lognormal fragility of overturning of a sweep over records (Baker 2015)"),
-            ("ida", cmd_ida, "IDA curves of a sweep over records: peak |theta|/alpha against intensity")):
+            ("fragility", cmd_fragility, "lognormal fragility curves of damage states of a sweep over records "
+             "(Baker 2015)"),
+            ("ida", cmd_ida, "IDA curves of a sweep over records: each block's peak |theta|/alpha against "
+             "intensity")):
         st = sub.add_parser(name, help=what)
         st.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
-        st.add_argument("--im", default="pga",
+        st.add_argument("--im", default="pga", action=Once,
                         help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
         st.add_argument("--out", type=output_file, metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
+        st.add_argument("--select", action="append", metavar="NAME=VALUE",
+                        help="only the runs with this value of a --grid axis of the sweep (repeat for several "
+                             "axes); without it each combination of the axes' values gets its own curve")
+        if name == "fragility":
+            st.add_argument("--ds", action="append", metavar="STATE",
+                            help="damage state, repeat for several curves: [block1:|block2:|either:]overturn "
+                                 "(default: overturn, either block), [BLOCK:]rot>Xalpha (peak |theta| / alpha "
+                                 "beyond X), slides (a contact needed more friction than mu)")
         st.set_defaults(func=func)
         studies.append(st)
     for p in (imp, ls, sh, ex, *studies):

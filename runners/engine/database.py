@@ -18,6 +18,8 @@ from sqlalchemy.orm import sessionmaker
 
 from db.schema import Excitation, Run, RunSummary, Scene, Sweep
 from db.session import display_url, open_database
+from runners import arguments
+from runners.errors import ArgumentError
 from runners.engine.results import RunResult, SweepResult
 from runners.engine.tables import OUTCOMES, fmu_defaults, stored_table
 
@@ -63,6 +65,9 @@ class Database:
 
         sweep: only the points of this sweep; single: only runs in no sweep; limit: the
         newest N. A sweep of a million points makes a million rows: filter."""
+        sweep, limit = arguments.optional(arguments.whole, sweep, "sweep"), arguments.optional(arguments.whole,
+                                                                                                limit, "limit", 0)
+        single = arguments.flag(single, "single")
         return stored_table(self.factory, "runs", sweep=sweep, single=single, limit=limit)
 
     def sweeps(self) -> "pd.DataFrame":
@@ -74,6 +79,7 @@ class Database:
         """Stored ground-motion records with their provenance and intensity measures (pga in
         m/s^2 and pga_g in g, pgv m/s, pgd m, arias m/s, d5_95 and mean_period s); `suite`: only
         that suite and those under it (e.g. "fema-p695")."""
+        suite = arguments.optional(arguments.text, suite, "suite", "a suite's name (str)")
         return stored_table(self.factory, "records", **({} if suite is None else {"suite": suite}))
 
     def measurements(self) -> "pd.DataFrame":
@@ -93,10 +99,11 @@ class Database:
         from db import series as packed
         from runners.engine.tables import events_frame, series_frame
 
+        run_id = arguments.whole(run_id, "run_id")  # np.int64 included: a plain int for the database
         with self.factory() as session:
             run = session.get(Run, run_id)
             if run is None:
-                raise ValueError(f"no run {run_id} in the database")
+                raise ArgumentError(f"no run {run_id} in the database")
             summary = _summary(session, run)
             parameters = _parameters(session, run)
             scene = run.scene.name
@@ -120,10 +127,11 @@ class Database:
         sweep that is not there."""
         from runners.engine.tables import grid_text
 
+        sweep_id = arguments.whole(sweep_id, "sweep_id")
         with self.factory() as session:
             sw = session.get(Sweep, sweep_id)
             if sw is None:
-                raise ValueError(f"no sweep {sweep_id} in the database")
+                raise ArgumentError(f"no sweep {sweep_id} in the database")
             stats = {"sweep": sw.id, "scene": session.get(Scene, sw.scene_id).name, "grid": grid_text(sw.grid),
                      "total": sw.total, "stored": sw.done, "status": sw.status}
         return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
@@ -192,4 +200,4 @@ def open_db(url: str | None = None, *, write: bool = False) -> Database:
     there is an error (runners db init creates one). write=True opens it for writing
     (creating and migrating it as the commands that store runs do). DatabaseError, in one
     line, for a database that cannot be opened."""
-    return Database(open_database(url, write=write))
+    return Database(open_database(arguments.database_url(url, "url"), write=arguments.flag(write, "write")))

@@ -59,10 +59,15 @@ class Exported:
 
 def choose_format(fmt: str | None, out: str | None) -> str:
     """The format to write: `fmt` if given, else the suffix of `out` (.csv, .parquet or .pq,
-    .json), else csv. ValueError for an unknown format, or --out naming another format."""
+    .json), else csv. ValueError for an unknown format, an --out whose suffix is none of those
+    (x.xlsx would hold CSV text that Excel refuses to open), or --out naming another format."""
     if fmt is not None and fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}: csv, parquet or json")
-    by_suffix = SUFFIXES.get(Path(out).suffix.lower()) if out else None
+    suffix = Path(out).suffix.lower() if out else ""
+    if suffix and suffix not in SUFFIXES:
+        raise ValueError(f"--out {out}: runners export writes csv, parquet or json files (.csv, .parquet or .pq, "
+                         f".json), not {suffix} (spreadsheets open the .csv)")
+    by_suffix = SUFFIXES.get(suffix) if out else None
     if fmt is not None and by_suffix is not None and by_suffix != fmt:
         raise ValueError(f"--out {out} names a {by_suffix} file, and --format is {fmt}: make them agree")
     return fmt or by_suffix or "csv"

@@ -1,8 +1,8 @@
 """Intensity measures of a ground-acceleration record, exact for the signal the FMU integrates.
 
-The FMU joins a record's samples by straight lines (docs/records.md), so every measure here is
-computed for that piecewise-linear acceleration a(t), in closed form segment by segment, not
-by a quadrature of the samples:
+The FMU joins a record's samples by straight lines (docs/records.md), so every measure here but
+the mean period is computed for that piecewise-linear acceleration a(t), in closed form segment
+by segment, not by a quadrature of the samples:
 
 - ``pga``: peak |a| (m/s^2): on straight segments, at a sample;
 - ``pgv``: peak |v| (m/s), v the exact integral of a from rest (quadratic on each segment, so
@@ -16,7 +16,8 @@ by a quadrature of the samples:
   the Arias intensity (s), located exactly inside its segments;
 - ``mean_period``: Rathje, Abrahamson and Bray (1998): sum(C_i^2 / f_i) / sum(C_i^2) over the
   Fourier amplitudes C_i at frequencies 0.25 Hz <= f_i <= 20 Hz (s), from the FFT of the
-  samples (resampled at the smallest interval when the sampling is irregular).
+  samples without zero padding (resampled at the smallest interval when the sampling is
+  irregular): Rathje's discrete definition, not a property of the piecewise-linear a(t).
 
 Units SI. Sign convention (docs/conventions.md): a > 0 accelerates the ground towards +x.
 """

@@ -264,8 +264,9 @@ def _read_table(path: Path, where: str) -> _Table:
                     table.error = f"line {line}: time must be a finite number"
                 elif not vals[0] > prev:
                     table.error = f"line {line}: time {vals[0]:g} does not increase (previous {prev:g})"
-                elif any(math.isinf(v) for v in vals[1:]):
-                    table.error = f"line {line}: values must be finite"
+                elif bad := [c.strip() for c, v in zip(row[1:], vals[1:]) if c.strip() and not math.isfinite(v)]:
+                    table.error = (f"line {line}: values must be finite numbers, not {bad[0]!r} (leave the cell "
+                                   "empty for a value not measured)")
                 else:
                     for a, v in zip(cols, vals):
                         a.append(v)

@@ -9,6 +9,7 @@ Python (here and in model/ground_motions.py).
 from __future__ import annotations
 
 import math
+import sys
 from typing import Any
 
 from model import ground_motions as gm
@@ -17,10 +18,13 @@ from model.reference import Block
 from model.solvers import Scene, solve_event_driven, solve_fixed_step
 from model.two_block_solver import StackScene, solve_stack
 from runners.analysis.least_model import restitution
+from runners.errors import ArgumentError
 
 FIXED = {"rk4": ("rk4", False), "rk4-located": ("rk4", True), "newmark": ("newmark", True),
          "euler": ("euler", False)}
 METHODS = ["scipy", *FIXED]
+# scipy's solve_ivp raises a smaller rtol to this with a warning (scipy.integrate._ivp.common)
+SCIPY_RTOL_MIN = 100 * sys.float_info.epsilon
 MAX_STEPS = 100_000_000  # fixed steps a Python solver may take (about 20 minutes of rk4)
 
 
@@ -71,6 +75,9 @@ def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol:
                          f"step that long cannot follow the rocking (use --h {0.01 / p_rate:.1g} or less)")
     if not (math.isfinite(rtol) and 0 < rtol <= 0.1):  # scipy loops forever on rtol nan or 0
         raise ValueError(f"--rtol {rtol:g} must be a tolerance in (0, 0.1]")
+    if method == "scipy" and rtol < SCIPY_RTOL_MIN:  # scipy warns and raises it; with atol 1e-2 rtol it never ends
+        raise ArgumentError(f"--rtol {rtol:g} is below what scipy's DOP853 can meet (100 machine epsilons, "
+                            f"{SCIPY_RTOL_MIN:.5g}): use --rtol 3e-14 or more")
     ground, breaks = ground_of(p)
     if int(p["nBlocks"]) == 2:
         if method != "scipy":
@@ -111,6 +118,8 @@ def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol:
 
 
 def format_python(name: str, s: dict[str, Any], stop_time: float) -> str:
+    from runners.engine.summary import peak_line
+
     outcome = s["final_state"]
     if s["overturned"]:
         outcome += f" at t = {s['overturn_time_s']:.4f} s"
@@ -121,7 +130,7 @@ def format_python(name: str, s: dict[str, Any], stop_time: float) -> str:
              f"outcome          {outcome}"]
     if s["blocks"] == 2:
         lines += [f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
-                  f"peak |theta|     block 1 {s['max_abs_theta_rad']:.6f} rad, block 2 {s['max_abs_theta2_rad']:.6f} rad"]
+                  peak_line(s)]
     else:
-        lines += [f"impacts          {s['impacts']}", f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad"]
+        lines += [f"impacts          {s['impacts']}", peak_line(s)]
     return "\n".join(lines)

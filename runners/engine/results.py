@@ -11,11 +11,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
+from runners.errors import ArgumentError
+
 if TYPE_CHECKING:
     import pandas as pd
 
     from runners.analysis.fragility import Fragility
-    from runners.engine.study import Outcomes
+    from runners.engine.study import Curve, Outcomes
     from sqlalchemy.orm import sessionmaker
 
 
@@ -85,20 +87,66 @@ class SweepResult:
 
         return sweep_frame(self.factory, self.sweep_id)
 
-    def outcomes(self, measure: str = "pga") -> "Outcomes":
+    def outcomes(self, measure: str = "pga", select: dict[str, float] | None = None) -> "Outcomes":
         """A record sweep's runs against intensity ``measure`` (pga in g, pgv in m/s, pgd in m,
-        arias in m/s): runners.engine.study.Outcomes, the data of the fragility and IDA curves."""
+        arias in m/s): runners.engine.study.Outcomes, the data of the fragility and IDA curves.
+        A sweep with other --grid axes (block sizes, ...) needs ``select={"block1.halfWidth": 0.3}``
+        to pick one combination of their values (StudyError otherwise); outcome_sets gives them all."""
         from runners.engine import study
 
-        return study.outcomes(self.factory, self.sweep_id, measure)
+        return study.outcomes(self.factory, self.sweep_id, _measure(measure), _select(select))
 
-    def fragility(self, measure: str = "pga") -> "Fragility":
-        """The lognormal fragility of overturning fitted to a record sweep by maximum likelihood
+    def outcome_sets(self, measure: str = "pga", select: dict[str, float] | None = None) -> list["Outcomes"]:
+        """One Outcomes per combination of the sweep's other --grid axes (one when it has none), in
+        grid order; ``select`` keeps the combinations with those values."""
+        from runners.engine import study
+
+        return study.outcome_sets(self.factory, self.sweep_id, _measure(measure), _select(select))
+
+    def fragility(self, measure: str = "pga", ds: str = "overturn",
+                  select: dict[str, float] | None = None) -> "Fragility":
+        """The lognormal fragility of damage state ``ds`` (default overturn, of either block; see
+        fragilities) fitted to a record sweep by maximum likelihood
         (runners.analysis.fragility.Fragility: median and dispersion beta, in the unit of
-        ``measure``). Raises FragilityError when the runs cannot determine it."""
+        ``measure``). Raises FragilityError when the runs cannot determine it, StudyError when
+        the sweep has other --grid axes and ``select`` does not pick one combination."""
+        from runners.analysis.fragility import FragilityError
         from runners.engine import study
 
-        return study.fragility(self.outcomes(measure))
+        if not isinstance(ds, str):
+            raise ArgumentError(f"ds={ds!r}: expected one damage state as a string, e.g. 'block2:overturn' "
+                                "(fragilities takes several)")
+        curve = study.curves(self.outcomes(measure, select), [ds])[0]
+        if curve.fragility is None:
+            raise FragilityError(curve.why)
+        return curve.fragility
+
+    def fragilities(self, measure: str = "pga", ds: list[str] | tuple[str, ...] = ("overturn",),
+                    select: dict[str, float] | None = None) -> list["Curve"]:
+        """The fragility curve of each damage state in ``ds`` at each combination of the sweep's
+        other --grid axes (runners.engine.study.Curve: ``.state``, ``.outcomes.combination``,
+        ``.reached`` per run, ``.fragility`` or ``.why`` it has none, ``.as_dict()``). Damage
+        states: ``[block1:|block2:|either:]overturn``, ``[BLOCK:]rot>Xalpha`` (peak |theta| / alpha
+        beyond X, or overturned), ``slides`` (a contact needed more friction than its mu). Draw
+        them with runners.engine.study.curves_figure."""
+        from runners.engine import study
+
+        if isinstance(ds, str) or not all(isinstance(d, str) for d in ds):
+            raise ArgumentError(f"ds={ds!r}: expected a list of damage states, e.g. ['overturn', 'rot>0.5alpha']")
+        return study.curves(self.outcome_sets(measure, select), list(ds))
+
+
+def _measure(measure: Any) -> str:
+    from runners import arguments
+
+    return arguments.text(measure, "measure", "an intensity measure (str): pga, pgv, pgd or arias")
+
+
+def _select(select: Any) -> dict | None:
+    if select is not None and not isinstance(select, dict):
+        raise ArgumentError(f"select={select!r}: expected a dict of grid axis name to value, e.g. "
+                            "{'block1.halfWidth': 0.3}")
+    return select
 
 
 def series_later(time, outputs: dict[str, Any]) -> Callable[[], "pd.DataFrame"]:

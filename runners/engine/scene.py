@@ -16,6 +16,7 @@ until its record ends plus a few seconds (runners.engine.records.TAIL).
 from __future__ import annotations
 
 import math
+import numbers
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -125,6 +126,22 @@ def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
     return None
 
 
+# m: a block's half width or half height above this is most likely entered in millimetres
+PLAUSIBLE_HALF_SIZE = 10.0
+
+
+def implausible_sizes(p: dict[str, Any]) -> list[str]:
+    """Notes (not errors) for blocks of parameters `p` (defaults included) with a half size above
+    PLAUSIBLE_HALF_SIZE: a 400 mm x 1600 mm block entered as 400 x 1600 runs as a building."""
+    notes = []
+    for i in (1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,):
+        b, h = float(p.get(f"block{i}.halfWidth", 0.0)), float(p.get(f"block{i}.halfHeight", 0.0))
+        if max(b, h) > PLAUSIBLE_HALF_SIZE:
+            notes.append(f"block{i} is {2 * b:g} m x {2 * h:g} m (half_width {b:g} m, half_height {h:g} m): sizes "
+                         "are in metres (docs/scenes.md)")
+    return notes
+
+
 class SceneError(RockingError, ValueError):
     """A scene file is unreadable or invalid; str() is a one-line message."""
 
@@ -152,8 +169,8 @@ class Scene:
 
 
 def _value(where: str, value: Any, kind: Any) -> float | int | bool:
-    if kind == "real":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if kind == "real":  # numpy's scalars too (a dict scene built in Python)
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise SceneError(f"{where}: expected a number, got {value!r}")
         if not math.isfinite(value):
             raise SceneError(f"{where}: {value!r} is not a finite number")
@@ -167,9 +184,9 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
             raise SceneError(f"{where}: expected a non-empty text, got {value!r}")
         return value
     if kind == "record":
-        if isinstance(value, bool) or not isinstance(value, (str, int)) or not str(value).strip():
+        if isinstance(value, bool) or not isinstance(value, (str, numbers.Integral)) or not str(value).strip():
             raise SceneError(f"{where}: expected a record name or database id, got {value!r}")
-        return str(value).strip()
+        return str(value).strip() if isinstance(value, str) else str(int(value))
     if not isinstance(value, str) or value not in kind:
         raise SceneError(f"{where}: expected one of {', '.join(kind)}, got {value!r}")
     return kind[value]
@@ -177,7 +194,10 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
 
 def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     """Validate a parsed TOML document into a :class:`Scene`."""
-    scene = Scene(name=str(data.get("name", Path(source).stem)), source=source)
+    name = data.get("name", Path(source).stem)
+    if not isinstance(name, str) or not name.strip():
+        raise SceneError(f"{source}: name must be a text (name = \"statue\"), got {name!r}")
+    scene = Scene(name=name, source=source)
     for table, content in data.items():
         if table == "name":
             continue

@@ -12,23 +12,29 @@ is runners.sweep)::
     frag = study.fragility(oc)                           # runners.analysis.fragility.Fragility
     fig = study.fragility_figure(frag, oc)               # a matplotlib Figure (shown inline in a notebook)
     study.plot_ida("ida.png", oc)                        # or straight to a file
+    curves = study.curves(study.outcome_sets(sw.factory, sw.sweep_id, "pga"), ["overturn", "rot>0.5alpha"])
+    fig = study.curves_figure(curves)                    # damage states, one panel per grid combination
 
 A run's intensity is its record's measure times its scale (PGA, PGV, PGD linearly, Arias
 intensity with the square; runners.engine.intensity.SCALING). "Overturned" means either block of a
-stack. Intensities are shown in g (PGA), m/s (PGV, Arias intensity) or m (PGD).
+stack unless a damage state names one (DamageState). Intensities are shown in g (PGA), m/s (PGV,
+Arias intensity) or m (PGD). A sweep with --grid axes besides its records and intensities has one
+set of outcomes per combination of their values (outcome_sets); they are never pooled.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from runners.analysis.fragility import Fragility, fit
+from runners.analysis.fragility import Fragility, FragilityError, fit
 from runners.analysis.sweep_map import BROKE_COLOUR
 from runners.engine.intensity import G0, SCALING
+from runners.errors import RockingError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -55,6 +61,16 @@ class Outcomes:
     # bool per run: a contact slid or lifted off before the outcome was decided, so rigid rocking
     # does not answer for it (docs/contact.md); None where the runs did not monitor the contacts
     broke: np.ndarray | None = None
+    over1: np.ndarray | None = None  # bool per run: block 1 overturned (None: as `overturned`)
+    over2: np.ndarray | None = None  # bool per run: block 2 overturned (two blocks)
+    slid: np.ndarray | None = None  # bool per run: a contact needed more friction than its mu (None: not monitored)
+    # the values of the sweep's --grid axes besides records and intensity in these runs (SI); empty
+    # when the sweep has none
+    combination: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.over1 is None:
+            self.over1 = np.asarray(self.overturned, bool) if self.over2 is None else self.over1
 
     @property
     def n_broke(self) -> int:
@@ -74,19 +90,28 @@ class Outcomes:
                 "first, so their outcomes are rigid rocking's, not necessarily the block's (docs/contact.md)")
 
     def __repr__(self) -> str:
-        return (f"Outcomes(sweep {self.sweep_id}, {self.scene!r}: {len(self.x)} runs against {self.label} in "
+        at = f" at {self.combination_text()}" if self.combination else ""
+        return (f"Outcomes(sweep {self.sweep_id}, {self.scene!r}{at}: {len(self.x)} runs against {self.label} in "
                 f"{self.unit}, {int(np.sum(self.overturned))} overturned, {self.failed} failed)")
+
+    def combination_text(self) -> str:
+        """The grid axes' values of these runs, e.g. 'block1.halfWidth = 0.3' ('' when none)."""
+        return ", ".join(f"{k} = {v:g}" for k, v in self.combination.items())
 
     def to_pandas(self) -> "pd.DataFrame":
         """One row per run: record, intensity (column named after the measure, in its unit),
-        overturned, peak1_over_alpha (and peak2_over_alpha for two blocks), and
-        rigid_rocking_held where the runs monitored the contacts."""
+        overturned (either block), peak1_over_alpha (and peak2_over_alpha, block1_overturned,
+        block2_overturned for two blocks), and slides and rigid_rocking_held where the runs
+        monitored the contacts."""
         import pandas as pd
 
         columns = {"record": self.record, f"{self.measure}_{self.unit.replace('/', '_per_')}": self.x,
                    "overturned": np.asarray(self.overturned, bool), "peak1_over_alpha": self.peak1}
         if self.peak2 is not None:
-            columns["peak2_over_alpha"] = self.peak2
+            columns.update(peak2_over_alpha=self.peak2, block1_overturned=np.asarray(self.over1, bool),
+                           block2_overturned=np.asarray(self.over2, bool))
+        if self.slid is not None:
+            columns["slides"] = np.asarray(self.slid, bool)
         if self.broke is not None:
             columns["rigid_rocking_held"] = ~np.asarray(self.broke, bool)
         return pd.DataFrame(columns)
@@ -128,51 +153,340 @@ class Outcomes:
         return [g for g in np.array_split(order, 12) if g.size]
 
     def uplift_threshold(self) -> float | None:
-        """The PGA (g) below which no record can lift the block (or the stack) from rest."""
+        """The PGA (in g0 = 9.80665 m/s2, as every PGA here) below which no record can lift the
+        block (or the stack) from rest: g tan(alpha) with the model's own g (parameter g, 9.81 m/s2
+        by default) for one block, the stack's uplift acceleration for two."""
         if self.measure != "pga":
             return None
         from runners.engine.sweep import scales
 
         return scales(self.params)[1] / G0
 
+    def uplift_text(self) -> str | None:
+        """The uplift threshold in one line, with both g's spelt out (docs/conventions.md)."""
+        thr = self.uplift_threshold()
+        if thr is None:
+            return None
+        what = "the stack's uplift acceleration" if self.two else "g tan(alpha)"
+        return (f"no record below PGA {thr:.4g} g can lift the {'stack' if self.two else 'block'} from rest: "
+                f"{what} = {thr * G0:.4g} m/s2 with the model's g = {self.params['g']:g} m/s2, over "
+                f"g0 = {G0} m/s2, the g of every PGA here")
 
-def outcomes(factory, sweep_id: str | int, measure: str = "pga") -> Outcomes:
-    """The runs of a sweep over records (runners sweep --records)."""
+
+class StudyError(RockingError, ValueError):
+    """A study that cannot be made as asked (a sweep not over records, an unknown damage state,
+    a selection that names no grid value, ...); str() is one line."""
+
+
+def extra_axes(grid: dict) -> list[tuple[str, np.ndarray]]:
+    """The --grid axes of a stored record sweep besides its records and intensity (a --grid scale
+    axis is the intensity), with their values (SI)."""
+    from runners.engine.sweep import Axis
+
+    out = []
+    for a in grid.get("axes") or []:
+        if a[0] != "excitation.scale":
+            out.append((a[0], Axis(a[0], a[1], a[2], a[3], *a[4:5]).values))
+    return out
+
+
+def _same(a: float, b: float) -> bool:
+    return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
+
+
+def parse_select(specs: list[str] | dict | None) -> dict[str, float]:
+    """NAME=VALUE strings (runners fragility --select) or a dict, as {name: value}."""
+    if not specs:
+        return {}
+    if isinstance(specs, dict):
+        items = list(specs.items())
+    else:
+        items = []
+        for spec in specs:
+            name, eq, value = str(spec).partition("=")
+            if not eq:
+                raise StudyError(f"--select {spec!r}: expected NAME=VALUE, e.g. block1.halfWidth=0.3")
+            items.append((name.strip(), value.strip()))
+    out = {}
+    for name, value in items:
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise StudyError(f"select {name}={value!r}: the value must be a number") from None
+        if not math.isfinite(v):
+            raise StudyError(f"select {name}={value!r}: the value must be a finite number")
+        out[name] = v
+    return out
+
+
+def _choose(sweep_id: int, axes: list[tuple[str, np.ndarray]], select: dict[str, float]) -> list[dict[str, float]]:
+    """The combinations of the axes' values that `select` keeps (each selected axis pinned to one
+    of its values), in grid order."""
+    import itertools
+
+    names = [n for n, _ in axes]
+    for name, v in select.items():
+        if name not in names:
+            listed = "; ".join(f"{n} ({', '.join(f'{x:g}' for x in vals)})" for n, vals in axes)
+            have = (f"its --grid axes besides records and intensity are {listed}" if axes else
+                    "it has no --grid axes besides records and intensity")
+            raise StudyError(f"select {name}: sweep {sweep_id} does not vary {name}: {have}")
+        vals = dict(axes)[name]
+        if not any(_same(v, x) for x in vals):
+            raise StudyError(f"select {name}={v:g}: sweep {sweep_id} ran {name} at "
+                             f"{', '.join(f'{x:g}' for x in vals)} only")
+    picked = [[x for x in vals if name not in select or _same(select[name], x)] for name, vals in axes]
+    return [dict(zip(names, (float(c) for c in combo))) for combo in itertools.product(*picked)]
+
+
+def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
+                 select: list[str] | dict | None = None) -> list[Outcomes]:
+    """The runs of a sweep over records (runners sweep --records), one Outcomes per combination of
+    the values of its other --grid axes (one Outcomes when it has none), in grid order: runs of
+    different blocks, restitutions, ... are never pooled. `select` ({name: value} or NAME=VALUE
+    strings) keeps the combinations with those values."""
     from runners.analysis.sweep_map import broke, load
 
     measure = measure.lower()
     if measure not in SCALING:
-        raise ValueError(f"--im {measure!r}: expected one of {', '.join(DISPLAY)}")
+        raise StudyError(f"--im {measure!r}: expected one of {', '.join(DISPLAY)}")
     if measure not in DISPLAY:
-        raise ValueError(f"--im {measure}: {measure} does not change when a record is scaled, so it cannot rank "
+        raise StudyError(f"--im {measure}: {measure} does not change when a record is scaled, so it cannot rank "
                          f"intensities (use one of {', '.join(DISPLAY)})")
     sw, scene, runs = load(factory, str(sweep_id))
     if not sw.grid.get("records"):
-        raise ValueError(f"sweep {sw.id} is not over records (runners sweep --records); its map: runners map {sw.id}")
+        raise StudyError(f"sweep {sw.id} is not over records (runners sweep --records); its map: runners map {sw.id}")
+    axes = extra_axes(sw.grid)
+    combos = _choose(sw.id, axes, parse_select(select))
+    expected = sw.total // math.prod(len(v) for _, v in axes)  # points per combination
     ok = [r for r in runs if r.status == "ok" and r.summary is not None]
     if not ok:
-        raise ValueError(f"sweep {sw.id} has no finished runs yet (runners sweep {sw.id})")
+        raise StudyError(f"sweep {sw.id} has no finished runs yet (runners sweep {sw.id})")
     factor = DISPLAY[measure][2]
     stripes = sw.grid.get("intensity")
-    if stripes and stripes[0] == measure:  # the sweep's own levels, exactly (scale x measure rounds)
-        x = np.array([r.point["level"] for r in ok])
-    else:
-        x = np.array([r.point[measure] / factor for r in ok])
     two = int(scene.n_blocks) == 2
-    oc = Outcomes(sw.id, scene.name, measure, x, np.array([bool(r.summary.overturned) for r in ok]),
-                  [r.point["record"] for r in ok], np.array([r.summary.peak1_over_alpha for r in ok]),
-                  np.array([r.summary.peak2_over_alpha for r in ok]) if two else None,
-                  {**sw.grid["defaults"], **scene.parameters}, failed=len(runs) - len(ok))
-    if all(r.summary.assumptions_held is not None for r in ok):
-        oc.broke = np.array([broke(r) for r in ok])
-    if len(ok) < sw.total:
-        oc.notes.append(f"{sw.total - len(runs)} of {sw.total} points not run yet, {oc.failed} failed")
-    return oc
+    base = {**sw.grid["defaults"], **scene.parameters}
+    out = []
+    for combo in combos:
+        def here(r) -> bool:
+            return all(_same(float(r.point[k]), v) for k, v in combo.items())
+
+        mine, done = [r for r in ok if here(r)], [r for r in runs if here(r)]
+        if not mine:
+            continue
+        if stripes and stripes[0] == measure:  # the sweep's own levels, exactly (scale x measure rounds)
+            x = np.array([r.point["level"] for r in mine])
+        else:
+            x = np.array([r.point[measure] / factor for r in mine])
+        blocks = [(r.summary.overturned_blocks or "").split(",") for r in mine]
+        oc = Outcomes(sw.id, scene.name, measure, x, np.array([bool(r.summary.overturned) for r in mine]),
+                      [r.point["record"] for r in mine], np.array([r.summary.peak1_over_alpha for r in mine]),
+                      np.array([r.summary.peak2_over_alpha for r in mine]) if two else None,
+                      {**base, **combo}, failed=len(done) - len(mine), combination=combo,
+                      over1=np.array(["1" in b for b in blocks]) if two else None,
+                      over2=np.array(["2" in b for b in blocks]) if two else None)
+        if all(r.summary.assumptions_held is not None for r in mine):
+            oc.broke = np.array([broke(r) for r in mine])
+            oc.slid = np.array([r.summary.slide_time is not None for r in mine])
+        if len(mine) < expected:
+            oc.notes.append(f"{expected - len(done)} of {expected} points not run yet, {oc.failed} failed")
+        out.append(oc)
+    if not out:
+        at = ", ".join(f"{k} = {v:g}" for k, v in combos[0].items())
+        raise StudyError(f"sweep {sw.id} has no finished runs at {at} yet (runners sweep {sw.id})")
+    return out
+
+
+def outcomes(factory, sweep_id: str | int, measure: str = "pga", select: list[str] | dict | None = None) -> Outcomes:
+    """The runs of a sweep over records (runners sweep --records) at one combination of its other
+    --grid axes: StudyError, naming the axes, when `select` leaves several (outcome_sets gives them all)."""
+    sets = outcome_sets(factory, sweep_id, measure, select)
+    if len(sets) > 1:
+        raise StudyError(pooling_refusal(sets))
+    return sets[0]
+
+
+def pooling_refusal(sets: list[Outcomes]) -> str:
+    """Why several combinations cannot make one curve, and how to pick one."""
+    first = sets[0].combination
+    axes = "; ".join(f"{k} ({', '.join(f'{v:g}' for v in dict.fromkeys(o.combination[k] for o in sets))})"
+                     for k in first)
+    example = ", ".join(f"{k}={v:g}" for k, v in first.items())
+    return (f"sweep {sets[0].sweep_id} varies {axes} besides its records and intensity, and pooling them would mix "
+            f"{len(sets)} different scenes: pick one with select (--select {example}) or take them all with "
+            "outcome_sets")
 
 
 def fragility(oc: Outcomes) -> Fragility:
     """The lognormal fragility of the sweep's outcomes (runners.analysis.fragility.fit), records as groups."""
     return fit(oc.x, oc.overturned, np.array(oc.record), oc.unit)
+
+
+DS_FORMS = ("[block1:|block2:|either:]overturn, [block1:|block2:|either:]rot>Xalpha (peak |theta| / alpha "
+            "beyond X), or slides (a contact needed more friction than its mu)")
+
+
+@dataclass(frozen=True)
+class DamageState:
+    """A damage state a run reaches or not, from what each run stores: a block overturned, a
+    block's peak |theta| / alpha beyond a fraction (an overturned block counts as beyond), or a
+    contact sliding (its friction demand |T| / N above mu; docs/contact.md). `block` is "1", "2"
+    or "either" (of a stack; a single block is block 1)."""
+
+    kind: str  # "overturn", "rot" or "slides"
+    block: str = "either"
+    limit: float | None = None  # rot: the fraction of alpha
+
+    @property
+    def spec(self) -> str:
+        """The state as runners fragility --ds spells it."""
+        prefix = "" if self.block == "either" else f"block{self.block}:"
+        return prefix + (f"rot>{self.limit:g}alpha" if self.kind == "rot" else self.kind)
+
+    def label(self, two: bool) -> str:
+        """What the state means, in words."""
+        who = {"1": "block 1", "2": "block 2", "either": "either block" if two else "the block"}[self.block]
+        if self.kind == "overturn":
+            return f"{who} overturned"
+        if self.kind == "rot":
+            return f"{who}: peak |theta| / alpha > {self.limit:g} (or overturned)"
+        return "a contact slid (friction demand above mu)"
+
+    def reached(self, oc: Outcomes) -> np.ndarray:
+        """Bool per run of `oc`: whether the run reached this state."""
+        blocks = {"1": [1], "2": [2], "either": [1, 2] if oc.two else [1]}[self.block]
+        if self.kind == "slides":
+            return np.asarray(oc.slid, bool)
+        hit = np.zeros(len(oc.x), bool)
+        for i in blocks:
+            over = np.asarray(oc.over1 if i == 1 else oc.over2, bool)
+            if self.kind == "overturn":
+                hit |= over
+            else:
+                peak = np.asarray(oc.peak1 if i == 1 else oc.peak2, float)
+                hit |= over | (peak > self.limit)
+        return hit
+
+
+def damage_state(spec: str, oc: Outcomes) -> DamageState:
+    """The damage state `spec` names ([block1:|block2:|either:]overturn, ...rot>Xalpha, slides),
+    checked against what the runs of `oc` store; StudyError in one line otherwise."""
+    import re
+
+    if not isinstance(spec, str):
+        raise StudyError(f"damage state {spec!r}: expected a string, one of {DS_FORMS}")
+    text = re.sub(r"\s+", "", spec.lower())
+    block, _, state = text.rpartition(":")
+    blocks = {"": "either", "either": "either", "block1": "1", "block2": "2"}
+    if block not in blocks:
+        raise StudyError(f"damage state {spec!r}: {block!r} is not a block (block1, block2 or either)")
+    which = blocks[block]
+    if which == "2" and not oc.two:
+        raise StudyError(f"damage state {spec!r}: the scene has one block (block1 or no prefix)")
+    if state in ("overturn", "overturned"):
+        return DamageState("overturn", which)
+    m = re.fullmatch(r"rot>([0-9.eE+-]+)\*?alpha", state)
+    if m:
+        try:
+            limit = float(m.group(1))
+        except ValueError:
+            limit = math.nan
+        if not (math.isfinite(limit) and limit > 0):
+            raise StudyError(f"damage state {spec!r}: X in rot>Xalpha must be a number above 0, e.g. rot>0.5alpha")
+        return DamageState("rot", which, limit)
+    if state in ("slides", "slide"):
+        if which != "either":
+            raise StudyError(f"damage state {spec!r}: sliding is stored per run, not per block (give slides)")
+        if oc.slid is None:
+            raise StudyError(f"damage state {spec!r}: these runs did not monitor the contacts (their method "
+                             "does not), so whether they slid is not stored")
+        return DamageState("slides")
+    if state.startswith(("slide>", "slip>", "slides>", "sliding>")):
+        raise StudyError(f"damage state {spec!r}: no sliding distance is computed (rigid rocking: the blocks "
+                         "do not slide, docs/contact.md); what is stored is whether a contact needed more friction "
+                         "than its mu: slides")
+    raise StudyError(f"unknown damage state {spec!r}: expected {DS_FORMS}")
+
+
+@dataclass
+class Curve:
+    """One damage state's fragility at one combination of a sweep's grid axes: the runs' outcomes,
+    whether each reached the state, and the fit (None, with `why`, when the runs cannot give one)."""
+
+    outcomes: Outcomes = field(repr=False)
+    state: DamageState
+    reached: np.ndarray = field(repr=False)
+    fragility: Fragility | None
+    why: str | None = None
+
+    @property
+    def label(self) -> str:
+        return self.state.label(self.outcomes.two)
+
+    def as_dict(self) -> dict:
+        """The curve as runners fragility --json prints it: the fit (median, beta and their 95 %
+        intervals, in the measure's unit) or why there is none, the counts per level, and every run
+        (record, x, reached): the points the fit was made from."""
+        oc, y = self.outcomes, self.reached
+        out = {"damage_state": self.state.spec, "label": self.label, "combination": oc.combination,
+               "block": oc.block_text(), "runs": len(oc.x), "reached": int(y.sum()),
+               "records": len(set(oc.record)), "failed": oc.failed, "uplift_threshold": oc.uplift_threshold(),
+               "rigid_rocking_broke": None if oc.broke is None else oc.n_broke}
+        if self.fragility is not None:
+            f = self.fragility
+            out.update(median=f.median, beta=f.beta, median_95=list(f.median_interval), beta_95=list(f.beta_interval),
+                       intervals=f.interval_method, notes=oc.notes + fragility_notes(f, oc)
+                       + state_notes(self.state, oc), why=None)
+        else:
+            out.update(median=None, beta=None, median_95=None, beta_95=None, intervals=None,
+                       notes=oc.notes + state_notes(self.state, oc), why=self.why)
+        out["levels"] = [{"x": float(v), "runs": int((oc.x == v).sum()), "reached": int(y[oc.x == v].sum())}
+                         for v in np.unique(oc.x)]
+        out["points"] = [{"record": r, "x": float(x), "reached": bool(h)} for r, x, h in zip(oc.record, oc.x, y)]
+        return out
+
+
+def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = None) -> list[Curve]:
+    """The fragility of each damage state (default: overturn, of either block) at each set of
+    outcomes (outcome_sets: one per grid combination), combination by combination. A state the
+    runs cannot fit gives a Curve without a fit and the reason; an unknown state a StudyError."""
+    sets = [sets] if isinstance(sets, Outcomes) else list(sets)
+    states = ["overturn"] if states is None else [states] if isinstance(states, str) else list(states)
+    if not states:
+        raise StudyError(f"no damage state given: expected {DS_FORMS}")
+    out = []
+    for oc in sets:
+        chosen = [damage_state(spec, oc) for spec in states]
+        specs = [d.spec for d in chosen]
+        if len(set(specs)) != len(specs):
+            raise StudyError(f"damage state {specs[[specs.count(d) > 1 for d in specs].index(True)]} is given twice")
+        for ds in chosen:
+            y = ds.reached(oc)
+            try:
+                out.append(Curve(oc, ds, y, fit(oc.x, y, np.array(oc.record), oc.unit)))
+            except FragilityError as exc:
+                why = str(exc) if ds.kind == "overturn" else str(exc).replace("overturned", "reached it")
+                out.append(Curve(oc, ds, y, None, why))
+    return out
+
+
+def censored_note(oc: Outcomes) -> str | None:
+    """For a stack: the runs that ended when block 2 fell off while block 1 stood (the model has no
+    contact for a fallen block, so the run stops there, docs/two_blocks.md), or None."""
+    if not oc.two:
+        return None
+    n = int(np.sum(np.asarray(oc.over2, bool) & ~np.asarray(oc.over1, bool)))
+    if not n:
+        return None
+    return (f"in {n} of {len(oc.x)} runs block 2 fell off first and the run ended there (the model has no contact "
+            "for a fallen block, docs/two_blocks.md): block 1's peak and overturning are those up to that moment, "
+            "so a block 1 state counts it being reached before block 2 fell off")
+
+
+def state_notes(state: DamageState, oc: Outcomes) -> list[str]:
+    """What a damage state's curve does not say: block 1's demands cut short where block 2 fell."""
+    note = censored_note(oc) if state.block == "1" and state.kind != "slides" else None
+    return [note] if note else []
 
 
 def fragility_notes(frag: Fragility, oc: Outcomes) -> list[str]:
@@ -225,77 +539,198 @@ def plot_fragility(out: str | Path, frag: Fragility | None, oc: Outcomes) -> Pat
     return _save(fragility_figure(frag, oc), out)
 
 
-def plot_ida(out: str | Path, oc: Outcomes) -> Path:
+def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes]) -> Path:
     """ida_figure written to `out` (PNG)."""
     return _save(ida_figure(oc), out)
+
+
+MAX_PANELS = 12  # grid combinations one figure draws (more: select some)
+CURVE_COLOURS = ["#08519c", "#cb181d", "#6a51a3", "#d94801", "#525252", "#8c510a"]
+CURVE_MARKERS = ["o", "s", "^", "v", "D", "P"]
+
+
+def _uplift_label(oc: Outcomes) -> str | None:
+    thr = oc.uplift_threshold()
+    if thr is None:
+        return None
+    return (f"static uplift threshold {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
+            f"m/s2, over g0 = {G0})")
+
+
+def _panel(ax, cs: list[Curve]) -> None:
+    """One combination's damage states on `ax`: per state the fraction of runs that reached it per
+    level (marker area ~ runs) and, with a fit, its curve and 95 % band; one state alone also gets
+    the median with its interval. Runs where rigid rocking broke first, and for PGA the uplift
+    threshold, are marked."""
+    oc = cs[0].outcomes
+    groups = oc.bins()
+    xs = np.array([np.median(oc.x[g]) for g in groups])
+    n = np.array([g.size for g in groups])
+    grid = np.geomspace(max(xs.min() * 0.5, 1e-6), xs.max() * 1.3, 400)
+    single = len(cs) == 1
+    per_level = f"{int(n.min())}" if n.min() == n.max() else f"{int(n.min())}-{int(n.max())}"
+    from matplotlib.lines import Line2D
+
+    states = []  # one legend entry per damage state (its curve and its markers), several states
+    for i, c in enumerate(cs):
+        colour = CURVE_COLOURS[i % len(CURVE_COLOURS)]
+        marker = CURVE_MARKERS[i % len(CURVE_MARKERS)]
+        k = np.array([int(c.reached[g].sum()) for g in groups])
+        f = c.fragility
+        if f is not None:
+            if single:  # several states' bands would hide each other
+                lo, hi = f.band(grid)
+                ax.fill_between(grid, lo, hi, color="#9ecae1", alpha=0.5, lw=0, label="95 % band")
+            ax.plot(grid, f.probability(grid), color=colour, lw=2,
+                    label=f"fit: median {f.median:.3g} {oc.unit}, beta {f.beta:.2f} (Baker 2015)" if single else None)
+        what = "overturned" if c.state == DamageState("overturn") else f"where {c.label}"
+        ax.scatter(xs, k / n, s=12 + 60 * n / n.max(), color="#cb181d" if single else colour, zorder=3,
+                   marker=marker, edgecolor="k", lw=0.4,
+                   label=f"fraction {what} ({per_level} runs per level)" if single else None)
+        fitted = f"median {f.median:.3g} {oc.unit}, beta {f.beta:.2f}" if f is not None else "no fit"
+        states.append(Line2D([], [], color=colour, marker=marker, markeredgecolor="k", markeredgewidth=0.4,
+                             lw=2 if f is not None else 0, label=f"{c.label}: {fitted}"))
+        if single and f is not None:
+            ax.axvline(f.median, color=colour, lw=0.8, ls="--")
+            ax.axvspan(*f.median_interval, color=colour, alpha=0.08,
+                       label=f"median 95 %: {f.median_interval[0]:.3g}-{f.median_interval[1]:.3g} {oc.unit}")
+    if oc.n_broke:
+        b = np.array([int(oc.broke[g].sum()) for g in groups])
+        ax.scatter(xs[b > 0], (b / n)[b > 0], s=30, marker="D", color=BROKE_COLOUR, zorder=4, edgecolor="k", lw=0.4,
+                   label=f"fraction where rigid rocking broke first ({oc.n_broke} of {len(oc.x)} runs)")
+    thr = _uplift_label(oc)
+    if thr is not None:
+        ax.axvline(oc.uplift_threshold(), color="#238b45", lw=1.2, ls=":", label=thr)
+    ax.set_xlabel(f"{oc.label} ({oc.unit})")
+    what = f"P({'overturn' if cs[0].state == DamageState('overturn') else 'damage state'})" if single \
+        else "P(damage state reached)"
+    ax.set_ylabel(what + ("; fraction where rigid rocking broke first" if oc.n_broke else ""))
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlim(0, grid.max())
+    handles, labels = ax.get_legend_handles_labels()
+    if not single:
+        handles, labels = states + handles, [h.get_label() for h in states] + labels
+    ax.legend(handles, labels, fontsize=8 if single else 7, loc="best")
+
+
+def _by_combination(cs: list[Curve]) -> list[list[Curve]]:
+    """The curves grouped by their outcomes (one group per grid combination), in order."""
+    groups: dict[int, list[Curve]] = {}
+    for c in cs:
+        groups.setdefault(id(c.outcomes), []).append(c)
+    return list(groups.values())
+
+
+def _grid_of_axes(n: int, width: float, height: float):
+    import matplotlib.pyplot as plt
+
+    if n > MAX_PANELS:
+        raise StudyError(f"{n} grid combinations are more than one figure draws ({MAX_PANELS}): select some "
+                         "(--select NAME=VALUE)")
+    cols = 1 if n == 1 else min(3, n)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    return fig, axes
+
+
+def curves_figure(cs: list[Curve]):
+    """A matplotlib Figure of damage-state fragility curves (curves()): one panel per grid
+    combination, each damage state's fractions and fitted curve in its own colour; the title of
+    each panel names its combination and block(s)."""
+    import textwrap
+
+    groups = _by_combination(cs)
+    oc0 = groups[0][0].outcomes
+    single = len(groups) == 1
+    fig, axes = _grid_of_axes(len(groups), 8 if single else 6.2, 5.5 if single else 4.8)
+    for ax, group in zip(axes.flat, groups):
+        _panel(ax, group)
+        oc = group[0].outcomes
+        head = f"sweep {oc.sweep_id}: {oc.scene}\n" if single else ""
+        at = f"{oc.combination_text()}: " if oc.combination else ""
+        reached = (f", {int(oc.overturned.sum())} overturned" if len(group) == 1 and group[0].state.kind == "overturn"
+                   and group[0].state.block == "either" else "")
+        ax.set_title(head + textwrap.fill(
+            f"{at}{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs{reached}"
+            + (f", {oc.n_broke} where rigid rocking broke first" if oc.n_broke else ""), 105 if single else 80),
+            fontsize=9 if single else 8)
+    if not single:
+        fig.suptitle(f"sweep {oc0.sweep_id}: {oc0.scene}; one panel per value of "
+                     f"{', '.join(oc0.combination)} (never pooled)", fontsize=10)
+    methods = list(dict.fromkeys(c.fragility.interval_method for c in cs if c.fragility is not None))
+    several = any(len(g) > 1 for g in groups)
+    foot = (["markers: the fraction of each level's runs that reached the state; curves: lognormal, maximum "
+             "likelihood (Baker 2015)"] if several else []) + [f"intervals: {m}" for m in methods]
+    cut = [c.outcomes for c in cs if state_notes(c.state, c.outcomes)]
+    if cut:
+        foot.append("block 1 states: where block 2 fell off first the run ended there (docs/two_blocks.md), so they "
+                    "count block 1 reaching the state before that")
+    foot += [f"no fit ({c.state.spec}" + (f", {c.outcomes.combination_text()}" if c.outcomes.combination else "")
+             + f"): {c.why}" for c in cs if c.fragility is None]
+    text = "\n".join(line for f in foot for line in textwrap.wrap(f, 150)) or ""
+    fig.text(0.01, 0.005, text, fontsize=6.5, color="0.35")
+    fig.tight_layout(rect=(0, 0.012 * (text.count("\n") + 2), 1, 1))
+    return fig
 
 
 def fragility_figure(frag: Fragility | None, oc: Outcomes):
     """A matplotlib Figure: the fraction overturned per level (marker area ~ runs), and, with a
     fit, the curve, its 95 % band, the median with its interval; for PGA the static uplift
     threshold. Without a fit (frag None: the outcomes could not give one), the fractions alone."""
-    import matplotlib.pyplot as plt
+    state = DamageState("overturn")
+    why = None if frag is not None else "the outcomes do not determine one"
+    return curves_figure([Curve(oc, state, state.reached(oc), frag, why)])
 
-    fig, ax = plt.subplots(figsize=(8, 5.5))
+
+def plot_curves(out: str | Path, cs: list[Curve]) -> Path:
+    """curves_figure written to `out` (PNG)."""
+    return _save(curves_figure(cs), out)
+
+
+def ida_figure(oc: Outcomes | list[Outcomes]):
+    """A matplotlib Figure: peak |theta| / alpha against intensity, one line per record (named in a
+    legend up to 12 records), each block's own overturns marked at the top; the median over records
+    (the block's overturned runs counted as infinite) in black. One row per block; for several
+    grid combinations (a list of Outcomes, outcome_sets) one column each."""
     import textwrap
 
-    groups = oc.bins()
-    xs = np.array([np.median(oc.x[g]) for g in groups])
-    n = np.array([g.size for g in groups])
-    k = np.array([int(oc.overturned[g].sum()) for g in groups])
-    grid = np.geomspace(max(xs.min() * 0.5, 1e-6), xs.max() * 1.3, 400)
-    if frag is not None:
-        lo, hi = frag.band(grid)
-        ax.fill_between(grid, lo, hi, color="#9ecae1", alpha=0.5, lw=0, label="95 % band")
-        ax.plot(grid, frag.probability(grid), color="#08519c", lw=2,
-                label=f"fit: median {frag.median:.3g} {oc.unit}, beta {frag.beta:.2f} (Baker 2015)")
-    ax.scatter(xs, k / n, s=12 + 60 * n / n.max(), color="#cb181d", zorder=3, edgecolor="k", lw=0.4,
-               label="fraction overturned (" + (f"{int(n.min())}" if n.min() == n.max() else
-                                                  f"{int(n.min())}-{int(n.max())}") + " runs per level)")
-    if frag is not None:
-        ax.axvline(frag.median, color="#08519c", lw=0.8, ls="--")
-        ax.axvspan(*frag.median_interval, color="#08519c", alpha=0.08,
-                   label=f"median 95 %: {frag.median_interval[0]:.3g}-{frag.median_interval[1]:.3g} {oc.unit}")
-    if oc.n_broke:
-        b = np.array([int(oc.broke[g].sum()) for g in groups])
-        ax.scatter(xs[b > 0], (b / n)[b > 0], s=30, marker="D", color=BROKE_COLOUR, zorder=4, edgecolor="k", lw=0.4,
-                   label=f"fraction where rigid rocking broke first ({oc.n_broke} of {len(oc.x)} runs)")
-    thr = oc.uplift_threshold()
-    if thr is not None:
-        ax.axvline(thr, color="#238b45", lw=1.2, ls=":", label=f"static uplift threshold {thr:.3g} g")
-    ax.set_xlabel(f"{oc.label} ({oc.unit})")
-    ax.set_ylabel("P(overturn)" + ("; fraction where rigid rocking broke first" if oc.n_broke else ""))
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlim(0, grid.max())
-    ax.set_title(f"sweep {oc.sweep_id}: {oc.scene}\n" + textwrap.fill(
-        f"{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs, {int(oc.overturned.sum())} overturned"
-        + (f", {oc.n_broke} where rigid rocking broke first" if oc.n_broke else ""), 105), fontsize=9)
-    ax.legend(fontsize=8, loc="best")
-    foot = f"intervals: {frag.interval_method}" if frag is not None else "no fit: the outcomes do not determine one"
-    fig.text(0.01, 0.005, "\n".join(textwrap.wrap(foot, 150)), fontsize=6.5, color="0.35")
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    import matplotlib.pyplot as plt
+
+    sets = [oc] if isinstance(oc, Outcomes) else list(oc)
+    if len(sets) > MAX_PANELS // 2:
+        raise StudyError(f"{len(sets)} grid combinations are more than one figure draws ({MAX_PANELS // 2}): select "
+                         "some (--select NAME=VALUE)")
+    rows = 2 if sets[0].two else 1
+    fig, axes = plt.subplots(rows, len(sets), figsize=(8 if len(sets) == 1 else 6.2 * len(sets), 4.8 * rows),
+                             sharex="col", squeeze=False)
+    for col, o in enumerate(sets):
+        _ida_column(axes[:, col], o)
+        at = f"{o.combination_text()}: " if o.combination else ""
+        axes[0, col].set_title(f"IDA, sweep {o.sweep_id}: {o.scene}\n" + textwrap.fill(
+            f"{at}{o.block_text()}; {o.records_text()}, one line each", 100 if len(sets) == 1 else 80),
+            fontsize=9 if len(sets) == 1 else 8)
+    fig.tight_layout()
     return fig
 
 
-def ida_figure(oc: Outcomes):
-    """A matplotlib Figure: peak |theta| / alpha against intensity, one line per record (named in a
-    legend up to 12 records), overturns marked at the top; the median over records (overturned
-    counted as infinite) in black."""
+def _ida_column(axes, oc: Outcomes) -> None:
+    panels = [("block 1", oc.peak1, oc.over1)] + ([("block 2", oc.peak2, oc.over2)] if oc.two else [])
+    names = list(dict.fromkeys(oc.record))
     import matplotlib.pyplot as plt
 
-    panels = [("block 1", oc.peak1)] + ([("block 2", oc.peak2)] if oc.two else [])
-    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 4.8 * len(panels)), sharex=True, squeeze=False)
-    names = list(dict.fromkeys(oc.record))
     cmap = plt.get_cmap("tab20", max(len(names), 1))
     top = 1.08
-    for ax, (title, peak) in zip(axes[:, 0], panels):
+    for ax, (title, peak, over) in zip(axes, panels):
+        over = np.asarray(over, bool)
         groups = oc.bins()
         levels = np.array([np.median(oc.x[g]) for g in groups])
-        med = [np.median(np.where(oc.overturned[g], np.inf, peak[g])) for g in groups]
+        med = [np.median(np.where(over[g], np.inf, peak[g])) for g in groups]
         for i, name in enumerate(names):
             sel = np.array([r == name for r in oc.record])
             order = np.argsort(oc.x[sel])
-            xs, ys, fell = oc.x[sel][order], peak[sel][order], oc.overturned[sel][order]
+            xs, ys, fell = oc.x[sel][order], peak[sel][order], over[sel][order]
             ys = np.where(fell, top, np.minimum(ys, top))
             ax.plot(xs, ys, lw=0.8, color=cmap(i), alpha=0.8, label=name if len(names) <= 12 else None)
             ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(i), lw=1)
@@ -306,47 +741,103 @@ def ida_figure(oc: Outcomes):
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
         ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
-        ax.text(levels.min(), top, " x overturned", va="bottom", fontsize=8, color="0.3")
+        ax.text(levels.min(), top, f" x {title + ' ' if oc.two else ''}overturned", va="bottom", fontsize=8,
+                color="0.3")
         ax.set_ylim(0, top + 0.07)
         ax.set_ylabel(f"peak |theta| / alpha, {title}")
         ax.legend(fontsize=7 if len(names) <= 12 else 8, loc="center right")
-    axes[-1, 0].set_xlabel(f"{oc.label} ({oc.unit})")
-    axes[0, 0].set_title(f"IDA, sweep {oc.sweep_id}: {oc.scene}\n{oc.block_text()}; {oc.records_text()}, "
-                         "one line each", fontsize=9)
-    fig.tight_layout()
-    return fig
+    axes[-1].set_xlabel(f"{oc.label} ({oc.unit})")
 
 
-def format_fragility(frag: Fragility, oc: Outcomes) -> str:
+def _header(oc: Outcomes) -> str:
+    at = f" at {oc.combination_text()}" if oc.combination else ""
+    return f"sweep {oc.sweep_id}: {oc.scene}{at}; {oc.block_text()}"
+
+
+def _context(oc: Outcomes) -> list[str]:
+    """The lines every curve of `oc` shares: uplift threshold, rigid rocking."""
+    lines = []
+    if oc.uplift_text():
+        lines.append(f"uplift           {oc.uplift_text()}")
+    if oc.broke_text():
+        lines.append(f"rigid rocking    {oc.broke_text()}")
+    return lines
+
+
+def format_fragility(frag: Fragility, oc: Outcomes, state: DamageState | None = None) -> str:
+    """One fragility curve for people (runners fragility): fit, intervals, context, notes."""
+    state = state or DamageState("overturn")
+    overturn = state == DamageState("overturn")
+    event = "overturn" if overturn else state.spec
     lines = [
-        f"sweep {oc.sweep_id}: {oc.scene}; {oc.block_text()}",
-        f"runs             {frag.n_runs} on {frag.n_groups} records, {frag.n_overturned} overturned"
+        _header(oc),
+        f"runs             {frag.n_runs} on {frag.n_groups} records, {frag.n_overturned} "
+        + ("overturned" if overturn else f"where {state.label(oc.two)}")
         + (f"; {oc.failed} failed, left out" if oc.failed else ""),
-        f"fragility        P(overturn | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
+        f"fragility        P({event} | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
         "(Baker 2015)",
         f"median           {frag.median:.4g} {oc.unit}, 95 % interval [{frag.median_interval[0]:.4g}, "
         f"{frag.median_interval[1]:.4g}]",
         f"beta             {frag.beta:.4g}, 95 % interval [{frag.beta_interval[0]:.4g}, {frag.beta_interval[1]:.4g}]",
         f"intervals        {frag.interval_method}",
     ]
-    thr = oc.uplift_threshold()
-    if thr is not None:
-        lines.append(f"uplift           no record below PGA {thr:.4g} g can lift the block from rest")
-    if oc.broke_text():
-        lines.append(f"rigid rocking    {oc.broke_text()}")
-    lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc)]
+    lines += _context(oc)
+    lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc) + state_notes(state, oc)]
     return "\n".join(lines)
+
+
+def format_curves(cs: list[Curve]) -> str:
+    """Damage-state curves for people, combination by combination (a blank line between): one
+    curve as format_fragility, several as one line per damage state."""
+    blocks = []
+    for group in _by_combination(cs):
+        oc = group[0].outcomes
+        if len(group) == 1 and group[0].fragility is not None:
+            blocks.append(format_fragility(group[0].fragility, oc, group[0].state))
+            continue
+        width = max(16, max(len(c.state.spec) for c in group) + 1)
+        lines = [_header(oc),
+                 f"runs             {len(oc.x)} on {len(set(oc.record))} records"
+                 + (f"; {oc.failed} failed, left out" if oc.failed else ""),
+                 f"fragility        P(state | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
+                 "(Baker 2015); median and beta with 95 % intervals"]
+        notes: list[str] = []
+        for c in group:
+            f, k = c.fragility, int(c.reached.sum())
+            head = f"{c.state.spec:<{width}}{k:>4} of {len(oc.x)} runs ({c.label})"
+            if f is None:
+                lines.append(f"{head}: no fit: {c.why}")
+                continue
+            lines.append(f"{head}: median {f.median:.4g} {oc.unit} [{f.median_interval[0]:.4g}, "
+                         f"{f.median_interval[1]:.4g}], beta {f.beta:.4g} [{f.beta_interval[0]:.4g}, "
+                         f"{f.beta_interval[1]:.4g}]")
+            notes += [f"{c.state.spec}: {n}" for n in fragility_notes(f, oc)]
+        if any(state_notes(c.state, oc) for c in group):
+            notes += [f"block 1 states: {censored_note(oc)}"]
+        methods = list(dict.fromkeys(c.fragility.interval_method for c in group if c.fragility is not None))
+        lines += [f"intervals        {m}" for m in methods]
+        lines += _context(oc)
+        lines += [f"note             {n}" for n in oc.notes + notes]
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
 
 
 def format_ida(oc: Outcomes) -> str:
     first = first_overturn(oc)
     back = resurrections(oc)
     fell = [v for v in first.values() if v is not None]
-    lines = [f"IDA of sweep {oc.sweep_id}: {oc.scene}; {oc.block_text()}; {len(first)} records, "
+    at = f" at {oc.combination_text()}" if oc.combination else ""
+    lines = [f"IDA of sweep {oc.sweep_id}: {oc.scene}{at}; {oc.block_text()}; {len(first)} records, "
              f"{len(oc.x)} runs",
              f"overturned       {len(fell)} of {len(first)} records at some level"
              + (f"; the first overturning {oc.label} of those: median {np.median(fell):.4g} {oc.unit}, range "
                 f"{min(fell):.4g}-{max(fell):.4g}" if fell else "")]
+    if oc.two:
+        o1, o2 = np.asarray(oc.over1, bool), np.asarray(oc.over2, bool)
+        lines.append(f"per block        block 1 overturned in {int(o1.sum())} runs, block 2 in {int(o2.sum())} "
+                     f"(both in {int((o1 & o2).sum())}) of {len(oc.x)}")
+        if censored_note(oc):
+            lines.append(f"note             {censored_note(oc)}")
     never = [name for name, v in first.items() if v is None]
     if never:
         lines.append(f"never overturned {', '.join(never)}")

@@ -67,6 +67,25 @@ def _stack_threshold(p: dict[str, float]) -> tuple[float, str]:
     return p["g"] * upper, "the upper block rocks alone"
 
 
+RICKER_HALF_WINDOW = 3.0  # a Ricker pulse lasts 2 x 3 / frequency s (model/c/ground.c)
+
+
+def excitation_end(p: dict[str, float]) -> float | None:
+    """When an analytic excitation of parameters `p` ends (s, as model/c/ground.c computes it),
+    None for one that does not end (an endless harmonic), none at all, or a record."""
+    kind, start = int(p.get("excitation.kind", 0)), float(p.get("excitation.startTime", 0.0))
+    f = float(p.get("excitation.frequency", 0.0))
+    if not f > 0:
+        return None
+    if kind in (1, 2) or (kind == 3 and float(p.get("excitation.cycles", 0.0)) > 0):
+        return start + float(p["excitation.cycles"]) / f
+    if kind in (5, 6):
+        return start + 2.0 * RICKER_HALF_WINDOW / f
+    if kind == 7:
+        return start + float(p["excitation.gamma"]) / f
+    return None
+
+
 def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> dict[str, Any]:
     """Key facts of a run; ``defaults`` are the FMU's start values. The run must have sampled
     SUMMARY_OUTPUTS (``RockingFMU.run(..., outputs=SUMMARY_OUTPUTS)``; runners.simulate does)."""
@@ -106,6 +125,9 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         "final_energy_J": float(out["energy"][-1]),
         "wall_time_s": result.wall_time,
     }
+    end = excitation_end(p)
+    if end is not None and end <= float(result.time[0]):  # (a negative start time shifted it out of the run)
+        summary["excitation_end_s"] = end
     held = assumptions(result, p, two)
     if held is not None:
         summary["assumptions"] = held
@@ -239,7 +261,10 @@ def format_summary(s: dict[str, Any]) -> str:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
     elif s["final_state"] == "at rest":
         flew = (s.get("assumptions") or {}).get("lifts")
-        outcome += (" (never tipped: the excitation stayed below the uplift threshold)" if not flew else
+        ended = s.get("excitation_end_s")
+        outcome += (f" (never tipped: the {s['excitation']} ended at t = {ended:.6g} s, before the run started at "
+                    "t = 0 s: see [excitation] start_time)" if ended is not None and not flew else
+                    " (never tipped: the excitation stayed below the uplift threshold)" if not flew else
                     f" (never tipped; from t = {flew['t_s']:.6g} s the ground fell faster than g and the block, "
                     "held to it by the model, would have flown: see assumptions)")
     if s["blocks"] == 2:
@@ -251,15 +276,31 @@ def format_summary(s: dict[str, Any]) -> str:
         lines += [
             f"outcome          {outcome}",
             f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
-            f"peak |theta|     block 1 {s['max_abs_theta_rad']:.6f} rad, block 2 {s['max_abs_theta2_rad']:.6f} rad",
+            peak_line(s),
         ]
         return "\n".join(lines + _assumption_lines(s) + _notes(s))
     lines += [
         f"outcome          {outcome}",
         f"impacts          {s['impacts']}",
-        f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad = {s['max_abs_theta_over_alpha']:.4f} alpha",
+        peak_line(s),
     ]
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
+
+
+def peak_line(s: dict[str, Any]) -> str:
+    """The summary's peak |theta| line (rad, and over alpha for one block). A block that
+    overturned has no peak: its largest angle is where the run stopped following its fall
+    (pi/2 or so), not a demand, so the line says when it overturned instead."""
+    when = f"overturned at t = {s['overturn_time_s']:.4f} s" if s.get("overturn_time_s") is not None else "overturned"
+    if s["blocks"] == 2 and not (s["overturned"] and "overturned_blocks" not in s):  # (which one fell unknown)
+        fell = s.get("overturned_blocks") or []
+        parts = [f"block {i} " + ("overturned" if i in fell else f"{s[key]:.6f} rad")
+                 for i, key in ((1, "max_abs_theta_rad"), (2, "max_abs_theta2_rad"))]
+        return f"peak |theta|     {', '.join(parts)}"  # the outcome line says when
+    if s["overturned"]:
+        return f"peak |theta|     none: {when}"
+    over = f" = {s['max_abs_theta_over_alpha']:.4f} alpha" if "max_abs_theta_over_alpha" in s else ""
+    return f"peak |theta|     {s['max_abs_theta_rad']:.6f} rad{over}"
 
 
 def _assumption_lines(s: dict[str, Any]) -> list[str]:

@@ -134,11 +134,17 @@ def target(name: str, p: dict[str, Any]) -> str:
     return name
 
 
+# parameters no model of the FMU lets change the motion: the friction coefficients enter the
+# contact monitors only (docs/contact.md); the column that answers for any mu instead
+MOTION_FREE = {"contact.muGround": "friction_demand_max", "contact.muInterface": "friction_demand_max_interface"}
+
+
 def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
     """ValueError, in one line, for axes that would give a grid of identical or contradictory
     points in a scene of FMU parameters `p` (defaults included): two axes setting one
-    parameter, or an axis on a parameter the scene does not use (with any value of the
-    grid's Integer axes, e.g. restitution.k on a restitution.law axis that includes "modified")."""
+    parameter, an axis on a friction coefficient (MOTION_FREE), or an axis on a parameter the
+    scene does not use (with any value of the grid's Integer axes, e.g. restitution.k on a
+    restitution.law axis that includes "modified")."""
     import itertools
 
     setters: dict[str, str] = {}
@@ -147,6 +153,13 @@ def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
         if param in setters:
             raise ValueError(f"--grid {setters[param]} and --grid {ax.name} both set {param}: keep one")
         setters[param] = ax.name
+    for ax in axes:
+        if ax.name in MOTION_FREE:
+            raise ValueError(f"--grid {ax.name}: friction does not change the motion (rigid rocking: the blocks never "
+                             "slide; mu only sets when the contact monitors report sliding), so every point would run "
+                             f"the same simulation; sweep without it and compare any mu with what each run stores, "
+                             f"{MOTION_FREE[ax.name]} and impulse_demand_max (the largest |T| / N and impulse ratio "
+                             "the contacts needed; runners export)")
     ints = [ax for ax in axes if ax.integer]
     cases = [{**p, **dict(zip([ax.name for ax in ints], combo))}
              for combo in itertools.islice(itertools.product(*[ax.values.tolist() for ax in ints]), 1024)]
