@@ -118,3 +118,17 @@ def test_bench_baseline_without_startup_is_a_one_line_error(fmu_path, tmp_path):
     p = run_cli("bench", "--baseline", sys.executable, db=f"sqlite:///{tmp_path / 'b.db'}", fmu_path=fmu_path)
     assert p.returncode == 2 and p.stdout == "" and p.stderr.strip() == "error: --baseline is the other installation " \
                                                                         "of --startup"
+
+
+def test_a_run_whose_frames_are_not_built_yet_pickles_and_builds_them_after(fmu_path):
+    """runners.simulate builds a run's series and events on first use; the result still pickles
+    (as one returned from a worker process does) and gives the same frames after."""
+    import pickle
+
+    from runners import simulate
+
+    run = simulate(EX / "free_rocking.toml", fmu=fmu_path, stop_time=0.5)
+    copy = pickle.loads(pickle.dumps(run))
+    assert copy.summary == run.summary and copy.report == run.report
+    assert copy.series.equals(run.series) and copy.events.equals(run.events)
+    assert len(run.series) > 10 and (run.events["kind"] == "impact").any()

@@ -8,6 +8,7 @@ time in s, each column one FMU output under its modelDescription name (``block1.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -149,21 +150,26 @@ def _select(select: Any) -> dict | None:
     return select
 
 
-def series_later(time, outputs: dict[str, Any]) -> Callable[[], "pd.DataFrame"]:
-    """A function building runners.engine.tables.series_frame(time, outputs) when called (a
-    RunResult's series, built on first use: tables loads pandas and SQLAlchemy)."""
-    def build() -> "pd.DataFrame":
-        from runners.engine.tables import series_frame
+def _series_frame(time, outputs: dict[str, Any]) -> "pd.DataFrame":
+    from runners.engine.tables import series_frame
 
-        return series_frame(time, outputs)
-    return build
+    return series_frame(time, outputs)
+
+
+def _events_frame(events: list[dict[str, Any]]) -> "pd.DataFrame":
+    from runners.engine.tables import events_frame
+
+    return events_frame(events)
+
+
+def series_later(time, outputs: dict[str, Any]) -> Callable[[], "pd.DataFrame"]:
+    """A function building runners.engine.tables.series_frame(time, outputs) when called: a
+    RunResult's series, built on first use (tables loads pandas and SQLAlchemy). A partial of a
+    module's function, so that a RunResult can be pickled (sent to or from another process)."""
+    return partial(_series_frame, time, outputs)
 
 
 def events_later(events: list[dict[str, Any]]) -> Callable[[], "pd.DataFrame"]:
     """A function building runners.engine.tables.events_frame(events) when called (a RunResult's
-    events, built on first use)."""
-    def build() -> "pd.DataFrame":
-        from runners.engine.tables import events_frame
-
-        return events_frame(events)
-    return build
+    events, built on first use; picklable, as series_later's)."""
+    return partial(_events_frame, events)
