@@ -247,7 +247,8 @@ def _revisions() -> tuple[str, frozenset[str]]:
     return script.get_current_head(), frozenset(r.revision for r in script.walk_revisions())
 
 
-_REVISION_LINE = re.compile(r"^(revision|down_revision) = (None|\"[0-9A-Za-z_]+\")$", re.MULTILINE)
+# revision = "0009", down_revision: str | None = '0008' (as db/migrations/script.py.mako writes them)
+_REVISION_LINE = re.compile(r"^(revision|down_revision)(?:\s*:[^=\n]*)?\s*=\s*(None|\"\w+\"|'\w+')\s*$", re.MULTILINE)
 
 
 @lru_cache(maxsize=None)
@@ -264,8 +265,8 @@ def _plain_head() -> str | None:
         found = dict(_REVISION_LINE.findall(script.read_text(encoding="utf-8")))
         if set(found) != {"revision", "down_revision"} or found["revision"] == "None":
             return None
-        revisions.add(found["revision"].strip('"'))
-        downs.add(found["down_revision"].strip('"'))
+        revisions.add(found["revision"].strip("\"'"))
+        downs.add(found["down_revision"].strip("\"'"))
     heads = revisions - downs
     return heads.pop() if len(heads) == 1 and len(downs) == len(revisions) else None
 
