@@ -244,7 +244,7 @@ def test_a_record_of_too_many_samples_is_refused_from_its_line_count_before_it_i
     path = tmp_path / "huge.txt"
     write_many_samples(path, 10_000_001, bad_line=10_000_001)
     assert path.stat().st_size == 14 * 10_000_001 + len(b"x 0\n")
-    with pytest.raises(RecordFileError, match=r"huge.txt' has more than 10000000 samples \(the most a record may have\)"):
+    with pytest.raises(RecordFileError, match=r"huge.txt' has more than 10000000 samples \(the most a record may "):
         read_record_file(path)
     p = cli("records", "import", str(path), db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and "has more than 10000000 samples" in p.stderr and p.stderr.count("\n") == 1

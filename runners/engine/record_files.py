@@ -201,7 +201,8 @@ def _data_lines(data: bytes) -> int:
 _NOT_BLANK = re.compile(rb"[^ \t\v\f]")
 
 
-def _read_lines(f, where: str, scale: float = 1.0, unit: str = "m/s2") -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def _read_lines(f, where: str, scale: float = 1.0,
+                unit: str = "m/s2") -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """read_record_file's reading, streamed: the samples go straight into float64 arrays (8 bytes a
     value), so a record of millions of samples takes its size in memory, not a Python list per line."""
     cols = [array.array("d") for _ in range(3)]
