@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -131,6 +132,27 @@ def test_a_record_run_logs_its_series_and_its_record_on_shared_time_rows(tmp_pat
     assert (theta & ah).sum() == len(range(0, n, per_step))  # each record sample on the output grid shares its row
     ns = np.array(table.column("sim_time").cast("int64").to_pylist())
     assert np.min(np.diff(np.sort(ns[theta | ah]))) == 5_000_000  # the sampling interval: no two rows 1 ns apart
+
+
+def test_the_docs_read_a_recording_into_a_dataframe(tmp_path, monkeypatch, fmu_path):
+    """docs/recordings.md's Python block, run as written on the recording its command writes:
+    the DataFrame holds the stored run's series, bit for bit, at their times."""
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "recordings.md").read_text(), re.S)
+    assert len(blocks) == 1
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    p = runners("simulate", "examples/sine_pulse.toml", "--out", str(tmp_path / "sine.rrd"), "--json", db=db,
+                fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with open_database(db)() as session:
+        run = session.get(Run, json.loads(p.stdout)["run_id"])
+        time_, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(blocks[0], "docs/recordings.md", "exec"), namespace)
+    frame = namespace["series"]
+    np.testing.assert_allclose(frame.index, time_, rtol=0, atol=1e-9)  # whole nanoseconds
+    np.testing.assert_array_equal(frame["theta"], cols["block1.theta"])
+    np.testing.assert_array_equal(frame["ah"], cols["ground.ahTotal"])
 
 
 def test_view_without_a_display_writes_the_recording_and_says_where(tmp_path, fmu_path):
