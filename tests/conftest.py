@@ -191,7 +191,8 @@ def postgres_server(tmp_path_factory):
     data = folder / "data"
     subprocess.run([*as_user, str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "postgres",
                     "--no-sync"], check=True, capture_output=True)
-    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-w", "-l", str(folder / "log"), "-o",
+    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-w", "-t", f"{PATIENCE:.0f}",  # not 60 s
+                    "-l", str(folder / "log"), "-o",
                     f"-p {port} -k {folder} -c listen_addresses=127.0.0.1 -c fsync=off -c max_connections=200",
                     "start"], check=True, capture_output=True)
     yield f"postgresql+psycopg://postgres@127.0.0.1:{port}"
