@@ -22,7 +22,8 @@ A recording holds, on the ``sim_time`` timeline (s):
   excitation and the friction demand (and the record's text), each plot with a y range symmetric
   about 0 chosen so that the viewer labels several ticks (axis_range).
 
-Time series go through the columnar API (``send_columns``). Conventions:
+Every entity is logged on whole nanoseconds rounded once (``_ns``), so samples of one instant share
+a row. Time series go through the columnar API (``send_columns``). Conventions:
 docs/conventions.md (theta > 0 clockwise about the right corner).
 """
 
@@ -38,10 +39,11 @@ import numpy as np
 MAX_FPS = 100.0  # animation frames per simulated second
 
 
-def _ns(seconds: Any) -> Any:
+def _ns(seconds: float | np.ndarray) -> np.timedelta64 | np.ndarray:
     """Times in s as whole nanoseconds (numpy timedelta64[ns]), rounded to the nearest: every entity
-    is logged on the same time values. Rerun truncates float seconds, so the FMU's 0.004999999999999999 s
-    and a record's 0.005 s fell on two rows (4999999 and 5000000 ns), doubling the rows a reader got."""
+    is logged on the same time values. Rerun truncates float seconds, so a series at the FMU's output
+    times (a step of 0.004999999999999893 s, a record's smallest sample interval) and the record's
+    samples at 0.005 s fell on two rows (4999999 and 5000000 ns), doubling the rows a reader got."""
     ns = np.round(np.asarray(seconds, float) * 1e9).astype(np.int64)
     return ns.astype("timedelta64[ns]")[()]  # [()]: a scalar for one time
 
@@ -331,7 +333,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
                 static=True)
         rec.send_columns(f"/contact/{contact}/demand", indexes=idx, columns=rr.Scalars.columns(scalars=values))
         rec.log(f"/contact/{contact}/mu", rr.SeriesLines(colors=[_colour("mu")], names=[f"{contact} mu"]), static=True)
-        rec.send_columns(f"/contact/{contact}/mu", indexes=[rr.TimeColumn("sim_time", duration=_ns(time[[0, -1]]))],
+        rec.send_columns(f"/contact/{contact}/mu",
+                         indexes=[rr.TimeColumn("sim_time", duration=_ns(time[[0, -1]]))],
                          columns=rr.Scalars.columns(scalars=np.array([mu, mu])))
     for entity, (mt, mv) in zip(measured_paths, measured.values()):
         rec.log(f"/measured/{entity}", rr.SeriesPoints(colors=[_colour(entity, 0.6)], markers="circle",
