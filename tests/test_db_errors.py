@@ -16,7 +16,7 @@ import pytest
 from sqlalchemy import event, func, select, text
 from sqlalchemy.pool import Pool
 
-from conftest import run_cli
+from conftest import cpu_seconds, run_cli, wait_for
 from db.schema import Run, RunSeries, RunSummary
 from db.session import integrity_ok, open_database
 
@@ -400,20 +400,38 @@ def test_opening_a_database_again_keeps_the_locks_of_its_open_connections(tmp_pa
 def test_a_database_killed_while_being_created_is_absent_or_whole(tmp_path):
     """SIGKILL at any moment of a first opening leaves no database, or a whole one: the schema
     is built beside it and takes its name in one step (a kill in the middle once left a file
-    that every command refused)."""
+    that every command refused). The kills fall at points of the opening's own CPU time, spread
+    from when an uninterrupted opening starts building to its end (wall-time delays, which a busy
+    machine stretches, could all fall before it began); some must find the building under way."""
+    import resource
     import signal
-    import time
 
-    for i, delay in enumerate([0.40 + 0.025 * k for k in range(18)]):
+    def opening(path: Path) -> subprocess.Popen:
+        return subprocess.Popen([sys.executable, "-c", "import sys; from db.session import open_database; "
+                                 "open_database(sys.argv[1])", f"sqlite:///{path}"], cwd=ROOT)
+
+    def building(path: Path) -> list[Path]:  # the file the schema is built in, beside the database
+        return list(path.parent.glob(f"{path.name}.new-*"))
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    p = opening(tmp_path / "whole.db")
+    start = wait_for(lambda: building(tmp_path / "whole.db") and [cpu_seconds(p.pid)], "the schema's file", p)[0]
+    assert p.wait() == 0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    end = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    caught = 0
+    for i in range(18):
         path = tmp_path / f"k{i}.db"
-        p = subprocess.Popen([sys.executable, "-c", "import sys; from db.session import open_database; "
-                              "open_database(sys.argv[1])", f"sqlite:///{path}"], cwd=ROOT)
-        time.sleep(delay)
+        p = opening(path)
+        target = start - 0.05 + (end - start + 0.05) * i / 17
+        wait_for(lambda: p.poll() is not None or cpu_seconds(p.pid) >= target, "the kill's moment")
         p.send_signal(signal.SIGKILL)
         p.wait()
+        caught += bool(building(path))
         if path.exists():
             with open_database(f"sqlite:///{path}")() as s:  # whole: usable as it is
                 s.execute(text("SELECT count(*) FROM runs")).scalar()
+    assert caught >= 1
 
 
 @pytest.mark.parametrize("change,words", [

@@ -11,14 +11,13 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from sqlalchemy import func, select
 
-from conftest import run_cli
+from conftest import run_cli, wait_for
 from db.records import find_record, samples
 from db.schema import Excitation, Record, Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
@@ -110,9 +109,7 @@ def test_a_killed_record_sweep_resumes_to_every_point_once(db, fmu_path, statue)
     for attempt in range(2):
         proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None and stored() <= before:
-            time.sleep(0.02)
+        wait_for(lambda: stored() > before, "a batch stored", proc)
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
         assert stored() > before

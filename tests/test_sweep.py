@@ -9,7 +9,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +16,7 @@ from sqlalchemy import func, select
 
 from db.schema import Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
+from tests.conftest import PATIENCE, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "examples" / "sweep_sine_pulse.toml"
@@ -79,11 +79,7 @@ def test_killed_sweeps_resume_to_every_point_once(db_url, fmu_path):
     for attempt in range(3):  # start (or resume), wait for a batch or more to land, then SIGKILL everything
         proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None:
-            if _stored(db) > before:
-                break
-            time.sleep(0.02)
+        wait_for(lambda: _stored(db) > before, "a batch stored", proc)
         os.killpg(proc.pid, signal.SIGKILL)  # the runner and its workers, mid-sweep
         proc.wait()
         now = _stored(db)
@@ -109,7 +105,7 @@ def test_two_sweeps_on_one_database_at_once(db_url, fmu_path):
                                "--grid", "a=1.01:8:40", "--workers", "1", "--quiet"], cwd=ROOT, env=env,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
              for spec in ("w=1:6:40", "w=6:12:40")]
-    outs = [p.communicate(timeout=300) for p in procs]
+    outs = [p.communicate(timeout=PATIENCE) for p in procs]
     assert all(p.returncode == 0 for p in procs), outs
     assert counts(db, 1) == (1600, 1600, 1600) and counts(db, 2) == (1600, 1600, 1600)
 
