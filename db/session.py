@@ -27,7 +27,7 @@ from alembic import command
 from alembic.config import Config
 from alembic.migration import MigrationContext
 from alembic.script import ScriptDirectory
-from sqlalchemy import URL, create_engine, event, inspect, text
+from sqlalchemy import URL, create_engine, event, inspect, make_url, text
 from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
@@ -38,6 +38,7 @@ DEFAULT_URL = "sqlite:///rocking.db"
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 MAX_ID = 2 ** 63 - 1  # ids are 64-bit integers at most (SQLite's INTEGER); larger ones name no row
 BUSY_TIMEOUT = 60.0  # s a writer waits for another process's lock (ROCKING_DB_BUSY_TIMEOUT)
+CONNECT_TIMEOUT = 5  # s a PostgreSQL server has to answer a new connection (connect_timeout in the URL sets it)
 SQLITE_MAGIC = b"SQLite format 3\x00"
 _READ_ONLY: weakref.WeakKeyDictionary[Engine, str] = weakref.WeakKeyDictionary()  # our read-only engines: their file
 
@@ -86,9 +87,29 @@ def _sqlite_pragmas(busy_ms: int, readonly: bool):
     return on_connect
 
 
-def make_engine(url: str | URL, *, readonly: bool = False) -> Engine:
+def connect_timeout(url: str | URL) -> float | None:
+    """Seconds a PostgreSQL server (psycopg or psycopg2) has to answer a new connection: the
+    URL's connect_timeout, else CONNECT_TIMEOUT; None for other databases. Without one, a
+    server whose port accepts connections but never answers kept a command waiting 2.5 min."""
     try:
-        engine = create_engine(url)
+        u = make_url(url)
+    except ArgumentError:
+        return None
+    if u.get_backend_name() != "postgresql" or u.get_driver_name() not in ("psycopg", "psycopg2"):
+        return None
+    given = u.query.get("connect_timeout")
+    try:
+        return float(given if isinstance(given, str) else given[-1]) if given else float(CONNECT_TIMEOUT)
+    except ValueError:
+        return None  # the driver says what is wrong with it
+
+
+def make_engine(url: str | URL, *, readonly: bool = False) -> Engine:
+    timeout = connect_timeout(url)
+    given = timeout is not None and "connect_timeout" in make_url(url).query
+    try:
+        engine = create_engine(url, **({"connect_args": {"connect_timeout": CONNECT_TIMEOUT}}
+                                       if timeout is not None and not given else {}))
     except (ArgumentError, ImportError, ValueError) as exc:
         raise DatabaseError(f"cannot use database URL {str(url)!r}: {exc}") from None
     if engine.dialect.name == "sqlite":
@@ -310,6 +331,10 @@ def database_failure(exc: BaseException, where: str | None = None, doing: str = 
         return f"{db} is not an SQLite database ({msg})"
     if "malformed" in low or "corrupt" in low:
         return f"{db} is damaged ({msg})"
+    if "connection timeout expired" in low or "timeout expired" == low:
+        seconds = connect_timeout(where) if where and "://" in where else None
+        return (f"no answer from {db} within {seconds or CONNECT_TIMEOUT:g} s (is the server up, and is it a "
+                "PostgreSQL server? connect_timeout=SECONDS in the URL sets how long to wait)")
     return f"{doing or f'{db} failed'}: {msg}"
 
 
