@@ -1009,19 +1009,21 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         if not rows:
             return
         t0 = time.perf_counter()
-        try:
-            with _interrupts_deferred(), factory.begin() as session:
-                insert_rows(session, rows)
-        except IntegrityError:  # another process stored some of these points meanwhile: store the others
-            indices = [r[0]["grid_index"] for r in rows]
-            taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1)
-            fresh = [r for r in rows if r[0]["grid_index"] not in taken]
-            stats["skipped"] += len(rows) - len(fresh)
-            for r in fresh:
-                r[0].pop("excitation_id", None)
-            if fresh:
+        pending = list(rows)
+        while pending:  # each pass stores them all, or finds some another process stored: it ends
+            try:
                 with _interrupts_deferred(), factory.begin() as session:
-                    insert_rows(session, fresh)
+                    insert_rows(session, pending)
+                break
+            except IntegrityError:  # a concurrent resume stored some of these points meanwhile: store the others
+                indices = {r[0]["grid_index"] for r in pending}
+                taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1) & indices
+                if not taken:  # not a point stored twice
+                    raise
+                pending = [r for r in pending if r[0]["grid_index"] not in taken]
+                stats["skipped"] += len(taken)
+                for r in pending:
+                    r[0].pop("excitation_id", None)
         stats["db_seconds"] += time.perf_counter() - t0
         rows.clear()
 
