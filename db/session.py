@@ -212,6 +212,8 @@ def _unwritable(path: str) -> str | None:
     """Why runs cannot be written to this SQLite file (None if they can): no write permission
     on the file, or on its folder, where SQLite keeps the -wal and -shm files next to it."""
     folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        return f"its folder {folder} does not exist"
     try:
         read_only_fs = bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
     except OSError:
@@ -358,11 +360,12 @@ def _migration_lock(engine: Engine):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def upgrade(engine: Engine) -> None:
+def upgrade(engine: Engine, where: str | None = None) -> None:
     """Create or migrate the schema to the newest revision; DatabaseError (nothing written)
-    for a schema from a newer version of the tool, a damaged one, or another program's."""
+    for a schema from a newer version of the tool, a damaged one, or another program's.
+    `where`: the database in messages (default: the engine's)."""
     cfg = _alembic_config()
-    where = database_name(engine)
+    where = where or database_name(engine)
     sqlite = engine.dialect.name == "sqlite"
     try:
         if _check(_probe(engine), where):
@@ -390,12 +393,19 @@ def _create_whole(path: str) -> bool:
     built in a file of its own beside it, which then takes the name in one step (a hard link,
     which fails if the name exists). SQLite's DDL is not one transaction through the driver, and
     a process killed while creating the schema in place left a file no command could open.
-    False (nothing done) if `path` exists by then."""
-    tmp = f"{path}.new-{os.getpid()}-{threading.get_ident()}"
+    False (nothing done) if `path` exists by then. Messages name `path`, not the file beside it;
+    such files that killed processes left are removed (db.leftovers)."""
+    from db.leftovers import remove_stale, tag
+
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise DatabaseError(f"cannot create the database {path}: its folder {folder} does not exist")
+    remove_stale(Path(folder), f"{os.path.basename(path)}.new-")
+    tmp = f"{path}.new-{tag()}-{threading.get_ident()}"
     try:
         engine = make_engine(URL.create("sqlite", database=tmp))
         try:
-            upgrade(engine)
+            upgrade(engine, where=path)
         finally:
             engine.dispose()  # the last connection folds the write-ahead log into the file
         try:

@@ -22,7 +22,7 @@ from sqlalchemy import select
 from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 
-from db import series
+from db import leftovers, series
 from db.schema import Block, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene
 from db.session import DatabaseError, database_failure, database_name, display_url, sqlite_file
 
@@ -204,13 +204,14 @@ def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | N
     err: OSError | None = None
     for f in folders:
         path = (f / f"rocking-unsaved-{stamp}-{os.getpid()}.json").resolve()
-        part = path.with_name(path.name + ".part")
+        part = path.with_name(f".rocking-unsaved.{leftovers.tag()}-{stamp}.json.part")  # whole, or not at all
+        leftovers.remove_stale(path.parent, ".rocking-unsaved.", ".part")  # those killed processes left
         try:
             part.write_text(data)
             os.replace(part, path)
             return path
         except OSError as exc:
-            err = exc
+            err = OSError(exc.errno, f"cannot write {path}: {exc.strerror or exc}")  # its name, not the part's
             part.unlink(missing_ok=True)
     raise err
 

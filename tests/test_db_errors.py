@@ -541,3 +541,71 @@ def test_an_unsaved_run_whose_series_inflates_far_beyond_its_size_is_refused_in_
     assert peak < base + 64 * 1024, (peak, base)  # kB: far below the 512 MB the stream inflates to
     with open_database(f"sqlite:///{tmp_path / 'bomb.db'}")() as s:
         assert s.scalar(select(func.count()).select_from(Run)) == 0
+
+
+KILLED_AT = """
+import os, signal, sys
+from pathlib import Path
+
+def killed(*args, **kw):  # SIGKILL where the whole file would take its name
+    os.kill(os.getpid(), signal.SIGKILL)
+
+os.{call} = killed
+{body}
+"""
+
+
+def killed_at(call: str, body: str, *args: str) -> None:
+    """Run `body` in a process of its own that is SIGKILLed where it calls os.`call`."""
+    p = subprocess.run([sys.executable, "-c", KILLED_AT.format(call=call, body=body), *args], cwd=ROOT,
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == -9, (p.returncode, p.stderr)
+
+
+def test_the_files_a_killed_database_creation_left_are_removed_by_the_next_opening(tmp_path):
+    """SIGKILL just before a new database took its name left its schema beside it
+    (x.db.new-PID-THREAD); the next opening removes it, and keeps what live processes write."""
+    path = tmp_path / "x.db"
+    killed_at("link", "from db.session import open_database; open_database(sys.argv[1])", str(path))
+    assert not path.exists() and list(tmp_path.glob("x.db.new-*"))  # the leftover is there
+    with open_database(f"sqlite:///{path}")() as s:
+        assert s.execute(text("SELECT count(*) FROM runs")).scalar() == 0
+    assert list(tmp_path.glob("x.db.new-*")) == []
+
+
+def test_a_database_that_cannot_be_created_is_named_as_given(tmp_path):
+    """The error names the database asked for, not the temporary file it is built in."""
+    from db.session import DatabaseError
+
+    with pytest.raises(DatabaseError) as err:
+        open_database(str(tmp_path / "no-such-folder" / "x.db"))
+    assert str(err.value).startswith(f"cannot create the database {tmp_path / 'no-such-folder' / 'x.db'}:")
+    assert ".new-" not in str(err.value) and "does not exist" in str(err.value)
+
+
+def test_the_part_file_of_a_killed_unsaved_run_is_removed_by_the_next(tmp_path):
+    from db.store import keep_unsaved
+
+    body = "from db.store import keep_unsaved; keep_unsaved({'format': 'x'}, 'full', 'db', folder=Path(sys.argv[1]))"
+    killed_at("replace", body, str(tmp_path))
+    assert list(tmp_path.glob("*.part")) or list(tmp_path.glob(".*.part"))
+    kept = keep_unsaved({"format": "x"}, "full", "db", folder=tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [kept.name]
+
+
+def test_an_unsaved_run_that_cannot_be_kept_names_its_file_not_the_part(tmp_path):
+    from db.store import keep_unsaved
+
+    with pytest.raises(OSError) as err:
+        keep_unsaved({"format": "x"}, "full", "db", folder=tmp_path / "no-such-folder")
+    assert "rocking-unsaved-" in str(err.value) and ".part" not in str(err.value), str(err.value)
+
+
+def test_the_part_file_of_a_killed_export_is_removed_by_the_next(tmp_path, fmu_path):
+    db = stored_db(tmp_path / "r.db", fmu_path)
+    out = tmp_path / "out" / "run.csv"
+    body = "from runners.cli.main import main; main(['export', '1', '--out', sys.argv[1], '--db', sys.argv[2]])"
+    killed_at("replace", body, str(out), db)
+    assert not out.exists() and list(out.parent.glob(".run.csv.*.part"))
+    assert run_cli("export", "1", "--out", str(out), db=db, fmu_path=fmu_path).returncode == 0
+    assert sorted(p.name for p in out.parent.iterdir()) == ["run-events.csv", "run.csv"]
