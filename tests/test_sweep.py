@@ -232,3 +232,24 @@ def test_two_resumes_of_one_sweep_share_its_points(db_url, fmu, fmu_path):
         want = s.execute(select(Run.grid_index, RunSummary.overturned, RunSummary.impacts, RunSummary.peak1_over_alpha)
                          .join(RunSummary).where(Run.sweep_id == twin).order_by(Run.grid_index)).all()
     assert got == want
+
+
+def test_two_resumes_started_at_once_both_finish_and_store_every_point_once(tmp_path, fmu, fmu_path):
+    """The same with two real `runners sweep ID` processes started together (whether their
+    batches overlap depends on the machine; the test above makes them overlap)."""
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep
+
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    factory = open_database(db)
+    sweep_id = create_sweep(factory, load_scene(SCENE), [Axis("w", 1.0, 12.0, 30), Axis("a", 1.01, 8.0, 30)],
+                            fmu.defaults())
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    procs = [subprocess.Popen([sys.executable, "-m", "runners.cli", "sweep", str(sweep_id), "--workers", "1",
+                               "--quiet", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=env, cwd=ROOT) for _ in range(2)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], [err for _, err in outs]
+    assert counts(db, sweep_id) == (900, 900, 900)
+    with factory() as s:
+        assert (s.get(Sweep, sweep_id).done, s.get(Sweep, sweep_id).status) == (900, "done")
