@@ -93,7 +93,7 @@ def connect_timeout(url: str | URL) -> float | None:
     server whose port accepts connections but never answers kept a command waiting 2.5 min."""
     try:
         u = make_url(url)
-    except ArgumentError:
+    except (ArgumentError, ValueError):  # make_engine says what is wrong with it
         return None
     if u.get_backend_name() != "postgresql" or u.get_driver_name() not in ("psycopg", "psycopg2"):
         return None
@@ -105,11 +105,9 @@ def connect_timeout(url: str | URL) -> float | None:
 
 
 def make_engine(url: str | URL, *, readonly: bool = False) -> Engine:
-    timeout = connect_timeout(url)
-    given = timeout is not None and "connect_timeout" in make_url(url).query
     try:
-        engine = create_engine(url, **({"connect_args": {"connect_timeout": CONNECT_TIMEOUT}}
-                                       if timeout is not None and not given else {}))
+        default = connect_timeout(url) is not None and "connect_timeout" not in make_url(url).query
+        engine = create_engine(url, **({"connect_args": {"connect_timeout": CONNECT_TIMEOUT}} if default else {}))
     except (ArgumentError, ImportError, ValueError) as exc:
         raise DatabaseError(f"cannot use database URL {str(url)!r}: {exc}") from None
     if engine.dialect.name == "sqlite":
