@@ -104,7 +104,7 @@ def test_a_postgresql_port_that_never_answers_fails_within_seconds(silent, fmu_p
 
 
 def test_rocking_db_naming_a_silent_server_fails_within_its_own_connect_timeout(silent, fmu_path, tmp_path):
-    url = f"postgresql://rocking@127.0.0.1:{silent.port}/rocking?connect_timeout=2"  # psycopg2, the default driver
+    url = f"postgresql+psycopg://rocking@127.0.0.1:{silent.port}/rocking?connect_timeout=2"
     p = runners("db", "list", "runs", fmu_path=fmu_path, cwd=tmp_path, env={"ROCKING_DB": url})
     one_line(p, "no answer", "within 2 s")
 
