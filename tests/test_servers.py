@@ -126,3 +126,9 @@ def test_a_scheduler_that_does_not_answer_fails_the_sweep_within_seconds(server,
     one_line(p, *words, f"tcp://127.0.0.1:{port}", "sweep 1 has 0 of 3 points stored")
     assert "MemoryError" not in p.stderr and "EiB" not in p.stderr
     assert _sweeps(db) == [(0, 3, "failed")]  # not listed as running
+
+
+def test_a_postgresql_url_at_an_http_server_is_one_line(http, fmu_path, tmp_path):
+    p = runners("db", "list", "runs", "--db", f"postgresql+psycopg://rocking@127.0.0.1:{http.port}/rocking",
+                fmu_path=fmu_path, cwd=tmp_path)
+    one_line(p, f"127.0.0.1:{http.port}", "cannot open the database")
