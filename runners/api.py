@@ -565,9 +565,13 @@ def sweep(
             points = parse_points(record, sw.total) if record else None
     client = None
     if executor == "dask":
-        from runners.engine.sweep import dask_client
+        from runners.engine.sweep import dask_client, mark_failed
 
-        client = dask_client(scheduler)
+        try:
+            client = dask_client(scheduler)
+        except (OSError, SweepError) as exc:  # the sweep cannot run: say so, not "running"
+            done, total = mark_failed(factory, sweep_id)
+            raise SweepStopped(sweep_id, done, total, False, str(exc)) from None
     try:
         st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
                        record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
