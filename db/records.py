@@ -53,7 +53,8 @@ def find_record(session: Session, key: str | int) -> Record:
     if rec is None and str(key).strip().isdigit():
         rec = session.get(Record, int(str(key).strip()))
     if rec is None:
-        raise ValueError(f"no record {key!r} in the database (runners records list shows them; "
+        file = " and no such record file" if str(key).lower().endswith((".at2", ".csv", ".txt")) else ""
+        raise ValueError(f"no record {key!r} in the database{file} (runners records list shows them; "
                          "runners records import adds them)")
     return rec
 

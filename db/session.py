@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import quote
 
-from sqlalchemy import URL, create_engine, event, inspect, text
+from sqlalchemy import URL, create_engine, event, inspect, make_url, text
 from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
@@ -39,6 +39,7 @@ DEFAULT_URL = "sqlite:///rocking.db"
 MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 MAX_ID = 2 ** 63 - 1  # ids are 64-bit integers at most (SQLite's INTEGER); larger ones name no row
 BUSY_TIMEOUT = 60.0  # s a writer waits for another process's lock (ROCKING_DB_BUSY_TIMEOUT)
+CONNECT_TIMEOUT = 5  # s a PostgreSQL server has to answer a new connection (connect_timeout in the URL sets it)
 SQLITE_MAGIC = b"SQLite format 3\x00"
 _READ_ONLY: weakref.WeakKeyDictionary[Engine, str] = weakref.WeakKeyDictionary()  # our read-only engines: their file
 
@@ -87,9 +88,27 @@ def _sqlite_pragmas(busy_ms: int, readonly: bool):
     return on_connect
 
 
+def connect_timeout(url: str | URL) -> float | None:
+    """Seconds a PostgreSQL server (psycopg or psycopg2) has to answer a new connection: the
+    URL's connect_timeout, else CONNECT_TIMEOUT; None for other databases. Without one, a
+    server whose port accepts connections but never answers kept a command waiting 2.5 min."""
+    try:
+        u = make_url(url)
+    except (ArgumentError, ValueError):  # make_engine says what is wrong with it
+        return None
+    if u.get_backend_name() != "postgresql" or u.get_driver_name() not in ("psycopg", "psycopg2"):
+        return None
+    given = u.query.get("connect_timeout")
+    try:
+        return float(given if isinstance(given, str) else given[-1]) if given else float(CONNECT_TIMEOUT)
+    except ValueError:
+        return None  # the driver says what is wrong with it
+
+
 def make_engine(url: str | URL, *, readonly: bool = False) -> Engine:
     try:
-        engine = create_engine(url)
+        default = connect_timeout(url) is not None and "connect_timeout" not in make_url(url).query
+        engine = create_engine(url, **({"connect_args": {"connect_timeout": CONNECT_TIMEOUT}} if default else {}))
     except (ArgumentError, ImportError, ValueError) as exc:
         raise DatabaseError(f"cannot use database URL {str(url)!r}: {exc}") from None
     if engine.dialect.name == "sqlite":
@@ -192,6 +211,8 @@ def _unwritable(path: str) -> str | None:
     """Why runs cannot be written to this SQLite file (None if they can): no write permission
     on the file, or on its folder, where SQLite keeps the -wal and -shm files next to it."""
     folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        return f"its folder {folder} does not exist"
     try:
         read_only_fs = bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
     except OSError:
@@ -353,6 +374,10 @@ def database_failure(exc: BaseException, where: str | None = None, doing: str = 
         return f"{db} is not an SQLite database ({msg})"
     if "malformed" in low or "corrupt" in low:
         return f"{db} is damaged ({msg})"
+    if "connection timeout expired" in low or "timeout expired" == low:
+        seconds = connect_timeout(where) if where and "://" in where else None
+        return (f"no answer from {db} within {seconds or CONNECT_TIMEOUT:g} s (is the server up, and is it a "
+                "PostgreSQL server? connect_timeout=SECONDS in the URL sets how long to wait)")
     return f"{doing or f'{db} failed'}: {msg}"
 
 
@@ -376,13 +401,14 @@ def _migration_lock(engine: Engine):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def upgrade(engine: Engine) -> None:
+def upgrade(engine: Engine, where: str | None = None) -> None:
     """Create or migrate the schema to the newest revision; DatabaseError (nothing written)
-    for a schema from a newer version of the tool, a damaged one, or another program's."""
+    for a schema from a newer version of the tool, a damaged one, or another program's.
+    `where`: the database in messages (default: the engine's)."""
     from alembic import command
 
     cfg = _alembic_config()
-    where = database_name(engine)
+    where = where or database_name(engine)
     sqlite = engine.dialect.name == "sqlite"
     try:
         if _check(_probe(engine), where):
@@ -410,12 +436,19 @@ def _create_whole(path: str) -> bool:
     built in a file of its own beside it, which then takes the name in one step (a hard link,
     which fails if the name exists). SQLite's DDL is not one transaction through the driver, and
     a process killed while creating the schema in place left a file no command could open.
-    False (nothing done) if `path` exists by then."""
-    tmp = f"{path}.new-{os.getpid()}-{threading.get_ident()}"
+    False (nothing done) if `path` exists by then. Messages name `path`, not the file beside it;
+    such files that killed processes left are removed (db.leftovers)."""
+    from db.leftovers import remove_stale, tag
+
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise DatabaseError(f"cannot create the database {path}: its folder {folder} does not exist")
+    remove_stale(Path(folder), f"{os.path.basename(path)}.new-")
+    tmp = f"{path}.new-{tag()}-{threading.get_ident()}"
     try:
         engine = make_engine(URL.create("sqlite", database=tmp))
         try:
-            upgrade(engine)
+            upgrade(engine, where=path)
         finally:
             engine.dispose()  # the last connection folds the write-ahead log into the file
         try:

@@ -22,7 +22,7 @@ from sqlalchemy import select
 from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 
-from db import series
+from db import leftovers, series
 from db.schema import Block, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene
 from db.session import DatabaseError, database_failure, database_name, display_url, sqlite_file
 
@@ -204,13 +204,14 @@ def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | N
     err: OSError | None = None
     for f in folders:
         path = (f / f"rocking-unsaved-{stamp}-{os.getpid()}.json").resolve()
-        part = path.with_name(path.name + ".part")
+        part = path.with_name(f".rocking-unsaved.{leftovers.tag()}-{stamp}.json.part")  # whole, or not at all
+        leftovers.remove_stale(path.parent, ".rocking-unsaved.", ".part")  # those killed processes left
         try:
             part.write_text(data)
             os.replace(part, path)
             return path
         except OSError as exc:
-            err = exc
+            err = OSError(exc.errno, f"cannot write {path}: {exc.strerror or exc}")  # its name, not the part's
             part.unlink(missing_ok=True)
     raise err
 
@@ -238,8 +239,6 @@ def read_unsaved(path: str | Path) -> dict[str, Any]:
 def _unsaved_problem(p: dict[str, Any]) -> str | None:
     """What is wrong with the values of an unsaved run (None if nothing): the types its rows
     need, and series whose data hold the samples they announce."""
-    import zlib
-
     from db.schema import RunSummary
 
     scalar = (bool, int, float, str)
@@ -249,6 +248,10 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
             return f"scene.{key} is not a table of named values"
     if not isinstance(p["merged"], dict) or not all(isinstance(v, scalar) for v in p["merged"].values()):
         return "merged is not a table of named values"
+    try:
+        excitation_of(p["merged"])
+    except (KeyError, ValueError, TypeError) as exc:
+        return f"merged does not describe an excitation (no valid {exc})"
     if not isinstance(p["scene"]["name"], str) or not isinstance(p["model"], str) or not isinstance(p["method"], str):
         return "the scene's name, the model and the method must be texts"
     if not isinstance(p["stop_time"], (int, float)) or isinstance(p["stop_time"], bool):
@@ -277,14 +280,79 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
         if not (isinstance(ps, dict) and isinstance(ps.get("names"), list) and isinstance(ps.get("n_samples"), int)
                 and isinstance(ps.get("data"), str) and isinstance(ps.get("events"), (list, type(None)))):
             return "series is not names, n_samples, data and events"
+        wrong = _series_problem(ps["names"], ps["n_samples"]) or _events_problem(ps["events"] or [])
+        if wrong:
+            return wrong
         try:
-            size = len(zlib.decompress(base64.b64decode(ps["data"], validate=True)))
-        except (ValueError, zlib.error):
+            blob = base64.b64decode(ps["data"], validate=True)
+        except ValueError:
             return "series.data is not packed samples"
-        if size != 8 * (len(ps["names"]) + 1) * ps["n_samples"]:
+        expected = 8 * (len(ps["names"]) + 1) * ps["n_samples"]
+        size = _inflated_size(blob, expected)
+        if size is None:
+            return "series.data is not packed samples"
+        if size != expected:
             return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
-                    "announces")
+                    "announces" + (" (it inflates to more)" if size > expected else ""))
     return None
+
+
+def _series_problem(names: list, n_samples: int) -> str | None:
+    """What is wrong with a series' shape (None if nothing): distinct column names, and at least
+    one and at most as many samples as a run may hold (runners.engine.scene.MAX_SAMPLES)."""
+    from runners.engine.scene import MAX_SAMPLES
+
+    if not all(isinstance(n, str) and n for n in names) or len(set(names)) != len(names):
+        return "series.names are not distinct column names"
+    if isinstance(n_samples, bool) or not 1 <= n_samples <= MAX_SAMPLES + 1:
+        return f"series.n_samples = {n_samples!r} is not a number of samples (1 to {MAX_SAMPLES + 1})"
+    return None
+
+
+def _events_problem(events: list) -> str | None:
+    """What is wrong with a series' events (None if nothing): each one a kind (a text), a time t
+    (s, a finite number), numeric values and text labels, as runners.engine.fmu.Event.as_dict
+    writes them; anything else fails later, in every command that reads the run."""
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    for i, e in enumerate(events):
+        if not isinstance(e, dict) or set(e) - {"kind", "t", "values", "labels"}:
+            return f"series.events[{i}] is not an event (kind, t, values, labels)"
+        if not isinstance(e.get("kind"), str) or not e["kind"]:
+            return f"series.events[{i}] has no kind (a text, e.g. impact)"
+        if not number(e.get("t")) or not np.isfinite(e["t"]):
+            return f"series.events[{i}] has no time t (a finite number of seconds)"
+        values, labels = e.get("values", {}), e.get("labels", {})
+        if not isinstance(values, dict) or not all(isinstance(k, str) and number(v) for k, v in values.items()):
+            return f"series.events[{i}].values is not a table of named numbers"
+        if not isinstance(labels, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                                   for k, v in labels.items()):
+            return f"series.events[{i}].labels is not a table of named texts"
+    return None
+
+
+def _inflated_size(blob: bytes, expected: int, chunk: int = 1 << 20) -> int | None:
+    """Bytes the zlib stream `blob` inflates to, counted a chunk at a time and no further than
+    one chunk beyond `expected` (bytes): a stream packed to inflate to far more (a few MB that
+    inflate to GB) is measured in bounded memory. None if it is not a whole zlib stream."""
+    import zlib
+
+    d = zlib.decompressobj()
+    size, rest = 0, blob
+    try:
+        while True:
+            out = d.decompress(rest, chunk)
+            size += len(out)
+            rest = d.unconsumed_tail
+            if size > expected:
+                return size
+            if not out and not rest:
+                break
+        size += len(d.flush())
+    except zlib.error:
+        return None
+    return size if d.eof else None
 
 
 _UNSAVED_KEYS = {"created_at", "code_version", "fmu_sha256", "scene", "merged", "summary", "model", "method",

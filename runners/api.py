@@ -156,7 +156,8 @@ def simulate(
     h: s, the fixed step of rk4, rk4-located, newmark and euler (default 1e-4).
     rtol: the relative tolerance of "scipy" (default 1e-10).
     record: drive the block with a stored record (name or id, ``runners records list``) or a record
-        file (PEER .AT2 or .csv) instead of the scene's excitation; scale: multiplier of its
+        file (a Path, or a str naming an existing file: PEER .AT2, .csv or our text format; stored
+        with the run when ``store``) instead of the scene's excitation; scale: multiplier of its
         accelerations; pga: scale it so that its peak ground acceleration is ``pga`` (in g).
     outputs: FMU outputs in ``series`` (default: the run's summary outputs, theta and omega of each
         block, the ground acceleration, energy, impacts...).
@@ -218,7 +219,9 @@ def simulate(
         kind = int(sc.parameters.get("excitation.kind", 0))
         if kind not in (0, 4):
             notes.append(f"the record replaces the scene's {KIND_NAMES[kind]}")
-        sc = replace(sc, record=str(record), file=None, stop_time_given=stop_time is not None,
+        from_file = isinstance(record, Path) or (isinstance(record, str) and Path(record).is_file())
+        sc = replace(sc, record=None if from_file else str(record),
+                     file=str(Path(record).resolve()) if from_file else None, stop_time_given=stop_time is not None,
                      step_given=step is not None,
                      parameters={**{k: v for k, v in sc.parameters.items()
                                     if not k.startswith("excitation.") or k == "excitation.startTime"},
@@ -571,9 +574,13 @@ def sweep(
             points = parse_points(record, sw.total) if record else None
     client = None
     if executor == "dask":
-        from runners.engine.sweep import dask_client
+        from runners.engine.sweep import dask_client, mark_failed
 
-        client = dask_client(scheduler)
+        try:
+            client = dask_client(scheduler)
+        except (OSError, SweepError) as exc:  # the sweep cannot run: say so, not "running"
+            done, total = mark_failed(factory, sweep_id)
+            raise SweepStopped(sweep_id, done, total, False, str(exc)) from None
     try:
         st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
                        record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)

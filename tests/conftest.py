@@ -7,6 +7,8 @@ import os
 import shutil
 import subprocess
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -117,6 +119,49 @@ def run_cli(*args: str, db: str, fmu_path: Path) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(["runners", *args], code, out.getvalue(), err.getvalue())
 
 
+# A last resort against a hang, never a measure of speed (s): a working command ends long before it,
+# even on a machine running a second full suite beside this one. Tests wait for what they need to see
+# (wait_for), never for a time.
+PATIENCE = 900.0
+
+
+def wait_for(condition: Callable[[], object], what: str, proc: subprocess.Popen | None = None,
+             timeout: float = PATIENCE) -> object:
+    """Poll `condition` until it gives a true value, and return that value: a wait for a readiness
+    signal, not for a time (the 10 ms pause between polls only spares the CPU). Fails naming
+    `what` if `proc` ends first, or after `timeout` s (PATIENCE: a last resort against a hang)."""
+    end = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value:
+            return value
+        if proc is not None and proc.poll() is not None:
+            raise AssertionError(f"the process ended (exit {proc.returncode}) before {what}")
+        if time.monotonic() > end:
+            raise AssertionError(f"no {what} after {timeout:.0f} s")
+        time.sleep(0.01)
+
+
+def cpu_seconds(pid: int) -> float:
+    """The CPU time (user + system, s) process `pid` has used so far (Linux /proc): a measure of
+    how far it has got that does not depend on how busy the machine is, as wall time does."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def signal_masks(pid: int) -> dict[str, int | str]:
+    """Process `pid`'s state letter and signal masks from /proc/PID/status (Linux): "SigCgt"
+    (signals it has a handler for), "SigIgn" (ignored), "State" (R, S, T stopped, Z ended...)."""
+    out: dict[str, int | str] = {}
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        key, _, value = line.partition(":")
+        if key in ("SigCgt", "SigIgn"):
+            out[key] = int(value, 16)
+        elif key == "State":
+            out[key] = value.split()[0]
+    return out
+
+
 def _postgres_bin() -> Path | None:
     found = sorted(Path("/usr/lib/postgresql").glob("*/bin/initdb"))
     return found[-1].parent if found else None
@@ -146,7 +191,8 @@ def postgres_server(tmp_path_factory):
     data = folder / "data"
     subprocess.run([*as_user, str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "postgres",
                     "--no-sync"], check=True, capture_output=True)
-    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-w", "-l", str(folder / "log"), "-o",
+    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-w", "-t", f"{PATIENCE:.0f}",  # not 60 s
+                    "-l", str(folder / "log"), "-o",
                     f"-p {port} -k {folder} -c listen_addresses=127.0.0.1 -c fsync=off -c max_connections=200",
                     "start"], check=True, capture_output=True)
     yield f"postgresql+psycopg://postgres@127.0.0.1:{port}"

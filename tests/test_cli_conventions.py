@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_cli
+from conftest import PATIENCE, run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 EX = ROOT / "examples"
@@ -263,7 +263,7 @@ def _on_a_terminal(args, db, fmu_path) -> tuple[int, str]:
     master, slave = os.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))  # tqdm draws nothing 0 columns wide
     p = subprocess.run([sys.executable, "-m", "runners.cli", *args, "--db", db], stdout=subprocess.PIPE, stderr=slave,
-                       cwd=ROOT, env={**os.environ, "ROCKING_FMU": str(fmu_path)}, timeout=300)
+                       cwd=ROOT, env={**os.environ, "ROCKING_FMU": str(fmu_path)}, timeout=PATIENCE)
     os.close(slave)
     chunks = []
     while True:

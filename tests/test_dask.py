@@ -7,12 +7,11 @@ from __future__ import annotations
 import os
 import signal
 import threading
-import time
 
 import pytest
 from sqlalchemy import func, select
 
-from conftest import run_cli
+from conftest import PATIENCE, run_cli, wait_for
 from db.schema import Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
 from runners.engine.scene import load_scene
@@ -63,16 +62,17 @@ def test_a_killed_dask_worker_loses_and_duplicates_no_point(db_url, fmu, fmu_pat
     worker = threading.Thread(target=lambda: done.update(run_sweep(factory, sweep_id, fmu_path, progress=False,
                                                                    client=client, chunk=150, batch=300)))
     worker.start()
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:  # kill one worker once the first batch has landed
+
+    def landed() -> bool:
+        assert worker.is_alive(), "the sweep ended before its first batch was seen"
         with factory() as s:
-            if s.get(Sweep, sweep_id).done > 0:
-                break
-        time.sleep(0.05)
+            return s.get(Sweep, sweep_id).done > 0
+
+    wait_for(landed, "the first batch stored")  # then kill one worker
     pids = client.run(os.getpid)
     victim = sorted(pids.values())[0]
     os.kill(victim, signal.SIGKILL)
-    worker.join(timeout=180)
+    worker.join(timeout=PATIENCE)
     assert not worker.is_alive()
     with factory() as s:
         n = s.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == sweep_id))

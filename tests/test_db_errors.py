@@ -16,7 +16,7 @@ import pytest
 from sqlalchemy import event, func, select, text
 from sqlalchemy.pool import Pool
 
-from conftest import run_cli
+from conftest import cpu_seconds, run_cli, wait_for
 from db.schema import Run, RunSeries, RunSummary
 from db.session import integrity_ok, open_database
 
@@ -400,31 +400,60 @@ def test_opening_a_database_again_keeps_the_locks_of_its_open_connections(tmp_pa
 def test_a_database_killed_while_being_created_is_absent_or_whole(tmp_path):
     """SIGKILL at any moment of a first opening leaves no database, or a whole one: the schema
     is built beside it and takes its name in one step (a kill in the middle once left a file
-    that every command refused)."""
+    that every command refused). The kills fall at points of the opening's own CPU time, spread
+    from when an uninterrupted opening starts building to its end (wall-time delays, which a busy
+    machine stretches, could all fall before it began); some must find the building under way."""
+    import resource
     import signal
-    import time
 
-    for i, delay in enumerate([0.40 + 0.025 * k for k in range(18)]):
+    def opening(path: Path) -> subprocess.Popen:
+        return subprocess.Popen([sys.executable, "-c", "import sys; from db.session import open_database; "
+                                 "open_database(sys.argv[1])", f"sqlite:///{path}"], cwd=ROOT)
+
+    def building(path: Path) -> list[Path]:  # the file the schema is built in, beside the database
+        return list(path.parent.glob(f"{path.name}.new-*"))
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    p = opening(tmp_path / "whole.db")
+    start = wait_for(lambda: building(tmp_path / "whole.db") and [cpu_seconds(p.pid)], "the schema's file", p)[0]
+    assert p.wait() == 0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    end = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    caught = 0
+    for i in range(18):
         path = tmp_path / f"k{i}.db"
-        p = subprocess.Popen([sys.executable, "-c", "import sys; from db.session import open_database; "
-                              "open_database(sys.argv[1])", f"sqlite:///{path}"], cwd=ROOT)
-        time.sleep(delay)
+        p = opening(path)
+        target = start - 0.05 + (end - start + 0.05) * i / 17
+        wait_for(lambda: p.poll() is not None or cpu_seconds(p.pid) >= target, "the kill's moment")
         p.send_signal(signal.SIGKILL)
         p.wait()
+        caught += bool(building(path))
         if path.exists():
             with open_database(f"sqlite:///{path}")() as s:  # whole: usable as it is
                 s.execute(text("SELECT count(*) FROM runs")).scalar()
+    assert caught >= 1
 
 
 @pytest.mark.parametrize("change,words", [
     (lambda p: p["scene"].update(parameters=5), "scene.parameters"),
     (lambda p: p.update(record={"id": 999}), "record"),
-    (lambda p: p["series"].update(n_samples=10**12), "does not hold"),
+    (lambda p: p["series"].update(n_samples=10**12), "series.n_samples"),
+    (lambda p: p["series"].update(n_samples=12), "does not hold"),
+    (lambda p: p["merged"].pop("excitation.kind"), "merged does not describe an excitation"),
     (lambda p: p["summary"].update(impacts="many"), "summary.impacts"),
     (lambda p: p["summary"].update(colour=1), "unknown field"),
     (lambda p: p.update(created_at="yesterday"), "created_at"),
+    (lambda p: p["series"].update(events=[{"kind": 5}]), "series.events[0] has no kind"),
+    (lambda p: p["series"].update(events=[{"kind": "impact"}]), "series.events[0] has no time t"),
+    (lambda p: p["series"].update(events=[{"kind": "impact", "t": 0.1, "values": {"omega": "fast"}}]),
+     "series.events[0].values"),
+    (lambda p: p["series"].update(events=[{"kind": "impact", "t": 0.1, "labels": {"contact": 1}}]),
+     "series.events[0].labels"),
+    (lambda p: p["series"].update(events=[5]), "series.events[0] is not an event"),
+    (lambda p: p["series"].update(names=["block1.theta", "block1.theta"]), "series.names"),
+    (lambda p: p["series"].update(n_samples=0), "series.n_samples"),
 ])
-def test_an_unsaved_run_with_wrong_values_is_refused_before_storing(tmp_path, fmu_path, change, words):
+def test_an_unsaved_run_with_wrong_values_is_refused_before_storing(tmp_path, fmu, fmu_path, change, words):
     """A changed or damaged unsaved-run file once stored a run no command could read back
     (n_samples 1e12), a summary of impacts "many", or ended in an unforeseen error."""
     import numpy as np
@@ -432,7 +461,8 @@ def test_an_unsaved_run_with_wrong_values_is_refused_before_storing(tmp_path, fm
     from db.store import keep_unsaved, pending_run
 
     t = np.linspace(0.0, 1.0, 11)
-    p = pending_run(scene_name="s", parameters={"block1.theta0": 0.1}, source=None, merged={"block1.theta0": 0.1},
+    p = pending_run(scene_name="s", parameters={"block1.theta0": 0.1}, source=None,
+                    merged={**fmu.defaults(), "block1.theta0": 0.1},
                     summary={"impacts": 3, "overturned": False}, model="one block", method="fmu", stop_time=1.0,
                     fmu_path=str(fmu_path), wall_time=0.01, time=t, outputs={"block1.theta": np.sin(t)}, events=[])
     change(p)
@@ -458,3 +488,142 @@ def test_a_first_opening_keeps_the_locks_of_connections_made_without_it(tmp_path
                     "c.execute('SELECT count(*) FROM runs').fetchone(); c.close()", str(path)], check=True)
     assert Path(f"{path}-wal").exists()
     conn.close()
+
+
+def test_an_exported_run_imported_from_a_file_exports(tmp_path, fmu, fmu_path):
+    """The run an unsaved-run file holds, events included, is imported and reads back: its
+    export has the events as they were kept (an edited event once imported and then failed
+    every export with KeyError: 't')."""
+    import numpy as np
+
+    from db.store import keep_unsaved, pending_run
+
+    t = np.linspace(0.0, 1.0, 11)
+    events = [{"kind": "impact", "t": 0.5, "values": {"omega": -0.25}, "labels": {"contact": "ground"}}]
+    p = pending_run(scene_name="s", parameters={"block1.theta0": 0.1}, source=None,
+                    merged={**fmu.defaults(), "block1.theta0": 0.1},
+                    summary={"impacts": 1, "overturned": False}, model="one block", method="fmu", stop_time=1.0,
+                    fmu_path=str(fmu_path), wall_time=0.01, time=t, outputs={"block1.theta": np.sin(t)},
+                    events=events)
+    path = keep_unsaved(p, "test", "nowhere", folder=tmp_path)
+    db = f"sqlite:///{tmp_path / 'u.db'}"
+    assert run_cli("db", "import-unsaved", str(path), db=db, fmu_path=fmu_path).returncode == 0
+    out = tmp_path / "run.csv"
+    p = run_cli("export", "1", "--out", str(out), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    import csv
+
+    with open(tmp_path / "run-events.csv", newline="") as fh:
+        kept = list(csv.DictReader(fh))
+    assert [(float(e["time"]), e["kind"]) for e in kept] == [(0.5, "impact")]
+
+
+def _peak_memory_of_import(path: Path, db: str) -> tuple[int, str]:
+    """(peak resident memory in kB, stderr) of runners db import-unsaved in a process of its own."""
+    code = ("import resource, sys; from runners.cli.main import main; code = main(sys.argv[1:]); "
+            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(code)")
+    p = subprocess.run([sys.executable, "-c", code, "db", "import-unsaved", str(path), "--db", db],
+                       capture_output=True, text=True, cwd=ROOT, timeout=600)
+    return int(p.stdout.split()[-1]), p.stderr
+
+
+def test_an_unsaved_run_whose_series_inflates_far_beyond_its_size_is_refused_in_little_memory(tmp_path, fmu,
+                                                                                            fmu_path):
+    """series.data packed to inflate to 512 MB where 11 samples were announced: refused, with
+    the memory of importing a right file (it once inflated the whole stream first: 4.27 GB for
+    a 2.8 MB file)."""
+    import base64
+    import zlib
+
+    import numpy as np
+
+    from db.store import keep_unsaved, pending_run
+
+    t = np.linspace(0.0, 1.0, 11)
+    p = pending_run(scene_name="s", parameters={"block1.theta0": 0.1}, source=None,
+                    merged={**fmu.defaults(), "block1.theta0": 0.1},
+                    summary={"impacts": 3, "overturned": False}, model="one block", method="fmu", stop_time=1.0,
+                    fmu_path=str(fmu_path), wall_time=0.01, time=t, outputs={"block1.theta": np.sin(t)}, events=[])
+    (tmp_path / "right").mkdir()
+    (tmp_path / "bomb").mkdir()
+    right = keep_unsaved(p, "test", "nowhere", folder=tmp_path / "right")
+    z = zlib.compressobj(9)
+    zeros = bytes(1 << 20)
+    bomb = b"".join([z.compress(zeros) for _ in range(512)] + [z.flush()])  # 512 MB of zeros, about 0.5 MB
+    p["series"]["data"] = base64.b64encode(bomb).decode("ascii")
+    path = keep_unsaved(p, "test", "nowhere", folder=tmp_path / "bomb")
+    base, err = _peak_memory_of_import(right, f"sqlite:///{tmp_path / 'right.db'}")
+    assert not err, err
+    peak, err = _peak_memory_of_import(path, f"sqlite:///{tmp_path / 'bomb.db'}")
+    assert err.startswith("error: ") and err.count("\n") == 1 and "does not hold the 11 samples" in err, err
+    assert peak < base + 64 * 1024, (peak, base)  # kB: far below the 512 MB the stream inflates to
+    with open_database(f"sqlite:///{tmp_path / 'bomb.db'}")() as s:
+        assert s.scalar(select(func.count()).select_from(Run)) == 0
+
+
+KILLED_AT = """
+import os, signal, sys
+from pathlib import Path
+
+def killed(*args, **kw):  # SIGKILL where the whole file would take its name
+    os.kill(os.getpid(), signal.SIGKILL)
+
+os.{call} = killed
+{body}
+"""
+
+
+def killed_at(call: str, body: str, *args: str) -> None:
+    """Run `body` in a process of its own that is SIGKILLed where it calls os.`call`."""
+    p = subprocess.run([sys.executable, "-c", KILLED_AT.format(call=call, body=body), *args], cwd=ROOT,
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == -9, (p.returncode, p.stderr)
+
+
+def test_the_files_a_killed_database_creation_left_are_removed_by_the_next_opening(tmp_path):
+    """SIGKILL just before a new database took its name left its schema beside it
+    (x.db.new-PID-THREAD); the next opening removes it, and keeps what live processes write."""
+    path = tmp_path / "x.db"
+    killed_at("link", "from db.session import open_database; open_database(sys.argv[1])", str(path))
+    assert not path.exists() and list(tmp_path.glob("x.db.new-*"))  # the leftover is there
+    with open_database(f"sqlite:///{path}")() as s:
+        assert s.execute(text("SELECT count(*) FROM runs")).scalar() == 0
+    assert list(tmp_path.glob("x.db.new-*")) == []
+
+
+def test_a_database_that_cannot_be_created_is_named_as_given(tmp_path):
+    """The error names the database asked for, not the temporary file it is built in."""
+    from db.session import DatabaseError
+
+    with pytest.raises(DatabaseError) as err:
+        open_database(str(tmp_path / "no-such-folder" / "x.db"))
+    assert str(err.value).startswith(f"cannot create the database {tmp_path / 'no-such-folder' / 'x.db'}:")
+    assert ".new-" not in str(err.value) and "does not exist" in str(err.value)
+
+
+def test_the_part_file_of_a_killed_unsaved_run_is_removed_by_the_next(tmp_path):
+    from db.store import keep_unsaved
+
+    body = "from db.store import keep_unsaved; keep_unsaved({'format': 'x'}, 'full', 'db', folder=Path(sys.argv[1]))"
+    killed_at("replace", body, str(tmp_path))
+    assert list(tmp_path.glob("*.part")) or list(tmp_path.glob(".*.part"))
+    kept = keep_unsaved({"format": "x"}, "full", "db", folder=tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [kept.name]
+
+
+def test_an_unsaved_run_that_cannot_be_kept_names_its_file_not_the_part(tmp_path):
+    from db.store import keep_unsaved
+
+    with pytest.raises(OSError) as err:
+        keep_unsaved({"format": "x"}, "full", "db", folder=tmp_path / "no-such-folder")
+    assert "rocking-unsaved-" in str(err.value) and ".part" not in str(err.value), str(err.value)
+
+
+def test_the_part_file_of_a_killed_export_is_removed_by_the_next(tmp_path, fmu_path):
+    db = stored_db(tmp_path / "r.db", fmu_path)
+    out = tmp_path / "out" / "run.csv"
+    body = "from runners.cli.main import main; main(['export', '1', '--out', sys.argv[1], '--db', sys.argv[2]])"
+    killed_at("replace", body, str(out), db)
+    assert not out.exists() and list(out.parent.glob(".run.csv.*.part"))
+    assert run_cli("export", "1", "--out", str(out), db=db, fmu_path=fmu_path).returncode == 0
+    assert sorted(p.name for p in out.parent.iterdir()) == ["run-events.csv", "run.csv"]

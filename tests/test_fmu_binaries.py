@@ -20,6 +20,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 from fmu_build.build import MODEL_IDENTIFIER, fmi_headers_dir, win64_compiler
+from tests.conftest import PATIENCE
 
 HARNESS = Path(__file__).parent / "harness" / "fmi2_harness.c"
 GLIBC_FLOOR = (2, 17)
@@ -155,7 +156,7 @@ def model(fmu_path) -> tuple[str, dict]:
     return md.guid, {v.name: v for v in md.modelVariables}
 
 
-def _exec(cmd: list[str], env=None, timeout: float = 60) -> subprocess.CompletedProcess:
+def _exec(cmd: list[str], env=None, timeout: float = PATIENCE) -> subprocess.CompletedProcess:
     """Run cmd; its output goes through files, not pipes: wine's own processes (services.exe,
     winedevice.exe), which the first Windows program starts, inherit its standard handles and
     outlive it by seconds, so reading a pipe to its end would wait for them too."""
@@ -168,7 +169,7 @@ def _exec(cmd: list[str], env=None, timeout: float = 60) -> subprocess.Completed
 
 
 def _run(cmd: list[str], binary: str, model, settings: dict, resources: str = "", env=None,
-         timeout: float = 60) -> dict[str, np.ndarray]:
+         timeout: float = PATIENCE) -> dict[str, np.ndarray]:
     """Run the harness on binary: the outputs OUTPUTS at 0, STEP, ..., STOP."""
     guid, variables = model
     outs = ",".join(("i" if variables[n].type == "Integer" else "r") + str(variables[n].valueReference)
@@ -221,7 +222,7 @@ def wine(windows_harness):
     try:
         start = time.monotonic()
         try:
-            proc = _exec([exe, str(windows_harness)], env=env, timeout=600)
+            proc = _exec([exe, str(windows_harness)], env=env, timeout=PATIENCE)
         except subprocess.TimeoutExpired:
             pytest.skip("wine did not start a Windows program within 600 s")
         if "usage: fmi2_harness" not in proc.stderr:
@@ -231,7 +232,7 @@ def wine(windows_harness):
         yield [exe, str(windows_harness)], env
     finally:
         server = shutil.which("wineserver") or str(Path(exe).resolve().parent / "wineserver")
-        subprocess.run([server, "-k"], env=env, capture_output=True, timeout=60)
+        subprocess.run([server, "-k"], env=env, capture_output=True, timeout=PATIENCE)
         shutil.rmtree(prefix, ignore_errors=True)
 
 

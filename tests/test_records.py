@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import warnings
 
 import numpy as np
@@ -215,3 +216,147 @@ def test_import_notes_unlikely_units_reuses_identical_samples_and_checks_the_exp
     assert p.returncode == 2 and f"the folder {tmp_path / 'no'} does not exist" in p.stderr
     with open_database(db)() as session:
         assert session.scalar(select(func.count()).select_from(Record)) == 2
+
+
+def write_many_samples(path, n: int, bad_line: int | None = None, sep: bytes = b" ") -> None:
+    """A record file of n samples 'DDDDDDDDe-3 0' (time i ms, acceleration 0), written a million
+    lines at a time from one numpy block (about half a second for ten million); with `bad_line`,
+    that line (1-based) is 'x 0' instead, and the samples continue after it."""
+    i = np.arange(1_000_000)
+    block = np.empty((i.size, 14), np.uint8)
+    block[:, 2:8] = (i[:, None] // 10 ** np.arange(5, -1, -1)) % 10 + ord("0")
+    block[:, 8:] = np.frombuffer(b"e-3" + sep + b"0\n", np.uint8)
+    with open(path, "wb") as f:
+        for k in range(-(-n // i.size)):
+            block[:, 0:2] = np.frombuffer(f"{k:02d}".encode(), np.uint8)
+            lines = block[: n - k * i.size]
+            if bad_line is not None and k * i.size < bad_line <= k * i.size + len(lines):
+                j = bad_line - 1 - k * i.size
+                f.write(lines[:j].tobytes() + b"x" + sep + b"0\n" + lines[j:].tobytes())
+            else:
+                f.write(lines.tobytes())
+
+
+def test_a_record_of_too_many_samples_is_refused_from_its_line_count_before_it_is_parsed(db, fmu_path, tmp_path):
+    """Ten million samples, then 'x 0', then one more: the FMU's first pass counts the data lines
+    and refuses the file for its size; the Python reader does the same before parsing a line, so
+    the refusal says so (parsing first reaches 'x' after minutes, and refuses that instead)."""
+    path = tmp_path / "huge.txt"
+    write_many_samples(path, 10_000_001, bad_line=10_000_001)
+    assert path.stat().st_size == 14 * 10_000_001 + len(b"x 0\n")
+    with pytest.raises(RecordFileError, match=r"huge.txt' has more than 10000000 samples \(the most a record may "):
+        read_record_file(path)
+    p = cli("records", "import", str(path), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "has more than 10000000 samples" in p.stderr and p.stderr.count("\n") == 1
+    path.unlink()
+    # a CSV record the same: its column names row is not a sample (checked on a file of exactly the limit + 1)
+    csv_path = tmp_path / "huge.csv"
+    with open(csv_path, "wb") as f:
+        f.write(b"# units: time=s, acceleration=m/s2\n# sign: +x\ntime,acceleration\n")
+    with open(csv_path, "ab") as f:
+        write_many_samples(tmp_path / "rows.csv", 10_000_001, sep=b",")
+        with open(tmp_path / "rows.csv", "rb") as rows:
+            shutil.copyfileobj(rows, f)
+    (tmp_path / "rows.csv").unlink()
+    from runners.engine.records import read_any
+
+    with pytest.raises(RecordFileError, match="huge.csv has more than 10000000 samples"):
+        read_any(csv_path)
+    csv_path.unlink()
+    # an .AT2 file's header promises its count
+    at2 = tmp_path / "huge.AT2"
+    at2.write_text("PEER NGA STRONG MOTION DATABASE RECORD\nx\nACCELERATION TIME SERIES IN UNITS OF G\n"
+                   "NPTS= 10000001, DT= 0.0100 SEC\n0.1 0.2 0.3\n")
+    p = cli("records", "import", str(at2), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "line 4: NPTS=10000001, more than the 10000000 samples" in p.stderr
+    with open_database(db)() as session:
+        assert session.scalar(select(func.count()).select_from(Record)) == 0
+
+
+def test_the_line_count_agrees_with_the_reader_whatever_the_line_ends_and_blocks(tmp_path):
+    """count_data_lines (numpy, in blocks) against the reader's own count of samples, on files
+    mixing LF, CR LF and CR, comments, blank and indented lines and a byte-order mark, read in
+    blocks as small as 5 bytes so that lines and CR LF pairs straddle them."""
+    from runners.engine.record_files import count_data_lines
+
+    rng = np.random.default_rng(3)
+    kinds = ["{t} 1", "  \t{t} 2", "# comment", "   # indented comment", "", " \t ", "{t},3", "\v{t}; 4",
+             " " * 80 + "{t} 5"]
+    for case in range(300):
+        text, t = "", 0.0
+        for _ in range(int(rng.integers(2, 30))):
+            line = kinds[int(rng.integers(len(kinds)))]
+            if "{t}" in line:
+                t += 0.01
+                line = line.format(t=f"{t:.2f}")
+            text += line + ["\n", "\r\n", "\r"][int(rng.integers(3))]
+        text = "0 0\n" + text + "9 0" + "\n" * int(rng.integers(2))  # a last line without its end, sometimes
+        raw = ("\ufeff" if case % 5 == 0 else "").encode() + text.encode()
+        path = tmp_path / "mixed.txt"
+        path.write_bytes(raw)
+        n = len(read_record_file(path)[0])
+        for block in (5, 7, 64, 1 << 22):
+            assert count_data_lines(path, block) == n, (case, block, raw)
+
+
+def test_a_nan_in_a_csv_record_is_refused_with_its_line_and_an_empty_cell_is_not_a_sample(db, fmu_path, tmp_path):
+    head = "# units: time=s, acceleration=m/s2\n# sign: +x\ntime,acceleration\n"
+    rows = ["0,0", "0.01,1", "0.02,0.5", "0.03,-1", "0.04,0"]
+    for cell in ("nan", "NaN", " -nan"):
+        path = tmp_path / "with_nan.csv"
+        path.write_text(head + "\n".join(rows[:2] + [f"0.02,{cell}"] + rows[3:]) + "\n")
+        p = cli("records", "import", str(path), db=db, fmu_path=fmu_path)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+        assert f"{path}, line 6: the acceleration is not a finite number" in p.stderr
+    with open_database(db)() as session:
+        assert session.scalar(select(func.count()).select_from(Record)) == 0
+    path = tmp_path / "gap.csv"  # an empty cell: not measured there (docs/measured.md), so no sample
+    path.write_text(head + "\n".join(rows[:2] + ["0.02,"] + rows[3:]) + "\n")
+    p = cli("records", "import", str(path), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with open_database(db)() as session:
+        t, ah, _ = samples(find_record(session, "gap"))
+    np.testing.assert_array_equal(t, [0, 0.01, 0.03, 0.04])
+    np.testing.assert_array_equal(ah, [0, 1, -1, 0])
+
+
+def test_a_record_file_in_g_gets_a_note_and_is_read_in_g_with_units(db, fmu_path, tmp_path):
+    """A record file holds m/s2; one whose PGA is below 1 m/s2 (0.1 g) looks like an accelerogram
+    in g: the note gives the option that reads it so, as a CSV declares its units."""
+    t = np.arange(0, 4.0001, 0.01)
+    a_g = 0.4 * np.sin(2 * math.pi * 1.5 * t)  # a record in g, PGA 0.4 g
+    write_record_file(tmp_path / "in_g.txt", t, a_g)
+    p = cli("records", "import", str(tmp_path / "in_g.txt"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and p.stderr.count("\n") == 1
+    assert "note: PGA 0.0408 g: the values of in_g.txt were read as m/s2" in p.stderr
+    assert "import the file with --units acceleration=g" in p.stderr
+    p = cli("records", "import", str(tmp_path / "in_g.txt"), "--units", "acceleration=g", "--name", "in_g_read_in_g",
+            db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and p.stderr == "" and "PGA 0.400 g" in p.stdout
+    with open_database(db)() as session:
+        t2, ah, _ = samples(find_record(session, "in_g_read_in_g"))
+    np.testing.assert_array_equal(t2, t)
+    np.testing.assert_allclose(ah, a_g * G0, rtol=1e-15)
+    # a record file in m/s2 with a PGA of 0.3 g gets no note; units of time or of no acceleration are refused
+    write_record_file(tmp_path / "strong.txt", t, 3.0 * np.sin(2 * math.pi * 1.5 * t))
+    p = cli("records", "import", str(tmp_path / "strong.txt"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and p.stderr == ""
+    for units, expected in (("time=ms", "a record file's time is in s"), ("acceleration=furlong", "not a unit")):
+        p = cli("records", "import", str(tmp_path / "in_g.txt"), "--units", units, db=db, fmu_path=fmu_path)
+        assert p.returncode == 2 and expected in p.stderr and p.stderr.count("\n") == 1
+
+
+def test_a_folder_with_two_identical_files_stores_one_record_and_notes_the_other(db, fmu_path, tmp_path):
+    folder = tmp_path / "twins"
+    folder.mkdir()
+    t = np.arange(0, 1.0001, 0.01)
+    write_record_file(folder / "a.txt", t, np.sin(2 * math.pi * t))
+    write_record_file(folder / "b.txt", t, np.sin(2 * math.pi * t), comments=["the same samples, another file"])
+    write_record_file(folder / "c.txt", t, 2 * np.sin(2 * math.pi * t))
+    for again in (False, True):
+        p = cli("records", "import", str(folder), db=db, fmu_path=fmu_path)
+        assert p.returncode == 0, p.stderr
+        assert "note: b.txt has the same samples as a.txt: one record, twins/a" in p.stderr
+        assert ("0 records stored, 2 already there" if again else "2 records stored, 0 already there") in p.stdout
+    rows = json.loads(cli("records", "list", "--suite", "twins", "--json", db=db, fmu_path=fmu_path).stdout)
+    assert [r["name"] for r in rows] == ["twins/a", "twins/c"]

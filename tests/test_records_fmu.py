@@ -21,6 +21,7 @@ from model.ground_motions import (mp_peak_acceleration, mp_pulse, record, ricker
 from model.reference import Block, housner_restitution
 from model.solvers import Scene, solve_event_driven
 from runners.engine.fmu import FMUError
+from tests.conftest import PATIENCE
 
 G0 = 9.80665
 TIGHT = {"solver.relTol": 1e-12, "solver.absTol": 1e-14}
@@ -228,7 +229,7 @@ def test_absurd_magnitudes_are_refused_instead_of_hanging(fmu_path, near_field):
               "    except FMUError as e:\n        print(e)\n")
     for params, expected in cases:
         out = subprocess.run([sys.executable, "-c", script, str(fmu_path), repr(params)], capture_output=True,
-                             text=True, timeout=60, cwd=Path(__file__).resolve().parent.parent).stdout
+                             text=True, timeout=PATIENCE, cwd=Path(__file__).resolve().parent.parent).stdout
         assert expected in out, (params, out)
 
 

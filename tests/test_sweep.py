@@ -9,7 +9,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +16,7 @@ from sqlalchemy import func, select
 
 from db.schema import Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
+from tests.conftest import PATIENCE, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "examples" / "sweep_sine_pulse.toml"
@@ -79,11 +79,7 @@ def test_killed_sweeps_resume_to_every_point_once(db_url, fmu_path):
     for attempt in range(3):  # start (or resume), wait for a batch or more to land, then SIGKILL everything
         proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None:
-            if _stored(db) > before:
-                break
-            time.sleep(0.02)
+        wait_for(lambda: _stored(db) > before, "a batch stored", proc)
         os.killpg(proc.pid, signal.SIGKILL)  # the runner and its workers, mid-sweep
         proc.wait()
         now = _stored(db)
@@ -109,7 +105,7 @@ def test_two_sweeps_on_one_database_at_once(db_url, fmu_path):
                                "--grid", "a=1.01:8:40", "--workers", "1", "--quiet"], cwd=ROOT, env=env,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
              for spec in ("w=1:6:40", "w=6:12:40")]
-    outs = [p.communicate(timeout=300) for p in procs]
+    outs = [p.communicate(timeout=PATIENCE) for p in procs]
     assert all(p.returncode == 0 for p in procs), outs
     assert counts(db, 1) == (1600, 1600, 1600) and counts(db, 2) == (1600, 1600, 1600)
 
@@ -176,3 +172,80 @@ def test_map_of_a_sweep(tmp_path, fmu_path):
     p = subprocess.run([sys.executable, "-m", "runners.cli", "map", "9"], capture_output=True, text=True, env=env,
                        cwd=ROOT)
     assert p.returncode == 2 and "no sweep 9" in p.stderr
+
+
+def _store_as_another_resume(factory, source: int, sweep_id: int, indices: list[int]) -> None:
+    """Store grid points of sweep `sweep_id` as another process resuming it would: their runs
+    and summaries (the rows sweep `source`, the same grid, stored for them) and the sweep's count."""
+    from sqlalchemy import insert, update
+
+    runs, summaries = Run.__table__, RunSummary.__table__
+    with factory.begin() as s:
+        for row in s.execute(select(runs).where(runs.c.sweep_id == source, runs.c.grid_index.in_(indices))).mappings():
+            new_id = s.execute(insert(runs).returning(runs.c.id),
+                               {**{k: v for k, v in row.items() if k != "id"}, "sweep_id": sweep_id}).scalar_one()
+            summary = s.execute(select(summaries).where(summaries.c.run_id == row["id"])).mappings().one()
+            s.execute(insert(summaries), {**{k: v for k, v in summary.items() if k != "id"}, "run_id": new_id})
+        s.execute(update(Sweep).where(Sweep.id == sweep_id).values(done=Sweep.done + len(indices)))
+
+
+def test_two_resumes_of_one_sweep_share_its_points(db_url, fmu, fmu_path):
+    """Two `runners sweep ID` at once compute the same points; each stores those the other has
+    not. Made deterministic: the other resume stores some of the points right before each of this
+    one's first two inserts (an event on this one's engine), which two real resumes did in 2 of 4
+    tries, and which failed with "UNIQUE constraint failed: runs.sweep_id, runs.grid_index"."""
+    from sqlalchemy import event
+
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+
+    factory = open_database(db_url)
+    axes = [Axis("w", 1.0, 12.0, 4), Axis("a", 1.01, 8.0, 3)]
+    twin = create_sweep(factory, load_scene(SCENE), axes, fmu.defaults())
+    run_sweep(factory, twin, fmu_path, workers=1, progress=False)  # the points, as the other resume computes them
+    sweep_id = create_sweep(factory, load_scene(SCENE), axes, fmu.defaults())
+    other = open_database(db_url)  # the other process's connection
+    its_stores = [[0, 1, 2], [3, 4, 5]]
+
+    def other_resume_stores(_conn, _cursor, statement, *_args) -> None:
+        if statement.lstrip().upper().startswith("INSERT INTO RUNS ") and its_stores:
+            _store_as_another_resume(other, twin, sweep_id, its_stores.pop(0))
+
+    engine = factory.kw["bind"]
+    event.listen(engine, "before_cursor_execute", other_resume_stores)
+    try:
+        st = run_sweep(factory, sweep_id, fmu_path, workers=1, progress=False)
+    finally:
+        event.remove(engine, "before_cursor_execute", other_resume_stores)
+    assert its_stores == []  # the other resume stored before both inserts
+    assert st["skipped"] == 6 and st["stored"] == 12
+    assert counts(db_url, sweep_id) == (12, 12, 12)  # every point once
+    with factory() as s:
+        sw = s.get(Sweep, sweep_id)
+        assert (sw.done, sw.status) == (12, "done")
+        got = s.execute(select(Run.grid_index, RunSummary.overturned, RunSummary.impacts, RunSummary.peak1_over_alpha)
+                        .join(RunSummary).where(Run.sweep_id == sweep_id).order_by(Run.grid_index)).all()
+        want = s.execute(select(Run.grid_index, RunSummary.overturned, RunSummary.impacts, RunSummary.peak1_over_alpha)
+                         .join(RunSummary).where(Run.sweep_id == twin).order_by(Run.grid_index)).all()
+    assert got == want
+
+
+def test_two_resumes_started_at_once_both_finish_and_store_every_point_once(tmp_path, fmu, fmu_path):
+    """The same with two real `runners sweep ID` processes started together (whether their
+    batches overlap depends on the machine; the test above makes them overlap)."""
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep
+
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    factory = open_database(db)
+    sweep_id = create_sweep(factory, load_scene(SCENE), [Axis("w", 1.0, 12.0, 30), Axis("a", 1.01, 8.0, 30)],
+                            fmu.defaults())
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
+    procs = [subprocess.Popen([sys.executable, "-m", "runners.cli", "sweep", str(sweep_id), "--workers", "1",
+                               "--quiet", "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=env, cwd=ROOT) for _ in range(2)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], [err for _, err in outs]
+    assert counts(db, sweep_id) == (900, 900, 900)
+    with factory() as s:
+        assert (s.get(Sweep, sweep_id).done, s.get(Sweep, sweep_id).status) == (900, "done")

@@ -99,9 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
     renamed(sim, "--rrd", "--out", dest="rrd", type=output_file)
     sim.add_argument("--measured", metavar="CSV", help="with --out: overlay a measured series on the recording "
                                                        "(docs/measured.md)")
-    sim.add_argument("--record", metavar="NAME|ID",
-                     help="drive the block with a stored record (runners records list) instead of the scene's "
-                          "excitation")
+    sim.add_argument("--record", metavar="NAME|ID|FILE",
+                     help="drive the block with a stored record (runners records list) or a record file instead "
+                          "of the scene's excitation")
     sim.add_argument("--scale", type=finite, help="multiply the record's accelerations (excitation.scale)")
     sim.add_argument("--pga", type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
     sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",

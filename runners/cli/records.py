@@ -40,10 +40,15 @@ def cmd_import(args: argparse.Namespace) -> int:
     if path.is_dir():
         if args.name:
             raise ValueError("--name names one record; a folder's records are named after their files")
+        if args.units or args.sign:
+            raise ValueError("--units and --sign apply to one record file, not to a folder")
+        notes: list[str] = []
         with output.busy(f"importing {path}"):
-            done = records.import_folder(factory, path, args.suite)
+            done = records.import_folder(factory, path, args.suite, notes)
         new = sum(1 for _, n in done if n)
         suite = args.suite or path.resolve().name
+        for text in notes:
+            note(text)
         for rec, _ in done:
             for text in records.unit_notes(rec):
                 note(f"{rec.name}: {text}")
@@ -55,8 +60,9 @@ def cmd_import(args: argparse.Namespace) -> int:
         return 0
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such record file (or 'fema-p695' for the FEMA P695 sets)")
-    rec, new = records.import_file(factory, path, args.name, args.suite, args.source, args.units, args.sign)
-    for text in records.unit_notes(rec):
+    notes: list[str] = []
+    rec, new = records.import_file(factory, path, args.name, args.suite, args.source, args.units, args.sign, notes)
+    for text in notes + records.unit_notes(rec, units_given=bool(args.units)):
         note(text)
     if args.json:
         emit_json({"id": rec.id, "name": rec.name, "added": bool(new), "n_samples": rec.n_samples,
@@ -252,7 +258,8 @@ def add_parser(sub) -> None:
     imp.add_argument("--name", help="the record's name (default: the file's name without suffix)")
     imp.add_argument("--suite", help="put the record(s) in this suite (a folder's default: its name)")
     imp.add_argument("--source", help="where the record comes from (provenance)")
-    imp.add_argument("--units", help="for a .csv: e.g. 'time=s, acceleration=g'")
+    imp.add_argument("--units", help="for a .csv: e.g. 'time=s, acceleration=g'; for a record file (read in m/s2 "
+                                     "otherwise): 'acceleration=g'")
     imp.add_argument("--sign", help="for .AT2 and .csv: +x (default) or -x")
     renamed(imp, "--no-progress", "--quiet", dest="no_progress", value=True)
     imp.set_defaults(func=cmd_import, no_progress=False)

@@ -72,7 +72,7 @@ class Database:
 
     def sweeps(self) -> "pd.DataFrame":
         """Stored sweeps: scene name, the grid in one line (w=1:12:5, a=1.01:8:4), stop_time (s),
-        total points, points stored (done), status (running, interrupted, done), created_at."""
+        total points, points stored (done), status (running, interrupted, failed, done), created_at."""
         return stored_table(self.factory, "sweeps")
 
     def records(self, suite: str | None = None) -> "pd.DataFrame":

@@ -95,9 +95,12 @@ class _Files:
         """A new temporary file beside `dest`, opened for writing."""
         check_destination(dest)
         folder = dest.parent
+        from db.leftovers import remove_stale, tag
+
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".part", dir=folder)
+            remove_stale(folder, f".{dest.name}.", ".part")  # left by exports killed outright
+            fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.{tag()}-", suffix=".part", dir=folder)
         except OSError as exc:
             raise OSError(f"cannot write {dest}: {exc.strerror or exc}") from None
         self.pending.append((Path(tmp), dest))

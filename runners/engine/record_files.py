@@ -10,13 +10,15 @@ the ground towards +x, a_v > 0 upwards.
 :func:`read_record_file` applies the same checks as the FMU's own reader (model/c/record.c),
 with the same one-line messages naming the file and the line, so the command line refuses a
 bad file before anything is stored. :func:`cached_record_file` writes a stored record where
-the FMU can read it: one file per content (its sha256), written once.
+the FMU can read it: one file per content (its sha256), checked against that hash before each
+use and written again when it does not hold those samples.
 """
 
 from __future__ import annotations
 
 import array
 import hashlib
+import logging
 import math
 import os
 import re
@@ -28,11 +30,13 @@ import numpy as np
 from runners.errors import RockingError
 
 MAX_SAMPLES = 10_000_000
+MAX_BYTES = 1 << 30  # the FMU's limit on a record file's size (model/c/record.c)
 MIN_INTERVAL, MAX_INTERVAL = 1e-6, 100.0  # s
 MAX_TIME = 1e6  # s
 MAX_ACCELERATION = 98.0665  # m/s^2, 10 g exactly
 MAX_TOKEN = 512  # characters: a number written out longer than this is not a sample
 _SPACE = " \t\r\v\f"
+_LOG = logging.getLogger("runners.records")
 
 
 class RecordFileError(RockingError, ValueError):
@@ -106,9 +110,13 @@ def _split(text: str) -> list[str]:
     return tokens
 
 
-def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def read_record_file(path: str | Path, scale: float = 1.0, unit: str = "m/s2"
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(time in s, horizontal acceleration in m/s^2, vertical acceleration or None) of a record
-    file; RecordFileError with the FMU's message for anything the FMU would refuse."""
+    file; RecordFileError with the FMU's message for anything the FMU would refuse. A file too
+    large for a record is refused from its size and its count of lines, before any is parsed.
+    `scale` (m/s^2 per `unit`) reads a file whose accelerations are in another unit (g: 9.80665);
+    the FMU reads m/s2 only."""
     path = Path(path)
     where = f"record file '{path}'"
     try:
@@ -118,10 +126,83 @@ def read_record_file(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarr
     except OSError as exc:
         raise RecordFileError(f"{where} cannot be opened: {exc.strerror or exc}") from None
     with f:
-        return _read_lines(f, where)
+        check_size(path, where)
+        t, ah, av = _read_lines(f, where, scale, unit)
+    if scale != 1.0:
+        ah, av = ah * scale, (None if av is None else av * scale)
+    return t, ah, av
 
 
-def _read_lines(f, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def check_size(path: Path, where: str, header_lines: int = 0) -> None:
+    """RecordFileError when a file is larger than the FMU reads (1 GiB) or has more than
+    MAX_SAMPLES data lines (neither blank nor a '#' comment; `header_lines` of them are not
+    samples), found as the FMU's first pass finds them but in blocks with numpy: about a second
+    for ten million lines, where parsing them takes minutes."""
+    size = path.stat().st_size
+    if size > MAX_BYTES:
+        raise RecordFileError(f"{where} is {size:.3g} bytes, larger than any record of at most {MAX_SAMPLES} samples")
+    if (size + 1) // 4 <= MAX_SAMPLES + header_lines:  # a sample line takes at least 4 bytes ("0 0" and its end)
+        return
+    n = count_data_lines(path) - header_lines
+    if n > MAX_SAMPLES:
+        raise RecordFileError(f"{where} has more than {MAX_SAMPLES} samples (the most a record may have)")
+
+
+_BLOCK = 1 << 22  # bytes read at a time by count_data_lines
+_BLANK = np.zeros(256, bool)
+_BLANK[[ord(c) for c in " \t\v\f"]] = True
+
+
+def count_data_lines(path: Path, block: int = _BLOCK) -> int:
+    """The lines of a file that are neither blank nor a '#' comment (lines end in LF, CR LF or
+    CR; a UTF-8 byte-order mark is skipped), as model/c/record.c counts them, `block` bytes at a
+    time."""
+    count = 0
+    with path.open("rb") as f:
+        head = f.read(3)
+        carry = b"" if head == b"\xef\xbb\xbf" else head
+        while True:
+            chunk = f.read(block)
+            data = carry + chunk
+            cut = max(data.rfind(b"\n"), data.rfind(b"\r")) + 1 if chunk else len(data)
+            if chunk and not cut:  # no line end yet: keep what decides the line, its first byte that is not blank
+                m = _NOT_BLANK.search(data)
+                carry = data[m.start():m.start() + 1] if m else b""
+                continue
+            count += _data_lines(data[:cut])
+            carry = data[cut:]
+            if not chunk:
+                return count
+
+
+def _data_lines(data: bytes) -> int:
+    """Data lines of whole lines: the segments between LF and CR bytes whose first character
+    other than a space, tab, VT or FF is not '#' (a CR LF leaves a blank segment, not counted)."""
+    b = np.frombuffer(data, np.uint8)
+    if not b.size:
+        return 0
+    first = np.concatenate(([0], np.flatnonzero((b == 10) | (b == 13)) + 1))
+    first = first[first < b.size]
+    pending = np.flatnonzero(_BLANK[b[first]])  # lines that start with blanks: move to their first other byte
+    for _ in range(64):
+        if not pending.size:
+            break
+        first[pending] += 1
+        pending = pending[first[pending] < b.size]
+        pending = pending[_BLANK[b[first[pending]]]]
+    for i in pending:  # lines indented further (rare): one C-speed search each
+        m = _NOT_BLANK.search(data, int(first[i]))
+        first[i] = m.start() if m else b.size
+    first = first[first < b.size]
+    c = b[first]
+    return int(np.count_nonzero((c != ord("#")) & (c != 10) & (c != 13)))
+
+
+_NOT_BLANK = re.compile(rb"[^ \t\v\f]")
+
+
+def _read_lines(f, where: str, scale: float = 1.0,
+                unit: str = "m/s2") -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """read_record_file's reading, streamed: the samples go straight into float64 arrays (8 bytes a
     value), so a record of millions of samples takes its size in memory, not a Python list per line."""
     cols = [array.array("d") for _ in range(3)]
@@ -160,9 +241,9 @@ def _read_lines(f, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | Non
             raise RecordFileError(f"{where}, line {n}: |time| = {_shortest(abs(values[0]))} s is beyond a million seconds: "
                                   "is the first column the time in seconds?")
         for j in range(1, c):
-            if abs(values[j]) > MAX_ACCELERATION:
+            if abs(values[j]) * scale > MAX_ACCELERATION:
                 raise RecordFileError(f"{where}, line {n}: |{'horizontal' if j == 1 else 'vertical'} acceleration| "
-                                      f"= {abs(values[j]):g} m/s2 exceeds 10 g: are the values in m/s2?")
+                                      f"= {abs(values[j]):g} {unit} exceeds 10 g: are the values in {unit}?")
         if count:
             dt = values[0] - cols[0][-1]
             if not dt > 0:
@@ -204,11 +285,42 @@ def cache_folder() -> Path:
 
 def cached_record_file(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
                        comments: list[str] | tuple[str, ...] = (), folder: Path | None = None) -> Path:
-    """The samples as a record file named by their sha256, written only if it is not there yet.
-    Returns its absolute path (what excitation.file should name)."""
+    """The samples as a record file named by their sha256. A file already there is used only if
+    its samples hash to its name; one that does not (edited, truncated, written by something
+    else) is written again, with a one-line warning (logger runners.records: on stderr unless
+    logging is set up). Returns its absolute path (what excitation.file should name)."""
     folder = Path(folder or cache_folder())
     folder.mkdir(parents=True, exist_ok=True)
-    path = (folder / f"{samples_sha256(time, ah, av)}.txt").resolve()
-    if not path.is_file():
-        write_record_file(path, time, ah, av, comments)
+    sha = samples_sha256(time, ah, av)
+    path = (folder / f"{sha}.txt").resolve()
+    if path.is_file():
+        if cached_file_ok(path, sha):
+            return path
+        _LOG.warning("note: the record cache file %s did not hold the samples its name is the hash of (edited or "
+                     "damaged): written again", path)
+    write_record_file(path, time, ah, av, comments)
     return path
+
+
+def cached_file_ok(path: Path, sha: str) -> bool:
+    """Whether a record cache file holds, as written by write_record_file (comments at the top,
+    then 2 or 3 numbers a line), samples whose samples_sha256 is `sha`."""
+    try:
+        raw = path.read_bytes()
+    except OSError:
+        return False
+    start = 0
+    while raw.startswith(b"#", start):  # the comment lines at the top
+        start = raw.find(b"\n", start) + 1
+        if not start:
+            return False
+    body = raw[start:]
+    columns = len(body[:body.find(b"\n")].split())
+    try:
+        values = np.array(body.split(), dtype=float)
+    except ValueError:
+        return False
+    if columns not in (2, 3) or values.size < 2 * columns or values.size % columns:
+        return False
+    cols = values.reshape(-1, columns).T
+    return samples_sha256(cols[0], cols[1], cols[2] if columns == 3 else None) == sha

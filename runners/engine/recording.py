@@ -22,7 +22,8 @@ A recording holds, on the ``sim_time`` timeline (s):
   excitation and the friction demand (and the record's text), each plot with a y range symmetric
   about 0 chosen so that the viewer labels several ticks (axis_range).
 
-Time series go through the columnar API (``send_columns``). Conventions:
+Every entity is logged on whole nanoseconds rounded once (``_ns``), so samples of one instant share
+a row. Time series go through the columnar API (``send_columns``). Conventions:
 docs/conventions.md (theta > 0 clockwise about the right corner).
 """
 
@@ -36,6 +37,15 @@ from typing import Any
 import numpy as np
 
 MAX_FPS = 100.0  # animation frames per simulated second
+
+
+def _ns(seconds: float | np.ndarray) -> np.timedelta64 | np.ndarray:
+    """Times in s as whole nanoseconds (numpy timedelta64[ns]), rounded to the nearest: every entity
+    is logged on the same time values. Rerun truncates float seconds, so a series at the FMU's output
+    times (a step of 0.004999999999999893 s, a record's smallest sample interval) and the record's
+    samples at 0.005 s fell on two rows (4999999 and 5000000 ns), doubling the rows a reader got."""
+    ns = np.round(np.asarray(seconds, float) * 1e9).astype(np.int64)
+    return ns.astype("timedelta64[ns]")[()]  # [()]: a scalar for one time
 
 
 def _rot(theta: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -309,9 +319,9 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
             if values is not None:
                 rec.log(entity, rr.SeriesPoints(colors=[_colour("record")], marker_sizes=1.5,
                                                 names=[f"record samples {entity[-2:]} x {scale:g}"]), static=True)
-                rec.send_columns(entity, indexes=[rr.TimeColumn("sim_time", duration=start + rt)],
+                rec.send_columns(entity, indexes=[rr.TimeColumn("sim_time", duration=_ns(start + rt))],
                                  columns=rr.Scalars.columns(scalars=scale * values))
-    idx = [rr.TimeColumn("sim_time", duration=time)]
+    idx = [rr.TimeColumn("sim_time", duration=_ns(time))]
     for entity, var in SERIES.items():
         if var in out and (two or not entity.startswith("/block2")):
             rec.log(entity, rr.SeriesLines(colors=[_colour(entity)], names=[entity.strip("/")]), static=True)
@@ -323,14 +333,15 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
                 static=True)
         rec.send_columns(f"/contact/{contact}/demand", indexes=idx, columns=rr.Scalars.columns(scalars=values))
         rec.log(f"/contact/{contact}/mu", rr.SeriesLines(colors=[_colour("mu")], names=[f"{contact} mu"]), static=True)
-        rec.send_columns(f"/contact/{contact}/mu", indexes=[rr.TimeColumn("sim_time", duration=time[[0, -1]])],
+        rec.send_columns(f"/contact/{contact}/mu",
+                         indexes=[rr.TimeColumn("sim_time", duration=_ns(time[[0, -1]]))],
                          columns=rr.Scalars.columns(scalars=np.array([mu, mu])))
     for entity, (mt, mv) in zip(measured_paths, measured.values()):
         rec.log(f"/measured/{entity}", rr.SeriesPoints(colors=[_colour(entity, 0.6)], markers="circle",
                                                         marker_sizes=3.0, names=[f"measured {entity}"]), static=True)
-        rec.send_columns(f"/measured/{entity}", indexes=[rr.TimeColumn("sim_time", duration=np.asarray(mt, float))],
+        rec.send_columns(f"/measured/{entity}", indexes=[rr.TimeColumn("sim_time", duration=_ns(mt))],
                          columns=rr.Scalars.columns(scalars=np.asarray(mv, float)))
-    frame_idx = [rr.TimeColumn("sim_time", duration=time[frames])]
+    frame_idx = [rr.TimeColumn("sim_time", duration=_ns(time[frames]))]
     for i, pts in enumerate(shapes, start=1):
         rec.log(f"/scene/block{i}", rr.LineStrips2D.from_fields(colors=[COLOURS[f"block{i}"]]), static=True)
         rec.send_columns(f"/scene/block{i}", indexes=frame_idx,
@@ -352,7 +363,7 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
         labels = " ".join(f"{k}={v}" for k, v in ev.labels.items())
         by_time.setdefault(float(ev.t), []).append(f"{ev.kind} {labels} {values}".strip())
     for t_ev, texts in by_time.items():
-        rec.set_time("sim_time", duration=t_ev)
+        rec.set_time("sim_time", duration=_ns(t_ev))
         rec.log("/events", rr.TextLog("; ".join(texts), level="INFO"))
     rec.flush()
     rec.disconnect()

@@ -16,6 +16,7 @@ Units SI (time in s, accelerations in m/s^2), signs as docs/conventions.md.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
@@ -26,11 +27,12 @@ from sqlalchemy import select
 from db.records import MEASURES, add_record, find_record, free_name, samples, suite_records
 from db.schema import Record
 from runners.engine.intensity import G0, measures
-from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, read_record_file,
-                                   samples_sha256)
+from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, check_size,
+                                         read_record_file, samples_sha256)
 from runners.engine.scene import MAX_PGA_G, Scene
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
+PLAIN_TEXT_HINT = 1.0  # m/s^2: a record file (our text format) whose PGA is below this may be in g
 
 
 def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
@@ -41,16 +43,24 @@ def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.nd
                       **provenance)
 
 
-def unit_notes(rec: Record) -> list[str]:
-    """Warnings when a record's PGA suggests the wrong units (it is stored all the same)."""
+def unit_notes(rec: Record, units_given: bool = False) -> list[str]:
+    """Warnings when a record's PGA suggests the wrong units (it is stored all the same). A record
+    read from our text format without `units_given` (its values taken as m/s2) whose PGA is below
+    PLAIN_TEXT_HINT (0.1 g) gets the option that reads it in g: accelerograms in g read as m/s2
+    look like weak motions."""
     if rec.pga is None:
         return []
     g = rec.pga / G0
+    plain = (not units_given and rec.file_name is not None
+             and Path(rec.file_name).suffix.lower() not in (".at2", ".csv"))
+    hint = "; if they are in g, import the file with --units acceleration=g" if plain else ""
     if g > 3.0:
         return [f"PGA {g:.3g} g is larger than almost any recorded earthquake's: are the values in m/s2?"]
     if g < 0.005:
         return [f"PGA {g:.3g} g is very small for an earthquake: are the values in m/s2 (not g or cm/s2 "
-                "read as m/s2)?"]
+                f"read as m/s2)?{hint}"]
+    if plain and rec.pga < PLAIN_TEXT_HINT:
+        return [f"PGA {g:.3g} g: the values of {rec.file_name} were read as m/s2 (a record file's unit){hint}"]
     return []
 
 
@@ -127,19 +137,72 @@ def read_any(path: str | Path, units: str | None = None, sign: str | None = None
         if suffix == ".at2":
             if units:
                 raise ValueError(f"{path}: an .AT2 file states its own units")
+            _check_at2_size(path)
             m = read_at2(path, {"sign": sign})
         else:
+            check_size(path, str(path), header_lines=1)  # the column names row
             m = read_csv(path, given, defaults={"kind": "ground-acceleration"})
             if m.kind != "ground-acceleration":
                 raise ValueError(f"{path}: a record is a ground-acceleration series, not {m.kind}")
+            _refuse_nan_cells(path, m.columns["acceleration"])
         t, a = m.series("acceleration")
         check_sampling(path, t)
         return t, a, None, {"source": m.meta.get("source"), "file_name": path.name}
-    if units or sign:
-        raise ValueError(f"{path}: a record file is in s and m/s2 with our signs; --units and --sign apply to "
-                         ".AT2 and .csv files")
-    t, ah, av = read_record_file(path)
+    if sign:
+        raise ValueError(f"{path}: a record file has our signs (docs/conventions.md); --sign applies to .AT2 and "
+                         ".csv files")
+    scale, unit = _plain_units(path, units) if units else (1.0, "m/s2")
+    t, ah, av = read_record_file(path, scale, unit)
     return t, ah, av, {"file_name": path.name}
+
+
+def _plain_units(path: Path, units: str) -> tuple[float, str]:
+    """(m/s^2 per unit, unit) of the accelerations of a record file read with --units (e.g.
+    'acceleration=g'; its time is in s)."""
+    from runners.engine.measured import UNITS, parse_units
+
+    given = parse_units(units, str(path))
+    extra = sorted(set(given) - {"time", "acceleration"})
+    if extra or given.get("time", "s") != "s":
+        raise ValueError(f"{path}: a record file's time is in s; --units can give its acceleration's unit "
+                         "(e.g. acceleration=g)")
+    unit = given.get("acceleration", "m/s2")
+    return UNITS["acceleration"][unit], unit
+
+
+def _check_at2_size(path: Path) -> None:
+    """ValueError when an .AT2 file's header (line 4, NPTS) promises more than MAX_SAMPLES
+    samples, before its values are read."""
+    from runners.engine.measured import _NPTS_DT, _OLD_NPTS_DT
+
+    with path.open("rb") as f:
+        head = [f.readline(4096).decode("latin-1") for _ in range(4)]
+    m = _NPTS_DT.search(head[3]) or _OLD_NPTS_DT.search(head[3])
+    if m is not None and int(m.group(1)) > MAX_SAMPLES:
+        raise ValueError(f"{path}, line 4: NPTS={m.group(1)}, more than the {MAX_SAMPLES} samples a record may have")
+
+
+def _refuse_nan_cells(path: Path, a: np.ndarray) -> None:
+    """ValueError naming the line of the first 'nan' acceleration of a CSV record (the measured
+    reader keeps NaN as 'not measured', as for an empty cell; a record's .txt and .AT2 files
+    refuse NaN)."""
+    if not np.isnan(a).any():
+        return
+    import csv
+
+    with path.open(newline="", encoding="latin-1") as f:
+        reader = csv.reader(f)
+        for row in reader:
+            if row and not row[0].lstrip().startswith("#") and any(_is_nan(c) for c in row):
+                raise ValueError(f"{path}, line {reader.line_num}: the acceleration is not a finite number "
+                                 "(leave the cell empty where nothing was measured)")
+
+
+def _is_nan(cell: str) -> bool:
+    try:
+        return math.isnan(float(cell))
+    except ValueError:
+        return False
 
 
 def check_sampling(where: str | Path, t: np.ndarray) -> None:
@@ -167,8 +230,11 @@ def ensure_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.n
 
 
 def _store_read(session, path: Path, read: tuple, name: str | None, suite: str | None,
-                source: str | None) -> tuple[Record, bool]:
-    """Store one record read by read_any (unless the same samples are stored under its name)."""
+                source: str | None, notes: list[str] | None = None) -> tuple[Record, bool]:
+    """Store one record read by read_any, unless the same samples are stored under its name or,
+    without a suite, under any name. With a suite, samples stored only outside it (a record
+    imported on its own, then with its folder) become a record of the suite, under the suite's
+    name for them, so that the suite holds every file it was given (a note says so)."""
     t, ah, av, prov = read
     name = name or (f"{suite}/{path.stem}" if suite else path.stem)
     if source:
@@ -179,38 +245,56 @@ def _store_read(session, path: Path, read: tuple, name: str | None, suite: str |
         if old.sha256 != sha:
             raise ValueError(f"a record named {name!r} already exists with other samples: give another --name")
         return old, False
-    same = session.scalar(select(Record).where(Record.sha256 == sha))
-    if same is not None:  # the same samples under another name: one record, not two
-        return same, False
+    same = list(session.scalars(select(Record).where(Record.sha256 == sha).order_by(Record.id)))
+    mine = [r for r in same if suite is None or r.suite == suite]
+    if mine:  # the same samples under another name: one record, not two
+        return mine[0], False
     rec = store_record(session, name, t, ah, av, suite=suite, **prov)
     session.flush()
+    if same and notes is not None:
+        notes.append(f"{name}: the same samples as record {same[0].id} {same[0].name}, stored again as a record of "
+                     f"suite {suite}")
     return rec, True
 
 
 def import_file(factory, path: str | Path, name: str | None = None, suite: str | None = None,
-                source: str | None = None, units: str | None = None, sign: str | None = None) -> tuple[Record, bool]:
+                source: str | None = None, units: str | None = None, sign: str | None = None,
+                notes: list[str] | None = None) -> tuple[Record, bool]:
     """Store a record file; returns (record, True if new). Importing the same samples under the
-    same name again is a no-op; another record under a taken name is an error."""
+    same name again is a no-op; another record under a taken name is an error. `notes` (a list)
+    receives what a reader should know (_store_read)."""
     path = Path(path)
     read = read_any(path, units, sign)  # checked before the database is touched
     with factory.begin() as session:
-        rec, new = _store_read(session, path, read, name, suite, source)
+        rec, new = _store_read(session, path, read, name, suite, source, notes)
         session.expunge(rec)
         return rec, new
 
 
-def import_folder(factory, folder: str | Path, suite: str | None = None) -> list[tuple[Record, bool]]:
+def import_folder(factory, folder: str | Path, suite: str | None = None,
+                  notes: list[str] | None = None) -> list[tuple[Record, bool]]:
     """Every file of a folder (sorted by name, hidden files skipped) as a suite (default: the
-    folder's name): all files are read and checked first, then stored in one transaction, so a
-    bad file stores nothing."""
+    folder's name), named SUITE/STEM: all files are read and checked first, then stored in one
+    transaction, so a bad file stores nothing. Returns (record, True if new) once per record of
+    the suite: a file with the samples of an earlier file of the folder is stored once, under
+    the earlier one's name, with a note in `notes` (a list)."""
     folder = Path(folder)
     files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
     if not files:
         raise ValueError(f"{folder}: no record files in the folder")
     suite = suite or folder.resolve().name
     reads = [(p, read_any(p)) for p in files]
+    notes = [] if notes is None else notes
     with factory.begin() as session:
-        done = [_store_read(session, p, read, None, suite, None) for p, read in reads]
+        done: list[tuple[Record, bool]] = []
+        first: dict[int, str] = {}  # record id -> the file that gave it
+        for p, read in reads:
+            rec, new = _store_read(session, p, read, None, suite, None, notes)
+            if rec.id in first:
+                notes.append(f"{p.name} has the same samples as {first[rec.id]}: one record, {rec.name}")
+                continue
+            first[rec.id] = p.name
+            done.append((rec, new))
         for rec, _ in done:
             session.expunge(rec)
         return done
@@ -218,7 +302,8 @@ def import_folder(factory, folder: str | Path, suite: str | None = None) -> list
 
 def select_records(factory, spec: str) -> list[Record]:
     """Records from a suite name ("fema-p695/nearfield_pulse", or a prefix such as "fema-p695"), a
-    comma-separated list of names or ids, or a folder of record files (imported first)."""
+    comma-separated list of names or ids, or a folder of record files (imported first: the
+    records of its suite, import_folder)."""
     spec = spec.strip()
     if not spec:
         raise ValueError("--records: name a suite, a list of record names or ids, or a folder")
@@ -322,7 +407,7 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
                          n_samples=len(t), dt=float(np.min(np.diff(t))), duration=float(t[-1] - t[0]),
                          **m.as_dict(), **prov)
             path = cached_record_file(t, ah, av, comments=[f"record file {scene.file}"])
-            return _finish(scene, rec, path, float(t[-1]))
+            return _finish(scene, rec, path, float(t[-1]), unit_notes(rec))
         with factory.begin() as session:
             rec = ensure_record(session, Path(scene.file).stem, t, ah, av,
                                 **{"source": f"record file {scene.file}", **prov})
@@ -330,13 +415,13 @@ def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:
             session.expunge(rec)
     t, ah, av = samples(rec)
     check_scaled(f"record {rec.name}", ah, av, scale_of(float(np.max(np.abs(ah)))))
-    return _finish(scene, rec, file_of(rec), float(t[-1]))
+    return _finish(scene, rec, file_of(rec), float(t[-1]), unit_notes(rec) if scene.record is None else [])
 
 
-def _finish(scene: Scene, rec: Record, path: Path, end: float) -> SceneRecord:
+def _finish(scene: Scene, rec: Record, path: Path, end: float, notes: list[str] | None = None) -> SceneRecord:
     scene.parameters["excitation.file"] = str(path)
     start = float(scene.parameters.get("excitation.startTime", 0.0))
-    notes = []
+    notes = list(notes or [])
     if not scene.stop_time_given:
         scene.stop_time = start + end + TAIL
     elif scene.stop_time < start + end:

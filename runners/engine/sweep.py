@@ -848,10 +848,54 @@ def dask_client(scheduler: str):
     if n is not None:
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0")
         return Client(cluster)
+    check_scheduler(scheduler)
     try:
         return Client(scheduler, timeout=20)
     except (OSError, TimeoutError) as exc:
         raise OSError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+
+
+SCHEDULER_TIMEOUT = 5.0  # s a Dask scheduler has to answer a new connection
+
+
+def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
+    """OSError, in one line, unless a Dask scheduler answers at `address` within `timeout` s.
+
+    dask.distributed's own connect waits for the other end's handshake without a limit (an
+    address that accepts connections but never answers kept a sweep waiting for good), and
+    reads a server of another protocol's answer as a frame length (an HTTP server's gave a
+    MemoryError of 3 EiB). The handshake is tried here, in a thread of its own (the caller
+    may run an event loop, as Jupyter does), and abandoned after `timeout` s."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def hello() -> None:
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        await comm.close()
+
+    outcome: list[BaseException | None] = []
+
+    def attempt() -> None:
+        try:
+            asyncio.run(hello())
+            outcome.append(None)
+        except BaseException as exc:  # MemoryError included: reported below, in one line
+            outcome.append(exc)
+
+    thread = threading.Thread(target=attempt, name="rocking-scheduler-check", daemon=True)
+    thread.start()
+    thread.join(timeout + 5)  # wait_for ends it after `timeout`; the margin is for a loaded machine
+    exc = outcome[0] if outcome else TimeoutError()
+    if exc is None:
+        return
+    if isinstance(exc, (TimeoutError, asyncio.TimeoutError)) or "timed out" in str(exc).lower():
+        raise OSError(f"no answer from the Dask scheduler {address} within {timeout:g} s (is the scheduler "
+                      "running, and is this its address?)") from None
+    if isinstance(exc, ValueError) and "address" in str(exc).lower():
+        raise OSError(f"--scheduler {address!r}: {str(exc).splitlines()[0]}") from None
+    raise OSError(f"{address} answers, but not as a Dask scheduler does: is it the scheduler's address "
+                  "(tcp://HOST:PORT, port 8786 by default)?") from None
 
 
 class _DaskExecutor:
@@ -880,6 +924,16 @@ class _DaskExecutor:
             yield from future.result()
 
 
+def _dask_results(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None):
+    """_DaskExecutor(...).results; _ExecutorFailed, in one line, when the cluster cannot take the
+    sweep (e.g. a scheduler without workers, which cannot hold the FMU sent to them)."""
+    try:
+        return _DaskExecutor(plan, fmu_path, sha, client, chunk).results
+    except Exception as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise _ExecutorFailed(f"the Dask cluster cannot start the sweep: {text}") from None
+
+
 def _row(plan: _Plan, index: int, point: tuple, out: dict | None, seconds: float, error: str | None,
          rec: Recorded | None, sha: str, version: str) -> tuple:
     """(run row, summary row or None, Recorded or None, excitation row or None) of one point's result."""
@@ -899,9 +953,21 @@ def _row(plan: _Plan, index: int, point: tuple, out: dict | None, seconds: float
 
 
 def _set_status(factory, sweep_id: int, status: str) -> None:
-    """Mark an unfinished sweep running or interrupted (a finished one stays done)."""
+    """Mark an unfinished sweep running, interrupted or failed (a finished one stays done)."""
     with factory.begin() as session:
         session.execute(update(Sweep).where(Sweep.id == sweep_id, Sweep.done < Sweep.total).values(status=status))
+
+
+def mark_failed(factory, sweep_id: int) -> tuple[int, int]:
+    """Mark an unfinished sweep failed (its executor could not start); (points stored, total)."""
+    _set_status(factory, sweep_id, "failed")
+    with factory() as session:
+        sw = session.get(Sweep, sweep_id)
+        return sw.done, sw.total
+
+
+class _ExecutorFailed(SweepError):
+    """The executor of a sweep could not start (a Dask cluster that cannot take its tasks)."""
 
 
 WINDOW = 20_000  # grid points planned at a time: a sweep of any size runs in bounded memory
@@ -956,19 +1022,21 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
         if not rows:
             return
         t0 = time.perf_counter()
-        try:
-            with _interrupts_deferred(), factory.begin() as session:
-                insert_rows(session, rows)
-        except IntegrityError:  # another process stored some of these points meanwhile: store the others
-            indices = [r[0]["grid_index"] for r in rows]
-            taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1)
-            fresh = [r for r in rows if r[0]["grid_index"] not in taken]
-            stats["skipped"] += len(rows) - len(fresh)
-            for r in fresh:
-                r[0].pop("excitation_id", None)
-            if fresh:
+        pending = list(rows)
+        while pending:  # each pass stores them all, or finds some another process stored: it ends
+            try:
                 with _interrupts_deferred(), factory.begin() as session:
-                    insert_rows(session, fresh)
+                    insert_rows(session, pending)
+                break
+            except IntegrityError:  # a concurrent resume stored some of these points meanwhile: store the others
+                indices = {r[0]["grid_index"] for r in pending}
+                taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1) & indices
+                if not taken:  # not a point stored twice
+                    raise
+                pending = [r for r in pending if r[0]["grid_index"] not in taken]
+                stats["skipped"] += len(taken)
+                for r in pending:
+                    r[0].pop("excitation_id", None)
         stats["db_seconds"] += time.perf_counter() - t0
         rows.clear()
 
@@ -986,7 +1054,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
             if remaining <= 0:
                 run_tasks = None
             elif client is not None:
-                run_tasks = _DaskExecutor(plan, fmu_path, sha, client, chunk).results
+                run_tasks = _dask_results(plan, fmu_path, sha, client, chunk)
             else:
                 run_tasks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers)).results
             for lo in range(0, plan.total if run_tasks else 0, WINDOW):
@@ -1008,11 +1076,11 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
                     if len(rows) >= batch:
                         flush()
                 flush()
-    except BaseException:  # interrupted or failed: keep what arrived, and say the sweep is not running
+    except BaseException as exc:  # interrupted or failed: keep what arrived, and say the sweep is not running
         with contextlib.suppress(Exception):
             flush()
         with contextlib.suppress(Exception):
-            _set_status(factory, sweep_id, "interrupted")
+            _set_status(factory, sweep_id, "failed" if isinstance(exc, _ExecutorFailed) else "interrupted")
         raise
     bar.close()
     with factory() as session:
