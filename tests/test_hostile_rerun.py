@@ -1,0 +1,133 @@
+"""Issue 25's hostile cases re-run with their neighbours: each bad input of the Python API is a
+runners.RockingError with a one-line message and stores nothing, numpy's bools are flags, and
+runners db import-unsaved refuses what is not a kept-run file (a FIFO that never ends, samples
+that are not numbers) before storing it."""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import sqlite3
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import runners
+from runners.errors import ArgumentError, RockingError
+
+from conftest import PATIENCE
+
+ROOT = Path(__file__).resolve().parents[1]
+SINE = ROOT / "examples" / "sine_pulse.toml"
+AT2 = ROOT / "examples" / "pulse_3hz.AT2"
+RUNNERS = Path(sys.executable).with_name("runners")
+
+
+def _rows(path: Path) -> dict[str, int]:
+    """Rows of each table of an SQLite file ({} when it does not exist)."""
+    if not path.exists():
+        return {}
+    with sqlite3.connect(path) as con:
+        tables = [r[0] for r in con.execute("select name from sqlite_master where type = 'table'")]
+        return {t: con.execute(f'select count(*) from "{t}"').fetchone()[0] for t in tables}
+
+
+def _binary_record(tmp_path: Path) -> Path:
+    path = tmp_path / "noise.AT2"
+    path.write_bytes(bytes(range(256)) * 8)
+    return path
+
+
+# (what, the call); f: the FMU, db: the database URL, tmp: a scratch folder. Each is a value the
+# layers below the API refuse (they raise plain ValueError or OSError): the API says so as its own.
+REFUSED = [
+    ("record file missing", lambda f, db, tmp: runners.simulate(SINE, fmu=f, db=db, record=str(tmp / "nope.AT2"))),
+    ("pga without a record", lambda f, db, tmp: runners.simulate(SINE, fmu=f, db=db, pga=0.3)),
+    ("scale and pga", lambda f, db, tmp: runners.simulate(SINE, fmu=f, db=db, record=AT2, pga=0.3, scale=2.0)),
+    ("friction axis", lambda f, db, tmp: runners.sweep(SINE, {"contact.muGround": (0.3, 0.9, 3)}, fmu=f, db=db)),
+    ("unknown axis", lambda f, db, tmp: runners.sweep(SINE, {"nope": (1, 5, 2)}, fmu=f, db=db)),
+    ("grid too large", lambda f, db, tmp: runners.sweep(SINE, {"w": (1, 5, 10**9)}, fmu=f, db=db)),
+    ("points outside", lambda f, db, tmp: runners.sweep(SINE, {"w": (1, 5, 2)}, fmu=f, db=db, record="7")),
+    ("unknown im", lambda f, db, tmp: runners.sweep(SINE, records=str(AT2.parent), im="pgd=0.1:0.3:2", fmu=f, db=db)),
+    ("import missing file", lambda f, db, tmp: runners.import_records(tmp / "nope.AT2", db=db)),
+    ("import binary file", lambda f, db, tmp: runners.import_records(_binary_record(tmp), db=db)),
+    ("simulate binary file", lambda f, db, tmp: runners.simulate(SINE, fmu=f, db=db, record=_binary_record(tmp))),
+]
+
+
+@pytest.mark.parametrize("what, call", REFUSED, ids=[w for w, _ in REFUSED])
+def test_a_value_the_layers_below_refuse_is_a_rocking_error(tmp_path, fmu_path, what, call):
+    path = tmp_path / "hostile.db"
+    runners.simulate(SINE, fmu=fmu_path, db=f"sqlite:///{path}", stop_time=0.1, store=True)  # a database with a run in it
+    before = _rows(path)
+    with pytest.raises(RockingError) as err:
+        call(fmu_path, f"sqlite:///{path}", tmp_path)
+    message = str(err.value)
+    assert message and "\n" not in message and len(message) < 400
+    assert _rows(path) == before
+
+
+def test_numpy_bools_are_flags(tmp_path, fmu_path):
+    run = runners.simulate(SINE, fmu=fmu_path, stop_time=0.5, store=np.bool_(False))
+    assert run.run_id is None
+    db = f"sqlite:///{tmp_path / 'flags.db'}"
+    sw = runners.sweep(SINE, {"w": (1, 5, 2)}, fmu=fmu_path, db=db, workers=1, progress=np.False_)
+    assert sw.stats["stored"] == 2
+
+
+@pytest.mark.parametrize("ds", [None, 5, {"overturn": 1}])
+def test_fragilities_of_what_is_not_a_list_of_states_is_an_argument_error(tmp_path, fmu_path, ds):
+    sw = runners.sweep(SINE, {"w": (1, 5, 2)}, fmu=fmu_path, db=f"sqlite:///{tmp_path / 'f.db'}", workers=1)
+    with pytest.raises(ArgumentError, match="ds="):
+        sw.fragilities("pga", ds)
+
+
+def _cli(*args: str, cwd: Path, db: Path, fmu_path: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path)}
+    return subprocess.run([str(RUNNERS), *args, "--db", str(db)], capture_output=True, text=True, cwd=cwd, env=env,
+                          timeout=PATIENCE)
+
+
+def _kept_run(tmp_path: Path, fmu_path: Path) -> Path:
+    """A real kept-run file: a run whose database refused it (a trigger aborts every insert)."""
+    refusing = tmp_path / "refusing.db"
+    runners.simulate(SINE, fmu=fmu_path, db=f"sqlite:///{refusing}", stop_time=0.1, store=True)
+    with sqlite3.connect(refusing) as con:
+        con.execute("create trigger refuse before insert on runs begin select raise(abort, 'refused'); end")
+    p = _cli("simulate", str(SINE), "--stop-time", "0.5", cwd=tmp_path, db=refusing, fmu_path=fmu_path)
+    assert p.returncode == 2 and "import-unsaved" in p.stderr
+    (kept,) = tmp_path.glob("rocking-unsaved-*.json")
+    return kept
+
+
+def test_import_unsaved_refuses_samples_that_are_not_numbers(tmp_path, fmu_path):
+    kept = _kept_run(tmp_path, fmu_path)
+    data = json.loads(kept.read_text())
+    series = data["series"]
+    samples = np.frombuffer(zlib.decompress(base64.b64decode(series["data"])), "<f8").copy()
+    samples[-1] = np.nan  # the last sample of the last column
+    series["data"] = base64.b64encode(zlib.compress(samples.tobytes())).decode()
+    kept.write_text(json.dumps(data))
+    db = tmp_path / "target.db"
+    runners.simulate(SINE, fmu=fmu_path, db=f"sqlite:///{db}", stop_time=0.1, store=True)
+    before = _rows(db)
+    p = _cli("db", "import-unsaved", str(kept), cwd=tmp_path, db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
+    assert "not a finite number" in p.stderr
+    assert _rows(db) == before
+
+
+def test_import_unsaved_refuses_what_is_not_a_regular_file(tmp_path, fmu_path):
+    fifo = tmp_path / "kept.json"
+    os.mkfifo(fifo)  # opening it for reading would wait for a writer that never comes
+    db = tmp_path / "target.db"
+    runners.simulate(SINE, fmu=fmu_path, db=f"sqlite:///{db}", stop_time=0.1, store=True)
+    before = _rows(db)
+    p = _cli("db", "import-unsaved", str(fifo), cwd=tmp_path, db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "not a file" in p.stderr
+    assert _rows(db) == before
