@@ -131,3 +131,47 @@ def test_import_unsaved_refuses_what_is_not_a_regular_file(tmp_path, fmu_path):
     p = _cli("db", "import-unsaved", str(fifo), cwd=tmp_path, db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "not a file" in p.stderr
     assert _rows(db) == before
+
+
+def _cached_file(cache: Path) -> Path:
+    (path,) = (cache / "records").glob("*.txt")
+    return path
+
+
+def test_a_link_in_the_record_cache_is_replaced_never_its_target(tmp_path, fmu_path, monkeypatch):
+    monkeypatch.setenv("ROCKING_CACHE", str(tmp_path / "cache"))
+    first = runners.simulate(SINE, fmu=fmu_path, record=AT2, stop_time=0.5)
+    cached = _cached_file(tmp_path / "cache")
+    victim = tmp_path / "precious.txt"  # as /etc/passwd once was, run as root: written over
+    victim.write_text("precious\n")
+    cached.unlink()
+    cached.symlink_to(victim)
+    again = runners.simulate(SINE, fmu=fmu_path, record=AT2, stop_time=0.5)
+    assert victim.read_text() == "precious\n"
+    assert not cached.is_symlink() and cached.is_file()
+    assert again.summary["impacts"] == first.summary["impacts"]
+    assert again.series["block1.theta"].equals(first.series["block1.theta"])
+
+
+def test_a_folder_in_the_place_of_a_record_cache_file_is_one_line_naming_it(tmp_path, fmu_path, monkeypatch):
+    monkeypatch.setenv("ROCKING_CACHE", str(tmp_path / "cache"))
+    runners.simulate(SINE, fmu=fmu_path, record=AT2, stop_time=0.5)
+    cached = _cached_file(tmp_path / "cache")
+    cached.unlink()
+    cached.mkdir()
+    with pytest.raises(RockingError) as err:
+        runners.simulate(SINE, fmu=fmu_path, record=AT2, stop_time=0.5)
+    message = str(err.value)
+    assert "\n" not in message and str(cached) in message and "folder" in message
+    assert not any(p.name.startswith(".") for p in cached.parent.iterdir())  # no temporary file left
+
+
+@pytest.mark.parametrize("scheduler", ["udp://127.0.0.1:5", "http://127.0.0.1:8786"])
+def test_a_scheduler_address_of_an_unknown_scheme_is_refused_before_the_sweep_exists(tmp_path, fmu_path, scheduler):
+    path = tmp_path / "dask.db"
+    runners.simulate(SINE, fmu=fmu_path, db=f"sqlite:///{path}", stop_time=0.1, store=True)
+    before = _rows(path)
+    with pytest.raises(ArgumentError, match="scheduler") as err:
+        runners.sweep(SINE, {"w": (1, 5, 2)}, fmu=fmu_path, db=f"sqlite:///{path}", executor="dask", scheduler=scheduler)
+    assert "\n" not in str(err.value)
+    assert _rows(path) == before  # no sweep 'failed' for a mistyped address

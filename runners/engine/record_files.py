@@ -292,7 +292,10 @@ def cached_record_file(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None =
     folder = Path(folder or cache_folder())
     folder.mkdir(parents=True, exist_ok=True)
     sha = samples_sha256(time, ah, av)
-    path = (folder / f"{sha}.txt").resolve()
+    path = folder.resolve() / f"{sha}.txt"  # never resolved itself: a link there is replaced, not what it names
+    if path.exists() and not path.is_file():
+        raise RecordFileError(f"the record cache file {path} is a folder or a device, not a file: remove it (the "
+                              "cache is rebuilt as needed)")
     if path.is_file():
         if cached_file_ok(path, sha):
             return path
