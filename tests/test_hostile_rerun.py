@@ -175,3 +175,21 @@ def test_a_scheduler_address_of_an_unknown_scheme_is_refused_before_the_sweep_ex
         runners.sweep(SINE, {"w": (1, 5, 2)}, fmu=fmu_path, db=f"sqlite:///{path}", executor="dask", scheduler=scheduler)
     assert "\n" not in str(err.value)
     assert _rows(path) == before  # no sweep 'failed' for a mistyped address
+
+
+@pytest.mark.parametrize("args", [
+    ("sweep", str(SINE), "--records", "{folder}", "--records", "{folder}/..", "--im", "pga=0.1:0.3:2"),
+    ("simulate", str(SINE), "--record", str(AT2), "--record", "{folder}/pulse.AT2", "--no-store"),
+    ("simulate", str(SINE), "--record", str(AT2), "--pga", "0.3", "--pga", "0.5", "--no-store"),
+    ("simulate", str(SINE), "--record", str(AT2), "--scale", "1", "--scale", "2", "--no-store"),
+], ids=["records", "record", "pga", "scale"])
+def test_a_record_option_given_twice_is_refused_not_the_first_dropped(tmp_path, fmu_path, args):
+    from conftest import run_cli
+
+    folder = tmp_path / "records"
+    folder.mkdir()
+    (folder / "pulse.AT2").write_bytes(AT2.read_bytes())
+    path = tmp_path / "twice.db"
+    p = run_cli(*[a.format(folder=folder) for a in args], db=f"sqlite:///{path}", fmu_path=fmu_path)
+    assert p.returncode == 2 and "given twice" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert _rows(path).get("sweeps", 0) == 0
