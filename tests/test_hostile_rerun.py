@@ -193,3 +193,18 @@ def test_a_record_option_given_twice_is_refused_not_the_first_dropped(tmp_path, 
     p = run_cli(*[a.format(folder=folder) for a in args], db=f"sqlite:///{path}", fmu_path=fmu_path)
     assert p.returncode == 2 and "given twice" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert _rows(path).get("sweeps", 0) == 0
+
+
+def test_a_pulse_that_starts_after_the_run_ends_is_said_so_not_below_the_threshold(tmp_path, fmu_path):
+    from conftest import run_cli
+
+    text = SINE.read_text().replace("cycles = 1", "cycles = 1\nstart_time = 1e300")
+    scene = tmp_path / "late.toml"
+    scene.write_text(text)
+    p = run_cli("simulate", str(scene), "--no-store", db=f"sqlite:///{tmp_path / 'late.db'}", fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    (outcome,) = [line for line in p.stdout.splitlines() if line.startswith("outcome")]
+    assert "starts at t = 1e+300 s, after the run ended at t = 5 s" in outcome
+    assert "uplift threshold" not in outcome
+    run = runners.simulate(scene, fmu=fmu_path)
+    assert run.summary["excitation_start_s"] == 1e300 and not run.summary["overturned"]
