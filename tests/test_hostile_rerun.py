@@ -208,3 +208,14 @@ def test_a_pulse_that_starts_after_the_run_ends_is_said_so_not_below_the_thresho
     assert "uplift threshold" not in outcome
     run = runners.simulate(scene, fmu=fmu_path)
     assert run.summary["excitation_start_s"] == 1e300 and not run.summary["overturned"]
+
+
+@pytest.mark.parametrize("name", ['"a\\nb"', '"a\\u0000b"', '"a\\u001b[31mb"', '"tab\\there"'])
+def test_a_scene_name_with_a_control_character_is_refused(tmp_path, fmu_path, name):
+    scene = tmp_path / "named.toml"
+    scene.write_text(SINE.read_text().replace('name = "sine pulse, h/b = 3"', f"name = {name}"))
+    path = tmp_path / "names.db"
+    with pytest.raises(runners.SceneError, match="one line of printable characters") as err:
+        runners.simulate(scene, fmu=fmu_path, store=True, db=f"sqlite:///{path}")
+    assert "\n" not in str(err.value)
+    assert _rows(path).get("runs", 0) == 0

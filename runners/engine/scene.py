@@ -197,6 +197,8 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     name = data.get("name", Path(source).stem)
     if not isinstance(name, str) or not name.strip():
         raise SceneError(f"{source}: name must be a text (name = \"statue\"), got {name!r}")
+    if not name.isprintable():  # a newline or a control character would break every listing's lines
+        raise SceneError(f"{source}: name must be one line of printable characters, got {name[:60]!r}")
     scene = Scene(name=name, source=source)
     for table, content in data.items():
         if table == "name":
