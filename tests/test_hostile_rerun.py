@@ -219,3 +219,15 @@ def test_a_scene_name_with_a_control_character_is_refused(tmp_path, fmu_path, na
         runners.simulate(scene, fmu=fmu_path, store=True, db=f"sqlite:///{path}")
     assert "\n" not in str(err.value)
     assert _rows(path).get("runs", 0) == 0
+
+
+def test_a_select_value_that_is_not_an_axis_value_is_shown_with_all_its_digits(tmp_path, fmu_path):
+    folder = tmp_path / "records"
+    folder.mkdir()
+    (folder / "pulse.AT2").write_bytes(AT2.read_bytes())
+    sw = runners.sweep(SINE, {"block1.halfWidth": (0.08, 0.12, 2)}, records=str(folder), im="pga=0.2:0.6:2",
+                       fmu=fmu_path, db=f"sqlite:///{tmp_path / 'select.db'}", workers=1)
+    assert len(sw.outcomes("pga", select={"block1.halfWidth": np.float64(0.08)}).x) == 2
+    with pytest.raises(RockingError) as err:  # np.float32(0.08) is 0.07999999821186066, not the axis' 0.08
+        sw.outcomes("pga", select={"block1.halfWidth": np.float32(0.08)})
+    assert "select block1.halfWidth=0.0799999982" in str(err.value) and "at 0.08, 0.12 only" in str(err.value)
