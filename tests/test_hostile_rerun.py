@@ -231,3 +231,16 @@ def test_a_select_value_that_is_not_an_axis_value_is_shown_with_all_its_digits(t
     with pytest.raises(RockingError) as err:  # np.float32(0.08) is 0.07999999821186066, not the axis' 0.08
         sw.outcomes("pga", select={"block1.halfWidth": np.float32(0.08)})
     assert "select block1.halfWidth=0.0799999982" in str(err.value) and "at 0.08, 0.12 only" in str(err.value)
+
+
+@pytest.mark.parametrize("first", ["root:x:0:0:root:/root:/bin/bash", "secret-token 12", "Name:\tpython"])
+def test_a_file_that_is_not_a_record_is_not_quoted(tmp_path, fmu_path, first):
+    from conftest import run_cli
+
+    path = tmp_path / "not_a_record.txt"  # as /etc/passwd or /etc/shadow given as a record
+    path.write_text(first + "\nmore: text\n")
+    for args in (("records", "import", str(path)), ("simulate", str(SINE), "--record", str(path), "--no-store")):
+        p = run_cli(*args, db=f"sqlite:///{tmp_path / 'q.db'}", fmu_path=fmu_path)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert "not a record file" in p.stderr
+        assert first.split()[0][:5] not in p.stderr.replace(str(path), "")

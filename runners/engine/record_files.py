@@ -222,6 +222,10 @@ def _read_lines(f, where: str, scale: float = 1.0,
         except _Line as exc:
             raise RecordFileError(f"{where}, line {n}: {exc}") from None
         except ValueError as exc:
+            if not count:  # quote nothing of a file that has shown no sample (/etc/shadow's first line), as the FMU
+                raise RecordFileError(f"{where}, line {n}: not a record file: its first data line is not two or three "
+                                      "numbers (time in s, horizontal acceleration in m/s2, optional vertical; a "
+                                      "header line must start with '#')") from None
             shown = "".join(c if c.isprintable() else "?" for c in str(exc.args[0])[:23])
             raise RecordFileError(f"{where}, line {n}: '{shown}' is not a number") from None
         c = len(tokens)
