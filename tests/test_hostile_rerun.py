@@ -244,3 +244,15 @@ def test_a_file_that_is_not_a_record_is_not_quoted(tmp_path, fmu_path, first):
         assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
         assert "not a record file" in p.stderr
         assert first.split()[0][:5] not in p.stderr.replace(str(path), "")
+
+
+@pytest.mark.parametrize("command", ["records import", "import-measured"])
+def test_a_csv_that_is_not_a_measurement_is_not_quoted(tmp_path, fmu_path, command):
+    from conftest import run_cli
+
+    path = tmp_path / "copy.csv"  # a copy of /etc/shadow named .csv
+    path.write_text("# units: time=s, acceleration=m/s2\n# sign: +x\n# kind: ground-acceleration\n"
+                    "root:*:20228:0:99999:7:::\ndaemon:*:20228:0:99999:7:::\n")
+    p = run_cli(*command.split(), str(path), db=f"sqlite:///{tmp_path / 'q.db'}", fmu_path=fmu_path)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert "the first column must be 'time'" in p.stderr and "root" not in p.stderr.replace(str(path), "")
