@@ -256,3 +256,12 @@ def test_a_csv_that_is_not_a_measurement_is_not_quoted(tmp_path, fmu_path, comma
     p = run_cli(*command.split(), str(path), db=f"sqlite:///{tmp_path / 'q.db'}", fmu_path=fmu_path)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert "the first column must be 'time'" in p.stderr and "root" not in p.stderr.replace(str(path), "")
+
+
+def test_a_scene_that_is_a_fifo_is_refused_not_waited_for(tmp_path, fmu_path):
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)  # reading it would wait for a writer that never comes
+    p = _cli("simulate", str(fifo), "--no-store", cwd=tmp_path, db=tmp_path / "f.db", fmu_path=fmu_path)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "not a regular file" in p.stderr
+    with pytest.raises(runners.SceneError, match="not a regular file"):
+        runners.as_scene(fifo)

@@ -283,6 +283,8 @@ def _check_record(scene: Scene, source: str) -> None:
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file."""
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO or a device: reading would not end
+        raise SceneError(f"{path}: not a regular file, not a scene file")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark is allowed
     except FileNotFoundError:
