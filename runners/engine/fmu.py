@@ -169,8 +169,10 @@ class RockingFMU:
             raise FMUError(f"{fmu_path} is not a usable FMU ({type(exc).__name__}: "
                            f"{str(exc).splitlines()[0] if str(exc) else 'unreadable'})") from None
         version = self.model_description.fmiVersion
-        if version != "2.0":
-            raise FMUError(f"{fmu_path} is an FMI {version} FMU: the runners take the FMI 2.0 FMU "
+        if version != "2.0":  # the fmu given is the wrong argument (runners.simulate(fmu=...), --fmu)
+            from runners.errors import ArgumentError
+
+            raise ArgumentError(f"fmu {fmu_path} is an FMI {version} FMU: the runners take the FMI 2.0 FMU "
                            f"(build/RockingBlock.fmu, python -m fmu_build); RockingBlock3.fmu is for FMI 3.0 importers")
         if self.model_description.coSimulation is None or "block1.theta" not in \
                 {v.name for v in self.model_description.modelVariables}:

@@ -298,7 +298,8 @@ def read_csv(path: str | Path, given: dict[str, str] | None = None,
     quantity = KINDS[kind]
     allowed = COLUMNS[quantity]
     if names[0] != "time":
-        raise ValueError(f"{where}, line {line}: the first column must be 'time', not {names[0]!r}")
+        raise ValueError(f"{where}, line {line}: the first column must be 'time' (lower case; a column names row "
+                         "such as time,acceleration): this line is not one")  # quoting it showed /etc/shadow's
     bad = [h for h in names[1:] if h not in allowed]
     if bad or len(names) < 2 or len(set(names)) != len(names):
         raise ValueError(f"{where}, line {line}: columns after 'time' must be distinct names among "

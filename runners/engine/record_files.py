@@ -222,11 +222,10 @@ def _read_lines(f, where: str, scale: float = 1.0,
         except _Line as exc:
             raise RecordFileError(f"{where}, line {n}: {exc}") from None
         except ValueError as exc:
-            if not columns:  # quote nothing of a file that has shown no sample: it may not be a record
-                raise RecordFileError(
-                    f"{where}, line {n}: not a record file: its first data line is not two or three numbers "
-                    "(time in s, horizontal acceleration in m/s2, optional vertical; a header line must "
-                    "start with '#')") from None
+            if not count:  # quote nothing of a file that has shown no sample (/etc/shadow's first line), as the FMU
+                raise RecordFileError(f"{where}, line {n}: not a record file: its first data line is not two or three "
+                                      "numbers (time in s, horizontal acceleration in m/s2, optional vertical; a "
+                                      "header line must start with '#')") from None
             shown = "".join(c if c.isprintable() else "?" for c in str(exc.args[0])[:23])
             raise RecordFileError(f"{where}, line {n}: '{shown}' is not a number") from None
         c = len(tokens)
@@ -297,7 +296,10 @@ def cached_record_file(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None =
     folder = Path(folder or cache_folder())
     folder.mkdir(parents=True, exist_ok=True)
     sha = samples_sha256(time, ah, av)
-    path = (folder / f"{sha}.txt").resolve()
+    path = folder.resolve() / f"{sha}.txt"  # never resolved itself: a link there is replaced, not what it names
+    if path.exists() and not path.is_file():
+        raise RecordFileError(f"the record cache file {path} is a folder or a device, not a file: remove it (the "
+                              "cache is rebuilt as needed)")
     if path.is_file():
         if cached_file_ok(path, sha):
             return path

@@ -132,7 +132,7 @@ class SweepResult:
         them with runners.engine.study.curves_figure."""
         from runners.engine import study
 
-        if isinstance(ds, str) or not all(isinstance(d, str) for d in ds):
+        if not isinstance(ds, (list, tuple)) or not all(isinstance(d, str) for d in ds):
             raise ArgumentError(f"ds={ds!r}: expected a list of damage states, e.g. ['overturn', 'rot>0.5alpha']")
         return study.curves(self.outcome_sets(measure, select), list(ds))
 

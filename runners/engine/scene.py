@@ -197,6 +197,8 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     name = data.get("name", Path(source).stem)
     if not isinstance(name, str) or not name.strip():
         raise SceneError(f"{source}: name must be a text (name = \"statue\"), got {name!r}")
+    if not name.isprintable():  # a newline or a control character would break every listing's lines
+        raise SceneError(f"{source}: name must be one line of printable characters, got {name[:60]!r}")
     scene = Scene(name=name, source=source)
     for table, content in data.items():
         if table == "name":
@@ -281,6 +283,8 @@ def _check_record(scene: Scene, source: str) -> None:
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file."""
     path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():  # a FIFO or a device: reading would not end
+        raise SceneError(f"{path}: not a regular file, not a scene file")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark is allowed
     except FileNotFoundError:

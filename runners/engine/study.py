@@ -233,7 +233,7 @@ def _choose(sweep_id: int, axes: list[tuple[str, np.ndarray]], select: dict[str,
             raise StudyError(f"select {name}: sweep {sweep_id} does not vary {name}: {have}")
         vals = dict(axes)[name]
         if not any(_same(v, x) for x in vals):
-            raise StudyError(f"select {name}={v:g}: sweep {sweep_id} ran {name} at "
+            raise StudyError(f"select {name}={v!r}: sweep {sweep_id} ran {name} at "  # all its digits: 0.08 in float32 is not 0.08
                              f"{', '.join(f'{x:g}' for x in vals)} only")
     picked = [[x for x in vals if name not in select or _same(select[name], x)] for name, vals in axes]
     return [dict(zip(names, (float(c) for c in combo))) for combo in itertools.product(*picked)]

@@ -128,6 +128,9 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     end = excitation_end(p)
     if end is not None and end <= float(result.time[0]):  # (a negative start time shifted it out of the run)
         summary["excitation_end_s"] = end
+    start = float(p.get("excitation.startTime", 0.0))
+    if int(p.get("excitation.kind", 0)) != 0 and start >= float(result.time[-1]):  # after the run: never felt
+        summary["excitation_start_s"] = start
     held = assumptions(result, p, two)
     if held is not None:
         summary["assumptions"] = held
@@ -261,9 +264,11 @@ def format_summary(s: dict[str, Any]) -> str:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
     elif s["final_state"] == "at rest":
         flew = (s.get("assumptions") or {}).get("lifts")
-        ended = s.get("excitation_end_s")
+        ended, starts = s.get("excitation_end_s"), s.get("excitation_start_s")
         outcome += (f" (never tipped: the {s['excitation']} ended at t = {ended:.6g} s, before the run started at "
                     "t = 0 s: see [excitation] start_time)" if ended is not None and not flew else
+                    f" (never tipped: the {s['excitation']} starts at t = {starts:.6g} s, after the run ended at "
+                    f"t = {s['stop_time_s']:g} s: see [excitation] start_time)" if starts is not None and not flew else
                     " (never tipped: the excitation stayed below the uplift threshold)" if not flew else
                     f" (never tipped; from t = {flew['t_s']:.6g} s the ground fell faster than g and the block, "
                     "held to it by the model, would have flown: see assumptions)")

@@ -825,8 +825,13 @@ def _dask_chunk(fmu_bytes: bytes, sha: str, params: dict, stop: float, step: flo
 
 
 def local_workers(scheduler: str) -> int | None:
-    """N of a 'local:N' scheduler (None for an address); ValueError when N is not a count."""
+    """N of a 'local:N' scheduler (None for an address); ValueError when N is not a count or the
+    address's scheme is not one of Dask's."""
     if not scheduler.startswith("local:"):
+        scheme = scheduler.split("://")[0] if "://" in scheduler else "tcp"
+        if scheme not in ("tcp", "tls", "ws", "wss", "ucx"):  # Dask's comms (distributed.comm)
+            raise ValueError(f"--scheduler {scheduler!r}: expected tcp://HOST:PORT (or tls://, ws://, wss://, "
+                             "ucx://) of a Dask scheduler, or local:N")
         return None
     try:
         n = int(scheduler.removeprefix("local:"))
