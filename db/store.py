@@ -8,6 +8,7 @@ from __future__ import annotations
 import base64
 import hashlib
 import json
+import math
 import os
 import subprocess
 import tempfile
@@ -216,10 +217,18 @@ def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | N
     raise err
 
 
+# the largest file keep_unsaved writes: a run's series of MAX_SAMPLES + 1 samples of a few dozen
+# columns, compressed and in base64, stays well below this
+MAX_UNSAVED_BYTES = 1 << 30
+
+
 def read_unsaved(path: str | Path) -> dict[str, Any]:
     """A file keep_unsaved wrote; ValueError (one line) for anything else."""
     if Path(path).exists() and not Path(path).is_file():  # a folder, a FIFO or a device would never end
         raise ValueError(f"{path} is not a file of an unsaved run (not a file)")
+    if Path(path).exists() and Path(path).stat().st_size > MAX_UNSAVED_BYTES:  # refused before it fills memory
+        raise ValueError(f"{path} is not a file of an unsaved run: {Path(path).stat().st_size / 2**30:.1f} GiB, more "
+                         f"than a run can hold ({MAX_UNSAVED_BYTES / 2**30:.0f} GiB)")
     try:
         p = json.loads(Path(path).read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -258,6 +267,16 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
         return "the scene's name, the model and the method must be texts"
     if not isinstance(p["stop_time"], (int, float)) or isinstance(p["stop_time"], bool):
         return "stop_time is not a number"
+    if not (math.isfinite(p["stop_time"]) and p["stop_time"] > 0):
+        return f"stop_time = {p['stop_time']!r} is not a time after the start (s)"
+    for k, v in p["merged"].items():
+        if isinstance(v, float) and not math.isfinite(v):
+            return f"merged.{k} = {v!r} is not a finite number"
+    text = [k for k, v in p["merged"].items() if k.startswith(("block1.", "block2.")) and isinstance(v, str)]
+    if text:
+        return f"merged.{text[0]} = {p['merged'][text[0]]!r} is not a number"
+    if p["merged"].get("nBlocks", 1) not in (1, 2) or isinstance(p["merged"].get("nBlocks"), (bool, str)):
+        return f"merged.nBlocks = {p['merged'].get('nBlocks')!r} is not 1 or 2"
     try:
         datetime.fromisoformat(p["created_at"])
     except (TypeError, ValueError):
@@ -273,6 +292,10 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
             if v is not None and not (isinstance(v, want) or (want is float and isinstance(v, int))) \
                     or (want is not bool and isinstance(v, bool)):
                 return f"summary.{k} = {v!r} is not a {want.__name__}"
+            if want is float and v is not None and not math.isfinite(v):
+                return f"summary.{k} = {v!r} is not a finite number"
+            if want is int and v is not None and not isinstance(v, bool) and v < 0:
+                return f"summary.{k} = {v!r} is not a count (0 or more)"
     rec = p["record"]
     if rec is not None and not (isinstance(rec, dict) and isinstance(rec.get("id"), int)
                                 and isinstance(rec.get("name"), str)):
@@ -285,6 +308,9 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
         wrong = _series_problem(ps["names"], ps["n_samples"]) or _events_problem(ps["events"] or [])
         if wrong:
             return wrong
+        late = [e["t"] for e in ps["events"] or [] if e["t"] > p["stop_time"] * (1 + 1e-12) + 1e-12]
+        if late:
+            return f"series.events has an event at t = {late[0]!r} s, after the run's stop_time = {p['stop_time']!r} s"
         try:
             blob = base64.b64decode(ps["data"], validate=True)
         except ValueError:

@@ -452,6 +452,14 @@ def test_a_database_killed_while_being_created_is_absent_or_whole(tmp_path):
     (lambda p: p["series"].update(events=[5]), "series.events[0] is not an event"),
     (lambda p: p["series"].update(names=["block1.theta", "block1.theta"]), "series.names"),
     (lambda p: p["series"].update(n_samples=0), "series.n_samples"),
+    # well-typed but impossible values (the hostile re-run: each was stored without a word)
+    (lambda p: p["merged"].update(nBlocks=3), "merged.nBlocks"),
+    (lambda p: p["merged"].update({"block1.halfWidth": float("nan")}), "merged.block1.halfWidth"),
+    (lambda p: p["merged"].update({"block1.halfWidth": "x"}), "merged.block1.halfWidth"),
+    (lambda p: p.update(stop_time=0.0), "stop_time"),
+    (lambda p: p["summary"].update(impacts=-1), "summary.impacts"),
+    (lambda p: p["summary"].update(peak1_over_alpha=float("nan")), "summary.peak1_over_alpha"),
+    (lambda p: p["series"].update(events=[{"kind": "impact", "t": 1e300}]), "after the run's stop_time"),
 ])
 def test_an_unsaved_run_with_wrong_values_is_refused_before_storing(tmp_path, fmu, fmu_path, change, words):
     """A changed or damaged unsaved-run file once stored a run no command could read back
@@ -627,3 +635,16 @@ def test_the_part_file_of_a_killed_export_is_removed_by_the_next(tmp_path, fmu_p
     assert not out.exists() and list(out.parent.glob(".run.csv.*.part"))
     assert run_cli("export", "1", "--out", str(out), db=db, fmu_path=fmu_path).returncode == 0
     assert sorted(p.name for p in out.parent.iterdir()) == ["run-events.csv", "run.csv"]
+
+
+def test_an_unsaved_run_file_larger_than_a_run_can_be_is_refused_before_it_is_read(tmp_path, fmu_path):
+    """A 2 GB file once took 4.3 GB of memory before its refusal: its size alone refuses it now
+    (a sparse file: nothing is written to the disk)."""
+    from db.store import MAX_UNSAVED_BYTES
+
+    path = tmp_path / "rocking-unsaved-big.json"
+    with open(path, "wb") as f:
+        f.truncate(MAX_UNSAVED_BYTES + 1)
+    db = f"sqlite:///{tmp_path / 'u.db'}"
+    one_line_error(run_cli("db", "import-unsaved", str(path), db=db, fmu_path=fmu_path), "not a file of an unsaved run",
+                   "GiB")
