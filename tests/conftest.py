@@ -7,6 +7,7 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -139,7 +140,13 @@ def wait_for(condition: Callable[[], object], what: str, proc: subprocess.Popen 
             raise AssertionError(f"the process ended (exit {proc.returncode}) before {what}")
         if time.monotonic() > end:
             raise AssertionError(f"no {what} after {timeout:.0f} s")
-        time.sleep(0.01)
+        if proc is not None:
+            try:  # returns at once if the process ends, which is checked above on the next pass
+                proc.wait(timeout=0.01)
+            except subprocess.TimeoutExpired:
+                pass
+        else:
+            threading.Event().wait(0.01)  # the pause between polls of the condition, sparing the CPU
 
 
 def cpu_seconds(pid: int) -> float:
