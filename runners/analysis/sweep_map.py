@@ -43,11 +43,13 @@ BROKE_LABEL = "rigid rocking broke first: a contact slid or lifted off before th
 
 
 def rigid_rocking_held(summary: RunSummary) -> bool:
-    """Whether rigid rocking decided this run's outcome (runners.engine.summary.outcome_held):
-    True where the method did not monitor the contacts."""
+    """Whether the run's model decided its outcome (runners.engine.summary.outcome_held): True
+    where the method did not monitor the contacts. A rocking–sliding run (summary.motion set)
+    slides by its own model: only a lift-off (flight) is outside it."""
     if summary.assumptions_held is None or summary.assumptions_held:
         return True
-    return outcome_held(summary.overturned, summary.slide_time, summary.lift_time, summary.fall_time)
+    slide = None if getattr(summary, "motion", None) is not None else summary.slide_time
+    return outcome_held(summary.overturned, slide, summary.lift_time, summary.fall_time)
 
 
 def region(run: Run) -> int:
@@ -126,6 +128,13 @@ def block_title(p: dict) -> str:
             f"p{one} = {pf:.3f} rad/s (p / 2 pi = {pf / (2 * math.pi):.3f} Hz); {rest}")
 
 
+def drawn_axes(sw: Sweep) -> list[str]:
+    """The --grid axes a map of sweep `sw` draws: those with more than one value (a fixed value,
+    such as --grid contact.model=rocking-sliding, is the scene's, not an axis of the map)."""
+    axes = sw.grid["axes"]
+    return [a[0] for a in axes if a[3] > 1] or [a[0] for a in axes[:1]]
+
+
 def map_figure(factory, sweep_id: str):
     """The map of a stored sweep as a matplotlib Figure, the count of points per region
     (REGIONS order), the count of points where rigid rocking broke first, and the sweep."""
@@ -135,7 +144,7 @@ def map_figure(factory, sweep_id: str):
     if sw.grid.get("records"):
         raise ValueError(f"sweep {sw.id} runs over records: draw it with runners fragility {sw.id} or "
                          f"runners ida {sw.id}")
-    axes = [a[0] for a in sw.grid["axes"]]
+    axes = drawn_axes(sw)
     if len(axes) > 2:
         raise ValueError(f"sweep {sw.id} has {len(axes)} axes ({', '.join(axes)}): a map draws one or two "
                          "(sweep two of them, with the others fixed in the scene)")

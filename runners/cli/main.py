@@ -110,6 +110,19 @@ def cmd_map(args: argparse.Namespace) -> int:
 
     factory = open_database(args.db, write=False)  # reads only: a mistyped path is not created
     sweep_id = resolve_latest(factory, Sweep, args.sweep, "sweep")
+    by = getattr(args, "by", "outcome")
+    args.out = args.out or {"outcome": "overturning_map.png"}.get(by, f"{by}_map.png")
+    if by != "outcome":
+        from runners.analysis.slip_map import draw_mode, draw_slip
+
+        with output.busy(f"{by} map of sweep {sweep_id}"):
+            text, found, n_lifted = (draw_mode if by == "mode" else draw_slip)(factory, str(sweep_id), Path(args.out))
+        if args.json:
+            output.emit_json({"sweep": sweep_id, "figure": str(args.out), "summary": text, "by": by,
+                              ("modes" if by == "mode" else "max_abs_slip_m"): found, "lifted_off_first": n_lifted})
+        else:
+            print(text)
+        return 0
     with output.busy(f"map of sweep {sweep_id}"):
         text, regions, n_broke = draw_counted(factory, str(sweep_id), Path(args.out))
     if args.json:

@@ -157,10 +157,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_records_parser(sub)
 
-    mp = sub.add_parser("map", help="draw the overturning map of a stored sweep")
+    mp = sub.add_parser("map", help="draw the overturning map of a stored sweep (or its mode or peak-slip map)")
     mp.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
-    mp.add_argument("--out", type=output_file, default="overturning_map.png", metavar="PNG",
-                    help="figure to write (default: overturning_map.png)")
+    mp.add_argument("--by", choices=("outcome", "mode", "slip"), default="outcome",
+                    help="outcome: safe or overturns (default); mode: what the block does, rests, slides, rocks, "
+                         "slide-rocks or overturns; slip: peak |slip| in m (mode and slip: rocking-sliding sweeps)")
+    mp.add_argument("--out", type=output_file, metavar="PNG",
+                    help="figure to write (default: overturning_map.png, mode_map.png or slip_map.png)")
     common(mp, db=True)
     mp.set_defaults(func=f"{main}:cmd_map")
 

@@ -227,19 +227,22 @@ def _ida_run(oc, i: int) -> dict:
         row.update(peak2_over_alpha=float(oc.peak2[i]), block1_overturned=bool(oc.over1[i]),
                    block2_overturned=bool(oc.over2[i]))
     row["rigid_rocking_held"] = None if oc.broke is None else not bool(oc.broke[i])
+    if oc.slip is not None:  # rocking–sliding runs: block 1's peak slip (m) and what it did
+        row.update(max_abs_slip=float(oc.slip[i]), motion=oc.motion[i])
     return row
 
 
 def cmd_ida(args: argparse.Namespace) -> int:
     study, sets, out = _study(args)
-    study.plot_ida(out, sets)
+    demand = study.check_demand(args.demand, sets)
+    study.plot_ida(out, sets, demand)
     if args.json:
         combos = [{"combination": oc.combination, "first_overturn": study.first_overturn(oc),
                    "not_monotonic": study.resurrections(oc),
                    "rigid_rocking_broke": None if oc.broke is None else oc.n_broke} for oc in sets]
         doc = {**_head(sets), **({k: v for k, v in combos[0].items() if k != "combination"} if len(sets) == 1 else {}),
                "combinations": combos, "runs": [_ida_run(oc, i) for oc in sets for i in range(len(oc.x))],
-               "figure": str(out)}
+               "demand": demand, "demand_unit": "m" if demand == "slip" else "alpha", "figure": str(out)}
         emit_json(doc)
         return 0
     print("\n\n".join(study.format_ida(oc) for oc in sets) + f"\nfigure           {out}")
@@ -294,7 +297,13 @@ def add_parser(sub) -> None:
             st.add_argument("--ds", action="append", metavar="STATE",
                             help="damage state, repeat for several curves: [block1:|block2:|either:]overturn "
                                  "(default: overturn, either block), [BLOCK:]rot>Xalpha (peak |theta| / alpha "
-                                 "beyond X), slides (a contact needed more friction than mu)")
+                                 "beyond X), slides (a contact needed more friction than mu; rocking-sliding: the "
+                                 "block slid), slide>D (peak slip beyond D: slide>0.05, slide>5cm; rocking-sliding "
+                                 "sweeps)")
+        else:
+            st.add_argument("--demand", choices=("rotation", "slip"), default="rotation",
+                            help="what is drawn against intensity: rotation (peak |theta| / alpha, default) or slip "
+                                 "(block 1's peak |slip| in m; rocking-sliding sweeps)")
         st.set_defaults(func=func)
         studies.append(st)
     for p in (imp, ls, sh, ex, *studies):

@@ -67,6 +67,9 @@ class Outcomes:
     # the values of the sweep's --grid axes besides records and intensity in these runs (SI); empty
     # when the sweep has none
     combination: dict[str, float] = field(default_factory=dict)
+    # rocking–sliding runs (contact.model = 1, runners.engine.motion); None for rigid rocking
+    slip: np.ndarray | None = None  # m, peak |slip| of block 1 per run
+    motion: list[str] | None = None  # motion class per run (rests, slides, rocks, slide-rocks, overturns)
 
     def __post_init__(self) -> None:
         if self.over1 is None:
@@ -76,10 +79,20 @@ class Outcomes:
     def n_broke(self) -> int:
         return 0 if self.broke is None else int(np.sum(self.broke))
 
+    @property
+    def sliding(self) -> bool:
+        """The runs are rocking–sliding runs (sliding is their model's; only flight is outside it)."""
+        return self.slip is not None
+
     def broke_text(self) -> str | None:
-        """One line on the runs whose rigid-rocking assumptions failed first, or None."""
+        """One line on the runs whose model's assumptions failed first, or None."""
         if self.broke is None:
             return None
+        if self.sliding:
+            if not self.n_broke:
+                return f"held in all {len(self.x)} runs: the block never lifted off before the outcome was decided"
+            return (f"did not hold in {self.n_broke} of {len(self.x)} runs: the block lifted off (flight, outside the "
+                    "rocking–sliding model) before the outcome was decided (docs/contact.md)")
         if not self.n_broke:
             return (f"held in all {len(self.x)} runs: no contact slid or lifted off before the outcome was "
                     "decided")
@@ -112,6 +125,8 @@ class Outcomes:
                            block2_overturned=np.asarray(self.over2, bool))
         if self.slid is not None:
             columns["slides"] = np.asarray(self.slid, bool)
+        if self.slip is not None:
+            columns.update(max_abs_slip=np.asarray(self.slip, float), motion=list(self.motion))
         if self.broke is not None:
             columns["rigid_rocking_held"] = ~np.asarray(self.broke, bool)
         return pd.DataFrame(columns)
@@ -288,6 +303,9 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
         if all(r.summary.assumptions_held is not None for r in mine):
             oc.broke = np.array([broke(r) for r in mine])
             oc.slid = np.array([r.summary.slide_time is not None for r in mine])
+        if not two and all(r.summary.motion is not None for r in mine):  # rocking–sliding runs
+            oc.slip = np.array([r.summary.max_abs_slip for r in mine], dtype=float)
+            oc.motion = [r.summary.motion for r in mine]
         if len(mine) < expected:
             oc.notes.append(f"{expected - len(done)} of {expected} points not run yet, {oc.failed} failed")
         out.append(oc)
@@ -323,7 +341,9 @@ def fragility(oc: Outcomes) -> Fragility:
 
 
 DS_FORMS = ("[block1:|block2:|either:]overturn, [block1:|block2:|either:]rot>Xalpha (peak |theta| / alpha "
-            "beyond X), or slides (a contact needed more friction than its mu)")
+            "beyond X), slides (a contact needed more friction than its mu; rocking–sliding: the block slid), or "
+            "slide>D (peak slip beyond D, in m or with cm/mm, e.g. slide>5cm; rocking–sliding sweeps)")
+SLIP_UNITS = {"": 1.0, "m": 1.0, "cm": 0.01, "mm": 0.001}
 
 
 @dataclass(frozen=True)
@@ -333,14 +353,16 @@ class DamageState:
     contact sliding (its friction demand |T| / N above mu; docs/contact.md). `block` is "1", "2"
     or "either" (of a stack; a single block is block 1)."""
 
-    kind: str  # "overturn", "rot" or "slides"
+    kind: str  # "overturn", "rot", "slides" or "slip"
     block: str = "either"
-    limit: float | None = None  # rot: the fraction of alpha
+    limit: float | None = None  # rot: the fraction of alpha; slip: the distance D in m
 
     @property
     def spec(self) -> str:
         """The state as runners fragility --ds spells it."""
         prefix = "" if self.block == "either" else f"block{self.block}:"
+        if self.kind == "slip":
+            return f"slide>{self.limit:g}m"
         return prefix + (f"rot>{self.limit:g}alpha" if self.kind == "rot" else self.kind)
 
     def label(self, two: bool) -> str:
@@ -350,6 +372,8 @@ class DamageState:
             return f"{who} overturned"
         if self.kind == "rot":
             return f"{who}: peak |theta| / alpha > {self.limit:g} (or overturned)"
+        if self.kind == "slip":
+            return f"peak |slip| > {self.limit:g} m (or overturned)"
         return "a contact slid (friction demand above mu)"
 
     def reached(self, oc: Outcomes) -> np.ndarray:
@@ -357,6 +381,8 @@ class DamageState:
         blocks = {"1": [1], "2": [2], "either": [1, 2] if oc.two else [1]}[self.block]
         if self.kind == "slides":
             return np.asarray(oc.slid, bool)
+        if self.kind == "slip":  # a block that overturned has moved beyond any slip
+            return np.asarray(oc.overturned, bool) | (np.asarray(oc.slip, float) > self.limit)
         hit = np.zeros(len(oc.x), bool)
         for i in blocks:
             over = np.asarray(oc.over1 if i == 1 else oc.over2, bool)
@@ -402,10 +428,30 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
                              "does not), so whether they slid is not stored")
         return DamageState("slides")
     if state.startswith(("slide>", "slip>", "slides>", "sliding>")):
-        raise StudyError(f"damage state {spec!r}: no sliding distance is computed (rigid rocking: the blocks "
-                         "do not slide, docs/contact.md); what is stored is whether a contact needed more friction "
-                         "than its mu: slides")
+        return _slip_state(spec, state.partition(">")[2], which, oc)
     raise StudyError(f"unknown damage state {spec!r}: expected {DS_FORMS}")
+
+
+def _slip_state(spec: str, distance: str, block: str, oc: Outcomes) -> DamageState:
+    """slide>D: the peak |slip| of block 1 beyond D (a number in m, or with m, cm or mm), of
+    rocking–sliding runs; StudyError in one line otherwise."""
+    import re
+
+    m = re.fullmatch(r"([0-9.eE+-]+)(m|cm|mm)?", distance)
+    try:
+        d = float(m.group(1)) * SLIP_UNITS[m.group(2) or ""] if m else math.nan
+    except ValueError:
+        d = math.nan
+    if not (math.isfinite(d) and d > 0):
+        raise StudyError(f"damage state {spec!r}: D in slide>D must be a distance above 0, in m or with its unit, "
+                         "e.g. slide>0.05 or slide>5cm")
+    if block == "2":
+        raise StudyError(f"damage state {spec!r}: only block 1 slides (the rocking–sliding model has one block)")
+    if oc.slip is None:
+        raise StudyError(f"damage state {spec!r}: sweep {oc.sweep_id} runs rigid rocking, which computes no slip: "
+                         "set contact.model = rocking-sliding ([contact] model = \"rocking-sliding\" in the scene, "
+                         "or --grid contact.model=rocking-sliding) and sweep again")
+    return DamageState("slip", "either", d)
 
 
 @dataclass
@@ -539,9 +585,9 @@ def plot_fragility(out: str | Path, frag: Fragility | None, oc: Outcomes) -> Pat
     return _save(fragility_figure(frag, oc), out)
 
 
-def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes]) -> Path:
+def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes], demand: str = "rotation") -> Path:
     """ida_figure written to `out` (PNG)."""
-    return _save(ida_figure(oc), out)
+    return _save(ida_figure(oc, demand), out)
 
 
 MAX_PANELS = 12  # grid combinations one figure draws (more: select some)
@@ -689,24 +735,40 @@ def plot_curves(out: str | Path, cs: list[Curve]) -> Path:
     return _save(curves_figure(cs), out)
 
 
-def ida_figure(oc: Outcomes | list[Outcomes]):
-    """A matplotlib Figure: peak |theta| / alpha against intensity, one line per record (named in a
-    legend up to 12 records), each block's own overturns marked at the top; the median over records
-    (the block's overturned runs counted as infinite) in black. One row per block; for several
-    grid combinations (a list of Outcomes, outcome_sets) one column each."""
+DEMANDS = ("rotation", "slip")  # what an IDA draws against intensity: peak |theta| / alpha, or peak |slip| (m)
+
+
+def check_demand(demand: str, sets: list[Outcomes]) -> str:
+    """The IDA demand (rotation or slip), checked against the runs; StudyError in one line."""
+    if demand not in DEMANDS:
+        raise StudyError(f"--demand {demand!r}: expected rotation (peak |theta| / alpha) or slip (peak |slip|, m)")
+    if demand == "slip" and any(o.slip is None for o in sets):
+        raise StudyError(f"--demand slip: sweep {sets[0].sweep_id} runs rigid rocking, which computes no slip: set "
+                         "contact.model = rocking-sliding ([contact] model = \"rocking-sliding\" in the scene, or "
+                         "--grid contact.model=rocking-sliding) and sweep again")
+    return demand
+
+
+def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation"):
+    """A matplotlib Figure: the demand against intensity, one line per record (named in a legend up
+    to 12 records), each block's own overturns marked at the top; the median over records (the
+    block's overturned runs counted as infinite) in black. `demand` rotation: peak |theta| / alpha,
+    one row per block; slip: block 1's peak |slip| (m) of rocking–sliding runs. For several grid
+    combinations (a list of Outcomes, outcome_sets) one column each."""
     import textwrap
 
     import matplotlib.pyplot as plt
 
     sets = [oc] if isinstance(oc, Outcomes) else list(oc)
+    check_demand(demand, sets)
     if len(sets) > MAX_PANELS // 2:
         raise StudyError(f"{len(sets)} grid combinations are more than one figure draws ({MAX_PANELS // 2}): select "
                          "some (--select NAME=VALUE)")
-    rows = 2 if sets[0].two else 1
+    rows = 2 if sets[0].two and demand == "rotation" else 1
     fig, axes = plt.subplots(rows, len(sets), figsize=(8 if len(sets) == 1 else 6.2 * len(sets), 4.8 * rows),
                              sharex="col", squeeze=False)
     for col, o in enumerate(sets):
-        _ida_column(axes[:, col], o)
+        _ida_column(axes[:, col], o, demand)
         at = f"{o.combination_text()}: " if o.combination else ""
         axes[0, col].set_title(f"IDA, sweep {o.sweep_id}: {o.scene}\n" + textwrap.fill(
             f"{at}{o.block_text()}; {o.records_text()}, one line each", 100 if len(sets) == 1 else 80),
@@ -715,13 +777,17 @@ def ida_figure(oc: Outcomes | list[Outcomes]):
     return fig
 
 
-def _ida_column(axes, oc: Outcomes) -> None:
+def _ida_column(axes, oc: Outcomes, demand: str = "rotation") -> None:
     panels = [("block 1", oc.peak1, oc.over1)] + ([("block 2", oc.peak2, oc.over2)] if oc.two else [])
     names = list(dict.fromkeys(oc.record))
     import matplotlib.pyplot as plt
 
     cmap = plt.get_cmap("tab20", max(len(names), 1))
     top = 1.08
+    if demand == "slip":  # overturned runs at the top, above every standing run's slip
+        panels = [("block 1", np.asarray(oc.slip, float), oc.over1)]
+        standing = np.asarray(oc.slip, float)[~np.asarray(oc.over1, bool)]
+        top = 1.08 * (float(standing.max()) if standing.size and standing.max() > 0 else 0.01)
     for ax, (title, peak, over) in zip(axes, panels):
         over = np.asarray(over, bool)
         groups = oc.bins()
@@ -740,11 +806,13 @@ def _ida_column(axes, oc: Outcomes) -> None:
                            lw=1.2, label="rigid rocking broke first" if i == 0 else None)
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
-        ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
+        if demand == "rotation":
+            ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
         ax.text(levels.min(), top, f" x {title + ' ' if oc.two else ''}overturned", va="bottom", fontsize=8,
                 color="0.3")
-        ax.set_ylim(0, top + 0.07)
-        ax.set_ylabel(f"peak |theta| / alpha, {title}")
+        ax.set_ylim(0, top * (1 + 0.07 / 1.08))
+        ax.set_ylabel(f"peak |theta| / alpha, {title}" if demand == "rotation" else
+                      f"peak |slip| of {title} (m), rocking–sliding")
         ax.legend(fontsize=7 if len(names) <= 12 else 8, loc="center right")
     axes[-1].set_xlabel(f"{oc.label} ({oc.unit})")
 
@@ -760,7 +828,9 @@ def _context(oc: Outcomes) -> list[str]:
     if oc.uplift_text():
         lines.append(f"uplift           {oc.uplift_text()}")
     if oc.broke_text():
-        lines.append(f"rigid rocking    {oc.broke_text()}")
+        lines.append(f"{'model' if oc.sliding else 'rigid rocking':<17}{oc.broke_text()}")
+    if slip_text(oc):
+        lines.append(f"slip             {slip_text(oc)}")
     return lines
 
 
@@ -822,6 +892,18 @@ def format_curves(cs: list[Curve]) -> str:
     return "\n\n".join(blocks)
 
 
+def slip_text(oc: Outcomes) -> str | None:
+    """One line on the peak slips of rocking–sliding runs (None for rigid rocking): how many slid,
+    the largest peak |slip| of a standing block, and the motion classes."""
+    if oc.slip is None:
+        return None
+    standing = ~np.asarray(oc.overturned, bool)
+    slips = np.asarray(oc.slip, float)[standing]
+    kinds = {m: oc.motion.count(m) for m in dict.fromkeys(oc.motion)}
+    big = f"largest peak |slip| of a standing block {slips.max():.4g} m" if slips.size else "every run overturned"
+    return f"{big}; " + ", ".join(f"{n} {m}" for m, n in kinds.items())
+
+
 def format_ida(oc: Outcomes) -> str:
     first = first_overturn(oc)
     back = resurrections(oc)
@@ -844,7 +926,9 @@ def format_ida(oc: Outcomes) -> str:
     if back:
         lines.append(f"not monotonic    {len(back)} records overturn the block at one level but not at a higher "
                      f"one (rocking is not monotonic in intensity): {', '.join(back)}")
+    if slip_text(oc):
+        lines.append(f"slip             {slip_text(oc)}")
     if oc.broke_text():
-        lines.append(f"rigid rocking    {oc.broke_text()}")
+        lines.append(f"{'model' if oc.sliding else 'rigid rocking':<17}{oc.broke_text()}")
     lines += [f"note             {n}" for n in oc.notes]
     return "\n".join(lines)

@@ -45,6 +45,7 @@ from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
 from runners.engine.fmu import FMUError, RockingFMU, with_scene_defaults
 from runners.engine.intensity import G0, SCALING
+from runners.engine.motion import SLIP_OUTPUTS, contact_model_value, rocking_sliding, slip_summary
 from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
 from runners.errors import RockingError
 
@@ -99,6 +100,12 @@ def parse_axis(spec: str, parameters: Mapping[str, str] | Iterable[str]) -> Axis
     types = dict(parameters) if isinstance(parameters, Mapping) else dict.fromkeys(parameters, "Real")
     name, eq, rng = spec.partition("=")
     parts = rng.split(":")
+    if name.strip() == "contact.model" and eq and len(parts) == 1 and types.get("contact.model") == "Integer":
+        try:  # one model for every point: contact.model=rocking-sliding (or =1)
+            model = contact_model_value(rng)
+        except ValueError as exc:
+            raise ValueError(f"--grid {spec!r}: {exc}") from None
+        return Axis("contact.model", model, model, 1, True)
     if not eq or len(parts) != 3:
         raise ValueError(f"--grid {spec!r}: expected NAME=START:STOP:COUNT")
     name = ALIASES.get(name.strip(), name.strip())
@@ -134,9 +141,11 @@ def target(name: str, p: dict[str, Any]) -> str:
     return name
 
 
-# parameters no model of the FMU lets change the motion: the friction coefficients enter the
-# contact monitors only (docs/contact.md); the column that answers for any mu instead
+# parameters rigid rocking does not let change the motion: the friction coefficients enter the
+# contact monitors only (docs/contact.md); the column that answers for any mu instead. The
+# rocking–sliding model (contact.model = 1, one block) slides on contact.muGround: there it may be swept
 MOTION_FREE = {"contact.muGround": "friction_demand_max", "contact.muInterface": "friction_demand_max_interface"}
+SLIDING_ON = {"contact.muGround"}  # the friction coefficients the rocking–sliding model slides on
 
 
 def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
@@ -153,16 +162,18 @@ def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
         if param in setters:
             raise ValueError(f"--grid {setters[param]} and --grid {ax.name} both set {param}: keep one")
         setters[param] = ax.name
+    ints = [ax for ax in axes if ax.integer]
+    cases = [{**p, **dict(zip([ax.name for ax in ints], combo))}
+             for combo in itertools.islice(itertools.product(*[ax.values.tolist() for ax in ints]), 1024)]
+    sliding = any(rocking_sliding(q) and int(q.get("nBlocks", 1)) == 1 for q in cases)
     for ax in axes:
-        if ax.name in MOTION_FREE:
+        if ax.name in MOTION_FREE and not (sliding and ax.name in SLIDING_ON):
             raise ValueError(f"--grid {ax.name}: friction does not change the motion (rigid rocking: the blocks never "
                              "slide; mu only sets when the contact monitors report sliding), so every point would run "
                              f"the same simulation; sweep without it and compare any mu with what each run stores, "
                              f"{MOTION_FREE[ax.name]} and impulse_demand_max (the largest |T| / N and impulse ratio "
-                             "the contacts needed; runners export)")
-    ints = [ax for ax in axes if ax.integer]
-    cases = [{**p, **dict(zip([ax.name for ax in ints], combo))}
-             for combo in itertools.islice(itertools.product(*[ax.values.tolist() for ax in ints]), 1024)]
+                             "the contacts needed; runners export), or let one block slide: contact.model = "
+                             "rocking-sliding ([contact] model in the scene, or --grid contact.model=rocking-sliding)")
     for ax in axes:
         whys = [unused_parameter(target(ax.name, q), q) for q in cases]
         if all(whys):
@@ -418,7 +429,7 @@ def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, st
     errors: list[str] = []
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
-    names = ONE + (TWO if two else [])
+    names = ONE + (TWO if two else []) + [n for n in SLIP_OUTPUTS if n in fmu.vars]  # (an FMU before issue 26 lacks them)
     # base: the scene's parameters; the FMU's start values fill the rest, but for SCENE_DEFAULTS
     _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=with_scene_defaults(base),
                         stop=stop_time, step=step,
@@ -541,6 +552,9 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
            "friction_demand_max_interface": None, "normal_min_interface": None}
     row["assumptions_held"] = row["slide_time"] is None and row["lift_time"] is None
     row["fall_time"] = out["fallTime"] if out["fallTime"] >= 0 else None
+    if rocking_sliding(merged) and not two:  # sliding is the model's now: only a lift-off (flight) is outside it
+        row.update(slip_summary(out))
+        row["assumptions_held"] = row["lift_time"] is None
     if two:
         alpha2 = math.atan2(merged["block2.halfWidth"], merged["block2.halfHeight"])
         row.update(friction_demand_max_interface=out["friction.demandMaxInterface"],
