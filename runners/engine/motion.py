@@ -22,7 +22,7 @@ ROCKING_SLIDING = 1
 # the motion classes, in the order of the maps' colours and legends
 MOTIONS = ["rests", "slides", "rocks", "slide-rocks", "overturns"]
 
-# the FMU outputs a sweep reads at the end of a rocking–sliding point (issue 26's interface)
+# the FMU outputs a sweep reads at the end of a rocking–sliding point
 SLIP_OUTPUTS = ["block1.slip", "block1.maxAbsSlip", "block1.slideDuration", "block1.slideStartTime",
                 "block1.slides"]
 

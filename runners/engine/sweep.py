@@ -429,7 +429,7 @@ def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, st
     errors: list[str] = []
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
-    names = ONE + (TWO if two else []) + [n for n in SLIP_OUTPUTS if n in fmu.vars]  # (an FMU before issue 26 lacks them)
+    names = ONE + (TWO if two else []) + [n for n in SLIP_OUTPUTS if n in fmu.vars]  # (an FMU without sliding lacks them)
     # base: the scene's parameters; the FMU's start values fill the rest, but for SCENE_DEFAULTS
     _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=with_scene_defaults(base),
                         stop=stop_time, step=step,
