@@ -94,13 +94,24 @@ def _field(runs, axes: list[str], value) -> tuple[list, list, np.ndarray]:
 
 def _label_axes(ax, axes: list[str], p: dict) -> None:
     names = {"w": FREQUENCY, "a": amplitude_label(p), MU: "friction coefficient mu (contact.muGround)"}
-    ax.set_xlabel(names.get(axes[0], axes[0]))
+    ax.set_xlabel(names.get(axes[0], _with_unit(axes[0])))
     if len(axes) == 2:
-        ax.set_ylabel(names.get(axes[1], axes[1]))
+        ax.set_ylabel(names.get(axes[1], _with_unit(axes[1])))
     if axes[0] == "w":  # the pulse frequency in Hz on top, as the overturning map
         pf, _ = scales(p)
         top = ax.secondary_xaxis("top", functions=(lambda w: w * pf / (2 * math.pi), lambda f: f * 2 * math.pi / pf))
         top.set_xlabel("pulse frequency f_g = omega_g / 2 pi (Hz)", fontsize=9)
+
+
+def _with_unit(name: str) -> str:
+    """An FMU parameter's name with its unit, e.g. 'excitation.amplitude (m/s2)'."""
+    from runners.engine.tables import variable_units
+
+    try:
+        unit = variable_units().get(name, "")
+    except (OSError, ImportError):  # an installation without the model's sources: the name alone
+        unit = ""
+    return f"{name} ({unit})" if unit and unit != "1" else name
 
 
 def _mu_line(ax, axes: list[str], p: dict) -> None:
@@ -189,8 +200,7 @@ def slip_figure(factory, sweep_id: str):
     fig, ax = plt.subplots(figsize=(9, 7.5))
     if len(axes) == 2:
         xs, ys, field = _field(runs, axes, slip)
-        cmap = plt.get_cmap("viridis").copy()
-        cmap.set_bad(FAILED_COLOUR)
+        cmap = plt.get_cmap("viridis").with_extremes(bad=FAILED_COLOUR)
         mesh = ax.pcolormesh(xs, ys, np.ma.masked_invalid(field), cmap=cmap, vmin=0.0,
                              vmax=max(largest or 0.0, 1e-12), shading="nearest")
         fig.colorbar(mesh, ax=ax, label="peak |slip| of block 1 (m)")
@@ -213,7 +223,7 @@ def slip_figure(factory, sweep_id: str):
     if len(axes) == 2 and np.isnan(values).any():
         handles.append(plt.Rectangle((0, 0), 1, 1, color=FAILED_COLOUR))
         labels.append(f"failed or no slip ({int(np.isnan(values).sum())})")
-    ax.legend(handles, labels, fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
+    ax.legend(handles, labels, fontsize=8, ncol=1, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
     _title(ax, sw, scene, runs, p, "peak |slip| of block 1 (m)", axes)
     fig.tight_layout()
     return fig, largest, n_lifted, sw

@@ -175,13 +175,27 @@ class Outcomes:
             return None
         from runners.engine.sweep import scales
 
+        if self.sliding:  # rocking–sliding: a block at rest moves (slides or rocks) beyond min(mu, tan alpha) g
+            return self.params["g"] * self._start_ratio() / G0
         return scales(self.params)[1] / G0
+
+    def _start_ratio(self) -> float:
+        """min(mu, b / h): a rocking–sliding block's threshold of motion from rest over g (Shenton 1996)."""
+        return min(float(self.params["contact.muGround"]),
+                   self.params["block1.halfWidth"] / self.params["block1.halfHeight"])
 
     def uplift_text(self) -> str | None:
         """The uplift threshold in one line, with both g's spelt out (docs/conventions.md)."""
         thr = self.uplift_threshold()
         if thr is None:
             return None
+        if self.sliding:
+            mu, tan = float(self.params["contact.muGround"]), self.params["block1.halfWidth"] / self.params[
+                "block1.halfHeight"]
+            first = "it slides before it can rock, mu < tan(alpha)" if mu < tan else "it rocks first, mu >= tan(alpha)"
+            return (f"no record below PGA {thr:.4g} g can move the block from rest ({first}; Shenton 1996): "
+                    f"min(mu, tan(alpha)) g = {thr * G0:.4g} m/s2 with the model's g = {self.params['g']:g} m/s2, "
+                    f"over g0 = {G0} m/s2, the g of every PGA here")
         what = "the stack's uplift acceleration" if self.two else "g tan(alpha)"
         return (f"no record below PGA {thr:.4g} g can lift the {'stack' if self.two else 'block'} from rest: "
                 f"{what} = {thr * G0:.4g} m/s2 with the model's g = {self.params['g']:g} m/s2, over "
@@ -200,9 +214,15 @@ def extra_axes(grid: dict) -> list[tuple[str, np.ndarray]]:
 
     out = []
     for a in grid.get("axes") or []:
-        if a[0] != "excitation.scale":
+        if a[0] != "excitation.scale" and a[3] > 1:  # a one-value axis (contact.model=1) is the scene's
             out.append((a[0], Axis(a[0], a[1], a[2], a[3], *a[4:5]).values))
     return out
+
+
+def fixed_axes(grid: dict) -> dict[str, float]:
+    """The one-value --grid axes of a stored sweep (e.g. contact.model=rocking-sliding): parameters
+    every point runs with, as the scene's."""
+    return {a[0]: a[1] for a in grid.get("axes") or [] if a[3] == 1 and a[0] != "excitation.scale"}
 
 
 def _same(a: float, b: float) -> bool:
@@ -280,7 +300,7 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
     factor = DISPLAY[measure][2]
     stripes = sw.grid.get("intensity")
     two = int(scene.n_blocks) == 2
-    base = {**sw.grid["defaults"], **scene.parameters}
+    base = {**sw.grid["defaults"], **scene.parameters, **fixed_axes(sw.grid)}
     out = []
     for combo in combos:
         def here(r) -> bool:
@@ -599,7 +619,8 @@ def _uplift_label(oc: Outcomes) -> str | None:
     thr = oc.uplift_threshold()
     if thr is None:
         return None
-    return (f"static uplift threshold {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
+    what = "static threshold of motion, min(mu, tan alpha) g," if oc.sliding else "static uplift threshold"
+    return (f"{what} {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
             f"m/s2, over g0 = {G0})")
 
 

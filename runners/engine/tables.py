@@ -450,7 +450,8 @@ def grid_text(grid: dict) -> str:
     if grid.get("intensity"):
         m, lo, hi, n = grid["intensity"]
         parts.append(f"{m}={lo:g}:{hi:g}:{n}")
-    parts += [f"{name}={lo:g}:{hi:g}:{n}" for name, lo, hi, n in grid["axes"]]
+    parts += [f"{name}={lo:g}" if n == 1 and lo == hi else f"{name}={lo:g}:{hi:g}:{n}"
+              for name, lo, hi, n, *_ in grid["axes"]]  # (an Integer axis has a fifth field)
     return ", ".join(parts)
 
 
