@@ -163,6 +163,15 @@ def test_mode_and_slip_maps_draw_every_class_and_the_peak_slip(grid_db, fmu_path
     # the overturning map still draws the sweep (its outcomes), by default
     p = cli("map", "1", "--out", str(tmp_path / "o.png"), db=grid_db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
+    # the export carries each point's class and slips (a sweep with an Integer axis exports, too)
+    csv_path = tmp_path / "points.csv"
+    p = cli("export", "--sweep", "1", "--out", str(csv_path), db=grid_db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    import pandas as pd
+
+    frame = pd.read_csv(csv_path)
+    assert list(frame["motion"]) == [stored[i] for i in frame["grid_index"]]
+    assert max(frame["max_abs_slip"]) == max(slips) and {"residual_slip", "slide_duration"} <= set(frame.columns)
 
 
 def test_mode_and_slip_maps_of_a_rigid_sweep_are_refused_in_one_line(tmp_path, fmu_path):
