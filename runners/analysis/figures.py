@@ -167,6 +167,27 @@ def fig18_corrected(ctx: "Context", out: Path) -> list[Path]:
     return _fig18(ctx, out, "fig18_corrected.toml", "fig18_corrected.png")
 
 
+SLIDING_GRID = (("contact.muGround", 0.1, 1.0, 60), ("a", 0.3, 6.0, 60))  # as docs/records.md sweeps them
+
+
+def sliding_maps(ctx: "Context", out: Path) -> list[Path]:
+    """A 60 x 60 rocking–sliding sweep of examples/sliding_pulse.toml over mu and a in a scratch
+    database, and its mode and peak-slip maps (runners.analysis.slip_map)."""
+    from db.session import open_database
+    from runners.analysis.slip_map import draw_mode, draw_slip
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+
+    factory = open_database(f"sqlite:///{ctx.scratch / 'figure.db'}")
+    grid = SLIDING_GRID if not ctx.quick else tuple((a, lo, hi, 10) for a, lo, hi, _ in SLIDING_GRID)
+    axes = [Axis("contact.model", 1, 1, 1, True)] + [Axis(*a) for a in grid]
+    sid = create_sweep(factory, load_scene(ROOT / "examples" / "sliding_pulse.toml"), axes, ctx.fmu.defaults())
+    run_sweep(factory, sid, ctx.fmu.path, progress=False)
+    draw_mode(factory, str(sid), out / "sliding_modes.png")
+    draw_slip(factory, str(sid), out / "sliding_slip.png")
+    return [out / "sliding_modes.png", out / "sliding_slip.png"]
+
+
 def _copy(src: Path, dst: Path) -> Path:
     import shutil
 
@@ -287,6 +308,12 @@ FIGURES: list[Figure] = [
            "runners simulate examples/two_blocks_harmonic.toml; runners screenshot RUN --out rerun_viewer.png",
            rerun_viewer, needs="headless Chromium and Playwright (apt-get install chromium; "
                                "pip install -e '.[docs]')"),
+    Figure(("sliding_modes", "sliding_slip"), "what a block 0.4 m x 1.0 m does under a one-sine pulse with the "
+           "rocking–sliding model, over the friction coefficient and the amplitude (rests, slides, rocks, "
+           "slide-rocks, overturns; Shenton 1996), and its peak slip",
+           "runners sweep examples/sliding_pulse.toml --grid contact.model=rocking-sliding --grid "
+           "contact.muGround=0.1:1.0:60 --grid a=0.3:6:60; runners map SWEEP --by mode --out PNG; "
+           "runners map SWEEP --by slip --out PNG", sliding_maps),
     Figure(("stability",), "which methods get the outcome right on scenes of rising difficulty, against "
            "scipy's DOP853 at rtol 1e-12", "runners bench --charts --out FOLDER", stability),
     Figure(("two_blocks_fig17",), "two blocks on a shaking table, Anagnostopoulos Fig. 17's four harmonic cases",

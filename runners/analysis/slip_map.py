@@ -212,12 +212,15 @@ def slip_figure(factory, sweep_id: str):
         ax.set_ylabel("peak |slip| of block 1 (m)")
         ax.set_ylim(bottom=0.0)
         y_of = slip
-    ax.scatter([r.point[axes[0]] for r in fell], [y_of(r) for r in fell], marker="x", color="k", s=30, lw=1.2,
-               zorder=5, label=f"overturned ({len(fell)}): slip up to the overturn")
+    size = max(1.5, min(30.0, 6e3 / len(runs)))  # crosses that leave the colour beneath visible
+    ax.scatter([r.point[axes[0]] for r in fell], [y_of(r) for r in fell], marker="x", color="0.75" if len(axes) == 2
+               else "k", s=size, lw=0.5 if size < 10 else 1.2, zorder=5)
     n_lifted = _lifted(ax, runs, axes, y_of)
     _mu_line(ax, axes, p)
     _label_axes(ax, axes, p)
     handles, labels = ax.get_legend_handles_labels()
+    handles.append(plt.Line2D([], [], ls="", marker="x", color="k"))
+    labels.append(f"overturned ({len(fell)}): slip up to the overturn")
     handles.append(plt.Line2D([], [], ls="", marker="o", color=BROKE_COLOUR))
     labels.append(f"{LIFT_LABEL} ({n_lifted})")
     if len(axes) == 2 and np.isnan(values).any():
