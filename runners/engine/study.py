@@ -79,6 +79,10 @@ class Outcomes:
     def n_broke(self) -> int:
         return 0 if self.broke is None else int(np.sum(self.broke))
 
+    def broke_words(self) -> str:
+        """What a run whose model broke first did, in a few words (figures' legends)."""
+        return "the block lifted off first (outside the model)" if self.sliding else "rigid rocking broke first"
+
     @property
     def sliding(self) -> bool:
         """The runs are rocking–sliding runs (sliding is their model's; only flight is outside it)."""
@@ -385,8 +389,8 @@ class DamageState:
             return f"slide>{self.limit:g}m"
         return prefix + (f"rot>{self.limit:g}alpha" if self.kind == "rot" else self.kind)
 
-    def label(self, two: bool) -> str:
-        """What the state means, in words."""
+    def label(self, two: bool, sliding: bool = False) -> str:
+        """What the state means, in words (`sliding`: of rocking–sliding runs)."""
         who = {"1": "block 1", "2": "block 2", "either": "either block" if two else "the block"}[self.block]
         if self.kind == "overturn":
             return f"{who} overturned"
@@ -394,7 +398,7 @@ class DamageState:
             return f"{who}: peak |theta| / alpha > {self.limit:g} (or overturned)"
         if self.kind == "slip":
             return f"peak |slip| > {self.limit:g} m (or overturned)"
-        return "a contact slid (friction demand above mu)"
+        return "the block slid" if sliding else "a contact slid (friction demand above mu)"
 
     def reached(self, oc: Outcomes) -> np.ndarray:
         """Bool per run of `oc`: whether the run reached this state."""
@@ -487,7 +491,7 @@ class Curve:
 
     @property
     def label(self) -> str:
-        return self.state.label(self.outcomes.two)
+        return self.state.label(self.outcomes.two, self.outcomes.sliding)
 
     def as_dict(self) -> dict:
         """The curve as runners fragility --json prints it: the fit (median, beta and their 95 %
@@ -664,14 +668,14 @@ def _panel(ax, cs: list[Curve]) -> None:
     if oc.n_broke:
         b = np.array([int(oc.broke[g].sum()) for g in groups])
         ax.scatter(xs[b > 0], (b / n)[b > 0], s=30, marker="D", color=BROKE_COLOUR, zorder=4, edgecolor="k", lw=0.4,
-                   label=f"fraction where rigid rocking broke first ({oc.n_broke} of {len(oc.x)} runs)")
+                   label=f"fraction where {oc.broke_words()} ({oc.n_broke} of {len(oc.x)} runs)")
     thr = _uplift_label(oc)
     if thr is not None:
         ax.axvline(oc.uplift_threshold(), color="#238b45", lw=1.2, ls=":", label=thr)
     ax.set_xlabel(f"{oc.label} ({oc.unit})")
     what = f"P({'overturn' if cs[0].state == DamageState('overturn') else 'damage state'})" if single \
         else "P(damage state reached)"
-    ax.set_ylabel(what + ("; fraction where rigid rocking broke first" if oc.n_broke else ""))
+    ax.set_ylabel(what + (f"; fraction where {oc.broke_words()}" if oc.n_broke else ""))
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(0, grid.max())
     handles, labels = ax.get_legend_handles_labels()
@@ -721,7 +725,7 @@ def curves_figure(cs: list[Curve]):
                    and group[0].state.block == "either" else "")
         ax.set_title(head + textwrap.fill(
             f"{at}{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs{reached}"
-            + (f", {oc.n_broke} where rigid rocking broke first" if oc.n_broke else ""), 105 if single else 80),
+            + (f", {oc.n_broke} where {oc.broke_words()}" if oc.n_broke else ""), 105 if single else 80),
             fontsize=9 if single else 8)
     if not single:
         fig.suptitle(f"sweep {oc0.sweep_id}: {oc0.scene}; one panel per value of "
@@ -824,7 +828,7 @@ def _ida_column(axes, oc: Outcomes, demand: str = "rotation") -> None:
             if oc.n_broke:
                 broke = oc.broke[sel][order]
                 ax.scatter(xs[broke], ys[broke], marker="o", s=40, facecolors="none", edgecolors=BROKE_COLOUR,
-                           lw=1.2, label="rigid rocking broke first" if i == 0 else None)
+                           lw=1.2, label=oc.broke_words() if i == 0 else None)
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
         if demand == "rotation":
@@ -863,7 +867,7 @@ def format_fragility(frag: Fragility, oc: Outcomes, state: DamageState | None = 
     lines = [
         _header(oc),
         f"runs             {frag.n_runs} on {frag.n_groups} records, {frag.n_overturned} "
-        + ("overturned" if overturn else f"where {state.label(oc.two)}")
+        + ("overturned" if overturn else f"where {state.label(oc.two, oc.sliding)}")
         + (f"; {oc.failed} failed, left out" if oc.failed else ""),
         f"fragility        P({event} | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
         "(Baker 2015)",
