@@ -109,6 +109,9 @@ def test_rigid_points_store_no_slip_and_a_mu_axis_needs_the_sliding_model(tmp_pa
     p = cli("sweep", str(scene), "--grid", "contact.model=sliding", "--grid", "excitation.amplitude=3:15:2",
             "--quiet", db=url, fmu_path=fmu_path)
     assert one_line_refusal(p) and "expected rigid-rocking (0) or rocking-sliding (1)" in p.stderr, p.stderr
+    p = cli("sweep", str(scene), "--grid", "contact.model=0:2:3", "--grid", "excitation.amplitude=3:15:2",
+            "--quiet", db=url, fmu_path=fmu_path)
+    assert one_line_refusal(p) and "contact.model is 0 (rigid-rocking) or 1 (rocking-sliding)" in p.stderr, p.stderr
     with open_database(url)() as s:
         assert s.scalar(select(func.count()).select_from(Sweep)) == 0
     # a rigid sweep stores no slip (the rigid model's points are unchanged); the sliding model over mu does

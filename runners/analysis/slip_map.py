@@ -128,7 +128,7 @@ def _mu_line(ax, axes: list[str], p: dict) -> None:
 
 def _lifted(ax, runs, axes: list[str], y_of) -> int:
     """Dot the points that lifted off first; their count."""
-    lifted = [r for r in runs if broke(r)]
+    lifted = [r for r in runs if broke(r) and r.summary.motion is not None]  # (not a rigid point of a mixed sweep)
     if lifted:
         size = max(1.5, min(30.0, 2.2e4 / len(runs)))
         ax.scatter([r.point[axes[0]] for r in lifted], [y_of(r) for r in lifted], s=size, marker="o",

@@ -126,6 +126,9 @@ def parse_axis(spec: str, parameters: Mapping[str, str] | Iterable[str]) -> Axis
             raise ValueError(f"--grid {spec!r}: {name} is an Integer parameter: START, STOP and the spacing "
                              f"(STOP - START) / (COUNT - 1) must be whole numbers, e.g. {name}="
                              f"{math.floor(start)}:{math.floor(start) + 1}:2")
+        if name == "contact.model" and not {start, stop} <= {0.0, 1.0}:
+            raise ValueError(f"--grid {spec!r}: contact.model is 0 (rigid-rocking) or 1 (rocking-sliding): "
+                             "contact.model=0:1:2 runs both, contact.model=rocking-sliding one")
         return Axis(name, int(start), int(stop), count, True)
     return Axis(name, start, stop, count)
 
