@@ -80,11 +80,7 @@ double sliding_energy(const Model *M, const double *y, Mode mode, int side) {
     return 0.5 * m * (Xd * Xd + Yd * Yd) + 0.5 * Ic * w * w + m * v->g * rise;
 }
 
-double sliding_stick_margin(const Model *M, double T, double N) {
-    /* a contact without compression carries no friction, but the model holds it (flight is
-     * outside it, and the monitor lifts says so): no slip starts there */
-    return N > 0 ? M->v.muGround * N - fabs(T) : 0.0;
-}
+double sliding_stick_margin(const Model *M, double T, double N) { return M->v.muGround * N - fabs(T); }
 
 /* Reactions of a rocking block whose pivot sticks, at (t, y). */
 static void rock_reactions(const Model *M, double t, const double *y, int side, double *T, double *N) {

@@ -40,7 +40,9 @@ double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int sid
  * ground) plus m g times the rise of the centre of mass. */
 double sliding_energy(const Model *M, const double *y, Mode mode, int side);
 
-/* Stick-to-slip indicator of a pivot that sticks: mu N - |T| (N); 0 while N <= 0. */
+/* Stick-to-slip indicator of a pivot that sticks: mu N - |T| (N). A pivot whose margin is
+ * already negative (held in flight: N < 0, outside the model, flagged by the monitor lifts)
+ * starts no slip until the margin has been >= 0 again. */
 double sliding_stick_margin(const Model *M, double T, double N);
 
 /* The mode a block at rest starts at time t when the ground exceeds

@@ -146,7 +146,8 @@ static void sliding_changed(Model *M, int was, int now, const Logger *log) {
             S->mode == MODE_SLIDE ? "slide" : "slide-rock");
     } else if (was && !now) {
         S->slideDur += S->t - S->slideSince;
-        say(log, LOG_EVENTS, "stick t=%.17g mode=%s", S->t, S->mode == MODE_REST ? "rest" : "rock");
+        if (S->mode != MODE_OVERTURNED)
+            say(log, LOG_EVENTS, "stick t=%.17g mode=%s", S->t, S->mode == MODE_REST ? "rest" : "rock");
     }
 }
 
@@ -293,6 +294,8 @@ static int take_step(Model *M, const Logger *log) {
         S->fValid = 1;
         S->endValid = 0; /* the reactions stored are not this state's */
     }
+    /* rocking-sliding: the stick margin at the step's start (a negative one: held in flight) */
+    double startMargin = !c.rs ? 0.0 : S->endValid ? sliding_stick_margin(M, S->endTr, S->endN) : sliding_stick_margin(M, c.T, c.N);
     if (adaptive_step_controlled(rhs_cb, &c, n, nErr, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                                  cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
@@ -323,7 +326,7 @@ static int take_step(Model *M, const Logger *log) {
         for (int i = 0; i < 5; i++) cv[i] *= S->sigma;
         sStop = first_crossing(cv, -1);
     }
-    if (c.rs && rocking && S->sigma == 0 && sliding_stick_margin(M, endT, endN) < 0) sSlip = 1.0;
+    if (c.rs && rocking && S->sigma == 0 && startMargin >= 0 && sliding_stick_margin(M, endT, endN) < 0) sSlip = 1.0;
     EventKind ev = EVENT_NONE;
     double hStep = h, tNew = hitBp ? bp : S->t + h;
     double sFirst = fmin(fmin(sImpact, sOver), sStop);
