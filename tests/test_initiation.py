@@ -105,3 +105,33 @@ def test_ishiyama_and_shenton_boundaries():
 def test_bad_arguments_are_refused(args, text):
     with pytest.raises(ValueError, match=text):
         initiation_mode(*args)
+
+
+# ------------------------------------------------------------------ the FMU over a grid
+
+MU_GRID = (0.1, 0.29, 0.45, 0.71, 0.93, 1.2)
+B_OVER_H_GRID = (0.2, 0.41, 0.62, 0.85, 1.13)
+AH_GRID = (0.06, 0.17, 0.31, 0.53, 0.79, 1.07, 1.63, -0.67)  # a_h / g
+AV_GRID = (-0.3, 0.0, 0.3)  # a_v / g
+
+
+def test_the_fmu_starts_in_the_mode_the_criteria_give(fmu):
+    """720 blocks at rest under constant inputs ground.ah, ground.av from t = 0: after 2 ms the
+    FMU's block1.mode is the criteria's mode at every point (none within 0.001 of a boundary),
+    and the block turns and slips to the side the load pushes it (a_h > 0: theta < 0, slip < 0)."""
+    from runners.analysis.initiation_map import StartPoint, fmu_start_states
+
+    points = [StartPoint(*p) for p in itertools.product(MU_GRID, B_OVER_H_GRID, AH_GRID, AV_GRID)]
+    expected = [initiation_mode(p.mu, p.b_over_h, p.ah_over_g, p.av_over_g) for p in points]
+    assert min(initiation_margin(p.mu, p.b_over_h, p.ah_over_g, p.av_over_g) for p in points) > 1e-3
+    assert {m: expected.count(m) for m in Mode if m != Mode.OVERTURNED} == \
+        {Mode.REST: 272, Mode.SLIDE: 242, Mode.ROCK: 165, Mode.SLIDE_ROCK: 41}
+    states = fmu_start_states(fmu, points)
+    wrong = [(p, s.mode.name, e.name) for p, s, e in zip(points, states, expected) if s.mode != e]
+    assert not wrong, f"{len(wrong)} of {len(points)} points differ, e.g. {wrong[:5]}"
+    for p, s, e in zip(points, states, expected):
+        side = -math.copysign(1.0, p.ah_over_g)
+        turns = e in (Mode.ROCK, Mode.SLIDE_ROCK)
+        slips = e in (Mode.SLIDE, Mode.SLIDE_ROCK)
+        assert (s.theta * side > 0) if turns else s.theta == 0.0, (p, s)
+        assert (s.slip_rate * side > 0 and s.slip * side > 0) if slips else s.slip_rate == 0.0, (p, s)

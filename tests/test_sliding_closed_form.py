@@ -178,3 +178,142 @@ def test_bad_arguments_are_refused():
         coulomb_block(sine_pulse(4.0, 2.0), float("nan"), 1.0)
     with pytest.raises(ValueError, match="leave the ground"):
         coulomb_block(sine_pulse(4.0, 2.0, vertical=12.0), 0.3, 1.0)
+
+
+# ------------------------------------------------------------------ the FMU against the closed form
+
+SQUAT = {"block1.halfWidth": 0.3, "block1.halfHeight": 0.36, "block1.mass": 50.0, "block1.theta0": 0.0,
+         "contact.model": 1}  # b/h = 0.83: with mu < b/h the block can only slide
+OUT = ["block1.slip", "block1.slipRate", "block1.mode", "block1.theta", "block1.maxAbsSlip",
+       "block1.slideDuration", "block1.slideStartTime", "block1.slides"]
+EVENT_KINDS = ("slide", "stick", "slide-rock", "uplift", "impact", "rest")
+
+
+def run_fmu(fmu, params: dict, stop: float, step: float):
+    """Sampled outputs and the event log's lines [(kind, {key: value})] of one FMU run."""
+    lines: list[str] = []
+    errors: list[str] = []
+
+    def log(status, category, message):
+        if status >= 3:
+            errors.append(message)
+        elif category == "logEvents":
+            lines.append(message)
+
+    slave, _cb = fmu.instantiate(log)
+    vrs = [fmu.variable(n) for n in OUT]
+    n = int(round(stop / step))
+    rows = []
+    try:
+        try:
+            slave.setupExperiment(startTime=0.0, stopTime=stop)
+            fmu.set_parameters(slave, params)
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+
+            def get():
+                real = slave.getReal([v.valueReference for v in vrs if v.type == "Real"])
+                ints = slave.getInteger([v.valueReference for v in vrs if v.type == "Integer"])
+                it_r, it_i = iter(real), iter(ints)
+                return [next(it_r) if v.type == "Real" else next(it_i) for v in vrs]
+
+            rows.append(get())
+            for i in range(n):
+                slave.doStep(currentCommunicationPoint=i * step, communicationStepSize=step)
+                rows.append(get())
+        except Exception as exc:
+            raise AssertionError(errors[-1] if errors else str(exc)) from None
+    finally:
+        slave.freeInstance()
+    data = np.array(rows, dtype=float)
+    events = []
+    for line in lines:
+        kind, _, rest = line.partition(" ")
+        if kind in EVENT_KINDS:
+            values = dict(item.partition("=")[::2] for item in rest.split())
+            events.append((kind, values))
+    return step * np.arange(n + 1), {k: data[:, j] for j, k in enumerate(OUT)}, events
+
+
+def fmu_switches(events) -> list[tuple[str, float]]:
+    """The FMU's mode switches of the sliding model as (kind, t): slide (with sigma), stick."""
+    return [(k, float(v["t"])) for k, v in events if k == "stick" or (k == "slide" and "sigma" in v)]
+
+
+def excitation(kind: int, **kw) -> dict:
+    names = {"A": "excitation.amplitude", "f": "excitation.frequency", "cycles": "excitation.cycles",
+             "t0": "excitation.startTime", "V": "excitation.verticalAmplitude", "D": "excitation.displacement",
+             "ah": "ground.ah", "av": "ground.av"}
+    return {"excitation.kind": kind, **{names[k]: v for k, v in kw.items()}}
+
+
+FMU_CASES = {
+    # name: (FMU parameters, closed-form ground, mu, stop time)
+    "one-sine pulse": (excitation(1, A=4.0, f=2.0, cycles=1), sine_pulse(4.0, 2.0), 0.3, 1.0),
+    "three cycles with stick phases": (excitation(1, A=5.0, f=2.5, cycles=3, t0=0.1),
+                                       sine_pulse(5.0, 2.5, cycles=3, t0=0.1), 0.3, 1.6),
+    "pulse under a constant a_v": (excitation(1, A=4.0, f=1.5, cycles=2, av=-0.3 * G),
+                                   sine_pulse(4.0, 1.5, cycles=2, av0=-0.3 * G), 0.25, 1.8),
+    "pulse with a vertical sine": (excitation(1, A=5.0, f=2.0, cycles=2, V=2.5),
+                                   sine_pulse(5.0, 2.0, cycles=2, vertical=2.5), 0.35, 1.5),
+    "harmonic table, five cycles": (excitation(3, D=0.015, f=2.5, cycles=5), harmonic(0.015, 2.5, cycles=5),
+                                    0.2, 2.5),
+    "harmonic with reversals": (excitation(3, D=0.02, f=2.5, cycles=4), harmonic(0.02, 2.5, cycles=4), 0.1, 2.0),
+}
+
+
+@pytest.mark.parametrize("case", list(FMU_CASES))
+def test_fmu_slip_and_switches_match_the_closed_form(fmu, case):
+    """A squat block with mu < b/h under motions below the uplift threshold: the FMU's slip to
+    1e-9 m at every communication point, its mode switches (event log) to 1e-9 s, the block
+    never tilts, and the summaries (peak slip, time sliding, first slide, slide count) agree."""
+    params, ground, mu, stop = FMU_CASES[case]
+    peak_ah = max(abs(ground.ah0) + abs(ground.amplitude), 1e-300)
+    assert peak_ah < SQUAT["block1.halfWidth"] / SQUAT["block1.halfHeight"] * (G + ground.av0 - abs(ground.vertical))
+    exact = coulomb_block(ground, mu, stop, g=G)
+    t, out, events = run_fmu(fmu, {**SQUAT, **params, "contact.muGround": mu}, stop, 0.01)
+    np.testing.assert_allclose(out["block1.slip"], exact.slip(t), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(out["block1.slipRate"], exact.slip_rate(t), rtol=0, atol=1e-9)
+    assert np.all(out["block1.theta"] == 0.0)
+    expected = [(s.kind, s.t) for s in exact.switches]
+    got = fmu_switches(events)
+    reversals = [s.t for s in exact.switches if s.kind == "reverse"]
+    if reversals:  # a reversal is logged as a slide the other way
+        expected = [("slide" if k == "reverse" else k, x) for k, x in expected]
+    assert [k for k, _ in got] == [k for k, _ in expected], (got, expected)
+    np.testing.assert_allclose([x for _, x in got], [x for _, x in expected], rtol=0, atol=1e-9)
+    assert out["block1.maxAbsSlip"][-1] == pytest.approx(exact.max_abs_slip, abs=1e-9)
+    assert out["block1.slideDuration"][-1] == pytest.approx(exact.slide_duration, abs=1e-9)
+    assert out["block1.slideStartTime"][-1] == pytest.approx(exact.first_slide_time, abs=1e-12)
+    assert out["block1.slides"][-1] == len(exact.times("slide"))
+    sliding = np.array([exact._phase(x).sigma != 0 for x in t])
+    away = np.array([min(abs(x - s.t) for s in exact.switches) > 1e-6 for x in t])
+    np.testing.assert_array_equal(out["block1.mode"][away], np.where(sliding[away], 1, 0))
+
+
+@pytest.mark.parametrize("A, f, mu, t0", [(4.0, 2.0, 0.3, 0.0), (6.5, 3.0, 0.5, 0.37), (2.0, 1.0, 0.1, 0.05)])
+def test_fmu_starts_to_slide_from_rest_at_asin_mu_g_over_a(fmu, A, f, mu, t0):
+    """Stick to slip from rest at t0 + asin(mu g / A) / (2 pi f), to 1e-12 s, sliding to -x."""
+    expected = t0 + math.asin(mu * G / A) / (2 * math.pi * f)
+    stop = t0 + 0.5 / f
+    _, out, events = run_fmu(fmu, {**SQUAT, **excitation(1, A=A, f=f, cycles=1, t0=t0), "contact.muGround": mu},
+                             stop, stop / 4)
+    slides = [(float(v["t"]), float(v["sigma"])) for k, v in events if k == "slide" and "sigma" in v]
+    assert slides and slides[0][1] == -1
+    assert abs(slides[0][0] - expected) <= 1e-12
+    assert abs(out["block1.slideStartTime"][-1] - expected) <= 1e-12
+
+
+def test_fmu_squat_block_of_the_issue_slides_and_never_rocks(fmu):
+    """Half sizes 0.3 m x 0.36 m, mu = 0.3, a 12 m/s2 one-sine pulse at 2 Hz: above the uplift
+    threshold g b / h, but friction cannot carry the force uplift needs; it slides (peak about
+    0.24 m) exactly as the Coulomb block does."""
+    ground = sine_pulse(12.0, 2.0)
+    exact = coulomb_block(ground, 0.3, 1.0, g=G)
+    t, out, events = run_fmu(fmu, {**SQUAT, **excitation(1, A=12.0, f=2.0, cycles=1), "contact.muGround": 0.3},
+                             1.0, 0.01)
+    assert 12.0 > G * 0.3 / 0.36 and np.all(out["block1.theta"] == 0.0)
+    assert not [k for k, _ in events if k in ("uplift", "slide-rock", "impact")]
+    np.testing.assert_allclose(out["block1.slip"], exact.slip(t), rtol=0, atol=1e-9)
+    assert out["block1.maxAbsSlip"][-1] == pytest.approx(exact.max_abs_slip, abs=1e-9)
+    assert 0.23 < exact.max_abs_slip < 0.25
