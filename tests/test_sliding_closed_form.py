@@ -186,7 +186,7 @@ SQUAT = {"block1.halfWidth": 0.3, "block1.halfHeight": 0.36, "block1.mass": 50.0
          "contact.model": 1}  # b/h = 0.83: with mu < b/h the block can only slide
 OUT = ["block1.slip", "block1.slipRate", "block1.mode", "block1.theta", "block1.maxAbsSlip",
        "block1.slideDuration", "block1.slideStartTime", "block1.slides"]
-EVENT_KINDS = ("slide", "stick", "slide-rock", "uplift", "impact", "rest")
+EVENT_KINDS = ("slide", "stick", "reverse", "slide-rock", "uplift", "impact", "rest")
 
 
 def run_fmu(fmu, params: dict, stop: float, step: float):
@@ -236,8 +236,8 @@ def run_fmu(fmu, params: dict, stop: float, step: float):
 
 
 def fmu_switches(events) -> list[tuple[str, float]]:
-    """The FMU's mode switches of the sliding model as (kind, t): slide (with sigma), stick."""
-    return [(k, float(v["t"])) for k, v in events if k == "stick" or (k == "slide" and "sigma" in v)]
+    """The FMU's mode switches of the sliding model as (kind, t): slide (with sigma), stick, reverse."""
+    return [(k, float(v["t"])) for k, v in events if k in ("stick", "reverse") or (k == "slide" and "sigma" in v)]
 
 
 def excitation(kind: int, **kw) -> dict:
@@ -277,11 +277,10 @@ def test_fmu_slip_and_switches_match_the_closed_form(fmu, case):
     assert np.all(out["block1.theta"] == 0.0)
     expected = [(s.kind, s.t) for s in exact.switches]
     got = fmu_switches(events)
-    reversals = [s.t for s in exact.switches if s.kind == "reverse"]
-    if reversals:  # a reversal is logged as a slide the other way
-        expected = [("slide" if k == "reverse" else k, x) for k, x in expected]
     assert [k for k, _ in got] == [k for k, _ in expected], (got, expected)
     np.testing.assert_allclose([x for _, x in got], [x for _, x in expected], rtol=0, atol=1e-9)
+    assert [int(float(v["sigma"])) for k, v in events if k in ("slide", "reverse")] == \
+        [s.sigma for s in exact.switches if s.kind in ("slide", "reverse")]
     assert out["block1.maxAbsSlip"][-1] == pytest.approx(exact.max_abs_slip, abs=1e-9)
     assert out["block1.slideDuration"][-1] == pytest.approx(exact.slide_duration, abs=1e-9)
     assert out["block1.slideStartTime"][-1] == pytest.approx(exact.first_slide_time, abs=1e-12)
