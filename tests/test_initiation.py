@@ -135,3 +135,13 @@ def test_the_fmu_starts_in_the_mode_the_criteria_give(fmu):
         slips = e in (Mode.SLIDE, Mode.SLIDE_ROCK)
         assert (s.theta * side > 0) if turns else s.theta == 0.0, (p, s)
         assert (s.slip_rate * side > 0 and s.slip * side > 0) if slips else s.slip_rate == 0.0, (p, s)
+
+
+def test_runners_figures_draws_the_initiation_map(tmp_path, fmu_path):
+    """docs/figures/initiation_map.png is redrawn by `runners figures --only initiation_map`."""
+    from conftest import run_cli
+
+    p = run_cli("figures", "--only", "initiation_map", "--out", str(tmp_path), db=f"sqlite:///{tmp_path / 'x.db'}",
+                fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "initiation_map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

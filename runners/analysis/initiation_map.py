@@ -52,8 +52,11 @@ class StartPoint:
     av_over_g: float = 0.0
 
     def parameters(self, g: float = G, half_height: float = HALF_HEIGHT) -> dict[str, float]:
-        """The FMU's parameters and inputs for this point: rocking-sliding, flat at rest, constant inputs."""
+        """The FMU's parameters and inputs for this point: rocking-sliding, flat at rest, constant inputs.
+        The restitution law is the constant eta = 0.9 (no impact happens at the start; Housner's
+        coefficient would be negative for b/h > sqrt(2))."""
         return {"contact.model": 1, "contact.muGround": self.mu, "block1.halfHeight": half_height,
+                "restitution.law": 2, "restitution.eta": 0.9,
                 "block1.halfWidth": self.b_over_h * half_height, "block1.theta0": 0.0, "block1.omega0": 0.0,
                 "excitation.kind": 0, "g": g, "ground.ah": self.ah_over_g * g, "ground.av": self.av_over_g * g}
 
