@@ -193,7 +193,8 @@ class SlidingSolution:
     def __post_init__(self) -> None:
         self._ends = np.array([p.t_end for p in self.phases])
 
-    def _phase(self, t: float) -> Phase:
+    def phase_at(self, t: float) -> Phase:
+        """The phase that holds at ``t`` (s); at a switch, the one that ends there."""
         if not self.t_start <= t <= self.t_stop:
             raise ValueError(f"t = {t} is outside the solution's span [{self.t_start}, {self.t_stop}]")
         i = int(np.searchsorted(self._ends, t, side="left"))
@@ -202,14 +203,14 @@ class SlidingSolution:
     def slip(self, t: float | np.ndarray) -> float | np.ndarray:
         """Slip u (m) at ``t`` (s): a float or an array like ``t``."""
         if np.ndim(t) == 0:
-            return self._phase(float(t)).slip(float(t))
-        return np.array([self._phase(float(x)).slip(float(x)) for x in np.asarray(t, dtype=float)])
+            return self.phase_at(float(t)).slip(float(t))
+        return np.array([self.phase_at(float(x)).slip(float(x)) for x in np.asarray(t, dtype=float)])
 
     def slip_rate(self, t: float | np.ndarray) -> float | np.ndarray:
         """Slip rate u' (m/s) at ``t`` (s)."""
         if np.ndim(t) == 0:
-            return self._phase(float(t)).rate(float(t))
-        return np.array([self._phase(float(x)).rate(float(x)) for x in np.asarray(t, dtype=float)])
+            return self.phase_at(float(t)).rate(float(t))
+        return np.array([self.phase_at(float(x)).rate(float(x)) for x in np.asarray(t, dtype=float)])
 
     def times(self, kind: str) -> list[float]:
         """Times (s) of the switches of one kind."""
