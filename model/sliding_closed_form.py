@@ -331,6 +331,8 @@ def coulomb_block(ground: SineGround, mu: float, t_stop: float, g: float = G_DEF
                 phases.append(phase)
                 u, v, t = phase.slip(b), phase.rate(b), b
                 continue
+            if not end > t:  # cannot happen for a slide that has started; never loop on it
+                raise RuntimeError(f"a sliding phase from t = {t} s ends where it starts")
             phase = Phase(t, end, u, v, sigma, c, k, w, ground.t0)
             phases.append(phase)
             u, v, t = phase.slip(end), 0.0, end
