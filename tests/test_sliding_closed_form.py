@@ -323,3 +323,52 @@ def test_fmu_squat_block_of_the_issue_slides_and_never_rocks(fmu):
     np.testing.assert_allclose(out["block1.slip"], exact.slip(t), rtol=0, atol=1e-9)
     assert out["block1.maxAbsSlip"][-1] == pytest.approx(exact.max_abs_slip, abs=1e-9)
     assert 0.23 < exact.max_abs_slip < 0.25
+
+
+def random_cases(n: int, seed: int):
+    """Random sine pulses and harmonics below the squat block's uplift threshold, with mu, a
+    constant a_h and a_v and a vertical sine: (FMU parameters, closed-form ground, mu, stop)."""
+    rng = np.random.default_rng(seed)
+    beta = SQUAT["block1.halfWidth"] / SQUAT["block1.halfHeight"]
+    out = []
+    while len(out) < n:
+        mu, f = rng.uniform(0.05, 0.6), rng.uniform(0.5, 6.0)
+        cycles, t0 = float(rng.integers(1, 4)) + rng.choice([0.0, 0.5]), rng.uniform(0.0, 0.3)
+        ah0, av0, V = rng.uniform(-1.0, 1.0), rng.uniform(-3.0, 3.0), rng.uniform(-2.0, 2.0)
+        A = rng.uniform(1.0, 8.0) * rng.choice([-1, 1])
+        if abs(ah0) + abs(A) >= 0.95 * beta * (G + av0 - abs(V)):
+            continue  # the block must not be able to tip
+        if rng.random() < 0.5:
+            params, ground = excitation(1, A=A, f=f, cycles=cycles, t0=t0, V=V, ah=ah0, av=av0), \
+                sine_pulse(A, f, cycles, t0, V, ah0, av0)
+        else:
+            D = A / (2 * math.pi * f) ** 2
+            params, ground = excitation(3, D=D, f=f, cycles=cycles, t0=t0, V=V, ah=ah0, av=av0), \
+                harmonic(D, f, cycles, t0, V, ah0, av0)
+        out.append((params, ground, mu, t0 + cycles / f + 0.5))
+    return out
+
+
+def test_closed_form_matches_the_numerical_integration_on_random_motions():
+    for params, ground, mu, stop in random_cases(12, seed=7):
+        exact = coulomb_block(ground, mu, stop, g=G)
+        ah = lambda t, gr=ground: gr(t)[0]  # noqa: E731
+        av = lambda t, gr=ground: gr(t)[1]  # noqa: E731
+        switches, u = integrate(ah, av, list(ground.breaks()), mu, stop, max_step=0.01 / ground.frequency)
+        assert [k for k, _ in switches] == [s.kind for s in exact.switches], params
+        np.testing.assert_allclose([s.t for s in exact.switches], [t for _, t in switches], rtol=0, atol=1e-11)
+        times = np.linspace(0, stop, 101)
+        np.testing.assert_allclose(exact.slip(times), [u(t) for t in times], rtol=0, atol=1e-11)
+
+
+def test_fmu_matches_the_closed_form_on_random_motions(fmu):
+    """40 random pulses and harmonic table motions (with constant a_h, a_v and a vertical sine)
+    on the squat block: slip to 1e-9 m, switches to 1e-9 s."""
+    for params, ground, mu, stop in random_cases(40, seed=26):
+        t, out, events = run_fmu(fmu, {**SQUAT, **params, "contact.muGround": mu}, stop, stop / 50)
+        exact = coulomb_block(ground, mu, float(t[-1]), g=G)  # 50 steps of stop / 50: t[-1] may differ by an ulp
+        np.testing.assert_allclose(out["block1.slip"], exact.slip(t), rtol=0, atol=1e-9, err_msg=str(params))
+        got = fmu_switches(events)
+        assert [k for k, _ in got] == [s.kind for s in exact.switches], params
+        np.testing.assert_allclose([x for _, x in got], [s.t for s in exact.switches], rtol=0, atol=1e-9,
+                                   err_msg=str(params))
