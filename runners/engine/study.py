@@ -623,8 +623,9 @@ def _uplift_label(oc: Outcomes) -> str | None:
     thr = oc.uplift_threshold()
     if thr is None:
         return None
-    what = "static threshold of motion, min(mu, tan alpha) g," if oc.sliding else "static uplift threshold"
-    return (f"{what} {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
+    if oc.sliding:
+        return f"no motion from rest below min(mu, tan alpha) g = {thr:.4g} g (Shenton 1996)"
+    return (f"static uplift threshold {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
             f"m/s2, over g0 = {G0})")
 
 
