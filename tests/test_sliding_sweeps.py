@@ -259,3 +259,11 @@ def test_slide_states_and_slip_demands_are_refused_on_rigid_sweeps_in_one_line(d
     for ds in ("slide>0cm", "slide>-5cm", "slide>5km", "slide>nan"):
         p = cli("fragility", "1", "--ds", ds, "--out", str(png), db=db, fmu_path=fmu_path)
         assert one_line_refusal(p) and "D in slide>D must be a distance above 0" in p.stderr, (ds, p.stderr)
+    # a sweep over both models: the rigid runs are named, and the sliding ones can be selected
+    assert cli("sweep", str(scene), "--records", "1,2", "--im", "pga=0.2:0.6:2", "--grid", "contact.model=0:1:2",
+               "--quiet", db=db, fmu_path=fmu_path).returncode == 0
+    p = cli("ida", "2", "--demand", "slip", "--out", str(png), db=db, fmu_path=fmu_path)
+    assert one_line_refusal(p) and "at contact.model = 0" in p.stderr and "--select contact.model=1" in p.stderr
+    p = cli("ida", "2", "--demand", "slip", "--select", "contact.model=1", "--out", str(png), "--json", db=db,
+            fmu_path=fmu_path)
+    assert p.returncode == 0 and len(json.loads(p.stdout)["runs"]) == 4, p.stderr

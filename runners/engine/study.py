@@ -472,10 +472,18 @@ def _slip_state(spec: str, distance: str, block: str, oc: Outcomes) -> DamageSta
     if block == "2":
         raise StudyError(f"damage state {spec!r}: only block 1 slides (the rocking–sliding model has one block)")
     if oc.slip is None:
-        raise StudyError(f"damage state {spec!r}: sweep {oc.sweep_id} runs rigid rocking, which computes no slip: "
-                         "set contact.model = rocking-sliding ([contact] model = \"rocking-sliding\" in the scene, "
-                         "or --grid contact.model=rocking-sliding) and sweep again")
+        raise StudyError(f"damage state {spec!r}: {no_slip(oc)}")
     return DamageState("slip", "either", d)
+
+
+def no_slip(oc: Outcomes) -> str:
+    """Why runs `oc` have no slip (rigid rocking), and how to get one, in one line."""
+    if "contact.model" in oc.combination:  # a sweep over both models: pick the sliding one
+        return (f"sweep {oc.sweep_id} runs rigid rocking at {oc.combination_text()}, which computes no slip: select "
+                "the rocking–sliding runs (--select contact.model=1)")
+    return (f"sweep {oc.sweep_id} runs rigid rocking, which computes no slip: set contact.model = rocking-sliding "
+            "([contact] model = \"rocking-sliding\" in the scene, or --grid contact.model=rocking-sliding) and sweep "
+            "again")
 
 
 @dataclass
@@ -768,10 +776,9 @@ def check_demand(demand: str, sets: list[Outcomes]) -> str:
     """The IDA demand (rotation or slip), checked against the runs; StudyError in one line."""
     if demand not in DEMANDS:
         raise StudyError(f"--demand {demand!r}: expected rotation (peak |theta| / alpha) or slip (peak |slip|, m)")
-    if demand == "slip" and any(o.slip is None for o in sets):
-        raise StudyError(f"--demand slip: sweep {sets[0].sweep_id} runs rigid rocking, which computes no slip: set "
-                         "contact.model = rocking-sliding ([contact] model = \"rocking-sliding\" in the scene, or "
-                         "--grid contact.model=rocking-sliding) and sweep again")
+    rigid = [o for o in sets if o.slip is None]
+    if demand == "slip" and rigid:
+        raise StudyError(f"--demand slip: {no_slip(rigid[0])}")
     return demand
 
 
