@@ -1,0 +1,115 @@
+"""The independent rocking-sliding reference (model/sliding_reference.py): energy balance, impacts that
+never add energy, closed forms of a Coulomb block; then against RockingBlock.fmu (contact.model = 1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from model.sliding_reference import (REST, ROCK, SLIDE, SLIDE_ROCK, SlidingBlock, energy, harmonic, impact,
+                                     sine_pulse, simulate)
+
+SQUAT = dict(b=0.3, h=0.36)  # tan(alpha) = 0.833
+G = 9.81
+
+
+def energy_scale(blk: SlidingBlock, run) -> float:
+    """Initial energy, the largest |ground work|, or the work to tip the block onto a corner."""
+    return max(abs(run.energy[0]), float(np.max(np.abs(run.ground_work))), blk.m * blk.g * (blk.R - blk.h))
+
+
+FREE = {  # block thrown along the ground at 1 m/s
+    "slides, mu < tan(alpha)": (SlidingBlock(mu=0.3, **SQUAT), None, 1.0),
+    "tips and slide-rocks, mu > tan(alpha)": (SlidingBlock(mu=0.9, **SQUAT), None, 1.0),
+}
+EXCITED = {
+    "sine pulse, slides": (SlidingBlock(mu=0.3, **SQUAT), sine_pulse(12.0, 2.0), 0.0),
+    "sine pulse, rocks then slide-rocks": (SlidingBlock(0.2, 0.4, 0.55), sine_pulse(8.0, 2.0), 0.0),
+    "harmonic, slides with stick phases": (SlidingBlock(mu=0.3, **SQUAT), harmonic(0.025, 2.0, cycles=3), 0.0),
+}
+
+
+@pytest.mark.parametrize("case", [*FREE, *EXCITED])
+def test_energy_balances_along_the_run_and_impacts_never_add_energy(case):
+    blk, exc, v0 = {**FREE, **EXCITED}[case]
+    run = simulate(blk, exc, 2.0, slip_rate0=v0)
+    scale = energy_scale(blk, run)
+    assert np.max(np.abs(run.balance_error)) <= 1e-9 * scale
+    assert all(dE <= 1e-12 * scale for dE in run.impact_energy_change)
+    assert np.all(np.diff(run.friction_loss) >= -1e-12 * scale)  # friction only dissipates
+    assert np.all(np.diff(run.impact_loss) >= -1e-12 * scale)
+    # each case does what its name says
+    modes = set(run.mode.tolist())
+    if "slide" in case and "rock" not in case:
+        assert SLIDE in modes and ROCK not in modes and SLIDE_ROCK not in modes
+    if "rock" in case:
+        assert SLIDE_ROCK in modes and len(run.impact_times) >= 2 and run.impact_loss[-1] > 0
+    if "rocks then" in case:
+        first = {new: t for t, _, new in reversed(run.switches)}
+        assert first[ROCK] < first[SLIDE_ROCK]
+    if "stick phases" in case:
+        assert [k for k, _ in run.events].count("stick") >= 2 and [k for k, _ in run.events].count("slide") >= 3
+
+
+def test_a_block_thrown_on_the_ground_stops_where_coulomb_says():
+    """Decelerating at mu g: stops after v0 / (mu g), having slid v0^2 / (2 mu g)."""
+    for mu, v0 in ((0.3, 1.0), (0.5, -2.5)):
+        blk = SlidingBlock(mu=mu, **SQUAT)
+        run = simulate(blk, None, 1.5, slip_rate0=v0)
+        assert run.events == [("stick", pytest.approx(abs(v0) / (mu * G), abs=1e-12))]
+        assert run.final_slip == pytest.approx(math.copysign(v0 * v0 / (2 * mu * G), v0), abs=1e-12)
+        assert run.friction_loss[-1] == pytest.approx(0.5 * blk.m * v0 * v0, rel=1e-12)
+
+
+def test_a_sine_pulse_starts_the_slide_and_reverses_it_where_the_closed_form_says():
+    """a_h = A sin(w t): slides at asin(mu g / A) / w (towards -x); while it slides,
+    u' = (A / w)(cos w t - cos w ts) + mu g (t - ts), whose zero is the reversal."""
+    A, f, mu = 12.0, 2.0, 0.3
+    w = 2 * math.pi * f
+    run = simulate(SlidingBlock(mu=mu, **SQUAT), sine_pulse(A, f), 1.0)
+    ts = math.asin(mu * G / A) / w
+    assert run.event_times("slide")[0] == pytest.approx(ts, abs=1e-12)
+    rate = lambda t: (A / w) * (math.cos(w * t) - math.cos(w * ts)) + mu * G * (t - ts)  # noqa: E731
+    tr = brentq(rate, ts + 1e-3, 1.0 / f, xtol=1e-15)
+    assert run.event_times("reverse")[0] == pytest.approx(tr, abs=1e-10)
+    slip_tr = ((A / w**2) * (math.sin(w * tr) - math.sin(w * ts)) - (A / w) * math.cos(w * ts) * (tr - ts)
+               + 0.5 * mu * G * (tr - ts) ** 2)
+    i = np.flatnonzero(run.t == tr)[0]
+    assert run.slip[i] == pytest.approx(slip_tr, abs=1e-10)
+    assert run.peak_abs_slip == pytest.approx(abs(slip_tr), abs=1e-10)
+
+
+def test_the_impact_law_never_adds_energy_and_sticks_when_friction_allows():
+    rng = np.random.default_rng(26)
+    n_slide = 0
+    for _ in range(2000):
+        b, h = rng.uniform(0.05, 1.0, 2)
+        blk = SlidingBlock(b, h, rng.uniform(0.05, 1.2))
+        s = int(rng.choice([-1, 1]))
+        wm = s * -rng.uniform(1e-3, 3.0)  # towards the landing corner -s
+        vm = rng.normal(0.0, 0.5) * (rng.random() < 0.7)
+        res = impact(blk, s, wm, vm, 0.0, 0.0)
+        before, after = energy(blk, s, 0.0, wm, vm), energy(blk, -s, 0.0, res.omega_plus, res.slip_rate_plus)
+        assert after <= before * (1 + 1e-13)
+        assert res.Pn >= 0 and abs(res.Pt) <= blk.mu * res.Pn * (1 + 1e-12)
+        if not res.flat:
+            # the generalised Housner relation about the landing corner
+            I0 = 4 / 3 * blk.m * blk.R**2
+            assert I0 * res.omega_plus + blk.m * h * res.slip_rate_plus == pytest.approx(
+                blk.restitution * I0 * wm + blk.m * h * vm, rel=1e-12, abs=1e-12)
+            if res.slip_rate_plus != 0:
+                n_slide += 1
+                assert math.copysign(1, res.slip_rate_plus) == -math.copysign(1, res.Pt)  # impulse opposes slip
+    assert n_slide > 100
+
+
+def test_mode_switch_on_rest_follows_shenton():
+    """From rest under a slowly growing push: slide if mu <= tan(alpha), else rock."""
+    for mu, expected in ((0.5, SLIDE), (1.0, ROCK)):
+        run = simulate(SlidingBlock(mu=mu, **SQUAT), sine_pulse(12.0, 0.5), 0.6)
+        t, before, after = run.switches[0]
+        assert (before, after) == (REST, expected)
+        assert t == pytest.approx(math.asin(min(mu, 0.3 / 0.36) * G / 12.0) / math.pi, abs=1e-12)
