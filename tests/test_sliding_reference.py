@@ -4,12 +4,14 @@ never add energy, closed forms of a Coulomb block; then against RockingBlock.fmu
 from __future__ import annotations
 
 import math
+import re
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from model.sliding_reference import (REST, ROCK, SLIDE, SLIDE_ROCK, SlidingBlock, energy, harmonic, impact,
+from model.sliding_reference import (REST, ROCK, SLIDE, SLIDE_ROCK, SlidingBlock, energy, harmonic, impact, record,
                                      sine_pulse, simulate)
 
 SQUAT = dict(b=0.3, h=0.36)  # tan(alpha) = 0.833
@@ -113,3 +115,112 @@ def test_mode_switch_on_rest_follows_shenton():
         t, before, after = run.switches[0]
         assert (before, after) == (REST, expected)
         assert t == pytest.approx(math.asin(min(mu, 0.3 / 0.36) * G / 12.0) / math.pi, abs=1e-12)
+
+
+# ------------------------------------------------------------------------------------- against the FMU
+
+TIGHT = {"solver.relTol": 1e-12, "solver.absTol": 1e-14}
+OUTPUTS = ["block1.slip", "block1.maxAbsSlip", "block1.mode", "block1.frictionLoss", "impactLoss", "groundWork",
+           "energy"]
+SWITCH_KINDS = ("slide", "stick", "uplift", "slide-rock", "rest", "reverse")
+
+
+@dataclass
+class FmuRun:
+    events: list[tuple[str, float]]  # (kind, t) from the event log
+    final: dict[str, float]  # outputs at the stop time
+
+    def times(self, *kinds: str) -> np.ndarray:
+        return np.array(sorted(t for k, t in self.events if k in kinds))
+
+
+def run_fmu(fmu, params: dict, stop: float) -> FmuRun:
+    """One fmi2DoStep over the whole run (the results do not depend on the communication step),
+    the event log parsed line by line: "KIND t=... key=value ..."."""
+    lines: list[str] = []
+    slave, _cb = fmu.instantiate(lambda status, cat, msg: lines.append(msg) if cat == "logEvents" else None)
+    try:
+        slave.setupExperiment(startTime=0.0, stopTime=stop)
+        fmu.set_parameters(slave, {"contact.model": 1, **TIGHT, **params})
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=stop)
+        final = dict(zip(OUTPUTS, fmu._getter(slave, OUTPUTS)()))
+        slave.terminate()
+    finally:
+        slave.freeInstance()
+    events = []
+    for line in lines:
+        m = re.match(r"^(\S+) t=(\S+)", line)
+        if m and m.group(1) != "peak":
+            events.append((m.group(1), float(m.group(2))))
+    return FmuRun(events, final)
+
+
+@pytest.fixture(scope="module")
+def sliding_fmu(fmu):
+    if "contact.model" not in fmu.vars:
+        pytest.skip("this FMU has no contact.model (rocking-sliding) yet")
+    return fmu
+
+
+def fmu_params(blk: SlidingBlock) -> dict:
+    return {"block1.halfWidth": blk.b, "block1.halfHeight": blk.h, "block1.mass": blk.m, "g": blk.g,
+            "contact.muGround": blk.mu}
+
+
+def compare(fmu_run: FmuRun, ref, tol: float = 1e-8) -> None:
+    """Impact times, mode-switch times (every logged switch), peak and final slip."""
+    np.testing.assert_allclose(fmu_run.times("impact"), ref.impact_times, rtol=0, atol=tol)
+    ref_switches = np.array(sorted(t for k, t in ref.events if k in SWITCH_KINDS))
+    fmu_switches = fmu_run.times(*SWITCH_KINDS)
+    np.testing.assert_allclose(fmu_switches, ref_switches, rtol=0, atol=tol)
+    if ref.overturned:
+        np.testing.assert_allclose(fmu_run.times("overturn"), ref.event_times("overturn"), rtol=0, atol=tol)
+    assert fmu_run.final["block1.maxAbsSlip"] == pytest.approx(ref.peak_abs_slip, abs=tol)
+    assert fmu_run.final["block1.slip"] == pytest.approx(ref.final_slip, abs=tol)
+
+
+PULSES = {
+    "sine pulse that only slides": (SlidingBlock(mu=0.3, **SQUAT), sine_pulse(12.0, 2.0),
+                                    {"excitation.kind": 1, "excitation.amplitude": 12.0, "excitation.frequency": 2.0}, 2.0),
+    "sine pulse that rocks, then slide-rocks": (SlidingBlock(0.2, 0.4, 0.55), sine_pulse(8.0, 2.0),
+                                                {"excitation.kind": 1, "excitation.amplitude": 8.0,
+                                                 "excitation.frequency": 2.0}, 3.0),
+    "harmonic with stick phases": (SlidingBlock(mu=0.3, **SQUAT), harmonic(0.025, 2.0, cycles=3),
+                                   {"excitation.kind": 3, "excitation.displacement": 0.025,
+                                    "excitation.frequency": 2.0, "excitation.cycles": 3}, 2.5),
+}
+
+
+@pytest.mark.parametrize("case", PULSES)
+def test_the_fmu_agrees_with_the_reference_on_pulses(sliding_fmu, case):
+    blk, exc, params, stop = PULSES[case]
+    ref = simulate(blk, exc, stop)
+    got = run_fmu(sliding_fmu, {**fmu_params(blk), **params}, stop)
+    compare(got, ref)
+    scale = energy_scale(blk, ref)
+    assert got.final["block1.frictionLoss"] == pytest.approx(ref.friction_loss[-1], abs=1e-8 * scale)
+    assert got.final["impactLoss"] == pytest.approx(ref.impact_loss[-1], abs=1e-8 * scale)
+    assert got.final["groundWork"] == pytest.approx(ref.ground_work[-1], abs=1e-8 * scale)
+
+
+RECORDS = {  # FEMA P695 record, component, scale, block, stop time
+    "near-field 1a x2, squat block slides 0.27 m": ("nearfield_pulse", 1, "a", 2.0, SlidingBlock(mu=0.3, **SQUAT), 15.0),
+    "far-field 1a x2, rocks, slide-rocks, overturns": ("farfield", 1, "a", 2.0, SlidingBlock(0.2, 0.4, 0.55), 20.0),
+}
+
+
+@pytest.mark.parametrize("case", RECORDS)
+def test_the_fmu_agrees_with_the_reference_on_fema_records(sliding_fmu, tmp_path, case):
+    from tests.test_records_fmu import fema_component, write_record
+
+    record_set, index, component, scale, blk, stop = RECORDS[case]
+    t, a = fema_component(record_set, index, component)
+    t, a = np.append(t, t[-1] + (t[1] - t[0])), np.append(a, 0.0)  # ends without a jump
+    path = write_record(tmp_path / "record.txt", t, a)
+    ref = simulate(blk, record(t, a, scale=scale), stop)
+    assert len(ref.switches) >= 10
+    got = run_fmu(sliding_fmu, {**fmu_params(blk), "excitation.kind": 4, "excitation.file": str(path),
+                                "excitation.scale": scale}, stop)
+    compare(got, ref)
