@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from model.sliding_reference import (REST, ROCK, SLIDE, SLIDE_ROCK, SlidingBlock, energy, harmonic, impact, record,
-                                     sine_pulse, simulate)
+from model.sliding_reference import (REST, ROCK, SLIDE, SLIDE_ROCK, SlidingBlock, energy, harmonic, impact,
+                                     mode_forces, record, sine_pulse, simulate)
 
 SQUAT = dict(b=0.3, h=0.36)  # tan(alpha) = 0.833
 G = 9.81
@@ -106,6 +106,31 @@ def test_the_impact_law_never_adds_energy_and_sticks_when_friction_allows():
                 n_slide += 1
                 assert math.copysign(1, res.slip_rate_plus) == -math.copysign(1, res.Pt)  # impulse opposes slip
     assert n_slide > 100
+
+
+def test_each_mode_satisfies_newton_euler_solved_as_a_linear_system():
+    """mode_forces against numpy's solution of m X'' = T - m a_h, m Y'' = N - m G,
+    Ic w' = R sin(phi) N - R cos(phi) T, with X'', Y'' from the kinematics of the pivot."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        b, h = rng.uniform(0.05, 1.0, 2)
+        blk = SlidingBlock(b, h, rng.uniform(0.05, 0.8))
+        s, sigma = int(rng.choice([-1, 1])), int(rng.choice([-1, 1]))
+        theta, omega = s * rng.uniform(0, 0.5 * blk.alpha), rng.normal(0, 2.0)
+        ah, av = rng.normal(0, 5.0, 2)
+        m, R, Gv, phi = blk.m, blk.R, blk.g + av, theta - s * blk.alpha
+        sp, cp = math.sin(phi), math.cos(phi)
+        Ic = m * R * R / 3
+        # unknowns (w', u'', T, N); rows: x, y, moment, then the mode's own condition
+        A = np.array([[m * R * cp, m, -1, 0], [-m * R * sp, 0, 0, -1], [Ic, 0, R * cp, -R * sp], [0, 0, 0, 0.0]])
+        rhs = np.array([-m * ah + m * R * sp * omega**2, -m * Gv + m * R * cp * omega**2, 0, 0])
+        for mode in (ROCK, SLIDE_ROCK):
+            A[3] = [0, 1, 0, 0] if mode == ROCK else [0, 0, 1, sigma * blk.mu]  # u'' = 0 or T = -sigma mu N
+            if mode == SLIDE_ROCK and 1 / 3 + (sp + sigma * blk.mu * cp) * sp <= 0.05:
+                continue  # near the Painleve configuration, where slide-rock has no (or no unique) solution
+            wd, ud, T, N = np.linalg.solve(A, rhs)
+            f = mode_forces(blk, mode, s, sigma, theta, omega, ah, av)
+            np.testing.assert_allclose([f.omega_dot, f.slip_acc, f.T, f.N], [wd, ud, T, N], rtol=1e-9, atol=1e-9)
 
 
 def test_mode_switch_on_rest_follows_shenton():
