@@ -233,7 +233,8 @@ def energy(blk: SlidingBlock, s: int, theta: float, omega: float, slip_rate: flo
     """1/2 m |V|^2 + 1/2 Ic omega^2 + m g (Y - h) (J), V relative to the ground, g constant."""
     vx, vy = centre_velocity(blk, s, theta, omega, slip_rate)
     Y = blk.R * math.cos(theta - s * blk.alpha)
-    return 0.5 * blk.m * (vx * vx + vy * vy) + 0.5 * blk.m * blk.R ** 2 / 3.0 * omega * omega + blk.m * blk.g * (Y - blk.h)
+    kinetic = 0.5 * blk.m * (vx * vx + vy * vy) + 0.5 * blk.m * blk.R ** 2 / 3.0 * omega * omega
+    return kinetic + blk.m * blk.g * (Y - blk.h)
 
 
 @dataclass

@@ -208,7 +208,8 @@ def compare(fmu_run: FmuRun, ref, tol: float = 1e-8) -> None:
 
 PULSES = {
     "sine pulse that only slides": (SlidingBlock(mu=0.3, **SQUAT), sine_pulse(12.0, 2.0),
-                                    {"excitation.kind": 1, "excitation.amplitude": 12.0, "excitation.frequency": 2.0}, 2.0),
+                                    {"excitation.kind": 1, "excitation.amplitude": 12.0,
+                                     "excitation.frequency": 2.0}, 2.0),
     "sine pulse that rocks, then slide-rocks": (SlidingBlock(0.2, 0.4, 0.55), sine_pulse(8.0, 2.0),
                                                 {"excitation.kind": 1, "excitation.amplitude": 8.0,
                                                  "excitation.frequency": 2.0}, 3.0),
@@ -231,7 +232,8 @@ def test_the_fmu_agrees_with_the_reference_on_pulses(sliding_fmu, case):
 
 
 RECORDS = {  # FEMA P695 record, component, scale, block, stop time
-    "near-field 1a x2, squat block slides 0.27 m": ("nearfield_pulse", 1, "a", 2.0, SlidingBlock(mu=0.3, **SQUAT), 15.0),
+    "near-field 1a x2, squat block slides 0.27 m": ("nearfield_pulse", 1, "a", 2.0, SlidingBlock(mu=0.3, **SQUAT),
+                                                    15.0),
     "far-field 1a x2, rocks, slide-rocks, overturns": ("farfield", 1, "a", 2.0, SlidingBlock(0.2, 0.4, 0.55), 20.0),
 }
 
