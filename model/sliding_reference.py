@@ -46,10 +46,14 @@ Pt = m (v+ + h w+ - v- - h w-), Pn = -m s b (w+ + w-). The three equations:
   (2) sticking: v+ = 0, accepted if |Pt| <= mu Pn; otherwise sliding: Pt = c mu Pn with
       c = sign(Pt of the sticking impact), the impulse opposing the slip it leaves;
   (3) the landing corner's vertical velocity is 0 after (built into the kinematics above).
-If w+ does not rock the block away from the landing corner (s' w+ <= 0), or the rigid model's rest
-rule holds (|a_h| <= G tan alpha and the rebound would peak below rest_ratio alpha), the block
-lands flat: w+ = 0 and v+ = 0 if |v- + h w-| <= mu b |w-|, else
-v+ = (v- + h w-) - sign(v- + h w-) mu b |w-|; then Rest or Slide (or SlideRock if mu > tan alpha).
+If w+ does not rock the block away from the landing corner (s' w+ <= 0), the block lands flat:
+w+ = 0 and v+ = 0 if |v- + h w-| <= mu b |w-|, else v+ = (v- + h w-) - sign(v- + h w-) mu b |w-|;
+then Rest or Slide (or SlideRock if mu > tan alpha). If the rigid model's rest rule holds
+(|a_h| <= G tan alpha and the rebound would peak below rest_ratio alpha), the rebound is dropped
+(w+ = 0) and the impact's own v+ is kept: 0 after a sticking impact, so the block rests. (The
+rule stands for the Zeno tail of ever smaller impacts; when they stick, that tail ends at rest
+without slip. The flat-landing formula there would invent a slip (h - mu b)|w-| whenever
+mu < h / b, and with mu > tan alpha a spurious cascade of slide-rock phases.)
 
 Mode logic (the shared modelling choices of the spec, Shenton 1996): from rest the block moves
 when |a_h| exceeds min(mu, tan alpha) G: it slides if mu <= tan alpha, else it rocks on
@@ -273,7 +277,9 @@ def impact(blk: SlidingBlock, s: int, omega_minus: float, slip_rate_minus: float
     if not flat and abs(ah) <= (blk.g + av) * math.tan(blk.alpha):  # the rigid model's rest rule
         k = 0.75 / blk.R
         cpk = math.cos(blk.alpha) + wp * wp / (2.0 * k * (blk.g + av))
-        flat = cpk < 1.0 and blk.alpha - math.acos(cpk) < blk.rest_ratio * blk.alpha
+        if cpk < 1.0 and blk.alpha - math.acos(cpk) < blk.rest_ratio * blk.alpha:
+            # a negligible rebound: drop it, keep the impact's slip rate (0 after a sticking impact)
+            return ImpactResult(0.0, vp, sticking, True, Pt, Pn)
     if flat:
         x = vm + h * wm
         wp = 0.0

@@ -194,16 +194,24 @@ def fmu_params(blk: SlidingBlock) -> dict:
             "contact.muGround": blk.mu}
 
 
-def compare(fmu_run: FmuRun, ref, tol: float = 1e-8) -> None:
-    """Impact times, mode-switch times (every logged switch), peak and final slip."""
+def compare(fmu_run: FmuRun, ref, blk: SlidingBlock, tol: float = 1e-8) -> None:
+    """Impact times, mode-switch times (every logged switch), overturn, peak and final slip, and the
+    energy terms (to tol of the energy scale)."""
     np.testing.assert_allclose(fmu_run.times("impact"), ref.impact_times, rtol=0, atol=tol)
     ref_switches = np.array(sorted(t for k, t in ref.events if k in SWITCH_KINDS))
     fmu_switches = fmu_run.times(*SWITCH_KINDS)
-    np.testing.assert_allclose(fmu_switches, ref_switches, rtol=0, atol=tol)
     if ref.overturned:
-        np.testing.assert_allclose(fmu_run.times("overturn"), ref.event_times("overturn"), rtol=0, atol=tol)
+        overturn = ref.event_times("overturn")
+        np.testing.assert_allclose(fmu_run.times("overturn"), overturn, rtol=0, atol=tol)
+        # the FMU also logs "stick" at the overturn (test_the_fmu_logs_no_stick_at_an_overturn)
+        fmu_switches = fmu_switches[fmu_switches < overturn[0] - tol]
+    np.testing.assert_allclose(fmu_switches, ref_switches, rtol=0, atol=tol)
     assert fmu_run.final["block1.maxAbsSlip"] == pytest.approx(ref.peak_abs_slip, abs=tol)
     assert fmu_run.final["block1.slip"] == pytest.approx(ref.final_slip, abs=tol)
+    scale = energy_scale(blk, ref)
+    assert fmu_run.final["block1.frictionLoss"] == pytest.approx(ref.friction_loss[-1], abs=tol * scale)
+    assert fmu_run.final["impactLoss"] == pytest.approx(ref.impact_loss[-1], abs=tol * scale)
+    assert fmu_run.final["groundWork"] == pytest.approx(ref.ground_work[-1], abs=tol * scale)
 
 
 PULSES = {
@@ -224,17 +232,13 @@ def test_the_fmu_agrees_with_the_reference_on_pulses(sliding_fmu, case):
     blk, exc, params, stop = PULSES[case]
     ref = simulate(blk, exc, stop)
     got = run_fmu(sliding_fmu, {**fmu_params(blk), **params}, stop)
-    compare(got, ref)
-    scale = energy_scale(blk, ref)
-    assert got.final["block1.frictionLoss"] == pytest.approx(ref.friction_loss[-1], abs=1e-8 * scale)
-    assert got.final["impactLoss"] == pytest.approx(ref.impact_loss[-1], abs=1e-8 * scale)
-    assert got.final["groundWork"] == pytest.approx(ref.ground_work[-1], abs=1e-8 * scale)
+    compare(got, ref, blk)
 
 
 RECORDS = {  # FEMA P695 record, component, scale, block, stop time
     "near-field 1a x2, squat block slides 0.27 m": ("nearfield_pulse", 1, "a", 2.0, SlidingBlock(mu=0.3, **SQUAT),
                                                     15.0),
-    "far-field 1a x2, rocks, slide-rocks, overturns": ("farfield", 1, "a", 2.0, SlidingBlock(0.2, 0.4, 0.55), 20.0),
+    "far-field 1a x3, rocks, slide-rocks, overturns": ("farfield", 1, "a", 3.0, SlidingBlock(0.2, 0.4, 0.55), 20.0),
 }
 
 
@@ -250,4 +254,36 @@ def test_the_fmu_agrees_with_the_reference_on_fema_records(sliding_fmu, tmp_path
     assert len(ref.switches) >= 10
     got = run_fmu(sliding_fmu, {**fmu_params(blk), "excitation.kind": 4, "excitation.file": str(path),
                                 "excitation.scale": scale}, stop)
-    compare(got, ref)
+    compare(got, ref, blk)
+
+
+def _overturning_pulse():
+    """The rock-then-slide-rock block under a 12 m/s2 sine pulse at 2 Hz: it overturns from slide-rock."""
+    blk = SlidingBlock(0.2, 0.4, 0.55)
+    params = {**fmu_params(blk), "excitation.kind": 1, "excitation.amplitude": 12.0, "excitation.frequency": 2.0}
+    return blk, sine_pulse(12.0, 2.0), params
+
+
+@pytest.mark.xfail(strict=True, reason="model/c: a sticking impact enters Rock without checking that rocking's "
+                   "friction demand is at most mu: the indicator mu N - |T| starts negative and no crossing is seen")
+def test_after_an_impact_the_fmu_slides_at_once_where_rocking_needs_more_than_mu(sliding_fmu):
+    """The block of the rock-then-slide-rock pulse, at 12 m/s2: right after the impact at 0.45267 s rocking
+    on the new corner needs |T| / N = 0.55042 > mu = 0.55, so the pivot slides (for 0.17 ms)."""
+    blk, exc, params = _overturning_pulse()
+    ref = simulate(blk, exc, 3.0)
+    t_imp = ref.impact_times[0]
+    after = [(t, new) for t, old, new in ref.switches if t_imp <= t < t_imp + 1e-3]
+    assert [new for _, new in after] == [SLIDE_ROCK, ROCK]  # the reference: slides at the impact, sticks again
+    got = run_fmu(sliding_fmu, params, 3.0)
+    assert got.times("slide", "slide-rock")[1] == pytest.approx(t_imp, abs=1e-8)
+
+
+@pytest.mark.xfail(strict=True, reason="model/c logs 'stick t=... mode=rock' at the time the block overturns "
+                   "from slide-rock (its mode output is correctly 4, Overturned)")
+def test_the_fmu_logs_no_stick_at_an_overturn(sliding_fmu):
+    blk, exc, params = _overturning_pulse()
+    ref = simulate(blk, exc, 3.0)
+    assert ref.overturned
+    got = run_fmu(sliding_fmu, params, 3.0)
+    assert got.final["block1.mode"] == 4
+    assert not [t for k, t in got.events if k == "stick" and t >= ref.event_times("overturn")[0] - 1e-8]
