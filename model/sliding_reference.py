@@ -58,7 +58,11 @@ mu < h / b, and with mu > tan alpha a spurious cascade of slide-rock phases.)
 Mode logic (the shared modelling choices of the spec, Shenton 1996): from rest the block moves
 when |a_h| exceeds min(mu, tan alpha) G: it slides if mu <= tan alpha, else it rocks on
 s = -sign(a_h) if the rocking friction demand is <= mu, else it slide-rocks. A slip rate reaching
-zero ends the slip if the sticking mode (Rest, Rock) needs at most mu N, else the slip reverses.
+zero ends the slip if the sticking mode (Rest, Rock) needs at most mu N (with N >= 0), else the slip
+reverses. On a pivot the consistent mode is chosen explicitly (after a slip stop, after an impact
+that leaves the pivot sticking, at uplift): Rock if its N >= 0 and |T| <= mu N, else the slide-rock
+whose N > 0 and whose slip acceleration has the sign of its slip (where rocking would need a
+tensile N, the reversed slide can still press on the ground).
 
 Integration: scipy.integrate.solve_ivp (DOP853) piece by piece between the excitation's break
 points, with terminal events per mode (impact, overturn, slip rate zero, friction limit in Rock);
@@ -393,6 +397,21 @@ class _Solver:
             prev = x
         return None
 
+    def pivot_mode(self, s: int, theta: float, omega: float, ah: float, av: float) -> tuple[int, int]:
+        """(mode, sigma) consistent on pivot s with a zero slip rate: Rock if it needs N >= 0 and
+        |T| <= mu N; else the slide-rock whose N > 0 and slip acceleration has the sign of its slip,
+        the one opposing rocking's T first; else (none consistent: lift-off) the slip opposing T."""
+        blk = self.blk
+        f = mode_forces(blk, ROCK, s, 0, theta, omega, ah, av)
+        if f.N >= 0.0 and abs(f.T) <= blk.mu * f.N:
+            return ROCK, 0
+        preferred = -1 if f.T > 0 else 1
+        for sigma in (preferred, -preferred):
+            g = mode_forces(blk, SLIDE_ROCK, s, sigma, theta, omega, ah, av)
+            if g.N > 0.0 and sigma * g.slip_acc > 0.0:
+                return SLIDE_ROCK, sigma
+        return SLIDE_ROCK, preferred
+
     def leave_rest(self, t: float) -> tuple[int, int, int, str]:
         """(mode, s, sigma, event kind) the block takes when it starts to move at t."""
         blk = self.blk
@@ -400,11 +419,8 @@ class _Solver:
         direction = -1 if ah > 0 else 1  # where the block goes relative to the ground
         if blk.mu <= self.tan_a:
             return SLIDE, direction, direction, "slide"
-        f = mode_forces(blk, ROCK, direction, 0, 0.0, 0.0, ah, av)
-        if abs(f.T) <= blk.mu * f.N:
-            return ROCK, direction, 0, "uplift"
-        sigma = -1 if f.T > 0 else 1
-        return SLIDE_ROCK, direction, sigma, "slide-rock"
+        mode, sigma = self.pivot_mode(direction, 0.0, 0.0, ah, av)
+        return mode, direction, sigma, "uplift" if mode == ROCK else "slide-rock"
 
     # --- main loop
     def solve(self, theta0: float, omega0: float, slip0: float, slip_rate0: float) -> Run:
@@ -439,11 +455,9 @@ class _Solver:
                 continue
             if mode == ROCK:  # a sticking pivot must be able to stick now
                 ah, av = self.exc.ground(t)
-                f = mode_forces(blk, ROCK, s, 0, theta, omega, ah, av)
-                if abs(f.T) > blk.mu * f.N:
-                    sigma = -1 if f.T > 0 else 1
+                mode, sigma = self.pivot_mode(s, theta, omega, ah, av)
+                if mode == SLIDE_ROCK:
                     self.switch(t, ROCK, SLIDE_ROCK, "slide-rock")
-                    mode = SLIDE_ROCK
             t_new, state, mode_new, s, sigma = self.integrate(t, mode, s, sigma, theta, omega, u, ud)
             stalls = stalls + 1 if t_new <= t else 0
             if stalls > 8:
@@ -549,12 +563,11 @@ class _Solver:
                     return te, (0.0, 0.0, u, 0.0), REST, s, 0
                 self.switch(te, SLIDE, SLIDE, "reverse")
                 return te, (0.0, 0.0, u, 0.0), SLIDE, -sigma, -sigma
-            f = mode_forces(blk, ROCK, s, 0, theta, omega, ah, av)
-            if abs(f.T) <= blk.mu * f.N:
+            new_mode, new_sigma = self.pivot_mode(s, theta, omega, ah, av)
+            if new_mode == ROCK:
                 self.switch(te, SLIDE_ROCK, ROCK, "stick")
                 return te, (theta, omega, u, 0.0), ROCK, s, 0
-            new_sigma = -1 if f.T > 0 else 1
-            self.switch(te, SLIDE_ROCK, SLIDE_ROCK, "reverse")
+            self.switch(te, SLIDE_ROCK, SLIDE_ROCK, "reverse" if new_sigma != sigma else "slide-rock")
             return te, (theta, omega, u, 0.0), SLIDE_ROCK, s, new_sigma
         if ev is ev_impact:
             theta = 0.0
