@@ -518,8 +518,11 @@ class _Solver:
         else:
             events = [ev_impact, ev_overturn, ev_stop]
         y0 = [theta, omega, u, ud, 0.0, 0.0]
-        r = solve_ivp(rhs, (t, t_stop), y0, method="DOP853", rtol=self.rtol, atol=self.atol, events=events,
-                      dense_output=True)
+        try:
+            r = solve_ivp(rhs, (t, t_stop), y0, method="DOP853", rtol=self.rtol, atol=self.atol, events=events,
+                          dense_output=True)
+        except SlidingReferenceError as exc:
+            raise SlidingReferenceError(f"{exc}, integrating from t={t!r} s") from None
         if r.status < 0:
             raise SlidingReferenceError(f"solve_ivp failed at t={t!r}: {r.message}")
         hit = [(float(te[0]), i) for i, te in enumerate(r.t_events) if te.size]

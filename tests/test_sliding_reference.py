@@ -221,6 +221,9 @@ PULSES = {
     "sine pulse that rocks, then slide-rocks": (SlidingBlock(0.2, 0.4, 0.55), sine_pulse(8.0, 2.0),
                                                 {"excitation.kind": 1, "excitation.amplitude": 8.0,
                                                  "excitation.frequency": 2.0}, 3.0),
+    "sine pulse with a vertical component": (SlidingBlock(0.2, 0.4, 0.55), sine_pulse(8.0, 2.0, vertical=-3.0),
+                                             {"excitation.kind": 1, "excitation.amplitude": 8.0,
+                                              "excitation.frequency": 2.0, "excitation.verticalAmplitude": -3.0}, 3.0),
     "harmonic with stick phases": (SlidingBlock(mu=0.3, **SQUAT), harmonic(0.025, 2.0, cycles=3),
                                    {"excitation.kind": 3, "excitation.displacement": 0.025,
                                     "excitation.frequency": 2.0, "excitation.cycles": 3}, 2.5),
@@ -334,3 +337,20 @@ def test_the_fmu_reverses_the_slip_where_rocking_would_need_tension(sliding_fmu)
                                 "excitation.frequency": f}, 3.0)
     assert not got.times("lift")
     compare(got, ref, blk)
+
+
+def test_both_refuse_a_slide_rock_without_a_solution_at_the_same_instant(sliding_fmu):
+    """Painleve's paradox: with mu = 1.99 on a squat block (b/h = 1.29) the slide-rock entered at 0.3452 s has
+    1/3 + sin(phi) (sin(phi) + sigma mu cos(phi)) <= 0, so no motion; both models stop there and say why."""
+    from runners.engine.fmu import FMUError
+    from model.sliding_reference import SlidingReferenceError
+
+    b, h, mu, A, f = 0.28347391911154646, 0.22033535030990375, 1.9893482258777362, 27.023450946233417, 1.213497652940207
+    with pytest.raises(SlidingReferenceError, match="Painleve") as ref_err:
+        simulate(SlidingBlock(b, h, mu), sine_pulse(A, f), 3.0)
+    with pytest.raises(FMUError, match="Painleve") as fmu_err:
+        sliding_fmu.run({"contact.model": 1, **TIGHT, **fmu_params(SlidingBlock(b, h, mu)), "excitation.kind": 1,
+                         "excitation.amplitude": A, "excitation.frequency": f}, 3.0, 3.0)
+    t_ref = float(re.search(r"from t=([0-9.eE+-]+)", str(ref_err.value)).group(1))
+    t_fmu = float(re.search(r"at t=([0-9.eE+-]+)", str(fmu_err.value)).group(1))
+    assert t_fmu == pytest.approx(t_ref, abs=1e-8)
