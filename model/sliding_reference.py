@@ -407,7 +407,10 @@ class _Solver:
             return ROCK, 0
         preferred = -1 if f.T > 0 else 1
         for sigma in (preferred, -preferred):
-            g = mode_forces(blk, SLIDE_ROCK, s, sigma, theta, omega, ah, av)
+            try:
+                g = mode_forces(blk, SLIDE_ROCK, s, sigma, theta, omega, ah, av)
+            except SlidingReferenceError:  # this slip direction has no motion (Painleve)
+                continue
             if g.N > 0.0 and sigma * g.slip_acc > 0.0:
                 return SLIDE_ROCK, sigma
         return SLIDE_ROCK, preferred
