@@ -212,6 +212,9 @@ def compare(fmu_run: FmuRun, ref, blk: SlidingBlock, tol: float = 1e-8) -> None:
     assert fmu_run.final["block1.frictionLoss"] == pytest.approx(ref.friction_loss[-1], abs=tol * scale)
     assert fmu_run.final["impactLoss"] == pytest.approx(ref.impact_loss[-1], abs=tol * scale)
     assert fmu_run.final["groundWork"] == pytest.approx(ref.ground_work[-1], abs=tol * scale)
+    if not ref.overturned:  # the FMU's own balance (from rest: energy(t0) = 0)
+        fin = fmu_run.final
+        assert abs(fin["energy"] + fin["block1.frictionLoss"] + fin["impactLoss"] - fin["groundWork"]) <= 1e-9 * scale
 
 
 PULSES = {
