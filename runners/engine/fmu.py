@@ -67,7 +67,7 @@ _LOAD_LOCK = threading.Lock()
 # events one run may log (each a Python object of about 500 bytes): more is refused mid-run
 MAX_EVENTS = 1_000_000
 
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide|lift) (.*)$")
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide|stick|reverse|lift) (.*)$")
 
 
 def fmu_path_from(arg: str | None) -> Path:
