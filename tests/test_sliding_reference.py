@@ -198,7 +198,15 @@ def compare(fmu_run: FmuRun, ref, blk: SlidingBlock, tol: float = 1e-8) -> None:
     """Impact times, mode-switch times (every logged switch), overturn, peak and final slip, and the
     energy terms (to tol of the energy scale)."""
     np.testing.assert_allclose(fmu_run.times("impact"), ref.impact_times, rtol=0, atol=tol)
-    ref_switches = np.array(sorted(t for k, t in ref.events if k in SWITCH_KINDS))
+    ref_switches = sorted(t for k, t in ref.events if k in SWITCH_KINDS)
+    # a slide-rock that lands, sticks and slides on at the same instant is logged by the FMU as no
+    # switch at all (the contact slides through the impact): drop such cancelling pairs
+    sw = ref.switches
+    for (t1, o1, n1), (t2, o2, n2) in zip(sw, sw[1:]):
+        if t1 == t2 and n1 == o2 and n2 == o1 and ref_switches.count(t1) >= 2:
+            ref_switches.remove(t1)
+            ref_switches.remove(t1)
+    ref_switches = np.array(ref_switches)
     fmu_switches = fmu_run.times(*SWITCH_KINDS)
     if ref.overturned:
         np.testing.assert_allclose(fmu_run.times("overturn"), ref.event_times("overturn"), rtol=0, atol=tol)
@@ -267,8 +275,6 @@ def _overturning_pulse():
     return blk, sine_pulse(12.0, 2.0), params
 
 
-@pytest.mark.xfail(strict=True, reason="model/c: a sticking impact enters Rock without checking that rocking's "
-                   "friction demand is at most mu: the indicator mu N - |T| starts negative and no crossing is seen")
 def test_after_an_impact_the_fmu_slides_at_once_where_rocking_needs_more_than_mu(sliding_fmu):
     """The block of the rock-then-slide-rock pulse, at 12 m/s2: right after the impact at 0.45267 s rocking
     on the new corner needs |T| / N = 0.55042 > mu = 0.55, so the pivot slides (for 0.17 ms)."""
@@ -291,8 +297,6 @@ def test_the_fmu_logs_no_stick_at_an_overturn(sliding_fmu):
     assert not [t for k, t in got.events if k == "stick" and t >= ref.event_times("overturn")[0] - 1e-8]
 
 
-@pytest.mark.xfail(strict=True, reason="model/c locates this Rock -> SlideRock switch 15 us late (at 1.1164404 s, "
-                   "its own outputs show mu N - |T| < 0 from 1.1164252 s); with mu = 0.34, one ulp up, it is on time")
 def test_the_fmu_locates_the_friction_limit_while_rocking(sliding_fmu):
     """b = 0.15 m, h = 0.45 m, mu = 1.02 b / h, a 15 m/s2 sine pulse at 2 Hz: the third stick-to-slip
     switch, where rocking's friction demand reaches mu while it rocks (mu N - |T| falls at ~570 N/s)."""
@@ -327,14 +331,12 @@ def test_where_rocking_would_need_tension_the_slip_reverses_and_the_block_stays_
     assert run.min_normal > 0
 
 
-@pytest.mark.xfail(strict=True, reason="model/c: at a slide-rock slip stop it takes Rock although rocking needs a "
-                   "tensile N (logs 'stick' and 'lift' at 0.2125 s) where the reversed slide is consistent with N > 0")
 def test_the_fmu_reverses_the_slip_where_rocking_would_need_tension(sliding_fmu):
     blk, A, f = LIFT_CASE
     ref = simulate(blk, sine_pulse(A, f), 3.0)
     got = run_fmu(sliding_fmu, {**fmu_params(blk), "excitation.kind": 1, "excitation.amplitude": A,
                                 "excitation.frequency": f}, 3.0)
-    assert not got.times("lift")
+    assert got.times("lift").size == 0
     compare(got, ref, blk)
 
 

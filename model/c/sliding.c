@@ -113,16 +113,31 @@ static int slide_rock_consistent(const Model *M, double t, const double *y, int 
     return D > 0 && N > 0 && sigma * dy[RS_RATE] > 0;
 }
 
+/* The slip a pivot at rest on the ground takes when it cannot stick (reactions T, N of rocking):
+ * the consistent slide-rock, first the one against the T rocking needed; 0 if none (held). */
+static int slip_direction(const Model *M, double t, const double *z, int side, double T, double N) {
+    int first = T > 0 ? -1 : 1;
+    if (slide_rock_consistent(M, t, z, side, first)) return first;
+    if (slide_rock_consistent(M, t, z, side, -first)) return -first;
+    return N < 0 ? 0 : first; /* no consistent slide: held in flight (lifts), or the one T points to */
+}
+
 int sliding_settle(const Model *M, double t, const double *y, int side) {
     double z[RS_N], T, N;
     for (int i = 0; i < RS_N; i++) z[i] = y[i];
     z[RS_RATE] = 0.0;
     rock_reactions(M, t, z, side, &T, &N);
     if (N >= 0 && sliding_stick_margin(M, T, N) >= 0) return 0; /* the pivot sticks */
-    int first = T > 0 ? -1 : 1;                                   /* slipping against the T it needed */
-    if (slide_rock_consistent(M, t, z, side, first)) return first;
-    if (slide_rock_consistent(M, t, z, side, -first)) return -first;
-    return N < 0 ? 0 : first; /* no consistent slide: held in flight (lifts), or the one T points to */
+    return slip_direction(M, t, z, side, T, N);
+}
+
+int sliding_slip_start(const Model *M, double t, const double *y, int side) {
+    double z[RS_N], T, N;
+    for (int i = 0; i < RS_N; i++) z[i] = y[i];
+    z[RS_RATE] = 0.0;
+    rock_reactions(M, t, z, side, &T, &N);
+    int sigma = slip_direction(M, t, z, side, T, N);
+    return sigma ? sigma : (T > 0 ? -1 : 1);
 }
 
 void sliding_start(const Model *M, double t, int side, Mode *mode, int *sigma) {

@@ -71,6 +71,10 @@ void sliding_stop(const Model *M, double t, const double *y, Mode mode, int side
  * with no consistent slide and N < 0 is held (flight, outside the model). */
 int sliding_settle(const Model *M, double t, const double *y, int side);
 
+/* The slip direction of a sticking pivot whose margin mu N - |T| has just reached zero at (t, y)
+ * (a located stick-to-slip event, where the margin is zero to rounding). */
+int sliding_slip_start(const Model *M, double t, const double *y, int side);
+
 /* Impact at time t of a block landing at theta = 0 on the corner opposite `side`
  * with rate wm and slip rate vm. Writes the mode after it, the pivot, the slip
  * direction, the rate wp and slip rate vp, and the impulses (Pt, Pn) of the ground

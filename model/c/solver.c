@@ -119,16 +119,16 @@ static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0
         double x = (fa - fb > 0 && it % 4 != 3) ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
         if (!(x > a && x < b)) x = 0.5 * (a + b);
         double fx = margin_after(c, t, y, f0, x, y1, f1, cont);
-        if (fx < 0) {
+        if (fx <= 0) { /* (a root hit exactly is where the slip starts) */
             b = x, fb = fx;
             if (side == -1) fa *= 0.5;
             side = -1;
+            if (fx == 0) break;
         } else {
             a = x, fa = fx;
             if (side == 1) fb *= 0.5;
             side = 1;
         }
-        if (fx == 0) break;
     }
     margin_after(c, t, y, f0, b, y1, f1, cont);
     return b;
@@ -217,8 +217,7 @@ static int apply_event_sliding(Model *M, const Logger *log) {
         S->sigma = sigma;
         if (next == MODE_SLIDE) S->side = sigma;
     } else if (S->pending == EVENT_SLIP_START) {
-        int sigma = sliding_settle(M, S->t, S->y, S->side);
-        S->sigma = sigma ? sigma : 1; /* (the margin crossed zero: it cannot stick) */
+        S->sigma = sliding_slip_start(M, S->t, S->y, S->side);
     }
     sliding_changed(M, was, S->sigma != 0, log);
     S->fValid = 0;
