@@ -11,6 +11,7 @@
 
 #include "events.h"
 #include "ground.h"
+#include "sliding.h"
 #include "stack.h"
 #include "stack_solver.h"
 
@@ -224,8 +225,10 @@ static void contact_sample(Model *M, double t, const double T[2], const double N
         if (aT > S->demandMax[c] * Nc && Nc > 0) S->demandMax[c] = aT / Nc;
         if (Nc < S->normalMin[c] * W || !S->monValid) S->normalMin[c] = Nc / W;
         if (aT > mu(M, c) * Nc || Nc < 0) { /* rarely */
-            if (S->slideTime < 0 && Nc > 0) first_violation(M, 0, c, t, T, N, path, log);
-            if (S->slideTime < 0 && Nc <= 0) slide_before_lift(M, c, t, path, log);
+            /* rocking-sliding: the solver itself records the first sliding */
+            int rigid = !sliding_on(M);
+            if (rigid && S->slideTime < 0 && Nc > 0) first_violation(M, 0, c, t, T, N, path, log);
+            if (rigid && S->slideTime < 0 && Nc <= 0) slide_before_lift(M, c, t, path, log);
             if (S->liftTime < 0 && Nc < 0) first_violation(M, 1, c, t, T, N, path, log);
         }
         S->monTr[c] = T[c];
@@ -240,7 +243,7 @@ static void contact_sample(Model *M, double t, const double T[2], const double N
  * limit about an end of the contact. Past it the block falls unless driven back. */
 static int within_limits(const Model *M) {
     const State *S = &M->s;
-    if (S->mode == MODE_REST) return 1;
+    if (S->mode == MODE_REST || S->mode == MODE_SLIDE) return 1;
     if (M->v.nBlocks != 2) return fabs(S->y[0]) <= M->d.alpha;
     return fabs(S->y[0]) <= M->d.alphaL && fabs(S->y[2]) <= M->d.alphaI;
 }

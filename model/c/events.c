@@ -23,9 +23,17 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   const double *f0, double *h, double hmax, double rtol, double atol,
                   double *y1, double *f1, double cont[5][NMAX], double *hNext,
                   int *hitMax, long long *rejected) {
+    return adaptive_step_controlled(f, ctx, n, n, t, y, f0, h, hmax, rtol, atol, y1, f1, cont, hNext, hitMax,
+                                    rejected);
+}
+
+int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, double t, const double *y,
+                             const double *f0, double *h, double hmax, double rtol, double atol,
+                             double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                             int *hitMax, long long *rejected) {
     double err[NMAX], hh = *h;
     double hmin = 16.0 * DBL_EPSILON * fmax(1.0, fabs(t));
-    if (!(hh > 0)) hh = dopri5_initial_step(f, ctx, n, t, y, f0, rtol, atol, fmin(hmax, 1.0));
+    if (!(hh > 0)) hh = dopri5_initial_step(f, ctx, nErr, t, y, f0, rtol, atol, fmin(hmax, 1.0));
     if (!(hh >= hmin)) {                  /* zero, NaN, or below the resolution of t */
         if (hmax > 0 && hmax < hmin) {
             hh = hmax;                        /* the last sliver before a break point */
@@ -45,7 +53,7 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
             *hitMax = 1;
         }
         dopri5_step(f, ctx, n, t, y, f0, hh, y1, f1, err, cont);
-        double en = dopri5_error_norm(n, y, y1, err, rtol, atol);
+        double en = dopri5_error_norm(nErr, y, y1, err, rtol, atol);
         if (en <= 1.0) {
             double fac = en > 0 ? 0.9 * pow(en, -0.2) : 5.0;
             *hNext = hh * fmin(5.0, fmax(0.2, fac));

@@ -26,6 +26,13 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   double *y1, double *f1, double cont[5][NMAX], double *hNext,
                   int *hitMax, long long *rejected);
 
+/* adaptive_step whose error control covers the first nErr of the n components only
+ * (the others are integrals that ride along, such as work done). */
+int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, double t, const double *y,
+                             const double *f0, double *h, double hmax, double rtol, double atol,
+                             double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                             int *hitMax, long long *rejected);
+
 /* Newton iteration on the step length h in (0, hMax] so that the weighted
  * sum of the step result's components, sum w[i] y1[i], equals target.
  * Leaves the step result for the returned h in y1, f1, cont. */

@@ -9,7 +9,7 @@
 #ifndef ROCKING_INTEGRATOR_H
 #define ROCKING_INTEGRATOR_H
 
-#define NMAX 4
+#define NMAX 6 /* rocking-sliding: theta, omega, slip, slip rate and two work integrals */
 
 typedef void (*RhsFn)(const void *ctx, double t, const double *y, double *dy);
 

@@ -24,6 +24,12 @@ int me_check(Instance *I) {
                      "two-block stack with Co-Simulation", v->nBlocks);
         return 1;
     }
+    if (v->contactModel != 0) {
+        INSTANCE_ERROR(I, "invalid parameter: contact.model = %d: Model Exchange runs rigid rocking (0) only; "
+                     "rocking-sliding changes its equations at events the importer cannot see (its mode logic "
+                     "lives in the FMU's own event loop): run it with Co-Simulation", v->contactModel);
+        return 1;
+    }
     if (v->earlyOverturn) {
         INSTANCE_ERROR(I, "invalid parameter: solver.earlyOverturn belongs to the built-in solver of Co-Simulation; "
                      "in Model Exchange the importer's solver integrates until |theta| = pi/2");

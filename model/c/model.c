@@ -106,6 +106,21 @@ int model_validate(const Variables *v, char *msg, size_t n) {
             FAIL("solver.earlyOverturn is available for nBlocks = 1 only");
     }
     if (!(v->muGround > 0)) FAIL("contact.muGround = %g must be > 0", v->muGround);
+    if (v->contactModel != 0 && v->contactModel != 1)
+        FAIL("contact.model = %d must be 0 (rigid rocking) or 1 (rocking-sliding)", v->contactModel);
+    if (v->contactModel == 1) {
+        double alpha = atan(v->halfWidth / v->halfHeight), s2 = sin(alpha) * sin(alpha);
+        double eta = model_law_restitution(v, alpha) * v->correction;
+        if (v->nBlocks != 1)
+            FAIL("contact.model = 1 (rocking-sliding) is available for nBlocks = 1 only (stacks: rigid rocking)");
+        if (v->method != 0)
+            FAIL("contact.model = 1 (rocking-sliding) needs solver.method = 0 (Dormand-Prince)");
+        if (v->earlyOverturn) FAIL("solver.earlyOverturn is available for contact.model = 0 only");
+        if (!(eta >= 0.5 - 1.5 * s2))
+            FAIL("restitution %g is below 0.5 - 1.5 sin^2(alpha) = %g: with contact.model = 1 an impact of a "
+                 "sliding block could then gain energy (use a larger coefficient or restitution.law = 0)",
+                 eta, 0.5 - 1.5 * s2);
+    }
     if (!(v->muInterface > 0)) FAIL("contact.muInterface = %g must be > 0", v->muInterface);
     if (ground_validate(v, msg, n)) return 1;
     if (v->method != 0 && v->method != 1)
@@ -150,7 +165,8 @@ void model_derive(Model *M) {
     d->p2 = 3.0 * v->g / (4.0 * d->R);
     d->eta = model_law_restitution(v, d->alpha) * v->correction;
     ground_derive(M);
-    d->upliftSlope = d->tanAlpha;
+    /* rocking-sliding: a block at rest starts to move (slide or rock) at the lower threshold */
+    d->upliftSlope = v->contactModel == 1 ? fmin(d->tanAlpha, v->muGround) : d->tanAlpha;
     if (v->nBlocks == 2) stack_derive(v, d);
     d->weight[0] = (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
     d->weight[1] = v->mass2 * v->g;
@@ -176,15 +192,19 @@ void model_rhs(const Model *M, double t, const double y[2], int side, double dy[
     model_rhs_piece(M, t, y, side, model_piece(M, t), dy);
 }
 
-int model_impact(const Model *M, double t, double wm, double *wp) {
-    *wp = M->d.eta * wm;
+int model_rebound_negligible(const Model *M, double t, double wp) {
     double ah, av;
     model_ground(M, t, &ah, &av);
     double geff = M->v.g + av;
     if (!(geff > 0 && fabs(ah) <= geff * M->d.tanAlpha)) return 0;
     double pe2 = M->d.mROverI0 * geff;
-    double cmax = cos(M->d.alpha) + *wp * *wp / (2.0 * pe2);
+    double cmax = cos(M->d.alpha) + wp * wp / (2.0 * pe2);
     return cmax < 1.0 && M->d.alpha - acos(cmax) < M->v.restRatio * M->d.alpha;
+}
+
+int model_impact(const Model *M, double t, double wm, double *wp) {
+    *wp = M->d.eta * wm;
+    return model_rebound_negligible(M, t, *wp);
 }
 
 double model_energy(const Model *M, double theta, double omega) {

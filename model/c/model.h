@@ -102,7 +102,8 @@ typedef enum {
     MODE_OVERTURNED = 2,
     MODE_UPPER = 3,
     MODE_LOCKED = 4,
-    MODE_BOTH = 5
+    MODE_BOTH = 5,
+    MODE_SLIDE = 6 /* one block, rocking-sliding: flat on the ground, sliding */
 } Mode;
 typedef enum {
     EVENT_NONE = 0,
@@ -110,7 +111,9 @@ typedef enum {
     EVENT_OVERTURN = 2,  /* block 1 (and with it the stack) falls over */
     EVENT_INTERFACE = 3, /* block 2 lands on block 1 */
     EVENT_OVERTURN2 = 4, /* block 2 falls off block 1 */
-    EVENT_OPEN = 5       /* a closed contact starts to open (no velocity jump) */
+    EVENT_OPEN = 5,      /* a closed contact starts to open (no velocity jump) */
+    EVENT_SLIP_START = 6, /* rocking-sliding: the pivot starts to slide (|T| reaches mu N) */
+    EVENT_SLIP_STOP = 7  /* rocking-sliding: the slip rate reaches zero */
 } EventKind;
 
 #define MAX_STEP_PEAKS 4
@@ -132,6 +135,7 @@ typedef struct {
     int fValid;
     int side;             /* +1 pivot on right corner, -1 on left corner */
     int side2;            /* block 2's pivot on block 1 (nBlocks = 2) */
+    int sigma;            /* rocking-sliding: direction of slip (+1 +x, -1 -x), 0 while the contact sticks */
     Mode mode;
     double h;             /* proposed next step, s (0: choose one) */
 
@@ -140,6 +144,8 @@ typedef struct {
     double tOld, hDense;
     double cont[5][NMAX];
     int denseSide, denseSide2;
+    int denseSigma;       /* rocking-sliding: the slip direction of the last step */
+    Mode denseMode;       /* and its mode (MODE_ROCKING or MODE_SLIDE) */
     int denseTaylor;      /* the dense output is the Taylor series tay[0..tayN] */
     int tayN;
     double tay[TAYLOR_MAX + 1];
@@ -164,6 +170,13 @@ typedef struct {
     double maxPrev, maxPrev2; /* max |theta1|, |theta2| before the dense step */
     double lastSwitchTime;
     int quickSwitches;    /* pattern changes without time advancing */
+
+    /* rocking-sliding (contact.model = 1, sliding.h) */
+    double maxAbsSlip;    /* largest |slip| at steps and events, m */
+    double slideSince;    /* start of the current sliding phase, s */
+    double slideDur;      /* time spent sliding in finished phases, s */
+    double impactLoss;    /* kinetic energy lost at impacts, J */
+    int slideStarts;      /* stick-to-slip transitions */
 
     /* Model Exchange (me.c) */
     int omegaSign;        /* sign of omega after the last event (a peak is a change) */
@@ -241,6 +254,9 @@ void model_rhs(const Model *M, double t, const double y[2], int side, double dy[
  * below restRatio * alpha), else 0. Used by the built-in solver and by Model
  * Exchange's event update alike. */
 int model_impact(const Model *M, double t, double wm, double *wp);
+
+/* model_impact's rest criterion for the rate wp just after an impact at time t. */
+int model_rebound_negligible(const Model *M, double t, double wp);
 
 /* Energy (J): 0.5 I0 omega^2 + m g R (cos(alpha - |theta|) - cos(alpha)). */
 double model_energy(const Model *M, double theta, double omega);

@@ -364,7 +364,7 @@ static int take_step(Model *M, const Logger *log) {
         }
     }
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
-    double y1[NMAX], f1[NMAX], cont[5][NMAX], h = S->h, hNext;
+    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext; /* components past 4: 0 in the state */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;

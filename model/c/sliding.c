@@ -1,0 +1,184 @@
+/* Rocking-sliding of one block: equations of each mode, transitions and the
+ * impact law with friction (sliding.h; derivation in docs/sliding.md).
+ *
+ * Geometry: the pivot corner P on side s is at x = u + s b on the ground; the
+ * centre of mass sits at R (-sin(phi), cos(phi)) from it, phi = s alpha - theta.
+ * Relative to the ground the centre moves with
+ *   X' = u' + R cos(phi) w,           Y' = R sin(phi) w,
+ *   X'' = u'' + R (cos(phi) w' + sin(phi) w^2),
+ *   Y'' = R (sin(phi) w' - cos(phi) w^2),
+ * and Newton-Euler with the ground's reaction (T, N) at P, the weight and the
+ * ground's inertial force -m (a_h, a_v) read
+ *   m X'' = T - m a_h,   m Y'' = N - m (g + a_v),
+ *   Ic w' = -R sin(phi) N - R cos(phi) T      (clockwise moments about the centre).
+ */
+#include "sliding.h"
+
+#include <math.h>
+
+#include "ground.h"
+
+int sliding_on(const Model *M) { return M->v.contactModel == 1; }
+
+static double sgn(double x) { return x > 0 ? 1.0 : x < 0 ? -1.0 : 0.0; }
+
+double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int side, int sigma, int piece,
+                   double *dy, RhsTerms *k, double *T, double *N) {
+    const Variables *v = &M->v;
+    const double m = v->mass, R = M->d.R, mu = v->muGround;
+    double D = 1.0;
+    for (int i = 0; i < RS_N; i++) dy[i] = 0.0;
+    if (mode == MODE_ROCKING) {
+        /* theta, omega exactly as the rigid model computes them */
+        model_rhs_terms(M, t, y, side, piece, dy, k);
+        double w = y[1], w2 = w * w, geff = v->g + k->av;
+        if (sigma == 0) { /* rock: the pivot sticks, reactions as contact.c's */
+            *T = m * (k->ah + R * (k->cphi * dy[1] + k->sphi * w2));
+            *N = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
+        } else { /* slide-rock: T = -sigma mu N */
+            double q = sigma * mu * k->cphi - k->sphi;
+            D = 1.0 / 3.0 - k->sphi * q;
+            dy[1] = q * (geff - R * k->cphi * w2) / (R * D);
+            *N = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
+            *T = -sigma * mu * *N;
+            dy[2] = y[3];
+            dy[3] = *T / m - k->ah - R * (k->cphi * dy[1] + k->sphi * w2);
+            dy[4] = sigma * mu * *N * y[3];
+        }
+        double Xd = y[3] + R * k->cphi * w, Yd = R * k->sphi * w;
+        dy[5] = -m * (k->ah * Xd + k->av * Yd);
+    } else {
+        model_ground_piece(M, t, piece, &k->ah, &k->av);
+        k->sphi = 0.0;
+        k->cphi = 1.0;
+        *N = m * (v->g + k->av);
+        if (mode == MODE_SLIDE) {
+            *T = -sigma * mu * *N;
+            dy[2] = y[3];
+            dy[3] = *T / m - k->ah;
+            dy[4] = sigma * mu * *N * y[3];
+            dy[5] = -m * k->ah * y[3];
+        } else {
+            *T = m * k->ah;
+        }
+    }
+    return D;
+}
+
+double sliding_energy(const Model *M, const double *y, Mode mode, int side) {
+    const Variables *v = &M->v;
+    const double m = v->mass, R = M->d.R;
+    double Xd = y[3], Yd = 0.0, rise = 0.0, w = 0.0;
+    if (mode == MODE_ROCKING || mode == MODE_OVERTURNED) {
+        double phi = side * M->d.alpha - y[0];
+        w = mode == MODE_ROCKING ? y[1] : 0.0;
+        Xd += R * cos(phi) * w;
+        Yd = R * sin(phi) * w;
+        rise = R * cos(phi) - v->halfHeight;
+    }
+    double Ic = m * R * R / 3.0;
+    return 0.5 * m * (Xd * Xd + Yd * Yd) + 0.5 * Ic * w * w + m * v->g * rise;
+}
+
+double sliding_stick_margin(const Model *M, double T, double N) {
+    /* a contact without compression carries no friction, but the model holds it (flight is
+     * outside it, and the monitor lifts says so): no slip starts there */
+    return N > 0 ? M->v.muGround * N - fabs(T) : 0.0;
+}
+
+/* Reactions of a rocking block whose pivot sticks, at (t, y). */
+static void rock_reactions(const Model *M, double t, const double *y, int side, double *T, double *N) {
+    double dy[RS_N];
+    RhsTerms k;
+    sliding_rhs(M, t, y, MODE_ROCKING, side, 0, model_piece(M, t), dy, &k, T, N);
+}
+
+void sliding_start(const Model *M, double t, int side, Mode *mode, int *sigma) {
+    if (M->v.muGround <= M->d.tanAlpha) { /* a flat slide holds: the block slides towards side */
+        *mode = MODE_SLIDE;
+        *sigma = side;
+        return;
+    }
+    double y[RS_N] = {0}, T, N;
+    rock_reactions(M, t, y, side, &T, &N);
+    *mode = MODE_ROCKING;
+    *sigma = sliding_stick_margin(M, T, N) >= 0 ? 0 : (T > 0 ? -1 : 1);
+}
+
+void sliding_stop(const Model *M, double t, const double *y, Mode mode, int side, Mode *next, int *sigma) {
+    double ah, av;
+    model_ground(M, t, &ah, &av);
+    if (mode == MODE_SLIDE) {
+        double geff = M->v.g + av;
+        if (fabs(ah) <= M->v.muGround * geff) {
+            *next = MODE_REST;
+            *sigma = 0;
+        } else { /* the ground drags the block the other way at once */
+            *next = MODE_SLIDE;
+            *sigma = ah > 0 ? -1 : 1;
+        }
+        return;
+    }
+    double T, N;
+    rock_reactions(M, t, y, side, &T, &N);
+    *next = MODE_ROCKING;
+    *sigma = sliding_stick_margin(M, T, N) >= 0 ? 0 : (T > 0 ? -1 : 1);
+}
+
+int sliding_slip_direction(const Model *M, double t, const double *y, int side) {
+    double T, N;
+    rock_reactions(M, t, y, side, &T, &N);
+    return T > 0 ? -1 : 1;
+}
+
+void sliding_impact(const Model *M, double t, double wm, double vm, int side, Mode *mode, int *newSide,
+                    int *sigma, double *wp, double *vp, double *Pt, double *Pn) {
+    const Variables *v = &M->v;
+    const double m = v->mass, b = v->halfWidth, h = v->halfHeight, mu = v->muGround;
+    const double eta = M->d.eta, a = M->d.I0 / (m * h); /* I0 / (m h) = 4 R^2 / (3 h) */
+    int s1 = -side;                                      /* the landing corner */
+    double w = eta * wm + vm / a, u = 0.0;              /* sticking: I0 w+ = eta I0 w- + m h v- */
+    int sg = 0, flat = !(s1 * w > 0);
+    if (!flat) {
+        double pt = m * (h * w - (vm + h * wm)), pn = m * s1 * b * (w + wm);
+        if (fabs(pt) <= mu * pn) {
+            /* a sticking impact; a negligible rebound ends the motion (the rest criterion):
+             * the tiny impacts that would follow all stick as well */
+            if (model_rebound_negligible(M, t, w)) {
+                *mode = MODE_REST;
+                *newSide = s1;
+                *sigma = 0;
+                *wp = *vp = 0.0;
+                *Pt = m * (0.0 - (vm + h * wm));
+                *Pn = m * (0.0 - side * b * wm);
+                return;
+            }
+        } else { /* the corner cannot stick: a sliding impact, Pt = -sg mu Pn */
+            sg = pt > 0 ? -1 : 1;
+            double k = sg * mu * s1 * b;
+            w = wm * (h - a * eta - k) / (h - a + k);
+            u = vm + a * (eta * wm - w);
+            flat = !(s1 * w > 0) || model_rebound_negligible(M, t, w);
+            sg = u > 0 ? 1 : u < 0 ? -1 : 0;
+        }
+    }
+    if (flat) { /* both corners down: the rotation stops, friction takes what it can of the sliding */
+        double vx = vm + h * wm, cap = mu * b * fabs(wm);
+        w = 0.0;
+        u = fabs(vx) <= cap ? 0.0 : vx - sgn(vx) * cap;
+        sg = u > 0 ? 1 : u < 0 ? -1 : 0;
+        *mode = sg ? MODE_SLIDE : MODE_REST;
+        *newSide = sg ? sg : s1;
+        if (sg && mu > M->d.tanAlpha) *mode = MODE_ROCKING; /* a flat slide tips forward at once */
+    } else {
+        *mode = MODE_ROCKING;
+        *newSide = s1;
+    }
+    *sigma = sg;
+    *wp = w;
+    *vp = u;
+    /* the ground's impulses: the change of the centre's momentum (at theta = 0: X' = u' + h w,
+     * Y' = s b w with s the pivot's side) */
+    *Pt = m * ((u + h * w) - (vm + h * wm));
+    *Pn = m * ((*newSide) * b * w - side * b * wm);
+}

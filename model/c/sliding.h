@@ -1,0 +1,66 @@
+/* Rocking-sliding of one block on the ground (contact.model = 1): the hybrid
+ * automaton. Each mode has its equations of motion, the solver's event
+ * indicators say when it ends, and the transitions below say which mode
+ * follows. Derivation and assumptions: docs/sliding.md.
+ *
+ * State vector (RS_N components):
+ *   y[0] theta (rad), y[1] omega (rad/s),
+ *   y[2] slip u (m): x of the pivot corner minus its rest offset side * b,
+ *        i.e. the base centre's displacement whenever the base is flat,
+ *   y[3] slip rate du/dt (m/s): the pivot's sliding velocity,
+ *   y[4] work dissipated by friction (J), y[5] work of the ground's motion (J).
+ * Modes (State.mode, State.sigma): MODE_REST (stick, flat), MODE_SLIDE (flat,
+ * sliding in direction sigma), MODE_ROCKING with sigma = 0 (rock: the pivot
+ * sticks) or sigma = +-1 (slide-rock), MODE_OVERTURNED.
+ * Coulomb friction with one coefficient mu = contact.muGround: a sliding
+ * contact carries T = -sigma mu N.
+ */
+#ifndef ROCKING_SLIDING_H
+#define ROCKING_SLIDING_H
+
+#include "model.h"
+
+#define RS_N 6
+/* components under error control: theta, omega while the pivot sticks (the rigid
+ * model's steps exactly), and the slip and its rate while it slides */
+#define RS_ERR_ROCK 2
+#define RS_ERR_SLIDE 4
+
+/* Nonzero for the rocking-sliding model. */
+int sliding_on(const Model *M);
+
+/* Derivatives dy[RS_N] in mode (mode, side, sigma) at (t, y); the equation of motion's
+ * terms k (ground accelerations, sin and cos of phi = side alpha - theta) and the
+ * ground's reaction (T, N) in newtons. Returns the Painleve denominator of slide-rock
+ * (> 0 where the mode has a unique solution; 1 in the other modes). */
+double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int side, int sigma, int piece,
+                   double *dy, RhsTerms *k, double *T, double *N);
+
+/* Energy (J): kinetic (rotation and the centre of mass's velocity relative to the
+ * ground) plus m g times the rise of the centre of mass. */
+double sliding_energy(const Model *M, const double *y, Mode mode, int side);
+
+/* Stick-to-slip indicator of a pivot that sticks: mu N - |T| (N); 0 while N <= 0. */
+double sliding_stick_margin(const Model *M, double T, double N);
+
+/* The mode a block at rest starts at time t when the ground exceeds
+ * min(mu, tan alpha) (g + a_v) towards side: slide if mu <= tan alpha, else rock if
+ * rocking's friction demand there is at most mu, else slide-rock. Sets *mode, *sigma. */
+void sliding_start(const Model *M, double t, int side, Mode *mode, int *sigma);
+
+/* A pivot that slid has stopped (slip rate 0) at time t in the state y (mode
+ * MODE_ROCKING or MODE_SLIDE, side): the mode that follows (stick: rest or rock;
+ * or a slip the other way). */
+void sliding_stop(const Model *M, double t, const double *y, Mode mode, int side, Mode *next, int *sigma);
+
+/* The pivot of a rocking block that sticks starts to slide at (t, y): direction. */
+int sliding_slip_direction(const Model *M, double t, const double *y, int side);
+
+/* Impact at time t of a block landing at theta = 0 on the corner opposite `side`
+ * with rate wm and slip rate vm. Writes the mode after it, the pivot, the slip
+ * direction, the rate wp and slip rate vp, and the impulses (Pt, Pn) of the ground
+ * (N s). Law: docs/sliding.md. */
+void sliding_impact(const Model *M, double t, double wm, double vm, int side, Mode *mode, int *newSide,
+                    int *sigma, double *wp, double *vp, double *Pt, double *Pn);
+
+#endif
