@@ -325,3 +325,8 @@ def test_export_and_recording_carry_the_slip_and_draw_the_block_where_it_slid(tm
         tilted += abs(theta[i]) > 0.1 and abs(slip[i]) > 0.005
     assert moved > 0  # frames where the block stands visibly away from its start
     assert (tilted > 0) == (scene == "slide-rock")  # ... and, for the slender one, tilted as well
+    later = tmp_path / "later.rrd"  # runners rrd: the stored run's recording, written afterwards
+    p = run_cli("rrd", str(r.run_id), "--out", str(later), db=url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    _, rows = column(read_back(later), "/block1/slip")
+    np.testing.assert_array_equal(np.array([row[1][0] for row in rows]), slip)
