@@ -1,4 +1,4 @@
-"""Run summaries of rocking–sliding runs (contact.model = 1, issue 26): the motion class
+"""Run summaries of rocking–sliding runs (contact.model = 1): the motion class
 (rests, slides, rocks, slide-rocks, overturns; runners.engine.motion), the peak and residual
 slip of block 1 (m) and the time it spent sliding (s). None for rigid-rocking runs.
 
