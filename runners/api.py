@@ -82,7 +82,8 @@ def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> dict
             from runners.engine.scene import CONTACT_MODELS
 
             if value not in CONTACT_MODELS:
-                raise ArgumentError(f"contact.model must be one of {', '.join(CONTACT_MODELS)} (or 0, 1), got {value!r}")
+                raise ArgumentError(f"contact.model must be one of {', '.join(CONTACT_MODELS)} (or 0, 1), "
+                                    f"got {value!r}")
             value = CONTACT_MODELS[value]
         number = args.is_number(value)
         if v.type == "Real" and not (number and math.isfinite(value)):
@@ -323,6 +324,7 @@ def simulate(
                                      f"{why.removeprefix('no closed form: ')}")
             described = sc  # the scene as it describes itself, before auto's substitutions
             refused = None  # why the FMU refused rocking-sliding for this scene, if it did
+            rigid = None  # rigid rocking's assumptions, once auto has switched to rocking-sliding
             while True:  # a second pass only for auto's rocking-sliding
                 if model == "closed form":
                     s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
@@ -342,6 +344,8 @@ def simulate(
                     result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
                     s = summarize(sc, result, defaults)
                     s["model"], s["model_reason"] = model, why
+                    if rigid is not None:  # what rigid rocking's monitors said, which made auto switch
+                        s["rigid_rocking_assumptions"] = rigid
                     if method == "auto" and int(merged["nBlocks"]) == 2 and model != "two blocks":
                         # a stack run as one block: only the two-block model sees its interface
                         s["assumptions"] = _monitored(fm, described, merged)
@@ -369,6 +373,7 @@ def simulate(
                     s["rocking_sliding_refused"] = refused
                     break
                 sc, model, why = replace(described, parameters=trial), ROCKING_SLIDING, switch
+                rigid = s["assumptions"]
                 merged = {**defaults, **sc.parameters}
         if method == "auto" and "assumptions" in s:  # the least model must also be a model that holds
             s["model_sufficient"] = s["assumptions"]["outcome_held"]

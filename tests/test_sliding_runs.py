@@ -83,7 +83,7 @@ def test_bad_contact_models_are_one_line_and_store_nothing(tmp_path, fmu_path, e
         scene_from_dict(data)
     assert words in str(err.value) and "\n" not in str(err.value)
     # the command line: one line, exit status non-zero, nothing stored
-    lines = [f'name = "bad"']
+    lines = ['name = "bad"']
     for table, content in data.items():
         if isinstance(content, dict):
             lines.append(f"[{table}]")
@@ -212,8 +212,8 @@ def test_the_story_of_a_block_that_rocks_and_slides(fmu_path, amplitude):
         assert r.summary["motion"] == "slide-rocks"
     else:
         assert final["overturned"] == 1
-        assert story == (f"overturned at {final['overturnTime']:.4f} s after sliding {final['block1.maxAbsSlip']:.3g} m "
-                         f"(peak slip); {tail}")
+        assert story == (f"overturned at {final['overturnTime']:.4f} s after sliding "
+                         f"{final['block1.maxAbsSlip']:.3g} m (peak slip); {tail}")
         assert r.summary["motion"] == "overturns"
 
 
@@ -231,6 +231,7 @@ def test_auto_uses_rocking_sliding_where_rigid_rocking_slides_and_says_why(tmp_p
                                  f" > mu 0.3 (the block slides from t = {rigid['slideTime']:.6g} s): "
                                  "rocking-sliding used")
     assert r.parameters["contact.model"] == 1 and "block1.slip" in r.series.columns
+    assert s["rigid_rocking_assumptions"]["slides"]["t_s"] == pytest.approx(rigid["slideTime"], abs=1e-12)  # the switch
     assert "model check      sufficient: rocking-sliding held" in r.report
     assert f"model            one block, rocking-sliding: {s['model_reason']}" in r.report
     from db.schema import Run

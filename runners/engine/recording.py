@@ -322,7 +322,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
         ranges["demand"] = (0.0, 2.0 * max(mu for _, mu in demand.values()))
     sliding = "block1.slip" in out
     if sliding:
-        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate") if k in out])
+        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate")
+                                      if k in out])
     rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges,
                                                      sliding))
     rec.send_property("run", rr.AnyValues(name=name))
