@@ -129,7 +129,7 @@ def test_a_sliding_scene_is_stored_with_its_channels_and_summary(tmp_path, fmu_p
         run = session.get(Run, r.run_id)
         t, cols = series.unpack(run.series.names, run.series.n_samples, run.series.data)
         summary = run.summary
-        assert run.model == "one block, rocking-sliding" and run.scene.parameters["contact.model"] == 1
+        assert run.model == "rocking-sliding" and run.scene.parameters["contact.model"] == 1
         kinds = {e["kind"] for e in run.series.events}
         row = {k: getattr(summary, k) for k in ("motion", "max_abs_slip", "residual_slip", "slide_duration",
                                                  "slide_time", "assumptions_held")}
@@ -226,20 +226,20 @@ def test_auto_uses_rocking_sliding_where_rigid_rocking_slides_and_says_why(tmp_p
     s = r.summary
     rigid = fmpy_final(fmu_path, SQUAT, 2.0, ["slideTime", "friction.demandMaxGround", "lifts"])
     assert rigid["slideTime"] >= 0 and rigid["lifts"] == 0  # rigid rocking's monitors: it slides, never flies
-    assert s["model"] == "one block, rocking-sliding" and s["model_sufficient"] is True
+    assert s["model"] == "rocking-sliding" and s["model_sufficient"] is True
     assert s["model_reason"] == (f"rigid rocking needs friction demand up to {rigid['friction.demandMaxGround']:.3g}"
                                  f" > mu 0.3 (the block slides from t = {rigid['slideTime']:.6g} s): "
                                  "rocking-sliding used")
     assert r.parameters["contact.model"] == 1 and "block1.slip" in r.series.columns
     assert s["rigid_rocking_assumptions"]["slides"]["t_s"] == pytest.approx(rigid["slideTime"], abs=1e-12)  # the switch
     assert "model check      sufficient: rocking-sliding held" in r.report
-    assert f"model            one block, rocking-sliding: {s['model_reason']}" in r.report
+    assert f"model            rocking-sliding: {s['model_reason']}" in r.report
     from db.schema import Run
     from db.session import open_database
 
     with open_database(url)() as session:
         run = session.get(Run, r.run_id)
-        assert run.model == "one block, rocking-sliding" and run.summary.max_abs_slip == s["max_abs_slip_m"]
+        assert run.model == "rocking-sliding" and run.summary.max_abs_slip == s["max_abs_slip_m"]
     p = run_cli("simulate", "--method", "auto", str(EXAMPLE), "--no-store", db=url, fmu_path=fmu_path)
     assert p.returncode == 0 and "rocking-sliding used" in p.stdout, p.stdout + p.stderr
 
@@ -258,7 +258,7 @@ def test_auto_stays_rigid_on_a_slender_block_with_mu_07(fmu_path):
     assert "rocking-sliding" not in r.report
 
 
-@pytest.mark.parametrize("ah, model", [(0.0, "one block"), (1.0, "one block, rocking-sliding")])
+@pytest.mark.parametrize("ah, model", [(0.0, "one block"), (1.0, "rocking-sliding")])
 def test_auto_still_says_not_sufficient_where_the_block_would_fly(tmp_path, fmu_path, ah, model):
     """A vertical pulse beyond g: flight is outside both models. Without a horizontal part rigid
     rocking lifts off first; with one it slides first, and rocking-sliding then lifts off."""

@@ -68,7 +68,7 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
                            f"<= accuracy {accuracy:g})")
 
 
-ROCKING_SLIDING = "one block, rocking-sliding"  # the model's name in summaries and stored runs
+ROCKING_SLIDING = "rocking-sliding"  # the model's name in summaries and stored runs (one block)
 
 
 def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
