@@ -22,45 +22,58 @@ int sliding_on(const Model *M) { return M->v.contactModel == 1; }
 
 static double sgn(double x) { return x > 0 ? 1.0 : x < 0 ? -1.0 : 0.0; }
 
+int sliding_components(Mode mode, int sigma) { return mode == MODE_ROCKING && sigma == 0 ? RS_N_ROCK : RS_N; }
+
 double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int side, int sigma, int piece,
                    double *dy, RhsTerms *k, double *T, double *N) {
     const Variables *v = &M->v;
     const double m = v->mass, R = M->d.R, mu = v->muGround;
     double D = 1.0;
-    for (int i = 0; i < RS_N; i++) dy[i] = 0.0;
+    for (int i = 2; i < RS_N; i++) dy[i] = 0.0;
     if (mode == MODE_ROCKING) {
         /* theta, omega exactly as the rigid model computes them */
         model_rhs_terms(M, t, y, side, piece, dy, k);
         double w = y[1], w2 = w * w, geff = v->g + k->av;
         if (sigma == 0) { /* rock: the pivot sticks, reactions as contact.c's */
-            *T = m * (k->ah + R * (k->cphi * dy[1] + k->sphi * w2));
-            *N = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
-        } else { /* slide-rock: T = -sigma mu N */
-            double q = sigma * mu * k->cphi - k->sphi;
-            D = 1.0 / 3.0 - k->sphi * q;
-            dy[1] = q * (geff - R * k->cphi * w2) / (R * D);
-            *N = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
-            *T = -sigma * mu * *N;
-            dy[2] = y[3];
-            dy[3] = *T / m - k->ah - R * (k->cphi * dy[1] + k->sphi * w2);
-            dy[4] = sigma * mu * *N * y[3];
+            if (T) {
+                *T = m * (k->ah + R * (k->cphi * dy[1] + k->sphi * w2));
+                *N = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
+            }
+            dy[RS_WORK] = -m * R * w * (k->ah * k->cphi + k->av * k->sphi);
+            return D;
         }
-        double Xd = y[3] + R * k->cphi * w, Yd = R * k->sphi * w;
-        dy[5] = -m * (k->ah * Xd + k->av * Yd);
-    } else {
-        model_ground_piece(M, t, piece, &k->ah, &k->av);
-        k->sphi = 0.0;
-        k->cphi = 1.0;
-        *N = m * (v->g + k->av);
-        if (mode == MODE_SLIDE) {
-            *T = -sigma * mu * *N;
-            dy[2] = y[3];
-            dy[3] = *T / m - k->ah;
-            dy[4] = sigma * mu * *N * y[3];
-            dy[5] = -m * k->ah * y[3];
-        } else {
-            *T = m * k->ah;
+        /* slide-rock: T = -sigma mu N */
+        double q = sigma * mu * k->cphi - k->sphi, Nm;
+        D = 1.0 / 3.0 - k->sphi * q;
+        dy[1] = q * (geff - R * k->cphi * w2) / (R * D);
+        Nm = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
+        double Tm = -sigma * mu * Nm, vs = y[RS_RATE];
+        dy[RS_SLIP] = vs;
+        dy[RS_RATE] = Tm / m - k->ah - R * (k->cphi * dy[1] + k->sphi * w2);
+        dy[RS_LOSS] = sigma * mu * Nm * vs;
+        dy[RS_WORK] = -m * (k->ah * (vs + R * k->cphi * w) + k->av * R * k->sphi * w);
+        if (T) {
+            *T = Tm;
+            *N = Nm;
         }
+        return D;
+    }
+    dy[0] = dy[1] = 0.0;
+    model_ground_piece(M, t, piece, &k->ah, &k->av);
+    k->sphi = 0.0;
+    k->cphi = 1.0;
+    double Nm = m * (v->g + k->av), Tm = m * k->ah;
+    if (mode == MODE_SLIDE) {
+        double vs = y[RS_RATE];
+        Tm = -sigma * mu * Nm;
+        dy[RS_SLIP] = vs;
+        dy[RS_RATE] = Tm / m - k->ah;
+        dy[RS_LOSS] = sigma * mu * Nm * vs;
+        dy[RS_WORK] = -m * k->ah * vs;
+    }
+    if (T) {
+        *T = Tm;
+        *N = Nm;
     }
     return D;
 }
@@ -68,7 +81,7 @@ double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int sid
 double sliding_energy(const Model *M, const double *y, Mode mode, int side) {
     const Variables *v = &M->v;
     const double m = v->mass, R = M->d.R;
-    double Xd = y[3], Yd = 0.0, rise = 0.0, w = 0.0;
+    double Xd = y[RS_RATE], Yd = 0.0, rise = 0.0, w = 0.0;
     if (mode == MODE_ROCKING || mode == MODE_OVERTURNED) {
         double phi = side * M->d.alpha - y[0];
         w = mode == MODE_ROCKING ? y[1] : 0.0;
@@ -80,11 +93,7 @@ double sliding_energy(const Model *M, const double *y, Mode mode, int side) {
     return 0.5 * m * (Xd * Xd + Yd * Yd) + 0.5 * Ic * w * w + m * v->g * rise;
 }
 
-double sliding_stick_margin(const Model *M, double T, double N) {
-    /* a contact without compression carries no friction, but the model holds it (flight is
-     * outside it, and the monitor lifts says so): no slip starts there */
-    return N > 0 ? M->v.muGround * N - fabs(T) : 0.0;
-}
+double sliding_stick_margin(const Model *M, double T, double N) { return M->v.muGround * N - fabs(T); }
 
 /* Reactions of a rocking block whose pivot sticks, at (t, y). */
 static void rock_reactions(const Model *M, double t, const double *y, int side, double *T, double *N) {

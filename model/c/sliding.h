@@ -5,10 +5,12 @@
  *
  * State vector (RS_N components):
  *   y[0] theta (rad), y[1] omega (rad/s),
- *   y[2] slip u (m): x of the pivot corner minus its rest offset side * b,
+ *   y[RS_WORK] work of the ground's motion (J),
+ *   y[RS_SLIP] slip u (m): x of the pivot corner minus its rest offset side * b,
  *        i.e. the base centre's displacement whenever the base is flat,
- *   y[3] slip rate du/dt (m/s): the pivot's sliding velocity,
- *   y[4] work dissipated by friction (J), y[5] work of the ground's motion (J).
+ *   y[RS_RATE] slip rate du/dt (m/s): the pivot's sliding velocity,
+ *   y[RS_LOSS] work dissipated by friction (J).
+ * A pivot that sticks integrates the first RS_N_ROCK components only (the others stay put).
  * Modes (State.mode, State.sigma): MODE_REST (stick, flat), MODE_SLIDE (flat,
  * sliding in direction sigma), MODE_ROCKING with sigma = 0 (rock: the pivot
  * sticks) or sigma = +-1 (slide-rock), MODE_OVERTURNED.
@@ -20,19 +22,27 @@
 
 #include "model.h"
 
+#define RS_WORK 2
+#define RS_SLIP 3
+#define RS_RATE 4
+#define RS_LOSS 5
 #define RS_N 6
+#define RS_N_ROCK 3
 /* components under error control: theta, omega while the pivot sticks (the rigid
- * model's steps exactly), and the slip and its rate while it slides */
+ * model's steps exactly), all of them while it slides */
 #define RS_ERR_ROCK 2
-#define RS_ERR_SLIDE 4
+#define RS_ERR_SLIDE RS_N
+
+/* Components a step integrates in mode (mode, sigma). */
+int sliding_components(Mode mode, int sigma);
 
 /* Nonzero for the rocking-sliding model. */
 int sliding_on(const Model *M);
 
 /* Derivatives dy[RS_N] in mode (mode, side, sigma) at (t, y); the equation of motion's
- * terms k (ground accelerations, sin and cos of phi = side alpha - theta) and the
- * ground's reaction (T, N) in newtons. Returns the Painleve denominator of slide-rock
- * (> 0 where the mode has a unique solution; 1 in the other modes). */
+ * terms k (ground accelerations, sin and cos of phi = side alpha - theta) and, unless T is
+ * NULL, the ground's reaction (T, N) in newtons. Returns the Painleve denominator of
+ * slide-rock (> 0 where the mode has a unique solution; 1 in the other modes). */
 double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int side, int sigma, int piece,
                    double *dy, RhsTerms *k, double *T, double *N);
 
@@ -40,7 +50,9 @@ double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int sid
  * ground) plus m g times the rise of the centre of mass. */
 double sliding_energy(const Model *M, const double *y, Mode mode, int side);
 
-/* Stick-to-slip indicator of a pivot that sticks: mu N - |T| (N); 0 while N <= 0. */
+/* Stick-to-slip indicator of a pivot that sticks: mu N - |T| (N). A pivot whose margin is
+ * already negative (held in flight: N < 0, outside the model, flagged by the monitor lifts)
+ * starts no slip until the margin has been >= 0 again. */
 double sliding_stick_margin(const Model *M, double T, double N);
 
 /* The mode a block at rest starts at time t when the ground exceeds

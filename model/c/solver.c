@@ -38,8 +38,10 @@ typedef struct {
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     RhsCtx *c = (RhsCtx *)ctx; /* the integrator hands our own (non-const) context back */
-    if (c->rs) {
-        double D = sliding_rhs(c->M, t, y, c->mode, c->side, c->sigma, c->piece, dy, &c->k, &c->T, &c->N);
+    if (c->rs) { /* a sticking pivot's reactions come from the step's end (stick_reactions) */
+        int stick = c->mode == MODE_ROCKING && c->sigma == 0;
+        double D = sliding_rhs(c->M, t, y, c->mode, c->side, c->sigma, c->piece, dy, &c->k, stick ? NULL : &c->T,
+                               &c->N);
         if (D < c->D) c->D = D;
         return;
     }
@@ -49,9 +51,20 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
 /* The integrator's context for the state's current mode at time t. */
 static RhsCtx rhs_context(const Model *M, double t, int side, Mode mode, int sigma) {
     int rs = sliding_on(M);
-    RhsCtx c = {.M = M, .side = side, .piece = model_piece(M, t), .rs = rs, .n = rs ? RS_N : 2,
-                .sigma = sigma, .mode = mode, .D = 1.0};
+    RhsCtx c = {.M = M, .side = side, .piece = model_piece(M, t), .rs = rs,
+                .n = rs ? sliding_components(mode, sigma) : 2, .sigma = sigma, .mode = mode, .D = 1.0};
     return c;
+}
+
+/* The ground's reaction of the last evaluation, at (y, dy) (a sticking pivot's from the terms
+ * the evaluation left, as the rigid model's). */
+static void last_reactions(const RhsCtx *c, const double *y, const double *dy, double *T, double *N) {
+    if (c->rs && !(c->mode == MODE_ROCKING && c->sigma == 0)) {
+        *T = c->T;
+        *N = c->N;
+        return;
+    }
+    contact_one_block_terms(c->M, y[1], dy[1], &c->k, T, N);
 }
 
 /* Step length so that component comp of the step result equals target. */
@@ -67,21 +80,21 @@ static double refine(const RhsCtx *c, double t, const double *y, const double *f
  * step of length h from (t, y) (which it leaves in y1, f1, cont). */
 static double margin_after(RhsCtx *c, double t, const double *y, const double *f0, double h, double *y1,
                            double *f1, double cont[5][NMAX]) {
-    double err[NMAX];
+    double err[NMAX], T, N;
     dopri5_step(rhs_cb, c, c->n, t, y, f0, h, y1, f1, err, cont);
-    return sliding_stick_margin(c->M, c->T, c->N); /* the step's last evaluation is at its end */
+    last_reactions(c, y1, f1, &T, &N); /* the step's last evaluation is at its end */
+    return sliding_stick_margin(c->M, T, N);
 }
 
-/* Rocking-sliding: the first time in the step (fraction s of h) at which the stick
- * margin of the sticking pivot turns negative, given that it is >= 0 at the start and
- * < 0 at the end: bisection on the dense output, then regula falsi on real steps. The
- * step result for the returned length is left in y1, f1, cont. */
-static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0, double h, double *y1,
-                          double *f1, double cont[5][NMAX]) {
+/* Rocking-sliding: the first time in the step of length h (dense output cd) at which the
+ * stick margin of the sticking pivot turns negative, given that it is >= 0 at the start
+ * and < 0 at the end: bisection on the dense output, then regula falsi on real steps.
+ * The step result for the returned length is left in y1, f1, cont. */
+static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0, double h,
+                          const double cd[5][NMAX], double *y1, double *f1, double cont[5][NMAX]) {
     double lo = 0.0, hi = 1.0, yd[NMAX], dy[NMAX], T, N;
     RhsTerms k;
-    double cd[5][NMAX];
-    memcpy(cd, cont, sizeof(cd));
+    memcpy(yd, y, sizeof(yd));
     for (int it = 0; it < 40; it++) {
         double mid = 0.5 * (lo + hi);
         dense_eval(cd, c->n, mid, yd);
@@ -146,17 +159,18 @@ static void sliding_changed(Model *M, int was, int now, const Logger *log) {
             S->mode == MODE_SLIDE ? "slide" : "slide-rock");
     } else if (was && !now) {
         S->slideDur += S->t - S->slideSince;
-        say(log, LOG_EVENTS, "stick t=%.17g mode=%s", S->t, S->mode == MODE_REST ? "rest" : "rock");
+        if (S->mode != MODE_OVERTURNED)
+            say(log, LOG_EVENTS, "stick t=%.17g mode=%s", S->t, S->mode == MODE_REST ? "rest" : "rock");
     }
 }
 
 static int apply_event_sliding(Model *M, const Logger *log) {
     State *S = &M->s;
     commit_peaks(M, log);
-    if (fabs(S->y[2]) > S->maxAbsSlip) S->maxAbsSlip = fabs(S->y[2]);
+    if (fabs(S->y[RS_SLIP]) > S->maxAbsSlip) S->maxAbsSlip = fabs(S->y[RS_SLIP]);
     int was = S->sigma != 0;
     if (S->pending == EVENT_IMPACT) {
-        double wm = S->y[1], vm = S->y[3], wp, vp, Pt, Pn;
+        double wm = S->y[1], vm = S->y[RS_RATE], wp, vp, Pt, Pn;
         double E0 = sliding_energy(M, S->y, S->mode, S->side);
         Mode mode;
         int side, sigma;
@@ -166,7 +180,7 @@ static int apply_event_sliding(Model *M, const Logger *log) {
         S->lastImpactTime = S->t;
         S->y[0] = 0.0;
         S->y[1] = wp;
-        S->y[3] = vp;
+        S->y[RS_RATE] = vp;
         S->side = side;
         S->sigma = sigma;
         S->mode = mode;
@@ -183,14 +197,14 @@ static int apply_event_sliding(Model *M, const Logger *log) {
         S->overturnTime = S->t;
         S->y[0] = S->side * M_PI / 2;
         S->y[1] = 0.0;
-        S->y[3] = 0.0;
+        S->y[RS_RATE] = 0.0;
         S->sigma = 0;
         S->maxAbsTheta = M_PI / 2;
         say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
     } else if (S->pending == EVENT_SLIP_STOP) {
         Mode next;
         int sigma;
-        S->y[3] = 0.0;
+        S->y[RS_RATE] = 0.0;
         sliding_stop(M, S->t, S->y, S->mode, S->side, &next, &sigma);
         if (next == MODE_REST) {
             S->y[0] = S->y[1] = 0.0;
@@ -287,11 +301,22 @@ static int take_step(Model *M, const Logger *log) {
     double h = S->h, hNext;
     int hitBp;
 
-    if (c.rs && fabs(S->y[2]) > S->maxAbsSlip) S->maxAbsSlip = fabs(S->y[2]); /* |slip| up to the step's start */
+    if (c.rs && fabs(S->y[RS_SLIP]) > S->maxAbsSlip) S->maxAbsSlip = fabs(S->y[RS_SLIP]); /* |slip| up to the step's start */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
         S->endValid = 0; /* the reactions stored are not this state's */
+    }
+    /* rocking-sliding: the stick margin at the step's start (a negative one: held in flight) */
+    double startMargin = 0.0;
+    if (c.rs && rocking && S->sigma == 0) {
+        double T0 = S->endTr, N0 = S->endN;
+        if (!S->endValid) { /* (the terms of an evaluation at the step's start) */
+            double f0[NMAX];
+            rhs_cb(&c, S->t, S->y, f0);
+            last_reactions(&c, S->y, f0, &T0, &N0);
+        }
+        startMargin = sliding_stick_margin(M, T0, N0);
     }
     if (adaptive_step_controlled(rhs_cb, &c, n, nErr, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                                  cont, &hNext, &hitBp, &S->rejected)) {
@@ -301,11 +326,12 @@ static int take_step(Model *M, const Logger *log) {
     S->steps++;
     /* the accepted step's last evaluation was its first-same-as-last stage at its end */
     RhsTerms endTerms = c.k;
-    double endT = c.T, endN = c.N;
+    double endT = 0.0, endN = 0.0;
+    if (c.rs) last_reactions(&c, y1, f1, &endT, &endN);
 
     /* events on the dense output */
     int side = S->side;
-    double sImpact = 2.0, sOver = 2.0, sStop = 2.0, sSlip = 2.0;
+    double sImpact = 2.0, sOver = 2.0, sStop = 2.0;
     if (rocking) {
         double cth[5], P[5], Q[5];
         dense_poly(cont, 0, cth);
@@ -319,36 +345,19 @@ static int take_step(Model *M, const Logger *log) {
     }
     if (c.rs && S->sigma != 0) { /* the slip rate reaches zero */
         double cv[5];
-        dense_poly(cont, 3, cv);
+        dense_poly(cont, RS_RATE, cv);
         for (int i = 0; i < 5; i++) cv[i] *= S->sigma;
         sStop = first_crossing(cv, -1);
     }
-    if (c.rs && rocking && S->sigma == 0 && sliding_stick_margin(M, endT, endN) < 0) sSlip = 1.0;
     EventKind ev = EVENT_NONE;
     double hStep = h, tNew = hitBp ? bp : S->t + h;
     double sFirst = fmin(fmin(sImpact, sOver), sStop);
-    if (sSlip <= 1.0) {
-        /* where the margin turns negative: a real crossing before the other events? */
-        double yS[NMAX] = {0}, fS[NMAX] = {0}, cS[5][NMAX] = {{0}};
-        double hS = locate_slip(&c, S->t, S->y, S->f, h, yS, fS, cS);
-        if (!(hS / h < sFirst)) {
-            sSlip = 2.0;
-        } else {
-            ev = EVENT_SLIP_START;
-            hStep = hS;
-            memcpy(y1, yS, sizeof(yS));
-            memcpy(f1, fS, sizeof(fS));
-            memcpy(cont, cS, sizeof(cS));
-            tNew = S->t + hStep;
-            hitBp = 0;
-        }
-    }
-    if (ev == EVENT_NONE && sFirst <= 1.0) {
+    if (sFirst <= 1.0) {
         int comp = 0;
         double target;
         if (sStop < sImpact && sStop < sOver) {
             ev = EVENT_SLIP_STOP;
-            comp = 3;
+            comp = RS_RATE;
             target = 0.0;
         } else if (sImpact <= sOver) {
             ev = EVENT_IMPACT;
@@ -359,6 +368,20 @@ static int take_step(Model *M, const Logger *log) {
         }
         hStep = refine(&c, S->t, S->y, S->f, sFirst * h, h, comp, target, y1, f1, cont);
         y1[comp] = target;
+        tNew = S->t + hStep;
+        hitBp = 0;
+        if (c.rs) last_reactions(&c, y1, f1, &endT, &endN);
+    }
+    /* rocking-sliding: a sticking pivot whose margin mu N - |T| turned negative by the step's
+     * end (or its event: not at an overturn, the end of the motion) starts to slide there */
+    if (c.rs && rocking && S->sigma == 0 && ev != EVENT_OVERTURN && startMargin >= 0 &&
+        sliding_stick_margin(M, endT, endN) < 0) {
+        double yS[NMAX] = {0}, fS[NMAX] = {0}, cS[5][NMAX] = {{0}};
+        hStep = locate_slip(&c, S->t, S->y, S->f, hStep, cont, yS, fS, cS);
+        ev = EVENT_SLIP_START;
+        memcpy(y1, yS, sizeof(yS));
+        memcpy(f1, fS, sizeof(fS));
+        memcpy(cont, cS, sizeof(cS));
         tNew = S->t + hStep;
         hitBp = 0;
     }
@@ -405,10 +428,8 @@ static int take_step(Model *M, const Logger *log) {
         S->denseMode = S->mode;
     }
     S->t = tNew;
-    for (int i = 0; i < n; i++) {
-        S->y[i] = y1[i];
-        S->f[i] = f1[i];
-    }
+    for (int i = 0; i < n; i++) S->y[i] = y1[i];
+    for (int i = 0; i < (c.rs ? RS_N : n); i++) S->f[i] = f1[i]; /* 0 past n: what stays put */
     S->fValid = (ev == EVENT_NONE && !hitBp);
     S->h = hNext;
     S->pending = ev;
@@ -501,7 +522,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
 static void dense_state(const Model *M, double s, double *y) {
     const State *S = &M->s;
     if (S->denseTaylor) taylor_eval(S->tay, S->tayN, s * S->hDense, &y[0], &y[1]);
-    else dense_eval(S->cont, sliding_on(M) ? RS_N : 2, s, y);
+    else dense_eval(S->cont, sliding_on(M) ? sliding_components(S->denseMode, S->denseSigma) : 2, s, y);
 }
 
 /* The ground tips the block resting at time t over its corner on side. */
@@ -520,7 +541,7 @@ static void start_rocking(Model *M, double t, int side, const Logger *log) {
         sliding_start(M, t, side, &mode, &sigma);
         S->mode = mode;
         S->sigma = sigma;
-        S->y[3] = 0.0;
+        S->y[RS_RATE] = 0.0;
         if (mode == MODE_ROCKING) say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
         sliding_changed(M, 0, sigma != 0, log);
         return;
@@ -679,14 +700,14 @@ void solver_outputs(Model *M, double tc) {
             v->alphaDD = dy[1];
         }
         if (mode == MODE_ROCKING && sigma != 0) v->contactMode = 3;
-        v->slip = y[2];
-        v->slipRate = y[3];
-        v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(y[2]));
+        v->slip = y[RS_SLIP];
+        v->slipRate = y[RS_RATE];
+        v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(y[RS_SLIP]));
         v->slideDuration = S->slideDur + (sigma != 0 && tc > S->slideSince ? tc - S->slideSince : 0.0);
         v->slideStartTime = S->slideTime;
-        v->frictionLoss = y[4];
+        v->frictionLoss = y[RS_LOSS];
         v->impactLoss = S->impactLoss;
-        v->groundWork = y[5];
+        v->groundWork = y[RS_WORK];
         v->slideStarts = S->slideStarts;
         v->energy = sliding_energy(M, y, mode, side);
         v->atRest = mode == MODE_REST;
@@ -769,6 +790,7 @@ static void replay_step(const Model *M, double y1[NMAX], double cont[5][NMAX], d
     for (int i = 0; i < c.n; i++) y0[i] = S->cont[0][i];
     rhs_cb(&c, S->tOld, y0, f0);
     dopri5_step(rhs_cb, &c, c.n, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
+    for (int i = c.n; c.rs && i < RS_N; i++) y1[i] = S->y[i]; /* what the step left where it was */
 }
 
 #define FAIL(...)                      \
@@ -1096,7 +1118,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
     switch (mode) {
     case MODE_REST:
         for (int i = 0; i < ny; i++)
-            if (S->y[i] != 0 && !(rs && (i == 2 || i >= 4)))
+            if (S->y[i] != 0 && !(rs && (i == RS_WORK || i == RS_SLIP || i == RS_LOSS)))
                 FAIL("at rest every angle and rate is 0, not y[%d] = %g", i, S->y[i]);
         break;
     case MODE_SLIDE:

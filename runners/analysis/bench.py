@@ -83,15 +83,45 @@ def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
     if repeats < 1:
         raise ValueError("--repeats must be >= 1")
     with tempfile.TemporaryDirectory() as tmp:
-        rows = _native_rows(*_compile_native(fmu_path, Path(tmp)), repeats)
-    out = [
-        f"Native cost per simulation, mean of {repeats} runs (instantiate to free, one process, one core)",
-        "",
-        "| case | us / simulation | impacts | outcome | simulated time (s) |",
-        "|---|---:|---:|---|---:|",
-    ]
-    out += [f"| {r[0]} | {float(r[1]):.1f} | {r[2]} | {r[3]} | {float(r[4]):.2f} |" for r in rows]
+        native = _compile_native(fmu_path, Path(tmp))
+        rows = _native_rows(*native, repeats)
+        out = [
+            f"Native cost per simulation, mean of {repeats} runs (instantiate to free, one process, one core)",
+            "",
+            "| case | us / simulation | impacts | outcome | simulated time (s) |",
+            "|---|---:|---:|---|---:|",
+        ]
+        out += [f"| {r[0]} | {float(r[1]):.1f} | {r[2]} | {r[3]} | {float(r[4]):.2f} |" for r in rows]
+        out += _sliding_ratios(rows, native)
     return "\n".join(out)
+
+
+# The harness's rocking-sliding rows where nothing slides (mu = 100) and their rigid twins: the
+# same scene with contact.model = 0 (rows are matched by the scene named after the colon).
+SLIDING_TWINS = {
+    "sine pulse to rest, rtol 1e-10": "sine pulse to rest, rtol 1e-10, restRatio 1e-6 (defaults)",
+    "free rocking 10 impacts, rtol 1e-10": "free rocking 10 impacts, rtol 1e-10",
+}
+
+
+def _sliding_ratios(rows: list[list[str]], native: tuple[Path, Path, str]) -> list[str]:
+    """Lines giving the cost of rocking-sliding where nothing slides over rigid rocking's, per
+    scene: the ratio of the times above (noisy on a shared machine) and, where valgrind is
+    installed, of the instructions per simulation (exact)."""
+    index = {r[0]: i for i, r in enumerate(rows)}
+    us = {r[0]: float(r[1]) for r in rows}
+    valgrind = shutil.which("valgrind") is not None
+    out = []
+    for scene, twin in SLIDING_TWINS.items():
+        name = f"rocking-sliding, mu 100: {scene}"
+        if name not in us or twin not in us:
+            continue
+        line = f"- rocking-sliding where nothing slides, {scene}: {us[name] / us[twin]:.2f}x rigid rocking's time"
+        if valgrind:
+            ir = [_instructions(*native, index[n], 5) for n in (name, twin)]
+            line += f", {ir[0] / ir[1]:.3f}x its instructions"
+        out.append(line)
+    return ["", *out] if out else []
 
 
 def _instructions(exe: Path, lib: Path, guid: str, case: int, repeats: int) -> float:

@@ -95,8 +95,8 @@ def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 20
     return "\n".join(out)
 
 
-def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
-    """The fragility study of docs/records.md: 28 near-field components x 20 PGA levels, stored, then fitted."""
+def _study(fmu_path: Path, parameters: dict, workers: int) -> dict:
+    """The fragility study (import, sweep, fit) in a scratch database: its walls and fit."""
     from db.session import open_database
     from runners.engine import records, study
     from runners.engine.scene import Scene
@@ -107,7 +107,7 @@ def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
         t0 = time.perf_counter()
         records.import_fema(factory, [RECORD[0]])
         t_import = time.perf_counter() - t0
-        scene = Scene("museum statue 0.25 m x 1.0 m", {**STATUE, "excitation.kind": 4})
+        scene = Scene("museum statue 0.25 m x 1.0 m", {**STATUE, "excitation.kind": 4, **parameters})
         t0 = time.perf_counter()
         chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
         with factory() as session:
@@ -120,20 +120,42 @@ def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
         frag = study.fragility(oc)
         study.plot_fragility(Path(tmp) / "fragility.png", frag, oc)
         t_frag = time.perf_counter() - t0
+    return {"import": t_import, "sweep": t_sweep, "fit": t_frag, "stats": st, "frag": frag}
+
+
+def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
+    """The fragility study of docs/records.md: 28 near-field components x 20 PGA levels, stored,
+    then fitted; with rigid rocking and again with rocking-sliding (contact.model = 1, the FMU's
+    default mu 0.7), one after the other in this run."""
+    rigid = _study(fmu_path, {}, workers)
+    sliding = _study(fmu_path, {"contact.model": 1}, workers)
+    st, frag = rigid["stats"], rigid["frag"]
     n = st["ran"]
+
+    def per_point(r: dict) -> float:
+        return 1e3 * r["stats"]["fmu_seconds"] / r["stats"]["ran"]
+
     return "\n".join([
         f"Fragility study: statue under the 28 FEMA P695 near-field pulse components at 20 PGA levels "
         f"({n} runs), SQLite, {workers} workers",
         "",
-        "| step | wall (s) |",
-        "|---|---:|",
-        f"| import the 28 components with their intensity measures (once) | {t_import:.2f} |",
-        f"| sweep: {n} runs simulated and stored | {t_sweep:.2f} |",
-        f"| fragility fit (with {frag.n_groups} jackknife refits) and its figure | {t_frag:.2f} |",
-        f"| study (sweep + fragility) | {t_sweep + t_frag:.2f} |",
+        "| step | wall (s), rigid rocking | wall (s), rocking-sliding | ratio |",
+        "|---|---:|---:|---:|",
+        f"| import the 28 components with their intensity measures (once) | {rigid['import']:.2f} | "
+        f"{sliding['import']:.2f} | |",
+        f"| sweep: {n} runs simulated and stored | {rigid['sweep']:.2f} | {sliding['sweep']:.2f} | "
+        f"{sliding['sweep'] / rigid['sweep']:.2f} |",
+        f"| fragility fit (with {frag.n_groups} jackknife refits) and its figure | {rigid['fit']:.2f} | "
+        f"{sliding['fit']:.2f} | |",
+        f"| study (sweep + fragility) | {rigid['sweep'] + rigid['fit']:.2f} | {sliding['sweep'] + sliding['fit']:.2f} | "
+        f"{(sliding['sweep'] + sliding['fit']) / (rigid['sweep'] + rigid['fit']):.2f} |",
+        f"| FMU per point in a worker (ms) | {per_point(rigid):.2f} | {per_point(sliding):.2f} | "
+        f"{per_point(sliding) / per_point(rigid):.2f} |",
         "",
-        f"Per point: FMU {1e3 * st['fmu_seconds'] / n:.2f} ms in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms. "
+        f"Rigid rocking, per point: FMU {1e3 * st['fmu_seconds'] / n:.2f} ms in a worker, database "
+        f"{1e3 * st['db_seconds'] / n:.3f} ms. "
         f"Fragility: median {frag.median:.3f} g [{frag.median_interval[0]:.3f}, {frag.median_interval[1]:.3f}], "
         f"beta {frag.beta:.3f} [{frag.beta_interval[0]:.3f}, {frag.beta_interval[1]:.3f}]; {frag.n_overturned} of "
-        f"{n} runs overturned.",
+        f"{n} runs overturned. Rocking-sliding: median {sliding['frag'].median:.3f} g, beta "
+        f"{sliding['frag'].beta:.3f}; {sliding['frag'].n_overturned} overturned.",
     ])

@@ -233,6 +233,12 @@ def _contact(name: str):
     return draw
 
 
+def initiation_map(ctx: "Context", out: Path) -> list[Path]:
+    from runners.analysis.initiation_map import initiation_map as draw
+
+    return [draw(ctx.fmu, out / "initiation_map.png", quick=ctx.quick)]
+
+
 @dataclass(frozen=True)
 class Figure:
     names: tuple[str, ...]  # the PNG files it writes, without .png
@@ -263,6 +269,9 @@ FIGURES: list[Figure] = [
     Figure(("fig18_housner",), "the same map with Housner's (1963) restitution (Anagnostopoulos Fig. 18B)",
            "runners sweep examples/fig18_housner.toml --grid w=0.5:10:80 --grid a=1.01:7:80; "
            "runners map SWEEP --out fig18_housner.png", fig18_housner),
+    Figure(("initiation_map",), "which mode starts from rest under a suddenly applied a_h: rest, slide, rock or "
+           "slide-rock over mu and b/h (Ishiyama 1982; Shenton 1996), with the FMU's rocking-sliding modes over it",
+           "runners figures --only initiation_map", initiation_map),
     Figure(("overturning_map",), "Dimitrakopoulos & DeJong (2012)'s closed-form overturning map of a one-sine "
            "pulse against linearised and nonlinear simulation", "runners bench --charts --out FOLDER", overturning_map),
     Figure(("records_imperial_valley",), "FEMA P695 near-field record 1a: acceleration, velocity, displacement "

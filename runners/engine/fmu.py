@@ -67,9 +67,9 @@ _LOAD_LOCK = threading.Lock()
 # events one run may log (each a Python object of about 500 bytes): more is refused mid-run
 MAX_EVENTS = 1_000_000
 
-# the event kinds of logEvents; rocking-sliding adds slide (stick to slip), stick (slip to stick)
-# and slide-rock (uplift onto a sliding corner)
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|lift) (.*)$")
+# the event kinds of logEvents; rocking-sliding adds slide (stick to slip), stick (slip to stick),
+# reverse (the slip turns) and slide-rock (uplift onto a sliding corner)
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift) (.*)$")
 
 
 def fmu_path_from(arg: str | None) -> Path:

@@ -25,6 +25,9 @@ typedef struct {
     /* two blocks (nBlocks = 2): lower block mass, upper block, table displacement */
     int nBlocks;
     double m, b2, h2, m2, theta02, displacement;
+    /* rocking-sliding (contact.model = 1) with friction coefficient mu; 0: rigid rocking */
+    int sliding;
+    double mu;
 } Case;
 
 static void *xcalloc(size_t n, size_t s) { return calloc(n, s); }
@@ -123,6 +126,13 @@ int main(int argc, char **argv) {
         {"two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 7.0, 1e-10, 10.0, 1e-6, 3, 2, FIG17, 0.003},
         {"two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s, rtol 1e-6", 0.0145, 0.060, 0, 0, 7.0, 1e-6, 10.0, 1e-6, 3, 2, FIG17, 0.003},
         {"two blocks, Anagnostopoulos Fig. 17B (5.5 Hz / 3 mm), 10 s, rtol 1e-10", 0.0145, 0.060, 0, 0, 5.5, 1e-10, 10.0, 1e-6, 3, 2, FIG17, 0.003},
+        /* rocking-sliding: rows 0, 4 and 5 again with mu = 100 (nothing slides in 0 and 5; an overturning block's
+         * pivot slides just before it would lift off), then blocks that slide */
+        {"rocking-sliding, mu 100: sine pulse to rest, rtol 1e-10", 0.1, 0.3, 0, 5.0, 3.0, 1e-10, 5.0, 1e-6, 1, 0, ONE, 1, 100.0},
+        {"rocking-sliding, mu 100: sine pulse overturning (slides as it lifts off), rtol 1e-10", 0.1, 0.3, 0, 6.0, 2.0, 1e-10, 5.0, 1e-6, 1, 0, ONE, 1, 100.0},
+        {"rocking-sliding, mu 100: free rocking 10 impacts, rtol 1e-10", 0.1, 0.3, 0.2, 0, 1, 1e-10, 0, 1e-6, 0, 2, ONE, 1, 100.0},
+        {"rocking-sliding, mu 0.3: squat block slides (12 m/s2, 2 Hz), rtol 1e-10", 0.3, 0.36, 0, 12.0, 2.0, 1e-10, 5.0, 1e-6, 1, 0, ONE, 1, 0.3},
+        {"rocking-sliding, mu 0.35: rocks and slide-rocks (6 m/s2, 1.5 Hz), rtol 1e-10", 0.15, 0.45, 0, 6.0, 1.5, 1e-10, 5.0, 1e-6, 1, 0, ONE, 1, 0.35},
     };
 #undef ONE
 #undef FIG17
@@ -145,6 +155,15 @@ int main(int argc, char **argv) {
             int ints[] = {k.kind, k.law, k.nBlocks};
             fmi2SetReal(m, vrReal, 14, real);
             fmi2SetInteger(m, vrInt, 3, ints);
+            if (k.sliding) {
+                const fmi2ValueReference vrModel = 106, vrMu = 90;
+                int model = 1;
+                if (fmi2SetInteger(m, &vrModel, 1, &model) != fmi2OK || fmi2SetReal(m, &vrMu, 1, &k.mu) != fmi2OK) {
+                    fmi2FreeInstance(m);
+                    impacts = -1;
+                    break; /* an FMU from before rocking-sliding: no such row */
+                }
+            }
             fmi2SetupExperiment(m, 0, 0, 0, 0, 0);
             fmi2EnterInitializationMode(m);
             fmi2ExitInitializationMode(m);
@@ -164,6 +183,7 @@ int main(int argc, char **argv) {
             fmi2GetBoolean(m, &vrRest, 1, &rest);
             fmi2FreeInstance(m);
         }
+        if (impacts < 0) continue;
         double us = (now() - t0) / repeats * 1e6;
         printf("%s\t%.2f\t%d\t%s\t%.2f\n", k.name, us, impacts,
                over ? "overturned" : rest ? "at rest" : "rocking", stop);

@@ -1,0 +1,452 @@
+"""Closed forms of sliding: a Coulomb block on an accelerating base, and which mode starts from rest.
+
+Written from Newton-Euler for the references of the rocking-sliding model (docs/sliding.md),
+independently of the C core. SI units (m, s, m/s^2), the signs of docs/conventions.md: ``x``
+to the right, ``a_h > 0`` accelerates the ground towards ``+x``, ``a_v > 0`` upwards (effective
+gravity ``G = g + a_v``).
+
+A block that can only slide
+---------------------------
+``u`` is the slip of the block relative to the ground (m, ``+x``), ``u'`` the slip rate. In the
+ground's frame the block feels ``-m a_h`` horizontally and ``m G`` down; the ground pushes up by
+``N = m G`` and along by the friction ``T``. While it sticks ``T = m a_h``, possible while
+``|a_h| <= mu G``. While it slides with ``sigma = sign(u')``, ``T = -sigma mu N`` and
+
+    u'' = -a_h - sigma mu (g + a_v).
+
+The ground motions here are the FMU's built-in sines (``model/c/ground.c`` and docs/records.md
+describe the same waveforms): ``a_h = ah0 + A s(t)``, ``a_v = av0 + V s(t)`` with
+``s(t) = sin(Omega (t - t0))`` on the excitation's window ``[t0, t_end)`` and 0 outside it,
+``Omega = 2 pi f``. ``ah0``, ``av0`` are constant accelerations (the FMU's inputs ``ground.ah``,
+``ground.av``). A sine pulse has ``A`` the amplitude; a harmonic table motion of displacement
+``D sin(Omega (t - t0))`` has ``A = -D Omega^2`` (its vertical acceleration has the same shape,
+``-verticalAmplitude sin(...)``). On each piece of a sliding phase that starts at ``t1`` with
+``u1``, ``v1`` (``phi = Omega (t - t0)``, ``c = ah0 + sigma mu (g + av0)``, ``k = A + sigma mu V``):
+
+    u'(t) = v1 - c (t - t1) + (k / Omega) [cos(phi) - cos(phi1)]
+    u(t)  = u1 + (v1 - (k / Omega) cos(phi1)) (t - t1) - c (t - t1)^2 / 2 + (k / Omega^2) [sin(phi) - sin(phi1)]
+
+A phase ends where ``u'`` returns to zero: the first root after ``t1``, bracketed between the
+closed-form extrema of ``u'`` (where ``u'' = 0``: ``sin(phi) = -c / k``) so that no root is
+missed, and polished by Brent's method to full double precision. The block then sticks if
+``|a_h| <= mu G`` there, else the slide reverses. Sticking ends where ``+-a_h - mu G`` crosses
+zero upwards: ``(+-ah0 - mu (g + av0)) + (+-A - mu V) sin(phi) = 0``, solved by ``asin``; from
+rest under a sine pulse that is ``t0 + asin(mu g / A) / (2 pi f)``.
+
+Which mode starts from rest (Ishiyama 1982; Shenton 1996)
+--------------------------------------------------------
+A block at rest, suddenly loaded by constant ``a_h``, ``a_v`` (``G > 0``), half width ``b``,
+half height ``h``, ``beta = b / h``, ``lambda = |a_h| / G``:
+
+- rest while ``lambda <= min(mu, beta)``: the ground then carries ``T = m a_h``, ``N = m G``,
+  whose resultant sits ``h |a_h| / G`` from the centre of the base (inside it while
+  ``lambda <= beta``);
+- slide if ``mu <= beta`` and ``lambda > mu``: the flat slide keeps the normal resultant at
+  ``mu h <= b`` from the centre, so it cannot tip (Ishiyama 1982);
+- if ``mu > beta`` and ``lambda > beta``: rocking on the corner the load tips it to, with the
+  pivot sticking, needs the friction ratio (:func:`rocking_onset_demand`)
+
+      |T| / N = ((4 beta^2 + 1) lambda + 3 beta) / ((beta^2 + 4) + 3 beta lambda),
+
+  which equals ``beta`` at ``lambda = beta`` and grows with ``lambda`` towards
+  ``(4 beta^2 + 1) / (3 beta)``. Rock if it is at most ``mu`` (Ishiyama 1982 stops at
+  ``mu > beta``), else slide-rock (Shenton 1996).
+
+Derivation of the demand: rocking about the left corner (``a_h > 0``), the centre is at
+``(b, h)`` from the pivot; the moment about the pivot of ``-m a_h`` and ``-m G`` gives the
+counter-clockwise angular acceleration ``psi'' = m (h a_h - b G) / I0``, ``I0 = 4/3 m R^2``. At
+``omega = 0`` the centre accelerates by ``psi'' (-h, b)``, so ``T = m a_h - m h psi''`` and
+``N = m G + m b psi''``; the ratio above follows with ``R^2 = b^2 + h^2``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Iterator
+
+import numpy as np
+from scipy.optimize import brentq
+
+G_DEFAULT = 9.81  # m/s^2, the FMU's default g
+
+
+# ----------------------------------------------------------------------------- ground motions
+
+
+@dataclass(frozen=True)
+class SineGround:
+    """``a_h(t) = ah0 + A s(t)``, ``a_v(t) = av0 + V s(t)`` (m/s^2), ``s(t) = sin(2 pi f (t - t0))``
+    on ``[t0, t_end)`` and 0 outside it (``t_end = inf``: endless)."""
+
+    amplitude: float  # A, m/s^2 (signed)
+    frequency: float  # f, Hz
+    t0: float = 0.0  # s
+    t_end: float = math.inf  # s
+    vertical: float = 0.0  # V, m/s^2 (signed)
+    ah0: float = 0.0  # m/s^2
+    av0: float = 0.0  # m/s^2
+
+    @property
+    def omega(self) -> float:
+        """Circular frequency 2 pi f (rad/s)."""
+        return 2.0 * math.pi * self.frequency
+
+    def s(self, t: float) -> float:
+        """The waveform of unit amplitude at ``t`` (0 outside the window)."""
+        return math.sin(self.omega * (t - self.t0)) if self.t0 <= t < self.t_end else 0.0
+
+    def __call__(self, t: float) -> tuple[float, float]:
+        """``(a_h, a_v)`` at ``t`` (m/s^2)."""
+        w = self.s(t)
+        return self.ah0 + self.amplitude * w, self.av0 + self.vertical * w
+
+    def breaks(self) -> tuple[float, ...]:
+        """Times where the expression of the motion changes (the window's ends)."""
+        return tuple(x for x in (self.t0, self.t_end) if math.isfinite(x))
+
+
+def sine_pulse(amplitude: float, frequency: float, cycles: float = 1.0, t0: float = 0.0,
+               vertical: float = 0.0, ah0: float = 0.0, av0: float = 0.0) -> SineGround:
+    """The FMU's sine pulse (excitation.kind 1): ``A sin(2 pi f (t - t0))`` for ``cycles / f`` s,
+    vertical ``V sin(...)`` (excitation.verticalAmplitude), plus the constant inputs."""
+    return SineGround(amplitude, frequency, t0, t0 + cycles / frequency, vertical, ah0, av0)
+
+
+def harmonic(displacement: float, frequency: float, cycles: float = 0.0, t0: float = 0.0,
+             vertical: float = 0.0, ah0: float = 0.0, av0: float = 0.0) -> SineGround:
+    """The FMU's harmonic table motion (excitation.kind 3): table displacement
+    ``D sin(2 pi f (t - t0))`` from ``t0`` (no ramp), so ``a_h = -D (2 pi f)^2 sin(...)``, and
+    ``a_v = -V sin(...)`` with ``V`` the excitation.verticalAmplitude; ``cycles = 0``: endless."""
+    w = 2.0 * math.pi * frequency
+    t_end = math.inf if cycles == 0 else t0 + cycles / frequency
+    return SineGround(-displacement * w * w, frequency, t0, t_end, -vertical, ah0, av0)
+
+
+def constant(ah: float, av: float = 0.0) -> SineGround:
+    """Constant accelerations from the start (the FMU's inputs ground.ah, ground.av, excitation.kind 0)."""
+    return SineGround(0.0, 1.0, 0.0, 0.0, 0.0, ah, av)  # an empty window
+
+
+# ----------------------------------------------------------------------------- the sliding block
+
+STICK = 0
+
+
+@dataclass(frozen=True)
+class Phase:
+    """One phase on one piece of the ground motion: the block sticks (``sigma = 0``) or slides with
+    ``sigma = sign(u')``; ``u'' = -c - k sin(Omega (t - t0))`` on ``[t_start, t_end]``."""
+
+    t_start: float
+    t_end: float
+    u0: float  # slip at t_start, m
+    v0: float  # slip rate at t_start, m/s
+    sigma: int
+    c: float = 0.0  # m/s^2
+    k: float = 0.0  # m/s^2
+    omega: float = 1.0  # rad/s
+    t_ref: float = 0.0  # the waveform's t0, s
+
+    def rate(self, t: float) -> float:
+        """Slip rate u'(t) (m/s), closed form."""
+        if self.sigma == STICK:
+            return 0.0
+        tau = t - self.t_start
+        p1, half = self.omega * (self.t_start - self.t_ref), 0.5 * self.omega * tau
+        dcos = -2.0 * math.sin(p1 + half) * math.sin(half)  # cos(phi) - cos(phi1)
+        return self.v0 - self.c * tau + self.k / self.omega * dcos
+
+    def slip(self, t: float) -> float:
+        """Slip u(t) (m), closed form."""
+        if self.sigma == STICK:
+            return self.u0
+        tau = t - self.t_start
+        p1, half = self.omega * (self.t_start - self.t_ref), 0.5 * self.omega * tau
+        dsin = 2.0 * math.cos(p1 + half) * math.sin(half)  # sin(phi) - sin(phi1)
+        return (self.u0 + (self.v0 - self.k / self.omega * math.cos(p1)) * tau - 0.5 * self.c * tau * tau
+                + self.k / self.omega ** 2 * dsin)
+
+
+@dataclass(frozen=True)
+class Switch:
+    """A mode switch: ``slide`` (stick to slip, ``sigma`` the sign of the slip rate that starts),
+    ``stick`` (slip to stick) or ``reverse`` (the slip rate passes zero and the slide goes on the
+    other way, ``sigma`` the new sign)."""
+
+    kind: str
+    t: float  # s
+    sigma: int
+
+
+@dataclass
+class SlidingSolution:
+    """The piecewise closed-form motion of a Coulomb block on ``[t_start, t_stop]``."""
+
+    phases: list[Phase]
+    switches: list[Switch]
+    t_start: float
+    t_stop: float
+    _ends: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._ends = np.array([p.t_end for p in self.phases])
+
+    def phase_at(self, t: float) -> Phase:
+        """The phase that holds at ``t`` (s); at a switch, the one that ends there."""
+        if not self.t_start <= t <= self.t_stop:
+            raise ValueError(f"t = {t} is outside the solution's span [{self.t_start}, {self.t_stop}]")
+        i = int(np.searchsorted(self._ends, t, side="left"))
+        return self.phases[min(i, len(self.phases) - 1)]
+
+    def slip(self, t: float | np.ndarray) -> float | np.ndarray:
+        """Slip u (m) at ``t`` (s): a float or an array like ``t``."""
+        if np.ndim(t) == 0:
+            return self.phase_at(float(t)).slip(float(t))
+        return np.array([self.phase_at(float(x)).slip(float(x)) for x in np.asarray(t, dtype=float)])
+
+    def slip_rate(self, t: float | np.ndarray) -> float | np.ndarray:
+        """Slip rate u' (m/s) at ``t`` (s)."""
+        if np.ndim(t) == 0:
+            return self.phase_at(float(t)).rate(float(t))
+        return np.array([self.phase_at(float(x)).rate(float(x)) for x in np.asarray(t, dtype=float)])
+
+    def times(self, kind: str) -> list[float]:
+        """Times (s) of the switches of one kind."""
+        return [s.t for s in self.switches if s.kind == kind]
+
+    @property
+    def first_slide_time(self) -> float:
+        """First stick-to-slip time (s), -1 if it never slides."""
+        slides = self.times("slide")
+        return slides[0] if slides else -1.0
+
+    @property
+    def slide_duration(self) -> float:
+        """Time spent sliding (s)."""
+        return sum(p.t_end - p.t_start for p in self.phases if p.sigma != STICK)
+
+    @property
+    def max_abs_slip(self) -> float:
+        """Largest |u| (m): u is monotone within a sliding phase, so it is at a phase's end."""
+        return max([abs(self.phases[0].u0)] + [abs(p.slip(p.t_end)) for p in self.phases])
+
+    @property
+    def residual_slip(self) -> float:
+        """u at t_stop (m)."""
+        return self.phases[-1].slip(self.t_stop)
+
+
+def _pieces(ground: SineGround, t_start: float, t_stop: float) -> list[tuple[float, float, bool]]:
+    """The intervals between the motion's breaks, clipped to [t_start, t_stop], each with
+    whether the sine is on there."""
+    cuts = sorted({t_start, t_stop, *[x for x in ground.breaks() if t_start < x < t_stop]})
+    return [(a, b, ground.t0 <= a < ground.t_end) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _upward_crossing(alpha: float, beta: float, omega: float, t_ref: float, t_from: float) -> float:
+    """First t >= t_from where alpha + beta sin(omega (t - t_ref)) crosses 0 upwards (inf if never;
+    t_from itself if it is already positive there)."""
+    phi_from = omega * (t_from - t_ref)
+    if alpha + beta * math.sin(phi_from) > 0.0:
+        return t_from
+    if beta == 0.0 or abs(alpha) > abs(beta):
+        return math.inf
+    a = math.asin(-alpha / beta)
+    root = a if beta > 0 else math.pi - a  # where beta cos(phi) > 0
+    n = math.ceil((phi_from - root) / (2.0 * math.pi))
+    phi = root + 2.0 * math.pi * n
+    if phi < phi_from:
+        phi += 2.0 * math.pi
+    return t_ref + phi / omega
+
+
+def _critical_times(c: float, k: float, omega: float, t_ref: float, t_from: float, t_to: float
+                    ) -> Iterator[float]:
+    """The times in (t_from, t_to) where -c - k sin(omega (t - t_ref)) = 0 (the extrema of the
+    slip rate), in order; the slip rate is monotone between consecutive ones."""
+    if k == 0.0 or abs(c) >= abs(k):
+        return
+    a = math.asin(-c / k)
+    period = 2.0 * math.pi
+    phi_from = omega * (t_from - t_ref)
+    n = math.floor((phi_from - math.pi) / period) - 1
+    skip = 1e-9 * period  # a root at t_from itself (a slide that starts where u'' = 0) is not a bracket end
+    while True:
+        for root in sorted((a + period * n, math.pi - a + period * n)):
+            if root > phi_from + skip:
+                t = t_ref + root / omega
+                if t >= t_to:
+                    return
+                yield t
+        n += 1
+
+
+def coulomb_block(ground: SineGround, mu: float, t_stop: float, g: float = G_DEFAULT,
+                  t_start: float = 0.0, slip0: float = 0.0) -> SlidingSolution:
+    """The exact motion of a block that can only slide, at rest at ``t_start`` with slip ``slip0``
+    (m), under ``ground`` with Coulomb friction ``mu`` (static = kinetic) and gravity ``g``.
+
+    ValueError for mu <= 0, g <= 0, or a vertical motion that reaches ``G = g + a_v <= 0``
+    (the block would leave the ground)."""
+    if not (math.isfinite(mu) and mu > 0):
+        raise ValueError(f"mu = {mu} must be a finite number > 0")
+    if not (math.isfinite(g) and g > 0):
+        raise ValueError(f"g = {g} must be > 0")
+    if not (math.isfinite(t_stop) and t_stop > t_start):
+        raise ValueError(f"t_stop = {t_stop} must be finite and after t_start = {t_start}")
+    low = g + ground.av0 - (abs(ground.vertical) if ground.t0 < t_stop and ground.t_end > t_start else 0.0)
+    if not low > 0:
+        raise ValueError(f"g + a_v reaches {low} m/s2 <= 0: the block would leave the ground")
+
+    phases: list[Phase] = []
+    switches: list[Switch] = []
+    u, v, sigma = float(slip0), 0.0, STICK
+    w = ground.omega
+    for a, b, on in _pieces(ground, t_start, t_stop):
+        A, V = (ground.amplitude, ground.vertical) if on else (0.0, 0.0)
+        t = a
+        while t < b:
+            if sigma == STICK:
+                # +a_h - mu G and -a_h - mu G: the first to cross zero upwards ends the stick
+                up = _upward_crossing(ground.ah0 - mu * (g + ground.av0), A - mu * V, w, ground.t0, t)
+                down = _upward_crossing(-ground.ah0 - mu * (g + ground.av0), -A - mu * V, w, ground.t0, t)
+                t1 = min(up, down)
+                if t1 >= b:
+                    phases.append(Phase(t, b, u, 0.0, STICK))
+                    t = b
+                    continue
+                if t1 > t:
+                    phases.append(Phase(t, t1, u, 0.0, STICK))
+                sigma = -1 if up <= down else 1  # a_h > mu G drags the ground away towards +x: slip to -x
+                switches.append(Switch("slide", t1, sigma))
+                t, v = t1, 0.0
+                continue
+            c = ground.ah0 + sigma * mu * (g + ground.av0)
+            k = A + sigma * mu * V
+            phase = Phase(t, b, u, v, sigma, c, k, w, ground.t0)
+            end = _slip_rate_zero(phase, b)
+            if end is None:
+                phases.append(phase)
+                u, v, t = phase.slip(b), phase.rate(b), b
+                continue
+            if not end > t:  # cannot happen for a slide that has started; never loop on it
+                raise RuntimeError(f"a sliding phase from t = {t} s ends where it starts")
+            phase = Phase(t, end, u, v, sigma, c, k, w, ground.t0)
+            phases.append(phase)
+            u, v, t = phase.slip(end), 0.0, end
+            ah = ground.ah0 + A * math.sin(w * (end - ground.t0))
+            av = ground.av0 + V * math.sin(w * (end - ground.t0))
+            if abs(ah) <= mu * (g + av):
+                sigma = STICK
+                switches.append(Switch("stick", end, STICK))
+            else:
+                sigma = -sigma
+                switches.append(Switch("reverse", end, sigma))
+    return SlidingSolution(phases, switches, t_start, t_stop)
+
+
+def _slip_rate_zero(phase: Phase, t_to: float) -> float | None:
+    """The first time in (t_start, t_to) where the phase's slip rate returns to zero, or None."""
+    s = phase.sigma
+    edges = [*_critical_times(phase.c, phase.k, phase.omega, phase.t_ref, phase.t_start, t_to), t_to]
+    lo = phase.t_start
+    for hi in edges:
+        rate_hi = s * phase.rate(hi)
+        if rate_hi <= 0.0:
+            if rate_hi == 0.0 and hi < t_to:
+                return hi
+            if s * phase.rate(lo) <= 0.0:  # the slide has just started here: look just inside
+                return _bracketed(phase, lo, hi)
+            return brentq(phase.rate, lo, hi, xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=400)
+        lo = hi
+    return None
+
+
+def _bracketed(phase: Phase, lo: float, hi: float) -> float | None:
+    """A root of the rate in (lo, hi] where the rate is 0 at lo too (the slide starts at lo, with
+    u'' = 0 there): bisect for an inner point where the rate has the slide's sign first."""
+    s = phase.sigma
+    a, b = lo, hi
+    for _ in range(200):
+        mid = 0.5 * (a + b)
+        if s * phase.rate(mid) > 0.0:
+            return brentq(phase.rate, mid, hi, xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=400)
+        b = mid
+        if b - lo <= 4.0 * np.finfo(float).eps * max(abs(lo), 1.0):
+            break
+    return None
+
+
+# ----------------------------------------------------------------------------- initiation from rest
+
+
+class Mode(IntEnum):
+    """The FMU's block1.mode (Enumeration ContactMode)."""
+
+    REST = 0
+    SLIDE = 1
+    ROCK = 2
+    SLIDE_ROCK = 3
+    OVERTURNED = 4
+
+
+def _check(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float) -> float:
+    """lambda = |a_h| / (g + a_v); ValueError for a bad argument or flight (g + a_v <= 0)."""
+    for name, x in (("mu", mu), ("b_over_h", b_over_h)):
+        if not (math.isfinite(x) and x > 0):
+            raise ValueError(f"{name} = {x} must be a finite number > 0")
+    if not (math.isfinite(ah_over_g) and math.isfinite(av_over_g)):
+        raise ValueError(f"a_h / g = {ah_over_g} and a_v / g = {av_over_g} must be finite")
+    if not 1.0 + av_over_g > 0:
+        raise ValueError(f"a_v / g = {av_over_g}: the ground falls faster than gravity, the block would fly")
+    return abs(ah_over_g) / (1.0 + av_over_g)
+
+
+def rocking_onset_demand(b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> float:
+    """Friction ratio |T| / N (1) that rocking needs at its first instant from rest (omega = 0, the
+    pivot sticking), on the corner the load tips the block to: ((4 beta^2 + 1) lambda + 3 beta) /
+    ((beta^2 + 4) + 3 beta lambda), beta = b / h, lambda = |a_h| / (g + a_v). Meaningful where
+    lambda > beta (rocking starts)."""
+    lam = _check(1.0, b_over_h, ah_over_g, av_over_g)
+    beta = b_over_h
+    return ((4 * beta * beta + 1) * lam + 3 * beta) / ((beta * beta + 4) + 3 * beta * lam)
+
+
+def rock_friction_limit(b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> float:
+    """Shenton's (1996) boundary between slide-rock and rock: the smallest mu (1) with which a
+    block of ``b / h`` starts to rock without sliding under a_h, a_v (above the uplift threshold
+    lambda > beta); below it (and above b / h) it starts to slide-rock."""
+    return rocking_onset_demand(b_over_h, ah_over_g, av_over_g)
+
+
+def rest_limit(mu: float, b_over_h: float) -> float:
+    """The largest |a_h| / (g + a_v) that leaves the block at rest: min(mu, b / h) (Ishiyama 1982)."""
+    _check(mu, b_over_h, 0.0, 0.0)
+    return min(mu, b_over_h)
+
+
+def initiation_mode(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> Mode:
+    """The mode a block at rest takes under suddenly applied constant a_h, a_v (in units of g):
+    REST if |a_h| <= min(mu, b/h) (g + a_v); else SLIDE if mu <= b/h (Ishiyama 1982); else ROCK if
+    rocking's onset demand is <= mu, SLIDE_ROCK otherwise (Shenton 1996)."""
+    lam = _check(mu, b_over_h, ah_over_g, av_over_g)
+    if lam <= min(mu, b_over_h):
+        return Mode.REST
+    if mu <= b_over_h:
+        return Mode.SLIDE
+    return Mode.ROCK if rocking_onset_demand(b_over_h, ah_over_g, av_over_g) <= mu else Mode.SLIDE_ROCK
+
+
+def initiation_margin(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> float:
+    """Distance (1) of a point from the nearest boundary of :func:`initiation_mode` that concerns it,
+    in the ratios compared: lambda against min(mu, b/h), mu against b/h, mu against the demand.
+    Small values flag grid points that a tolerance could put on either side."""
+    lam = _check(mu, b_over_h, ah_over_g, av_over_g)
+    margins = [abs(lam - min(mu, b_over_h))]
+    if lam > min(mu, b_over_h):
+        margins.append(abs(mu - b_over_h))
+        if mu > b_over_h:
+            margins.append(abs(mu - rocking_onset_demand(b_over_h, ah_over_g, av_over_g)))
+    return min(margins)
