@@ -171,6 +171,11 @@ class RunSummary(Base):
     normal_min_interface: Mapped[float | None] = mapped_column(Float)  # two blocks: over block 2's weight
     impulse_demand_max: Mapped[float | None] = mapped_column(Float)  # largest |Pt| / Pn of an impact
     fall_time: Mapped[float | None] = mapped_column(Float)  # s, start of the overturning fall (None: none)
+    # rocking–sliding runs (contact.model = 1, runners.engine.motion); None for rigid rocking
+    motion: Mapped[str | None] = mapped_column(String(12))  # rests, slides, rocks, slide-rocks, overturns
+    max_abs_slip: Mapped[float | None] = mapped_column(Float)  # m, peak |block1.slip|
+    residual_slip: Mapped[float | None] = mapped_column(Float)  # m, block1.slip at the end (+x)
+    slide_duration: Mapped[float | None] = mapped_column(Float)  # s, time spent sliding
     run: Mapped[Run] = relationship(back_populates="summary")
 
 

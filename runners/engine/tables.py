@@ -53,6 +53,11 @@ OUTCOMES: dict[str, str] = {
     "friction_demand_max_interface": "float64",
     "normal_min_interface": "float64",
     "impulse_demand_max": "float64",  # largest |tangential| / normal impulse of an impact
+    # rocking–sliding runs (contact.model = 1, runners.engine.motion); empty for rigid rocking
+    "motion": "string",  # rests, slides, rocks, slide-rocks or overturns
+    "max_abs_slip": "float64",  # m, peak |block1.slip|
+    "residual_slip": "float64",  # m, block1.slip at the end (+x)
+    "slide_duration": "float64",  # s, time spent sliding
 }
 EVENT_COLUMNS = ("time", "kind")  # every events frame starts with these: time in s, kind of event
 SCALED = ("pga", "pgv", "pgd", "arias")  # a scaled record's measures a sweep point stores (SI)
