@@ -25,8 +25,8 @@ from typing import Any, Mapping, Sequence
 
 from runners import arguments as args
 from runners.engine.results import RunResult, SweepResult
-from runners.engine.scene import (Scene, SceneError, check_times, implausible_sizes, load_scene, scene_from_dict,
-                                  unused_parameter)
+from runners.engine.scene import (Scene, SceneError, check_times, contact_model_problem, implausible_sizes,
+                                  load_scene, scene_from_dict, unused_parameter)
 from runners.errors import ArgumentError, RockingError
 
 PYTHON_METHODS = ("scipy", "rk4", "rk4-located", "newmark", "euler")
@@ -78,6 +78,13 @@ def _check_overrides(p: Mapping[str, Any], variables: Mapping[str, Any]) -> dict
             close = difflib.get_close_matches(name, [n for n, x in variables.items() if x.causality == "parameter"], 1)
             hint = f" (did you mean {close[0]}?)" if close else " (docs/scenes.md lists them)"
             raise ArgumentError(f"{name} is not a parameter of RockingBlock.fmu{hint}")
+        if name == "contact.model" and isinstance(value, str):  # the scene's names: "rocking-sliding"
+            from runners.engine.scene import CONTACT_MODELS
+
+            if value not in CONTACT_MODELS:
+                raise ArgumentError(f"contact.model must be one of {', '.join(CONTACT_MODELS)} (or 0, 1), "
+                                    f"got {value!r}")
+            value = CONTACT_MODELS[value]
         number = args.is_number(value)
         if v.type == "Real" and not (number and math.isfinite(value)):
             raise ArgumentError(f"{name} must be a finite number (SI units), got {value!r}")
@@ -198,7 +205,7 @@ def simulate(
     Numbers may be numpy scalars. Raises ArgumentError (an argument of the wrong type or value) or
     SceneError (a one-line message) for invalid input, FMUError when the FMU refuses a parameter.
     """
-    from runners.engine.fmu import RockingFMU, fmu_path_from
+    from runners.engine.fmu import FMUError, RockingFMU, fmu_path_from
     from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_assumptions, format_summary,
                                         model_check_line, summarize)
     from runners.engine.results import events_later, series_later
@@ -276,9 +283,16 @@ def simulate(
         sc.parameters.update(_check_overrides(given, fm.vars))
         defaults = fm.defaults()
         merged = {**defaults, **sc.parameters}
+        wrong = contact_model_problem(merged)
+        if wrong:  # an override made the scene's contact model impossible (nothing has run)
+            raise ArgumentError(wrong)
         notes += [f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
                   and (why := unused_parameter(k, merged))]
         notes += implausible_sizes(merged)
+        sliding = int(merged.get("contact.model", 0)) == 1
+        if sliding and method not in ("fmu", "auto"):
+            raise ArgumentError(f"method {method} solves rigid rocking; the scene's [contact] model is "
+                                "rocking-sliding (method fmu, or auto)")
         if method in PYTHON_METHODS:
             from runners.engine.python_methods import format_python, run_python
 
@@ -291,51 +305,76 @@ def simulate(
             report = format_python(sc.name, s, sc.stop_time)
             model = s["model"]
         else:
-            from runners.analysis.least_model import (choose_model, closed_form_summary,
+            from runners.analysis.least_model import (ROCKING_SLIDING, choose_model, closed_form_summary,
                                                       combined_block_parameters, format_closed_form,
-                                                      one_block_parameters)
+                                                      one_block_parameters, rigid_rocking_parameters,
+                                                      rocking_sliding_parameters, rocking_sliding_reason)
+            from runners.engine.summary import SLIDING_OUTPUTS
 
             if method == "fmu":
-                model = "two blocks" if int(merged["nBlocks"]) == 2 else "one block"
+                model = "two blocks" if int(merged["nBlocks"]) == 2 else ROCKING_SLIDING if sliding else "one block"
                 why = "the model the scene describes (--method fmu)"
             else:
+                if sliding:  # auto tries rigid rocking first, as for every scene
+                    sc = replace(sc, parameters=rigid_rocking_parameters(sc.parameters))
+                    merged = {**defaults, **sc.parameters}
                 model, why = choose_model(merged, accuracy)
                 if method == "closed-form" and model != "closed form":
                     raise ArgumentError("method closed-form does not apply to this scene: "
                                      f"{why.removeprefix('no closed form: ')}")
             described = sc  # the scene as it describes itself, before auto's substitutions
-            if model == "closed form":
-                s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
-                report = format_closed_form(sc.name, why, s)
-                if method == "auto":  # the closed form is rigid rocking too: the FMU's monitors check that
-                    s["assumptions"] = _monitored(fm, described, merged)
-                    report += f"\nassumptions      {format_assumptions(s['assumptions'])}"
-            else:
-                if model == "one block" and int(merged["nBlocks"]) == 2:
-                    sc = replace(sc, parameters=one_block_parameters(sc.parameters))
-                if model == "one block (combined)":
-                    combined = combined_block_parameters(merged)
-                    sc = replace(sc, parameters={k: v for k, v in combined.items()
-                                                 if k in sc.parameters or k.startswith("block1.")})
-                wanted = list(dict.fromkeys([*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *(outputs or ())]))
-                result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
-                s = summarize(sc, result, defaults)
-                s["model"], s["model_reason"] = model, why
-                if method == "auto" and int(merged["nBlocks"]) == 2 and model != "two blocks":
-                    # a stack run as one block: only the two-block model sees its interface
-                    s["assumptions"] = _monitored(fm, described, merged)
-                if rec is not None:
-                    sc_scale = float({**defaults, **sc.parameters}["excitation.scale"])
-                    s["excitation"] = rec.describe(sc_scale)
-                    s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end, "scale": sc_scale,
-                                   "pga_g": abs(sc_scale) * rec.info["pga_g"]}
-                    notes += rec.notes
-                if notes:
-                    s["notes"] = notes
-                report = format_summary({k: v for k, v in s.items() if k != "notes"})  # notes: summary["notes"]
-                keep = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS]  # as stored and exported
-                series = series_later(result.time, {k: result.outputs[k] for k in keep})
-                events = events_later([e.as_dict() for e in result.events])
+            refused = None  # why the FMU refused rocking-sliding for this scene, if it did
+            rigid = None  # rigid rocking's assumptions, once auto has switched to rocking-sliding
+            while True:  # a second pass only for auto's rocking-sliding
+                if model == "closed form":
+                    s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
+                    report = format_closed_form(sc.name, why, s)
+                    if method == "auto":  # the closed form is rigid rocking too: the FMU's monitors check that
+                        s["assumptions"] = _monitored(fm, described, merged)
+                        report += f"\nassumptions      {format_assumptions(s['assumptions'])}"
+                else:
+                    if model == "one block" and int(merged["nBlocks"]) == 2:
+                        sc = replace(sc, parameters=one_block_parameters(sc.parameters))
+                    if model == "one block (combined)":
+                        combined = combined_block_parameters(merged)
+                        sc = replace(sc, parameters={k: v for k, v in combined.items()
+                                                     if k in sc.parameters or k.startswith("block1.")})
+                    own = SLIDING_OUTPUTS if model == ROCKING_SLIDING else ()  # its channels, stored and exported
+                    wanted = list(dict.fromkeys([*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own, *(outputs or ())]))
+                    result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
+                    s = summarize(sc, result, defaults)
+                    s["model"], s["model_reason"] = model, why
+                    if rigid is not None:  # what rigid rocking's monitors said, which made auto switch
+                        s["rigid_rocking_assumptions"] = rigid
+                    if method == "auto" and int(merged["nBlocks"]) == 2 and model != "two blocks":
+                        # a stack run as one block: only the two-block model sees its interface
+                        s["assumptions"] = _monitored(fm, described, merged)
+                    run_notes = list(notes)
+                    if rec is not None:
+                        sc_scale = float({**defaults, **sc.parameters}["excitation.scale"])
+                        s["excitation"] = rec.describe(sc_scale)
+                        s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end, "scale": sc_scale,
+                                       "pga_g": abs(sc_scale) * rec.info["pga_g"]}
+                        run_notes += rec.notes
+                    if run_notes:
+                        s["notes"] = run_notes
+                    report = format_summary({k: v for k, v in s.items() if k != "notes"})  # notes: summary["notes"]
+                    keep = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own]  # stored, exported
+                    series = series_later(result.time, {k: result.outputs[k] for k in keep})
+                    events = events_later([e.as_dict() for e in result.events])
+                switch = rocking_sliding_reason(s, merged) if method == "auto" and refused is None else None
+                if switch is None or model == ROCKING_SLIDING:
+                    break
+                trial = rocking_sliding_parameters(described.parameters)
+                try:  # the FMU's own checks (the restitution law's eta, ...) before the run
+                    fm.validate(trial)
+                except FMUError as exc:
+                    refused = str(exc)
+                    s["rocking_sliding_refused"] = refused
+                    break
+                sc, model, why = replace(described, parameters=trial), ROCKING_SLIDING, switch
+                rigid = s["assumptions"]
+                merged = {**defaults, **sc.parameters}
         if method == "auto" and "assumptions" in s:  # the least model must also be a model that holds
             s["model_sufficient"] = s["assumptions"]["outcome_held"]
             report += "\n" + model_check_line(s)

@@ -102,16 +102,53 @@ static void rock_reactions(const Model *M, double t, const double *y, int side, 
     sliding_rhs(M, t, y, MODE_ROCKING, side, 0, model_piece(M, t), dy, &k, T, N);
 }
 
+/* Can a slide-rock with slip direction sigma start at (t, y) (slip rate 0)? The ground must
+ * press (N > 0) and the slip accelerate the way it slips. */
+static int slide_rock_consistent(const Model *M, double t, const double *y, int side, int sigma) {
+    double z[RS_N], dy[RS_N], T, N;
+    RhsTerms k;
+    for (int i = 0; i < RS_N; i++) z[i] = y[i];
+    z[RS_RATE] = 0.0;
+    double D = sliding_rhs(M, t, z, MODE_ROCKING, side, sigma, model_piece(M, t), dy, &k, &T, &N);
+    return D > 0 && N > 0 && sigma * dy[RS_RATE] > 0;
+}
+
+/* The slip a pivot at rest on the ground takes when it cannot stick (reactions T, N of rocking):
+ * the consistent slide-rock, first the one against the T rocking needed; 0 if none (held). */
+static int slip_direction(const Model *M, double t, const double *z, int side, double T, double N) {
+    int first = T > 0 ? -1 : 1;
+    if (slide_rock_consistent(M, t, z, side, first)) return first;
+    if (slide_rock_consistent(M, t, z, side, -first)) return -first;
+    return N < 0 ? 0 : first; /* no consistent slide: held in flight (lifts), or the one T points to */
+}
+
+int sliding_settle(const Model *M, double t, const double *y, int side) {
+    double z[RS_N], T, N;
+    for (int i = 0; i < RS_N; i++) z[i] = y[i];
+    z[RS_RATE] = 0.0;
+    rock_reactions(M, t, z, side, &T, &N);
+    if (N >= 0 && sliding_stick_margin(M, T, N) >= 0) return 0; /* the pivot sticks */
+    return slip_direction(M, t, z, side, T, N);
+}
+
+int sliding_slip_start(const Model *M, double t, const double *y, int side) {
+    double z[RS_N], T, N;
+    for (int i = 0; i < RS_N; i++) z[i] = y[i];
+    z[RS_RATE] = 0.0;
+    rock_reactions(M, t, z, side, &T, &N);
+    int sigma = slip_direction(M, t, z, side, T, N);
+    return sigma ? sigma : (T > 0 ? -1 : 1);
+}
+
 void sliding_start(const Model *M, double t, int side, Mode *mode, int *sigma) {
     if (M->v.muGround <= M->d.tanAlpha) { /* a flat slide holds: the block slides towards side */
         *mode = MODE_SLIDE;
         *sigma = side;
         return;
     }
-    double y[RS_N] = {0}, T, N;
-    rock_reactions(M, t, y, side, &T, &N);
+    double y[RS_N] = {0};
     *mode = MODE_ROCKING;
-    *sigma = sliding_stick_margin(M, T, N) >= 0 ? 0 : (T > 0 ? -1 : 1);
+    *sigma = sliding_settle(M, t, y, side);
 }
 
 void sliding_stop(const Model *M, double t, const double *y, Mode mode, int side, Mode *next, int *sigma) {
@@ -128,16 +165,8 @@ void sliding_stop(const Model *M, double t, const double *y, Mode mode, int side
         }
         return;
     }
-    double T, N;
-    rock_reactions(M, t, y, side, &T, &N);
     *next = MODE_ROCKING;
-    *sigma = sliding_stick_margin(M, T, N) >= 0 ? 0 : (T > 0 ? -1 : 1);
-}
-
-int sliding_slip_direction(const Model *M, double t, const double *y, int side) {
-    double T, N;
-    rock_reactions(M, t, y, side, &T, &N);
-    return T > 0 ? -1 : 1;
+    *sigma = sliding_settle(M, t, y, side);
 }
 
 void sliding_impact(const Model *M, double t, double wm, double vm, int side, Mode *mode, int *newSide,

@@ -65,8 +65,15 @@ void sliding_start(const Model *M, double t, int side, Mode *mode, int *sigma);
  * or a slip the other way). */
 void sliding_stop(const Model *M, double t, const double *y, Mode mode, int side, Mode *next, int *sigma);
 
-/* The pivot of a rocking block that sticks starts to slide at (t, y): direction. */
-int sliding_slip_direction(const Model *M, double t, const double *y, int side);
+/* The slip of a rocking block's pivot at rest on the ground (slip rate 0) at (t, y): 0 if it
+ * sticks (rock: N >= 0 and |T| <= mu N), else the direction of the slide-rock that is
+ * consistent there (the ground pressing, the slip accelerating the way it slips); a pivot
+ * with no consistent slide and N < 0 is held (flight, outside the model). */
+int sliding_settle(const Model *M, double t, const double *y, int side);
+
+/* The slip direction of a sticking pivot whose margin mu N - |T| has just reached zero at (t, y)
+ * (a located stick-to-slip event, where the margin is zero to rounding). */
+int sliding_slip_start(const Model *M, double t, const double *y, int side);
 
 /* Impact at time t of a block landing at theta = 0 on the corner opposite `side`
  * with rate wm and slip rate vm. Writes the mode after it, the pivot, the slip

@@ -90,7 +90,7 @@ static double margin_after(RhsCtx *c, double t, const double *y, const double *f
  * stick margin of the sticking pivot turns negative, given that it is >= 0 at the start
  * and < 0 at the end: bisection on the dense output, then regula falsi on real steps.
  * The step result for the returned length is left in y1, f1, cont. */
-static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0, double h,
+static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0, double h, double m0,
                           const double cd[5][NMAX], double *y1, double *f1, double cont[5][NMAX]) {
     double lo = 0.0, hi = 1.0, yd[NMAX], dy[NMAX], T, N;
     RhsTerms k;
@@ -104,32 +104,31 @@ static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0
     }
     /* real steps: the margin at the end of a step of length x is a smooth function of x */
     double a = lo * h, b = hi * h;
-    double fa = margin_after(c, t, y, f0, a > 0 ? a : hi * h * 1e-3, y1, f1, cont);
-    if (!(a > 0)) fa = fmax(fa, 0.0);
+    double fa = a > 0 ? margin_after(c, t, y, f0, a, y1, f1, cont) : m0;
     double fb = margin_after(c, t, y, f0, b, y1, f1, cont);
     if (fb >= 0) { /* the dense output's crossing was not a real one at this end: step to the end */
         b = h;
         fb = margin_after(c, t, y, f0, b, y1, f1, cont);
     }
-    if (fa < 0) {
+    if (fa < 0) { /* nor at this one: from the step's start (margin m0 >= 0 there) */
         a = 0.0;
-        fa = 0.0;
+        fa = m0;
     }
     int side = 0;
     for (int it = 0; it < 100 && b - a > 4.0 * DBL_EPSILON * (fabs(t) + b); it++) {
         double x = (fa - fb > 0 && it % 4 != 3) ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
         if (!(x > a && x < b)) x = 0.5 * (a + b);
         double fx = margin_after(c, t, y, f0, x, y1, f1, cont);
-        if (fx < 0) {
+        if (fx <= 0) { /* (a root hit exactly is where the slip starts) */
             b = x, fb = fx;
             if (side == -1) fa *= 0.5;
             side = -1;
+            if (fx == 0) break;
         } else {
             a = x, fa = fx;
             if (side == 1) fb *= 0.5;
             side = 1;
         }
-        if (fx == 0) break;
     }
     margin_after(c, t, y, f0, b, y1, f1, cont);
     return b;
@@ -184,6 +183,7 @@ static int apply_event_sliding(Model *M, const Logger *log) {
         S->side = side;
         S->sigma = sigma;
         S->mode = mode;
+        if (mode == MODE_ROCKING && sigma == 0) S->sigma = sliding_settle(M, S->t, S->y, side); /* can it stick? */
         S->impactLoss += E0 - sliding_energy(M, S->y, S->mode, S->side);
         say(log, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
             S->t, wm, wp, vm, vp);
@@ -217,7 +217,7 @@ static int apply_event_sliding(Model *M, const Logger *log) {
         S->sigma = sigma;
         if (next == MODE_SLIDE) S->side = sigma;
     } else if (S->pending == EVENT_SLIP_START) {
-        S->sigma = sliding_slip_direction(M, S->t, S->y, S->side);
+        S->sigma = sliding_slip_start(M, S->t, S->y, S->side);
     }
     sliding_changed(M, was, S->sigma != 0, log);
     S->fValid = 0;
@@ -308,7 +308,7 @@ static int take_step(Model *M, const Logger *log) {
         S->endValid = 0; /* the reactions stored are not this state's */
     }
     /* rocking-sliding: the stick margin at the step's start (a negative one: held in flight) */
-    double startMargin = 0.0;
+    double startMargin = 0.0, startN = 0.0;
     if (c.rs && rocking && S->sigma == 0) {
         double T0 = S->endTr, N0 = S->endN;
         if (!S->endValid) { /* (the terms of an evaluation at the step's start) */
@@ -317,6 +317,7 @@ static int take_step(Model *M, const Logger *log) {
             last_reactions(&c, S->y, f0, &T0, &N0);
         }
         startMargin = sliding_stick_margin(M, T0, N0);
+        startN = N0;
     }
     if (adaptive_step_controlled(rhs_cb, &c, n, nErr, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
                                  cont, &hNext, &hitBp, &S->rejected)) {
@@ -374,10 +375,10 @@ static int take_step(Model *M, const Logger *log) {
     }
     /* rocking-sliding: a sticking pivot whose margin mu N - |T| turned negative by the step's
      * end (or its event: not at an overturn, the end of the motion) starts to slide there */
-    if (c.rs && rocking && S->sigma == 0 && ev != EVENT_OVERTURN && startMargin >= 0 &&
+    if (c.rs && rocking && S->sigma == 0 && ev != EVENT_OVERTURN && (startMargin >= 0 || startN > 0) &&
         sliding_stick_margin(M, endT, endN) < 0) {
         double yS[NMAX] = {0}, fS[NMAX] = {0}, cS[5][NMAX] = {{0}};
-        hStep = locate_slip(&c, S->t, S->y, S->f, hStep, cont, yS, fS, cS);
+        hStep = locate_slip(&c, S->t, S->y, S->f, hStep, fmax(startMargin, 0.0), cont, yS, fS, cS);
         ev = EVENT_SLIP_START;
         memcpy(y1, yS, sizeof(yS));
         memcpy(f1, fS, sizeof(fS));

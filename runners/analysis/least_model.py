@@ -21,6 +21,12 @@ The rule, cheapest first (docs/methods.md, "The least model a scene needs"):
    (tests/test_two_blocks_reference.py), and the locked pair reproduces the
    single block to 1e-15 rad (tests/test_fmu_two_blocks.py);
 3. **two blocks** (the FMU with nBlocks = 2) otherwise.
+
+Each of these is rigid rocking. Where its contact monitors say block 1 slid on the ground before
+the outcome was decided (and before any flight), auto runs the scene again with
+**rocking-sliding** (contact.model = 1, one block; docs/contact.md) and says why
+(rocking_sliding_reason). Flight is outside both models: a run that lifts off stays NOT
+SUFFICIENT.
 """
 
 from __future__ import annotations
@@ -60,6 +66,47 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
         return "one block", "no closed form: " + ", ".join(reasons)
     return "closed form", (f"one block at rest under a one-sine pulse, slender (2 alpha^2 = {2 * alpha**2:.2g} "
                            f"<= accuracy {accuracy:g})")
+
+
+ROCKING_SLIDING = "rocking-sliding"  # the model's name in summaries and stored runs (one block)
+
+
+def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
+    """Why --method auto runs rocking-sliding after a rigid-rocking answer `s` (a summary with
+    the rigid model's ``assumptions``) of a scene of merged parameters `p`, or None when it does
+    not: rigid rocking's outcome held, or what broke it first was flight (outside both models),
+    or sliding of a stack (rocking-sliding is one block's model). Demands are |T| / N (1), times s."""
+    a = s.get("assumptions")
+    if a is None or a.get("sliding_modelled") or a["outcome_held"]:
+        return None
+    slide, lift = a["slides"], a["lifts"]
+    if slide is None or slide["contact"] != "ground" or int(p.get("nBlocks", 1)) != 1:
+        return None
+    if lift is not None and lift["t_s"] <= slide["t_s"]:
+        return None
+    if slide["at_impact"]:
+        need = f"an impact needs a friction impulse {a['impulse_demand_max']:.3g} times the normal one"
+    else:
+        need = f"rigid rocking needs friction demand up to {a['friction_demand_max_ground']:.3g}"
+    why = (f"{need} > mu {a['mu_ground']:g} (the block slides from t = {slide['t_s']:.6g} s): "
+           "rocking-sliding used")
+    if int(p.get("solver.method", 0)) != 0:
+        why += " (integrated by dormand-prince: taylor integrates rigid rocking only)"
+    return why
+
+
+def rocking_sliding_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """A one-block scene's parameters `params` for the rocking-sliding model (contact.model = 1,
+    integrated by Dormand-Prince, solver.method = 0)."""
+    q = {**params, "contact.model": 1}
+    if "solver.method" in q:
+        q["solver.method"] = 0
+    return q
+
+
+def rigid_rocking_parameters(params: dict[str, Any]) -> dict[str, Any]:
+    """`params` for rigid rocking (contact.model = 0), the model auto tries first."""
+    return {**params, "contact.model": 0} if "contact.model" in params else dict(params)
 
 
 def stays_locked(p: dict[str, Any]) -> bool:

@@ -52,17 +52,23 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if run.summary.get("model_sufficient") is False:
         from runners.engine.summary import violations
 
-        print(f"error: --method auto: no model here suffices, rigid rocking did not hold: "
-              f"{violations(run.summary['assumptions'])}", file=sys.stderr)
+        a = run.summary["assumptions"]
+        print(f"error: --method auto: no model here suffices, {_model_of(a)} did not hold: {violations(a)}",
+              file=sys.stderr)
         return STRICT_EXIT
     if args.strict:
         from runners.engine.summary import violations
 
         held = run.summary["assumptions"]  # fmu and auto runs monitor the contacts
         if not held["outcome_held"]:
-            print(f"error: rigid rocking did not hold (--strict): {violations(held)}", file=sys.stderr)
+            print(f"error: {_model_of(held)} did not hold (--strict): {violations(held)}", file=sys.stderr)
             return STRICT_EXIT
     return 0
+
+
+def _model_of(assumptions: dict) -> str:
+    """The contact model whose assumptions a summary's ``assumptions`` checked."""
+    return "rocking-sliding (flight is outside it)" if assumptions.get("sliding_modelled") else "rigid rocking"
 
 
 STRICT_EXIT = 4  # runners simulate --strict or --method auto: the run finished, but its assumptions did not hold

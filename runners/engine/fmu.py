@@ -67,7 +67,9 @@ _LOAD_LOCK = threading.Lock()
 # events one run may log (each a Python object of about 500 bytes): more is refused mid-run
 MAX_EVENTS = 1_000_000
 
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide|stick|reverse|lift) (.*)$")
+# the event kinds of logEvents; rocking-sliding adds slide (stick to slip), stick (slip to stick),
+# reverse (the slip turns) and slide-rock (uplift onto a sliding corner)
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift) (.*)$")
 
 
 def fmu_path_from(arg: str | None) -> Path:
@@ -89,7 +91,7 @@ class FMUError(RockingError, RuntimeError):
 class Event:
     """An event the FMU reported through its ``logEvents`` category."""
 
-    kind: str  # impact, peak, uplift, rest, settle, open or overturn
+    kind: str  # impact, peak, uplift, rest, settle, open, overturn, slide, stick, slide-rock or lift
     t: float  # s
     values: dict[str, float] = field(default_factory=dict)
     labels: dict[str, str] = field(default_factory=dict)  # non-numeric fields, e.g. contact=ground

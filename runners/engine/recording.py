@@ -6,11 +6,15 @@ A recording holds, on the ``sim_time`` timeline (s):
   for a stack): rad, rad/s, rad/s^2, at every output sample;
 - ``/ground/ah``, ``/ground/av`` (m/s^2), ``/energy`` (J), ``/block1/pivot``
   (+1 right corner, -1 left, 0 flat; ``/block2/pivot`` likewise);
+- for a rocking-sliding run (contact.model = 1): ``/block1/slip`` (m, +x), ``/block1/slip_rate``
+  (m/s) and ``/block1/mode`` (0 rest, 1 slide, 2 rock, 3 slide-rock, 4 overturned), with a plot
+  of the slip and its rate;
 - ``/events``: impacts, uplift, rest, settling (lock), opening (unlock) and
   overturn as text entries with their values, at their times (events at
   one instant share an entry, separated by "; ");
 - ``/scene``: the blocks drawn to scale (outlines and each block's pivot in use)
-  on the moving base, animated at up to 100 frames per simulated second;
+  on the moving base, animated at up to 100 frames per simulated second; a block that slides
+  is drawn where it has slid (its pivot corner at x = slip + s b on the base);
 - for a run driven by a record: ``/record/ah`` (and ``/record/av``), the
   record's own samples times its scale (m/s^2), and ``/record/about``, a text
   with its name, provenance, scale and intensity measures;
@@ -58,20 +62,24 @@ def _rot(theta: np.ndarray, pts: np.ndarray) -> np.ndarray:
 def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any]
                    ) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Closed outlines (n, 5, 2) of each block in the ground frame (m), origin at block 1's
-    bottom centre, and each block's pivot (n, 2): block 1's corner on the ground, block 2's
-    end of the contact on block 1."""
+    bottom centre at rest, and each block's pivot (n, 2): block 1's corner on the ground, block 2's
+    end of the contact on block 1. Block 1 stands where it has slid: its pivot corner at
+    x = slip + s b (s = +1 right, -1 left; ``block1.slip`` in m, +x, 0 when `out` has none), the
+    outline rotated by theta about it, so the base's centre is at x = slip + s b (1 - cos theta)."""
     b1, h1 = p["block1.halfWidth"], p["block1.halfHeight"]
     th1 = out["block1.theta"]
+    slip = np.asarray(out.get("block1.slip", np.zeros(len(time))), float)
     s1 = np.where(th1 >= 0, 1.0, -1.0)
-    shapes, pivot_points = [], [np.stack([s1 * b1, np.zeros(len(time))], 1)]
+    shapes, pivot_points = [], [np.stack([slip + s1 * b1, np.zeros(len(time))], 1)]
     rect1 = np.array([[-b1, 0], [b1, 0], [b1, 2 * h1], [-b1, 2 * h1], [-b1, 0]])
-    # rotate about the pivot (s1 b1, 0): P + R (x - P)
+    # rotate about the pivot P = (slip + s1 b1, 0): P + R (x + (slip, 0) - P)
     pts = np.empty((len(time), 5, 2))
     for side in (1.0, -1.0):
         m = s1 == side
         if m.any():
             P = np.array([side * b1, 0.0])
             pts[m] = P + _rot(th1[m], rect1 - P)
+    pts[:, :, 0] += slip[:, None]
     shapes.append(pts)
     if int(p.get("nBlocks", 1)) == 2:
         b2, h2 = p["block2.halfWidth"], p["block2.halfHeight"]
@@ -164,7 +172,7 @@ def axis_range(*series: np.ndarray) -> tuple[float, float]:
 
 
 def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float], record: bool = False,
-               ranges: dict[str, tuple[float, float]] | None = None):
+               ranges: dict[str, tuple[float, float]] | None = None, sliding: bool = False):
     """Scene on the left (over the record's text, if any); angles, velocities and excitation on the
     right, each plot with its y range (`ranges`: theta, omega, ground -> (low, high), axis_range);
     the run playing in a loop."""
@@ -195,6 +203,9 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
                                    axis_y=y_axis("ground")),
                 rrb.TimeSeriesView(name="friction demand |T|/N against mu", contents=["/contact/**"],
                                    axis_y=y_axis("demand")),
+                *([rrb.TimeSeriesView(name="slip (m), slip rate (m/s)",
+                                      contents=["/block1/slip", "/block1/slip_rate"], axis_y=y_axis("slip"))]
+                  if sliding else []),
             ),
             column_shares=[2, 3],
         ),
@@ -234,7 +245,10 @@ def _colour(entity: str, shade: float = 1.0) -> tuple[int, int, int]:
 # the series of a recording: entity path -> output variable
 SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/block1/alpha_dd": "block1.alpha_dd",
           "/block2/theta": "block2.theta", "/block2/omega": "block2.omega", "/block2/alpha_dd": "block2.alpha_dd",
-          "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy"}
+          "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy",
+          # rocking-sliding (contact.model = 1): m, m/s, and the mode (0 rest ... 4 overturned)
+          "/block1/slip": "block1.slip", "/block1/slip_rate": "block1.slipRate", "/block1/mode": "block1.mode"}
+SHADES = {"/block1/slip_rate": 0.6, "/block1/mode": 0.4}  # lighter than the block's colour, in the same plot
 
 
 def record_text(info: dict[str, Any], scale: float) -> str:
@@ -288,7 +302,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     outlines, pivot_points = block_outlines(time[frames], at_frames, p)
     shapes = [pts + offset for pts in outlines]
     b1 = p["block1.halfWidth"]
-    width = 4 * max(b1, p.get("block2.halfWidth", b1) if two else b1)
+    slid = float(np.abs(np.asarray(out["block1.slip"], float)).max(initial=0.0)) if "block1.slip" in out else 0.0
+    width = 4 * max(b1, p.get("block2.halfWidth", b1) if two else b1) + slid
     height = 2 * p["block1.halfHeight"] + (2 * p["block2.halfHeight"] if two else 0.0)
     reach = max(np.abs(xg).max(initial=0.0), np.abs(yg).max(initial=0.0))
     bounds = (-width - reach, width + reach, -1.15 * height - reach, 0.25 * height + reach)  # y down
@@ -305,7 +320,12 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     demand = friction_demand(out, p, two)
     if demand:
         ranges["demand"] = (0.0, 2.0 * max(mu for _, mu in demand.values()))
-    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges))
+    sliding = "block1.slip" in out
+    if sliding:
+        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate")
+                                      if k in out])
+    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges,
+                                                     sliding))
     rec.send_property("run", rr.AnyValues(name=name))
     if record is not None:
         from runners.engine.record_files import read_record_file
@@ -324,7 +344,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     idx = [rr.TimeColumn("sim_time", duration=_ns(time))]
     for entity, var in SERIES.items():
         if var in out and (two or not entity.startswith("/block2")):
-            rec.log(entity, rr.SeriesLines(colors=[_colour(entity)], names=[entity.strip("/")]), static=True)
+            rec.log(entity, rr.SeriesLines(colors=[_colour(entity, SHADES.get(entity, 1.0))],
+                                           names=[entity.strip("/")]), static=True)
             rec.send_columns(entity, indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(out[var], float)))
     for block, piv in pivots(out, two).items():
         rec.send_columns(f"/{block}/pivot", indexes=idx, columns=rr.Scalars.columns(scalars=piv))

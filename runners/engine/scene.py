@@ -32,6 +32,10 @@ KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3, "record":
 KIND_NAMES = {v: k for k, v in KINDS.items()}  # excitation.kind -> its name in a scene
 # the FMU's integrators (solver.method, docs/methods.md): Taylor series for one block only
 METHODS = {"dormand-prince": 0, "taylor": 1}
+# the FMU's contact models (contact.model, docs/contact.md): rigid rocking assumes the contacts
+# neither slide nor lift; rocking-sliding lets block 1 slide on the ground (Coulomb, one mu)
+CONTACT_MODELS = {"rigid-rocking": 0, "rocking-sliding": 1}
+CONTACT_MODEL_NAMES = {v: k for k, v in CONTACT_MODELS.items()}
 # g: a PGA beyond this is a mistake of units (the largest recorded PGA is about 4 g)
 MAX_PGA_G = 5.0
 # output samples one run may hold (a few hundred MB with its outputs): more is refused before
@@ -63,6 +67,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "eta_interface": ("restitution.etaInterface", "real"),
     },
     "contact": {
+        "model": ("contact.model", CONTACT_MODELS),
         "mu_ground": ("contact.muGround", "real"),
         "mu_interface": ("contact.muInterface", "real"),
     },
@@ -224,11 +229,33 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     if scene.parameters.get("solver.method") == METHODS["taylor"] and scene.n_blocks == 2:
         raise SceneError(f"{source}: [simulation] method = \"taylor\" integrates one block; a two-block scene "
                          "([block2]) uses \"dormand-prince\"")
+    wrong = contact_model_problem(scene.parameters)
+    if wrong:
+        raise SceneError(f"{source}: {wrong}")
     try:
         check_times(scene.stop_time, scene.step, "[simulation] stop_time", "[simulation] step")
     except SceneError as exc:
         raise SceneError(f"{source}: {exc}") from None
     return scene
+
+
+def contact_model_problem(p: dict[str, Any]) -> str | None:
+    """Why parameters `p` (a scene's, or merged with overrides) cannot run the contact model they
+    name (one line), or None. Rocking-sliding (contact.model = 1) is one block's model, integrated
+    by Dormand-Prince; any other value of contact.model is none of the FMU's models."""
+    model = p.get("contact.model", 0)
+    if isinstance(model, bool) or not isinstance(model, numbers.Real) or model not in CONTACT_MODEL_NAMES:
+        return ("contact.model must be " + " or ".join(f"{v} ({k})" for k, v in CONTACT_MODELS.items())
+                + f", got {model!r}")
+    if int(model) != CONTACT_MODELS["rocking-sliding"]:
+        return None
+    if int(p.get("nBlocks", 1)) == 2:
+        return ("[contact] model = \"rocking-sliding\" is a model of one block on the ground; a two-block scene "
+                "([block2]) is rigid rocking only (model = \"rigid-rocking\")")
+    if p.get("solver.method", 0) == METHODS["taylor"]:
+        return ("[contact] model = \"rocking-sliding\" is integrated by \"dormand-prince\"; [simulation] method = "
+                "\"taylor\" integrates rigid rocking only")
+    return None
 
 
 def n_samples(stop_time: float, step: float, start_time: float = 0.0) -> int:

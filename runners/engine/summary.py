@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from runners.engine.fmu import RunResult
-from runners.engine.scene import KIND_NAMES, Scene
+from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene
 
 SUMMARY_OUTPUTS = (
     "block1.theta",
@@ -37,6 +37,26 @@ SUMMARY_OUTPUTS = (
     "contact.interfaceT",
     "contact.interfaceN",
 )
+
+# the outputs of the rocking-sliding model (contact.model = 1, docs/contact.md): sampled, stored
+# and exported with its runs (runners.simulate), not with rigid-rocking ones
+SLIDING_OUTPUTS = (
+    "block1.slip",  # m, +x: the base's slip on the ground
+    "block1.slipRate",  # m/s
+    "block1.mode",  # MODES
+    "block1.maxAbsSlip",  # m
+    "block1.slideDuration",  # s
+    "block1.slideStartTime",  # s, -1 if it never slid
+    "block1.frictionLoss",  # J
+    "impactLoss",  # J
+    "groundWork",  # J
+    "block1.slides",  # stick-to-slip transitions
+)
+
+# block1.mode (the FMU's Enumeration ContactMode) -> its name
+MODES = {0: "rest", 1: "slide", 2: "rock", 3: "slide-rock", 4: "overturned"}
+# the run's state at its end, by block1.mode
+MODE_STATES = {0: "at rest", 1: "sliding", 2: "rocking", 3: "slide-rocking", 4: "overturned"}
 
 # the monitors of the rigid-rocking assumptions (docs/contact.md): final values are enough
 MONITOR_OUTPUTS = (
@@ -88,7 +108,8 @@ def excitation_end(p: dict[str, float]) -> float | None:
 
 def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> dict[str, Any]:
     """Key facts of a run; ``defaults`` are the FMU's start values. The run must have sampled
-    SUMMARY_OUTPUTS (``RockingFMU.run(..., outputs=SUMMARY_OUTPUTS)``; runners.simulate does)."""
+    SUMMARY_OUTPUTS (``RockingFMU.run(..., outputs=SUMMARY_OUTPUTS)``; runners.simulate does);
+    a rocking-sliding run's sliding facts (sliding_summary) need SLIDING_OUTPUTS too."""
     missing = [o for o in SUMMARY_OUTPUTS if o not in result.outputs]
     if missing:
         raise ValueError(f"summarize needs the outputs of SUMMARY_OUTPUTS; the run lacks {', '.join(missing[:4])}"
@@ -131,6 +152,11 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     start = float(p.get("excitation.startTime", 0.0))
     if int(p.get("excitation.kind", 0)) != 0 and start >= float(result.time[-1]):  # after the run: never felt
         summary["excitation_start_s"] = start
+    if rocking_sliding(p) and all(o in out for o in SLIDING_OUTPUTS):  # (a stored subset may lack them)
+        summary.update(sliding_summary(result, p, alpha))
+        if summary["final_state"] != "overturned":
+            summary["final_state"] = summary["final_mode_state"]
+        summary.pop("final_mode_state")
     held = assumptions(result, p, two)
     if held is not None:
         summary["assumptions"] = held
@@ -148,6 +174,64 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
             "peaks": None,
         })
     return summary
+
+
+def rocking_sliding(p: dict[str, Any]) -> bool:
+    """Whether FMU parameters `p` select the rocking-sliding model (contact.model = 1)."""
+    return int(p.get("contact.model", 0)) == CONTACT_MODELS["rocking-sliding"]
+
+
+def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float) -> dict[str, Any]:
+    """The sliding facts of a rocking-sliding run (SLIDING_OUTPUTS at its end): slips in m (+x,
+    docs/conventions.md), times in s, energies in J; ``motion`` is what the block did (Shenton
+    1996's modes and overturning: rests, slides, rocks, slide-rocks, overturns). ValueError if the
+    run did not sample SLIDING_OUTPUTS."""
+    out = result.outputs
+    missing = [o for o in SLIDING_OUTPUTS if o not in out]
+    if missing:
+        raise ValueError(f"a rocking-sliding run's summary needs {', '.join(missing[:3])}"
+                         f"{' ...' if len(missing) > 3 else ''} (run with outputs=SLIDING_OUTPUTS too)")
+    start = float(out["block1.slideStartTime"][-1])
+    slid = start >= 0 or int(out["block1.slides"][-1]) > 0 or float(out["block1.slideDuration"][-1]) > 0
+    rocked = float(out["block1.maxAbsTheta"][-1]) > 0 or int(out["impacts"][-1]) > 0
+    overturned = bool(out["overturned"][-1])
+    mode = int(out["block1.mode"][-1])
+    mu = float(p["contact.muGround"])
+    return {
+        "contact_model": "rocking-sliding",
+        "slide_threshold_m_s2": mu * float(p["g"]),
+        "motion": "overturns" if overturned else "slide-rocks" if slid and rocked else "slides" if slid
+        else "rocks" if rocked else "rests",
+        "slid": slid,
+        "rocked": rocked,
+        "max_abs_slip_m": float(out["block1.maxAbsSlip"][-1]),
+        "residual_slip_m": float(out["block1.slip"][-1]),
+        "slide_start_time_s": start if start >= 0 else None,
+        "slide_duration_s": float(out["block1.slideDuration"][-1]),
+        "slide_count": int(out["block1.slides"][-1]),
+        "final_mode": MODES.get(mode, str(mode)),
+        "final_mode_state": MODE_STATES.get(mode, "rocking"),
+        "friction_loss_J": float(out["block1.frictionLoss"][-1]),
+        "impact_loss_J": float(out["impactLoss"][-1]),
+        "ground_work_J": float(out["groundWork"][-1]),
+    }
+
+
+def sliding_story(s: dict[str, Any]) -> str:
+    """The sliding story of a rocking-sliding run's summary in plain words, e.g. "slid 0.214 m
+    (peak), residual 0.102 m, never rocked" (slips in m, +x; times in s)."""
+    peak, residual, duration = s["max_abs_slip_m"], s["residual_slip_m"], s["slide_duration_s"]
+    if not s["slid"]:
+        return "never slid" + ("" if s["rocked"] or s["overturned"] else ", never rocked")
+    when = f"from t = {s['slide_start_time_s']:.4f} s" if s["slide_start_time_s"] is not None else "at an impact"
+    times = f"{s['slide_count']} slide{'s' if s['slide_count'] != 1 else ''}"
+    detail = f"sliding {duration:.3g} s in all, {when}, {times}"
+    if s["overturned"]:
+        return f"overturned at {s['overturn_time_s']:.4f} s after sliding {peak:.3g} m (peak slip); {detail}"
+    if not s["rocked"]:
+        return f"slid {peak:.3g} m (peak), residual {residual:.3g} m, never rocked; {detail}"
+    return (f"rocked and slid: peak rotation {s['max_abs_theta_rad']:.3g} rad, peak slip {peak:.3g} m, "
+            f"residual {residual:.3g} m, {detail}")
 
 
 def assumptions(result: RunResult, p: dict[str, float], two: bool) -> dict[str, Any] | None:
@@ -178,11 +262,14 @@ def assumptions(result: RunResult, p: dict[str, float], two: bool) -> dict[str, 
         a.update({"mu_interface": float(p["contact.muInterface"]),
                   "friction_demand_max_interface": float(out["friction.demandMaxInterface"][-1]),
                   "normal_min_interface": float(out["contact.normalMinInterface"][-1])})
-    a["held"] = a["slides"] is None and a["lifts"] is None
+    modelled = rocking_sliding(p)  # sliding is part of the model: only flight is outside it
+    if modelled:
+        a["sliding_modelled"] = True
+    a["held"] = (modelled or a["slides"] is None) and a["lifts"] is None
     fall = float(out["fallTime"][-1])
     a["fall_time_s"] = fall if fall >= 0 else None
-    a["outcome_held"] = outcome_held(bool(out["overturned"][-1]), a["slides"] and a["slides"]["t_s"],
-                                     a["lifts"] and a["lifts"]["t_s"], a["fall_time_s"])
+    a["outcome_held"] = outcome_held(bool(out["overturned"][-1]), None if modelled else a["slides"] and
+                                     a["slides"]["t_s"], a["lifts"] and a["lifts"]["t_s"], a["fall_time_s"])
     return a
 
 
@@ -203,6 +290,8 @@ def outcome_held(overturned: bool, slide_time: float | None, lift_time: float | 
 def format_assumptions(a: dict[str, Any]) -> str:
     """One line: whether rigid rocking held, with the margins, or when and where it stopped holding."""
     two = "mu_interface" in a
+    if a.get("sliding_modelled"):
+        return _rocking_sliding_assumptions(a)
     if a["held"]:
         text = (f"held: no sliding (friction demand at most {a['friction_demand_max_ground']:.3g}, mu "
                 f"{a['mu_ground']:g}); no flight (normal force at least {a['normal_min_ground']:.3g} of the weight)")
@@ -217,13 +306,40 @@ def format_assumptions(a: dict[str, Any]) -> str:
     return f"NOT HELD: {violations(a)}: rigid rocking does not describe the motion after t = {first:.6g} s"
 
 
+def _rocking_sliding_assumptions(a: dict[str, Any]) -> str:
+    """format_assumptions of a rocking-sliding run: sliding is modelled, flight is not."""
+    if a["held"]:
+        return (f"held: no flight (normal force at least {a['normal_min_ground']:.3g} of the weight); sliding is "
+                f"part of the model (rocking-sliding, mu {a['mu_ground']:g})")
+    if a.get("outcome_held"):
+        return (f"held until the overturning fall (from t = {a['fall_time_s']:.6g} s), which then {violations(a)}: "
+                "the block fell either way")
+    return (f"NOT HELD: {violations(a)}: rocking-sliding does not describe the motion after t = "
+            f"{a['lifts']['t_s']:.6g} s (flight is outside the model)")
+
+
 def model_check_line(s: dict[str, Any]) -> str:
-    """--method auto's verdict: whether the model it chose (rigid rocking, in every case)
-    answers for the scene."""
+    """--method auto's verdict: whether the model it chose (rigid rocking, or rocking-sliding where
+    rigid rocking's monitors said the block slid) answers for the scene."""
+    a = s["assumptions"]
+    if a.get("sliding_modelled"):
+        if s["model_sufficient"]:
+            return "model check      sufficient: rocking-sliding held (no flight) until the outcome was decided"
+        return ("model check      NOT SUFFICIENT: no model here answers for this scene: the block "
+                f"{violations(a)}, and flight is outside both rigid rocking and rocking-sliding (docs/contact.md)")
     if s["model_sufficient"]:
         return "model check      sufficient: rigid rocking held until the outcome was decided"
+    if a["lifts"] is not None and (a["slides"] is None or a["lifts"]["t_s"] <= a["slides"]["t_s"]):
+        need = "flight, which is outside both rigid rocking and rocking-sliding"
+    elif s.get("rocking_sliding_refused"):
+        need = f"sliding, and rocking-sliding cannot run it: {s['rocking_sliding_refused']}"
+    elif a["slides"] is not None and (a["slides"]["contact"] != "ground" or s.get("blocks") == 2
+                                      or "mu_interface" in a):
+        need = "sliding of a stack, which no model here has (rocking-sliding is one block's model)"
+    else:
+        need = "sliding or flight"
     return ("model check      NOT SUFFICIENT: no model here answers for this scene: rigid rocking's assumptions "
-            f"fail ({violations(s['assumptions'])}); it needs sliding or flight (docs/contact.md)")
+            f"fail ({violations(a)}); it needs {need} (docs/contact.md)")
 
 
 def violations(a: dict[str, Any]) -> str:
@@ -231,7 +347,7 @@ def violations(a: dict[str, Any]) -> str:
     parts = []
     for kind, what in (("slides", "slides"), ("lifts", "lifts off")):
         ev = a[kind]
-        if ev is not None:
+        if ev is not None and not (kind == "slides" and a.get("sliding_modelled")):
             where = "between the blocks" if ev["contact"] == "interface" else "on the ground"
             text = f"{what} {where} at t = {ev['t_s']:.6g} s{' (at an impact)' if ev['at_impact'] else ''}"
             if kind == "slides":
@@ -249,6 +365,8 @@ def format_summary(s: dict[str, Any]) -> str:
     else:
         block = (f"block            alpha = {s['alpha_rad']:.4f} rad, p = {s['p_rad_per_s']:.3f} rad/s, "
                  f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2")
+        if "contact_model" in s:
+            block += f", sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 (mu g)"
     lines = [
         f"scene            {s['scene']}",
         *([f"model            {s['model']}: {s['model_reason']}"] if "model" in s else []),
@@ -262,6 +380,8 @@ def format_summary(s: dict[str, Any]) -> str:
         outcome += f" at t = {s['overturn_time_s']:.4f} s"
     elif s["rest_time_s"] is not None:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
+    elif s["final_state"] == "at rest" and (s.get("slid") or s.get("rocked")):
+        pass  # rocking-sliding: it moved, then stopped (the sliding line tells how)
     elif s["final_state"] == "at rest":
         flew = (s.get("assumptions") or {}).get("lifts")
         ended, starts = s.get("excitation_end_s"), s.get("excitation_start_s")
@@ -269,6 +389,8 @@ def format_summary(s: dict[str, Any]) -> str:
                     "t = 0 s: see [excitation] start_time)" if ended is not None and not flew else
                     f" (never tipped: the {s['excitation']} starts at t = {starts:.6g} s, after the run ended at "
                     f"t = {s['stop_time_s']:g} s: see [excitation] start_time)" if starts is not None and not flew else
+                    " (never moved: the excitation stayed below the sliding and uplift thresholds)"
+                    if not flew and "contact_model" in s else
                     " (never tipped: the excitation stayed below the uplift threshold)" if not flew else
                     f" (never tipped; from t = {flew['t_s']:.6g} s the ground fell faster than g and the block, "
                     "held to it by the model, would have flown: see assumptions)")
@@ -288,6 +410,7 @@ def format_summary(s: dict[str, Any]) -> str:
         f"outcome          {outcome}",
         f"impacts          {s['impacts']}",
         peak_line(s),
+        *([f"sliding          {sliding_story(s)}"] if "contact_model" in s else []),
     ]
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
 
@@ -342,6 +465,9 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
                    normal_min=a["normal_min_ground"], impulse_demand_max=a["impulse_demand_max"],
                    friction_demand_max_interface=a.get("friction_demand_max_interface"),
                    normal_min_interface=a.get("normal_min_interface"))
+    if "contact_model" in s:  # rocking-sliding: what the block did, its slip (m) and sliding time (s)
+        row.update(motion=s["motion"], max_abs_slip=s["max_abs_slip_m"], residual_slip=s["residual_slip_m"],
+                   slide_duration=s["slide_duration_s"], slide_time=s["slide_start_time_s"])
     if two:
         alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
         row["peak2_over_alpha"] = s["max_abs_theta2_rad"] / alpha2
