@@ -128,6 +128,13 @@ def test_rigid_points_store_no_slip_and_a_mu_axis_needs_the_sliding_model(tmp_pa
     slips = [rs.max_abs_slip for _, rs in sorted(sliding, key=lambda row: row[0]["contact.muGround"])]
     assert len(slips) == 3 and all(rs.motion == "slides" for _, rs in sliding)  # 5 m/s2 moves every mu <= 0.4
     assert slips[0] > slips[1] > slips[2] > 0  # mu matters now: less friction, more slip
+    # the scene's own [contact] model = "rocking-sliding" allows the axis too, and runs the same points
+    scene.write_text(SQUAT + '[contact]\nmodel = "rocking-sliding"\n')
+    p = cli("sweep", str(scene), "--grid", "contact.muGround=0.1:0.4:3", "--quiet", db=url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    with open_database(url)() as s:
+        again = s.execute(select(Run.point, RunSummary).join(RunSummary).where(Run.sweep_id == 3)).all()
+    assert [rs.max_abs_slip for _, rs in sorted(again, key=lambda row: row[0]["contact.muGround"])] == slips
 
 
 def _legend_texts(fig) -> list[str]:
