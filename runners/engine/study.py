@@ -1,4 +1,5 @@
-"""Studies of a sweep over records: fragility and IDA of overturning.
+"""Studies of a sweep over records: fragility and IDA of overturning (and, for rocking–sliding
+sweeps, of the peak slip).
 
 Python API (``runners fragility`` and ``runners ida`` are thin layers over it; the sweep itself
 is runners.sweep)::
@@ -14,6 +15,9 @@ is runners.sweep)::
     study.plot_ida("ida.png", oc)                        # or straight to a file
     curves = study.curves(study.outcome_sets(sw.factory, sw.sweep_id, "pga"), ["overturn", "rot>0.5alpha"])
     fig = study.curves_figure(curves)                    # damage states, one panel per grid combination
+    # rocking–sliding sweeps (--grid contact.model=rocking-sliding): slip states and the slip IDA
+    curves = study.curves(study.outcome_sets(sw.factory, sw.sweep_id, "pga"), ["slide>5cm", "overturn"])
+    study.plot_ida("ida-slip.png", study.outcome_sets(sw.factory, sw.sweep_id, "pga"), "slip")
 
 A run's intensity is its record's measure times its scale (PGA, PGV, PGD linearly, Arias
 intensity with the square; runners.engine.intensity.SCALING). "Overturned" means either block of a
