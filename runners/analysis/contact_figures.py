@@ -4,7 +4,9 @@
   outcome was decided, (a) for blocks of rising slenderness under the 28 FEMA P695 near-field
   pulse components scaled over PGA, and (b) over the rows of the docs' one-sine pulse maps;
 - contact_fragility.png: a squat cabinet's fragility under the same records, with the runs
-  where rigid rocking broke first marked.
+  where rigid rocking broke first marked;
+- contact_regions_sliding.png: the study of (a) again with the rocking–sliding model (docs/sliding.md):
+  what the blocks do where rigid rocking broke.
 
 Every run is a real FMU run stored in a scratch database; the monitors and the rule
 (runners.engine.summary.outcome_held) are those of ``runners map`` and ``runners fragility``.
@@ -170,7 +172,77 @@ def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
         return study.plot_fragility(out, frag, oc)
 
 
+# motion classes of rocking–sliding runs (runners.engine.motion) and their colours
+CLASSES = (("rests", "#d9d9d9"), ("rocks", "#6baed6"), ("slides", "#fdae6b"), ("slide-rocks", "#e6550d"),
+           ("overturns", "#252525"))
+
+
+def sliding_fractions(fmu: RockingFMU, factory, refs, quick: bool = False):
+    """The blocks of suite_fractions with rocking–sliding: per slenderness, (PGA levels, fractions of
+    each motion class per level, fraction lifted off per level)."""
+    rows = SLENDERNESS[::2] if quick else SLENDERNESS
+    levels = "pga=0.1:1.5:4" if quick else PGA_LEVELS
+    out = []
+    for ratio in rows:
+        params = {"block1.halfWidth": HEIGHT / 2 / ratio, "block1.halfHeight": HEIGHT / 2, "block1.mass": 100.0,
+                  "contact.model": 1, "contact.muGround": MU}
+        oc = record_study(factory, fmu, f"block h/b = {ratio:g}, 1 m high, rocking-sliding", params, refs, levels)
+        pga = np.unique(oc.x)
+        motion = np.asarray(oc.motion)
+        fractions = {c: np.array([np.mean(motion[oc.x == v] == c) for v in pga]) for c, _ in CLASSES}
+        lifted = np.array([oc.broke[oc.x == v].mean() for v in pga])
+        out.append((ratio, pga, fractions, lifted))
+    return out
+
+
+def sliding_regions_figure(suite: SuiteResult, sliding, out: Path) -> Path:
+    """One panel per slenderness: what rocking–sliding says each run does, level by level, with the
+    fraction of runs where rigid rocking broke first (from the rigid study) drawn over it."""
+    n = len(sliding)
+    cols = 3 if n > 2 else n
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.3 * cols, 3.3 * rows), squeeze=False, sharex=True, sharey=True)
+    for k, (ratio, pga, fractions, lifted) in enumerate(sliding):
+        ax = axes[k // cols][k % cols]
+        ax.stackplot(pga, [fractions[c] for c, _ in CLASSES], colors=[col for _, col in CLASSES],
+                     labels=[c for c, _ in CLASSES], alpha=0.9)
+        i = suite.slenderness.index(ratio)
+        ax.plot(suite.pga, suite.broke[i], color="#2ca02c", lw=2.2, label="rigid rocking broke first (rigid study)")
+        if np.any(lifted > 0):
+            ax.plot(pga, lifted, color="#9467bd", lw=1.4, ls="--", label="lifted off (outside both models)")
+        ax.set_title(f"h/b = {ratio:g} (tan alpha = {1 / ratio:.2f}, mu = {MU:g})", fontsize=9)
+        ax.set_ylim(0, 1)
+        ax.grid(alpha=0.25)
+        if k % cols == 0:
+            ax.set_ylabel("fraction of the 28 runs")
+        if k // cols == rows - 1:
+            ax.set_xlabel("PGA (g)")
+    for k in range(n, rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.suptitle("What happens where rigid rocking breaks: blocks 1 m high under the 28 FEMA P695 near-field pulse "
+                 "components with rocking–sliding (docs/sliding.md)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.96))
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def sliding_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
+    """contact_regions_sliding.png (see the module's docstring)."""
+    from db.session import open_database
+
+    with tempfile.TemporaryDirectory() as tmp:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'regions.db'}")
+        refs = suite_refs(factory, SUITE)
+        suite = suite_fractions(fmu, factory, refs, quick)
+        sliding = sliding_fractions(fmu, factory, refs, quick)
+        return sliding_regions_figure(suite, sliding, out)
+
+
 FIGURES = {
     "contact_regions.png": rigid_rocking_regions,
     "contact_fragility.png": cabinet_fragility,
+    "contact_regions_sliding.png": sliding_regions,
 }

@@ -310,6 +310,10 @@ FIGURES: list[Figure] = [
     Figure(("contact_regions",), "where rigid rocking breaks: the fraction of runs whose contacts slid or lifted "
            "off first, over slenderness and PGA (near-field records) and over the rows of the docs' pulse maps",
            "runners figures --only contact_regions", _contact("contact_regions")),
+    Figure(("contact_regions_sliding",), "what happens where rigid rocking breaks: the blocks of contact_regions' "
+           "record study again with the rocking–sliding model, the fraction of runs that rest, rock, slide, "
+           "slide-rock or overturn at each PGA, with the fraction where rigid rocking broke drawn over it",
+           "runners figures --only contact_regions_sliding", _contact("contact_regions_sliding")),
     Figure(("fig18_corrected",), "overturning map of Anagnostopoulos Fig. 18A (h/b = 2, Housner's restitution "
            "times 1.233), 80 x 80 points, Dimitrakopoulos & DeJong (2012)'s closed forms overlaid",
            "runners sweep examples/fig18_corrected.toml --grid w=0.5:10:80 --grid a=1.01:7:80; "
