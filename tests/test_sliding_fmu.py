@@ -229,3 +229,69 @@ def test_model_exchange_refuses_rocking_sliding_with_a_message(fmu_path):
         sim(str(fmu_path), fmi_type="ModelExchange", start_values={"contact.model": 1}, stop_time=0.1,
             logger=logger, debug_logging=True)
     assert any("Model Exchange runs rigid rocking" in m for m in messages), messages
+
+
+# ---------------------------------------------------------------- found by a hostile pass
+
+SETTLING = [  # free rocking that ends in a run of ever smaller sliding landings (Zeno)
+    {"block1.halfWidth": 0.07, "block1.halfHeight": 0.34, "block1.theta0": 0.02, "restitution.law": 2,
+     "restitution.eta": 0.6, "contact.muGround": 0.3},
+    {"block1.halfWidth": 0.07, "block1.halfHeight": 0.34, "block1.theta0": 0.02, "restitution.law": 2,
+     "restitution.eta": 0.6, "contact.muGround": 0.7},
+    {"block1.halfWidth": 0.082, "block1.halfHeight": 0.416, "block1.theta0": -0.136, "block1.omega0": 0.6,
+     "restitution.correction": 0.83, "contact.muGround": 0.455},
+]
+
+
+@pytest.mark.parametrize("params", SETTLING, ids=["eta 0.6, mu 0.3", "eta 0.6, mu 0.7", "Housner x 0.83"])
+def test_a_block_that_settles_through_sliding_landings_comes_to_rest_above_the_ground(fmu, params):
+    """These runs used to sink through the ground (|theta| to 3.8 rad, 'held' energy -66 J) or stop with
+    'time does not advance': the landings' motion must end at rest, never below the ground."""
+    r = fmu.run({**params, **SLIDING}, 5.0, 0.01, OUTPUTS)
+    s = r.outputs
+    assert s["block1.mode"][-1] == 0 and s["overturned"][-1] == 0
+    assert np.abs(s["block1.theta"]).max() <= abs(params["block1.theta0"]) + 1e-12
+    assert s["energy"].min() >= -1e-9 * s["energy"][0]
+
+
+def test_without_compression_friction_does_no_work(fmu):
+    """A block sliding while the ground drops faster than g (a_v = -20 m/s2): no friction (the contact
+    carries none), so the friction loss stays put and never falls (it did: -6 J, friction pushing)."""
+    params = {**SQUAT, **SLIDING, "excitation.kind": 0}
+
+    def inputs(t: float) -> tuple[float, float]:
+        return 5.0, (-20.0 if 0.3 <= t < 0.5 else 0.0)
+
+    r = fmu.run(params, 0.8, 0.01, OUTPUTS, inputs=inputs)
+    s, t = r.outputs, r.time
+    flight = (t > 0.31) & (t < 0.5)
+    assert np.all(np.diff(s["block1.frictionLoss"]) >= 0)
+    assert np.ptp(s["block1.frictionLoss"][flight]) == 0 and s["lifts"][-1] == 1
+    rate = np.diff(s["block1.slipRate"][flight]) / 0.01  # the ground's pull alone: -a_h
+    assert np.allclose(rate, -5.0, atol=1e-9)
+
+
+def test_a_state_taken_while_the_block_slides_flat_is_restored(fmu_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path)), modelIdentifier="RockingBlock")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    for k, v in {**SQUAT, "block1.theta0": 0.0}.items():
+        (s.setInteger if isinstance(v, int) else s.setReal)([vr[k]], [v])
+    s.setInteger([vr["contact.model"]], [1])
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.doStep(0.0, 0.3)
+    assert s.getInteger([vr["block1.mode"], vr["pattern"]]) == [1, 6]  # sliding flat
+    blob = s.serializeFMUstate(s.getFMUstate())
+    s.doStep(0.3, 0.7)
+    first = s.getReal([vr["block1.slip"], vr["groundWork"]])
+    s.setFMUstate(s.deSerializeFMUstate(blob))
+    s.doStep(0.3, 0.7)
+    assert s.getReal([vr["block1.slip"], vr["groundWork"]]) == first
+    s.terminate()
+    s.freeInstance()

@@ -22,6 +22,17 @@ int sliding_on(const Model *M) { return M->v.contactModel == 1; }
 
 static double sgn(double x) { return x > 0 ? 1.0 : x < 0 ? -1.0 : 0.0; }
 
+int sliding_negligible(const Model *M, double t, double w, double v) {
+    /* the rest criterion of an impact (model_rebound_negligible) in energy: the kinetic energy
+     * left would lift the centre of mass by less than a rebound to restRatio * alpha does */
+    double ah, av;
+    model_ground(M, t, &ah, &av);
+    double geff = M->v.g + av, alpha = M->d.alpha, m = M->v.mass, R = M->d.R;
+    if (!(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope)) return 0;
+    double kinetic = 0.5 * m * v * v + 0.5 * M->d.I0 * w * w;
+    return kinetic < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha));
+}
+
 int sliding_components(Mode mode, int sigma) { return mode == MODE_ROCKING && sigma == 0 ? RS_N_ROCK : RS_N; }
 
 double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int side, int sigma, int piece,
@@ -42,15 +53,21 @@ double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int sid
             dy[RS_WORK] = -m * R * w * (k->ah * k->cphi + k->av * k->sphi);
             return D;
         }
-        /* slide-rock: T = -sigma mu N */
+        /* slide-rock: T = -sigma mu N; a contact without compression (N < 0: flight, outside the
+         * model, flagged by lifts) is held to the ground without friction */
         double q = sigma * mu * k->cphi - k->sphi, Nm;
         D = 1.0 / 3.0 - k->sphi * q;
         dy[1] = q * (geff - R * k->cphi * w2) / (R * D);
         Nm = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
-        double Tm = -sigma * mu * Nm, vs = y[RS_RATE];
+        if (Nm < 0) { /* mu = 0: q = -sin(phi), D = 1/3 + sin^2(phi) > 0 */
+            q = -k->sphi;
+            dy[1] = q * (geff - R * k->cphi * w2) / (R * (1.0 / 3.0 - k->sphi * q));
+            Nm = m * (geff + R * (k->sphi * dy[1] - k->cphi * w2));
+        }
+        double Tm = Nm > 0 ? -sigma * mu * Nm : 0.0, vs = y[RS_RATE];
         dy[RS_SLIP] = vs;
         dy[RS_RATE] = Tm / m - k->ah - R * (k->cphi * dy[1] + k->sphi * w2);
-        dy[RS_LOSS] = sigma * mu * Nm * vs;
+        dy[RS_LOSS] = -Tm * vs;
         dy[RS_WORK] = -m * (k->ah * (vs + R * k->cphi * w) + k->av * R * k->sphi * w);
         if (T) {
             *T = Tm;
@@ -65,10 +82,10 @@ double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int sid
     double Nm = m * (v->g + k->av), Tm = m * k->ah;
     if (mode == MODE_SLIDE) {
         double vs = y[RS_RATE];
-        Tm = -sigma * mu * Nm;
+        Tm = Nm > 0 ? -sigma * mu * Nm : 0.0; /* no friction without compression (flight, lifts) */
         dy[RS_SLIP] = vs;
         dy[RS_RATE] = Tm / m - k->ah;
-        dy[RS_LOSS] = sigma * mu * Nm * vs;
+        dy[RS_LOSS] = -Tm * vs;
         dy[RS_WORK] = -m * k->ah * vs;
     }
     if (T) {
@@ -204,6 +221,7 @@ void sliding_impact(const Model *M, double t, double wm, double vm, int side, Mo
         double vx = vm + h * wm, cap = mu * b * fabs(wm);
         w = 0.0;
         u = fabs(vx) <= cap ? 0.0 : vx - sgn(vx) * cap;
+        if (sliding_negligible(M, t, 0.0, u)) u = 0.0;
         sg = u > 0 ? 1 : u < 0 ? -1 : 0;
         *mode = sg ? MODE_SLIDE : MODE_REST;
         *newSide = sg ? sg : s1;

@@ -33,6 +33,11 @@
 #define RS_ERR_ROCK 2
 #define RS_ERR_SLIDE RS_N
 
+/* The motion left after an impact at time t (rate w, slip rate v of a flat block) is
+ * negligible: the ground below the threshold that starts a block at rest, and a kinetic energy
+ * that would lift the centre of mass less than a rebound to restRatio * alpha does. */
+int sliding_negligible(const Model *M, double t, double w, double v);
+
 /* Components a step integrates in mode (mode, sigma). */
 int sliding_components(Mode mode, int sigma);
 

@@ -147,6 +147,17 @@ static void commit_peaks(Model *M, const Logger *log) {
     if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
 }
 
+/* Block 1 has fallen over at S->t: it lies on its side. */
+static void overturn(Model *M, const Logger *log) {
+    State *S = &M->s;
+    S->mode = MODE_OVERTURNED;
+    S->overturnTime = S->t;
+    S->y[0] = S->side * M_PI / 2;
+    S->y[1] = 0.0;
+    S->maxAbsTheta = M_PI / 2;
+    say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
+}
+
 /* Rocking-sliding: bookkeeping when the contact starts or stops sliding at S->t. */
 static void sliding_changed(Model *M, int was, int now, const Logger *log) {
     State *S = &M->s;
@@ -161,6 +172,29 @@ static void sliding_changed(Model *M, int was, int now, const Logger *log) {
         if (S->mode != MODE_OVERTURNED)
             say(log, LOG_EVENTS, "stick t=%.17g mode=%s", S->t, S->mode == MODE_REST ? "rest" : "rock");
     }
+}
+
+/* Rocking-sliding: a block left rocking at theta = 0 that neither moves nor accelerates away from
+ * the ground on its pivot's side cannot rock there: it lies flat, at rest or sliding. */
+static void flat_guard(Model *M, const Logger *log) {
+    State *S = &M->s;
+    if (S->mode != MODE_ROCKING || S->y[0] != 0.0 || S->side * S->y[1] > 0) return;
+    double dy[NMAX];
+    RhsTerms k;
+    sliding_rhs(M, S->t, S->y, S->mode, S->side, S->sigma, model_piece(M, S->t), dy, &k, NULL, NULL);
+    if (S->side * dy[1] > 0) return;
+    double v = S->y[RS_RATE];
+    S->y[1] = 0.0;
+    if (v == 0.0) {
+        S->mode = MODE_REST;
+        S->sigma = 0;
+        S->restTime = S->t;
+        S->h = 0.0;
+        say(log, LOG_EVENTS, "rest t=%.17g", S->t);
+        return;
+    }
+    S->mode = MODE_SLIDE;
+    S->sigma = S->side = v > 0 ? 1 : -1;
 }
 
 static int apply_event_sliding(Model *M, const Logger *log) {
@@ -193,14 +227,9 @@ static int apply_event_sliding(Model *M, const Logger *log) {
             say(log, LOG_EVENTS, "rest t=%.17g", S->t);
         }
     } else if (S->pending == EVENT_OVERTURN) {
-        S->mode = MODE_OVERTURNED;
-        S->overturnTime = S->t;
-        S->y[0] = S->side * M_PI / 2;
-        S->y[1] = 0.0;
         S->y[RS_RATE] = 0.0;
         S->sigma = 0;
-        S->maxAbsTheta = M_PI / 2;
-        say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
+        overturn(M, log);
     } else if (S->pending == EVENT_SLIP_STOP) {
         Mode next;
         int sigma;
@@ -219,6 +248,7 @@ static int apply_event_sliding(Model *M, const Logger *log) {
     } else if (S->pending == EVENT_SLIP_START) {
         S->sigma = sliding_slip_start(M, S->t, S->y, S->side);
     }
+    flat_guard(M, log);
     sliding_changed(M, was, S->sigma != 0, log);
     S->fValid = 0;
     S->pending = EVENT_NONE;
@@ -252,12 +282,7 @@ static int apply_event(Model *M, const Logger *log) {
             say(log, LOG_EVENTS, "rest t=%.17g", S->t);
         }
     } else if (S->pending == EVENT_OVERTURN) {
-        S->mode = MODE_OVERTURNED;
-        S->overturnTime = S->t;
-        S->y[0] = S->side * M_PI / 2;
-        S->y[1] = 0.0;
-        S->maxAbsTheta = M_PI / 2;
-        say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
+        overturn(M, log);
     }
     S->pending = EVENT_NONE;
     return 0;
@@ -927,7 +952,11 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     if (v->impacts < 0 || v->peaks < 0 || v->impactsGround < 0 || v->impactsInterface < 0)
         FAIL("output counters impacts = %d, peaks = %d, impactsGround = %d, impactsInterface = %d must be >= 0",
              v->impacts, v->peaks, v->impactsGround, v->impactsInterface);
-    if (!within(v->pattern, MODE_ROCKING, MODE_BOTH)) FAIL("output pattern = %d is outside [0, 5]", v->pattern);
+    if (!within(v->pattern, MODE_ROCKING, sliding_on(M) ? MODE_SLIDE : MODE_BOTH))
+        FAIL("output pattern = %d is outside [0, %d]", v->pattern, sliding_on(M) ? MODE_SLIDE : MODE_BOTH);
+    if (!within(v->contactMode, 0, 4) || v->slideStarts < 0)
+        FAIL("output block1.mode = %d, block1.slides = %d are outside [0, 4] and [0, ...)", v->contactMode,
+             v->slideStarts);
 
     /* initialised, not yet stepped */
     if (use == STATE_INITIAL && (S->steps || S->rejected || S->impacts || S->peaks || S->nStepPeaks || S->denseValid ||

@@ -143,16 +143,19 @@ def regions_figure(suite: SuiteResult, maps, out: Path) -> Path:
     return out
 
 
-def rigid_rocking_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
-    """contact_regions.png (see the module's docstring)."""
+def _with_suite(draw):
+    """draw(factory, refs) in a scratch SQLite database holding the near-field suite (refs)."""
     from db.session import open_database
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'regions.db'}")
-        refs = suite_refs(factory, SUITE)
-        suite = suite_fractions(fmu, factory, refs, quick)
-        maps = map_rows(fmu, factory, quick)
-        return regions_figure(suite, maps, out)
+        return draw(factory, suite_refs(factory, SUITE))
+
+
+def rigid_rocking_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
+    """contact_regions.png (see the module's docstring)."""
+    return _with_suite(lambda factory, refs: regions_figure(suite_fractions(fmu, factory, refs, quick),
+                                                             map_rows(fmu, factory, quick), out))
 
 
 def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
@@ -231,14 +234,9 @@ def sliding_regions_figure(suite: SuiteResult, sliding, out: Path) -> Path:
 
 def sliding_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
     """contact_regions_sliding.png (see the module's docstring)."""
-    from db.session import open_database
-
-    with tempfile.TemporaryDirectory() as tmp:
-        factory = open_database(f"sqlite:///{Path(tmp) / 'regions.db'}")
-        refs = suite_refs(factory, SUITE)
-        suite = suite_fractions(fmu, factory, refs, quick)
-        sliding = sliding_fractions(fmu, factory, refs, quick)
-        return sliding_regions_figure(suite, sliding, out)
+    return _with_suite(lambda factory, refs: sliding_regions_figure(suite_fractions(fmu, factory, refs, quick),
+                                                                     sliding_fractions(fmu, factory, refs, quick),
+                                                                     out))
 
 
 FIGURES = {

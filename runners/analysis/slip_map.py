@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from runners.analysis.sweep_map import BROKE_COLOUR, FREQUENCY, amplitude_label, block_title, broke, drawn_axes, load
+from runners.analysis.sweep_map import BROKE_COLOUR, FREQUENCY, amplitude_label, block_title, broke, mappable
 from runners.engine.motion import MOTIONS, ROCKING_SLIDING, rocking_sliding
 from runners.engine.sweep import scales
 
@@ -56,17 +56,8 @@ def mode_of(run) -> str:
 def _sliding_sweep(factory, sweep_id: str):
     """(sweep, scene, runs, drawn axes, parameters) of a stored rocking–sliding sweep a map can
     draw; ValueError (NoSlip for rigid rocking) in one line otherwise."""
-    sw, scene, runs = load(factory, sweep_id)
-    if sw.grid.get("records"):
-        raise ValueError(f"sweep {sw.id} runs over records: draw it with runners fragility {sw.id} "
-                         f"--ds slide>5cm or runners ida {sw.id} --demand slip")
-    axes = drawn_axes(sw)
-    if len(axes) > 2:
-        raise ValueError(f"sweep {sw.id} has {len(axes)} axes ({', '.join(axes)}): a map draws one or two "
-                         "(sweep two of them, with the others fixed in the scene)")
-    if not runs:
-        raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
-    p = {**sw.grid["defaults"], **scene.parameters}
+    sw, scene, runs, axes, p = mappable(factory, sweep_id, "runners fragility {id} --ds slide>5cm or "
+                                                           "runners ida {id} --demand slip")
     if not sliding_sweep(sw, p):
         raise NoSlip(no_slip(sw.id))
     if all(r.summary is None or r.summary.motion is None for r in runs):

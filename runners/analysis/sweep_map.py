@@ -135,22 +135,28 @@ def drawn_axes(sw: Sweep) -> list[str]:
     return [a[0] for a in axes if a[3] > 1] or [a[0] for a in axes[:1]]
 
 
-def map_figure(factory, sweep_id: str):
-    """The map of a stored sweep as a matplotlib Figure, the count of points per region
-    (REGIONS order), the count of points where rigid rocking broke first, and the sweep."""
-    import matplotlib.pyplot as plt
-
+def mappable(factory, sweep_id: str, instead: str):
+    """(sweep, scene, runs, drawn axes, parameters) of a stored sweep a map can draw (one or two
+    axes, not over records, points stored); ValueError in one line otherwise, naming `instead`
+    (the commands that draw a record sweep, with {id} for the sweep's id)."""
     sw, scene, runs = load(factory, sweep_id)
     if sw.grid.get("records"):
-        raise ValueError(f"sweep {sw.id} runs over records: draw it with runners fragility {sw.id} or "
-                         f"runners ida {sw.id}")
+        raise ValueError(f"sweep {sw.id} runs over records: draw it with {instead.format(id=sw.id)}")
     axes = drawn_axes(sw)
     if len(axes) > 2:
         raise ValueError(f"sweep {sw.id} has {len(axes)} axes ({', '.join(axes)}): a map draws one or two "
                          "(sweep two of them, with the others fixed in the scene)")
     if not runs:
         raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
-    p = {**sw.grid["defaults"], **scene.parameters}
+    return sw, scene, runs, axes, {**sw.grid["defaults"], **scene.parameters}
+
+
+def map_figure(factory, sweep_id: str):
+    """The map of a stored sweep as a matplotlib Figure, the count of points per region
+    (REGIONS order), the count of points where rigid rocking broke first, and the sweep."""
+    import matplotlib.pyplot as plt
+
+    sw, scene, runs, axes, p = mappable(factory, sweep_id, "runners fragility {id} or runners ida {id}")
     counts = [0] * len(REGIONS)
     for r in runs:
         counts[region(r)] += 1

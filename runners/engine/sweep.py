@@ -171,12 +171,10 @@ def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
     sliding = any(rocking_sliding(q) and int(q.get("nBlocks", 1)) == 1 for q in cases)
     for ax in axes:
         if ax.name in MOTION_FREE and not (sliding and ax.name in SLIDING_ON):
-            raise ValueError(f"--grid {ax.name}: friction does not change the motion (rigid rocking: the blocks never "
-                             "slide; mu only sets when the contact monitors report sliding), so every point would run "
-                             f"the same simulation; sweep without it and compare any mu with what each run stores, "
-                             f"{MOTION_FREE[ax.name]} and impulse_demand_max (the largest |T| / N and impulse ratio "
-                             "the contacts needed; runners export), or let one block slide: contact.model = "
-                             "rocking-sliding ([contact] model in the scene, or --grid contact.model=rocking-sliding)")
+            raise ValueError(f"--grid {ax.name}: with rigid rocking friction does not change the motion (every point "
+                             f"would run the same simulation; each run stores {MOTION_FREE[ax.name]}, the friction it "
+                             "needed): let one block slide, contact.model = rocking-sliding "
+                             "(--grid contact.model=rocking-sliding)")
     for ax in axes:
         whys = [unused_parameter(target(ax.name, q), q) for q in cases]
         if all(whys):
