@@ -127,6 +127,11 @@ def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
     """The fragility study of docs/records.md: 28 near-field components x 20 PGA levels, stored,
     then fitted; with rigid rocking and again with rocking-sliding (contact.model = 1, the FMU's
     default mu 0.7), one after the other in this run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401  (imported before timing: the first figure would pay for it)
+
     rigid = _study(fmu_path, {}, workers)
     sliding = _study(fmu_path, {"contact.model": 1}, workers)
     st, frag = rigid["stats"], rigid["frag"]
