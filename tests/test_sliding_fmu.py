@@ -295,3 +295,37 @@ def test_a_state_taken_while_the_block_slides_flat_is_restored(fmu_path):
     assert s.getReal([vr["block1.slip"], vr["groundWork"]]) == first
     s.terminate()
     s.freeInstance()
+
+
+BEFORE_SLIDING = "7c03924"  # main before rocking-sliding (issue 26)
+
+
+def test_the_rigid_model_is_unchanged_bit_for_bit_from_before_rocking_sliding(fmu, tmp_path):
+    """The FMU built from the sources before rocking-sliding (git) and today's, with contact.model left
+    at its default: every output of one block (pulses, free rocking, a record, Taylor) and of a stack,
+    equal to the bit."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    archive = subprocess.run(["git", "-C", str(root), "archive", BEFORE_SLIDING, "model", "fmu_build", "docs",
+                              "pyproject.toml"], capture_output=True)
+    if archive.returncode != 0:
+        pytest.skip(f"no git history with {BEFORE_SLIDING} here: {archive.stderr.decode().strip()[:200]}")
+    subprocess.run(["tar", "-x", "-C", str(tmp_path)], input=archive.stdout, check=True)
+    subprocess.run([sys.executable, "-m", "fmu_build"], cwd=tmp_path, check=True, capture_output=True)
+    old_fmu = RockingFMU(tmp_path / "build" / "RockingBlock.fmu")
+    names = [n for n, v in old_fmu.vars.items() if v.causality == "output"]
+    scenes = [*RIGID_SCENES.values(), {**RIGID_SCENES["sine pulse, rocks and rests"], "solver.method": 1},
+              {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": -0.08, "excitation.kind": 3,
+               "excitation.frequency": 2.0, "excitation.displacement": 0.04, "excitation.cycles": 0}]
+    try:
+        for params in scenes:
+            a = old_fmu.run(params, 4.0, 0.01, names)
+            b = fmu.run(params, 4.0, 0.01, names)
+            for name in names:
+                assert np.array_equal(a.outputs[name], b.outputs[name]), (params, name)
+            assert [(e.kind, e.t, e.values) for e in a.events] == [(e.kind, e.t, e.values) for e in b.events]
+    finally:
+        old_fmu.close()
