@@ -47,15 +47,21 @@ def motion_class(out: Mapping[str, Any]) -> str:
     `out` maps output names to values (bools and ints as the FMU gives them, or floats)."""
     if bool(out["overturned"]):
         return "overturns"
-    start = float(out.get("block1.slideStartTime", -1.0))
-    slid = (int(out.get("block1.slides", 0)) > 0 or float(out.get("block1.slideDuration", 0.0)) > 0.0
-            or (math.isfinite(start) and start >= 0.0))
-    rocked = float(out["block1.maxAbsTheta"]) > 0.0 or int(out.get("impacts", 0)) > 0
+    rocked, slid = rocked_and_slid(out)
     if slid and rocked:
         return "slide-rocks"
     if slid:
         return "slides"
     return "rocks" if rocked else "rests"
+
+
+def rocked_and_slid(out: Mapping[str, Any]) -> tuple[bool, bool]:
+    """(rocked, slid) of a rocking–sliding run from its final FMU outputs (see motion_class)."""
+    start = float(out.get("block1.slideStartTime", -1.0))
+    slid = (int(out.get("block1.slides", 0)) > 0 or float(out.get("block1.slideDuration", 0.0)) > 0.0
+            or (math.isfinite(start) and start >= 0.0))
+    rocked = float(out["block1.maxAbsTheta"]) > 0.0 or int(out.get("impacts", 0)) > 0
+    return rocked, slid
 
 
 def slip_summary(out: Mapping[str, Any]) -> dict[str, Any]:

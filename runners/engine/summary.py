@@ -191,17 +191,17 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float) -> dict[
     if missing:
         raise ValueError(f"a rocking-sliding run's summary needs {', '.join(missing[:3])}"
                          f"{' ...' if len(missing) > 3 else ''} (run with outputs=SLIDING_OUTPUTS too)")
-    start = float(out["block1.slideStartTime"][-1])
-    slid = start >= 0 or int(out["block1.slides"][-1]) > 0 or float(out["block1.slideDuration"][-1]) > 0
-    rocked = float(out["block1.maxAbsTheta"][-1]) > 0 or int(out["impacts"][-1]) > 0
-    overturned = bool(out["overturned"][-1])
-    mode = int(out["block1.mode"][-1])
+    from runners.engine.motion import motion_class, rocked_and_slid
+
+    final = {name: values[-1] for name, values in out.items()}
+    start = float(final["block1.slideStartTime"])
+    rocked, slid = rocked_and_slid(final)
+    mode = int(final["block1.mode"])
     mu = float(p["contact.muGround"])
     return {
         "contact_model": "rocking-sliding",
         "slide_threshold_m_s2": mu * float(p["g"]),
-        "motion": "overturns" if overturned else "slide-rocks" if slid and rocked else "slides" if slid
-        else "rocks" if rocked else "rests",
+        "motion": motion_class(final),
         "slid": slid,
         "rocked": rocked,
         "max_abs_slip_m": float(out["block1.maxAbsSlip"][-1]),
