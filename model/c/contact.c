@@ -149,34 +149,27 @@ static double indicator(const Model *M, int kind, int c, double T, double N) {
     return kind == 0 ? mu(M, c) * N - fabs(T) : N;
 }
 
-/* First time in (a, b] at which the indicator turns negative along path, given
- * that it is >= 0 at a and < 0 at b: regula falsi with the Illinois change (a
- * few evaluations for a smooth indicator), falling back to halving when an end
- * stays put, until the bracket is a few units of rounding wide. */
-static double locate(const Model *M, ReactionsFn path, int kind, int c, double a, double b) {
+/* The indicator of a contact along a path of reactions (first_negative's function). */
+typedef struct {
+    const Model *M;
+    ReactionsFn path;
+    int kind, c;
+} PathIndicator;
+
+static double along(void *ctx, double t) {
+    const PathIndicator *p = ctx;
     double T[2], N[2];
-    path(M, a, 1, T, N);
-    double fa = indicator(M, kind, c, T[c], N[c]);
-    path(M, b, 1, T, N);
-    double fb = indicator(M, kind, c, T[c], N[c]);
+    p->path(p->M, t, 1, T, N);
+    return indicator(p->M, p->kind, p->c, T[p->c], N[p->c]);
+}
+
+/* First time in (a, b] at which the indicator turns negative along path, given that it is >= 0
+ * at a and < 0 at b, to a few units of rounding. */
+static double locate(const Model *M, ReactionsFn path, int kind, int c, double a, double b) {
+    PathIndicator p = {M, path, kind, c};
+    double fa = along(&p, a), fb = along(&p, b);
     if (!(fa >= 0)) fa = 0.0; /* a tie at the previous sample */
-    int side = 0;
-    for (int it = 0; it < 200 && b - a > 2.0 * DBL_EPSILON * fmax(1.0, fabs(b)); it++) {
-        double x = (fa - fb > 0 && it % 4 != 3) ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-        if (!(x > a && x < b)) x = 0.5 * (a + b);
-        path(M, x, 1, T, N);
-        double fx = indicator(M, kind, c, T[c], N[c]);
-        if (fx < 0) {
-            b = x, fb = fx;
-            if (side == -1) fa *= 0.5;
-            side = -1;
-        } else {
-            a = x, fa = fx;
-            if (side == 1) fb *= 0.5;
-            side = 1;
-        }
-    }
-    return b;
+    return first_negative(along, &p, a, fa, b, fb, 2.0, 0.0, 1.0, 200);
 }
 
 /* The first sliding of contact c, at time `at` with reactions T, N. */

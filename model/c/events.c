@@ -96,6 +96,26 @@ double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
     return h;
 }
 
+double first_negative(double (*f)(void *ctx, double x), void *ctx, double a, double fa, double b, double fb,
+                      double epsFactor, double offset, double floor, int maxIter) {
+    int side = 0;
+    for (int it = 0; it < maxIter && b - a > epsFactor * DBL_EPSILON * fmax(floor, fabs(offset + b)); it++) {
+        double x = (fa - fb > 0 && it % 4 != 3) ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+        if (!(x > a && x < b)) x = 0.5 * (a + b);
+        double fx = f(ctx, x);
+        if (fx < 0) {
+            b = x, fb = fx;
+            if (side == -1) fa *= 0.5;
+            side = -1;
+        } else {
+            a = x, fa = fx;
+            if (side == 1) fb *= 0.5;
+            side = 1;
+        }
+    }
+    return b;
+}
+
 int may_have_root(const double *c) {
     double lo = c[0], hi = c[0];
     for (int i = 1; i <= 4; i++) {

@@ -40,6 +40,14 @@ double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                    const double *f0, double h, double hMax, const double *w,
                    double target, double *y1, double *f1, double cont[5][NMAX]);
 
+/* The first x in (a, b] at which f turns negative, given f(a) = fa >= 0 > f(b) = fb: regula
+ * falsi with the Illinois change (a few evaluations for a smooth f), falling back to halving
+ * when an end stays put, until the bracket is no wider than
+ * epsFactor * DBL_EPSILON * max(floor, |offset + b|) or after maxIter evaluations. Used to locate
+ * the first sliding or lift-off of the contact monitors and the stick-to-slip of rocking-sliding. */
+double first_negative(double (*f)(void *ctx, double x), void *ctx, double a, double fa, double b, double fb,
+                      double epsFactor, double offset, double floor, int maxIter);
+
 /* First root in (0, 1] of the quartic c crossing with the given slope sign
  * (-1 falling, +1 rising); 2 if there is none. */
 double first_crossing(const double *c, int slope);

@@ -86,6 +86,20 @@ static double margin_after(RhsCtx *c, double t, const double *y, const double *f
     return sliding_stick_margin(c->M, T, N);
 }
 
+/* The stick margin after a real step of length x (first_negative's function). */
+typedef struct {
+    RhsCtx *c;
+    double t;
+    const double *y, *f0;
+    double *y1, *f1;
+    double (*cont)[NMAX];
+} SlipSearch;
+
+static double margin_at(void *ctx, double x) {
+    SlipSearch *s = ctx;
+    return margin_after(s->c, s->t, s->y, s->f0, x, s->y1, s->f1, s->cont);
+}
+
 /* Rocking-sliding: the first time in the step of length h (dense output cd) at which the
  * stick margin of the sticking pivot turns negative, given that it is >= 0 at the start
  * and < 0 at the end: bisection on the dense output, then regula falsi on real steps.
@@ -114,22 +128,8 @@ static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0
         a = 0.0;
         fa = m0;
     }
-    int side = 0;
-    for (int it = 0; it < 100 && b - a > 4.0 * DBL_EPSILON * (fabs(t) + b); it++) {
-        double x = (fa - fb > 0 && it % 4 != 3) ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-        if (!(x > a && x < b)) x = 0.5 * (a + b);
-        double fx = margin_after(c, t, y, f0, x, y1, f1, cont);
-        if (fx <= 0) { /* (a root hit exactly is where the slip starts) */
-            b = x, fb = fx;
-            if (side == -1) fa *= 0.5;
-            side = -1;
-            if (fx == 0) break;
-        } else {
-            a = x, fa = fx;
-            if (side == 1) fb *= 0.5;
-            side = 1;
-        }
-    }
+    SlipSearch search = {c, t, y, f0, y1, f1, cont};
+    b = first_negative(margin_at, &search, a, fa, b, fb, 4.0, fabs(t), 0.0, 100);
     margin_after(c, t, y, f0, b, y1, f1, cont);
     return b;
 }
