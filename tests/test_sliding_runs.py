@@ -331,3 +331,22 @@ def test_export_and_recording_carry_the_slip_and_draw_the_block_where_it_slid(tm
     assert p.returncode == 0, p.stderr
     _, rows = column(read_back(later), "/block1/slip")
     np.testing.assert_array_equal(np.array([row[1][0] for row in rows]), slip)
+
+
+def test_a_sweep_points_recording_carries_the_slip(tmp_path, fmu_path):
+    """runners sweep --points: the recording of a rocking-sliding point has the slip channels too (the
+    sweep used to sample only the rigid model's outputs for it)."""
+    from test_recording import column, read_back
+
+    url = db_url(tmp_path)
+    folder = tmp_path / "points"
+    p = run_cli("sweep", str(EXAMPLE), "--grid", "excitation.amplitude=6:12:2", "--points", "all", "--out", str(folder),
+                "--quiet", db=url, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    files = sorted(folder.glob("*.rrd"))
+    assert len(files) == 2
+    tables = [read_back(f) for f in files]
+    slips = [np.array([row[1][0] for row in column(t, "/block1/slip")[1]]) for t in tables]
+    assert all(len(s) > 10 for s in slips) and max(np.abs(s).max() for s in slips) > 0.01
+    for entity in ("/block1/slip_rate", "/block1/mode"):
+        assert all(len(column(t, entity)[1]) == len(s) for t, s in zip(tables, slips)), entity

@@ -476,12 +476,14 @@ def _record_point(over: dict, stop: float, path: str, name: str, record: dict | 
     """Simulate one point with output at every communication step and write its recording
     (in this worker process, to its own file: recordings never wait for each other)."""
     from runners.engine.recording import write_recording
-    from runners.engine.summary import SUMMARY_OUTPUTS
+    from runners.engine.summary import SLIDING_OUTPUTS, SUMMARY_OUTPUTS
 
     w = _worker()
     fmu = w["fmu"]
     params = {**w["base"], **over}
-    res = fmu.run(params, stop, min(w["step"], stop), outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *w["names"]])))
+    own = SLIDING_OUTPUTS if rocking_sliding(params) else ()  # a sliding point's recording draws its slip
+    res = fmu.run(params, stop, min(w["step"], stop),
+                  outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *own, *w["names"]])))
     write_recording(Path(path), name, res.time, res.outputs, {**fmu.defaults(), **params}, res.events,
                     record=record)
     out = {n: res.outputs[n][-1] for n in w["names"]}
