@@ -116,6 +116,9 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (v->method != 0)
             FAIL("contact.model = 1 (rocking-sliding) needs solver.method = 0 (Dormand-Prince)");
         if (v->earlyOverturn) FAIL("solver.earlyOverturn is available for contact.model = 0 only");
+        if (!(v->restRatio >= 1e-12))
+            FAIL("solver.restRatio = %g must be >= 1e-12 with contact.model = 1 (a smaller rebound lies below what "
+                 "double precision resolves of the angle and the slip)", v->restRatio);
         if (!(eta >= 0.5 - 1.5 * s2))
             FAIL("restitution %g is below 0.5 - 1.5 sin^2(alpha) = %g: with contact.model = 1 an impact of a "
                  "sliding block could then gain energy (use a larger coefficient or restitution.law = 0)",

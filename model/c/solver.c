@@ -16,6 +16,8 @@
 #include "stack_solver.h"
 #include "taylor.h"
 
+/* The longest step of a sliding contact, in units of the block's time scale 1 / p. */
+#define SLIDE_STEP_MAX 1.0
 /* Samples per Taylor step when looking for events. */
 #define TAYLOR_SAMPLES 16
 /* The shortest Taylor step (before a break point cuts it), in units of the block's time
@@ -320,6 +322,10 @@ static int take_step(Model *M, const Logger *log) {
     int nErr = !c.rs ? 2 : (rocking && S->sigma == 0) ? RS_ERR_ROCK : RS_ERR_SLIDE;
     double bp = next_breakpoint(M, S->t, c.piece);
     double hmax = bp - S->t;
+    /* rocking-sliding: a flat slide under a constant ground acceleration is a quadratic, which the
+     * integrator follows exactly with steps that grow without end; its dense output would then
+     * lose every digit at times a tiny fraction into the step. Sliding steps stay within 1/p. */
+    if (c.rs && S->sigma != 0) hmax = fmin(hmax, SLIDE_STEP_MAX / sqrt(M->d.p2));
     /* zeroed: the step fills components 0 to n - 1 only, and the whole array goes
      * into the state (no stray stack bytes in a saved state) */
     double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}};
@@ -350,6 +356,7 @@ static int take_step(Model *M, const Logger *log) {
         return -1;
     }
     S->steps++;
+    if (hitBp && hmax < bp - S->t) hitBp = 0; /* the step met the sliding cap, not the break point */
     /* the accepted step's last evaluation was its first-same-as-last stage at its end */
     RhsTerms endTerms = c.k;
     double endT = 0.0, endN = 0.0;
