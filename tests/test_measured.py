@@ -222,6 +222,9 @@ def test_a_recorded_ground_motion_drives_the_fmu_like_the_builtin_pulse(tmp_path
     assert rec["excitation"] == "record synthetic one-sine pulse x 1 (PGA 0.51 g)"
     assert rec["max_abs_theta_rad"] == pytest.approx(ref["max_abs_theta_rad"], rel=1e-4)
     assert rec["overturned"] == ref["overturned"] and rec["impacts"] == ref["impacts"]
+    latest = json.loads(runners("simulate", "examples/sine_pulse.toml", "--motion", "latest", "--stop-time", "3",
+                                "--json", "--no-store", db=db, fmu_path=fmu_path).stdout)  # as docs/cli.md says
+    assert latest["max_abs_theta_rad"] == rec["max_abs_theta_rad"]
     factory = open_database(db)
     with factory() as session:
         run = session.get(Run, rec["run_id"])

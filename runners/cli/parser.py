@@ -104,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "of the scene's excitation")
     sim.add_argument("--scale", action=Once, type=finite, help="multiply the record's accelerations (excitation.scale)")
     sim.add_argument("--pga", action=Once, type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
-    sim.add_argument("--motion", type=int, metavar="MEASUREMENT_ID",
+    sim.add_argument("--motion", type=object_id, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")
     sim.add_argument("--accuracy", type=tolerance, default=1e-2,
@@ -278,6 +278,11 @@ def _prepare(args: argparse.Namespace) -> None:
         from db.session import open_database
 
         args.resume = resolve_latest(open_database(args.db), Sweep, "latest", "sweep")
+    if args.command == "simulate" and getattr(args, "motion", None) == "latest":
+        from db.schema import Measurement
+        from db.session import open_database
+
+        args.motion = resolve_latest(open_database(args.db), Measurement, "latest", "measurement")
 
 
 def main(argv: list[str] | None = None) -> int:
