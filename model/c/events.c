@@ -116,6 +116,23 @@ double first_negative(double (*f)(void *ctx, double x), void *ctx, double a, dou
     return b;
 }
 
+double first_negative_sampled(double (*g)(void *ctx, double s), void *ctx, int samples) {
+    double lo = 0.0;
+    for (int k = 1; k <= samples; k++) {
+        double hi = (double)k / samples;
+        if (g(ctx, hi) < 0) {
+            for (int it = 0; it < 60 && hi - lo > 4.0 * DBL_EPSILON; it++) {
+                double mid = 0.5 * (lo + hi);
+                if (g(ctx, mid) < 0) hi = mid;
+                else lo = mid;
+            }
+            return hi;
+        }
+        lo = hi;
+    }
+    return 2.0;
+}
+
 int may_have_root(const double *c) {
     double lo = c[0], hi = c[0];
     for (int i = 1; i <= 4; i++) {

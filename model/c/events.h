@@ -48,6 +48,12 @@ double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
 double first_negative(double (*f)(void *ctx, double x), void *ctx, double a, double fa, double b, double fb,
                       double epsFactor, double offset, double floor, int maxIter);
 
+/* The first s in (0, 1] at which g(s) (an indicator along a step's dense output, >= 0 at s = 0)
+ * is negative: g sampled at `samples` evenly spaced points, the first sign change bisected to a
+ * few units of rounding; 2 if no sample is negative. Used for the stack's contact openings and
+ * rocking-sliding's stick-to-slip. */
+double first_negative_sampled(double (*g)(void *ctx, double s), void *ctx, int samples);
+
 /* First root in (0, 1] of the quartic c crossing with the given slope sign
  * (-1 falling, +1 rising); 2 if there is none. */
 double first_crossing(const double *c, int slope);

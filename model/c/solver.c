@@ -102,22 +102,34 @@ static double margin_at(void *ctx, double x) {
     return margin_after(s->c, s->t, s->y, s->f0, x, s->y1, s->f1, s->cont);
 }
 
+/* The stick margin along a step's dense output (first_negative_sampled's function). */
+typedef struct {
+    const RhsCtx *c;
+    double t, h;
+    const double *y;
+    const double (*cd)[NMAX];
+} DenseMargin;
+
+static double dense_margin(void *ctx, double s) {
+    const DenseMargin *d = ctx;
+    double yd[NMAX], dy[NMAX], T, N;
+    RhsTerms k;
+    memcpy(yd, d->y, sizeof(yd));
+    dense_eval(d->cd, d->c->n, s, yd);
+    sliding_rhs(d->c->M, d->t + s * d->h, yd, MODE_ROCKING, d->c->side, 0, d->c->piece, dy, &k, &T, &N);
+    return sliding_stick_margin(d->c->M, T, N);
+}
+
 /* Rocking-sliding: the first time in the step of length h (dense output cd) at which the
  * stick margin of the sticking pivot turns negative, given that it is >= 0 at the start
  * and < 0 at the end: bisection on the dense output, then regula falsi on real steps.
  * The step result for the returned length is left in y1, f1, cont. */
 static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0, double h, double m0,
                           const double cd[5][NMAX], double *y1, double *f1, double cont[5][NMAX]) {
-    double lo = 0.0, hi = 1.0, yd[NMAX], dy[NMAX], T, N;
-    RhsTerms k;
-    memcpy(yd, y, sizeof(yd));
-    for (int it = 0; it < 40; it++) {
-        double mid = 0.5 * (lo + hi);
-        dense_eval(cd, c->n, mid, yd);
-        sliding_rhs(c->M, t + mid * h, yd, MODE_ROCKING, c->side, 0, c->piece, dy, &k, &T, &N);
-        if (sliding_stick_margin(c->M, T, N) < 0) hi = mid;
-        else lo = mid;
-    }
+    DenseMargin dm = {c, t, h, y, cd};
+    double hi = first_negative_sampled(dense_margin, &dm, 1);
+    if (!(hi <= 1.0)) hi = 1.0;
+    double lo = fmax(0.0, hi - 8.0 * DBL_EPSILON);
     /* real steps: the margin at the end of a step of length x is a smooth function of x */
     double a = lo * h, b = hi * h;
     double fa = a > 0 ? margin_after(c, t, y, f0, a, y1, f1, cont) : m0;

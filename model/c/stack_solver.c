@@ -328,24 +328,25 @@ static double open_margin(const Model *M, const Ctx *c, double t0, double h,
     return weakest(M, c->mode, c->s1, c->s2, y, ah, av, &contact, &end) + TOL_OPEN;
 }
 
+/* open_margin along one step (first_negative_sampled's function). */
+typedef struct {
+    const Model *M;
+    const Ctx *c;
+    double t0, h;
+    const double (*cont)[NMAX];
+} OpenSearch;
+
+static double open_at(void *ctx, double s) {
+    const OpenSearch *o = ctx;
+    return open_margin(o->M, o->c, o->t0, o->h, o->cont, s);
+}
+
 /* First s in (0, 1] at which a closed contact opens, or 2. The margin is
  * sampled and the first sign change bisected to machine precision. */
 static double open_crossing(const Model *M, const Ctx *c, double t0, double h,
                             const double cont[5][NMAX]) {
-    double lo = 0.0;
-    for (int k = 1; k <= OPEN_SAMPLES; k++) {
-        double hi = (double)k / OPEN_SAMPLES;
-        if (open_margin(M, c, t0, h, cont, hi) < 0) {
-            for (int it = 0; it < 60 && hi - lo > 4.0 * DBL_EPSILON; it++) {
-                double mid = 0.5 * (lo + hi);
-                if (open_margin(M, c, t0, h, cont, mid) < 0) hi = mid;
-                else lo = mid;
-            }
-            return hi;
-        }
-        lo = hi;
-    }
-    return 2.0;
+    OpenSearch o = {M, c, t0, h, cont};
+    return first_negative_sampled(open_at, &o, OPEN_SAMPLES);
 }
 
 static int take_step(Model *M, const Logger *log) {
