@@ -462,6 +462,7 @@ class ImpactSolution:
     pattern: Pattern
     w: np.ndarray
     impulses: np.ndarray
+    held: bool = False  # the contact that does not land had to pull and was held (flight left out)
 
 
 def solve_impact(st: SlidingStack, pat: Pattern, q, w_minus, old: tuple[int, int]) -> ImpactSolution:
@@ -479,20 +480,25 @@ def solve_impact(st: SlidingStack, pat: Pattern, q, w_minus, old: tuple[int, int
 
 
 def impact_consistent(st: SlidingStack, imp: ImpactSolution, q, landing: str, tol: float,
-                      check_normal: bool = True) -> bool:
+                      check_normal: bool = True, check_other: bool = True) -> bool:
     """Contact laws on impulses: compressive normal impulses, flat contacts' resultant impulse inside
     the contact, sticking impulses inside the friction cone, a sliding contact slipping the way its
     friction impulse opposes, the landing contact's new corner moving open (or staying flat)."""
     pat, P, w = imp.pattern, imp.impulses, imp.w
     s1, s2 = _pivots(pat)
     PT0, PN0, PM0, PT1, PN1, PM1 = P
+    if not check_other:  # the contact that does not land is taken as it comes (sticking, see impact())
+        if landing == "ground":
+            PN1 = max(PN1, 0.0) + abs(PT1) / st.mu_interface + 1.0
+        else:
+            PN0 = max(PN0, 0.0) + abs(PT0) / st.mu_ground + 1.0
     if check_normal and (PN0 < -tol or PN1 < -tol):
         return False
-    if check_normal and pat.ground.flat:
+    if check_normal and pat.ground.flat and (check_other or landing == "ground"):
         r, l_ = _flat_margins(-st.b1 - s1 * st.b1, st.b1 - s1 * st.b1, PN0, PM0)
         if min(r, l_) < -tol * st.b1:
             return False
-    if check_normal and pat.interface.flat:
+    if check_normal and pat.interface.flat and (check_other or landing == "interface"):
         lo, hi = interface_ends(st, q[2])
         k = s2 * st.b2 + q[2]
         r, l_ = _flat_margins(lo - k, hi - k, PN1, PM1)
@@ -547,6 +553,16 @@ def impact(st: SlidingStack, landing: str, pat: Pattern, q, w_minus) -> ImpactSo
             continue
         if impact_consistent(st, imp, q, landing, tol):
             return _restitute(st, imp, q, w_minus, old, landing)
+    # The other contact would have to pull (a flight the model leaves out): it is held sticking
+    # in its kind, as the rigid stack holds its pivots, and only the landing contact is checked.
+    for _, p in cands:
+        om = p.interface if landing == "ground" else p.ground
+        if om.slides or om.flat != other.flat:
+            continue
+        imp = solve_impact(st, p, q, w_minus, old)
+        if impact_consistent(st, imp, q, landing, tol, check_other=False):
+            imp.held = True
+            return _restitute(st, imp, q, w_minus, old, landing)
     raise StackReferenceError(f"no consistent impact at the {landing} in pattern {pat.label()}")
 
 
@@ -556,7 +572,7 @@ def _restitute(st: SlidingStack, imp: ImpactSolution, q, w_minus, old, landing: 
     eta = st.eta_ground if landing == "ground" else st.eta_interface
     Tm = kinetic_energy(st, q, w_minus, *old)
     Tp = kinetic_energy(st, q, imp.w, *_pivots(imp.pattern))
-    return ImpactSolution(imp.pattern, imp.w * (eta * math.sqrt(Tm / Tp) if Tp > 0 else 0.0), imp.impulses)
+    return ImpactSolution(imp.pattern, imp.w * (eta * math.sqrt(Tm / Tp) if Tp > 0 else 0.0), imp.impulses, imp.held)
 
 
 def settle_rate(st: SlidingStack, contact: str, av: float) -> float:
@@ -808,6 +824,8 @@ class _Solver:
         ke_minus = kinetic_energy(st, q, w, *_pivots(pat))
         imp = impact(st, landing, pat, q, w)
         self.log("impact", t, landing, imp.pattern)
+        if imp.held:
+            self.log("held", t, "interface" if landing == "ground" else "ground", imp.pattern)
         imp = self.settle(t, landing, imp, q)
         ke_plus = kinetic_energy(st, q, imp.w, *_pivots(imp.pattern))
         self.acc[3] += ke_minus - ke_plus
@@ -863,7 +881,7 @@ class _Solver:
                     self.log("inconsistent", t)
                     return
                 pat = new
-                self.log("start", t, pattern=pat)
+                self.log("start", t, "", pat)
                 self.record(np.array([t]), np.concatenate([q, w]), self.acc.copy(), pat)
                 continue
             t, q, w, hit = self.integrate(pat, t, q, w)
@@ -880,7 +898,12 @@ class _Solver:
                 return
             exclude: dict[str, set[str]] = {}
             if kind == "impact":
-                q, w, pat = self.do_impact(t, contact, pat, q, w)
+                try:
+                    q, w, pat = self.do_impact(t, contact, pat, q, w)
+                except StackReferenceError:
+                    self.log("inconsistent", t, contact)
+                    self._outcome("flight", contact, t)
+                    return
             elif kind == "open":
                 ah, av = self.ground(t)
                 sol = solve_pattern(st, pat, q, w, ah, av)
