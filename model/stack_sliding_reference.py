@@ -927,6 +927,10 @@ class _Solver:
                 self.log("inconsistent", t, contact)
                 self._outcome("flight", contact, t)
                 return
+            if kind == "stick":
+                m = new.ground if contact == "ground" else new.interface
+                if m.slides:
+                    self.events[-1].kind = "reverse"
             pat = new
             self.events[-1].pattern = pat.label()
 
