@@ -367,7 +367,7 @@ def _order_key(p: Pattern) -> tuple[int, int, int]:
     return n_rock, n_slide, int(p.ground.flat)
 
 
-def consistent(st: SlidingStack, pat: Pattern, q, w, sol: PatternSolution) -> bool:
+def consistent(st: SlidingStack, pat: Pattern, q, w, sol: PatternSolution, allow_overhang: bool = False) -> bool:
     """Whether a solved pattern obeys the contact laws at (q, w): compressive normal forces, flat
     contacts' resultant inside the contact, friction inside the cone where a contact sticks, a
     slip starting from rest accelerating the way friction opposes, a contact opening from zero gap
@@ -378,6 +378,8 @@ def consistent(st: SlidingStack, pat: Pattern, q, w, sol: PatternSolution) -> bo
         tol = TOL_OPEN if key.endswith(("right", "left")) else 1e-12
         if val < -tol:
             return False
+    if not pat.interface.flat and abs(q[2] + pat.interface.s * st.b2) > st.b1 and not allow_overhang:
+        return False  # block 2's corner is off block 1's top: it cannot turn about it
     for contact, mode in (("ground", pat.ground), ("interface", pat.interface)):
         gap, rate, slip = _gap(q, w, contact)
         slip_acc = sol.qdd[0] if contact == "ground" else sol.qdd[2]
@@ -390,7 +392,7 @@ def consistent(st: SlidingStack, pat: Pattern, q, w, sol: PatternSolution) -> bo
 
 
 def select_pattern(st: SlidingStack, q, w, ah: float, av: float, exclude: dict[str, set[str]] | None = None,
-                   allow_rest: bool = True) -> tuple[Pattern, PatternSolution] | None:
+                   allow_rest: bool = True, allow_overhang: bool = False) -> tuple[Pattern, PatternSolution] | None:
     """The first consistent pattern (least motion first) from state (q, w), or None.
 
     ``exclude[contact]`` may hold "flat" (the contact just opened) or "stick" (it just started
@@ -407,7 +409,7 @@ def select_pattern(st: SlidingStack, q, w, ah: float, av: float, exclude: dict[s
             sol = solve_pattern(st, pat, q, w, ah, av)
         except np.linalg.LinAlgError:
             continue
-        if consistent(st, pat, q, w, sol):
+        if consistent(st, pat, q, w, sol, allow_overhang):
             return pat, sol
     return None
 
@@ -687,6 +689,8 @@ class _Solver:
 
     # -- records
     def record(self, t: np.ndarray, y: np.ndarray, acc: np.ndarray, pat: Pattern) -> None:
+        if np.size(t) == 0:
+            return
         self.ts.append(np.atleast_1d(t))
         self.ys.append(y.reshape(8, -1))
         self.accs.append(acc.reshape(4, -1))
@@ -784,13 +788,15 @@ class _Solver:
 
         fns, kinds = self.event_functions(pat)
         y0 = np.concatenate([q, w, self.acc[:3]])
-        atol = np.concatenate([np.full(8, self.atol), np.full(3, 1e300)])
+        atol = np.concatenate([np.full(8, self.atol), np.full(3, self.atol)])
         r = solve_ivp(rhs, (t, t_stop), y0, method="DOP853", rtol=self.rtol, atol=atol, events=fns)
         if r.status == -1:
             raise StackReferenceError(r.message)
         n = r.t.size
         acc = np.vstack([r.y[8:11], np.full((1, n), self.acc[3])])
-        self.record(r.t[1:], r.y[:8, 1:], acc[:, 1:], pat)
+        hit_any = any(te.size and kinds[i][0] != "peak" for i, te in enumerate(r.t_events))
+        last = n - 1 if hit_any else n  # an event's state is recorded below, from real steps
+        self.record(r.t[1:last], r.y[:8, 1:last], acc[:, 1:last], pat)
         for i, (kind, _) in enumerate(kinds):
             if kind == "peak" and r.y_events[i].size:
                 ye = r.y_events[i]
@@ -802,10 +808,43 @@ class _Solver:
             self.acc[:3] = y[8:11]
             return float(r.t[-1]), y[:4].copy(), y[4:8].copy(), None
         te, i = min(hits)
-        y = r.y_events[i][0]
+        y = self.refine(rhs, r, te, r.y_events[i][0], atol)
+        if kinds[i][0] == "impact":  # the gap's root on the real-step trajectory (Newton on the time)
+            te, y = self.refine_gap(rhs, r, te, y, fns[i], atol)
         self.acc[:3] = y[8:11]
         self.record(np.array([te]), y[:8], np.append(y[8:11], self.acc[3]), pat)
         return float(te), y[:4].copy(), y[4:8].copy(), kinds[i]
+
+    def refine(self, rhs, r, te: float, y_dense: np.ndarray, atol: np.ndarray) -> np.ndarray:
+        """The state at an event by real steps from the last accepted step (the dense output the event
+        was located on is an order less accurate), keeping the located event time."""
+        k = int(np.searchsorted(r.t, te)) - 1
+        while k > 0 and r.t[k] >= te:
+            k -= 1
+        if k < 0 or r.t[k] >= te:
+            return y_dense
+        again = solve_ivp(rhs, (float(r.t[k]), te), r.y[:, k], method="DOP853", rtol=self.rtol, atol=atol)
+        return again.y[:, -1] if again.success else y_dense
+
+    def refine_gap(self, rhs, r, te: float, y: np.ndarray, fn, atol: np.ndarray, iterations: int = 3):
+        """Move an impact's time by Newton steps until the gap's event function vanishes on the
+        real-step trajectory (its rate is the gap's rate, ``fn`` being linear in the angles)."""
+        k = int(np.searchsorted(r.t, te)) - 1
+        while k > 0 and r.t[k] >= te:
+            k -= 1
+        for _ in range(iterations):
+            g = fn(te, y)
+            rate = fn(te, np.concatenate([y[4:8], np.zeros(4), y[8:]])) - fn(te, np.zeros_like(y))
+            if g == 0.0 or rate == 0.0 or k < 0:
+                break
+            t_new = te - g / rate
+            if not r.t[k] < t_new or abs(t_new - te) > 1e-6:
+                break
+            again = solve_ivp(rhs, (float(r.t[k]), t_new), r.y[:, k], method="DOP853", rtol=self.rtol, atol=atol)
+            if not again.success:
+                break
+            te, y = t_new, again.y[:, -1]
+        return te, y
 
     # -- events
     def choose(self, t: float, q, w, exclude=None, allow_rest: bool = True) -> Pattern | None:
@@ -878,7 +917,7 @@ class _Solver:
                 t = tl
                 new = self.choose(t, q, w, allow_rest=False)
                 if new is None:
-                    self.log("inconsistent", t)
+                    self.no_pattern(t, q, w, {}, "")
                     return
                 pat = new
                 self.log("start", t, "", pat)
@@ -904,6 +943,7 @@ class _Solver:
                     self.log("inconsistent", t, contact)
                     self._outcome("flight", contact, t)
                     return
+                self.record(np.array([t]), np.concatenate([q, w]), self.acc.copy(), pat)
             elif kind == "open":
                 ah, av = self.ground(t)
                 sol = solve_pattern(st, pat, q, w, ah, av)
@@ -924,8 +964,7 @@ class _Solver:
                 self.log("stick", t, contact)
             new = self.choose(t, q, w, exclude)
             if new is None:
-                self.log("inconsistent", t, contact)
-                self._outcome("flight", contact, t)
+                self.no_pattern(t, q, w, exclude, contact)
                 return
             if kind == "stick":
                 m = new.ground if contact == "ground" else new.interface
@@ -941,8 +980,20 @@ class _Solver:
             return pat
         new = self.choose(t, q, w)
         if new is None:
-            self.log("inconsistent", t)
+            self.no_pattern(t, q, w, {}, "")
         return new
+
+    def no_pattern(self, t: float, q, w, exclude, contact: str) -> None:
+        """No consistent pattern: block 2 falls off if turning about its corner beyond block 1's edge
+        would be consistent, otherwise a contact would have to pull (flight)."""
+        ah, av = self.ground(t)
+        found = select_pattern(self.st, q, w, ah, av, exclude, allow_overhang=True)
+        if found is not None and not found[0].interface.flat:
+            self.log("fell-off", t, "interface")
+            self._outcome("fell-off", "interface", t)
+            return
+        self.log("inconsistent", t, contact)
+        self._outcome("flight", contact, t)
 
     def _outcome(self, kind: str, contact: str, t: float) -> None:
         self.outcome[f"{kind}:{contact}"] = t
