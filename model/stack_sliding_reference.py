@@ -43,6 +43,7 @@ Ground = Callable[[float], tuple[float, float]]
 TOL_OPEN = 1e-9  # normalised margin below which a closed contact opens (as docs/two_blocks.md)
 TOL_FRICTION = 1e-12  # normalised friction margin offset of the stick-to-slip events
 GAP_EPS = 1e-15  # rad: impact events are s * gap + GAP_EPS falling through 0
+SLIP_EPS = 1e-15  # m/s: slip-stop events are sigma u' + SLIP_EPS falling through 0 (not the start's 0)
 NX = 10  # unknowns of a pattern: 4 generalised accelerations + 6 contact unknowns
 
 
@@ -765,7 +766,7 @@ class _Solver:
             add(ind("i_left", TOL_OPEN), -1, "open", "interface")
         for contact, mode, k in (("ground", pat.ground, 0), ("interface", pat.interface, 2)):
             if mode.slides:
-                add(lambda t, y, k=k, sg=mode.sigma: sg * y[4 + k], -1, "stick", contact)
+                add(lambda t, y, k=k, sg=mode.sigma: sg * y[4 + k] + SLIP_EPS, -1, "stick", contact)
             else:
                 add(ind(contact[0] + "_fric", TOL_FRICTION), -1, "slip", contact)
         if not pat.ground.flat:
