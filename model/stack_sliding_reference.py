@@ -43,6 +43,7 @@ Ground = Callable[[float], tuple[float, float]]
 TOL_OPEN = 1e-9  # normalised margin below which a closed contact opens (as docs/two_blocks.md)
 TOL_FRICTION = 1e-12  # normalised friction margin offset of the stick-to-slip events
 GAP_EPS = 1e-15  # rad: impact events are s * gap + GAP_EPS falling through 0
+TOL_SLIP_ACC = 1e-9  # a slip starting from rest may accelerate against its sign by this much of g
 SLIP_EPS = 1e-15  # m/s: slip-stop events are sigma u' + SLIP_EPS falling through 0 (not the start's 0)
 NX = 10  # unknowns of a pattern: 4 generalised accelerations + 6 contact unknowns
 
@@ -385,7 +386,7 @@ def consistent(st: SlidingStack, pat: Pattern, q, w, sol: PatternSolution, allow
         gap, rate, slip = _gap(q, w, contact)
         slip_acc = sol.qdd[0] if contact == "ground" else sol.qdd[2]
         gap_acc = sol.qdd[1] if contact == "ground" else sol.qdd[3] - sol.qdd[1]
-        if mode.slides and slip == 0.0 and mode.sigma * slip_acc < -tol_acc:
+        if mode.slides and slip == 0.0 and mode.sigma * slip_acc < -TOL_SLIP_ACC * st.g:
             return False
         if not mode.flat and gap == 0.0 and rate == 0.0 and mode.s * gap_acc < -tol_acc:
             return False

@@ -279,6 +279,39 @@ def test_single_block_limit_of_the_impact_law():
     assert n > 200 and n_sliding > 30
 
 
+def test_initiation_from_rest_follows_shenton():
+    """Block 2 vanishing (and held by a large interface mu): the pattern the enumeration picks from rest
+    under a constant load is the one-block initiation mode of Ishiyama (1982) and Shenton (1996)
+    (model/sliding_closed_form.initiation_mode) at 600 random blocks and loads, turning or slipping to
+    the side the load pushes."""
+    rng = np.random.default_rng(5)
+    seen = set()
+    n = 0
+    while n < 600:
+        mu, beta = rng.uniform(0.1, 1.2), rng.uniform(0.2, 1.2)
+        lam, av = rng.uniform(0.05, 1.8) * rng.choice([-1, 1]), rng.uniform(-0.3, 0.3)
+        if scf.initiation_margin(mu, beta, lam * (1 + av), av) < 1e-3:
+            continue
+        n += 1
+        h = 0.5
+        st = ssr.SlidingStack(beta * h, h, 100.0, beta * h, 1e-3, 1e-9, mu_ground=mu, mu_interface=5.0)
+        ah, avv = lam * (1 + av) * st.g, av * st.g
+        pat, sol = ssr.select_pattern(st, np.zeros(4), np.zeros(4), ah, avv)
+        g = pat.ground
+        got = (scf.Mode.REST if g.flat and not g.slides else scf.Mode.SLIDE if g.flat
+               else scf.Mode.ROCK if not g.slides else scf.Mode.SLIDE_ROCK)
+        want = scf.initiation_mode(mu, beta, lam * (1 + av), av)
+        assert got == want, (mu, beta, lam, av, pat)
+        assert pat.interface.flat and not pat.interface.slides
+        side = -1 if ah > 0 else 1  # a_h > 0 tips the block onto its left corner and slides it to -x
+        if not g.flat:
+            assert g.s == side and side * sol.qdd[1] > 0
+        if g.slides:
+            assert g.sigma == side
+        seen.add(got)
+    assert seen == set(scf.Mode) - {scf.Mode.OVERTURNED}
+
+
 # ---------------------------------------------------------------------------------- (f) falling off
 
 
