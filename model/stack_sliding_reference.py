@@ -567,7 +567,35 @@ def impact(st: SlidingStack, landing: str, pat: Pattern, q, w_minus) -> ImpactSo
         if impact_consistent(st, imp, q, landing, tol, check_other=False):
             imp.held = True
             return _restitute(st, imp, q, w_minus, old, landing)
+    imp = _saturated_impact(st, landing, pat, q, w_minus, old)
+    if imp is not None:
+        return _restitute(st, imp, q, w_minus, old, landing)
     raise StackReferenceError(f"no consistent impact at the {landing} in pattern {pat.label()}")
+
+
+def _saturated_impact(st: SlidingStack, landing: str, pat: Pattern, q, w_minus, old) -> ImpactSolution | None:
+    """Last resort when Coulomb's law has no consistent plastic impact (a slip would have to reverse
+    within the impact): the one-block law's rule, contact by contact. Both contacts first stick (the
+    landing one on its new corner, the other in its kind); each whose sticking impulse leaves the
+    friction cone slides with its friction impulse saturated in the direction of that sticking
+    impulse, ``P_T = -sigma mu P_N`` with ``sigma = -sign(P_T)``, whatever the slip after. None if the
+    landing contact's normal impulse would pull or the kinetic energy would rise."""
+    land = pat.ground if landing == "ground" else pat.interface
+    other = pat.interface if landing == "ground" else pat.ground
+    lm, om = ContactMode(False, -land.s, 0), ContactMode(other.flat, other.s, 0)
+    trial = Pattern(lm, om) if landing == "ground" else Pattern(om, lm)
+    stick = solve_impact(st, trial, q, w_minus, old)
+    modes = []
+    for mode, T, N, mu in ((trial.ground, stick.impulses[0], stick.impulses[1], st.mu_ground),
+                           (trial.interface, stick.impulses[3], stick.impulses[4], st.mu_interface)):
+        sigma = 0 if abs(T) <= mu * max(N, 0.0) else (-1 if T > 0 else 1)
+        modes.append(ContactMode(mode.flat, mode.s, sigma))
+    imp = solve_impact(st, Pattern(*modes), q, w_minus, old)
+    N = imp.impulses[1] if landing == "ground" else imp.impulses[4]
+    if N < 0 or kinetic_energy(st, q, imp.w, *_pivots(imp.pattern)) > kinetic_energy(st, q, w_minus, *old):
+        return None
+    imp.held = True
+    return imp
 
 
 def _restitute(st: SlidingStack, imp: ImpactSolution, q, w_minus, old, landing: str) -> ImpactSolution:
@@ -994,7 +1022,7 @@ class _Solver:
             self.log("fell-off", t, "interface")
             self._outcome("fell-off", "interface", t)
             return
-        self.log("inconsistent", t, contact)
+        self.log("flight", t, contact)
         self._outcome("flight", contact, t)
 
     def _outcome(self, kind: str, contact: str, t: float) -> None:
