@@ -31,7 +31,7 @@ import bisect
 import itertools
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -347,7 +347,8 @@ def _sign(x: float) -> int:
     return 1 if x > 0 else -1
 
 
-def contact_candidates(q, w, contact: str, exclude_flat: bool = False, exclude_stick: bool = False) -> list[ContactMode]:
+def contact_candidates(q, w, contact: str, exclude_flat: bool = False,
+                       exclude_stick: bool = False) -> list[ContactMode]:
     """Modes a contact may take from state (q, w): flat only with zero gap and zero gap rate,
     a rocking corner fixed by the gap's sign (or its rate's) when open, sliding with the slip rate's
     sign when it slips; both signs are candidates where the state does not decide."""
