@@ -44,6 +44,7 @@ TOL_OPEN = 1e-9  # normalised margin below which a closed contact opens (as docs
 TOL_FRICTION = 1e-12  # normalised friction margin offset of the stick-to-slip events
 GAP_EPS = 1e-15  # rad: impact events are s * gap + GAP_EPS falling through 0
 TOL_SLIP_ACC = 1e-9  # a slip starting from rest may accelerate against its sign by this much of g
+EDGE_EPS = 1e-12  # m: block 2's pivot falls off once it is this far beyond block 1's edge
 SLIP_EPS = 1e-15  # m/s: slip-stop events are sigma u' + SLIP_EPS falling through 0 (not the start's 0)
 NX = 10  # unknowns of a pattern: 4 generalised accelerations + 6 contact unknowns
 
@@ -790,7 +791,7 @@ class _Solver:
             add(lambda t, y: s2 * (y[3] - y[1]) + GAP_EPS, -1, "impact", "interface")
             add(lambda t, y: s2 * (y[3] - y[1]) - math.pi / 2, 1, "overturn", "interface")
             add(ind("i_N", 1e-12), -1, "flight", "interface")
-            add(lambda t, y: abs(y[2] + s2 * st.b2) - st.b1, 1, "fell-off", "interface")
+            add(lambda t, y: abs(y[2] + s2 * st.b2) - st.b1 - EDGE_EPS, 1, "fell-off", "interface")
         else:
             add(ind("i_right", TOL_OPEN), -1, "open", "interface")
             add(ind("i_left", TOL_OPEN), -1, "open", "interface")
@@ -923,9 +924,10 @@ class _Solver:
         return imp
 
     def fell_off_edge(self, q, end: str) -> bool:
-        """Whether the end of the interface's overlap about which it opens is block 1's edge."""
-        lo, hi = interface_ends(self.st, q[2])
-        return (end == "right" and hi >= self.st.b1) or (end == "left" and lo <= -self.st.b1)
+        """Whether the interface opens about block 1's edge with block 2 overhanging it (so that block 2
+        would turn about block 1's edge, not about its own corner)."""
+        st = self.st
+        return (end == "right" and q[2] + st.b2 > st.b1) or (end == "left" and q[2] - st.b2 < -st.b1)
 
     def run(self, q0, w0, t0: float = 0.0) -> None:
         st = self.st

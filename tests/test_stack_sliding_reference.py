@@ -326,6 +326,26 @@ def test_initiation_from_rest_follows_shenton():
     assert seen == set(scf.Mode) - {scf.Mode.OVERTURNED}
 
 
+def test_single_block_limit_of_a_whole_run():
+    """Block 2 vanishing and held (a thin plate, interface mu 5): a block of b/h = 0.4 with mu = 0.5 under
+    a sine pulse starts to rock, slide-rocks, sticks again and rocks through 30 impacts to rest,
+    exactly as the one-block rocking-sliding reference (model/sliding_reference.py): every event to
+    1e-9 s, the peak slip to 1e-9 m."""
+    from model import sliding_reference as sr
+
+    b, h, mu = 0.2, 0.5, 0.5
+    exc = sr.sine_pulse(-9.0, 2.5, cycles=1)
+    ref = sr.simulate(sr.SlidingBlock(b, h, mu, m=100.0), exc, 4.0)
+    st = ssr.SlidingStack(b, h, 100.0, b, 1e-4, 1e-9, mu_ground=mu, mu_interface=5.0)
+    run = ssr.simulate(st, 4.0, exc.ground, exc.breaks)
+    names = {"uplift": "start", "slide-rock": "slip", "rest": "settle"}
+    theirs = [(names.get(k, k), t) for k, t in ref.events]
+    ours = [(e.kind, e.t) for e in run.events]
+    assert [k for k, _ in ours] == [k for k, _ in theirs] and len(ours) > 30
+    assert max(abs(a[1] - b_[1]) for a, b_ in zip(ours, theirs)) < 1e-9
+    assert abs(run.peak_abs_slip[0] - ref.peak_abs_slip) < 1e-9
+
+
 # ---------------------------------------------------------------------------------- (f) falling off
 
 
