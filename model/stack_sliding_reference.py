@@ -500,11 +500,14 @@ def impact_consistent(st: SlidingStack, imp: ImpactSolution, q, landing: str, to
             PN0 = max(PN0, 0.0) + abs(PT0) / st.mu_ground + 1.0
     if check_normal and (PN0 < -tol or PN1 < -tol):
         return False
-    if check_normal and pat.ground.flat and (check_other or landing == "ground"):
+    # a flat contact's impulse margins: for the contact that does not land (it must not pull); a flat
+    # landing is not held to them (a landing block generally cannot be stopped by compressive
+    # impulses alone, docs/two_blocks.md), as the one-block law's flat landing
+    if check_normal and check_other and pat.ground.flat and landing != "ground":
         r, l_ = _flat_margins(-st.b1 - s1 * st.b1, st.b1 - s1 * st.b1, PN0, PM0)
         if min(r, l_) < -tol * st.b1:
             return False
-    if check_normal and pat.interface.flat and (check_other or landing == "interface"):
+    if check_normal and check_other and pat.interface.flat and landing != "interface":
         lo, hi = interface_ends(st, q[2])
         k = s2 * st.b2 + q[2]
         r, l_ = _flat_margins(lo - k, hi - k, PN1, PM1)
