@@ -1006,8 +1006,16 @@ class _Solver:
                 m = new.ground if contact == "ground" else new.interface
                 if m.slides:
                     self.events[-1].kind = "reverse"
+            self.events[-1].pattern = new.label()
+            if kind in ("impact", "settle"):
+                self.log_openings(t, pat, new)
             pat = new
-            self.events[-1].pattern = pat.label()
+
+    def log_openings(self, t: float, before: Pattern, after: Pattern) -> None:
+        """Log contacts that the pattern chosen after an impact opens (flat before, rocking after)."""
+        for c, a, b in (("ground", before.ground, after.ground), ("interface", before.interface, after.interface)):
+            if a.flat and not b.flat:
+                self.log("open", t, c, after)
 
     def _rechoose(self, t: float, q, w, pat: Pattern) -> Pattern | None:
         ah, av = self.ground(t)
