@@ -38,6 +38,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from model.two_blocks import drot, rot
+
 Ground = Callable[[float], tuple[float, float]]
 
 TOL_OPEN = 1e-9  # normalised margin below which a closed contact opens (as docs/two_blocks.md)
@@ -131,16 +133,8 @@ class Pattern(NamedTuple):
 REST = Pattern(ContactMode(True, 1, 0), ContactMode(True, 1, 0))
 
 
-def rot(theta: float) -> np.ndarray:
-    """Clockwise rotation by theta (rad) of body-frame vectors."""
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[c, s], [-s, c]])
-
-
-def drot(theta: float) -> np.ndarray:
-    """d rot / d theta."""
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[-s, c], [-c, -s]])
+# rot(theta): the clockwise rotation of body-frame vectors, and drot = d rot / d theta (plain
+# geometry, shared with the rigid stack's reference)
 
 
 @dataclass
