@@ -23,12 +23,24 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   const double *f0, double *h, double hmax, double rtol, double atol,
                   double *y1, double *f1, double cont[5][NMAX], double *hNext,
                   int *hitMax, long long *rejected) {
-    return adaptive_step_controlled(f, ctx, n, n, t, y, f0, h, hmax, rtol, atol, y1, f1, cont, hNext, hitMax,
+    return adaptive_step_controlled(f, ctx, n, n, NULL, t, y, f0, h, hmax, rtol, atol, y1, f1, cont, hNext, hitMax,
                                     rejected);
 }
 
-int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, double t, const double *y,
-                             const double *f0, double *h, double hmax, double rtol, double atol,
+/* dopri5_error_norm with the absolute tolerance of component i scaled by scale[i]. */
+static double scaled_error_norm(int n, const double *scale, const double *y0, const double *y1, const double *err,
+                                double rtol, double atol) {
+    double sum = 0.0;
+    for (int i = 0; i < n; i++) {
+        double sc = atol * scale[i] + rtol * fmax(fabs(y0[i]), fabs(y1[i]));
+        double e = err[i] / sc;
+        sum += e * e;
+    }
+    return sqrt(sum / n);
+}
+
+int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,
+                             const double *y, const double *f0, double *h, double hmax, double rtol, double atol,
                              double *y1, double *f1, double cont[5][NMAX], double *hNext,
                              int *hitMax, long long *rejected) {
     double err[NMAX], hh = *h;
@@ -53,7 +65,8 @@ int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, double t
             *hitMax = 1;
         }
         dopri5_step(f, ctx, n, t, y, f0, hh, y1, f1, err, cont);
-        double en = dopri5_error_norm(nErr, y, y1, err, rtol, atol);
+        double en = scale ? scaled_error_norm(nErr, scale, y, y1, err, rtol, atol)
+                          : dopri5_error_norm(nErr, y, y1, err, rtol, atol);
         if (en <= 1.0) {
             double fac = en > 0 ? 0.9 * pow(en, -0.2) : 5.0;
             *hNext = hh * fmin(5.0, fmax(0.2, fac));

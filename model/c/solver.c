@@ -362,8 +362,18 @@ static int take_step(Model *M, const Logger *log) {
         startMargin = sliding_stick_margin(M, T0, N0);
         startN = N0;
     }
-    if (adaptive_step_controlled(rhs_cb, &c, n, nErr, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
-                                 cont, &hNext, &hitBp, &S->rejected)) {
+    /* a sliding contact's components in their own units: absTol (rad, rad/s) times the block's scales:
+     * work in m g R, slip in R, slip rate in R p */
+    double scale[NMAX] = {1.0, 1.0, 1.0, 1.0, 1.0, 1.0};
+    int sliding = c.rs && nErr == RS_ERR_SLIDE;
+    if (sliding) {
+        double R = M->d.R, E = v->mass * v->g * R;
+        scale[RS_WORK] = scale[RS_LOSS] = E;
+        scale[RS_SLIP] = R;
+        scale[RS_RATE] = R * sqrt(M->d.p2);
+    }
+    if (adaptive_step_controlled(rhs_cb, &c, n, nErr, sliding ? scale : NULL, S->t, S->y, S->f, &h, hmax, v->relTol,
+                                 v->absTol, y1, f1, cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
