@@ -364,9 +364,10 @@ static int take_step(Model *M, const Logger *log) {
     }
     /* a sliding contact's components in their own units: absTol (rad, rad/s) times the block's scales:
      * work in m g R, slip in R, slip rate in R p */
-    double scale[NMAX] = {1.0, 1.0, 1.0, 1.0, 1.0, 1.0};
+    double scale[NMAX];
     int sliding = c.rs && nErr == RS_ERR_SLIDE;
-    if (sliding) {
+    if (sliding) { /* (theta and omega keep absTol as it is) */
+        scale[0] = scale[1] = 1.0;
         double R = M->d.R, E = v->mass * v->g * R;
         scale[RS_WORK] = scale[RS_LOSS] = E;
         scale[RS_SLIP] = R;

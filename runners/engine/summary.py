@@ -191,23 +191,23 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float) -> dict[
     if missing:
         raise ValueError(f"a rocking-sliding run's summary needs {', '.join(missing[:3])}"
                          f"{' ...' if len(missing) > 3 else ''} (run with outputs=SLIDING_OUTPUTS too)")
-    from runners.engine.motion import motion_class, rocked_and_slid
+    from runners.engine.motion import rocked_and_slid, slip_summary
 
     final = {name: values[-1] for name, values in out.items()}
-    start = float(final["block1.slideStartTime"])
+    cols = slip_summary(final)  # the stored columns, as a sweep point stores them
     rocked, slid = rocked_and_slid(final)
     mode = int(final["block1.mode"])
     mu = float(p["contact.muGround"])
     return {
         "contact_model": "rocking-sliding",
         "slide_threshold_m_s2": mu * float(p["g"]),
-        "motion": motion_class(final),
+        "motion": cols["motion"],
         "slid": slid,
         "rocked": rocked,
-        "max_abs_slip_m": float(out["block1.maxAbsSlip"][-1]),
-        "residual_slip_m": float(out["block1.slip"][-1]),
-        "slide_start_time_s": start if start >= 0 else None,
-        "slide_duration_s": float(out["block1.slideDuration"][-1]),
+        "max_abs_slip_m": cols["max_abs_slip"],
+        "residual_slip_m": cols["residual_slip"],
+        "slide_start_time_s": cols["slide_time"],
+        "slide_duration_s": cols["slide_duration"],
         "slide_count": int(out["block1.slides"][-1]),
         "final_mode": MODES.get(mode, str(mode)),
         "final_mode_state": MODE_STATES.get(mode, "rocking"),
