@@ -176,6 +176,15 @@ class RunSummary(Base):
     max_abs_slip: Mapped[float | None] = mapped_column(Float)  # m, peak |block1.slip|
     residual_slip: Mapped[float | None] = mapped_column(Float)  # m, block1.slip at the end (+x)
     slide_duration: Mapped[float | None] = mapped_column(Float)  # s, time spent sliding
+    # rocking–sliding stacks: block 2 on block 1 (slips along block 1's top, relative to it); the
+    # columns above are block 1's on the ground. None for one block and for rigid rocking
+    block2_motion: Mapped[str | None] = mapped_column(String(12))  # as motion, or falls-off
+    block2_max_abs_slip: Mapped[float | None] = mapped_column(Float)  # m, peak |block2.slip|
+    block2_residual_slip: Mapped[float | None] = mapped_column(Float)  # m, block2.slip at the end (+x)
+    block2_slide_duration: Mapped[float | None] = mapped_column(Float)  # s, time block 2 spent sliding
+    block2_slide_time: Mapped[float | None] = mapped_column(Float)  # s, block 2's first slide (None: never)
+    block2_fell_off: Mapped[bool | None] = mapped_column(Boolean)  # block 2 left block 1's top
+    block2_fell_off_time: Mapped[float | None] = mapped_column(Float)  # s (None: it never fell off)
     run: Mapped[Run] = relationship(back_populates="summary")
 
 

@@ -309,7 +309,7 @@ def simulate(
                                                       combined_block_parameters, format_closed_form,
                                                       one_block_parameters, rigid_rocking_parameters,
                                                       rocking_sliding_parameters, rocking_sliding_reason)
-            from runners.engine.summary import SLIDING_OUTPUTS
+            from runners.engine.summary import sliding_outputs
 
             if method == "fmu":
                 model = "two blocks" if int(merged["nBlocks"]) == 2 else ROCKING_SLIDING if sliding else "one block"
@@ -339,7 +339,7 @@ def simulate(
                         combined = combined_block_parameters(merged)
                         sc = replace(sc, parameters={k: v for k, v in combined.items()
                                                      if k in sc.parameters or k.startswith("block1.")})
-                    own = SLIDING_OUTPUTS if model == ROCKING_SLIDING else ()  # its channels, stored and exported
+                    own = sliding_outputs({**defaults, **sc.parameters})  # its channels, stored and exported
                     wanted = list(dict.fromkeys([*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own, *(outputs or ())]))
                     result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
                     s = summarize(sc, result, defaults)

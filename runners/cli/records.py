@@ -220,7 +220,9 @@ def cmd_fragility(args: argparse.Namespace) -> int:
 
 
 def _ida_run(oc, i: int) -> dict:
-    """One run of an IDA as ida --json lists it: each block's own peak and overturn."""
+    """One run of an IDA as ida --json lists it: each block's own peak and overturn, and of a
+    stack `blocks`: each block's demands (peak |theta| / alpha; rocking-sliding: peak |slip| in m,
+    block 2's along block 1's top, motion class, and whether block 2 fell off)."""
     row = {"record": oc.record[i], "x": float(oc.x[i]), **oc.combination, "overturned": bool(oc.overturned[i]),
            "peak1_over_alpha": float(oc.peak1[i])}
     if oc.two:
@@ -229,20 +231,30 @@ def _ida_run(oc, i: int) -> dict:
     row["rigid_rocking_held"] = None if oc.broke is None else not bool(oc.broke[i])
     if oc.slip is not None:  # rocking–sliding runs: block 1's peak slip (m) and what it did
         row.update(max_abs_slip=float(oc.slip[i]), motion=oc.motion[i])
+    if oc.two:
+        blocks = [{"block": 1, "peak_over_alpha": float(oc.peak1[i]), "overturned": bool(oc.over1[i])},
+                  {"block": 2, "peak_over_alpha": float(oc.peak2[i]), "overturned": bool(oc.over2[i])}]
+        if oc.slip is not None:
+            blocks[0].update(max_abs_slip=float(oc.slip[i]), motion=oc.motion[i])
+        if oc.slip2 is not None:
+            blocks[1].update(max_abs_slip=float(oc.slip2[i]), motion=oc.motion2[i], fell_off=bool(oc.fell_off[i]))
+        row["blocks"] = blocks
     return row
 
 
 def cmd_ida(args: argparse.Namespace) -> int:
     study, sets, out = _study(args)
-    demand = study.check_demand(args.demand, sets)
-    study.plot_ida(out, sets, demand)
+    demand = study.check_demand(args.demand, sets, args.block)
+    block = study.check_block(args.block, sets)
+    study.plot_ida(out, sets, demand, block)
     if args.json:
         combos = [{"combination": oc.combination, "first_overturn": study.first_overturn(oc),
                    "not_monotonic": study.resurrections(oc),
                    "rigid_rocking_broke": None if oc.broke is None else oc.n_broke} for oc in sets]
         doc = {**_head(sets), **({k: v for k, v in combos[0].items() if k != "combination"} if len(sets) == 1 else {}),
                "combinations": combos, "runs": [_ida_run(oc, i) for oc in sets for i in range(len(oc.x))],
-               "demand": demand, "demand_unit": "m" if demand == "slip" else "alpha", "figure": str(out)}
+               "demand": demand, "demand_unit": "m" if demand == "slip" else "alpha",
+               "blocks": [b for b, _, _ in study.ida_panels(sets[0], demand, block)], "figure": str(out)}
         emit_json(doc)
         return 0
     print("\n\n".join(study.format_ida(oc) for oc in sets) + f"\nfigure           {out}")
@@ -298,12 +310,16 @@ def add_parser(sub) -> None:
                             help="damage state, repeat for several curves: [block1:|block2:|either:]overturn "
                                  "(default: overturn, either block), [BLOCK:]rot>Xalpha (peak |theta| / alpha "
                                  "beyond X), slides (a contact needed more friction than mu; rocking-sliding: the "
-                                 "block slid), slide>D (peak slip beyond D: slide>0.05, slide>5cm; rocking-sliding "
-                                 "sweeps)")
+                                 "block slid), [BLOCK:]slide>D (peak slip beyond D: slide>0.05, block1:slide>5cm; "
+                                 "rocking-sliding sweeps; block 2's on block 1), block2:falloff (block 2 fell off "
+                                 "block 1; rocking-sliding stacks)")
         else:
             st.add_argument("--demand", choices=("rotation", "slip"), default="rotation",
                             help="what is drawn against intensity: rotation (peak |theta| / alpha, default) or slip "
-                                 "(block 1's peak |slip| in m; rocking-sliding sweeps)")
+                                 "(each block's peak |slip| in m, block 2's along block 1's top; rocking-sliding "
+                                 "sweeps)")
+            st.add_argument("--block", action=Once, metavar="1|2",
+                            help="of a stack, only this block's demand (default: one panel per block)")
         st.set_defaults(func=func)
         studies.append(st)
     for p in (imp, ls, sh, ex, *studies):

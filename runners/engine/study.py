@@ -72,8 +72,12 @@ class Outcomes:
     # when the sweep has none
     combination: dict[str, float] = field(default_factory=dict)
     # rocking–sliding runs (contact.model = 1, runners.engine.motion); None for rigid rocking
-    slip: np.ndarray | None = None  # m, peak |slip| of block 1 per run
+    slip: np.ndarray | None = None  # m, peak |slip| of block 1 per run (on the ground)
     motion: list[str] | None = None  # motion class per run (rests, slides, rocks, slide-rocks, overturns)
+    # rocking–sliding stacks: block 2 on block 1; None otherwise
+    slip2: np.ndarray | None = None  # m, peak |slip| of block 2 along block 1's top per run
+    motion2: list[str] | None = None  # block 2's motion class per run (motion's, or falls-off)
+    fell_off: np.ndarray | None = None  # bool per run: block 2 fell off block 1 (block2.fellOff)
 
     def __post_init__(self) -> None:
         if self.over1 is None:
@@ -122,8 +126,9 @@ class Outcomes:
     def to_pandas(self) -> "pd.DataFrame":
         """One row per run: record, intensity (column named after the measure, in its unit),
         overturned (either block), peak1_over_alpha (and peak2_over_alpha, block1_overturned,
-        block2_overturned for two blocks), and slides and rigid_rocking_held where the runs
-        monitored the contacts."""
+        block2_overturned for two blocks), slides and rigid_rocking_held where the runs
+        monitored the contacts, and for rocking–sliding runs max_abs_slip (m) and motion (block
+        1's), with block2_max_abs_slip, block2_motion and block2_fell_off of a stack."""
         import pandas as pd
 
         columns = {"record": self.record, f"{self.measure}_{self.unit.replace('/', '_per_')}": self.x,
@@ -135,6 +140,9 @@ class Outcomes:
             columns["slides"] = np.asarray(self.slid, bool)
         if self.slip is not None:
             columns.update(max_abs_slip=np.asarray(self.slip, float), motion=list(self.motion))
+        if self.slip2 is not None:
+            columns.update(block2_max_abs_slip=np.asarray(self.slip2, float), block2_motion=list(self.motion2),
+                           block2_fell_off=np.asarray(self.fell_off, bool))
         if self.broke is not None:
             columns["rigid_rocking_held"] = ~np.asarray(self.broke, bool)
         return pd.DataFrame(columns)
@@ -150,6 +158,14 @@ class Outcomes:
     @property
     def two(self) -> bool:
         return self.peak2 is not None
+
+    @property
+    def gone2(self) -> np.ndarray | None:
+        """Bool per run of a stack: block 2 overturned or fell off block 1 (its demands end there)."""
+        if not self.two:
+            return None
+        over = np.asarray(self.over2, bool)
+        return over if self.fell_off is None else over | np.asarray(self.fell_off, bool)
 
     def block_text(self) -> str:
         """The block(s), full dimensions: what a reader needs to place the curve."""
@@ -183,12 +199,17 @@ class Outcomes:
             return None
         from runners.engine.sweep import scales
 
+        if self.sliding and self.two:  # a stack at rest moves when it lifts or either contact slides
+            return min(scales(self.params)[1], self.params["g"] * self._start_ratio()) / G0
         if self.sliding:  # rocking–sliding: a block at rest moves (slides or rocks) beyond min(mu, tan alpha) g
             return self.params["g"] * self._start_ratio() / G0
         return scales(self.params)[1] / G0
 
     def _start_ratio(self) -> float:
-        """min(mu, b / h): a rocking–sliding block's threshold of motion from rest over g (Shenton 1996)."""
+        """min(mu, b / h): a rocking–sliding block's threshold of motion from rest over g (Shenton 1996);
+        of a stack, the least mu of its two contacts (the stack's uplift is scales')."""
+        if self.two:
+            return min(float(self.params["contact.muGround"]), float(self.params["contact.muInterface"]))
         return min(float(self.params["contact.muGround"]),
                    self.params["block1.halfWidth"] / self.params["block1.halfHeight"])
 
@@ -197,6 +218,11 @@ class Outcomes:
         thr = self.uplift_threshold()
         if thr is None:
             return None
+        if self.sliding and self.two:
+            return (f"no record below PGA {thr:.4g} g can move the stack from rest: the least of its uplift "
+                    f"acceleration and mu g of its two contacts (muGround {float(self.params['contact.muGround']):g}, "
+                    f"muInterface {float(self.params['contact.muInterface']):g}) = {thr * G0:.4g} m/s2 with the "
+                    f"model's g = {self.params['g']:g} m/s2, over g0 = {G0} m/s2, the g of every PGA here")
         if self.sliding:
             mu, tan = float(self.params["contact.muGround"]), self.params["block1.halfWidth"] / self.params[
                 "block1.halfHeight"]
@@ -331,9 +357,13 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
         if all(r.summary.assumptions_held is not None for r in mine):
             oc.broke = np.array([broke(r) for r in mine])
             oc.slid = np.array([r.summary.slide_time is not None for r in mine])
-        if not two and all(r.summary.motion is not None for r in mine):  # rocking–sliding runs
+        if all(r.summary.motion is not None for r in mine):  # rocking–sliding runs
             oc.slip = np.array([r.summary.max_abs_slip for r in mine], dtype=float)
             oc.motion = [r.summary.motion for r in mine]
+            if two:  # a stack: block 2 on block 1 too
+                oc.slip2 = np.array([r.summary.block2_max_abs_slip for r in mine], dtype=float)
+                oc.motion2 = [r.summary.block2_motion for r in mine]
+                oc.fell_off = np.array([bool(r.summary.block2_fell_off) for r in mine])
         if len(mine) < expected:
             oc.notes.append(f"{expected - len(done)} of {expected} points not run yet, {oc.failed} failed")
         out.append(oc)
@@ -369,19 +399,23 @@ def fragility(oc: Outcomes) -> Fragility:
 
 
 DS_FORMS = ("[block1:|block2:|either:]overturn, [block1:|block2:|either:]rot>Xalpha (peak |theta| / alpha "
-            "beyond X), slides (a contact needed more friction than its mu; rocking–sliding: the block slid), or "
-            "slide>D (peak slip beyond D, in m or with cm/mm, e.g. slide>5cm; rocking–sliding sweeps)")
+            "beyond X), slides (a contact needed more friction than its mu; rocking–sliding: the block slid), "
+            "[block1:|block2:|either:]slide>D (peak slip beyond D, in m or with cm/mm, e.g. slide>5cm; "
+            "rocking–sliding sweeps; block 2's along block 1's top), or block2:falloff (block 2 fell off block 1; "
+            "rocking–sliding stacks)")
 SLIP_UNITS = {"": 1.0, "m": 1.0, "cm": 0.01, "mm": 0.001}
 
 
 @dataclass(frozen=True)
 class DamageState:
     """A damage state a run reaches or not, from what each run stores: a block overturned, a
-    block's peak |theta| / alpha beyond a fraction (an overturned block counts as beyond), or a
-    contact sliding (its friction demand |T| / N above mu; docs/contact.md). `block` is "1", "2"
-    or "either" (of a stack; a single block is block 1)."""
+    block's peak |theta| / alpha beyond a fraction (an overturned block counts as beyond), a
+    contact sliding (its friction demand |T| / N above mu; docs/contact.md), a block's peak
+    |slip| beyond a distance (rocking–sliding; an overturned block, or block 2 fallen off, counts
+    as beyond), or block 2 falling off block 1 (a rocking–sliding stack). `block` is "1", "2" or
+    "either" (of a stack; a single block is block 1)."""
 
-    kind: str  # "overturn", "rot", "slides" or "slip"
+    kind: str  # "overturn", "rot", "slides", "slip" or "falloff"
     block: str = "either"
     limit: float | None = None  # rot: the fraction of alpha; slip: the distance D in m
 
@@ -390,7 +424,7 @@ class DamageState:
         """The state as runners fragility --ds spells it."""
         prefix = "" if self.block == "either" else f"block{self.block}:"
         if self.kind == "slip":
-            return f"slide>{self.limit:g}m"
+            return f"{prefix}slide>{self.limit:g}m"
         return prefix + (f"rot>{self.limit:g}alpha" if self.kind == "rot" else self.kind)
 
     def label(self, two: bool, sliding: bool = False) -> str:
@@ -401,7 +435,11 @@ class DamageState:
         if self.kind == "rot":
             return f"{who}: peak |theta| / alpha > {self.limit:g} (or overturned)"
         if self.kind == "slip":
-            return f"peak |slip| > {self.limit:g} m (or overturned)"
+            where = {"1": " on the ground", "2": " on block 1", "either": ""}[self.block] if two else ""
+            gone = "overturned or fell off" if two and self.block != "1" else "overturned"
+            return f"{who + ': ' if two else ''}peak |slip|{where} > {self.limit:g} m (or {gone})"
+        if self.kind == "falloff":
+            return "block 2 fell off block 1"
         return "the block slid" if sliding else "a contact slid (friction demand above mu)"
 
     def reached(self, oc: Outcomes) -> np.ndarray:
@@ -409,9 +447,16 @@ class DamageState:
         blocks = {"1": [1], "2": [2], "either": [1, 2] if oc.two else [1]}[self.block]
         if self.kind == "slides":
             return np.asarray(oc.slid, bool)
-        if self.kind == "slip":  # a block that overturned has moved beyond any slip
-            return np.asarray(oc.overturned, bool) | (np.asarray(oc.slip, float) > self.limit)
+        if self.kind == "falloff":
+            return np.asarray(oc.fell_off, bool)
         hit = np.zeros(len(oc.x), bool)
+        if self.kind == "slip":  # a block that overturned (or fell off) has moved beyond any slip
+            if not oc.two:
+                return np.asarray(oc.overturned, bool) | (np.asarray(oc.slip, float) > self.limit)
+            for i in blocks:
+                gone = np.asarray(oc.over1, bool) if i == 1 else oc.gone2
+                hit |= gone | (np.asarray(oc.slip if i == 1 else oc.slip2, float) > self.limit)
+            return hit
         for i in blocks:
             over = np.asarray(oc.over1 if i == 1 else oc.over2, bool)
             if self.kind == "overturn":
@@ -457,12 +502,31 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
         return DamageState("slides")
     if state.startswith(("slide>", "slip>", "slides>", "sliding>")):
         return _slip_state(spec, state.partition(">")[2], which, oc)
+    if state.replace("-", "").replace("_", "") in ("falloff", "falloffs", "fallsoff", "felloff"):
+        return _falloff_state(spec, which, oc)
     raise StudyError(f"unknown damage state {spec!r}: expected {DS_FORMS}")
 
 
+def _falloff_state(spec: str, block: str, oc: Outcomes) -> DamageState:
+    """block2:falloff (block 2 left block 1's top), of rocking–sliding stacks; StudyError in one line
+    otherwise."""
+    if not oc.two:
+        raise StudyError(f"damage state {spec!r}: the scene has one block, which cannot fall off anything "
+                         "(overturn, rot>Xalpha or slide>D)")
+    if block == "1":
+        raise StudyError(f"damage state {spec!r}: only block 2 can fall off (block 1 stands on the ground): "
+                         "block2:falloff")
+    if oc.fell_off is None:
+        raise StudyError(f"damage state {spec!r}: sweep {oc.sweep_id} runs the rigid stack, where block 2 leaving "
+                         "block 1 is its overturning (block2:overturn); falling off by sliding needs the "
+                         "rocking–sliding stack (contact.model = rocking-sliding)")
+    return DamageState("falloff", "2")
+
+
 def _slip_state(spec: str, distance: str, block: str, oc: Outcomes) -> DamageState:
-    """slide>D: the peak |slip| of block 1 beyond D (a number in m, or with m, cm or mm), of
-    rocking–sliding runs; StudyError in one line otherwise."""
+    """[block1:|block2:]slide>D: the peak |slip| of a block beyond D (a number in m, or with m, cm or
+    mm), of rocking–sliding runs (block 2's along block 1's top; of a stack without a prefix, either
+    block's); StudyError in one line otherwise."""
     import re
 
     m = re.fullmatch(r"([0-9.eE+-]+)(m|cm|mm)?", distance)
@@ -473,11 +537,11 @@ def _slip_state(spec: str, distance: str, block: str, oc: Outcomes) -> DamageSta
     if not (math.isfinite(d) and d > 0):
         raise StudyError(f"damage state {spec!r}: D in slide>D must be a distance above 0, in m or with its unit, "
                          "e.g. slide>0.05 or slide>5cm")
-    if block == "2":
-        raise StudyError(f"damage state {spec!r}: only block 1 slides (the rocking–sliding model has one block)")
+    if block == "2" and not oc.two:
+        raise StudyError(f"damage state {spec!r}: the scene has one block (block1 or no prefix)")
     if oc.slip is None:
         raise StudyError(f"damage state {spec!r}: {no_slip(oc)}")
-    return DamageState("slip", "either", d)
+    return DamageState("slip", block if oc.two else "either", d)
 
 
 def no_slip(oc: Outcomes) -> str:
@@ -557,17 +621,18 @@ def censored_note(oc: Outcomes) -> str | None:
     contact for a fallen block, so the run stops there, docs/two_blocks.md), or None."""
     if not oc.two:
         return None
-    n = int(np.sum(np.asarray(oc.over2, bool) & ~np.asarray(oc.over1, bool)))
+    n = int(np.sum(oc.gone2 & ~np.asarray(oc.over1, bool)))
     if not n:
         return None
-    return (f"in {n} of {len(oc.x)} runs block 2 fell off first and the run ended there (the model has no contact "
+    how = "overturned off or slid off block 1" if oc.fell_off is not None else "fell off"
+    return (f"in {n} of {len(oc.x)} runs block 2 {how} first and the run ended there (the model has no contact "
             "for a fallen block, docs/two_blocks.md): block 1's peak and overturning are those up to that moment, "
             "so a block 1 state counts it being reached before block 2 fell off")
 
 
 def state_notes(state: DamageState, oc: Outcomes) -> list[str]:
     """What a damage state's curve does not say: block 1's demands cut short where block 2 fell."""
-    note = censored_note(oc) if state.block == "1" and state.kind != "slides" else None
+    note = censored_note(oc) if state.block == "1" and state.kind not in ("slides", "falloff") else None
     return [note] if note else []
 
 
@@ -621,9 +686,10 @@ def plot_fragility(out: str | Path, frag: Fragility | None, oc: Outcomes) -> Pat
     return _save(fragility_figure(frag, oc), out)
 
 
-def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes], demand: str = "rotation") -> Path:
+def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes], demand: str = "rotation",
+             block: int | str | None = None) -> Path:
     """ida_figure written to `out` (PNG)."""
-    return _save(ida_figure(oc, demand), out)
+    return _save(ida_figure(oc, demand, block), out)
 
 
 MAX_PANELS = 12  # grid combinations one figure draws (more: select some)
@@ -776,36 +842,66 @@ def plot_curves(out: str | Path, cs: list[Curve]) -> Path:
 DEMANDS = ("rotation", "slip")  # what an IDA draws against intensity: peak |theta| / alpha, or peak |slip| (m)
 
 
-def check_demand(demand: str, sets: list[Outcomes]) -> str:
-    """The IDA demand (rotation or slip), checked against the runs; StudyError in one line."""
+def check_demand(demand: str, sets: list[Outcomes], block: int | str | None = None) -> str:
+    """The IDA demand (rotation or slip), checked against the runs, and the block (1, 2 or None for
+    each block of a stack); StudyError in one line."""
     if demand not in DEMANDS:
         raise StudyError(f"--demand {demand!r}: expected rotation (peak |theta| / alpha) or slip (peak |slip|, m)")
     rigid = [o for o in sets if o.slip is None]
     if demand == "slip" and rigid:
         raise StudyError(f"--demand slip: {no_slip(rigid[0])}")
+    check_block(block, sets)
     return demand
 
 
-def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation"):
+def check_block(block: int | str | None, sets: list[Outcomes]) -> int | None:
+    """The block an IDA draws (1 or 2; None: each block), checked against the runs; StudyError in one line."""
+    if block is None:
+        return None
+    try:
+        b = int(str(block).strip().removeprefix("block"))
+    except ValueError:
+        b = 0
+    if b not in (1, 2):
+        raise StudyError(f"--block {block!r}: expected 1 (the lower block, on the ground) or 2 (the upper block)")
+    if b == 2 and not sets[0].two:
+        raise StudyError(f"--block 2: sweep {sets[0].sweep_id} has one block (--block 1 or no --block)")
+    return b
+
+
+def ida_panels(oc: Outcomes, demand: str = "rotation", block: int | None = None) \
+        -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """The demands an IDA of `oc` draws, one panel per block: (block, its demand per run (peak
+    |theta| / alpha, or peak |slip| in m: block 2's along block 1's top), bool per run where the
+    block is gone: overturned, or for block 2 of a stack overturned or fallen off block 1)."""
+    panels = [(1, np.asarray(oc.peak1 if demand == "rotation" else oc.slip, float), np.asarray(oc.over1, bool))]
+    if oc.two and (demand == "rotation" or oc.slip2 is not None):
+        panels.append((2, np.asarray(oc.peak2 if demand == "rotation" else oc.slip2, float), oc.gone2))
+    return [p for p in panels if block is None or p[0] == block]
+
+
+def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation", block: int | str | None = None):
     """A matplotlib Figure: the demand against intensity, one line per record (named in a legend up
-    to 12 records), each block's own overturns marked at the top; the median over records (the
-    block's overturned runs counted as infinite) in black. `demand` rotation: peak |theta| / alpha,
-    one row per block; slip: block 1's peak |slip| (m) of rocking–sliding runs. For several grid
-    combinations (a list of Outcomes, outcome_sets) one column each."""
+    to 12 records), each block's own overturns (and block 2's falls off block 1) marked at the top;
+    the median over records (the block's gone runs counted as infinite) in black. `demand`
+    rotation: peak |theta| / alpha; slip: peak |slip| (m) of rocking–sliding runs (block 2's along
+    block 1's top). One row per block of a stack (`block` 1 or 2: that block's only). For several
+    grid combinations (a list of Outcomes, outcome_sets) one column each."""
     import textwrap
 
     import matplotlib.pyplot as plt
 
     sets = [oc] if isinstance(oc, Outcomes) else list(oc)
-    check_demand(demand, sets)
+    check_demand(demand, sets, block)
+    block = check_block(block, sets)
     if len(sets) > MAX_PANELS // 2:
         raise StudyError(f"{len(sets)} grid combinations are more than one figure draws ({MAX_PANELS // 2}): select "
                          "some (--select NAME=VALUE)")
-    rows = 2 if sets[0].two and demand == "rotation" else 1
+    rows = len(ida_panels(sets[0], demand, block))
     fig, axes = plt.subplots(rows, len(sets), figsize=(8 if len(sets) == 1 else 6.2 * len(sets), 4.8 * rows),
                              sharex="col", squeeze=False)
     for col, o in enumerate(sets):
-        _ida_column(axes[:, col], o, demand)
+        _ida_column(axes[:, col], o, demand, block)
         at = f"{o.combination_text()}: " if o.combination else ""
         axes[0, col].set_title(f"IDA, sweep {o.sweep_id}: {o.scene}\n" + textwrap.fill(
             f"{at}{o.block_text()}; {o.records_text()}, one line each", 100 if len(sets) == 1 else 80),
@@ -814,42 +910,42 @@ def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation"):
     return fig
 
 
-def _ida_column(axes, oc: Outcomes, demand: str = "rotation") -> None:
-    panels = [("block 1", oc.peak1, oc.over1)] + ([("block 2", oc.peak2, oc.over2)] if oc.two else [])
+def _ida_column(axes, oc: Outcomes, demand: str = "rotation", block: int | None = None) -> None:
     names = list(dict.fromkeys(oc.record))
     import matplotlib.pyplot as plt
 
     cmap = plt.get_cmap("tab20", max(len(names), 1))
-    top = 1.08
-    if demand == "slip":  # overturned runs at the top, above every standing run's slip
-        panels = [("block 1", np.asarray(oc.slip, float), oc.over1)]
-        standing = np.asarray(oc.slip, float)[~np.asarray(oc.over1, bool)]
-        top = 1.08 * (float(standing.max()) if standing.size and standing.max() > 0 else 0.01)
-    for ax, (title, peak, over) in zip(axes, panels):
-        over = np.asarray(over, bool)
+    for ax, (i, peak, over) in zip(axes, ida_panels(oc, demand, block)):
+        title = f"block {i}"
+        top = 1.08
+        if demand == "slip":  # gone runs at the top, above every standing run's slip
+            standing = peak[~over]
+            top = 1.08 * (float(standing.max()) if standing.size and standing.max() > 0 else 0.01)
         groups = oc.bins()
         levels = np.array([np.median(oc.x[g]) for g in groups])
         med = [np.median(np.where(over[g], np.inf, peak[g])) for g in groups]
-        for i, name in enumerate(names):
+        for k, name in enumerate(names):
             sel = np.array([r == name for r in oc.record])
             order = np.argsort(oc.x[sel])
             xs, ys, fell = oc.x[sel][order], peak[sel][order], over[sel][order]
             ys = np.where(fell, top, np.minimum(ys, top))
-            ax.plot(xs, ys, lw=0.8, color=cmap(i), alpha=0.8, label=name if len(names) <= 12 else None)
-            ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(i), lw=1)
+            ax.plot(xs, ys, lw=0.8, color=cmap(k), alpha=0.8, label=name if len(names) <= 12 else None)
+            ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(k), lw=1)
             if oc.n_broke:
                 broke = oc.broke[sel][order]
                 ax.scatter(xs[broke], ys[broke], marker="o", s=40, facecolors="none", edgecolors=BROKE_COLOUR,
-                           lw=1.2, label=oc.broke_words() if i == 0 else None)
+                           lw=1.2, label=oc.broke_words() if k == 0 else None)
         med = np.minimum(np.array(med), top)
         ax.plot(levels, med, color="k", lw=2.2, label="median over records")
         if demand == "rotation":
             ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
-        ax.text(levels.min(), top, f" x {title + ' ' if oc.two else ''}overturned", va="bottom", fontsize=8,
+        gone = "overturned or fell off" if i == 2 and oc.fell_off is not None else "overturned"
+        ax.text(levels.min(), top, f" x {title + ' ' if oc.two else ''}{gone}", va="bottom", fontsize=8,
                 color="0.3")
         ax.set_ylim(0, top * (1 + 0.07 / 1.08))
+        where = "" if not oc.two else " on the ground" if i == 1 else " on block 1"
         ax.set_ylabel(f"peak |theta| / alpha, {title}" if demand == "rotation" else
-                      f"peak |slip| of {title} (m), rocking–sliding")
+                      f"peak |slip| of {title}{where} (m), rocking–sliding")
         ax.legend(fontsize=7 if len(names) <= 12 else 8, loc="center right")
     axes[-1].set_xlabel(f"{oc.label} ({oc.unit})")
 
@@ -931,14 +1027,23 @@ def format_curves(cs: list[Curve]) -> str:
 
 def slip_text(oc: Outcomes) -> str | None:
     """One line on the peak slips of rocking–sliding runs (None for rigid rocking): how many slid,
-    the largest peak |slip| of a standing block, and the motion classes."""
+    the largest peak |slip| of a standing block, and the motion classes (of each block of a stack)."""
     if oc.slip is None:
         return None
-    standing = ~np.asarray(oc.overturned, bool)
-    slips = np.asarray(oc.slip, float)[standing]
-    kinds = {m: oc.motion.count(m) for m in dict.fromkeys(oc.motion)}
-    big = f"largest peak |slip| of a standing block {slips.max():.4g} m" if slips.size else "every run overturned"
-    return f"{big}; " + ", ".join(f"{n} {m}" for m, n in kinds.items())
+    if oc.two and oc.slip2 is not None:
+        return "; ".join(_slip_words(f"block {i}{' on the ground' if i == 1 else ' on block 1'}", slips, gone, kinds)
+                         for i, slips, gone, kinds in ((1, oc.slip, oc.over1, oc.motion),
+                                                       (2, oc.slip2, oc.gone2, oc.motion2)))
+    return _slip_words("", oc.slip, oc.overturned, oc.motion)
+
+
+def _slip_words(who: str, slip, gone, motion: list[str]) -> str:
+    slips = np.asarray(slip, float)[~np.asarray(gone, bool)]
+    kinds = {m: motion.count(m) for m in dict.fromkeys(motion)}
+    head = f"{who}: " if who else ""
+    big = (f"largest peak |slip| of a standing block {slips.max():.4g} m" if slips.size else
+           "every run overturned" if not who else "gone in every run")
+    return f"{head}{big}; " + ", ".join(f"{n} {m}" for m, n in kinds.items())
 
 
 def format_ida(oc: Outcomes) -> str:
@@ -954,7 +1059,9 @@ def format_ida(oc: Outcomes) -> str:
     if oc.two:
         o1, o2 = np.asarray(oc.over1, bool), np.asarray(oc.over2, bool)
         lines.append(f"per block        block 1 overturned in {int(o1.sum())} runs, block 2 in {int(o2.sum())} "
-                     f"(both in {int((o1 & o2).sum())}) of {len(oc.x)}")
+                     f"(both in {int((o1 & o2).sum())}: block 1 takes block 2 with it) of {len(oc.x)}"
+                     + ("" if oc.fell_off is None else
+                        f"; block 2 fell off block 1 in {int(np.sum(np.asarray(oc.fell_off, bool) & ~o2))}"))
         if censored_note(oc):
             lines.append(f"note             {censored_note(oc)}")
     never = [name for name, v in first.items() if v is None]

@@ -52,11 +52,33 @@ SLIDING_OUTPUTS = (
     "groundWork",  # J
     "block1.slides",  # stick-to-slip transitions
 )
+# and those of a rocking-sliding stack (nBlocks = 2, docs/stack_sliding.md): block 2 on block 1
+# (slips along block 1's top, relative to it) and its falling off
+STACK_SLIDING_OUTPUTS = SLIDING_OUTPUTS + (
+    "block2.slip",  # m, +x along block 1's top
+    "block2.slipRate",  # m/s
+    "block2.mode",  # MODES, and 5 fell off
+    "block2.maxAbsSlip",  # m
+    "block2.slideDuration",  # s
+    "block2.slideStartTime",  # s, -1 if it never slid
+    "block2.frictionLoss",  # J
+    "block2.slides",  # stick-to-slip transitions
+    "block2.fellOff",  # block 2 left block 1's top
+    "block2.fellOffTime",  # s, -1 if it never fell off
+)
+
+
+def sliding_outputs(p: dict[str, Any]) -> tuple[str, ...]:
+    """The sliding outputs a run with FMU parameters `p` (defaults included) samples, stores and
+    exports: none for rigid rocking, SLIDING_OUTPUTS for one block, STACK_SLIDING_OUTPUTS for a stack."""
+    if not rocking_sliding(p):
+        return ()
+    return STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS
 
 # block1.mode (the FMU's Enumeration ContactMode) -> its name
-MODES = {0: "rest", 1: "slide", 2: "rock", 3: "slide-rock", 4: "overturned"}
+MODES = {0: "rest", 1: "slide", 2: "rock", 3: "slide-rock", 4: "overturned", 5: "fell off"}
 # the run's state at its end, by block1.mode
-MODE_STATES = {0: "at rest", 1: "sliding", 2: "rocking", 3: "slide-rocking", 4: "overturned"}
+MODE_STATES = {0: "at rest", 1: "sliding", 2: "rocking", 3: "slide-rocking", 4: "overturned", 5: "fell off"}
 
 # the monitors of the rigid-rocking assumptions (docs/contact.md): final values are enough
 MONITOR_OUTPUTS = (
@@ -73,7 +95,7 @@ MONITOR_OUTPUTS = (
 )
 
 PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking alone",
-            4: "locked pair rocking", 5: "both blocks rocking"}
+            4: "locked pair rocking", 5: "both blocks rocking", 6: "a contact sliding"}
 
 
 def _stack_threshold(p: dict[str, float]) -> tuple[float, str]:
@@ -152,8 +174,9 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     start = float(p.get("excitation.startTime", 0.0))
     if int(p.get("excitation.kind", 0)) != 0 and start >= float(result.time[-1]):  # after the run: never felt
         summary["excitation_start_s"] = start
-    if rocking_sliding(p) and all(o in out for o in SLIDING_OUTPUTS):  # (a stored subset may lack them)
-        summary.update(sliding_summary(result, p, alpha))
+    sliding = rocking_sliding(p) and all(o in out for o in sliding_outputs(p))  # (a stored subset may lack them)
+    if sliding:
+        summary.update(sliding_summary(result, p, alpha, two))
         if summary["final_state"] != "overturned":
             summary["final_state"] = summary["final_mode_state"]
         summary.pop("final_mode_state")
@@ -165,7 +188,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         summary.update({
             "uplift_threshold_m_s2": threshold,
             "first_pattern": first,
-            "final_pattern": PATTERNS[int(out["pattern"][-1])],
+            "final_pattern": PATTERNS.get(int(out["pattern"][-1]), "rocking"),
             "impacts_ground": int(out["impactsGround"][-1]),
             "impacts_interface": int(out["impactsInterface"][-1]),
             "overturned_blocks": [i for i in (1, 2) if out[f"block{i}.overturned"][-1]],
@@ -173,7 +196,45 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
             "final_theta2_rad": float(out["block2.theta"][-1]),
             "peaks": None,
         })
+        summary["per_block"] = block_outcomes({name: values[-1] for name, values in out.items()}, p, sliding)
+        if sliding and summary["per_block"][1]["fell_off"] and not overturned:
+            summary["final_state"] = "block 2 fell off"
     return summary
+
+
+def block_outcomes(final: dict[str, Any], p: dict[str, Any], sliding: bool) -> list[dict[str, Any]]:
+    """Each block's outcome in a stack's run from its final outputs `final`: whether it overturned
+    (block 1 takes block 2 with it: both then overturned, ``with_block1``), its peak |theta| (rad,
+    absolute, and over its own alpha; None once it overturned: no demand then) and, for a
+    rocking-sliding stack (`sliding`), what its contact did (runners.engine.motion.slip_summary:
+    block 1 on the ground, block 2 on block 1's top, slips relative to what it stands on, m, +x),
+    and for block 2 whether and when it fell off block 1 (s)."""
+    from runners.engine.motion import rocked_and_slid, slip_summary
+
+    over_t = float(final["overturnTime"])
+    blocks = []
+    for i, contact in ((1, "ground"), (2, "block 1")):
+        over = bool(final[f"block{i}.overturned"])
+        peak = float(final[f"block{i}.maxAbsTheta"])
+        alpha = math.atan2(p[f"block{i}.halfWidth"], p[f"block{i}.halfHeight"])
+        b: dict[str, Any] = {"block": i, "stands_on": contact, "overturned": over,
+                             "overturn_time_s": over_t if over and over_t >= 0 else None,
+                             "with_block1": i == 2 and over and bool(final["block1.overturned"]),
+                             "max_abs_theta_rad": peak, "max_abs_theta_over_alpha": None if over else peak / alpha}
+        if sliding:
+            cols = slip_summary(final, i, stack=True)
+            rocked, slid = rocked_and_slid(final, i, stack=True)
+            mode = int(final[f"block{i}.mode"])
+            b.update(motion=cols["motion"], slid=slid, rocked=rocked, max_abs_slip_m=cols["max_abs_slip"],
+                     residual_slip_m=cols["residual_slip"], slide_start_time_s=cols["slide_time"],
+                     slide_duration_s=cols["slide_duration"], slide_count=int(final[f"block{i}.slides"]),
+                     final_mode=MODES.get(mode, str(mode)), friction_loss_J=float(final[f"block{i}.frictionLoss"]))
+            if i == 2:
+                fell = bool(final["block2.fellOff"])
+                t = float(final["block2.fellOffTime"])
+                b.update(fell_off=fell, fell_off_time_s=t if fell and t >= 0 else None)
+        blocks.append(b)
+    return blocks
 
 
 def rocking_sliding(p: dict[str, Any]) -> bool:
@@ -181,11 +242,12 @@ def rocking_sliding(p: dict[str, Any]) -> bool:
     return int(p.get("contact.model", 0)) == CONTACT_MODELS["rocking-sliding"]
 
 
-def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float) -> dict[str, Any]:
+def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float, two: bool = False) -> dict[str, Any]:
     """The sliding facts of a rocking-sliding run (SLIDING_OUTPUTS at its end): slips in m (+x,
     docs/conventions.md), times in s, energies in J; ``motion`` is what the block did (Shenton
-    1996's modes and overturning: rests, slides, rocks, slide-rocks, overturns). ValueError if the
-    run did not sample SLIDING_OUTPUTS."""
+    1996's modes and overturning: rests, slides, rocks, slide-rocks, overturns). Of a stack
+    (`two`) these are block 1's on the ground (block_outcomes has both blocks'), and the friction
+    loss both contacts'. ValueError if the run did not sample SLIDING_OUTPUTS."""
     out = result.outputs
     missing = [o for o in SLIDING_OUTPUTS if o not in out]
     if missing:
@@ -194,8 +256,8 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float) -> dict[
     from runners.engine.motion import rocked_and_slid, slip_summary
 
     final = {name: values[-1] for name, values in out.items()}
-    cols = slip_summary(final)  # the stored columns, as a sweep point stores them
-    rocked, slid = rocked_and_slid(final)
+    cols = slip_summary(final, 1, stack=two)  # the stored columns, as a sweep point stores them
+    rocked, slid = rocked_and_slid(final, 1, stack=two)
     mode = int(final["block1.mode"])
     mu = float(p["contact.muGround"])
     return {
@@ -211,16 +273,25 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float) -> dict[
         "slide_count": int(out["block1.slides"][-1]),
         "final_mode": MODES.get(mode, str(mode)),
         "final_mode_state": MODE_STATES.get(mode, "rocking"),
-        "friction_loss_J": float(out["block1.frictionLoss"][-1]),
+        "friction_loss_J": float(out["block1.frictionLoss"][-1])
+        + (float(out["block2.frictionLoss"][-1]) if two and "block2.frictionLoss" in out else 0.0),
         "impact_loss_J": float(out["impactLoss"][-1]),
         "ground_work_J": float(out["groundWork"][-1]),
     }
 
 
 def sliding_story(s: dict[str, Any]) -> str:
-    """The sliding story of a rocking-sliding run's summary in plain words, e.g. "slid 0.214 m
-    (peak), residual 0.102 m, never rocked" (slips in m, +x; times in s)."""
+    """The sliding story of a rocking-sliding run's summary, or of one block of a stack
+    (block_outcomes: block 2's slips are along block 1's top, relative to it, and it may fall off),
+    in plain words, e.g. "slid 0.214 m (peak), residual 0.102 m, never rocked" (slips in m, +x;
+    times in s)."""
     peak, residual, duration = s["max_abs_slip_m"], s["residual_slip_m"], s["slide_duration_s"]
+    if s.get("fell_off") and not s["overturned"]:
+        when = "" if s.get("fell_off_time_s") is None else f" at t = {s['fell_off_time_s']:.4f} s"
+        if not s["slid"]:
+            return f"fell off block 1{when} (rocking over its edge, never slid)"
+        return (f"fell off block 1{when} after sliding {peak:.3g} m (peak slip on it); sliding {duration:.3g} s "
+                f"in all, {s['slide_count']} slide{'s' if s['slide_count'] != 1 else ''}")
     if not s["slid"]:
         return "never slid" + ("" if s["rocked"] or s["overturned"] else ", never rocked")
     when = f"from t = {s['slide_start_time_s']:.4f} s" if s["slide_start_time_s"] is not None else "at an impact"
@@ -396,14 +467,20 @@ def format_summary(s: dict[str, Any]) -> str:
                     "held to it by the model, would have flown: see assumptions)")
     if s["blocks"] == 2:
         if s["overturned"]:
-            which = " and ".join(f"block {i}" for i in s["overturned_blocks"])
+            fell = s["overturned_blocks"]
+            which = ("block 1 (taking block 2 with it)" if fell == [1, 2] and _with_block1(s) else
+                     " and ".join(f"block {i}" for i in fell))
             outcome = f"{which} overturned at t = {s['overturn_time_s']:.4f} s"
+        elif s["final_state"] == "block 2 fell off":
+            t = s["per_block"][1]["fell_off_time_s"]
+            outcome = "block 2 fell off block 1" + ("" if t is None else f" at t = {t:.4f} s")
         elif s["final_state"] == "rocking":
             outcome = s["final_pattern"]
         lines += [
             f"outcome          {outcome}",
             f"impacts          {s['impacts_ground']} on the ground, {s['impacts_interface']} between the blocks",
             peak_line(s),
+            *block_lines(s),
         ]
         return "\n".join(lines + _assumption_lines(s) + _notes(s))
     lines += [
@@ -413,6 +490,18 @@ def format_summary(s: dict[str, Any]) -> str:
         *([f"sliding          {sliding_story(s)}"] if "contact_model" in s else []),
     ]
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
+
+
+def _with_block1(s: dict[str, Any]) -> bool:
+    blocks = s.get("per_block")
+    return bool(blocks and blocks[1]["with_block1"])
+
+
+def block_lines(s: dict[str, Any]) -> list[str]:
+    """A rocking-sliding stack's summary: one line per block, what it did on what it stands on
+    (block 1 on the ground, block 2 on block 1: its slips relative to block 1); none for a rigid stack."""
+    return [f"block {b['block']} ({b['motion']}) {'on the ground' if b['block'] == 1 else 'on block 1'}: "
+            f"{sliding_story(b)}" for b in s.get("per_block") or () if "motion" in b]
 
 
 def peak_line(s: dict[str, Any]) -> str:
@@ -441,6 +530,8 @@ def _notes(s: dict[str, Any]) -> list[str]:
 
 def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
     """The database's run summary (db.schema.RunSummary) from a summary dict of any method."""
+    from runners.engine.motion import first_of
+
     alpha1 = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
     two = s.get("blocks") == 2
     peak1 = s.get("max_abs_theta_rad")
@@ -468,6 +559,13 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
     if "contact_model" in s:  # rocking-sliding: what the block did, its slip (m) and sliding time (s)
         row.update(motion=s["motion"], max_abs_slip=s["max_abs_slip_m"], residual_slip=s["residual_slip_m"],
                    slide_duration=s["slide_duration_s"], slide_time=s["slide_start_time_s"])
+        upper = (s.get("per_block") or [{}, {}])[1]
+        if "motion" in upper:  # a stack: block 2 on block 1 (slips relative to it)
+            row.update(block2_motion=upper["motion"], block2_max_abs_slip=upper["max_abs_slip_m"],
+                       block2_residual_slip=upper["residual_slip_m"], block2_slide_duration=upper["slide_duration_s"],
+                       block2_slide_time=upper["slide_start_time_s"], block2_fell_off=upper["fell_off"],
+                       block2_fell_off_time=upper["fell_off_time_s"],
+                       slide_time=first_of(s["slide_start_time_s"], upper["slide_start_time_s"]))
     if two:
         alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
         row["peak2_over_alpha"] = s["max_abs_theta2_rad"] / alpha2

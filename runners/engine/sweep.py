@@ -45,7 +45,8 @@ from db.series import pack as pack_series
 from db.store import add_scene, code_version, file_sha256
 from runners.engine.fmu import FMUError, RockingFMU, with_scene_defaults
 from runners.engine.intensity import G0, SCALING
-from runners.engine.motion import SLIP_OUTPUTS, contact_model_value, rocking_sliding, slip_summary
+from runners.engine.motion import (SLIP_OUTPUTS, STACK_SLIP_OUTPUTS, contact_model_value, rocking_sliding,
+                                   slip_summary, stack_slip_summary)
 from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
 from runners.errors import RockingError
 
@@ -430,7 +431,8 @@ def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, st
     errors: list[str] = []
     slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
                                 logging_on=False)
-    names = ONE + (TWO if two else []) + [n for n in SLIP_OUTPUTS if n in fmu.vars]  # (an FMU without sliding lacks them)
+    slips = SLIP_OUTPUTS + (STACK_SLIP_OUTPUTS if two else [])
+    names = ONE + (TWO if two else []) + [n for n in slips if n in fmu.vars]  # (an FMU without sliding lacks them)
     # base: the scene's parameters; the FMU's start values fill the rest, but for SCENE_DEFAULTS
     _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=with_scene_defaults(base),
                         stop=stop_time, step=step,
@@ -476,12 +478,12 @@ def _record_point(over: dict, stop: float, path: str, name: str, record: dict | 
     """Simulate one point with output at every communication step and write its recording
     (in this worker process, to its own file: recordings never wait for each other)."""
     from runners.engine.recording import write_recording
-    from runners.engine.summary import SLIDING_OUTPUTS, SUMMARY_OUTPUTS
+    from runners.engine.summary import SUMMARY_OUTPUTS, sliding_outputs
 
     w = _worker()
     fmu = w["fmu"]
     params = {**w["base"], **over}
-    own = SLIDING_OUTPUTS if rocking_sliding(params) else ()  # a sliding point's recording draws its slip
+    own = sliding_outputs(params)  # a sliding point's recording draws its slip
     res = fmu.run(params, stop, min(w["step"], stop),
                   outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *own, *w["names"]])))
     write_recording(Path(path), name, res.time, res.outputs, {**fmu.defaults(), **params}, res.events,
@@ -555,8 +557,8 @@ def _summary(out: dict, merged: dict, two: bool) -> dict:
            "friction_demand_max_interface": None, "normal_min_interface": None}
     row["assumptions_held"] = row["slide_time"] is None and row["lift_time"] is None
     row["fall_time"] = out["fallTime"] if out["fallTime"] >= 0 else None
-    if rocking_sliding(merged) and not two:  # sliding is the model's now: only a lift-off (flight) is outside it
-        row.update(slip_summary(out))
+    if rocking_sliding(merged):  # sliding is the model's now: only a lift-off (flight) is outside it
+        row.update(stack_slip_summary(out) if two else slip_summary(out))
         row["assumptions_held"] = row["lift_time"] is None
     if two:
         alpha2 = math.atan2(merged["block2.halfWidth"], merged["block2.halfHeight"])

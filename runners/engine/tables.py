@@ -58,6 +58,14 @@ OUTCOMES: dict[str, str] = {
     "max_abs_slip": "float64",  # m, peak |block1.slip|
     "residual_slip": "float64",  # m, block1.slip at the end (+x)
     "slide_duration": "float64",  # s, time spent sliding
+    # rocking–sliding stacks: block 2 on block 1 (the four above are block 1's on the ground)
+    "block2_motion": "string",  # as motion, or falls-off
+    "block2_max_abs_slip": "float64",  # m, peak |block2.slip| along block 1's top
+    "block2_residual_slip": "float64",  # m, block2.slip at the end (+x, relative to block 1)
+    "block2_slide_duration": "float64",  # s
+    "block2_slide_time": "float64",  # s, block 2's first slide
+    "block2_fell_off": "boolean",  # block 2 left block 1's top
+    "block2_fell_off_time": "float64",  # s
 }
 EVENT_COLUMNS = ("time", "kind")  # every events frame starts with these: time in s, kind of event
 SCALED = ("pga", "pgv", "pgd", "arias")  # a scaled record's measures a sweep point stores (SI)
