@@ -89,7 +89,9 @@ class Outcomes:
 
     def broke_words(self) -> str:
         """What a run whose model broke first did, in a few words (figures' legends)."""
-        return "the block lifted off first (outside the model)" if self.sliding else "rigid rocking broke first"
+        if self.sliding:
+            return f"{'a contact' if self.two else 'the block'} lifted off first (outside the model)"
+        return "rigid rocking broke first"
 
     @property
     def sliding(self) -> bool:
@@ -103,8 +105,9 @@ class Outcomes:
         if self.sliding:
             if not self.n_broke:
                 return f"held in all {len(self.x)} runs: the block never lifted off before the outcome was decided"
-            return (f"did not hold in {self.n_broke} of {len(self.x)} runs: the block lifted off (flight, outside the "
-                    "rocking–sliding model) before the outcome was decided (docs/contact.md)")
+            return (f"did not hold in {self.n_broke} of {len(self.x)} runs: {'a contact' if self.two else 'the block'} "
+                    "lifted off (flight, outside the rocking–sliding model) before the outcome was decided "
+                    "(docs/contact.md)")
         if not self.n_broke:
             return (f"held in all {len(self.x)} runs: no contact slid or lifted off before the outcome was "
                     "decided")
