@@ -129,8 +129,10 @@ class SweepResult:
         ``.reached`` per run, ``.fragility`` or ``.why`` it has none, ``.as_dict()``). Damage
         states: ``[block1:|block2:|either:]overturn``, ``[BLOCK:]rot>Xalpha`` (peak |theta| / alpha
         beyond X, or overturned), ``slides`` (a contact needed more friction than its mu),
-        ``slide>D`` (rocking-sliding sweeps: peak |slip| beyond D in m, cm or mm, e.g. ``slide>5cm``,
-        or overturned). Draw them with runners.engine.study.curves_figure."""
+        ``[BLOCK:]slide>D`` (rocking-sliding sweeps: peak |slip| beyond D in m, cm or mm, e.g.
+        ``slide>5cm``, or overturned; block 2's along block 1's top), ``block2:falloff``
+        (rocking-sliding stacks: block 2 fell off block 1). Draw them with
+        runners.engine.study.curves_figure."""
         from runners.engine import study
 
         if not isinstance(ds, (list, tuple)) or not all(isinstance(d, str) for d in ds):

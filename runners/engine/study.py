@@ -18,6 +18,10 @@ is runners.sweep)::
     # rocking–sliding sweeps (--grid contact.model=rocking-sliding): slip states and the slip IDA
     curves = study.curves(study.outcome_sets(sw.factory, sw.sweep_id, "pga"), ["slide>5cm", "overturn"])
     study.plot_ida("ida-slip.png", study.outcome_sets(sw.factory, sw.sweep_id, "pga"), "slip")
+    # a rocking–sliding stack (a statue on a free plinth): each block's damage states and demands
+    sets = study.outcome_sets(sw.factory, sw.sweep_id, "pga")
+    curves = study.curves(sets, ["block2:overturn", "block2:falloff", "block1:slide>5cm", "block1:overturn"])
+    study.plot_ida("ida-statue.png", sets, "slip", block=2)   # block 2's slip along block 1's top
 
 A run's intensity is its record's measure times its scale (PGA, PGV, PGD linearly, Arias
 intensity with the square; runners.engine.intensity.SCALING). "Overturned" means either block of a
