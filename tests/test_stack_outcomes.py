@@ -222,6 +222,14 @@ def test_fragility_and_ida_of_a_sliding_stack_count_each_block_and_damage_state_
             median, beta = independent_fit(curve["points"])
             assert curve["median"] == pytest.approx(median, rel=1e-6) and curve["beta"] == pytest.approx(beta, rel=1e-6)
     assert (tmp_path / "f.png").stat().st_size > 10_000
+    # each contact's sliding: block 1 on the ground, block 2 on block 1
+    p = run_cli("fragility", "1", "--ds", "block1:slides", "--ds", "block2:slides", "--out", str(tmp_path / "s.png"),
+                "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    for i, curve in zip((1, 2), json.loads(p.stdout)["curves"]):
+        for pt in curve["points"]:
+            o = fmu[(pt["record"], round(pt["x"], 9))]
+            assert pt["reached"] == (o[f"block{i}.maxAbsSlip"] > 0 or o[f"block{i}.slideDuration"] > 0), (i, pt)
     # IDA: each block's own demands, as the FMU computed them
     for block, want in ((None, [1, 2]), ("2", [2]), ("1", [1])):
         args = ["ida", "1", "--demand", "slip", "--out", str(tmp_path / f"ida{block}.png"), "--json"]

@@ -82,6 +82,7 @@ class Outcomes:
     slip2: np.ndarray | None = None  # m, peak |slip| of block 2 along block 1's top per run
     motion2: list[str] | None = None  # block 2's motion class per run (motion's, or falls-off)
     fell_off: np.ndarray | None = None  # bool per run: block 2 fell off block 1 (block2.fellOff)
+    slid_blocks: tuple[np.ndarray, np.ndarray] | None = None  # bool per run: block 1 slid, block 2 slid on block 1
 
     def __post_init__(self) -> None:
         if self.over1 is None:
@@ -108,7 +109,8 @@ class Outcomes:
             return None
         if self.sliding:
             if not self.n_broke:
-                return f"held in all {len(self.x)} runs: the block never lifted off before the outcome was decided"
+                return (f"held in all {len(self.x)} runs: {'no contact' if self.two else 'the block never'} lifted off "
+                        "before the outcome was decided")
             return (f"did not hold in {self.n_broke} of {len(self.x)} runs: {'a contact' if self.two else 'the block'} "
                     "lifted off (flight, outside the rocking–sliding model) before the outcome was decided "
                     "(docs/contact.md)")
@@ -371,6 +373,9 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
                 oc.slip2 = np.array([r.summary.block2_max_abs_slip for r in mine], dtype=float)
                 oc.motion2 = [r.summary.block2_motion for r in mine]
                 oc.fell_off = np.array([bool(r.summary.block2_fell_off) for r in mine])
+                oc.slid_blocks = tuple(np.array([(getattr(r.summary, f"{pre}slide_duration") or 0.0) > 0
+                                                 or (getattr(r.summary, f"{pre}max_abs_slip") or 0.0) > 0
+                                                 for r in mine]) for pre in ("", "block2_"))
         if len(mine) < expected:
             oc.notes.append(f"{expected - len(done)} of {expected} points not run yet, {oc.failed} failed")
         out.append(oc)
@@ -447,13 +452,17 @@ class DamageState:
             return f"{who + ': ' if two else ''}peak |slip|{where} > {self.limit:g} m (or {gone})"
         if self.kind == "falloff":
             return "block 2 fell off block 1"
-        return "the block slid" if sliding else "a contact slid (friction demand above mu)"
+        if self.block != "either":
+            return f"{who} slid {'on the ground' if self.block == '1' else 'on block 1'}"
+        if sliding:
+            return "either block slid" if two else "the block slid"
+        return "a contact slid (friction demand above mu)"
 
     def reached(self, oc: Outcomes) -> np.ndarray:
         """Bool per run of `oc`: whether the run reached this state."""
         blocks = {"1": [1], "2": [2], "either": [1, 2] if oc.two else [1]}[self.block]
         if self.kind == "slides":
-            return np.asarray(oc.slid, bool)
+            return np.asarray(oc.slid if self.block == "either" else oc.slid_blocks[int(self.block) - 1], bool)
         if self.kind == "falloff":
             return np.asarray(oc.fell_off, bool)
         hit = np.zeros(len(oc.x), bool)
@@ -501,8 +510,11 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
             raise StudyError(f"damage state {spec!r}: X in rot>Xalpha must be a number above 0, e.g. rot>0.5alpha")
         return DamageState("rot", which, limit)
     if state in ("slides", "slide"):
+        if which != "either" and oc.slid_blocks is not None:  # a rocking–sliding stack: each contact's
+            return DamageState("slides", which)
         if which != "either":
-            raise StudyError(f"damage state {spec!r}: sliding is stored per run, not per block (give slides)")
+            raise StudyError(f"damage state {spec!r}: sliding is stored per run, not per block, except for a "
+                             "rocking–sliding stack (give slides)")
         if oc.slid is None:
             raise StudyError(f"damage state {spec!r}: these runs did not monitor the contacts (their method "
                              "does not), so whether they slid is not stored")

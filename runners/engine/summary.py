@@ -260,9 +260,15 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float, two: boo
     rocked, slid = rocked_and_slid(final, 1, stack=two)
     mode = int(final["block1.mode"])
     mu = float(p["contact.muGround"])
+    where = None
+    if two:  # the stack slides on the ground as one body beyond muGround g, block 2 on block 1 beyond muInterface g
+        mu_i = float(p["contact.muInterface"])
+        where = "muGround g: the stack on the ground" if mu <= mu_i else "muInterface g: block 2 on block 1"
+        mu = min(mu, mu_i)
     return {
         "contact_model": "rocking-sliding",
         "slide_threshold_m_s2": mu * float(p["g"]),
+        **({"slide_threshold_contact": where} if two else {}),
         "motion": cols["motion"],
         "slid": slid,
         "rocked": rocked,
@@ -433,6 +439,8 @@ def format_summary(s: dict[str, Any]) -> str:
     if s["blocks"] == 2:
         block = (f"two blocks       uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2, "
                  f"then {s['first_pattern']}")
+        if "contact_model" in s:
+            block += f"; sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 ({s['slide_threshold_contact']})"
     else:
         block = (f"block            alpha = {s['alpha_rad']:.4f} rad, p = {s['p_rad_per_s']:.3f} rad/s, "
                  f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2")
