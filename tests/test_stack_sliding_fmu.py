@@ -293,3 +293,45 @@ def test_a_wider_block_two_is_refused_in_one_line(fmu):
     with pytest.raises(Exception) as err:
         run(fmu, {**stack_params(STATUE, 0.5, 0.5), "block2.halfWidth": 0.35}, 1.0)
     assert "no wider than block 1" in str(err.value) and "\n" not in str(err.value).strip()
+
+
+def test_serialized_states_in_every_mode_continue_as_the_run_did(fmu_path):
+    """States taken at rest, while both blocks rock, while the statue slide-rocks on the resting plinth
+    and after it overturned are accepted by the state checks and continue to the bit."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path)), modelIdentifier="RockingBlock")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    for k, v in {**stack_params(STATUE, 0.5, 0.5), **pulse(6.0, 2.0)}.items():
+        (s.setInteger if isinstance(v, int) else s.setReal)([vr[k]], [v])
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    names = ["block1.slip", "block2.slip", "block1.theta", "block2.theta", "groundWork", "block1.frictionLoss"]
+    seen = set()
+    t = 0.0
+    for _ in range(300):
+        modes = tuple(s.getInteger([vr["block1.mode"], vr["block2.mode"]]))
+        if modes not in seen:
+            seen.add(modes)
+            blob = s.serializeFMUstate(s.getFMUstate())
+            first = []
+            for i in range(20):
+                s.doStep(t + 0.01 * i, 0.01)
+                first.append(s.getReal([vr[n] for n in names]))
+            s.setFMUstate(s.deSerializeFMUstate(blob))
+            again = []
+            for i in range(20):
+                s.doStep(t + 0.01 * i, 0.01)
+                again.append(s.getReal([vr[n] for n in names]))
+            assert first == again, modes
+            t += 0.2
+        else:
+            s.doStep(t, 0.01)
+            t += 0.01
+    s.terminate()
+    s.freeInstance()
+    assert {(0, 0), (2, 0), (2, 2), (0, 2), (0, 3), (0, 4)} <= seen, seen  # rest, rocking, the statue slide-rocks, overturned

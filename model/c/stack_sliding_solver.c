@@ -3,6 +3,7 @@
  * (advance_to), the same integrator and event location (events.c). */
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "contact.h"
@@ -157,6 +158,8 @@ void ss_initialize(Model *M) {
     S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1.0;
     S->maxAbsSlip = S->maxAbsSlip2 = S->slideDur = S->slideDur2 = S->impactLoss = 0.0;
     S->slideStarts = S->slideStarts2 = S->fellOff = 0;
+    S->eventContact = 0;
+    S->eventEnd = 1;
     StackPattern rest = {{1, 1, 0}, {1, 1, 0}};
     S->pat = S->densePat = rest;
     double q[4], w[4];
@@ -703,4 +706,40 @@ void ss_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double con
     rhs_cb(&c, S->tOld, y0, f0);
     dopri5_step(rhs_cb, &c, components(&c), S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
     keep_rest(components(&c), y0, y1, f1, cont);
+}
+
+/* ------------------------------------------------------------------ restored states */
+
+static int kind_ok(const ContactKind *k) {
+    return (k->flat == 0 || k->flat == 1) && (k->s == 1 || k->s == -1) && k->sigma >= -1 && k->sigma <= 1;
+}
+
+int ss_check_state(const Model *M, char *msg, size_t n) {
+    const State *S = &M->s;
+    const double x[] = {S->maxAbsSlip2, S->slideSince2, S->slideDur2, S->slideStartTime1, S->slideStartTime2,
+                        S->fellOffTime};
+    for (size_t i = 0; i < sizeof(x) / sizeof(x[0]); i++)
+        if (!isfinite(x[i])) {
+            snprintf(msg, n, "the rocking-sliding stack's quantity %d = %g is not a finite number", (int)i, x[i]);
+            return 1;
+        }
+    if (!kind_ok(&S->pat.g) || !kind_ok(&S->pat.i) || !kind_ok(&S->densePat.g) || !kind_ok(&S->densePat.i)) {
+        snprintf(msg, n, "a contact of the pattern is not one of flat 0/1, corner +-1, slip -1/0/+1");
+        return 1;
+    }
+    if (S->mode != MODE_OVERTURNED && S->mode != mode_of(&S->pat)) {
+        snprintf(msg, n, "pattern %d does not fit the contacts' modes", (int)S->mode);
+        return 1;
+    }
+    if (!(S->fellOff == 0 || S->fellOff == 1) || (S->fellOff != (S->fellOffTime >= 0)) ||
+        (S->fellOff && S->mode != MODE_OVERTURNED)) {
+        snprintf(msg, n, "fellOff = %d does not fit fellOffTime = %g", S->fellOff, S->fellOffTime);
+        return 1;
+    }
+    if (S->slideStarts2 < 0 || S->maxAbsSlip2 < 0 || S->slideDur2 < 0 || S->eventContact < 0 || S->eventContact > 1 ||
+        !(S->eventEnd == 1 || S->eventEnd == -1)) {
+        snprintf(msg, n, "the rocking-sliding stack's counters are out of range");
+        return 1;
+    }
+    return 0;
 }
