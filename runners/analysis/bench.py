@@ -154,7 +154,7 @@ STACK_FIG17 = {"nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.
                "block2.theta0": 0.0, "restitution.law": 2, "excitation.kind": 3, "excitation.frequency": 7.0,
                "excitation.displacement": 0.003, "excitation.cycles": 0.0, "solver.relTol": 1e-10,
                "solver.restRatio": 1e-6}  # Anagnostopoulos's Fig. 17A (STACK_7HZ below), default etas 0.95 / 0.98
-# Issue 27's statue on a free plinth: a marble statue (b2 = 0.2 m, h2 = 0.8 m, 690 kg) on a plinth
+# A statue standing free on a plinth: a marble statue (b2 = 0.2 m, h2 = 0.8 m, 690 kg) on a plinth
 # (b1 = 0.3 m, h1 = 0.5 m, 450 kg), mu 0.5 at both contacts, a 0.6 g one-sine pulse at 2 Hz: the
 # rigid stack's plinth would need friction 0.59 on the floor (it slides from t = 0.41 s)
 STATUE_ON_PLINTH = {"nBlocks": 2, "block1.halfWidth": 0.3, "block1.halfHeight": 0.5, "block1.mass": 450.0,
