@@ -9,7 +9,7 @@
 #ifndef ROCKING_INTEGRATOR_H
 #define ROCKING_INTEGRATOR_H
 
-#define NMAX 6 /* rocking-sliding: theta, omega, slip, slip rate and two work integrals */
+#define NMAX 11 /* the rocking-sliding stack: two angles, two slips, their rates and three work integrals */
 
 typedef void (*RhsFn)(const void *ctx, double t, const double *y, double *dy);
 

@@ -111,8 +111,10 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     if (v->contactModel == 1) {
         double alpha = atan(v->halfWidth / v->halfHeight), s2 = sin(alpha) * sin(alpha);
         double eta = model_law_restitution(v, alpha) * v->correction;
-        if (v->nBlocks != 1)
-            FAIL("contact.model = 1 (rocking-sliding) is available for nBlocks = 1 only (stacks: rigid rocking)");
+        if (v->nBlocks == 2 && v->halfWidth2 > v->halfWidth)
+            FAIL("contact.model = 1 with nBlocks = 2 needs block 2 no wider than block 1 (block2.halfWidth = %g > "
+                 "block1.halfWidth = %g): a wider block 2 would turn about block 1's edge, not modelled",
+                 v->halfWidth2, v->halfWidth);
         if (v->method != 0)
             FAIL("contact.model = 1 (rocking-sliding) needs solver.method = 0 (Dormand-Prince)");
         if (v->earlyOverturn) FAIL("solver.earlyOverturn is available for contact.model = 0 only");
@@ -171,6 +173,9 @@ void model_derive(Model *M) {
     /* rocking-sliding: a block at rest starts to move (slide or rock) at the lower threshold */
     d->upliftSlope = v->contactModel == 1 ? fmin(d->tanAlpha, v->muGround) : d->tanAlpha;
     if (v->nBlocks == 2) stack_derive(v, d);
+    /* the rocking-sliding stack at rest also starts to slide at either contact */
+    if (v->nBlocks == 2 && v->contactModel == 1)
+        d->upliftSlope = fmin(d->upliftSlope, fmin(v->muGround, v->muInterface));
     d->weight[0] = (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
     d->weight[1] = v->mass2 * v->g;
 }

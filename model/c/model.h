@@ -113,8 +113,22 @@ typedef enum {
     EVENT_OVERTURN2 = 4, /* block 2 falls off block 1 */
     EVENT_OPEN = 5,      /* a closed contact starts to open (no velocity jump) */
     EVENT_SLIP_START = 6, /* rocking-sliding: the pivot starts to slide (|T| reaches mu N) */
-    EVENT_SLIP_STOP = 7  /* rocking-sliding: the slip rate reaches zero */
+    EVENT_SLIP_STOP = 7, /* rocking-sliding: the slip rate reaches zero */
+    EVENT_FELL_OFF = 8,  /* rocking-sliding stack: block 2 leaves block 1's top */
+    EVENT_FLIGHT = 9,    /* rocking-sliding stack: no consistent pattern, a contact would pull */
+    EVENT_RECHOOSE = 10  /* rocking-sliding stack: the pattern no longer holds at an excitation break */
 } EventKind;
+
+/* Rocking-sliding stack (stack_sliding.h): one contact's mode and the pattern of both. */
+typedef struct {
+    int flat;  /* 1: faces together; 0: rocking on corner s */
+    int s;     /* corner: +1 right, -1 left (a flat contact's force reference point) */
+    int sigma; /* 0 sticking; +-1 sliding with that sign of the slip rate */
+} ContactKind;
+typedef struct {
+    ContactKind g; /* block 1 on the ground */
+    ContactKind i; /* block 2 on block 1 */
+} StackPattern;
 
 #define MAX_STEP_PEAKS 4
 #define TAYLOR_MAX 30 /* highest order of the Taylor-series integrator */
@@ -177,6 +191,12 @@ typedef struct {
     double slideDur;      /* time spent sliding in finished phases, s */
     double impactLoss;    /* kinetic energy lost at impacts, J */
     int slideStarts;      /* stick-to-slip transitions */
+    /* rocking-sliding stack (stack_sliding.h): the pattern now and of the last step, and the
+     * interface's counterparts of the above (the ground's are the fields above) */
+    StackPattern pat, densePat;
+    double maxAbsSlip2, slideSince2, slideDur2, slideStartTime1, slideStartTime2, fellOffTime;
+    int slideStarts2, fellOff;
+    int eventContact, eventEnd; /* the pending event's contact (0 ground, 1 interface) and end (+1, -1) */
 
     /* Model Exchange (me.c) */
     int omegaSign;        /* sign of omega after the last event (a peak is a change) */

@@ -14,6 +14,7 @@
 #include "integrator.h"
 #include "sliding.h"
 #include "stack_solver.h"
+#include "stack_sliding.h"
 #include "taylor.h"
 
 /* The longest step of a sliding contact, in units of the block's time scale 1 / p. */
@@ -670,8 +671,17 @@ void solver_outputs(Model *M, double tc) {
     v->slip = v->slipRate = v->maxAbsSlip = v->slideDuration = v->frictionLoss = v->impactLoss = v->groundWork = 0.0;
     v->slideStartTime = -1.0;
     v->slideStarts = 0;
+    /* block 2's sliding outputs: the rocking-sliding stack's only */
+    v->slip2 = v->slipRate2 = v->maxAbsSlip2 = v->slideDuration2 = v->frictionLoss2 = 0.0;
+    v->slideStartTime2 = v->fellOffTime = -1.0;
+    v->slideStarts2 = v->contactMode2 = v->fellOff = 0;
+    if (ss_on(M)) {
+        stack_outputs(M, tc);
+        return;
+    }
     if (v->nBlocks == 2) {
         stack_outputs(M, tc);
+        v->contactMode2 = S->mode == MODE_OVERTURNED ? 4 : S->mode == MODE_UPPER || S->mode == MODE_BOTH ? 2 : 0;
         v->contactMode = S->mode == MODE_OVERTURNED && S->overturned1  ? 4
                          : S->mode == MODE_LOCKED || S->mode == MODE_BOTH ? 2
                                                                           : 0;
