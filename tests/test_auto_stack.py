@@ -122,17 +122,37 @@ def test_a_stack_that_lifts_off_first_is_no_case_for_sliding(fmu_path):
     assert s["model"] == "two blocks" and s["model_sufficient"] is False and "sliding_contact" not in s
 
 
-def test_auto_on_a_sliding_stack_runs_the_rocking_sliding_stack_and_says_which_contact(fmu_path):
-    rigid = rigid_monitors(fmu_path, PLINTH)
-    r = simulate(PLINTH, fmu_path)
+@pytest.mark.parametrize("params, contact", [(PLINTH, "ground"), (SQUAT_STATUE, "interface")])
+def test_auto_on_a_sliding_stack_runs_the_rocking_sliding_stack_and_says_which_contact(fmu_path, params, contact):
+    rigid = rigid_monitors(fmu_path, params)
+    r = simulate(params, fmu_path)
     s = r.summary
-    if "rocking_sliding_refused" in s:  # a build without the rocking-sliding stack: the FMU's one-line reason
-        assert s["model"] == "two blocks" and s["model_sufficient"] is False and s["sliding_contact"] == "ground"
-        assert "\n" not in s["rocking_sliding_refused"] and "nBlocks" in s["rocking_sliding_refused"]
-        pytest.skip("the FMU has no rocking-sliding stack yet: " + s["rocking_sliding_refused"])
-    assert s["model"] == "rocking-sliding stack" and s["sliding_contact"] == "ground"
-    assert "the ground contact decides" in s["model_reason"]
+    assert "rocking_sliding_refused" not in s, s.get("rocking_sliding_refused")
+    assert s["model"] == "rocking-sliding stack" and s["sliding_contact"] == contact
+    assert s["model_reason"].endswith(f"the {contact} contact decides, rocking-sliding stack used")
+    assert s["rigid_rocking_assumptions"]["slides"]["contact"] == contact
     assert s["rigid_rocking_assumptions"]["slides"]["t_s"] == pytest.approx(rigid["slideTime"], abs=1e-12)
     assert r.parameters["contact.model"] == 1 and r.parameters["nBlocks"] == 2
-    assert "block1.slip" in r.series.columns and "block2.slip" in r.series.columns
-    assert s["assumptions"].get("sliding_modelled") is True
+    assert s["assumptions"].get("sliding_modelled") is True and s["model_sufficient"] is True
+    assert "model check      sufficient: rocking-sliding held" in r.report
+    # the contact that decided is the one that slides in the rocking-sliding stack's run, from the same instant
+    block = "block1" if contact == "ground" else "block2"
+    assert r.series[f"{block}.maxAbsSlip"].to_numpy()[-1] > 1e-4
+    assert r.series[f"{block}.slideStartTime"].to_numpy()[-1] == pytest.approx(rigid["slideTime"], abs=1e-9)
+    first = r.events[r.events["kind"] == "slide"].iloc[0]
+    assert first["contact"] == contact and first["time"] == pytest.approx(rigid["slideTime"], abs=1e-9)
+
+
+def test_the_cli_names_the_model_and_the_contact(tmp_path, fmu_path):
+    scene = tmp_path / "plinth.toml"
+    scene.write_text('name = "statue on plinth"\n[block]\nhalf_width = 0.3\nhalf_height = 0.5\nmass = 450.0\n'
+                     "[block2]\nhalf_width = 0.2\nhalf_height = 0.8\nmass = 690.0\n"
+                     "[contact]\nmu_ground = 0.5\nmu_interface = 0.5\n"
+                     f'[excitation]\nkind = "sine-pulse"\namplitude = {0.6 * G}\nfrequency = 2.0\ncycles = 1\n'
+                     "[simulation]\nstop_time = 3.0\n")
+    p = run_cli("simulate", str(scene), "--method", "auto", "--no-store", db=f"sqlite:///{tmp_path / 'r.db'}",
+                fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    line = next(x for x in p.stdout.splitlines() if x.startswith("model "))
+    assert line.startswith("model            rocking-sliding stack: the rigid stack needs friction demand up to ")
+    assert "on the ground (block 1 slides on the ground from t = " in line and "the ground contact decides" in line
