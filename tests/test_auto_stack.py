@@ -156,3 +156,31 @@ def test_the_cli_names_the_model_and_the_contact(tmp_path, fmu_path):
     line = next(x for x in p.stdout.splitlines() if x.startswith("model "))
     assert line.startswith("model            rocking-sliding stack: the rigid stack needs friction demand up to ")
     assert "on the ground (block 1 slides on the ground from t = " in line and "the ground contact decides" in line
+
+
+def test_a_sliding_stack_the_fmu_refuses_stays_not_sufficient_with_its_one_line_reason(tmp_path, fmu_path):
+    """Anagnostopoulos's Fig. 17 pair (block 2 wider than block 1) on a slippery floor: the rigid
+    stack slides on the ground first, and the rocking-sliding stack does not take a block 2 wider
+    than block 1: auto keeps the rigid answer, NOT SUFFICIENT, with the FMU's own reason."""
+    pair = {"nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,
+            "block2.halfWidth": 0.030, "block2.halfHeight": 0.050, "block2.mass": 2.3, "contact.muGround": 0.05,
+            "excitation.kind": 1, "excitation.amplitude": 3.0, "excitation.frequency": 5.0, "excitation.cycles": 1.0}
+    rigid = rigid_monitors(fmu_path, pair, 2.0)
+    assert 0 <= rigid["slideTime"] < rigid["liftTime"] or (rigid["slideTime"] >= 0 > rigid["liftTime"])  # slides first
+    from runners.engine.fmu import FMUError, RockingFMU
+
+    with RockingFMU(fmu_path) as fmu, pytest.raises(FMUError) as refused:
+        fmu.validate({**pair, "contact.model": 1})
+    s = simulate(pair, fmu_path, stop_time=2.0).summary
+    assert s["model"] == "two blocks" and s["model_sufficient"] is False and s["sliding_contact"] == "ground"
+    assert s["rocking_sliding_refused"] == str(refused.value) and "\n" not in s["rocking_sliding_refused"]
+    scene = tmp_path / "pair.toml"
+    scene.write_text("[block]\nhalf_width = 0.0145\nhalf_height = 0.060\nmass = 1.3\n"
+                     "[block2]\nhalf_width = 0.030\nhalf_height = 0.050\nmass = 2.3\n[contact]\nmu_ground = 0.05\n"
+                     '[excitation]\nkind = "sine-pulse"\namplitude = 3.0\nfrequency = 5.0\ncycles = 1\n'
+                     "[simulation]\nstop_time = 2.0\n")
+    p = run_cli("simulate", str(scene), "--method", "auto", "--no-store", db=f"sqlite:///{tmp_path / 'r.db'}",
+                fmu_path=fmu_path)
+    assert p.returncode == 4 and p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+    check = next(x for x in p.stdout.splitlines() if x.startswith("model check"))
+    assert "NOT SUFFICIENT" in check and str(refused.value) in check

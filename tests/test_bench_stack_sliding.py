@@ -49,7 +49,8 @@ def test_the_rocking_sliding_stack_rows_sit_next_to_the_two_block_rows(fmu_path,
     for rigid, params, stop, what in bench.STACK_SLIDING_CASES:  # each case a row, or the FMU's one-line refusal
         name = bench._stack_sliding_name(rigid, what)
         short = rigid.removeprefix("two blocks, ")
-        refusal = [line for line in stack.refused if line.startswith(f"- not run with the rocking-sliding stack, {short}:")]
+        head = f"- not run with the rocking-sliding stack, {short}:"
+        refusal = [line for line in stack.refused if line.startswith(head)]
         assert (name in timed) != bool(refusal) and all("\n" not in line for line in refusal), name
     assert bench._stack_sliding_name(*bench.STACK_SLIDING_CASES[0][::3]) in timed  # the free pair: a harness row
     assert bench.STATUE in timed and bench.STATUE not in rows  # the statue's rigid twin, timed with them

@@ -232,8 +232,9 @@ def _stack_sliding_rows(fmu_path: Path, native: tuple[Path, Path, str], repeats:
             for name, p in runs:
                 us, impacts = timer.time(p, stop, repeats)
                 r = fmu.run(p, stop, stop, outputs=["overturned", "atRest", "block2.fellOff"], events=False)
-                outcome = ("overturned" if r.outputs["overturned"][-1] else "fell off" if r.outputs["block2.fellOff"][-1]
-                           else "at rest" if r.outputs["atRest"][-1] else "rocking")
+                final = {k: v[-1] for k, v in r.outputs.items()}
+                outcome = ("overturned" if final["overturned"] else "fell off" if final["block2.fellOff"]
+                           else "at rest" if final["atRest"] else "rocking")
                 out.append(([name, f"{us:.2f}", str(impacts), outcome, f"{stop:.2f}"], (p, stop)))
     return out
 
