@@ -305,14 +305,17 @@ def simulate(
             report = format_python(sc.name, s, sc.stop_time)
             model = s["model"]
         else:
-            from runners.analysis.least_model import (ROCKING_SLIDING, choose_model, closed_form_summary,
+            from runners.analysis.least_model import (ROCKING_SLIDING, ROCKING_SLIDING_STACK, SLIDING_MODELS,
+                                                      STACK_SLIDING_OUTPUTS, choose_model, closed_form_summary,
                                                       combined_block_parameters, format_closed_form,
                                                       one_block_parameters, rigid_rocking_parameters,
-                                                      rocking_sliding_parameters, rocking_sliding_reason)
-            from runners.engine.summary import sliding_outputs
+                                                      rocking_sliding_parameters, rocking_sliding_reason,
+                                                      sliding_contact, sliding_model)
+            from runners.engine.summary import SLIDING_OUTPUTS
 
             if method == "fmu":
-                model = "two blocks" if int(merged["nBlocks"]) == 2 else ROCKING_SLIDING if sliding else "one block"
+                model = (sliding_model(merged) if sliding
+                         else "two blocks" if int(merged["nBlocks"]) == 2 else "one block")
                 why = "the model the scene describes (--method fmu)"
             else:
                 if sliding:  # auto tries rigid rocking first, as for every scene
@@ -325,7 +328,7 @@ def simulate(
             described = sc  # the scene as it describes itself, before auto's substitutions
             refused = None  # why the FMU refused rocking-sliding for this scene, if it did
             rigid = None  # rigid rocking's assumptions, once auto has switched to rocking-sliding
-            while True:  # a second pass only for auto's rocking-sliding
+            while True:  # a second pass only for auto's rocking-sliding (one block's or the stack's)
                 if model == "closed form":
                     s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
                     report = format_closed_form(sc.name, why, s)
@@ -339,14 +342,16 @@ def simulate(
                         combined = combined_block_parameters(merged)
                         sc = replace(sc, parameters={k: v for k, v in combined.items()
                                                      if k in sc.parameters or k.startswith("block1.")})
-                    own = sliding_outputs({**defaults, **sc.parameters})  # its channels, stored and exported
+                    own = (SLIDING_OUTPUTS if model == ROCKING_SLIDING  # its channels, stored and exported
+                           else (*SLIDING_OUTPUTS, *STACK_SLIDING_OUTPUTS) if model == ROCKING_SLIDING_STACK else ())
                     wanted = list(dict.fromkeys([*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own, *(outputs or ())]))
                     result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
                     s = summarize(sc, result, defaults)
                     s["model"], s["model_reason"] = model, why
                     if rigid is not None:  # what rigid rocking's monitors said, which made auto switch
-                        s["rigid_rocking_assumptions"] = rigid
-                    if method == "auto" and int(merged["nBlocks"]) == 2 and model != "two blocks":
+                        s["rigid_rocking_assumptions"], s["sliding_contact"] = rigid
+                    if method == "auto" and int(merged["nBlocks"]) == 2 and model not in ("two blocks",
+                                                                                           ROCKING_SLIDING_STACK):
                         # a stack run as one block: only the two-block model sees its interface
                         s["assumptions"] = _monitored(fm, described, merged)
                     run_notes = list(notes)
@@ -363,17 +368,17 @@ def simulate(
                     series = series_later(result.time, {k: result.outputs[k] for k in keep})
                     events = events_later([e.as_dict() for e in result.events])
                 switch = rocking_sliding_reason(s, merged) if method == "auto" and refused is None else None
-                if switch is None or model == ROCKING_SLIDING:
+                if switch is None or model in SLIDING_MODELS:
                     break
                 trial = rocking_sliding_parameters(described.parameters)
                 try:  # the FMU's own checks (the restitution law's eta, ...) before the run
                     fm.validate(trial)
                 except FMUError as exc:
                     refused = str(exc)
-                    s["rocking_sliding_refused"] = refused
+                    s["rocking_sliding_refused"], s["sliding_contact"] = refused, sliding_contact(s, merged)
                     break
-                sc, model, why = replace(described, parameters=trial), ROCKING_SLIDING, switch
-                rigid = s["assumptions"]
+                sc, model, why = replace(described, parameters=trial), sliding_model(merged), switch
+                rigid = s["assumptions"], sliding_contact(s, merged)  # the contact that decided: ground or interface
                 merged = {**defaults, **sc.parameters}
         if method == "auto" and "assumptions" in s:  # the least model must also be a model that holds
             s["model_sufficient"] = s["assumptions"]["outcome_held"]

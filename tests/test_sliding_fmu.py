@@ -206,7 +206,7 @@ def test_a_saved_state_mid_slide_continues_as_the_run_did(fmu_path):
 @pytest.mark.parametrize("params, text", [
     ({"contact.model": 2}, "contact.model = 2 must be 0"),
     ({"contact.model": -1}, "contact.model = -1 must be 0"),
-    ({"contact.model": 1, "nBlocks": 2}, "nBlocks = 1 only"),
+    ({"contact.model": 1, "nBlocks": 2, "block2.halfWidth": 0.2}, "block 2 no wider than block 1"),
     ({"contact.model": 1, "solver.method": 1}, "solver.method = 0"),
     ({"contact.model": 1, "contact.muGround": 0.0}, "contact.muGround = 0 must be > 0"),
     ({"contact.model": 1, "contact.muGround": float("nan")}, "nan is not a finite number"),

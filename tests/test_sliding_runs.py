@@ -74,6 +74,7 @@ def test_the_contact_model_key_maps_to_the_fmu_parameter():
 @pytest.mark.parametrize("extra, words", [
     ({"contact": {"model": "sliding"}}, "expected one of rigid-rocking, rocking-sliding"),
     ({"contact": {"model": 1}}, "expected one of rigid-rocking, rocking-sliding"),
+    ({"contact": {"model": "rocking-sliding"}, "block2": {"half_width": 0.4}}, "no wider than block 1"),
     ({"contact": {"model": "rocking-sliding"}, "simulation": {"method": "taylor"}}, "\"taylor\" integrates rigid"),
 ])
 def test_bad_contact_models_are_one_line_and_store_nothing(tmp_path, fmu_path, extra, words):
@@ -96,10 +97,13 @@ def test_bad_contact_models_are_one_line_and_store_nothing(tmp_path, fmu_path, e
     assert not (tmp_path / "runs.db").exists() or stored_runs(url) == 0
 
 
-def test_the_api_takes_the_model_by_name_and_refuses_unknown_ones(tmp_path, fmu_path):
+def test_the_api_takes_the_model_by_name_and_refuses_it_for_a_wider_upper_block(tmp_path, fmu_path):
     url = db_url(tmp_path)
     r = runners.simulate(squat_scene(), contact__model="rocking-sliding", stop_time=0.5, fmu=fmu_path)
     assert r.parameters["contact.model"] == 1 and r.summary["contact_model"] == "rocking-sliding"
+    stack = {**squat_scene(), "block2": {"half_width": 0.4, "half_height": 0.2}}
+    with pytest.raises(ArgumentError, match="no wider than block 1"):
+        runners.simulate(stack, contact__model=1, store=True, db=url, fmu=fmu_path)
     with pytest.raises(ArgumentError, match="contact.model must be one of"):
         runners.simulate(squat_scene(), contact__model="slides", store=True, db=url, fmu=fmu_path)
     with pytest.raises(ArgumentError, match="solves rigid rocking"):

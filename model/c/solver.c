@@ -892,24 +892,25 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
     const Variables *v = &M->v;
     int two = v->nBlocks == 2, taylor = v->method == 1, mode = (int)S->mode, pending = (int)S->pending;
-    int rs = sliding_on(M);
+    int rs = sliding_on(M) && !two, ss = ss_on(M);
+    if (ss && ss_check_state(M, msg, n)) return 1;
     if (two ? !(mode == MODE_REST || mode == MODE_OVERTURNED || mode == MODE_UPPER || mode == MODE_LOCKED ||
-                mode == MODE_BOTH)
+                mode == MODE_BOTH || (ss && mode == MODE_SLIDE))
             : !(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED || (rs && mode == MODE_SLIDE)))
         FAIL("pattern %d is not one of %s", mode,
              two ? "two blocks (1 rest, 2 overturned, 3 upper, 4 locked, 5 both)"
              : rs ? "one block (0 rocking, 1 rest, 2 overturned, 6 slide)"
                   : "one block (0 rocking, 1 rest, 2 overturned)");
-    int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH
+    int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH || (ss && mode == MODE_SLIDE)
                      : mode == MODE_ROCKING || mode == MODE_SLIDE;
-    int lastEvent = two ? EVENT_OPEN : rs ? EVENT_SLIP_STOP : EVENT_OVERTURN;
+    int lastEvent = ss ? EVENT_RECHOOSE : two ? EVENT_OPEN : rs ? EVENT_SLIP_STOP : EVENT_OVERTURN;
     if (!(pending >= EVENT_NONE && pending <= lastEvent) || (rs && (pending > EVENT_OVERTURN && pending < EVENT_SLIP_START)))
         FAIL("pending event %d is not one of %s", pending,
              two ? "0 to 5 (none, impact, overturn, interface, overturn2, open)"
              : rs ? "0, 1, 2, 6, 7 (none, impact, overturn, slip start, slip stop)"
                   : "0 to 2 (none, impact, overturn)");
     /* rocking-sliding: slip direction and mode of the state and of the last step */
-    if (!rs && (S->sigma || S->denseSigma || S->denseMode || S->slideStarts))
+    if (!rs && !ss && (S->sigma || S->denseSigma || S->denseMode || S->slideStarts))
         FAIL("sigma = %d, denseSigma = %d, denseMode = %d, slideStarts = %d belong to contact.model = 1 (0 here)",
              S->sigma, S->denseSigma, (int)S->denseMode, S->slideStarts);
     if (rs) {
@@ -941,9 +942,9 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     if (two ? !within(S->denseSide2, -1, 1) || (S->denseValid && !sign(S->denseSide2)) : S->denseSide2 != 0)
         FAIL("denseSide2 = %d must be %s", S->denseSide2,
              two ? "+1 or -1 (0 before the first step)" : "0 for one block");
-    if (mode == MODE_LOCKED && S->side2 != S->side)
+    if (!ss && mode == MODE_LOCKED && S->side2 != S->side)
         FAIL("a locked pair turns about one corner: side2 = %d must equal side = %d", S->side2, S->side);
-    if (mode == MODE_UPPER && S->side != S->side2)
+    if (!ss && mode == MODE_UPPER && S->side != S->side2)
         FAIL("with block 1 flat, side = %d must follow side2 = %d", S->side, S->side2);
 
     /* the Taylor series of the last step: its order is the one solver.relTol gives */
@@ -979,7 +980,7 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
         if (!flag(S->overturned1) || !flag(S->overturned2) || (S->overturned1 && !S->overturned2))
             FAIL("overturned1 = %d, overturned2 = %d: flags 0 or 1, and block 1 takes block 2 with it", S->overturned1,
                  S->overturned2);
-        if ((mode == MODE_OVERTURNED) != S->overturned2)
+        if (ss ? (S->overturned2 && mode != MODE_OVERTURNED) : (mode == MODE_OVERTURNED) != S->overturned2)
             FAIL("overturned2 = %d does not fit pattern %d", S->overturned2, mode);
         int maxSwitches = MAX_QUICK_SWITCHES + (use == STATE_INERT); /* a failed step counted one more */
         if (!within(S->quickSwitches, 0, maxSwitches))
@@ -1011,9 +1012,9 @@ static int zero_bits(double x) { return x == 0 && !signbit(x); }
 /* Numbers of a state that steps (or is about to): finite, and where a run leaves them. */
 static int check_numbers(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
-    int rs = sliding_on(M);
+    int rs = sliding_on(M), ss = ss_on(M);
     int two = M->v.nBlocks == 2, mode = (int)S->mode, ny = two ? 4 : rs ? RS_N : 2;
-    int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH
+    int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH || (ss && mode == MODE_SLIDE)
                      : mode == MODE_ROCKING || mode == MODE_SLIDE;
     const struct {
         const char *name;
@@ -1094,7 +1095,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
     if (S->peaks == 0 ? S->lastPeakTime != -1 || S->lastPeakTheta != 0 : !within(S->lastPeakTime, lo, hi))
         FAIL("lastPeakTime = %.17g, lastPeakTheta = %g do not fit %d peaks", S->lastPeakTime, S->lastPeakTheta,
              S->peaks);
-    if (mode == MODE_OVERTURNED ? !within(S->overturnTime, lo, hi) : S->overturnTime != -1)
+    if ((ss ? S->overturned2 : mode == MODE_OVERTURNED) ? !within(S->overturnTime, lo, hi) : S->overturnTime != -1)
         FAIL("overturnTime = %.17g does not fit pattern %d", S->overturnTime, mode);
     if (S->restTime != -1 && !within(S->restTime, lo, hi))
         FAIL("restTime = %.17g is not a time in [start, t]", S->restTime);
@@ -1171,7 +1172,9 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         if (S->denseSide != S->side || S->denseSide2 != S->side2)
             FAIL("the pivots of the last step (%d, %d) are not the current ones (%d, %d)", S->denseSide, S->denseSide2,
                  S->side, S->side2);
-        if (rs && (S->denseMode != S->mode || S->denseSigma != S->sigma))
+        if (ss && memcmp(&S->densePat, &S->pat, sizeof(StackPattern)) != 0)
+            FAIL("the contact pattern of the last step is not the current one");
+        if (rs && !two && (S->denseMode != S->mode || S->denseSigma != S->sigma))
             FAIL("the mode of the last step (%d, slip %d) is not the current one (%d, slip %d)", (int)S->denseMode,
                  S->denseSigma, mode, S->sigma);
         replay_step(M, y1, cont, x);

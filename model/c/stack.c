@@ -162,6 +162,26 @@ void stack_rhs(const Model *M, Mode mode, int s1, int s2, double t, const double
     dy[3] = acc[1];
 }
 
+void stack_rhs_work(const Model *M, Mode mode, int s1, int s2, double t, const double y[4], int piece,
+                    double dy[5]) {
+    const Variables *v = &M->v;
+    double ah, av, acc[2];
+    model_ground_piece(M, t, piece, &ah, &av);
+    Trig T = trig(y);
+    if (mode == MODE_LOCKED) s2 = s1;
+    if (mode == MODE_UPPER) s1 = s2;
+    Arms a = arms(M, s1, s2);
+    accel_arms(M, mode, &a, &T, y, ah, av, acc);
+    dy[0] = y[1];
+    dy[1] = acc[0];
+    dy[2] = y[3];
+    dy[3] = acc[1];
+    /* the ground's power: minus the rate of the potential of the field (ah, av) at fixed (ah, av) */
+    double V1 = W(T.c1, T.n1, v->mass * a.u1x + v->mass2 * a.uKx, v->mass * a.u1y + v->mass2 * a.uKy, ah, av);
+    double V2 = v->mass2 * W(T.c2, T.n2, a.u2x, a.u2y, ah, av);
+    dy[4] = -(V1 * y[1] + V2 * y[3]);
+}
+
 /* Residual M a - r of the pattern's motion in the coordinates of pivots
  * (s1, s2): the generalised forces the closed contacts must supply. */
 static void residual(const Model *M, int s1, int s2, const Trig *T, const double acc[2],

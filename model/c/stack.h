@@ -33,6 +33,12 @@ void stack_accel(const Model *M, Mode mode, int s1, int s2, const double y[4],
 void stack_rhs(const Model *M, Mode mode, int s1, int s2, double t, const double y[4],
                int piece, double dy[4]);
 
+/* stack_rhs and, in dy[4], the power (W) of the ground's motion on the stack: minus the rate of
+ * the potential of the field (ah, av) at fixed accelerations (the rocking-sliding stack's work
+ * integral while nothing slides). */
+void stack_rhs_work(const Model *M, Mode mode, int s1, int s2, double t, const double y[4], int piece,
+                    double dy[5]);
+
 /* Reaction margins of the closed contacts of the pattern, per end of the
  * contact (index 0: right end, 1: left end), normalised by the weight times
  * the half width of the contact. A margin is the moment the contact must

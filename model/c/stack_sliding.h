@@ -17,6 +17,8 @@
 #ifndef ROCKING_STACK_SLIDING_H
 #define ROCKING_STACK_SLIDING_H
 
+#include <stddef.h>
+
 #include "model.h"
 
 #define SS_WORK 4
@@ -101,6 +103,9 @@ void ss_outputs(Model *M, double tc);
 void ss_rollback(Model *M, double tc);
 void ss_state_rhs(const Model *M, double f[NMAX]);
 void ss_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]);
+
+/* Checks of a restored state's rocking-sliding stack fields: 0, or 1 with a one-line reason. */
+int ss_check_state(const Model *M, char *msg, size_t n);
 
 /* A readable label of a pattern, e.g. "rock/slide-rock". */
 const char *ss_label(const StackPattern *p, char buf[40]);

@@ -3,12 +3,14 @@
  * (advance_to), the same integrator and event location (events.c). */
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "contact.h"
 #include "events.h"
 #include "ground.h"
 #include "integrator.h"
+#include "stack.h"
 #include "stack_sliding.h"
 #include "stack_solver.h"
 
@@ -17,16 +19,37 @@
 #define EDGE_EPS 1e-12     /* m: block 2's pivot falls off once this far beyond block 1's edge */
 #define FORCE_SAMPLES 4    /* samples per step of the force indicators on the dense output */
 
+/* The integrator's context. While nothing slides and block 2 sits at its rest offset on block 1
+ * (u2 = 0), the pattern is one of the rigid stack's: its closed-form equations (stack.h) integrate
+ * theta1, omega1, theta2, omega2 and the ground's work (FAST_N components, the rigid stack's error
+ * control), and the slips stay put. */
+#define FAST_N 5
 typedef struct {
     const Model *M;
     StackPattern p;
     int piece;
+    int fast;
+    Mode mode;
+    int s1, s2;
 } SCtx;
+
+static Mode mode_of(const StackPattern *p);
+
+static SCtx context(const Model *M, const StackPattern *p, double t, const double *y) {
+    SCtx c = {M, *p, model_piece(M, t), !p->g.sigma && !p->i.sigma && y[SS_U2] == 0.0, mode_of(p), p->g.s, p->i.s};
+    if (c.mode == MODE_LOCKED) c.s2 = c.s1; /* the irrelevant pivot follows the relevant one */
+    if (c.mode == MODE_UPPER) c.s1 = c.s2;
+    return c;
+}
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     const SCtx *c = ctx;
-    ss_rhs(c->M, &c->p, t, y, c->piece, dy, NULL);
+    if (c->fast) stack_rhs_work(c->M, c->mode, c->s1, c->s2, t, y, c->piece, dy);
+    else ss_rhs(c->M, &c->p, t, y, c->piece, dy, NULL);
 }
+
+/* The components a step integrates. */
+static int components(const SCtx *c) { return c->fast ? FAST_N : SS_N; }
 
 static Mode mode_of(const StackPattern *p) {
     if (ss_is_rest(p)) return MODE_REST;
@@ -135,6 +158,8 @@ void ss_initialize(Model *M) {
     S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1.0;
     S->maxAbsSlip = S->maxAbsSlip2 = S->slideDur = S->slideDur2 = S->impactLoss = 0.0;
     S->slideStarts = S->slideStarts2 = S->fellOff = 0;
+    S->eventContact = 0;
+    S->eventEnd = 1;
     StackPattern rest = {{1, 1, 0}, {1, 1, 0}};
     S->pat = S->densePat = rest;
     double q[4], w[4];
@@ -235,16 +260,36 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
 
 /* ------------------------------------------------------------------ events */
 
+/* The force indicators of a rigid pattern (SCtx.fast) from the rigid stack's closed forms: its end
+ * margins (stack_margins) and the friction margins of its reactions (contact_stack). */
+static void fast_indicators(const SCtx *c, const double *y, double ah, double av, double ind[SS_IND]) {
+    const Model *M = c->M;
+    const Variables *v = &M->v;
+    double g[2], in[2], acc[2], T0, N0, T1, N1;
+    for (int i = 0; i < SS_IND; i++) ind[i] = INFINITY;
+    stack_margins(M, c->mode, c->s1, c->s2, y, ah, av, g, in);
+    ind[2] = g[0], ind[3] = g[1], ind[4] = in[0], ind[5] = in[1];
+    stack_accel(M, c->mode, c->s1, c->s2, y, ah, av, acc);
+    contact_stack(M, c->mode, c->s1, c->s2, y, acc, ah, av, &T0, &N0, &T1, &N1);
+    ind[6] = (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
+    ind[7] = (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
+}
+
 /* The contact whose force indicator is the least at (t, y): writes which (0 ground, 1
  * interface) and the kind of event (EVENT_OPEN with end +1/-1, or EVENT_SLIP_START). */
-static double weakest(const Model *M, const StackPattern *p, double t, const double *y, int piece, int *contact,
-                      EventKind *kind, int *end) {
+static double weakest(const SCtx *c, double t, const double *y, int *contact, EventKind *kind, int *end) {
+    const Model *M = c->M;
+    const StackPattern *p = &c->p;
     double q[4], w[4], ah, av, ind[SS_IND], m = INFINITY;
     SsSolution sol;
     ss_qw(y, q, w);
-    model_ground_piece(M, t, piece, &ah, &av);
-    if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
-    ss_indicators(M, p, q, &sol, ind);
+    model_ground_piece(M, t, c->piece, &ah, &av);
+    if (c->fast) {
+        fast_indicators(c, y, ah, av, ind);
+    } else {
+        if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
+        ss_indicators(M, p, q, &sol, ind);
+    }
     for (int i = 2; i < SS_IND; i++) {
         double val = ind[i] + (i <= 5 ? TOL_OPEN : TOL_FRICTION);
         if (val < m) {
@@ -255,6 +300,17 @@ static double weakest(const Model *M, const StackPattern *p, double t, const dou
         }
     }
     return m;
+}
+
+/* A step of n components leaves the others where they were: in its result and, as constants,
+ * in its dense output. */
+static void keep_rest(int n, const double *y, double *y1, double *f1, double cont[5][NMAX]) {
+    for (int i = n; i < SS_N; i++) {
+        y1[i] = y[i];
+        f1[i] = 0.0;
+        cont[0][i] = y[i];
+        for (int k = 1; k < 5; k++) cont[k][i] = 0.0;
+    }
 }
 
 typedef struct {
@@ -271,7 +327,7 @@ static double dense_force(void *ctx, double s) {
     EventKind kind;
     memcpy(y, d->y, sizeof(y));
     dense_eval(d->cont, SS_N, s, y);
-    return weakest(d->c->M, &d->c->p, d->t + s * d->h, y, d->c->piece, &contact, &kind, &end);
+    return weakest(d->c, d->t + s * d->h, y, &contact, &kind, &end);
 }
 
 typedef struct {
@@ -287,8 +343,9 @@ static double real_force(void *ctx, double x) {
     double err[NMAX];
     int contact, end;
     EventKind kind;
-    dopri5_step(rhs_cb, r->c, SS_N, r->t, r->y, r->f0, x, r->y1, r->f1, err, r->cont);
-    return weakest(r->c->M, &r->c->p, r->t + x, r->y1, r->c->piece, &contact, &kind, &end);
+    dopri5_step(rhs_cb, r->c, components(r->c), r->t, r->y, r->f0, x, r->y1, r->f1, err, r->cont);
+    keep_rest(components(r->c), r->y, r->y1, r->f1, r->cont);
+    return weakest(r->c, r->t + x, r->y1, &contact, &kind, &end);
 }
 
 /* Largest |component comp| of the dense output over s in [0, sEnd]. */
@@ -306,23 +363,26 @@ static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     const Derived *d = &M->d;
-    SCtx c = {M, S->pat, model_piece(M, S->t)};
+    SCtx c = context(M, &S->pat, S->t, S->y);
     const StackPattern *p = &c.p;
-    int hitBp;
+    int hitBp, n = components(&c);
     if (S->pending == EVENT_FLIGHT) return 0;
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext;
-    double len = hypot(v->halfWidth, d->yG), rate = len * sqrt(v->g / len), work = (v->mass + v->mass2) * v->g * len;
+    /* error control: angles and their rates as the rigid stack; slips in units of the pair's
+     * half diagonal R, slip rates in R sqrt(g / R), work integrals in (m1 + m2) g R */
+    double len = d->RL, rate = len * sqrt(v->g / len), work = d->mTot * v->g * len;
     double scale[SS_N] = {1, 1, 1, 1, work, len, rate, len, rate, work, work};
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
     }
-    if (adaptive_step_controlled(rhs_cb, &c, SS_N, SS_N, scale, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol,
-                                 y1, f1, cont, &hNext, &hitBp, &S->rejected)) {
+    if (adaptive_step_controlled(rhs_cb, &c, n, c.fast ? 4 : SS_N, c.fast ? NULL : scale, S->t, S->y, S->f, &h, hmax,
+                                 v->relTol, v->absTol, y1, f1, cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
+    keep_rest(n, S->y, y1, f1, cont);
     S->steps++;
 
     /* polynomial events: gaps, overturns, slip-rate zeros, block 2's pivot past block 1's edge */
@@ -343,8 +403,8 @@ static int take_step(Model *M, const Logger *log) {
         {EVENT_OVERTURN2, !p->i.flat, 1, 2, 1, +1, p->i.s, M_PI / 2},
         {EVENT_SLIP_STOP, p->g.sigma != 0, 0, SS_V1, 0, -1, p->g.sigma, 0.0},
         {EVENT_SLIP_STOP, p->i.sigma != 0, 1, SS_V2, 0, -1, p->i.sigma, 0.0},
-        {EVENT_FELL_OFF, !p->i.flat, 1, SS_U2, 0, +1, 1.0, v->halfWidth - p->i.s * v->halfWidth2 + EDGE_EPS},
-        {EVENT_FELL_OFF, !p->i.flat, 1, SS_U2, 0, +1, -1.0, v->halfWidth + p->i.s * v->halfWidth2 + EDGE_EPS},
+        {EVENT_FELL_OFF, !p->i.flat && !c.fast, 1, SS_U2, 0, +1, 1.0, v->halfWidth - p->i.s * v->halfWidth2 + EDGE_EPS},
+        {EVENT_FELL_OFF, !p->i.flat && !c.fast, 1, SS_U2, 0, +1, -1.0, v->halfWidth + p->i.s * v->halfWidth2 + EDGE_EPS},
     };
     for (int k = 0; k < 8; k++) {
         if (!cand[k].use) continue;
@@ -352,61 +412,67 @@ static int take_step(Model *M, const Logger *log) {
         dense_poly(cont, cand[k].comp, cc);
         for (int i = 0; i < 5; i++) P[i] = cand[k].sign * (cand[k].rel ? b[i] - a[i] : cc[i]);
         P[0] -= cand[k].offset;
-        double s = first_crossing(P, cand[k].slope);
-        if (s < sEv) {
-            sEv = s, ev = cand[k].kind, evContact = cand[k].contact;
+        double sc = first_crossing(P, cand[k].slope);
+        if (sc < sEv) {
+            sEv = sc, ev = cand[k].kind, evContact = cand[k].contact;
             memset(wEv, 0, sizeof(wEv));
             if (cand[k].rel) wEv[0] = -cand[k].sign, wEv[2] = cand[k].sign;
             else wEv[cand[k].comp] = cand[k].sign;
             target = cand[k].offset;
         }
     }
-    /* force indicators (flat contacts' end margins, sticking contacts' friction margins) */
+    /* force indicators (flat contacts' end margins, sticking contacts' friction margins) on the
+     * dense output: sampled as the rigid stack samples its openings where a contact is flat, at
+     * the step's end otherwise */
     int fContact = 0, fEnd = 1;
     EventKind fKind = EVENT_NONE;
     DenseForce df = {&c, S->t, h, S->y, (const double(*)[NMAX])cont};
-    double sF = first_negative_sampled(dense_force, &df, FORCE_SAMPLES);
+    double sF = first_negative_sampled(dense_force, &df, (p->g.flat || p->i.flat) ? FORCE_SAMPLES : 1);
     double hStep = h, tNew = hitBp ? bp : S->t + h;
     if (sF < sEv && sF <= 1.0) {
-        /* real steps: regula falsi on the step length from the step's start */
         double yS[NMAX], fS[NMAX], cS[5][NMAX];
-        RealForce rf = {&c, S->t, S->y, S->f, yS, fS, cS};
-        double lo = fmax(0.0, sF - 1.0 / FORCE_SAMPLES) * h, hi = sF * h;
-        double flo = lo > 0 ? real_force(&rf, lo) : dense_force(&df, 0.0);
-        double fhi = real_force(&rf, hi);
-        if (fhi >= 0) hi = h, fhi = real_force(&rf, hi);
-        if (fhi < 0 && flo >= 0) {
-            hStep = first_negative(real_force, &rf, lo, flo, hi, fhi, 4.0, fabs(S->t), 0.0, 100);
+        if (c.fast) { /* as the rigid stack: a real step to the time located on the dense output */
+            const double none[NMAX] = {0};
+            hStep = refine_step(rhs_cb, &c, n, S->t, S->y, S->f, sF * h, h, none, 0.0, yS, fS, cS);
+            keep_rest(n, S->y, yS, fS, cS);
+        } else { /* regula falsi on the length of real steps from the step's start */
+            RealForce rf = {&c, S->t, S->y, S->f, yS, fS, cS};
+            double lo = fmax(0.0, sF - 1.0 / FORCE_SAMPLES) * h, hi = sF * h;
+            double flo = lo > 0 ? real_force(&rf, lo) : dense_force(&df, 0.0);
+            double fhi = real_force(&rf, hi);
+            if (fhi >= 0) hi = h, fhi = real_force(&rf, hi);
+            if (flo < 0) lo = 0.0, flo = fmax(dense_force(&df, 0.0), 0.0);
+            hStep = fhi < 0 ? first_negative(real_force, &rf, lo, flo, hi, fhi, 4.0, fabs(S->t), 0.0, 100) : hi;
             real_force(&rf, hStep);
-            memcpy(y1, yS, sizeof(yS));
-            memcpy(f1, fS, sizeof(fS));
-            memcpy(cont, cS, sizeof(cS));
-            weakest(M, p, S->t + hStep, y1, c.piece, &fContact, &fKind, &fEnd);
-            ev = fKind, evContact = fContact;
-            tNew = S->t + hStep;
-            hitBp = 0;
-            sEv = 2.0; /* handled */
         }
+        memcpy(y1, yS, sizeof(yS));
+        memcpy(f1, fS, sizeof(fS));
+        memcpy(cont, cS, sizeof(cS));
+        weakest(&c, S->t + hStep, y1, &fContact, &fKind, &fEnd);
+        ev = fKind, evContact = fContact;
+        tNew = S->t + hStep;
+        hitBp = 0;
+        sEv = 2.0; /* located */
     }
     if (sEv <= 1.0) {
-        hStep = refine_step(rhs_cb, &c, SS_N, S->t, S->y, S->f, sEv * h, h, wEv, target, y1, f1, cont);
-        double sign = 0;
-        for (int i = 0; i < NMAX; i++) sign += wEv[i] * wEv[i];
+        hStep = refine_step(rhs_cb, &c, n, S->t, S->y, S->f, sEv * h, h, wEv, target, y1, f1, cont);
+        keep_rest(n, S->y, y1, f1, cont);
         /* the event's functional exactly at its target */
         if (ev == EVENT_IMPACT || ev == EVENT_OVERTURN) y1[0] = p->g.s * target;
         if (ev == EVENT_INTERFACE || ev == EVENT_OVERTURN2) y1[2] = y1[0] + p->i.s * target;
         if (ev == EVENT_SLIP_STOP) y1[evContact == 0 ? SS_V1 : SS_V2] = 0.0;
         tNew = S->t + hStep;
         hitBp = 0;
-        (void)sign;
     }
 
     S->maxPrev = S->maxAbsTheta;
     S->maxPrev2 = S->maxAbsTheta2;
     S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_max(cont, 0, 1.0), fabs(y1[0])));
     S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_max(cont, 2, 1.0), fabs(y1[2])));
-    S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
-    S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));
+    if (!c.fast) {
+        S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
+        S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));
+    }
     S->tOld = S->t;
     S->hDense = hStep;
     memcpy(S->cont, cont, sizeof(cont));
@@ -627,16 +693,53 @@ void ss_rollback(Model *M, double tc) {
 
 void ss_state_rhs(const Model *M, double f[NMAX]) {
     const State *S = &M->s;
-    SCtx c = {M, S->pat, model_piece(M, S->t)};
+    SCtx c = context(M, &S->pat, S->t, S->y);
     memset(f, 0, NMAX * sizeof(double));
     rhs_cb(&c, S->t, S->y, f);
 }
 
 void ss_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]) {
     const State *S = &M->s;
-    SCtx c = {M, S->densePat, model_piece(M, S->tOld)};
-    double y0[NMAX], f0[NMAX], err[NMAX];
+    double y0[NMAX], f0[NMAX] = {0}, err[NMAX];
     for (int i = 0; i < NMAX; i++) y0[i] = S->cont[0][i];
+    SCtx c = context(M, &S->densePat, S->tOld, y0);
     rhs_cb(&c, S->tOld, y0, f0);
-    dopri5_step(rhs_cb, &c, SS_N, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
+    dopri5_step(rhs_cb, &c, components(&c), S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
+    keep_rest(components(&c), y0, y1, f1, cont);
+}
+
+/* ------------------------------------------------------------------ restored states */
+
+static int kind_ok(const ContactKind *k) {
+    return (k->flat == 0 || k->flat == 1) && (k->s == 1 || k->s == -1) && k->sigma >= -1 && k->sigma <= 1;
+}
+
+int ss_check_state(const Model *M, char *msg, size_t n) {
+    const State *S = &M->s;
+    const double x[] = {S->maxAbsSlip2, S->slideSince2, S->slideDur2, S->slideStartTime1, S->slideStartTime2,
+                        S->fellOffTime};
+    for (size_t i = 0; i < sizeof(x) / sizeof(x[0]); i++)
+        if (!isfinite(x[i])) {
+            snprintf(msg, n, "the rocking-sliding stack's quantity %d = %g is not a finite number", (int)i, x[i]);
+            return 1;
+        }
+    if (!kind_ok(&S->pat.g) || !kind_ok(&S->pat.i) || !kind_ok(&S->densePat.g) || !kind_ok(&S->densePat.i)) {
+        snprintf(msg, n, "a contact of the pattern is not one of flat 0/1, corner +-1, slip -1/0/+1");
+        return 1;
+    }
+    if (S->mode != MODE_OVERTURNED && S->mode != mode_of(&S->pat)) {
+        snprintf(msg, n, "pattern %d does not fit the contacts' modes", (int)S->mode);
+        return 1;
+    }
+    if (!(S->fellOff == 0 || S->fellOff == 1) || (S->fellOff != (S->fellOffTime >= 0)) ||
+        (S->fellOff && S->mode != MODE_OVERTURNED)) {
+        snprintf(msg, n, "fellOff = %d does not fit fellOffTime = %g", S->fellOff, S->fellOffTime);
+        return 1;
+    }
+    if (S->slideStarts2 < 0 || S->maxAbsSlip2 < 0 || S->slideDur2 < 0 || S->eventContact < 0 || S->eventContact > 1 ||
+        !(S->eventEnd == 1 || S->eventEnd == -1)) {
+        snprintf(msg, n, "the rocking-sliding stack's counters are out of range");
+        return 1;
+    }
+    return 0;
 }

@@ -41,6 +41,18 @@ def _compile_native(fmu_path: Path, tmp: Path) -> tuple[Path, Path, str]:
     return exe, lib, md.guid
 
 
+def _custom_args(variables: dict, parameters: dict, stop_time: float) -> list[str]:
+    """The harness's arguments after REPEATS for its custom form, one scene: custom STOP VR=VALUE ...
+    (`variables`: the FMU's model variables by name; parameters with the scene defaults)."""
+    out = ["custom", repr(float(stop_time))]
+    for name, value in with_scene_defaults(parameters).items():
+        v = variables[name]
+        out.append(f"s{v.valueReference}={value}" if v.type == "String"
+                   else f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean", "Enumeration")
+                   else f"{v.valueReference}={float(value)!r}")
+    return out
+
+
 class NativeTimer:
     """Times single scenes natively (the harness's "custom" form); use as a context manager."""
 
@@ -57,14 +69,8 @@ class NativeTimer:
 
     def seconds(self, parameters: dict, stop_time: float, repeats: int) -> float:
         """Wall seconds per simulation (instantiate to free) of one scene."""
-        args = []
-        for name, value in with_scene_defaults(parameters).items():
-            v = self.vars[name]
-            args.append(f"s{v.valueReference}={value}" if v.type == "String"
-                        else f"i{v.valueReference}={int(value)}" if v.type in ("Integer", "Boolean", "Enumeration")
-                        else f"{v.valueReference}={float(value)!r}")
-        proc = subprocess.run([str(self.exe), str(self.lib), self.guid, str(repeats), "custom", repr(float(stop_time)),
-                               *args], capture_output=True, text=True)
+        proc = subprocess.run([str(self.exe), str(self.lib), self.guid, str(repeats),
+                               *_custom_args(self.vars, parameters, stop_time)], capture_output=True, text=True)
         if proc.returncode != 0:
             raise OSError(f"native benchmark failed: {proc.stderr.strip() or proc.returncode}")
         return float(proc.stdout.split()[0]) * 1e-6
@@ -91,8 +97,12 @@ def run_native_bench(fmu_path: Path, repeats: int = 2000) -> str:
             "| case | us / simulation | impacts | outcome | simulated time (s) |",
             "|---|---:|---:|---|---:|",
         ]
-        out += [f"| {r[0]} | {float(r[1]):.1f} | {r[2]} | {r[3]} | {float(r[4]):.2f} |" for r in rows]
+        stack = _stack_sliding_rows(fmu_path, native, repeats)
+        last = max((i for i, r in enumerate(rows) if r[0].startswith("two blocks")), default=len(rows) - 1)
+        table = rows[:last + 1] + [r for r, _ in stack] + rows[last + 1:]  # next to the two-block rows
+        out += [f"| {r[0]} | {float(r[1]):.1f} | {r[2]} | {r[3]} | {float(r[4]):.2f} |" for r in table]
         out += _sliding_ratios(rows, native)
+        out += _stack_sliding_ratios(rows, stack, _Custom(native, fmu_path))
     return "\n".join(out)
 
 
@@ -109,28 +119,181 @@ def _sliding_ratios(rows: list[list[str]], native: tuple[Path, Path, str]) -> li
     scene: the ratio of the times above (noisy on a shared machine) and, where valgrind is
     installed, of the instructions per simulation (exact)."""
     index = {r[0]: i for i, r in enumerate(rows)}
-    us = {r[0]: float(r[1]) for r in rows}
+    pairs = [(f"rocking-sliding where nothing slides, {scene}", f"rocking-sliding, mu 100: {scene}", twin)
+             for scene, twin in SLIDING_TWINS.items()]
+    return _ratio_lines(pairs, {r[0]: float(r[1]) for r in rows}, "rigid rocking's",
+                        lambda name: _instructions(*native, index[name], 5))
+
+
+def _ratio_lines(pairs: list[tuple[str, str, str]], us: dict[str, float], base: str, count) -> list[str]:
+    """One line per (label, row, twin) of `pairs` whose rows were timed (`us`: microseconds per
+    simulation by row): the row's time over its twin's and, where valgrind is installed, their
+    instructions per simulation (count(row) -> instructions, exact) over each other. `base` names
+    the twin's model in the line ("rigid rocking's")."""
     valgrind = shutil.which("valgrind") is not None
     out = []
-    for scene, twin in SLIDING_TWINS.items():
-        name = f"rocking-sliding, mu 100: {scene}"
+    for label, name, twin in pairs:
         if name not in us or twin not in us:
             continue
-        line = f"- rocking-sliding where nothing slides, {scene}: {us[name] / us[twin]:.2f}x rigid rocking's time"
+        line = f"- {label}: {us[name] / us[twin]:.2f}x {base} time"
         if valgrind:
-            ir = [_instructions(*native, index[n], 5) for n in (name, twin)]
+            ir = [count(n) for n in (name, twin)]
             line += f", {ir[0] / ir[1]:.3f}x its instructions"
         out.append(line)
     return ["", *out] if out else []
 
 
-def _instructions(exe: Path, lib: Path, guid: str, case: int, repeats: int) -> float:
-    """Instructions per simulation of one case of the native harness, counted by valgrind's
-    cachegrind (exact and unaffected by other work on the machine): a run of `repeats`
-    simulations less one of none (loading, instantiating nothing)."""
+# The two-block rows of the native harness (model/c/bench/bench_native.c) as parameters, to run
+# them again with the rocking-sliding stack (contact.model = 1) in the harness's custom form
+STACK_FREE = {"nBlocks": 2, "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.mass": 10.0,
+              "block1.theta0": 0.05, "block2.halfWidth": 0.1, "block2.halfHeight": 0.2, "block2.mass": 5.0,
+              "block2.theta0": -0.08, "excitation.kind": 0, "restitution.law": 0, "solver.relTol": 1e-10,
+              "solver.restRatio": 1e-6}
+STACK_FIG17 = {"nBlocks": 2, "block1.halfWidth": 0.0145, "block1.halfHeight": 0.060, "block1.mass": 1.3,
+               "block2.halfWidth": 0.030, "block2.halfHeight": 0.050, "block2.mass": 2.3, "block1.theta0": 0.0,
+               "block2.theta0": 0.0, "restitution.law": 2, "excitation.kind": 3, "excitation.frequency": 7.0,
+               "excitation.displacement": 0.003, "excitation.cycles": 0.0, "solver.relTol": 1e-10,
+               "solver.restRatio": 1e-6}  # Anagnostopoulos's Fig. 17A (STACK_7HZ below), default etas 0.95 / 0.98
+# A statue standing free on a plinth: a marble statue (b2 = 0.2 m, h2 = 0.8 m, 690 kg) on a plinth
+# (b1 = 0.3 m, h1 = 0.5 m, 450 kg), mu 0.5 at both contacts, a 0.6 g one-sine pulse at 2 Hz: the
+# rigid stack's plinth would need friction 0.59 on the floor (it slides from t = 0.41 s)
+STATUE_ON_PLINTH = {"nBlocks": 2, "block1.halfWidth": 0.3, "block1.halfHeight": 0.5, "block1.mass": 450.0,
+                    "block2.halfWidth": 0.2, "block2.halfHeight": 0.8, "block2.mass": 690.0,
+                    "contact.muGround": 0.5, "contact.muInterface": 0.5, "excitation.kind": 1,
+                    "excitation.amplitude": 0.6 * 9.81, "excitation.frequency": 2.0, "excitation.cycles": 1.0,
+                    "solver.relTol": 1e-10, "solver.restRatio": 1e-6}
+STACK_MU = 5.0  # both contacts: above every friction demand of the rigid rows (at most 0.65, an impact's)
+STATUE = "two blocks, statue on plinth (0.6 g sine pulse, 2 Hz), rtol 1e-10"  # a rigid row of its own
+# (rigid row of the harness or STATUE, its parameters, stop time in s, what the sliding twin is). The
+# model refuses a block 2 wider than block 1 (Anagnostopoulos's Fig. 17 pair): those rows say so.
+STACK_SLIDING_CASES = [
+    ("two blocks, free from opposite tilts, rtol 1e-10", STACK_FREE, 3.0, f"mu {STACK_MU:g}"),
+    ("two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s, rtol 1e-10", STACK_FIG17, 10.0, f"mu {STACK_MU:g}"),
+    ("two blocks, Anagnostopoulos Fig. 17A (7 Hz / 3 mm), 10 s, rtol 1e-6", {**STACK_FIG17, "solver.relTol": 1e-6},
+     10.0, f"mu {STACK_MU:g}"),
+    ("two blocks, Anagnostopoulos Fig. 17B (5.5 Hz / 3 mm), 10 s, rtol 1e-10",
+     {**STACK_FIG17, "excitation.frequency": 5.5}, 10.0, f"mu {STACK_MU:g}, slides as it overturns"),
+    (STATUE, STATUE_ON_PLINTH, 5.0, f"mu {STACK_MU:g}"),
+    (STATUE, STATUE_ON_PLINTH, 5.0, "mu 0.5, the plinth slides"),
+]
+# the rows above where nothing slides (the rigid stack's monitors with mu = STACK_MU: no slide before the
+# end; Fig. 17B's pair slides as it falls, the statue's plinth with mu 0.5 from 0.41 s)
+STACK_NOTHING_SLIDES = [c for c in STACK_SLIDING_CASES if c[3] == f"mu {STACK_MU:g}"]
+
+
+def _stack_sliding_name(rigid: str, what: str) -> str:
+    """The rocking-sliding stack's row of the rigid row `rigid`: "two blocks, rocking-sliding, <what>: ..."."""
+    return f"two blocks, rocking-sliding, {what}: {rigid.removeprefix('two blocks, ')}"
+
+
+def _stack_sliding_parameters(params: dict, what: str) -> dict:
+    """A row's parameters for the rocking-sliding stack: contact.model = 1, and mu = STACK_MU at both
+    contacts for the rows where nothing should slide."""
+    q = {**params, "contact.model": 1}
+    if what.startswith(f"mu {STACK_MU:g}"):
+        q.update({"contact.muGround": STACK_MU, "contact.muInterface": STACK_MU})
+    return q
+
+
+class StackRows(list):
+    """The rocking-sliding stack's table rows: (row, (parameters, stop time in s)) each; ``refused``
+    holds a line per case the FMU refuses (its one-line reason)."""
+
+    def __init__(self, rows=(), refused=()):
+        super().__init__(rows)
+        self.refused = list(refused)
+
+
+def _stack_sliding_rows(fmu_path: Path, native: tuple[Path, Path, str], repeats: int) -> StackRows:
+    """The two-block rows again with the rocking-sliding stack (STACK_SLIDING_CASES), timed by the
+    harness's custom form, and the rigid stack's row of the statue (no row of the harness): each
+    as a table row (case, us, impacts, outcome, simulated time) with its (parameters, stop time)
+    for counting its instructions. None where the FMU has no rocking-sliding stack (a build
+    before it); a case it refuses (a block 2 wider than block 1) is listed in ``refused``."""
+    from runners.engine.fmu import FMUError
+
+    with RockingFMU(fmu_path) as fmu:
+        try:
+            fmu.validate(_stack_sliding_parameters(STACK_FREE, f"mu {STACK_MU:g}"))
+        except FMUError:
+            return StackRows()
+        timer = _Custom(native, fmu_path)
+        out = StackRows()
+        for rigid, params, stop, what in STACK_SLIDING_CASES:
+            runs = [(_stack_sliding_name(rigid, what), _stack_sliding_parameters(params, what))]
+            try:
+                fmu.validate(runs[0][1])
+            except FMUError as exc:
+                out.refused.append(f"- not run with the rocking-sliding stack, {rigid.removeprefix('two blocks, ')}: "
+                                   f"{exc}")
+                continue
+            if rigid == STATUE and all(r[0] != STATUE for r, _ in out):  # no row of the harness
+                runs.insert(0, (rigid, params))
+            for name, p in runs:
+                us, impacts = timer.time(p, stop, repeats)
+                r = fmu.run(p, stop, stop, outputs=["overturned", "atRest", "block2.fellOff"], events=False)
+                final = {k: v[-1] for k, v in r.outputs.items()}
+                outcome = ("overturned" if final["overturned"] else "fell off" if final["block2.fellOff"]
+                           else "at rest" if final["atRest"] else "rocking")
+                out.append(([name, f"{us:.2f}", str(impacts), outcome, f"{stop:.2f}"], (p, stop)))
+    return out
+
+
+def _stack_sliding_ratios(rows: list[list[str]], stack: StackRows, custom: "_Custom") -> list[str]:
+    """Lines giving the cost of the rocking-sliding stack over the rigid stack's, per two-block row
+    (as _sliding_ratios for one block): times from the table, instructions counted by the custom
+    form for both twins (the rigid one: the same parameters with contact.model = 0); then the
+    cases the FMU refused."""
+    if not stack and not stack.refused:
+        return []
+    scenes = {r[0]: run for r, run in stack}
+    us = {**{r[0]: float(r[1]) for r in rows}, **{r[0]: float(r[1]) for r, _ in stack}}
+    pairs = []
+    for rigid, params, stop, what in STACK_SLIDING_CASES:
+        scenes.setdefault(rigid, ({**params, "contact.model": 0}, stop))
+        nothing = what == f"mu {STACK_MU:g}"
+        label = (f"rocking-sliding stack {'where nothing slides' if nothing else f'({what})'}, "
+                 f"{rigid.removeprefix('two blocks, ')}")
+        pairs.append((label, _stack_sliding_name(rigid, what), rigid))
+    lines = _ratio_lines(pairs, us, "the rigid stack's", lambda name: custom.instructions(*scenes[name]))
+    return (lines or [""]) + stack.refused if stack.refused else lines
+
+
+class _Custom:
+    """The native harness's custom form: one scene given by its parameters."""
+
+    def __init__(self, native: tuple[Path, Path, str], fmu_path: Path):
+        self.native = native
+        self.vars = {v.name: v for v in read_model_description(str(fmu_path)).modelVariables}
+
+    def args(self, parameters: dict, stop_time: float) -> list[str]:
+        """The harness's arguments after REPEATS: custom STOP VR=VALUE ..."""
+        return _custom_args(self.vars, parameters, stop_time)
+
+    def time(self, parameters: dict, stop_time: float, repeats: int) -> tuple[float, int]:
+        """Microseconds per simulation (instantiate to free) and the impacts of one scene."""
+        exe, lib, guid = self.native
+        proc = subprocess.run([str(exe), str(lib), guid, str(repeats), *self.args(parameters, stop_time)],
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise OSError(f"native benchmark failed: {proc.stderr.strip() or proc.returncode}")
+        us, impacts = proc.stdout.split()[:2]
+        return float(us), int(impacts)
+
+    def instructions(self, parameters: dict, stop_time: float, repeats: int = 5) -> float:
+        """Instructions per simulation of one scene (valgrind, exact; see _instructions)."""
+        return _instructions(*self.native, self.args(parameters, stop_time), repeats)
+
+
+def _instructions(exe: Path, lib: Path, guid: str, case: int | list[str], repeats: int) -> float:
+    """Instructions per simulation of one case of the native harness (its row, or the arguments
+    of its custom form), counted by valgrind's cachegrind (exact and unaffected by other work on
+    the machine): a run of `repeats` simulations less one of none (loading, instantiating nothing)."""
+    which = [str(case)] if isinstance(case, int) else list(case)
+
     def count(n: int) -> int:
         proc = subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=no", "--cachegrind-out-file=/dev/null",
-                               str(exe), str(lib), guid, str(n), str(case)], capture_output=True, text=True)
+                               str(exe), str(lib), guid, str(n), *which], capture_output=True, text=True)
         for line in proc.stderr.splitlines():
             if "I" in line and "refs:" in line:
                 return int(line.split("refs:")[1].replace(",", "").split()[0])

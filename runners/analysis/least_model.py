@@ -22,11 +22,20 @@ The rule, cheapest first (docs/methods.md, "The least model a scene needs"):
    single block to 1e-15 rad (tests/test_fmu_two_blocks.py);
 3. **two blocks** (the FMU with nBlocks = 2) otherwise.
 
-Each of these is rigid rocking. Where its contact monitors say block 1 slid on the ground before
-the outcome was decided (and before any flight), auto runs the scene again with
-**rocking-sliding** (contact.model = 1, one block; docs/contact.md) and says why
-(rocking_sliding_reason). Flight is outside both models: a run that lifts off stays NOT
-SUFFICIENT.
+Each of these is rigid rocking. Where its contact monitors say a contact slid before the outcome
+was decided (and before any flight; a slide during the overturning fall leaves the outcome
+held), auto runs the scene again with the next model up and says why (rocking_sliding_reason),
+naming the contact whose slide decided it:
+
+4. **rocking-sliding** (contact.model = 1, nBlocks = 1; docs/contact.md): a one-block scene whose
+   block slid on the ground;
+5. **rocking-sliding stack** (contact.model = 1, nBlocks = 2; docs/stack_sliding.md): a stack
+   (whichever of the models above ran it) whose rigid-stack monitors say a contact slid first:
+   the ground (block 1 on the floor: friction.demandMaxGround above contact.muGround) or the
+   interface (block 2 on block 1: friction.demandMaxInterface above contact.muInterface), the
+   first slide's contact (slideTime and its event) deciding.
+
+Flight is outside every model: a run that lifts off first stays NOT SUFFICIENT.
 """
 
 from __future__ import annotations
@@ -69,35 +78,81 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
 
 
 ROCKING_SLIDING = "rocking-sliding"  # the model's name in summaries and stored runs (one block)
+ROCKING_SLIDING_STACK = "rocking-sliding stack"  # the same for a stack (nBlocks = 2, contact.model = 1)
+SLIDING_MODELS = (ROCKING_SLIDING, ROCKING_SLIDING_STACK)
+
+# where each contact is, in a reason's words: (the contact, what slides there)
+CONTACT_WORDS = {"ground": ("on the ground", "block 1 slides on the ground"),
+                 "interface": ("between the blocks", "block 2 slides on block 1")}
 
 
-def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
-    """Why --method auto runs rocking-sliding after a rigid-rocking answer `s` (a summary with
-    the rigid model's ``assumptions``) of a scene of merged parameters `p`, or None when it does
-    not: rigid rocking's outcome held, or what broke it first was flight (outside both models),
-    or sliding of a stack (rocking-sliding is one block's model). Demands are |T| / N (1), times s."""
+# the interface's and the upper block's channels of the rocking-sliding stack (docs/stack_sliding.md),
+# sampled, stored and exported with its runs on top of the one-block SLIDING_OUTPUTS (block 1's slip on
+# the ground): block 2's slip along block 1's top (m), its rate, mode, peak, time sliding, first slide,
+# friction loss (J), stick-to-slip transitions, and whether (and when, s) it fell off block 1
+STACK_SLIDING_OUTPUTS = ("block2.slip", "block2.slipRate", "block2.mode", "block2.maxAbsSlip",
+                         "block2.slideDuration", "block2.slideStartTime", "block2.frictionLoss", "block2.slides",
+                         "block2.fellOff", "block2.fellOffTime")
+
+
+def sliding_model(p: dict[str, Any]) -> str:
+    """The name of the rocking-sliding model of a scene of merged parameters `p`: one block's or
+    the stack's."""
+    return ROCKING_SLIDING_STACK if int(p.get("nBlocks", 1)) == 2 else ROCKING_SLIDING
+
+
+def sliding_contact(s: dict[str, Any], p: dict[str, Any]) -> str | None:
+    """The contact ("ground" or "interface") whose slide makes --method auto leave rigid rocking
+    after the rigid-rocking answer `s` (a summary with the rigid model's ``assumptions``, of the
+    rigid stack's monitors for a stack) of a scene of merged parameters `p`; None when auto keeps
+    it: rigid rocking's outcome held (nothing slid or lifted off, or only during the overturning
+    fall, after fallTime), or what broke it first was flight (outside every model here)."""
     a = s.get("assumptions")
     if a is None or a.get("sliding_modelled") or a["outcome_held"]:
         return None
     slide, lift = a["slides"], a["lifts"]
-    if slide is None or slide["contact"] != "ground" or int(p.get("nBlocks", 1)) != 1:
+    if slide is None or (lift is not None and lift["t_s"] <= slide["t_s"]):
         return None
-    if lift is not None and lift["t_s"] <= slide["t_s"]:
+    contact = slide["contact"]
+    if contact not in CONTACT_WORDS or (contact == "interface" and int(p.get("nBlocks", 1)) != 2):
         return None
-    if slide["at_impact"]:
-        need = f"an impact needs a friction impulse {a['impulse_demand_max']:.3g} times the normal one"
+    return contact
+
+
+def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
+    """Why --method auto runs rocking-sliding (one block's, or the stack's) after a rigid-rocking
+    answer `s` of a scene of merged parameters `p`, naming the contact whose slide decided it
+    (sliding_contact), or None when it does not. Demands are |T| / N (1), times s."""
+    contact = sliding_contact(s, p)
+    if contact is None:
+        return None
+    a, stack = s["assumptions"], int(p.get("nBlocks", 1)) == 2
+    slide = a["slides"]
+    where, what = CONTACT_WORDS[contact]
+    if stack:
+        mu = f"mu {a[f'mu_{contact}']:g} {where}"
+        if slide["at_impact"]:
+            need = (f"an impact {where} needs more friction impulse than {mu} (the largest impulse demand of the "
+                    f"stack's impacts is {a['impulse_demand_max']:.3g} times the normal impulse)")
+        else:
+            need = f"the rigid stack needs friction demand up to {a[f'friction_demand_max_{contact}']:.3g} > {mu}"
+        why = (f"{need} ({what} from t = {slide['t_s']:.6g} s): the {contact} contact decides, "
+               "rocking-sliding stack used")
     else:
-        need = f"rigid rocking needs friction demand up to {a['friction_demand_max_ground']:.3g}"
-    why = (f"{need} > mu {a['mu_ground']:g} (the block slides from t = {slide['t_s']:.6g} s): "
-           "rocking-sliding used")
+        if slide["at_impact"]:
+            need = f"an impact needs a friction impulse {a['impulse_demand_max']:.3g} times the normal one"
+        else:
+            need = f"rigid rocking needs friction demand up to {a['friction_demand_max_ground']:.3g}"
+        why = (f"{need} > mu {a['mu_ground']:g} (the block slides from t = {slide['t_s']:.6g} s): "
+               "rocking-sliding used")
     if int(p.get("solver.method", 0)) != 0:
         why += " (integrated by dormand-prince: taylor integrates rigid rocking only)"
     return why
 
 
 def rocking_sliding_parameters(params: dict[str, Any]) -> dict[str, Any]:
-    """A one-block scene's parameters `params` for the rocking-sliding model (contact.model = 1,
-    integrated by Dormand-Prince, solver.method = 0)."""
+    """A scene's parameters `params` (one block or a stack) for the rocking-sliding model
+    (contact.model = 1, integrated by Dormand-Prince, solver.method = 0)."""
     q = {**params, "contact.model": 1}
     if "solver.method" in q:
         q["solver.method"] = 0

@@ -68,8 +68,9 @@ _LOAD_LOCK = threading.Lock()
 MAX_EVENTS = 1_000_000
 
 # the event kinds of logEvents; rocking-sliding adds slide (stick to slip), stick (slip to stick),
-# reverse (the slip turns) and slide-rock (uplift onto a sliding corner)
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift) (.*)$")
+# reverse (the slip turns) and slide-rock (uplift onto a sliding corner); the rocking-sliding stack
+# adds fell-off (block 2 left block 1) and flight (a contact would have to pull: the run ends)
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift|fell-off|flight) (.*)$")
 
 
 def fmu_path_from(arg: str | None) -> Path:

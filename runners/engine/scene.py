@@ -241,15 +241,19 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
 
 def contact_model_problem(p: dict[str, Any]) -> str | None:
     """Why parameters `p` (a scene's, or merged with overrides) cannot run the contact model they
-    name (one line), or None. Rocking-sliding (contact.model = 1), of one block or of a stack
-    (docs/stack_sliding.md), is integrated by Dormand-Prince; any other value of contact.model is
-    none of the FMU's models."""
+    name (one line), or None. Rocking-sliding (contact.model = 1) models one block, or a stack whose
+    block 2 is no wider than block 1, integrated by Dormand-Prince; any other value of contact.model
+    is none of the FMU's models."""
     model = p.get("contact.model", 0)
     if isinstance(model, bool) or not isinstance(model, numbers.Real) or model not in CONTACT_MODEL_NAMES:
         return ("contact.model must be " + " or ".join(f"{v} ({k})" for k, v in CONTACT_MODELS.items())
                 + f", got {model!r}")
     if int(model) != CONTACT_MODELS["rocking-sliding"]:
         return None
+    if int(p.get("nBlocks", 1)) == 2 and p.get("block2.halfWidth", 0.1) > p.get("block1.halfWidth", 0.1):
+        return ("[contact] model = \"rocking-sliding\" of a stack needs block 2 no wider than block 1 (block2 "
+                f"half_width {p.get('block2.halfWidth')} > block1 half_width {p.get('block1.halfWidth')}): a wider "
+                "block 2 would turn about block 1's edge, which is not modelled")
     if p.get("solver.method", 0) == METHODS["taylor"]:
         return ("[contact] model = \"rocking-sliding\" is integrated by \"dormand-prince\"; [simulation] method = "
                 "\"taylor\" integrates rigid rocking only")
