@@ -106,9 +106,10 @@ def slip_summary(out: Mapping[str, Any], block: int = 1, stack: bool = False) ->
 def stack_slip_summary(out: Mapping[str, Any]) -> dict[str, Any]:
     """The rocking–sliding columns of a stack's run summary (db.schema.RunSummary) from its final
     FMU outputs: block 1's as slip_summary (motion, max_abs_slip, residual_slip, slide_duration),
-    slide_time (s, the first slide at either contact, as the stack's slideTime), block 2's contact with block 1 as block2_motion, block2_max_abs_slip (m),
-    block2_residual_slip (m, relative to block 1), block2_slide_duration (s), block2_slide_time
-    (s, None: never), and block2_fell_off (bool), block2_fell_off_time (s, None: never)."""
+    slide_time (s, the first slide at either contact, as the stack's slideTime), block 2's contact
+    with block 1 as block2_motion, block2_max_abs_slip (m), block2_residual_slip (m, relative to
+    block 1), block2_slide_duration (s), block2_slide_time (s, None: never), and block2_fell_off
+    (bool), block2_fell_off_time (s, None: never)."""
     row = slip_summary(out, 1, stack=True)
     row.update({f"block2_{k}": v for k, v in slip_summary(out, 2, stack=True).items()})
     row["slide_time"] = first_of(row["slide_time"], row["block2_slide_time"])  # the first slide at either contact
