@@ -115,10 +115,10 @@ def independent_motion(res, i: int, out: dict) -> str:
 
 
 @pytest.mark.parametrize("amplitude, frequency, case", [(15.0, 0.5, "falls-off"), (6.0, 2.0, "overturns"),
-                                                        (6.0, 1.0, "rocks")])
+                                                        (6.0, 1.0, "rocks"), (6.0, 0.5, "slide-rocks")])
 def test_a_sliding_stack_run_summarises_and_stores_each_contact_as_the_fmu_does(tmp_path, fmu_path, amplitude,
                                                                                  frequency, case):
-    names = FINAL + SLIP + ["block1.theta", "block2.theta"]
+    names = FINAL + SLIP + ["block1.theta", "block2.theta", "liftTime"]
     res = fmpy_run(fmu_path, {**SLIDING, **pulse(amplitude, frequency)}, STOP, STEP, names)
     out = {n: res[n][-1] for n in names}
     motions = [independent_motion(res, i, out) for i in (1, 2)]
@@ -156,6 +156,13 @@ def test_a_sliding_stack_run_summarises_and_stores_each_contact_as_the_fmu_does(
     lines = r.report.splitlines()
     upper = next(line for line in lines if line.startswith("block 2 (")).split()
     assert upper[2] == f"({motions[1]})"
+    theta1 = np.asarray(res["block1.theta"])
+    moving = np.flatnonzero(np.diff(theta1) != 0)  # the run ends (state frozen) at an overturn, fall-off or flight
+    assert (r.summary["final_state"] == "flight") == (case == "slide-rocks")  # this scene's run ends in flight
+    if case == "slide-rocks":  # a contact would have had to pull: the run ended there, the state frozen
+        assert out["liftTime"] >= 0 and not fell and not out["block1.overturned"] and not out["block2.overturned"]
+        assert res["time"][moving[-1]] <= r.summary["flight_time_s"] <= res["time"][moving[-1] + 1] + 1e-12
+        assert res["time"][moving[-1]] < STOP - 1.0
     if fell:
         assert f"fell off block 1 at t = {out['block2.fellOffTime']:.4f} s" in " ".join(upper)
         outcome = next(line for line in lines if line.startswith("outcome"))

@@ -30,9 +30,9 @@ FALLS_OFF = "falls-off"  # the upper block of a stack whose base left block 1's 
 SLIP_OUTPUTS = ["block1.slip", "block1.maxAbsSlip", "block1.slideDuration", "block1.slideStartTime",
                 "block1.slides"]
 # and those a rocking–sliding stack adds: block 2's contact with block 1, its falling off, and
-# block 2's mode at the end (whether it was still rocking on block 1)
+# block 2's mode and both rotations at the end (whether it was still rocking on block 1)
 STACK_SLIP_OUTPUTS = [name.replace("block1.", "block2.") for name in SLIP_OUTPUTS] + [
-    "block2.fellOff", "block2.fellOffTime", "block2.mode"]
+    "block2.fellOff", "block2.fellOffTime", "block2.mode", "block1.theta", "block2.theta"]
 
 
 def rocking_sliding(p: Mapping[str, Any]) -> bool:
@@ -54,7 +54,9 @@ def motion_class(out: Mapping[str, Any], block: int = 1, stack: bool = False) ->
     - it *rocked* when it ever rotated on its contact: block 1 when ``block1.maxAbsTheta`` > 0 rad
       (a block at rest or sliding flat keeps theta exactly 0); block 2 of a stack when it rocked
       on block 1, which every rock on block 1 ends with an impact on the interface
-      (``impactsInterface`` > 0) unless the run ended while it rocked (``block2.mode`` 2 or 3);
+      (``impactsInterface`` > 0) unless the run ended while it rocked (``block2.mode`` 2 or 3, or
+      a rotation relative to block 1 left at the end, ``block2.theta`` != ``block1.theta``: a run
+      that ended in flight); a block 2 that never left block 1's top keeps exactly theta1;
     - ``slide-rocks`` when both, ``slides`` when it slid only, ``rocks`` when it rocked only,
       ``rests`` when neither (its base never moved relative to what it stands on).
 
@@ -86,7 +88,8 @@ def rocked_and_slid(out: Mapping[str, Any], block: int = 1, stack: bool = False)
         impacts = "impactsGround" if stack else "impacts"
         rocked = float(out["block1.maxAbsTheta"]) > 0.0 or int(out.get(impacts, 0)) > 0
     else:
-        rocked = int(out.get("impactsInterface", 0)) > 0 or int(out.get("block2.mode", 0)) in (2, 3)
+        rocked = (int(out.get("impactsInterface", 0)) > 0 or int(out.get("block2.mode", 0)) in (2, 3)
+                  or float(out.get("block2.theta", 0.0)) != float(out.get("block1.theta", 0.0)))
     return rocked, slid
 
 

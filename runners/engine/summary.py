@@ -199,6 +199,10 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         summary["per_block"] = block_outcomes({name: values[-1] for name, values in out.items()}, p, sliding)
         if sliding and summary["per_block"][1]["fell_off"] and not overturned:
             summary["final_state"] = "block 2 fell off"
+        flight = next((e for e in result.events if e.kind == "flight"), None)
+        if sliding and flight is not None and not overturned and not summary["per_block"][1]["fell_off"]:
+            # a normal force would have had to pull: the rocking-sliding stack's run ends there
+            summary["final_state"], summary["flight_time_s"] = "flight", float(flight.t)
     return summary
 
 
@@ -479,6 +483,9 @@ def format_summary(s: dict[str, Any]) -> str:
             which = ("block 1 (taking block 2 with it)" if fell == [1, 2] and _with_block1(s) else
                      " and ".join(f"block {i}" for i in fell))
             outcome = f"{which} overturned at t = {s['overturn_time_s']:.4f} s"
+        elif s["final_state"] == "flight":
+            outcome = (f"flight at t = {s['flight_time_s']:.4f} s: a contact would have had to pull, which is outside "
+                       "the model; the run ended there")
         elif s["final_state"] == "block 2 fell off":
             t = s["per_block"][1]["fell_off_time_s"]
             outcome = "block 2 fell off block 1" + ("" if t is None else f" at t = {t:.4f} s")
