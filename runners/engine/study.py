@@ -643,7 +643,7 @@ def censored_note(oc: Outcomes) -> str | None:
     n = int(np.sum(oc.gone2 & ~np.asarray(oc.over1, bool)))
     if not n:
         return None
-    how = "overturned off or slid off block 1" if oc.fell_off is not None else "fell off"
+    how = "overturned or fell off block 1" if oc.fell_off is not None else "fell off"
     return (f"in {n} of {len(oc.x)} runs block 2 {how} first and the run ended there (the model has no contact "
             "for a fallen block, docs/two_blocks.md): block 1's peak and overturning are those up to that moment, "
             "so a block 1 state counts it being reached before block 2 fell off")
