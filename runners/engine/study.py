@@ -720,6 +720,8 @@ def _uplift_label(oc: Outcomes) -> str | None:
     thr = oc.uplift_threshold()
     if thr is None:
         return None
+    if oc.sliding and oc.two:
+        return f"no motion from rest below the stack's uplift and mu g of both contacts = {thr:.4g} g"
     if oc.sliding:
         return f"no motion from rest below min(mu, tan alpha) g = {thr:.4g} g (Shenton 1996)"
     return (f"static uplift threshold {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
@@ -773,7 +775,7 @@ def _panel(ax, cs: list[Curve]) -> None:
     ax.set_xlabel(f"{oc.label} ({oc.unit})")
     what = f"P({'overturn' if cs[0].state == DamageState('overturn') else 'damage state'})" if single \
         else "P(damage state reached)"
-    ax.set_ylabel(what + (f"; fraction where {oc.broke_words()}" if oc.n_broke else ""))
+    ax.set_ylabel(what + (f";\nfraction where {oc.broke_words()}" if oc.n_broke else ""))
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(0, grid.max())
     handles, labels = ax.get_legend_handles_labels()
