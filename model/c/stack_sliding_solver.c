@@ -365,16 +365,6 @@ static double real_force(void *ctx, double x) {
     return weakest(r->c, r->t + x, r->y1, IND_ALL, NULL, &contact, &kind, &end);
 }
 
-/* Largest |component comp| of the dense output over s in [0, sEnd]. */
-static double dense_max(const double cont[5][NMAX], int comp, double sEnd) {
-    double c[5], d[4], roots[3];
-    dense_poly(cont, comp, c);
-    double m = fmax(fabs(c[0]), fabs(poly_eval(c, 4, sEnd)));
-    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
-    int nr = poly_roots(d, 3, 0.0, sEnd, roots);
-    for (int j = 0; j < nr; j++) m = fmax(m, fabs(poly_eval(c, 4, roots[j])));
-    return m;
-}
 
 static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
@@ -509,11 +499,11 @@ static int take_step(Model *M, const Logger *log) {
 
     S->maxPrev = S->maxAbsTheta;
     S->maxPrev2 = S->maxAbsTheta2;
-    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_max(cont, 0, 1.0), fabs(y1[0])));
-    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_max(cont, 2, 1.0), fabs(y1[2])));
+    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
+    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_abs_max(cont, 2, 1.0), fabs(y1[2])));
     if (!c.fast) {
-        S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
-        S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));
+        S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_abs_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
+        S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_abs_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));
     }
     S->tOld = S->t;
     S->hDense = hStep;
@@ -677,27 +667,13 @@ void ss_outputs(Model *M, double tc) {
     v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(y[SS_U1]));
     v->maxAbsSlip2 = fmax(S->maxAbsSlip2, fabs(y[SS_U2]));
     if (inStep) {
-        v->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
-        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+        v->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
+        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     }
     v->energy = ss_energy(M, y, &p);
-    v->impacts = S->impacts;
-    v->impactsGround = S->impactsGround;
-    v->impactsInterface = S->impactsInterface;
-    v->lastImpactTime = S->lastImpactTime;
+    stack_counter_outputs(M, v, ah, av);
     v->locked = moving && !p.g.flat && p.i.flat;
-    v->atRest = S->mode == MODE_REST;
     v->overturned = S->overturned2;
-    v->overturned1 = S->overturned1;
-    v->overturned2 = S->overturned2;
-    v->overturnTime = S->overturnTime;
-    v->restTime = S->restTime;
-    v->pattern = (int)S->mode;
-    v->peaks = 0;
-    v->lastPeakTime = -1.0;
-    v->lastPeakTheta = 0.0;
-    v->ahTotal = ah;
-    v->avTotal = av;
     if (S->mode == MODE_REST && contact_tipping_side(M, tc)) {
         double T[2], N[2];
         contact_rest(M, tc, 0, T, N);
@@ -737,8 +713,8 @@ void ss_rollback(Model *M, double tc) {
     StackPattern p;
     if (S->mode == MODE_REST || S->mode == MODE_OVERTURNED || S->t <= tc || !S->denseValid) return;
     state_at(M, tc, y, &p, &s);
-    S->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
-    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+    S->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
+    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     memcpy(S->y, y, sizeof(y));
     S->t = tc;
     S->pat = p;
