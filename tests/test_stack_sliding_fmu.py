@@ -21,7 +21,8 @@ OUTPUTS = ["block1.theta", "block2.theta", "block1.slip", "block2.slip", "block1
            "energy", "block1.frictionLoss", "block2.frictionLoss", "impactLoss", "groundWork", "block1.mode",
            "block2.mode", "block2.fellOff", "block2.fellOffTime", "overturned", "block1.overturned",
            "block2.overturned", "lifts", "block1.maxAbsSlip", "block2.maxAbsSlip", "impacts", "atRest",
-           "block1.slides", "block2.slides", "block1.slideStartTime", "block2.slideStartTime"]
+           "block1.slides", "block2.slides", "block1.slideStartTime", "block2.slideStartTime",
+           "friction.demandMaxGround", "friction.demandMaxInterface"]
 
 # geometries (b1, h1, m1, b2, h2, m2)
 STATUE = (0.3, 0.5, 450.0, 0.2, 0.8, 690.0)  # a marble statue on a plinth
@@ -151,6 +152,10 @@ def test_energy_balances_with_impacts_and_friction(fmu, name):
     assert err.size > 10 and np.max(np.abs(err)) <= 1e-9 * energy_scale(res)
     assert np.all(np.diff(o["block1.frictionLoss"]) >= -1e-12) and np.all(np.diff(o["block2.frictionLoss"]) >= -1e-12)
     assert np.all(np.diff(o["impactLoss"]) >= -1e-12)
+    # the monitors see a model that holds: no contact needs more friction than it has
+    if not o["lifts"][-1]:
+        assert o["friction.demandMaxGround"][-1] <= mg * (1 + 1e-9)
+        assert o["friction.demandMaxInterface"][-1] <= mi * (1 + 1e-9)
 
 
 def test_block_two_falls_off_and_that_is_not_an_overturn(fmu):

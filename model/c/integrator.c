@@ -192,3 +192,14 @@ double dopri5_initial_step(RhsFn f, const void *ctx, int n, double t,
     double h = fmin(100.0 * h0, h1);
     return h > hmax ? hmax : h;
 }
+
+/* Largest |theta| of dense-output component comp over s in [0, sEnd]. */
+double dense_abs_max(const double cont[5][NMAX], int comp, double sEnd) {
+    double c[5], d[4], roots[3];
+    dense_poly(cont, comp, c);
+    double m = fmax(fabs(c[0]), fabs(poly_eval(c, 4, sEnd)));
+    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
+    int nr = poly_roots(d, 3, 0.0, sEnd, roots);
+    for (int j = 0; j < nr; j++) m = fmax(m, fabs(poly_eval(c, 4, roots[j])));
+    return m;
+}

@@ -39,6 +39,10 @@ double poly_eval(const double *c, int deg, double s);
  * number of roots (at most deg). */
 int poly_roots(const double *c, int deg, double lo, double hi, double *roots);
 
+/* Largest |component comp| of a dense output over s in [0, sEnd] (its end values and the
+ * quartic's interior extremes). */
+double dense_abs_max(const double cont[5][NMAX], int comp, double sEnd);
+
 /* Initial step size guess (Hairer's algorithm, simplified). */
 double dopri5_initial_step(RhsFn f, const void *ctx, int n, double t,
                            const double *y, const double *f0, double rtol,

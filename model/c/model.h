@@ -197,6 +197,8 @@ typedef struct {
     double maxAbsSlip2, slideSince2, slideDur2, slideStartTime1, slideStartTime2, fellOffTime;
     int slideStarts2, fellOff;
     int eventContact, eventEnd; /* the pending event's contact (0 ground, 1 interface) and end (+1, -1) */
+    int ssEndValid;             /* the reactions at the end of the last step (rigid pattern), while fValid */
+    double ssEndT[2], ssEndN[2];
 
     /* Model Exchange (me.c) */
     int omegaSign;        /* sign of omega after the last event (a peak is a change) */

@@ -18,6 +18,7 @@
 #define TOL_FRICTION 1e-12 /* a sticking contact slips once (mu N - |T|) / W falls below -TOL_FRICTION */
 #define EDGE_EPS 1e-12     /* m: block 2's pivot falls off once this far beyond block 1's edge */
 #define FORCE_SAMPLES 4    /* samples per step of the force indicators on the dense output */
+#define FAST_OPEN_SAMPLES 8 /* rigid patterns: samples per step of the end margins, as the rigid stack's */
 
 /* The integrator's context. While nothing slides and block 2 sits at its rest offset on block 1
  * (u2 = 0), the pattern is one of the rigid stack's: its closed-form equations (stack.h) integrate
@@ -260,24 +261,38 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
 
 /* ------------------------------------------------------------------ events */
 
-/* The force indicators of a rigid pattern (SCtx.fast) from the rigid stack's closed forms: its end
- * margins (stack_margins) and the friction margins of its reactions (contact_stack). */
-static void fast_indicators(const SCtx *c, const double *y, double ah, double av, double ind[SS_IND]) {
+/* Which force indicators: flat contacts' end margins, sticking contacts' friction margins. */
+#define IND_MARGINS 1
+#define IND_FRICTION 2
+#define IND_ALL 3
+
+/* The force indicators `what` of a rigid pattern (SCtx.fast) from the rigid stack's closed forms:
+ * its end margins (stack_margins) and the friction margins of its reactions (contact_stack) with
+ * the accelerations acc (NULL: computed). */
+static void fast_indicators(const SCtx *c, const double *y, double ah, double av, int what, const double *acc,
+                            double ind[SS_IND]) {
     const Model *M = c->M;
     const Variables *v = &M->v;
-    double g[2], in[2], acc[2], T0, N0, T1, N1;
+    double g[2], in[2], a[2], T0, N0, T1, N1;
     for (int i = 0; i < SS_IND; i++) ind[i] = INFINITY;
-    stack_margins(M, c->mode, c->s1, c->s2, y, ah, av, g, in);
-    ind[2] = g[0], ind[3] = g[1], ind[4] = in[0], ind[5] = in[1];
-    stack_accel(M, c->mode, c->s1, c->s2, y, ah, av, acc);
-    contact_stack(M, c->mode, c->s1, c->s2, y, acc, ah, av, &T0, &N0, &T1, &N1);
-    ind[6] = (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
-    ind[7] = (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
+    if (what & IND_MARGINS) {
+        stack_margins(M, c->mode, c->s1, c->s2, y, ah, av, g, in);
+        ind[2] = g[0], ind[3] = g[1], ind[4] = in[0], ind[5] = in[1];
+    }
+    if (what & IND_FRICTION) {
+        if (acc) a[0] = acc[0], a[1] = acc[1];
+        else stack_accel(M, c->mode, c->s1, c->s2, y, ah, av, a);
+        contact_stack(M, c->mode, c->s1, c->s2, y, a, ah, av, &T0, &N0, &T1, &N1);
+        ind[6] = (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
+        ind[7] = (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
+    }
 }
 
-/* The contact whose force indicator is the least at (t, y): writes which (0 ground, 1
- * interface) and the kind of event (EVENT_OPEN with end +1/-1, or EVENT_SLIP_START). */
-static double weakest(const SCtx *c, double t, const double *y, int *contact, EventKind *kind, int *end) {
+/* The contact whose force indicator (of those `what`) is the least at (t, y): writes which (0
+ * ground, 1 interface) and the kind of event (EVENT_OPEN with end +1/-1, or EVENT_SLIP_START).
+ * acc: the rigid pattern's accelerations at (t, y) if known (else NULL). */
+static double weakest(const SCtx *c, double t, const double *y, int what, const double *acc, int *contact,
+                      EventKind *kind, int *end) {
     const Model *M = c->M;
     const StackPattern *p = &c->p;
     double q[4], w[4], ah, av, ind[SS_IND], m = INFINITY;
@@ -285,12 +300,13 @@ static double weakest(const SCtx *c, double t, const double *y, int *contact, Ev
     ss_qw(y, q, w);
     model_ground_piece(M, t, c->piece, &ah, &av);
     if (c->fast) {
-        fast_indicators(c, y, ah, av, ind);
+        fast_indicators(c, y, ah, av, what, acc, ind);
     } else {
         if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
         ss_indicators(M, p, q, &sol, ind);
     }
     for (int i = 2; i < SS_IND; i++) {
+        if (!(what & (i <= 5 ? IND_MARGINS : IND_FRICTION))) continue;
         double val = ind[i] + (i <= 5 ? TOL_OPEN : TOL_FRICTION);
         if (val < m) {
             m = val;
@@ -318,6 +334,7 @@ typedef struct {
     double t, h;
     const double *y;
     const double (*cont)[NMAX];
+    int what;
 } DenseForce;
 
 static double dense_force(void *ctx, double s) {
@@ -327,7 +344,7 @@ static double dense_force(void *ctx, double s) {
     EventKind kind;
     memcpy(y, d->y, sizeof(y));
     dense_eval(d->cont, SS_N, s, y);
-    return weakest(d->c, d->t + s * d->h, y, &contact, &kind, &end);
+    return weakest(d->c, d->t + s * d->h, y, d->what, NULL, &contact, &kind, &end);
 }
 
 typedef struct {
@@ -345,19 +362,9 @@ static double real_force(void *ctx, double x) {
     EventKind kind;
     dopri5_step(rhs_cb, r->c, components(r->c), r->t, r->y, r->f0, x, r->y1, r->f1, err, r->cont);
     keep_rest(components(r->c), r->y, r->y1, r->f1, r->cont);
-    return weakest(r->c, r->t + x, r->y1, &contact, &kind, &end);
+    return weakest(r->c, r->t + x, r->y1, IND_ALL, NULL, &contact, &kind, &end);
 }
 
-/* Largest |component comp| of the dense output over s in [0, sEnd]. */
-static double dense_max(const double cont[5][NMAX], int comp, double sEnd) {
-    double c[5], d[4], roots[3];
-    dense_poly(cont, comp, c);
-    double m = fmax(fabs(c[0]), fabs(poly_eval(c, 4, sEnd)));
-    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
-    int nr = poly_roots(d, 3, 0.0, sEnd, roots);
-    for (int j = 0; j < nr; j++) m = fmax(m, fabs(poly_eval(c, 4, roots[j])));
-    return m;
-}
 
 static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
@@ -426,8 +433,33 @@ static int take_step(Model *M, const Logger *log) {
      * the step's end otherwise */
     int fContact = 0, fEnd = 1;
     EventKind fKind = EVENT_NONE;
-    DenseForce df = {&c, S->t, h, S->y, (const double(*)[NMAX])cont};
-    double sF = first_negative_sampled(dense_force, &df, (p->g.flat || p->i.flat) ? FORCE_SAMPLES : 1);
+    int flat = p->g.flat || p->i.flat;
+    double endAcc[2], endT[2] = {0, 0}, endN[2] = {0, 0};
+    DenseForce df = {&c, S->t, h, S->y, (const double(*)[NMAX])cont, IND_ALL};
+    double sF;
+    if (c.fast) { /* the rigid stack's cost: its openings sampled, friction at the step's end (its
+                   * accelerations are the step's last evaluation) */
+        int cc, ee;
+        EventKind kk;
+        df.what = IND_MARGINS;
+        sF = flat ? first_negative_sampled(dense_force, &df, FAST_OPEN_SAMPLES) : 2.0;
+        /* the reactions at the step's end from its last evaluation (kept for the monitors, whose
+         * next sample is there) */
+        double ahE, avE;
+        model_ground_piece(M, hitBp ? bp : S->t + h, c.piece, &ahE, &avE);
+        endAcc[0] = f1[1], endAcc[1] = f1[3];
+        contact_stack(M, c.mode, c.s1, c.s2, y1, endAcc, ahE, avE, &endT[0], &endN[0], &endT[1], &endN[1]);
+        double fr = fmin((v->muGround * endN[0] - fabs(endT[0])) / d->weight[0],
+                         (v->muInterface * endN[1] - fabs(endT[1])) / d->weight[1]);
+        (void)cc, (void)kk, (void)ee;
+        if (fr + TOL_FRICTION < 0) {
+            df.what = IND_FRICTION;
+            sF = fmin(sF, first_negative_sampled(dense_force, &df, FORCE_SAMPLES));
+        }
+        df.what = IND_ALL;
+    } else {
+        sF = first_negative_sampled(dense_force, &df, flat ? FORCE_SAMPLES : 1);
+    }
     double hStep = h, tNew = hitBp ? bp : S->t + h;
     if (sF < sEv && sF <= 1.0) {
         double yS[NMAX], fS[NMAX], cS[5][NMAX];
@@ -448,7 +480,7 @@ static int take_step(Model *M, const Logger *log) {
         memcpy(y1, yS, sizeof(yS));
         memcpy(f1, fS, sizeof(fS));
         memcpy(cont, cS, sizeof(cS));
-        weakest(&c, S->t + hStep, y1, &fContact, &fKind, &fEnd);
+        weakest(&c, S->t + hStep, y1, IND_ALL, NULL, &fContact, &fKind, &fEnd);
         ev = fKind, evContact = fContact;
         tNew = S->t + hStep;
         hitBp = 0;
@@ -467,11 +499,11 @@ static int take_step(Model *M, const Logger *log) {
 
     S->maxPrev = S->maxAbsTheta;
     S->maxPrev2 = S->maxAbsTheta2;
-    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_max(cont, 0, 1.0), fabs(y1[0])));
-    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_max(cont, 2, 1.0), fabs(y1[2])));
+    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
+    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_abs_max(cont, 2, 1.0), fabs(y1[2])));
     if (!c.fast) {
-        S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
-        S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));
+        S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_abs_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
+        S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_abs_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));
     }
     S->tOld = S->t;
     S->hDense = hStep;
@@ -484,6 +516,10 @@ static int take_step(Model *M, const Logger *log) {
     memcpy(S->y, y1, sizeof(y1));
     memcpy(S->f, f1, sizeof(f1));
     S->fValid = (ev == EVENT_NONE && !hitBp);
+    S->ssEndValid = S->fValid && c.fast;
+    memcpy(S->ssEndT, endT, sizeof(endT));
+    memcpy(S->ssEndN, endN, sizeof(endN));
+    if (!S->ssEndValid) S->ssEndT[0] = S->ssEndT[1] = S->ssEndN[0] = S->ssEndN[1] = 0.0;
     S->h = hNext;
     S->pending = ev;
     S->eventContact = evContact;
@@ -578,12 +614,26 @@ static int state_at(const Model *M, double tc, double y[NMAX], StackPattern *p, 
 }
 
 static void reactions(const Model *M, double t, int inStep, double T[2], double N[2]) {
+    const State *S = &M->s;
     double y[NMAX], s = 1.0, q[4], w[4], ah, av;
     StackPattern p;
     SsSolution sol;
     state_at(M, inStep ? t : M->s.t, y, &p, &s);
-    ss_qw(y, q, w);
     model_ground(M, t, &ah, &av);
+    SCtx c = context(M, &p, t, y);
+    if (!inStep && S->fValid && S->ssEndValid) { /* the step's end: kept by take_step */
+        memcpy(T, S->ssEndT, sizeof(S->ssEndT));
+        memcpy(N, S->ssEndN, sizeof(S->ssEndN));
+        return;
+    }
+    if (c.fast) { /* the rigid stack's closed forms (at a step's end, its last evaluation) */
+        double acc[2];
+        if (!inStep && S->fValid) acc[0] = S->f[1], acc[1] = S->f[3];
+        else stack_accel(M, c.mode, c.s1, c.s2, y, ah, av, acc);
+        contact_stack(M, c.mode, c.s1, c.s2, y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
+        return;
+    }
+    ss_qw(y, q, w);
     if (!ss_solve(M, &p, q, w, ah, av, &sol)) memset(&sol, 0, sizeof(sol));
     T[0] = sol.F[0], N[0] = sol.F[1], T[1] = sol.F[3], N[1] = sol.F[4];
 }
@@ -617,27 +667,13 @@ void ss_outputs(Model *M, double tc) {
     v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(y[SS_U1]));
     v->maxAbsSlip2 = fmax(S->maxAbsSlip2, fabs(y[SS_U2]));
     if (inStep) {
-        v->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
-        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+        v->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
+        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     }
     v->energy = ss_energy(M, y, &p);
-    v->impacts = S->impacts;
-    v->impactsGround = S->impactsGround;
-    v->impactsInterface = S->impactsInterface;
-    v->lastImpactTime = S->lastImpactTime;
+    stack_counter_outputs(M, v, ah, av);
     v->locked = moving && !p.g.flat && p.i.flat;
-    v->atRest = S->mode == MODE_REST;
     v->overturned = S->overturned2;
-    v->overturned1 = S->overturned1;
-    v->overturned2 = S->overturned2;
-    v->overturnTime = S->overturnTime;
-    v->restTime = S->restTime;
-    v->pattern = (int)S->mode;
-    v->peaks = 0;
-    v->lastPeakTime = -1.0;
-    v->lastPeakTheta = 0.0;
-    v->ahTotal = ah;
-    v->avTotal = av;
     if (S->mode == MODE_REST && contact_tipping_side(M, tc)) {
         double T[2], N[2];
         contact_rest(M, tc, 0, T, N);
@@ -677,8 +713,8 @@ void ss_rollback(Model *M, double tc) {
     StackPattern p;
     if (S->mode == MODE_REST || S->mode == MODE_OVERTURNED || S->t <= tc || !S->denseValid) return;
     state_at(M, tc, y, &p, &s);
-    S->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
-    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+    S->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
+    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     memcpy(S->y, y, sizeof(y));
     S->t = tc;
     S->pat = p;
@@ -735,6 +771,20 @@ int ss_check_state(const Model *M, char *msg, size_t n) {
         (S->fellOff && S->mode != MODE_OVERTURNED)) {
         snprintf(msg, n, "fellOff = %d does not fit fellOffTime = %g", S->fellOff, S->fellOffTime);
         return 1;
+    }
+    if (S->ssEndValid) { /* the kept reactions must be the state's, to the bit */
+        SCtx c = context(M, &S->pat, S->t, S->y);
+        double ah, av, acc[2] = {S->f[1], S->f[3]}, T[2], N[2];
+        model_ground(M, S->t, &ah, &av);
+        if (S->ssEndValid != 1 || !S->fValid || !c.fast) {
+            snprintf(msg, n, "ssEndValid = %d belongs to a rigid pattern at the end of a step", S->ssEndValid);
+            return 1;
+        }
+        contact_stack(M, c.mode, c.s1, c.s2, S->y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
+        if (memcmp(T, S->ssEndT, sizeof(T)) != 0 || memcmp(N, S->ssEndN, sizeof(N)) != 0) {
+            snprintf(msg, n, "the kept contact reactions are not those of the state");
+            return 1;
+        }
     }
     if (S->slideStarts2 < 0 || S->maxAbsSlip2 < 0 || S->slideDur2 < 0 || S->eventContact < 0 || S->eventContact > 1 ||
         !(S->eventEnd == 1 || S->eventEnd == -1)) {

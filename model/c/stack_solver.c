@@ -312,16 +312,6 @@ static int apply_event(Model *M, const Logger *log) {
     return 0;
 }
 
-/* Largest |theta| of dense-output component comp over s in [0, sEnd]. */
-static double dense_max(const double cont[5][NMAX], int comp, double sEnd) {
-    double c[5], d[4], roots[3];
-    dense_poly(cont, comp, c);
-    double m = fmax(fabs(c[0]), fabs(poly_eval(c, 4, sEnd)));
-    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
-    int nr = poly_roots(d, 3, 0.0, sEnd, roots);
-    for (int j = 0; j < nr; j++) m = fmax(m, fabs(poly_eval(c, 4, roots[j])));
-    return m;
-}
 
 /* Weakest margin (shifted by TOL_OPEN) on the dense output at s. */
 static double open_margin(const Model *M, const Ctx *c, double t0, double h,
@@ -427,8 +417,8 @@ static int take_step(Model *M, const Logger *log) {
 
     S->maxPrev = S->maxAbsTheta;
     S->maxPrev2 = S->maxAbsTheta2;
-    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_max(cont, 0, 1.0), fabs(y1[0])));
-    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_max(cont, 2, 1.0), fabs(y1[2])));
+    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
+    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_abs_max(cont, 2, 1.0), fabs(y1[2])));
     S->tOld = S->t;
     S->hDense = hStep;
     memcpy(S->cont, cont, sizeof(cont));
@@ -491,6 +481,25 @@ static int state_at(const Model *M, double tc, double y[4], int *s1, int *s2, do
     return 1;
 }
 
+void stack_counter_outputs(const Model *M, Variables *v, double ah, double av) {
+    const State *S = &M->s;
+    v->impacts = S->impacts;
+    v->impactsGround = S->impactsGround;
+    v->impactsInterface = S->impactsInterface;
+    v->lastImpactTime = S->lastImpactTime;
+    v->atRest = S->mode == MODE_REST;
+    v->overturned1 = S->overturned1;
+    v->overturned2 = S->overturned2;
+    v->overturnTime = S->overturnTime;
+    v->restTime = S->restTime;
+    v->pattern = (int)S->mode;
+    v->peaks = 0; /* a stack counts no peaks */
+    v->lastPeakTime = -1.0;
+    v->lastPeakTheta = 0.0;
+    v->ahTotal = ah;
+    v->avTotal = av;
+}
+
 void stack_outputs(Model *M, double tc) {
     if (ss_on(M)) {
         ss_outputs(M, tc);
@@ -512,27 +521,13 @@ void stack_outputs(Model *M, double tc) {
     v->maxAbsTheta = S->maxAbsTheta;
     v->maxAbsTheta2 = S->maxAbsTheta2;
     if (inStep) {
-        v->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
-        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+        v->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
+        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     }
     v->energy = stack_energy(M, s1, s2, y);
-    v->impacts = S->impacts;
-    v->impactsGround = S->impactsGround;
-    v->impactsInterface = S->impactsInterface;
-    v->lastImpactTime = S->lastImpactTime;
+    stack_counter_outputs(M, v, ah, av);
     v->locked = S->mode == MODE_LOCKED;
-    v->atRest = S->mode == MODE_REST;
     v->overturned = S->mode == MODE_OVERTURNED;
-    v->overturned1 = S->overturned1;
-    v->overturned2 = S->overturned2;
-    v->overturnTime = S->overturnTime;
-    v->restTime = S->restTime;
-    v->pattern = (int)S->mode;
-    v->peaks = 0;
-    v->lastPeakTime = -1.0;
-    v->lastPeakTheta = 0.0;
-    v->ahTotal = ah;
-    v->avTotal = av;
     if (S->mode == MODE_REST && contact_tipping_side(M, tc)) { /* the motion that starts, if the ground tips the stack at tc (contact_rest) */
         double T[2], N[2];
         contact_rest(M, tc, 0, T, N);
@@ -553,8 +548,8 @@ void stack_rollback(Model *M, double tc) {
     int s1, s2;
     if (!moving(S->mode) || S->t <= tc || !S->denseValid) return;
     state_at(M, tc, y, &s1, &s2, &s);
-    S->maxAbsTheta = fmax(S->maxPrev, dense_max(S->cont, 0, s));
-    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_max(S->cont, 2, s));
+    S->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
+    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     memcpy(S->y, y, sizeof(y));
     S->t = tc;
     S->side = s1;
