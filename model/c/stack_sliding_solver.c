@@ -118,7 +118,7 @@ static void finish(Model *M, EventKind why, const Logger *log) {
         say(log, LOG_EVENTS, "fell-off t=%.17g u2=%.17g", S->t, S->y[SS_U2]);
     } else {
         if (S->liftTime < 0) S->liftTime = S->t;
-        say(log, LOG_EVENTS, "flight t=%.17g (a contact would have to pull: the run ends)", S->t);
+        say(log, LOG_EVENTS, "flight t=%.17g reason=no-consistent-pattern", S->t); /* a contact would pull: the run ends */
     }
 }
 
