@@ -836,8 +836,8 @@ def curves_figure(cs: list[Curve]):
              "likelihood (Baker 2015)"] if several else []) + [f"intervals: {m}" for m in methods]
     cut = [c.outcomes for c in cs if state_notes(c.state, c.outcomes)]
     if cut:
-        foot.append("block 1 states: where block 2 fell off first the run ended there (docs/two_blocks.md), so they "
-                    "count block 1 reaching the state before that")
+        foot.append("block 1 states: where block 2 overturned or fell off first the run ended there (docs/two_blocks.md), "
+                    "so they count block 1 reaching the state before that")
     foot += [f"no fit ({c.state.spec}" + (f", {c.outcomes.combination_text()}" if c.outcomes.combination else "")
              + f"): {c.why}" for c in cs if c.fragility is None]
     text = "\n".join(line for f in foot for line in textwrap.wrap(f, 150)) or ""
