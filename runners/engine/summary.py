@@ -414,9 +414,6 @@ def model_check_line(s: dict[str, Any]) -> str:
         need = "flight, which is outside both rigid rocking and rocking-sliding"
     elif s.get("rocking_sliding_refused"):
         need = f"sliding, and rocking-sliding cannot run it: {s['rocking_sliding_refused']}"
-    elif a["slides"] is not None and (a["slides"]["contact"] != "ground" or s.get("blocks") == 2
-                                      or "mu_interface" in a):
-        need = "sliding of a stack, which no model here has (rocking-sliding is one block's model)"
     else:
         need = "sliding or flight"
     return ("model check      NOT SUFFICIENT: no model here answers for this scene: rigid rocking's assumptions "
