@@ -264,7 +264,6 @@ RECORDS = {  # FEMA P695 record, component, scale, geometry, mu ground, mu inter
 }
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("case", RECORDS)
 def test_the_fmu_agrees_with_the_reference_on_fema_records(fmu, tmp_path, case):
     from tests.test_records_fmu import fema_component, write_record
