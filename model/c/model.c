@@ -74,7 +74,7 @@ int model_validate(const Variables *v, char *msg, size_t n) {
             FAIL("block1 is too squat for Housner's law (b/h = %g > sqrt(2) gives the negative coefficient "
                  "1 - 3/2 sin^2(alpha) = %g): set restitution.law = 2 (constant) and restitution.eta",
                  v->halfWidth / v->halfHeight, model_law_restitution(v, alpha));
-        if (!(eta >= 0 && eta <= 1))
+        if (v->nBlocks == 1 && !(eta >= 0 && eta <= 1)) /* a stack's laws: momentum, or etaGround/etaInterface */
             FAIL("effective restitution %g (law %d x correction %g) must be in [0, 1]",
                  eta, v->law, v->correction);
         if (!(fabs(v->theta0) < M_PI / 2))

@@ -271,8 +271,8 @@ static int candidates(const double q[4], const double w[4], int contact, int exc
     }
     if (slip == 0.0) {
         if (!(exclude & SS_NOT_STICK)) sig[ns++] = 0;
-        sig[ns++] = 1;
-        sig[ns++] = -1;
+        if (!(exclude & SS_NOT_PLUS)) sig[ns++] = 1;
+        if (!(exclude & SS_NOT_MINUS)) sig[ns++] = -1;
     } else {
         sig[ns++] = sgn(slip);
     }

@@ -105,9 +105,9 @@ static void finish(Model *M, EventKind why, const Logger *log) {
     if (S->pat.i.sigma) S->slideDur2 += S->t - S->slideSince2;
     S->pat.g.sigma = S->pat.i.sigma = 0;
     S->sigma = 0;
-    S->y[1] = S->y[3] = S->y[SS_V1] = S->y[SS_V2] = 0.0;
-    S->mode = MODE_OVERTURNED;
+    S->mode = MODE_OVERTURNED; /* the run has ended: the state stays as it was at its end */
     if (why == EVENT_OVERTURN || why == EVENT_OVERTURN2) {
+        S->y[1] = S->y[3] = S->y[SS_V1] = S->y[SS_V2] = 0.0; /* lying on its side */
         S->overturned2 = 1;
         if (why == EVENT_OVERTURN) S->overturned1 = 1;
         S->overturnTime = S->t;
@@ -166,12 +166,17 @@ void ss_initialize(Model *M) {
     double q[4], w[4];
     StackPattern p;
     ss_qw(S->y, q, w);
-    if (ss_select(M, S->t, q, w, NULL, 1, 0, &p)) {
+    if (q[1] == 0 && q[3] == 0 && w[1] == 0 && w[3] == 0) { /* at rest: the rest search starts it */
+        S->mode = MODE_REST;
+        S->side = S->side2 = 1;
+    } else if (ss_select(M, S->t, q, w, NULL, 1, 0, &p)) {
         S->pat = p;
         S->mode = mode_of(&p);
         S->side = p.g.s;
         S->side2 = p.i.s;
         S->sigma = p.g.sigma;
+        if (p.g.sigma) S->slideStarts = 1, S->slideSince = S->slideStartTime1 = S->slideTime = S->t;
+        if (p.i.sigma) S->slideStarts2 = 1, S->slideSince2 = S->slideStartTime2 = S->slideTime = S->t;
     } else { /* no consistent pattern at the start: flight, reported at the first step */
         S->mode = MODE_BOTH;
         S->pat.g.flat = S->pat.i.flat = 0;
@@ -266,13 +271,23 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
 #define IND_FRICTION 2
 #define IND_ALL 3
 
+/* The indicators that the contact forces give: normal force over the weight carried (flight where a
+ * rocking contact's turns tensile) and, where a contact sticks, its friction margin. */
+static void pressure_indicators(const Model *M, const StackPattern *p, double T0, double N0, double T1, double N1,
+                                double ind[SS_IND]) {
+    const Variables *v = &M->v;
+    ind[0] = p->g.flat ? INFINITY : N0 / M->d.weight[0];
+    ind[1] = p->i.flat ? INFINITY : N1 / M->d.weight[1];
+    ind[6] = p->g.sigma ? INFINITY : (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
+    ind[7] = p->i.sigma ? INFINITY : (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
+}
+
 /* The force indicators `what` of a rigid pattern (SCtx.fast) from the rigid stack's closed forms:
  * its end margins (stack_margins) and the friction margins of its reactions (contact_stack) with
  * the accelerations acc (NULL: computed). */
 static void fast_indicators(const SCtx *c, const double *y, double ah, double av, int what, const double *acc,
                             double ind[SS_IND]) {
     const Model *M = c->M;
-    const Variables *v = &M->v;
     double g[2], in[2], a[2], T0, N0, T1, N1;
     for (int i = 0; i < SS_IND; i++) ind[i] = INFINITY;
     if (what & IND_MARGINS) {
@@ -283,8 +298,7 @@ static void fast_indicators(const SCtx *c, const double *y, double ah, double av
         if (acc) a[0] = acc[0], a[1] = acc[1];
         else stack_accel(M, c->mode, c->s1, c->s2, y, ah, av, a);
         contact_stack(M, c->mode, c->s1, c->s2, y, a, ah, av, &T0, &N0, &T1, &N1);
-        ind[6] = (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
-        ind[7] = (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
+        pressure_indicators(c->M, &c->p, T0, N0, T1, N1, ind);
     }
 }
 
@@ -304,14 +318,17 @@ static double weakest(const SCtx *c, double t, const double *y, int what, const 
     } else {
         if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
         ss_indicators(M, p, q, &sol, ind);
+        const double *F = sol.F;
+        pressure_indicators(M, p, F[0], F[1], F[3], F[4], ind);
     }
-    for (int i = 2; i < SS_IND; i++) {
-        if (!(what & (i <= 5 ? IND_MARGINS : IND_FRICTION))) continue;
-        double val = ind[i] + (i <= 5 ? TOL_OPEN : TOL_FRICTION);
+    for (int i = 0; i < SS_IND; i++) {
+        int margin = i >= 2 && i <= 5;
+        if (!(what & (margin ? IND_MARGINS : IND_FRICTION))) continue;
+        double val = ind[i] + (margin ? TOL_OPEN : TOL_FRICTION);
         if (val < m) {
             m = val;
-            *contact = i == 6 ? 0 : i == 7 ? 1 : i <= 3 ? 0 : 1;
-            *kind = i >= 6 ? EVENT_SLIP_START : EVENT_OPEN;
+            *contact = (i == 0 || i == 2 || i == 3 || i == 6) ? 0 : 1;
+            *kind = i <= 1 ? EVENT_FLIGHT : i >= 6 ? EVENT_SLIP_START : EVENT_OPEN;
             *end = (i == 2 || i == 4) ? 1 : -1;
         }
     }
@@ -386,11 +403,32 @@ static int take_step(Model *M, const Logger *log) {
     }
     if (adaptive_step_controlled(rhs_cb, &c, n, c.fast ? 4 : SS_N, c.fast ? NULL : scale, S->t, S->y, S->f, &h, hmax,
                                  v->relTol, v->absTol, y1, f1, cont, &hNext, &hitBp, &S->rejected)) {
+        if (p->g.sigma || p->i.sigma) { /* the forces of a slide grew without bound (Painleve's paradox) */
+            say(log, LOG_EVENTS, "painleve t=%.17g (a sliding contact's forces grow without bound: no unique motion)",
+                S->t);
+            finish(M, EVENT_FLIGHT, log);
+            return 0;
+        }
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     keep_rest(n, S->y, y1, f1, cont);
     S->steps++;
+    /* a slip that has just started from rest and has run against its direction over the whole step:
+     * the slide chosen there has no motion (Painleve's paradox of a large mu); the step is dropped
+     * and the pattern chosen again without that slide */
+    for (int k = 0; k < 2; k++) {
+        int sg = k == 0 ? p->g.sigma : p->i.sigma, comp = k == 0 ? SS_V1 : SS_V2;
+        double cc[5];
+        if (!sg || S->y[comp] != 0.0 || !(sg * y1[comp] < 0.0)) continue;
+        dense_poly(cont, comp, cc);
+        for (int i = 0; i < 5; i++) cc[i] *= sg;
+        if (first_crossing(cc, +1) <= 1.0) continue; /* it turned the right way within the step */
+        S->pending = EVENT_SLIP_WRONG;
+        S->eventContact = k;
+        S->denseValid = 0;
+        return 0;
+    }
 
     /* polynomial events: gaps, overturns, slip-rate zeros, block 2's pivot past block 1's edge */
     double a[5], b[5], P[5];
@@ -449,8 +487,9 @@ static int take_step(Model *M, const Logger *log) {
         model_ground_piece(M, hitBp ? bp : S->t + h, c.piece, &ahE, &avE);
         endAcc[0] = f1[1], endAcc[1] = f1[3];
         contact_stack(M, c.mode, c.s1, c.s2, y1, endAcc, ahE, avE, &endT[0], &endN[0], &endT[1], &endN[1]);
-        double fr = fmin((v->muGround * endN[0] - fabs(endT[0])) / d->weight[0],
-                         (v->muInterface * endN[1] - fabs(endT[1])) / d->weight[1]);
+        double ind[SS_IND], fr = INFINITY;
+        pressure_indicators(M, p, endT[0], endN[0], endT[1], endN[1], ind);
+        for (int i = 0; i < SS_IND; i++) fr = fmin(fr, ind[i]);
         (void)cc, (void)kk, (void)ee;
         if (fr + TOL_FRICTION < 0) {
             df.what = IND_FRICTION;
@@ -584,6 +623,14 @@ static int apply_event(Model *M, const Logger *log) {
         exclude[contact] = SS_NOT_STICK;
         choose(M, exclude, log);
         break;
+    case EVENT_SLIP_WRONG: {
+        int sg = contact == 0 ? S->pat.g.sigma : S->pat.i.sigma;
+        exclude[contact] = SS_NOT_STICK | (sg > 0 ? SS_NOT_PLUS : SS_NOT_MINUS);
+        say(log, LOG_EVENTS, "reverse t=%.17g contact=%s (the slip ran against its direction at once)", S->t,
+            contact_name(contact));
+        choose(M, exclude, log);
+        break;
+    }
     case EVENT_SLIP_STOP:
         S->y[contact == 0 ? SS_V1 : SS_V2] = 0.0;
         if (choose(M, exclude, log) && S->mode == MODE_REST) S->restTime = S->t;
@@ -618,8 +665,10 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     double y[NMAX], s = 1.0, q[4], w[4], ah, av;
     StackPattern p;
     SsSolution sol;
-    state_at(M, inStep ? t : M->s.t, y, &p, &s);
-    model_ground(M, t, &ah, &av);
+    int dense = state_at(M, inStep ? t : M->s.t, y, &p, &s);
+    /* inside a step, the excitation of that step (its end at a break is the break's left limit) */
+    if (dense) model_ground_piece(M, t, model_piece(M, S->tOld), &ah, &av);
+    else model_ground(M, t, &ah, &av);
     SCtx c = context(M, &p, t, y);
     if (!inStep && S->fValid && S->ssEndValid) { /* the step's end: kept by take_step */
         memcpy(T, S->ssEndT, sizeof(S->ssEndT));
@@ -697,9 +746,9 @@ void ss_outputs(Model *M, double tc) {
     v->slideStarts2 = S->slideStarts2;
     v->fellOff = S->fellOff;
     v->fellOffTime = S->fellOffTime;
-    if (S->mode == MODE_OVERTURNED) {
-        v->contactMode = S->overturned1 ? 4 : 0;
-        v->contactMode2 = S->fellOff ? 5 : S->overturned2 ? 4 : 0;
+    if (S->mode == MODE_OVERTURNED) { /* the run has ended: each contact as it was at the end */
+        v->contactMode = S->overturned1 ? 4 : contact_mode(&S->pat.g);
+        v->contactMode2 = S->fellOff ? 5 : S->overturned2 ? 4 : contact_mode(&S->pat.i);
     } else {
         v->contactMode = contact_mode(&p.g);
         v->contactMode2 = contact_mode(&p.i);
