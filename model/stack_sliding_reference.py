@@ -912,6 +912,8 @@ class _Solver:
         order += [(c,) for c in ((landing, "interface" if landing == "ground" else "ground")) if c in qualifies]
         for closing in order:
             cl = close_contacts(st, pat, q, w, closing)
+            if kinetic_energy(st, q, cl.w, *_pivots(cl.pattern)) > kinetic_energy(st, q, w, *_pivots(pat)):
+                continue  # a friction impulse would push the slip the other way: no settling
             chosen = self.choose(t, q, cl.w)
             if chosen is None:
                 continue

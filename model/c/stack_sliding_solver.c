@@ -249,6 +249,9 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
         StackPattern closed, chosen;
         double wc[4];
         ss_close(M, &after, q, wp, order[k], &closed, wc);
+        /* a sliding contact's friction impulse can push the slip it opposed the other way: a closing
+         * that would add kinetic energy is no settling */
+        if (ss_kinetic(M, q, wc, closed.g.s, closed.i.s) > ss_kinetic(M, q, wp, after.g.s, after.i.s)) continue;
         if (!ss_select(M, S->t, q, wc, NULL, 1, 0, &chosen)) continue;
         if ((!(order[k] & 1) || chosen.g.flat) && (!(order[k] & 2) || chosen.i.flat)) {
             memcpy(wp, wc, sizeof(wc));
@@ -666,8 +669,9 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     StackPattern p;
     SsSolution sol;
     int dense = state_at(M, inStep ? t : M->s.t, y, &p, &s);
-    /* inside a step, the excitation of that step (its end at a break is the break's left limit) */
-    if (dense) model_ground_piece(M, t, model_piece(M, S->tOld), &ah, &av);
+    /* inside a step, and at its end before its event is applied, the excitation of that step (at a
+     * break, the break's left limit: the pattern after it is chosen by the event) */
+    if (dense || (S->pending != EVENT_NONE && S->denseValid)) model_ground_piece(M, t, model_piece(M, S->tOld), &ah, &av);
     else model_ground(M, t, &ah, &av);
     SCtx c = context(M, &p, t, y);
     if (!inStep && S->fValid && S->ssEndValid) { /* the step's end: kept by take_step */
