@@ -457,7 +457,7 @@ static int take_step(Model *M, const Logger *log) {
     for (int k = 0; k < 8; k++) {
         if (!cand[k].use) continue;
         double cc[5];
-        dense_poly(cont, cand[k].comp, cc);
+        if (!cand[k].rel) dense_poly(cont, cand[k].comp, cc);
         for (int i = 0; i < 5; i++) P[i] = cand[k].sign * (cand[k].rel ? b[i] - a[i] : cc[i]);
         P[0] -= cand[k].offset;
         double sc = first_crossing(P, cand[k].slope);
@@ -480,8 +480,6 @@ static int take_step(Model *M, const Logger *log) {
     double sF;
     if (c.fast) { /* the rigid stack's cost: its openings sampled, friction at the step's end (its
                    * accelerations are the step's last evaluation) */
-        int cc, ee;
-        EventKind kk;
         df.what = IND_MARGINS;
         sF = flat ? first_negative_sampled(dense_force, &df, FAST_OPEN_SAMPLES) : 2.0;
         /* the reactions at the step's end from its last evaluation (kept for the monitors, whose
@@ -493,7 +491,6 @@ static int take_step(Model *M, const Logger *log) {
         double ind[SS_IND], fr = INFINITY;
         pressure_indicators(M, p, endT[0], endN[0], endT[1], endN[1], ind);
         for (int i = 0; i < SS_IND; i++) fr = fmin(fr, ind[i]);
-        (void)cc, (void)kk, (void)ee;
         if (fr + TOL_FRICTION < 0) {
             df.what = IND_FRICTION;
             sF = fmin(sF, first_negative_sampled(dense_force, &df, FORCE_SAMPLES));
