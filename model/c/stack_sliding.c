@@ -485,30 +485,6 @@ int ss_impact(const Model *M, int landing, const StackPattern *pat, const double
               StackPattern *out, double wp[4], double impulses[6]) {
     const ContactKind *land = landing == 0 ? &pat->g : &pat->i, *other = landing == 0 ? &pat->i : &pat->g;
     int o1 = pat->g.s, o2 = pat->i.s;
-    /* candidates: (new kind of the landing contact, kind of the other, slip signs), ordered by
-     * (flat landing, other opens, number sliding), stable */
-    typedef struct {
-        StackPattern p;
-        int key;
-    } Cand;
-    Cand c[2 * 3 * 9];
-    int n = 0;
-    ContactKind okinds[3] = {{other->flat, other->s, 0}, {0, 1, 0}, {0, -1, 0}};
-    int nok = other->flat ? 3 : 1, sig[3] = {0, 1, -1};
-    for (int nk = 0; nk < 2; nk++)
-        for (int ok = 0; ok < nok; ok++)
-            for (int a = 0; a < 3; a++)
-                for (int b = 0; b < 3; b++) {
-                    ContactKind lm = {nk == 1, -land->s, sig[a]}, om = okinds[ok];
-                    om.sigma = sig[b];
-                    int key = nk * 100 + (ok > 0) * 10 + (sig[a] != 0) + (sig[b] != 0), j = n++;
-                    while (j > 0 && c[j - 1].key > key) {
-                        c[j] = c[j - 1];
-                        j--;
-                    }
-                    c[j].p = make_pattern(landing, lm, om);
-                    c[j].key = key;
-                }
     /* tolerance: 1e-12 of the largest velocity component times the total mass */
     const double zero[4] = {0, 0, 0, 0};
     Kin ko;
@@ -518,17 +494,29 @@ int ss_impact(const Model *M, int landing, const StackPattern *pat, const double
     double comps[6] = {v1[0], v1[1], w[1], v2[0], v2[1], w[3]};
     for (int i = 0; i < 6; i++) scale = fmax(scale, fabs(comps[i]));
     double tol = 1e-12 * scale * (M->v.mass + M->v.mass2);
+    /* candidates: the landing contact on its new corner, else flat; the other contact in its kind,
+     * else (if flat) opening about either end; fewest sliding contacts first; the slip signs in the
+     * order 0, +1, -1. Tried in that order, generated as they are tried (most impacts take the
+     * first). */
+    ContactKind okinds[3] = {{other->flat, other->s, 0}, {0, 1, 0}, {0, -1, 0}};
+    int sig[3] = {0, 1, -1};
     Impact imp;
     int result = 0;
-    for (int k = 0; k < n && !result; k++)
-        if (solve_impact(M, &c[k].p, q, w, o1, o2, &imp) && impact_consistent(M, &imp, q, landing, tol, 1))
-            result = 1;
-    for (int k = 0; k < n && !result; k++) { /* the other contact held, sticking, in its kind */
-        const ContactKind *om = landing == 0 ? &c[k].p.i : &c[k].p.g;
-        if (om->sigma || om->flat != other->flat) continue;
-        if (solve_impact(M, &c[k].p, q, w, o1, o2, &imp) && impact_consistent(M, &imp, q, landing, tol, 0))
-            result = 2;
-    }
+    for (int pass = 0; pass < 2 && !result; pass++) /* pass 1: the other contact held, sticking */
+        for (int nk = 0; nk < 2 && !result; nk++)
+            for (int open = 0; open < (other->flat && !pass ? 2 : 1) && !result; open++)
+                for (int ns = 0; ns < 3 && !result; ns++)
+                    for (int ok = open ? 1 : 0; ok < (open ? 3 : 1) && !result; ok++)
+                        for (int ia = 0; ia < 3 && !result; ia++)
+                            for (int ib = 0; ib < 3 && !result; ib++) {
+                                if ((sig[ia] != 0) + (sig[ib] != 0) != ns || (pass && sig[ib] != 0)) continue;
+                                ContactKind lm = {nk, -land->s, sig[ia]}, om = okinds[ok];
+                                om.sigma = sig[ib];
+                                StackPattern cand = make_pattern(landing, lm, om);
+                                if (solve_impact(M, &cand, q, w, o1, o2, &imp) &&
+                                    impact_consistent(M, &imp, q, landing, tol, !pass))
+                                    result = pass ? 2 : 1;
+                            }
     if (!result && saturated_impact(M, landing, pat, q, w, &imp)) result = 2;
     if (!result) return 0;
     restitute(M, &imp, q, w, o1, o2, landing);
@@ -541,20 +529,11 @@ int ss_impact(const Model *M, int landing, const StackPattern *pat, const double
 double ss_settle_rate(const Model *M, int contact, double av) {
     const Variables *v = &M->v;
     const Derived *d = &M->d;
-    double ge = v->g + av, W, R, a, I;
-    if (contact == 1) {
-        R = hypot(v->halfWidth2, v->halfHeight2);
-        W = v->mass2 * ge, a = atan2(v->halfWidth2, v->halfHeight2), I = d->Ic2 + v->mass2 * R * R;
-    } else {
-        const double zero[4] = {0, 0, 0, 0}, L[4] = {0.0, 1.0, 0.0, 1.0};
-        Kin k;
-        double v1[2], v2[2];
-        kinematics(M, zero, zero, 1, 1, &k);
-        body_velocities(&k, L, v1, v2);
-        I = v->mass * (v1[0] * v1[0] + v1[1] * v1[1]) + v->mass2 * (v2[0] * v2[0] + v2[1] * v2[1]) + d->Ic1 + d->Ic2;
-        R = hypot(v->halfWidth, d->yG);
-        W = (v->mass + v->mass2) * ge, a = atan2(v->halfWidth, d->yG);
-    }
+    /* block 2 about its corner (b2 <= b1: the rigid stack's contact half width c is b2), or the pair
+     * as one body about a corner of block 1 (stack_derive) */
+    double ge = v->g + av;
+    double W = contact == 1 ? v->mass2 * ge : d->mTot * ge, R = contact == 1 ? d->RI : d->RL;
+    double a = contact == 1 ? d->alphaI : d->alphaL, I = contact == 1 ? d->II : d->IL;
     double lift = cos(a - v->restRatio * a) - cos(a);
     return lift > 0 ? sqrt(2.0 * W * R * lift / I) : 0.0;
 }

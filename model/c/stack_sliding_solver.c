@@ -314,11 +314,11 @@ static double weakest(const SCtx *c, double t, const double *y, int what, const 
     const StackPattern *p = &c->p;
     double q[4], w[4], ah, av, ind[SS_IND], m = INFINITY;
     SsSolution sol;
-    ss_qw(y, q, w);
     model_ground_piece(M, t, c->piece, &ah, &av);
     if (c->fast) {
         fast_indicators(c, y, ah, av, what, acc, ind);
     } else {
+        ss_qw(y, q, w);
         if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
         ss_indicators(M, p, q, &sol, ind);
         const double *F = sol.F;
@@ -362,8 +362,8 @@ static double dense_force(void *ctx, double s) {
     double y[NMAX];
     int contact, end;
     EventKind kind;
-    memcpy(y, d->y, sizeof(y));
-    dense_eval(d->cont, SS_N, s, y);
+    memcpy(y, d->y, sizeof(y)); /* the components a step leaves where they were */
+    dense_eval(d->cont, components(d->c), s, y);
     return weakest(d->c, d->t + s * d->h, y, d->what, NULL, &contact, &kind, &end);
 }
 
@@ -488,7 +488,7 @@ static int take_step(Model *M, const Logger *log) {
         model_ground_piece(M, hitBp ? bp : S->t + h, c.piece, &ahE, &avE);
         endAcc[0] = f1[1], endAcc[1] = f1[3];
         contact_stack(M, c.mode, c.s1, c.s2, y1, endAcc, ahE, avE, &endT[0], &endN[0], &endT[1], &endN[1]);
-        double ind[SS_IND], fr = INFINITY;
+        double ind[SS_IND] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY}, fr = INFINITY;
         pressure_indicators(M, p, endT[0], endN[0], endT[1], endN[1], ind);
         for (int i = 0; i < SS_IND; i++) fr = fmin(fr, ind[i]);
         if (fr + TOL_FRICTION < 0) {
