@@ -247,7 +247,7 @@ static void contact_sample(Model *M, double t, const double T[2], const double N
  * limit about an end of the contact. Past it the block falls unless driven back. */
 static int within_limits(const Model *M) {
     const State *S = &M->s;
-    if (S->mode == MODE_REST || S->mode == MODE_SLIDE) return 1;
+    if (S->mode == MODE_REST || (S->mode == MODE_SLIDE && M->v.nBlocks != 2)) return 1;
     if (M->v.nBlocks != 2) return fabs(S->y[0]) <= M->d.alpha;
     return fabs(S->y[0]) <= M->d.alphaL && fabs(S->y[2]) <= M->d.alphaI;
 }

@@ -903,7 +903,7 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
                   : "one block (0 rocking, 1 rest, 2 overturned)");
     int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH || (ss && mode == MODE_SLIDE)
                      : mode == MODE_ROCKING || mode == MODE_SLIDE;
-    int lastEvent = ss ? EVENT_SLIP_WRONG : two ? EVENT_OPEN : rs ? EVENT_SLIP_STOP : EVENT_OVERTURN;
+    int lastEvent = ss ? EVENT_RECHOOSE : two ? EVENT_OPEN : rs ? EVENT_SLIP_STOP : EVENT_OVERTURN;
     if (!(pending >= EVENT_NONE && pending <= lastEvent) || (rs && (pending > EVENT_OVERTURN && pending < EVENT_SLIP_START)))
         FAIL("pending event %d is not one of %s", pending,
              two ? "0 to 5 (none, impact, overturn, interface, overturn2, open)"

@@ -17,6 +17,8 @@
 #define TOL_OPEN 1e-9      /* a flat contact opens once an end margin falls below -TOL_OPEN */
 #define TOL_FRICTION 1e-12 /* a sticking contact slips once (mu N - |T|) / W falls below -TOL_FRICTION */
 #define EDGE_EPS 1e-12     /* m: block 2's pivot falls off once this far beyond block 1's edge */
+#define SLIP_EPS 1e-15     /* m/s: a slip stops where sigma u' + SLIP_EPS falls through 0 (so that a slip just
+                            * started from rest that runs against its direction stops at once) */
 #define FORCE_SAMPLES 4    /* samples per step of the force indicators on the dense output */
 #define FAST_OPEN_SAMPLES 8 /* rigid patterns: samples per step of the end margins, as the rigid stack's */
 
@@ -274,13 +276,16 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
 #define IND_FRICTION 2
 #define IND_ALL 3
 
-/* The indicators that the contact forces give: normal force over the weight carried (flight where a
- * rocking contact's turns tensile) and, where a contact sticks, its friction margin. */
-static void pressure_indicators(const Model *M, const StackPattern *p, double T0, double N0, double T1, double N1,
-                                double ind[SS_IND]) {
+/* The indicators that the contact forces give at the state y: normal force over the weight carried
+ * (flight where a rocking contact's turns tensile, while every block is within its stability limit:
+ * past it the block is falling, its contact is held and the monitors report the lift, as the rigid
+ * stack's) and, where a contact sticks, its friction margin. */
+static void pressure_indicators(const Model *M, const StackPattern *p, const double *y, double T0, double N0,
+                                double T1, double N1, double ind[SS_IND]) {
     const Variables *v = &M->v;
-    ind[0] = p->g.flat ? INFINITY : N0 / M->d.weight[0];
-    ind[1] = p->i.flat ? INFINITY : N1 / M->d.weight[1];
+    int within = fabs(y[0]) <= M->d.alphaL && fabs(y[2]) <= M->d.alphaI;
+    ind[0] = p->g.flat || !within ? INFINITY : N0 / M->d.weight[0];
+    ind[1] = p->i.flat || !within ? INFINITY : N1 / M->d.weight[1];
     ind[6] = p->g.sigma ? INFINITY : (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
     ind[7] = p->i.sigma ? INFINITY : (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
 }
@@ -301,7 +306,7 @@ static void fast_indicators(const SCtx *c, const double *y, double ah, double av
         if (acc) a[0] = acc[0], a[1] = acc[1];
         else stack_accel(M, c->mode, c->s1, c->s2, y, ah, av, a);
         contact_stack(M, c->mode, c->s1, c->s2, y, a, ah, av, &T0, &N0, &T1, &N1);
-        pressure_indicators(c->M, &c->p, T0, N0, T1, N1, ind);
+        pressure_indicators(c->M, &c->p, y, T0, N0, T1, N1, ind);
     }
 }
 
@@ -322,7 +327,7 @@ static double weakest(const SCtx *c, double t, const double *y, int what, const 
         if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
         ss_indicators(M, p, q, &sol, ind);
         const double *F = sol.F;
-        pressure_indicators(M, p, F[0], F[1], F[3], F[4], ind);
+        pressure_indicators(M, p, y, F[0], F[1], F[3], F[4], ind);
     }
     for (int i = 0; i < SS_IND; i++) {
         int margin = i >= 2 && i <= 5;
@@ -417,22 +422,6 @@ static int take_step(Model *M, const Logger *log) {
     }
     keep_rest(n, S->y, y1, f1, cont);
     S->steps++;
-    /* a slip that has just started from rest and has run against its direction over the whole step:
-     * the slide chosen there has no motion (Painleve's paradox of a large mu); the step is dropped
-     * and the pattern chosen again without that slide */
-    for (int k = 0; k < 2; k++) {
-        int sg = k == 0 ? p->g.sigma : p->i.sigma, comp = k == 0 ? SS_V1 : SS_V2;
-        double cc[5];
-        if (!sg || S->y[comp] != 0.0 || !(sg * y1[comp] < 0.0)) continue;
-        dense_poly(cont, comp, cc);
-        for (int i = 0; i < 5; i++) cc[i] *= sg;
-        if (first_crossing(cc, +1) <= 1.0) continue; /* it turned the right way within the step */
-        S->pending = EVENT_SLIP_WRONG;
-        S->eventContact = k;
-        S->denseValid = 0;
-        return 0;
-    }
-
     /* polynomial events: gaps, overturns, slip-rate zeros, block 2's pivot past block 1's edge */
     double a[5], b[5], P[5];
     dense_poly(cont, 0, a);
@@ -449,8 +438,8 @@ static int take_step(Model *M, const Logger *log) {
         {EVENT_OVERTURN, !p->g.flat, 0, 0, 0, +1, p->g.s, M_PI / 2},
         {EVENT_INTERFACE, !p->i.flat, 1, 2, 1, -1, p->i.s, 0.0},
         {EVENT_OVERTURN2, !p->i.flat, 1, 2, 1, +1, p->i.s, M_PI / 2},
-        {EVENT_SLIP_STOP, p->g.sigma != 0, 0, SS_V1, 0, -1, p->g.sigma, 0.0},
-        {EVENT_SLIP_STOP, p->i.sigma != 0, 1, SS_V2, 0, -1, p->i.sigma, 0.0},
+        {EVENT_SLIP_STOP, p->g.sigma != 0, 0, SS_V1, 0, -1, p->g.sigma, -SLIP_EPS},
+        {EVENT_SLIP_STOP, p->i.sigma != 0, 1, SS_V2, 0, -1, p->i.sigma, -SLIP_EPS},
         {EVENT_FELL_OFF, !p->i.flat && !c.fast, 1, SS_U2, 0, +1, 1.0, v->halfWidth - p->i.s * v->halfWidth2 + EDGE_EPS},
         {EVENT_FELL_OFF, !p->i.flat && !c.fast, 1, SS_U2, 0, +1, -1.0, v->halfWidth + p->i.s * v->halfWidth2 + EDGE_EPS},
     };
@@ -489,7 +478,7 @@ static int take_step(Model *M, const Logger *log) {
         endAcc[0] = f1[1], endAcc[1] = f1[3];
         contact_stack(M, c.mode, c.s1, c.s2, y1, endAcc, ahE, avE, &endT[0], &endN[0], &endT[1], &endN[1]);
         double ind[SS_IND] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY}, fr = INFINITY;
-        pressure_indicators(M, p, endT[0], endN[0], endT[1], endN[1], ind);
+        pressure_indicators(M, p, y1, endT[0], endN[0], endT[1], endN[1], ind);
         for (int i = 0; i < SS_IND; i++) fr = fmin(fr, ind[i]);
         if (fr + TOL_FRICTION < 0) {
             df.what = IND_FRICTION;
@@ -623,14 +612,6 @@ static int apply_event(Model *M, const Logger *log) {
         exclude[contact] = SS_NOT_STICK;
         choose(M, exclude, log);
         break;
-    case EVENT_SLIP_WRONG: {
-        int sg = contact == 0 ? S->pat.g.sigma : S->pat.i.sigma;
-        exclude[contact] = SS_NOT_STICK | (sg > 0 ? SS_NOT_PLUS : SS_NOT_MINUS);
-        say(log, LOG_EVENTS, "reverse t=%.17g contact=%s (the slip ran against its direction at once)", S->t,
-            contact_name(contact));
-        choose(M, exclude, log);
-        break;
-    }
     case EVENT_SLIP_STOP:
         S->y[contact == 0 ? SS_V1 : SS_V2] = 0.0;
         if (choose(M, exclude, log) && S->mode == MODE_REST) S->restTime = S->t;
