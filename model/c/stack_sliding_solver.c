@@ -276,16 +276,14 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
 #define IND_FRICTION 2
 #define IND_ALL 3
 
-/* The indicators that the contact forces give at the state y: normal force over the weight carried
- * (flight where a rocking contact's turns tensile, while every block is within its stability limit:
- * past it the block is falling, its contact is held and the monitors report the lift, as the rigid
- * stack's) and, where a contact sticks, its friction margin. */
-static void pressure_indicators(const Model *M, const StackPattern *p, const double *y, double T0, double N0,
-                                double T1, double N1, double ind[SS_IND]) {
+/* The indicators that the contact forces give: normal force over the weight carried (flight where a
+ * rocking contact's turns tensile: the run ends, as in the reference; a held contact's friction would
+ * push its slip) and, where a contact sticks, its friction margin. */
+static void pressure_indicators(const Model *M, const StackPattern *p, double T0, double N0, double T1, double N1,
+                                double ind[SS_IND]) {
     const Variables *v = &M->v;
-    int within = fabs(y[0]) <= M->d.alphaL && fabs(y[2]) <= M->d.alphaI;
-    ind[0] = p->g.flat || !within ? INFINITY : N0 / M->d.weight[0];
-    ind[1] = p->i.flat || !within ? INFINITY : N1 / M->d.weight[1];
+    ind[0] = p->g.flat ? INFINITY : N0 / M->d.weight[0];
+    ind[1] = p->i.flat ? INFINITY : N1 / M->d.weight[1];
     ind[6] = p->g.sigma ? INFINITY : (v->muGround * N0 - fabs(T0)) / M->d.weight[0];
     ind[7] = p->i.sigma ? INFINITY : (v->muInterface * N1 - fabs(T1)) / M->d.weight[1];
 }
@@ -306,7 +304,7 @@ static void fast_indicators(const SCtx *c, const double *y, double ah, double av
         if (acc) a[0] = acc[0], a[1] = acc[1];
         else stack_accel(M, c->mode, c->s1, c->s2, y, ah, av, a);
         contact_stack(M, c->mode, c->s1, c->s2, y, a, ah, av, &T0, &N0, &T1, &N1);
-        pressure_indicators(c->M, &c->p, y, T0, N0, T1, N1, ind);
+        pressure_indicators(c->M, &c->p, T0, N0, T1, N1, ind);
     }
 }
 
@@ -327,7 +325,7 @@ static double weakest(const SCtx *c, double t, const double *y, int what, const 
         if (!ss_solve(M, p, q, w, ah, av, &sol)) return INFINITY;
         ss_indicators(M, p, q, &sol, ind);
         const double *F = sol.F;
-        pressure_indicators(M, p, y, F[0], F[1], F[3], F[4], ind);
+        pressure_indicators(M, p, F[0], F[1], F[3], F[4], ind);
     }
     for (int i = 0; i < SS_IND; i++) {
         int margin = i >= 2 && i <= 5;
@@ -478,7 +476,7 @@ static int take_step(Model *M, const Logger *log) {
         endAcc[0] = f1[1], endAcc[1] = f1[3];
         contact_stack(M, c.mode, c.s1, c.s2, y1, endAcc, ahE, avE, &endT[0], &endN[0], &endT[1], &endN[1]);
         double ind[SS_IND] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY}, fr = INFINITY;
-        pressure_indicators(M, p, y1, endT[0], endN[0], endT[1], endN[1], ind);
+        pressure_indicators(M, p, endT[0], endN[0], endT[1], endN[1], ind);
         for (int i = 0; i < SS_IND; i++) fr = fmin(fr, ind[i]);
         if (fr + TOL_FRICTION < 0) {
             df.what = IND_FRICTION;
