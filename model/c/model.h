@@ -198,6 +198,7 @@ typedef struct {
     int slideStarts2, fellOff;
     int eventContact, eventEnd; /* the pending event's contact (0 ground, 1 interface) and end (+1, -1) */
     int ssEndValid;             /* the reactions at the end of the last step (rigid pattern), while fValid */
+    int zenoCount, zenoContact; /* impacts of one contact in a row, each within ZENO_DT of the one before */
     double ssEndT[2], ssEndN[2];
 
     /* Model Exchange (me.c) */

@@ -264,8 +264,10 @@ static int candidates(const double q[4], const double w[4], int contact, int exc
     int kinds[3][2], nk = 0, sig[3], ns = 0, n = 0;
     if (gap == 0.0 && rate == 0.0) {
         if (!(exclude & SS_NOT_FLAT)) kinds[nk][0] = 1, kinds[nk][1] = 1, nk++;
-        kinds[nk][0] = 0, kinds[nk][1] = 1, nk++;
-        kinds[nk][0] = 0, kinds[nk][1] = -1, nk++;
+        if (!(exclude & SS_NOT_ROCK)) {
+            kinds[nk][0] = 0, kinds[nk][1] = 1, nk++;
+            kinds[nk][0] = 0, kinds[nk][1] = -1, nk++;
+        }
     } else {
         kinds[nk][0] = 0, kinds[nk][1] = gap != 0.0 ? sgn(gap) : sgn(rate), nk++;
     }

@@ -65,6 +65,7 @@ int ss_consistent(const Model *M, const StackPattern *p, const double q[4], cons
  * per contact (index 0 ground, 1 interface). */
 #define SS_NOT_FLAT 1
 #define SS_NOT_STICK 2
+#define SS_NOT_ROCK 4  /* flat only */
 #define SS_NOT_PLUS 4  /* not sliding with sigma = +1 */
 #define SS_NOT_MINUS 8 /* not sliding with sigma = -1 */
 

@@ -20,6 +20,8 @@
 #define SLIP_EPS 1e-15     /* m/s: a slip stops where sigma u' + SLIP_EPS falls through 0 (so that a slip just
                             * started from rest that runs against its direction stops at once) */
 #define FORCE_SAMPLES 4    /* samples per step of the force indicators on the dense output */
+#define ZENO_DT 1e-9       /* s (relative to the time): impacts closer than this accumulate */
+#define ZENO_MAX 32        /* accumulating impacts after which the landing contact closes */
 #define FAST_OPEN_SAMPLES 8 /* rigid patterns: samples per step of the end margins, as the rigid stack's */
 
 /* The integrator's context. While nothing slides and block 2 sits at its rest offset on block 1
@@ -220,6 +222,11 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
     ss_qw(S->y, q, w);
     double keMinus = ss_kinetic(M, q, w, pat.g.s, pat.i.s);
     int r = ss_impact(M, landing, &pat, q, w, &after, wp, P);
+    /* impacts that accumulate (each within ZENO_DT of the one before, at the same contact) */
+    S->zenoCount = S->t - S->lastImpactTime <= ZENO_DT * fmax(1.0, fabs(S->t)) && S->zenoContact == landing
+                       ? S->zenoCount + 1
+                       : 0;
+    S->zenoContact = landing;
     if (landing == 0) S->impactsGround++;
     else S->impactsInterface++;
     S->impacts++;
@@ -263,10 +270,30 @@ static void apply_impact(Model *M, int landing, const Logger *log) {
             break;
         }
     }
+    int exclude[2] = {0, 0};
+    if (S->zenoCount >= ZENO_MAX && !(landing == 0 ? after.g.flat : after.i.flat)) {
+        /* the impacts accumulate without the rebound settling (a sliding contact's landings): the
+         * landing contact closes, its friction mode kept, and stays flat */
+        StackPattern closed;
+        double wc[4];
+        ss_close(M, &after, q, wp, 1 << landing, &closed, wc);
+        S->zenoCount = 0;
+        if (ss_kinetic(M, q, wc, closed.g.s, closed.i.s) > ss_kinetic(M, q, wp, after.g.s, after.i.s)) {
+            /* no closing without a gain: no consistent motion follows (outside the model) */
+            say(log, LOG_EVENTS, "impacts accumulate t=%.17g contact=%s: no consistent motion", S->t,
+                contact_name(landing));
+            finish(M, EVENT_FLIGHT, log);
+            return;
+        }
+        memcpy(wp, wc, sizeof(wc));
+        after = closed;
+        exclude[landing] = SS_NOT_ROCK; /* the pattern chosen keeps it flat, or none: flight */
+        say(log, LOG_EVENTS, "settle t=%.17g contact=%s reason=impacts-accumulate", S->t, contact_name(landing));
+    }
     S->impactLoss += keMinus - ss_kinetic(M, q, wp, after.g.s, after.i.s);
     S->y[1] = wp[1], S->y[3] = wp[3], S->y[SS_V1] = wp[0], S->y[SS_V2] = wp[2];
     S->pat.g.s = after.g.s, S->pat.i.s = after.i.s; /* the rates refer to these pivots */
-    if (choose(M, NULL, log) && M->s.mode == MODE_REST) M->s.restTime = M->s.t;
+    if (choose(M, exclude, log) && M->s.mode == MODE_REST) M->s.restTime = M->s.t;
 }
 
 /* ------------------------------------------------------------------ events */
@@ -814,6 +841,10 @@ int ss_check_state(const Model *M, char *msg, size_t n) {
             snprintf(msg, n, "the kept contact reactions are not those of the state");
             return 1;
         }
+    }
+    if (S->zenoCount < 0 || S->zenoCount > ZENO_MAX || !(S->zenoContact == 0 || S->zenoContact == 1)) {
+        snprintf(msg, n, "zenoCount = %d, zenoContact = %d are out of range", S->zenoCount, S->zenoContact);
+        return 1;
     }
     if (S->slideStarts2 < 0 || S->maxAbsSlip2 < 0 || S->slideDur2 < 0 || S->eventContact < 0 || S->eventContact > 1 ||
         !(S->eventEnd == 1 || S->eventEnd == -1)) {
