@@ -1,4 +1,4 @@
-"""Independent event-driven reference for a rocking-sliding stack of two blocks (issue 27).
+"""Independent event-driven reference for a rocking-sliding stack of two blocks.
 
 Derivation: docs/stack_sliding.md. Block 1 stands on the ground, block 2 on block 1's top.
 Generalised coordinates ``q = (u1, theta1, u2, theta2)``:
