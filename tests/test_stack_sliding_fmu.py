@@ -139,6 +139,10 @@ ENERGY_SCENES = {
     "both blocks slide and rock": (BOTH_ROCK, 0.25, 0.3, pulse(6.0, 1.5), 3.0),
     "vertical motion too": (STATUE, 0.5, 0.5, {**pulse(5.0, 2.0), "excitation.verticalAmplitude": 3.0}, 3.0),
     "block 2 slides off its plinth": (SQUAT_TOP, 5.0, 0.1, pulse(6.0, 0.5), 3.0),
+    "a cosine pulse's jump while block 2 rocks": (STATUE, 0.2, 2.0, {"excitation.kind": 2, "excitation.amplitude": 4.0,
+                                                                      "excitation.frequency": 2.0,
+                                                                      "excitation.startTime": 0.3,
+                                                                      "block2.theta0": 0.05}, 2.0),
 }
 
 
@@ -291,6 +295,13 @@ def test_results_do_not_depend_on_the_communication_step(fmu):
     for k in ("block1.theta", "block2.theta", "block1.slip", "block2.slip", "energy"):
         np.testing.assert_allclose(a.outputs[k], b.outputs[k][idx], rtol=1e-13, atol=1e-12)
     assert [(e.kind, e.t) for e in a.events] == [(e.kind, e.t) for e in b.events]
+
+
+def test_a_squat_block_one_runs_with_the_momentum_law(fmu):
+    """Housner's one-block coefficient is negative for b/h > sqrt(2), but a stack's law 0 is the plastic
+    impact (no coefficient): a squat plinth is no reason to refuse the stack."""
+    res = run(fmu, {**stack_params((0.6, 0.2, 300.0, 0.2, 0.5, 50.0), 0.6, 0.6), **pulse(8.0, 2.0)}, 2.0)
+    assert res.outputs["block2.maxAbsSlip"][-1] + abs(res.outputs["block2.theta"]).max() > 0
 
 
 def test_a_wider_block_two_is_refused_in_one_line(fmu):
