@@ -26,8 +26,14 @@ OVERTURN = {"excitation.kind": 1, "excitation.amplitude": 4.0, "excitation.frequ
 # two stacked blocks leaning opposite ways on a shaking table: ground and interface impacts, pattern changes
 STACK = {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": -0.08, "excitation.kind": 3,
          "excitation.frequency": 2.0, "excitation.displacement": 0.04, "excitation.cycles": 0}
+# a statue on a plinth that slides on the floor (the rocking-sliding stack): slides, slide-rocks, impacts
+SLIDING_STACK = {"nBlocks": 2, "contact.model": 1, "block1.halfWidth": 0.3, "block1.halfHeight": 0.5,
+                 "block1.mass": 450.0, "block2.halfWidth": 0.2, "block2.halfHeight": 0.8, "block2.mass": 690.0,
+                 "block1.theta0": 0.0, "contact.muGround": 0.5, "contact.muInterface": 0.5, "excitation.kind": 1,
+                 "excitation.amplitude": 6.0, "excitation.frequency": 2.0}
 STATE1 = ["block1.theta", "block1.omega"]
 STATE2 = STATE1 + ["block2.theta", "block2.omega"]
+SLIPS = STATE2 + ["block1.slip", "block2.slip", "block1.slipRate", "groundWork", "impactLoss"]
 # the events that end an early-returning step (the FMI 2.0 log's kinds); peaks and rest lines are not
 # events of their own (a rest is logged with the impact it comes with)
 STOPPING = {"impact", "uplift", "overturn", "settle", "open"}
@@ -182,8 +188,8 @@ def test_early_return_at_every_event_of_the_fmi2_run(fmu, fmu3, params, event_mo
 
 
 @pytest.mark.parametrize("scene,names", [(FREE, STATE1), (PULSE, STATE1), (STACK, STATE2),
-                                         ({**PULSE, "solver.method": 1}, STATE1)],
-                         ids=["free", "pulse", "two-blocks", "pulse-taylor"])
+                                         ({**PULSE, "solver.method": 1}, STATE1), (SLIDING_STACK, SLIPS)],
+                         ids=["free", "pulse", "two-blocks", "pulse-taylor", "sliding-stack"])
 @pytest.mark.parametrize("mode", [dict(), dict(early=True), dict(early=True, event_mode=True)],
                          ids=["plain", "early", "early+events"])
 def test_trajectories_equal_the_fmi2_fmu(fmu, fmu3, scene, names, mode):
