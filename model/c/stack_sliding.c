@@ -121,8 +121,6 @@ static void pattern_matrix(const Model *M, const Kin *k, const StackPattern *p, 
 
 /* Gaussian elimination with partial pivoting; 0 if singular. */
 static int solve_linear(double A[NX][NX], double b[NX], double x[NX]) {
-    int perm[NX];
-    for (int i = 0; i < NX; i++) perm[i] = i;
     for (int c = 0; c < NX; c++) {
         int piv = c;
         double best = fabs(A[c][c]);
@@ -151,7 +149,6 @@ static int solve_linear(double A[NX][NX], double b[NX], double x[NX]) {
         for (int j = r + 1; j < NX; j++) s -= A[r][j] * x[j];
         x[r] = s / A[r][r];
     }
-    (void)perm;
     return 1;
 }
 

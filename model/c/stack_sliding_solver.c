@@ -189,6 +189,8 @@ void ss_initialize(Model *M) {
     S->densePat = S->pat;
 }
 
+/* The ground moves the stack at rest at time t: the pattern that starts is chosen as at any event
+ * (its corners and slip signs among the candidates, so the side find_uplift reports is not needed). */
 static void start_moving(Model *M, double t, int side, const Logger *log) {
     State *S = &M->s;
     double q[4] = {0}, w[4] = {0};
