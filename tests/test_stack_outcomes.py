@@ -297,3 +297,32 @@ def test_bad_damage_states_and_blocks_are_one_line_errors(db, fmu_path, tmp_path
     p = run_cli(*args, "--out", str(tmp_path / "x.png"), db=db, fmu_path=fmu_path)
     assert p.returncode != 0 and p.stdout == ""
     assert p.stderr.startswith("error: ") and p.stderr.count("\n") == 1 and words in p.stderr, p.stderr
+
+
+def test_a_sliding_stack_recording_draws_block_two_where_both_contacts_slid(tmp_path, fmu_path):
+    """A squat box on a plinth, both sliding flat (mu 0.2 on the floor, 0.1 between them): the
+    recording holds block 2's slip, and draws its base's centre at block 1's slip plus its own."""
+    from test_recording import column, read_back
+
+    stack = {**SLIDING, "block2.halfWidth": 0.25, "block2.halfHeight": 0.3, "block2.mass": 100.0,
+             "contact.muGround": 0.2, "contact.muInterface": 0.1}
+    rrd = tmp_path / "stack.rrd"
+    r = runners.simulate(scene(stack, 3.0, 1.0), recording=rrd, fmu=fmu_path)
+    s1, s2 = r.series["block1.slip"].to_numpy(), r.series["block2.slip"].to_numpy()
+    th1, th2 = r.series["block1.theta"].to_numpy(), r.series["block2.theta"].to_numpy()
+    assert np.abs(s1).max() > 0.01 and np.abs(s2).max() > 0.01 and not th1.any() and not th2.any()
+    table = read_back(rrd)
+    _, rows = column(table, "/block2/slip")
+    np.testing.assert_array_equal(np.array([row[1][0] for row in rows]), s2)
+    time_ = r.series.index.to_numpy() if "time" not in r.series.columns else r.series["time"].to_numpy()
+    ft, frames = column(table, "/scene/block2", "LineStrips2D:strips")
+    _, ground = column(table, "/scene/ground", "LineStrips2D:strips")
+    far = 0
+    for tf, (_, strips), (_, g) in zip(ft, frames, ground):
+        i = int(np.argmin(np.abs(time_ - tf)))
+        corners = np.array(strips[0])
+        base_x = 0.5 * (corners[0][0] + corners[1][0])
+        line = np.array(g[0])
+        assert base_x - 0.5 * (line[0][0] + line[1][0]) == pytest.approx(s1[i] + s2[i], abs=2e-6), tf
+        far += abs(s1[i] + s2[i]) > 0.01
+    assert far > 0

@@ -8,7 +8,8 @@ A recording holds, on the ``sim_time`` timeline (s):
   (+1 right corner, -1 left, 0 flat; ``/block2/pivot`` likewise);
 - for a rocking-sliding run (contact.model = 1): ``/block1/slip`` (m, +x), ``/block1/slip_rate``
   (m/s) and ``/block1/mode`` (0 rest, 1 slide, 2 rock, 3 slide-rock, 4 overturned), with a plot
-  of the slip and its rate;
+  of the slip and its rate; for a stack also ``/block2/slip``, ``/block2/slip_rate`` (along block
+  1's top, relative to it) and ``/block2/mode`` (5: fell off);
 - ``/events``: impacts, uplift, rest, settling (lock), opening (unlock) and
   overturn as text entries with their values, at their times (events at
   one instant share an entry, separated by "; ");
@@ -65,7 +66,9 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
     bottom centre at rest, and each block's pivot (n, 2): block 1's corner on the ground, block 2's
     end of the contact on block 1. Block 1 stands where it has slid: its pivot corner at
     x = slip + s b (s = +1 right, -1 left; ``block1.slip`` in m, +x, 0 when `out` has none), the
-    outline rotated by theta about it, so the base's centre is at x = slip + s b (1 - cos theta)."""
+    outline rotated by theta about it, so the base's centre is at x = slip + s b (1 - cos theta).
+    Block 2 stands on block 1 where it has slid along its top: its pivot at s2 c + ``block2.slip``
+    in block 1's frame (c = min(b1, b2); the slip 0 when `out` has none)."""
     b1, h1 = p["block1.halfWidth"], p["block1.halfHeight"]
     th1 = out["block1.theta"]
     slip = np.asarray(out.get("block1.slip", np.zeros(len(time))), float)
@@ -85,6 +88,7 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
         b2, h2 = p["block2.halfWidth"], p["block2.halfHeight"]
         c = min(b1, b2)
         th2 = out["block2.theta"]
+        slip2 = np.asarray(out.get("block2.slip", np.zeros(len(time))), float)
         s2 = np.where(th2 - th1 >= 0, 1.0, -1.0)
         rect2 = np.array([[-b2, 0], [b2, 0], [b2, 2 * h2], [-b2, 2 * h2], [-b2, 0]])
         pts2, K2 = np.empty((len(time), 5, 2)), np.empty((len(time), 2))
@@ -94,7 +98,11 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
                 if not m.any():
                     continue
                 P1 = np.array([side1 * b1, 0.0])
-                K = P1 + _rot(th1[m], np.array([[side2 * c, 2 * h1]]) - P1)[:, 0, :]  # pivot of block 2
+                # block 2's pivot in block 1's frame, relative to block 1's pivot, then turned with it
+                arm = np.stack([side2 * c + slip2[m] - side1 * b1, np.full(int(m.sum()), 2 * h1)], 1)
+                cth, sth = np.cos(th1[m])[:, None], np.sin(th1[m])[:, None]
+                K = P1 + np.hstack([cth * arm[:, :1] + sth * arm[:, 1:], -sth * arm[:, :1] + cth * arm[:, 1:]])
+                K[:, 0] += slip[m]
                 body = rect2 - np.array([side2 * c, 0.0])  # block 2's outline about its pivot
                 pts2[m] = K[:, None, :] + _rot(th2[m], body)
                 K2[m] = K
@@ -204,7 +212,8 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
                 rrb.TimeSeriesView(name="friction demand |T|/N against mu", contents=["/contact/**"],
                                    axis_y=y_axis("demand")),
                 *([rrb.TimeSeriesView(name="slip (m), slip rate (m/s)",
-                                      contents=["/block1/slip", "/block1/slip_rate"], axis_y=y_axis("slip"))]
+                                      contents=["/block1/slip", "/block1/slip_rate", "/block2/slip",
+                                                "/block2/slip_rate"], axis_y=y_axis("slip"))]
                   if sliding else []),
             ),
             column_shares=[2, 3],
@@ -247,8 +256,9 @@ SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/bl
           "/block2/theta": "block2.theta", "/block2/omega": "block2.omega", "/block2/alpha_dd": "block2.alpha_dd",
           "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy",
           # rocking-sliding (contact.model = 1): m, m/s, and the mode (0 rest ... 4 overturned)
-          "/block1/slip": "block1.slip", "/block1/slip_rate": "block1.slipRate", "/block1/mode": "block1.mode"}
-SHADES = {"/block1/slip_rate": 0.6, "/block1/mode": 0.4}  # lighter than the block's colour, in the same plot
+          "/block1/slip": "block1.slip", "/block1/slip_rate": "block1.slipRate", "/block1/mode": "block1.mode",
+          "/block2/slip": "block2.slip", "/block2/slip_rate": "block2.slipRate", "/block2/mode": "block2.mode"}
+SHADES = {"/block1/slip_rate": 0.6, "/block1/mode": 0.4, "/block2/slip_rate": 0.6, "/block2/mode": 0.4}  # lighter than the block's colour, in the same plot
 
 
 def record_text(info: dict[str, Any], scale: float) -> str:
@@ -322,7 +332,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
         ranges["demand"] = (0.0, 2.0 * max(mu for _, mu in demand.values()))
     sliding = "block1.slip" in out
     if sliding:
-        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate")
+        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate",
+                                                                          "block2.slip", "block2.slipRate")
                                       if k in out])
     rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges,
                                                      sliding))
