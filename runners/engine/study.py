@@ -643,10 +643,12 @@ def censored_note(oc: Outcomes) -> str | None:
     n = int(np.sum(oc.gone2 & ~np.asarray(oc.over1, bool)))
     if not n:
         return None
-    how = "overturned or fell off block 1" if oc.fell_off is not None else "fell off"
+    sliding = oc.fell_off is not None
+    how = "overturned or fell off block 1" if sliding else "fell off"
+    page = "docs/stack_sliding.md" if sliding else "docs/two_blocks.md"
     return (f"in {n} of {len(oc.x)} runs block 2 {how} first and the run ended there (the model has no contact "
-            "for a fallen block, docs/two_blocks.md): block 1's peak and overturning are those up to that moment, "
-            "so a block 1 state counts it being reached before block 2 fell off")
+            f"for a fallen block, {page}): block 1's peak and overturning are those up to that moment, "
+            f"so a block 1 state counts it being reached before block 2 {how}")
 
 
 def state_notes(state: DamageState, oc: Outcomes) -> list[str]:
@@ -836,8 +838,8 @@ def curves_figure(cs: list[Curve]):
              "likelihood (Baker 2015)"] if several else []) + [f"intervals: {m}" for m in methods]
     cut = [c.outcomes for c in cs if state_notes(c.state, c.outcomes)]
     if cut:
-        foot.append("block 1 states: where block 2 overturned or fell off first the run ended there (docs/two_blocks.md), "
-                    "so they count block 1 reaching the state before that")
+        foot.append("block 1 states: where block 2 overturned or fell off first the run ended there (docs/two_blocks.md, "
+                    "docs/stack_sliding.md), so they count block 1 reaching the state before that")
     foot += [f"no fit ({c.state.spec}" + (f", {c.outcomes.combination_text()}" if c.outcomes.combination else "")
              + f"): {c.why}" for c in cs if c.fragility is None]
     text = "\n".join(line for f in foot for line in textwrap.wrap(f, 150)) or ""
