@@ -630,7 +630,11 @@ def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = Non
             try:
                 out.append(Curve(oc, ds, y, fit(oc.x, y, np.array(oc.record), oc.unit)))
             except FragilityError as exc:
-                why = str(exc) if ds.kind == "overturn" else str(exc).replace("overturned", "reached it")
+                why = str(exc) if ds.kind == "overturn" else (
+                    str(exc).replace("overturned", f"reached {ds.spec}")
+                    .replace("where blocks stand to where they fall", "where no run reaches it to where runs do")
+                    .replace(" stands and every run", " stays short of it and every run")
+                    .replace(" falls, so", " reaches it, so"))
                 out.append(Curve(oc, ds, y, None, why))
     return out
 
