@@ -181,10 +181,8 @@ void ss_initialize(Model *M) {
         S->sigma = p.g.sigma;
         if (p.g.sigma) S->slideStarts = 1, S->slideSince = S->slideStartTime1 = S->slideTime = S->t;
         if (p.i.sigma) S->slideStarts2 = 1, S->slideSince2 = S->slideStartTime2 = S->slideTime = S->t;
-    } else { /* no consistent pattern at the start: flight, reported at the first step */
-        S->mode = MODE_BOTH;
-        S->pat.g.flat = S->pat.i.flat = 0;
-        S->pending = EVENT_FLIGHT;
+    } else { /* no consistent pattern at the start: flight (outside the model), the run ends there */
+        finish(M, EVENT_FLIGHT, NULL);
     }
     S->densePat = S->pat;
 }
@@ -425,7 +423,6 @@ static int take_step(Model *M, const Logger *log) {
     SCtx c = context(M, &S->pat, S->t, S->y);
     const StackPattern *p = &c.p;
     int hitBp, n = components(&c);
-    if (S->pending == EVENT_FLIGHT) return 0;
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext;
     /* error control: angles and their rates as the rigid stack; slips in units of the pair's
@@ -552,10 +549,7 @@ static int take_step(Model *M, const Logger *log) {
         hitBp = 0;
     }
 
-    S->maxPrev = S->maxAbsTheta;
-    S->maxPrev2 = S->maxAbsTheta2;
-    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
-    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_abs_max(cont, 2, 1.0), fabs(y1[2])));
+    stack_track_peaks(S, (const double(*)[NMAX])cont, y1);
     if (!c.fast) {
         S->maxAbsSlip = fmax(S->maxAbsSlip, fmax(dense_abs_max(cont, SS_U1, 1.0), fabs(y1[SS_U1])));
         S->maxAbsSlip2 = fmax(S->maxAbsSlip2, fmax(dense_abs_max(cont, SS_U2, 1.0), fabs(y1[SS_U2])));

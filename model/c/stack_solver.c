@@ -415,10 +415,7 @@ static int take_step(Model *M, const Logger *log) {
         hitBp = 0;
     }
 
-    S->maxPrev = S->maxAbsTheta;
-    S->maxPrev2 = S->maxAbsTheta2;
-    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
-    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_abs_max(cont, 2, 1.0), fabs(y1[2])));
+    stack_track_peaks(S, (const double(*)[NMAX])cont, y1);
     S->tOld = S->t;
     S->hDense = hStep;
     memcpy(S->cont, cont, sizeof(cont));
@@ -479,6 +476,13 @@ static int state_at(const Model *M, double tc, double y[4], int *s1, int *s2, do
     *s1 = S->denseSide;
     *s2 = S->denseSide2;
     return 1;
+}
+
+void stack_track_peaks(State *S, const double cont[5][NMAX], const double *y1) {
+    S->maxPrev = S->maxAbsTheta;
+    S->maxPrev2 = S->maxAbsTheta2;
+    S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
+    S->maxAbsTheta2 = fmax(S->maxAbsTheta2, fmax(dense_abs_max(cont, 2, 1.0), fabs(y1[2])));
 }
 
 void stack_counter_outputs(const Model *M, Variables *v, double ah, double av) {

@@ -26,6 +26,9 @@ int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop);
  * the most settled admissible one (locked, upper, both), from theta = omega = 0. */
 Mode stack_start_pattern(const Model *M, double t, int side);
 void stack_outputs(Model *M, double tc);
+/* After a step with dense output cont ending at y1: the largest |theta1|, |theta2| so far, and
+ * those before the step (for outputs inside it). Both stack models. */
+void stack_track_peaks(State *S, const double cont[5][NMAX], const double *y1);
 /* The outputs both stack models take from the state as they are: counters, times, flags, pattern
  * and the ground's accelerations (ah, av) at the output time. */
 void stack_counter_outputs(const Model *M, Variables *v, double ah, double av);
