@@ -74,7 +74,8 @@ def test_killed_sweeps_resume_to_every_point_once(db_url, fmu_path):
     open_database(db)
     env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": db}
     cmd = [sys.executable, "-m", "runners.cli", "sweep", "--quiet"]
-    args = [str(SCENE), "--grid", "w=1:12:100", "--grid", "a=1.01:8:100", "--workers", "2"]
+    # 100,000 points: a transaction every half second leaves most of them to each resume
+    args = [str(SCENE), "--grid", "w=1:12:100", "--grid", "a=1.01:8:1000", "--workers", "2"]
     before = 0
     for attempt in range(3):  # start (or resume), wait for a batch or more to land, then SIGKILL everything
         proc = subprocess.Popen(cmd + (args if attempt == 0 else ["--resume", "1"]), cwd=ROOT, env=env,
@@ -89,11 +90,11 @@ def test_killed_sweeps_resume_to_every_point_once(db_url, fmu_path):
     assert n == distinct and n < total  # partial, no duplicates
     p = sweep_cmd("--resume", "1", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
-    assert counts(db) == (10000, 10000, 10000)
+    assert counts(db) == (100_000, 100_000, 100_000)
     factory = open_database(db)
     with factory() as s:
-        assert s.scalar(select(func.count()).select_from(RunSummary)) == 10000
-        assert s.get(Sweep, 1).done == 10000 and s.get(Sweep, 1).status == "done"
+        assert s.scalar(select(func.count()).select_from(RunSummary)) == 100_000
+        assert s.get(Sweep, 1).done == 100_000 and s.get(Sweep, 1).status == "done"
     assert integrity_ok(factory.kw["bind"])
 
 
@@ -192,8 +193,9 @@ def _store_as_another_resume(factory, source: int, sweep_id: int, indices: list[
 def test_two_resumes_of_one_sweep_share_its_points(db_url, fmu, fmu_path):
     """Two `runners sweep ID` at once compute the same points; each stores those the other has
     not. Made deterministic: the other resume stores some of the points right before each of this
-    one's first two inserts (an event on this one's engine), which two real resumes did in 2 of 4
-    tries, and which failed with "UNIQUE constraint failed: runs.sweep_id, runs.grid_index"."""
+    one's first two stores begin (the update of the sweep's count, the first statement of each,
+    seen by an event on this one's engine), which two real resumes did in 2 of 4 tries, and which
+    failed with "UNIQUE constraint failed: runs.sweep_id, runs.grid_index"."""
     from sqlalchemy import event
 
     from runners.engine.scene import load_scene
@@ -208,7 +210,7 @@ def test_two_resumes_of_one_sweep_share_its_points(db_url, fmu, fmu_path):
     its_stores = [[0, 1, 2], [3, 4, 5]]
 
     def other_resume_stores(_conn, _cursor, statement, *_args) -> None:
-        if statement.lstrip().upper().startswith("INSERT INTO RUNS ") and its_stores:
+        if statement.lstrip().upper().startswith("UPDATE SWEEPS SET DONE") and its_stores:
             _store_as_another_resume(other, twin, sweep_id, its_stores.pop(0))
 
     engine = factory.kw["bind"]

@@ -100,8 +100,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     skipped = f", {st['skipped']} already stored by another process" if st["skipped"] else ""
     print(f"sweep {sweep_id}: {st['stored']}/{st['total']} points stored ({st['ran'] - st['skipped']} now, "
           f"{st['errors']} failed{skipped}) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
-          f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms, Python bookkeeping "
-          f"{1e3 * st['python_seconds'] / n:.3f} ms in the main process")
+          f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms ({1e3 * st['db_cpu_seconds'] / n:.3f} ms of CPU), "
+          f"Python bookkeeping {1e3 * st['python_seconds'] / n:.3f} ms in the main process")
+    if st.get("batch_unavailable") and st["ran"]:
+        print(f"note: the points ran one FMI call at a time through fmpy, not in the C batch loop "
+              f"({st['batch_unavailable']}): the same results, slower")
     if st["recorded"]:
         print(f"recorded {st['recorded']} points in full in {folder}")
     return 0

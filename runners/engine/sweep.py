@@ -25,8 +25,11 @@ each record's samples once and read them as a file (runners.engine.record_files)
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import hashlib
 import math
 import os
+import sqlite3
 import sys
 import tempfile
 import threading
@@ -37,56 +40,21 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 import numpy as np
-from sqlalchemy import func, insert, select, update
+from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 
-from db.schema import Excitation, Run, RunSeries, RunSummary, Scene, Sweep
-from db.series import pack as pack_series
+from db.schema import Run, RunSeries, Scene, Sweep
 from db.store import add_scene, code_version, file_sha256
-from runners.engine.fmu import FMUError, RockingFMU, with_scene_defaults
-from runners.engine.intensity import G0, SCALING
-from runners.engine.motion import (SLIP_OUTPUTS, STACK_SLIP_OUTPUTS, contact_model_value, rocking_sliding,
-                                   slip_summary, stack_slip_summary)
-from runners.engine.scene import KINDS, MAX_PGA_G, unused_parameter
+from runners.engine.fmu import FMUError, RockingFMU
+from runners.engine.grid import IM_UNITS, Axis, Grid, Intensity, RecordRef, parse_intensity, scales  # noqa: F401
+from runners.engine import batch as batch_lib
+from runners.engine.motion import contact_model_value, rocking_sliding
+from runners.engine.scene import KINDS, unused_parameter
+from runners.engine.sweep_store import RunConstants, series_row, store
+from runners.engine.sweep_worker import Chunk, Setup, run_chunk, run_points, start_worker
 from runners.errors import RockingError
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
-ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest",
-       "slideTime", "liftTime", "friction.demandMaxGround", "contact.normalMinGround", "friction.impulseDemandMax", "fallTime"]
-TWO = ["block2.maxAbsTheta", "impactsGround", "impactsInterface", "block1.overturned", "block2.overturned",
-       "friction.demandMaxInterface", "contact.normalMinInterface"]
-
-
-@dataclass(frozen=True)
-class Axis:
-    name: str  # "w", "a" or an FMU parameter
-    start: float
-    stop: float
-    count: int
-    integer: bool = False  # an Integer FMU parameter: every value a whole number, given to the FMU as an int
-
-    @property
-    def values(self) -> np.ndarray:
-        return np.array([self.value(i) for i in range(self.count)]) if self.integer \
-            else np.linspace(self.start, self.stop, self.count)
-
-    def value(self, i: int) -> float | int:
-        """values[i], computed alone (a grid point must not cost the whole axis), bit for bit."""
-        v = _linspace_at(self.start, self.stop, self.count, i)
-        return int(round(v)) if self.integer else v
-
-
-def _linspace_at(start: float, stop: float, count: int, i: int) -> float:
-    """np.linspace(start, stop, count)[i], by numpy's own arithmetic."""
-    if count == 1:
-        return float(start)
-    if i == count - 1:
-        return float(stop)
-    step = (stop - start) / (count - 1)
-    if step == 0:
-        return float(i / (count - 1) * (stop - start) + start)
-    return float(i * step + start)
-
 
 def axis_parameters(fmu: RockingFMU) -> dict[str, str]:
     """The FMU parameters a --grid axis may set, name -> type ("Real" or "Integer")."""
@@ -181,140 +149,6 @@ def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
         if all(whys):
             raise ValueError(f"--grid {ax.name}: {whys[0]}, so every point would be the same")
 
-
-def scales(p: dict[str, Any]) -> tuple[float, float]:
-    """(p, uplift acceleration) of the scene: rad/s and m/s^2 per unit of w and a."""
-    b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
-    pf = math.sqrt(3 * g / (4 * math.hypot(b, h)))
-    if int(p.get("nBlocks", 1)) == 2:
-        b2, h2, m1, m2 = p["block2.halfWidth"], p["block2.halfHeight"], p["block1.mass"], p["block2.mass"]
-        y_g = (m1 * h + m2 * (2 * h + h2)) / (m1 + m2)
-        return pf, g * min(b / y_g, min(b, b2) / h2)
-    return pf, g * b / h
-
-
-IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0)}  # --im measure: unit of its levels, factor to SI
-# levels beyond these are a mistake of units, not an earthquake (the largest recorded PGA is
-# about 4 g, the largest PGV about 3 m/s)
-IM_LIMITS = {"pga": MAX_PGA_G, "pgv": 10.0}
-
-
-@dataclass(frozen=True)
-class Intensity:
-    """--im MEASURE=START:STOP:COUNT: each record scaled so that MEASURE takes COUNT values."""
-
-    measure: str  # pga (levels in g) or pgv (m/s)
-    start: float
-    stop: float
-    count: int
-
-    @property
-    def unit(self) -> str:
-        return IM_UNITS[self.measure][0]
-
-    @property
-    def values(self) -> np.ndarray:
-        """The levels, in self.unit (12 significant digits: 0.8, not 0.7999999999999999)."""
-        return np.array([self.level(i) for i in range(self.count)])
-
-    def level(self, i: int) -> float:
-        """values[i], computed alone."""
-        return float(f"{_linspace_at(self.start, self.stop, self.count, i):.12g}")
-
-    def si(self, level: float) -> float:
-        return level * IM_UNITS[self.measure][1]
-
-
-def parse_intensity(spec: str) -> Intensity:
-    """pga=START:STOP:COUNT (g) or pgv=START:STOP:COUNT (m/s), levels above zero."""
-    name, eq, rng = spec.partition("=")
-    parts = rng.split(":")
-    name = name.strip().lower()
-    if not eq or len(parts) != 3 or name not in IM_UNITS:
-        raise ValueError(f"--im {spec!r}: expected pga=START:STOP:COUNT (in g) or pgv=START:STOP:COUNT (in m/s)")
-    try:
-        start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
-    except ValueError:
-        raise ValueError(f"--im {spec!r}: START and STOP must be numbers and COUNT an integer") from None
-    if count < 1 or not (math.isfinite(start) and math.isfinite(stop) and start > 0 and stop > 0):
-        raise ValueError(f"--im {spec!r}: levels must be finite and above zero, COUNT at least 1")
-    unit, limit = IM_UNITS[name][0], IM_LIMITS[name]
-    if max(start, stop) > limit:
-        raise ValueError(f"--im {spec!r}: {name} levels are in {unit}, and {max(start, stop):g} {unit} is beyond any "
-                         f"recorded earthquake (at most {limit:g} {unit} here)" + (": did you mean m/s2?"
-                                                                                  if name == "pga" else ""))
-    return Intensity(name, start, stop, count)
-
-
-@dataclass(frozen=True)
-class RecordRef:
-    """A record of a sweep, as the runner and its workers need it."""
-
-    id: int
-    name: str
-    sha256: str  # of its samples: workers read the file cached under this name
-    end: float  # s, time of its last sample
-    measures: dict  # intensity measures of the unscaled record (SI; runners.engine.intensity)
-
-
-@dataclass
-class Grid:
-    """The points of a sweep: records (optional), intensity levels (optional), then --grid axes."""
-
-    axes: list[Axis]
-    records: list[RecordRef] | None = None
-    intensity: Intensity | None = None
-
-    @property
-    def counts(self) -> list[int]:
-        return ([len(self.records)] if self.records else []) + ([self.intensity.count] if self.intensity else []) \
-            + [ax.count for ax in self.axes]
-
-    @property
-    def total(self) -> int:
-        return math.prod(self.counts)
-
-    def point(self, index: int, base: dict[str, Any]) -> tuple[dict, dict, RecordRef | None]:
-        """(grid values, FMU parameter overrides, record) of the flat grid index (last axis fastest).
-        A record's file is given as "@SHA256" (each worker knows where it keeps that file)."""
-        idx = list(np.unravel_index(index, self.counts))
-        values: dict[str, Any] = {}
-        over: dict[str, Any] = {}
-        rec = None
-        if self.records:
-            rec = self.records[idx.pop(0)]
-            values.update(record=rec.name, record_id=rec.id)
-            over.update({"excitation.kind": 4, "excitation.file": f"@{rec.sha256}"})
-        if self.intensity:
-            level = self.intensity.level(idx.pop(0))
-            values.update(level=level, level_measure=self.intensity.measure, level_unit=self.intensity.unit)
-            over["excitation.scale"] = self.intensity.si(level) / rec.measures[self.intensity.measure]
-        on_axes = {ax.name: ax.value(i) for ax, i in zip(self.axes, idx)}
-        values.update(on_axes)
-        over.update({k: v for k, v in on_axes.items() if k not in ("w", "a")})
-        merged = {**base, **over}
-        pf, acc = scales(merged)
-        if "w" in values:
-            over["excitation.frequency"] = values["w"] * pf / (2 * math.pi)
-        if "a" in values:
-            if int(merged.get("excitation.kind", 0)) == KINDS["harmonic"]:  # its peak is D (2 pi f)^2
-                f = over.get("excitation.frequency", merged.get("excitation.frequency"))
-                over["excitation.displacement"] = values["a"] * acc / (2 * math.pi * f) ** 2
-            else:
-                over["excitation.amplitude"] = values["a"] * acc
-        if rec is not None:  # the scaled record's measures, for fragility and IDA
-            scale = float(merged.get("excitation.scale", 1.0))
-            values["scale"] = scale
-            for k, v in rec.measures.items():
-                if v is not None and SCALING.get(k, 0):
-                    values[k] = abs(scale) ** SCALING[k] * v
-        return values, over, rec
-
-    def as_json(self) -> dict[str, Any]:
-        return {"axes": [[a.name, a.start, a.stop, a.count] + ([True] if a.integer else []) for a in self.axes],
-                "records": [r.id for r in self.records] if self.records else None,
-                "intensity": None if self.intensity is None else
-                [self.intensity.measure, self.intensity.start, self.intensity.stop, self.intensity.count]}
 
 
 # parameters of the built-in waveforms: a record ignores them, so a record sweep may not vary them
@@ -416,114 +250,6 @@ def stored_point_parameters(session, run: Run) -> dict[str, Any]:
 
 # ------------------------------------------------------------------ workers
 
-_LOCAL = threading.local()  # one worker state per thread (a Dask worker may run several threads)
-
-
-def _worker() -> dict[str, Any]:
-    return _LOCAL.state
-
-
-def _start_worker(fmu_path: str, unzipdir: str, base: dict, stop_time: float, step: float, two: bool,
-                  files: dict[str, str] | None = None) -> None:
-    """Set up this thread's FMU instance for the points of one sweep; `files` maps a record's
-    sha256 to the file this worker reads it from."""
-    fmu = RockingFMU(fmu_path, unzipdir)
-    errors: list[str] = []
-    slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
-                                logging_on=False)
-    slips = SLIP_OUTPUTS + (STACK_SLIP_OUTPUTS if two else [])
-    names = ONE + (TWO if two else []) + [n for n in slips if n in fmu.vars]  # (an FMU without sliding lacks them)
-    # base: the scene's parameters; the FMU's start values fill the rest, but for SCENE_DEFAULTS
-    _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=with_scene_defaults(base),
-                        stop=stop_time, step=step,
-                        names=names, vrs={n: fmu.variable(n) for n in names}, files=files or {})
-
-
-def _local_files(over: dict) -> dict:
-    """The overrides with a record's "@SHA256" replaced by this worker's file of it."""
-    f = over.get("excitation.file")
-    if isinstance(f, str) and f.startswith("@"):
-        return {**over, "excitation.file": _worker()["files"][f[1:]]}
-    return over
-
-
-def _set_all(fmu: RockingFMU, slave, params: dict) -> None:
-    """All parameters in one call per type (each call through ctypes costs microseconds)."""
-    by_type: dict[str, tuple[list, list]] = {"Real": ([], []), "Integer": ([], []), "Boolean": ([], []),
-                                             "String": ([], [])}
-    cast = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
-    for name, value in params.items():
-        v = fmu.variable(name)
-        vrs, vals = by_type[v.type]
-        vrs.append(v.valueReference)
-        vals.append(cast[v.type](value))
-    setters = {"Real": slave.setReal, "Integer": slave.setInteger, "Boolean": slave.setBoolean,
-               "String": slave.setString}
-    for typ, (vrs, vals) in by_type.items():
-        if vrs:
-            setters[typ](vrs, vals)
-
-
-@dataclass
-class Recorded:
-    """A grid point simulated in full: its series, events and the recording written by the worker."""
-
-    time: np.ndarray
-    outputs: dict[str, np.ndarray]
-    events: list[dict]
-    path: str
-
-
-def _record_point(over: dict, stop: float, path: str, name: str, record: dict | None) -> tuple[dict, Recorded]:
-    """Simulate one point with output at every communication step and write its recording
-    (in this worker process, to its own file: recordings never wait for each other)."""
-    from runners.engine.recording import write_recording
-    from runners.engine.summary import SUMMARY_OUTPUTS, sliding_outputs
-
-    w = _worker()
-    fmu = w["fmu"]
-    params = {**w["base"], **over}
-    own = sliding_outputs(params)  # a sliding point's recording draws its slip
-    res = fmu.run(params, stop, min(w["step"], stop),
-                  outputs=list(dict.fromkeys([*SUMMARY_OUTPUTS, *own, *w["names"]])))
-    write_recording(Path(path), name, res.time, res.outputs, {**fmu.defaults(), **params}, res.events,
-                    record=record)
-    out = {n: res.outputs[n][-1] for n in w["names"]}
-    return out, Recorded(res.time, res.outputs, [e.as_dict() for e in res.events], str(Path(path).resolve()))
-
-
-def _run_point(task: tuple) -> tuple[int, dict | None, float, str | None, Recorded | None]:
-    """One grid point: (index, FMU overrides, None or (recording path, name, record info),
-    stop time or None for the sweep's) -> (index, final outputs or None, seconds, error or
-    None, Recorded or None)."""
-    index, over, record, stop = task
-    w = _worker()
-    s, fmu = w["slave"], w["fmu"]
-    stop = w["stop"] if stop is None else stop
-    w["errors"].clear()
-    t0 = time.perf_counter()
-    try:
-        over = _local_files(over)
-        if record is not None:
-            out, rec = _record_point(over, stop, *record)
-            return index, out, time.perf_counter() - t0, None, rec
-        s.reset()
-        s.setupExperiment(startTime=0.0, stopTime=stop)
-        _set_all(fmu, s, {**w["base"], **over})
-        s.enterInitializationMode()
-        s.exitInitializationMode()
-        RockingFMU._step(s, 0.0, stop)  # with solver.stopAtOverturn it may end at the overturn
-        out = {}
-        for typ, get in (("Real", s.getReal), ("Integer", s.getInteger), ("Boolean", s.getBoolean)):
-            names = [n for n, v in w["vrs"].items() if v.type == typ]
-            if names:
-                out.update(zip(names, get([w["vrs"][n].valueReference for n in names])))
-        return index, out, time.perf_counter() - t0, None, None
-    except Exception as exc:  # the point fails, the sweep goes on
-        message = w["errors"][-1] if w["errors"] else str(exc)
-        return index, None, time.perf_counter() - t0, message.splitlines()[0] if message else "error", None
-
-
 def parse_points(spec: str, total: int) -> list[int]:
     """Grid indices from "3,17,40-45" or "all"; ValueError on anything outside 0..total-1."""
     if spec.strip() == "all":
@@ -542,35 +268,6 @@ def parse_points(spec: str, total: int) -> list[int]:
 
 
 # ------------------------------------------------------------------ driver
-
-def _summary(out: dict, merged: dict, two: bool) -> dict:
-    alpha1 = math.atan2(merged["block1.halfWidth"], merged["block1.halfHeight"])
-    row = {"peak1_over_alpha": out["block1.maxAbsTheta"] / alpha1, "peak2_over_alpha": None,
-           "overturned": bool(out["overturned"]), "overturned_blocks": None,
-           "overturn_time": out["overturnTime"] if out["overturned"] else None, "impacts": int(out["impacts"]),
-           "impacts_ground": None, "impacts_interface": None,
-           "rest_time": out["restTime"] if out["atRest"] and out["restTime"] >= 0 else None,
-           "slide_time": out["slideTime"] if out["slideTime"] >= 0 else None,
-           "lift_time": out["liftTime"] if out["liftTime"] >= 0 else None,
-           "friction_demand_max": out["friction.demandMaxGround"], "normal_min": out["contact.normalMinGround"],
-           "impulse_demand_max": out["friction.impulseDemandMax"],
-           "friction_demand_max_interface": None, "normal_min_interface": None}
-    row["assumptions_held"] = row["slide_time"] is None and row["lift_time"] is None
-    row["fall_time"] = out["fallTime"] if out["fallTime"] >= 0 else None
-    if rocking_sliding(merged):  # sliding is the model's now: only a lift-off (flight) is outside it
-        row.update(stack_slip_summary(out) if two else slip_summary(out))
-        row["assumptions_held"] = row["lift_time"] is None
-    if two:
-        alpha2 = math.atan2(merged["block2.halfWidth"], merged["block2.halfHeight"])
-        row.update(friction_demand_max_interface=out["friction.demandMaxInterface"],
-                   normal_min_interface=out["contact.normalMinInterface"])
-        row.update(peak2_over_alpha=out["block2.maxAbsTheta"] / alpha2, impacts_ground=int(out["impactsGround"]),
-                   impacts_interface=int(out["impactsInterface"]),
-                   overturned_blocks=",".join(str(i) for i in (1, 2) if out[f"block{i}.overturned"]) or None)
-    elif out["overturned"]:
-        row["overturned_blocks"] = "1"
-    return row
-
 
 MAX_POINTS = 100_000_000  # grid points one sweep may have (about 40 GB in SQLite): split larger studies
 BYTES_PER_POINT = 400  # stored bytes of one point (run row, summary, index; 280 measured in SQLite)
@@ -667,6 +364,12 @@ class _Plan:
 
         return float(self.base.get("excitation.startTime", 0.0)) + rec.end + TAIL
 
+    def setup(self, batch: str | None, files: dict[str, str] | None = None) -> Setup:
+        """What the workers need (runners.engine.sweep_worker.Setup); `files`: the record files
+        as the workers see them (default: this machine's, self.files())."""
+        return Setup(self.params, self.grid, self.base, self.stop_time, self.step, self.two, self.stop_given,
+                     self.files() if files is None else files, batch)
+
     def files(self) -> dict[str, str]:
         """sha256 -> the record's file in this machine's record cache (written if missing)."""
         if not self.grid.records:
@@ -718,11 +421,7 @@ def _start_pool_worker(*args) -> None:
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
         if os.getppid() != parent:  # it died before the call
             os._exit(0)
-    _start_worker(*args)
-
-
-def _run_chunk(tasks: list) -> list[tuple]:
-    return [_run_point(t) for t in tasks]
+    start_worker(*args)
 
 
 class SweepError(RockingError, RuntimeError):
@@ -734,25 +433,35 @@ class _LocalExecutor:
     FMU. A worker that dies (killed, out of memory) stops the sweep with SweepError instead of
     hanging it; on an interruption the workers are stopped at once."""
 
-    def __init__(self, plan: _Plan, fmu_path: Path, workers: int):
+    def __init__(self, plan: _Plan, fmu_path: Path, workers: int, batch: str | None = None):
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = workers
         self.shared = RockingFMU(fmu_path)
         ctx = get_context("fork") if hasattr(os, "fork") else get_context()
         self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_start_pool_worker,
-                                        initargs=(str(fmu_path), self.shared.unzipdir, plan.params, plan.stop_time,
-                                                  plan.step, plan.two, plan.files()))
+                                        initargs=(str(fmu_path), self.shared.unzipdir, plan.setup(batch)))
+
+    def chunks(self, indices: np.ndarray, recorded: dict[int, tuple]):
+        """run_chunk of the grid points `indices` in pieces, as they finish; `recorded`: the
+        points to record in full, index -> (recording path, name, record info)."""
+        size = max(1, min(LOCAL_CHUNK, math.ceil(len(indices) / (4 * self.workers))))
+        return self._finished(self.pool.submit(run_chunk, t) for t in _split(indices, recorded, size))
 
     def results(self, tasks: list, size: int | None = None):
+        """run_point of each task (one point each, through fmpy), in lists of `size`, as they finish."""
+        size = size or max(1, min(64, len(tasks) // (self.workers * 8) or 1))
+        for done in self._finished(self.pool.submit(run_points, tasks[i:i + size])
+                                   for i in range(0, len(tasks), size)):
+            yield from done
+
+    def _finished(self, submitted):
         from concurrent.futures import as_completed
         from concurrent.futures.process import BrokenProcessPool
 
-        size = size or max(1, min(64, len(tasks) // (self.workers * 8) or 1))
         try:
-            futures = [self.pool.submit(_run_chunk, tasks[i:i + size]) for i in range(0, len(tasks), size)]
-            for future in as_completed(futures):
-                yield from future.result()
+            for future in as_completed(list(submitted)):
+                yield future.result()
         except BrokenProcessPool:
             raise SweepError("a worker process died (killed, or out of memory)") from None
 
@@ -775,11 +484,6 @@ def _recording_task(plan: _Plan, index: int, record_dir: Path, rec: RecordRef | 
     return (str(Path(record_dir) / f"point-{index}.rrd"),
             f"{plan.scene_name} (sweep {plan.sweep_id}, point {index})",
             None if rec is None else plan.infos[rec.id])
-
-
-def _series_row(run_id: int, rec: Recorded) -> dict:
-    names, n, blob = pack_series(rec.time, rec.outputs)
-    return {"run_id": run_id, "names": names, "n_samples": n, "data": blob, "events": rec.events}
 
 
 @contextlib.contextmanager
@@ -817,13 +521,15 @@ def _stored_among(factory, sweep_id: int, lo: int, hi: int) -> set[int]:
 _DASK_FMUS: dict[str, RockingFMU] = {}  # FMU sha256 -> its extraction, once per Dask worker process
 _DASK_FILES: dict[str, str] = {}  # record sha256 -> its file, written once per Dask worker process
 _DASK_LOCK = threading.Lock()
+_DASK_LOCAL = threading.local()  # the sweep setup each thread of a Dask worker has started
 
 
-def _dask_chunk(fmu_bytes: bytes, sha: str, params: dict, stop: float, step: float, two: bool,
-                tasks: list, record_files: dict[str, bytes] | None = None) -> list[tuple]:
+def _dask_chunk(fmu_bytes: bytes, sha: str, setup: Setup, key: str, task: tuple,
+                record_files: dict[str, bytes] | None = None, batch_bytes: bytes | None = None) -> Chunk:
     """Run a chunk of grid points on a Dask worker. The FMU arrives as bytes (the workers
     need this package, not a build of the FMU) and is extracted once per worker process;
-    so do the sweep's record files (sha256 -> their bytes), written once per process."""
+    so do the sweep's record files (sha256 -> their bytes) and the batch library, written
+    once per process. `key` names the sweep's setup: a thread sets up its instance once."""
     with _DASK_LOCK:
         if sha not in _DASK_FMUS:
             folder = Path(tempfile.mkdtemp(prefix="rocking-fmu-"))
@@ -834,13 +540,20 @@ def _dask_chunk(fmu_bytes: bytes, sha: str, params: dict, stop: float, step: flo
                 path = Path(tempfile.mkdtemp(prefix="rocking-record-")) / f"{rsha}.txt"
                 path.write_bytes(data)
                 _DASK_FILES[rsha] = str(path)
+        lib = None
+        if batch_bytes is not None:
+            bsha = hashlib.sha256(batch_bytes).hexdigest()
+            if bsha not in _DASK_FILES:
+                path = Path(tempfile.mkdtemp(prefix="rocking-batch-")) / "rocking_batch.so"
+                path.write_bytes(batch_bytes)
+                _DASK_FILES[bsha] = str(path)
+            lib = _DASK_FILES[bsha]
     fmu = _DASK_FMUS[sha]
-    key = (sha, repr(sorted(params.items())), stop, step, two, tuple(sorted(record_files or ())))
-    if getattr(_LOCAL, "key", None) != key:  # this thread's instance, set up once per sweep
-        _start_worker(str(fmu.path), fmu.unzipdir, params, stop, step, two,
-                      {k: _DASK_FILES[k] for k in record_files or ()})
-        _LOCAL.key = key
-    return [_run_point(t) for t in tasks]
+    if getattr(_DASK_LOCAL, "key", None) != key:  # this thread's instance, set up once per sweep
+        here = {k: _DASK_FILES[k] for k in record_files or ()}
+        start_worker(str(fmu.path), fmu.unzipdir, dataclasses.replace(setup, files=here, batch=lib))
+        _DASK_LOCAL.key = key
+    return run_chunk(task)
 
 
 def local_workers(scheduler: str) -> int | None:
@@ -922,58 +635,48 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
                   "(tcp://HOST:PORT, port 8786 by default)?") from None
 
 
-class _DaskExecutor:
-    """Runs lists of tasks on a Dask cluster in chunks; the FMU and the record files are
-    sent to every worker once. A chunk whose worker dies is run again elsewhere (retries);
-    results are stored only by the caller, in one slot per grid point, so a rerun chunk
-    cannot store a point twice."""
+def _split(indices: np.ndarray, recorded: dict[int, tuple], size: int) -> list[tuple]:
+    """Tasks of run_chunk: `indices` in pieces of `size`, each with its points to record."""
+    return [(part, {i: recorded[i] for i in part.tolist() if i in recorded} if recorded else {})
+            for part in (indices[k:k + size] for k in range(0, len(indices), size))]
 
-    def __init__(self, plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None):
+
+class _DaskExecutor:
+    """Runs a sweep's grid points on a Dask cluster in chunks; the FMU, the record files and
+    the batch library are sent to every worker once. A chunk whose worker dies is run again
+    elsewhere (retries); results are stored only by the caller, in one slot per grid point,
+    so a rerun chunk cannot store a point twice."""
+
+    def __init__(self, plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None, batch: str | None):
         self.plan, self.sha, self.client, self.chunk = plan, sha, client, chunk
         self.n_workers = max(1, len(client.scheduler_info().get("workers", {})))
         self.blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
         local = plan.files()
         self.files = client.scatter({k: Path(v).read_bytes() for k, v in local.items()},
                                     broadcast=True) if local else None
+        self.batch = client.scatter(Path(batch).read_bytes(), broadcast=True) if batch else None
+        self.setup = plan.setup(None, files={})
+        self.key = f"{plan.sweep_id}:{sha}:{os.getpid()}:{time.time()}"
 
-    def results(self, tasks: list):
+    def chunks(self, indices: np.ndarray, recorded: dict[int, tuple]):
         from distributed import as_completed
 
-        p = self.plan
-        size = self.chunk or max(1, min(1000, math.ceil(len(tasks) / (4 * self.n_workers))))
-        futures = [self.client.submit(_dask_chunk, self.blob, self.sha, p.params, p.stop_time, p.step, p.two,
-                                      tasks[i:i + size], self.files, pure=False, retries=3)
-                   for i in range(0, len(tasks), size)]
+        size = self.chunk or max(1, min(1000, math.ceil(len(indices) / (4 * self.n_workers))))
+        futures = [self.client.submit(_dask_chunk, self.blob, self.sha, self.setup, self.key, task, self.files,
+                                      self.batch, pure=False, retries=3)
+                   for task in _split(indices, recorded, size)]
         for future in as_completed(futures):
-            yield from future.result()
+            yield future.result()
 
 
-def _dask_results(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None):
-    """_DaskExecutor(...).results; _ExecutorFailed, in one line, when the cluster cannot take the
+def _dask_chunks(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None, batch: str | None):
+    """_DaskExecutor(...).chunks; _ExecutorFailed, in one line, when the cluster cannot take the
     sweep (e.g. a scheduler without workers, which cannot hold the FMU sent to them)."""
     try:
-        return _DaskExecutor(plan, fmu_path, sha, client, chunk).results
+        return _DaskExecutor(plan, fmu_path, sha, client, chunk, batch).chunks
     except Exception as exc:
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise _ExecutorFailed(f"the Dask cluster cannot start the sweep: {text}") from None
-
-
-def _row(plan: _Plan, index: int, point: tuple, out: dict | None, seconds: float, error: str | None,
-         rec: Recorded | None, sha: str, version: str) -> tuple:
-    """(run row, summary row or None, Recorded or None, excitation row or None) of one point's result."""
-    values, over, record_ref = point
-    merged = {**plan.base, **over}
-    stop = plan.stop_of(record_ref)
-    run = {"scene_id": plan.scene_id, "sweep_id": plan.sweep_id, "grid_index": index, "point": values,
-           "model": "two blocks" if plan.two else "one block", "method": "fmu",
-           "rel_tol": merged.get("solver.relTol"), "abs_tol": merged.get("solver.absTol"),
-           "stop_time": plan.stop_time if stop is None else stop, "fmu_sha256": sha, "code_version": version,
-           "wall_time": seconds, "status": "error" if error else "ok", "error_message": error,
-           "recording": rec.path if rec else None}
-    excitation = None if record_ref is None else {
-        "kind": "record", "record_id": record_ref.id, "scale": float(merged.get("excitation.scale", 1.0)),
-        "start_time": float(merged.get("excitation.startTime", 0.0))}
-    return run, None if out is None else _summary(out, merged, plan.two), rec, excitation
 
 
 def _set_status(factory, sweep_id: int, status: str) -> None:
@@ -994,14 +697,30 @@ class _ExecutorFailed(SweepError):
     """The executor of a sweep could not start (a Dask cluster that cannot take its tasks)."""
 
 
-WINDOW = 20_000  # grid points planned at a time: a sweep of any size runs in bounded memory
+WINDOW = 100_000  # grid points planned at a time: a sweep of any size runs in bounded memory
+LOCAL_CHUNK = 512  # grid points a local worker runs per task (each task costs about 0.2 ms to send)
+FLUSH_SECONDS = 0.5  # results wait at most about this long between transactions (one commit each)
 
 
-def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None, batch: int = 500,
+def batch_library() -> tuple[str | None, str | None]:
+    """(the C batch library's path, None) for the workers, or (None, why not) when the points
+    must run one FMI call at a time (ROCKING_BATCH=0, or no C compiler)."""
+    if not batch_lib.enabled():
+        return None, "ROCKING_BATCH=0"
+    try:
+        return str(batch_lib.library()), None
+    except batch_lib.BatchUnavailable as exc:
+        return None, str(exc)
+
+
+def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None, batch: int = 20_000,
               progress: bool = True, record: list[int] | None = None, record_dir: Path | None = None,
               client=None, chunk: int | None = None) -> dict[str, Any]:
     """Run the grid points of a sweep that are not stored yet; returns counts and timings.
 
+    Workers run the points in chunks through the C batch loop (runners.engine.batch), and this
+    process stores their results in bulk (runners.engine.sweep_store): one transaction about
+    every FLUSH_SECONDS, or sooner when `batch` points wait.
     Points in `record` (grid indices) are simulated in full: their workers write a
     recording to record_dir/point-INDEX.rrd and their series and events are stored.
     With a Dask `client` the points run on its cluster in chunks of `chunk` points
@@ -1019,54 +738,36 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     remaining = plan.total - plan.already
     workers = max(1, min(workers or os.cpu_count() or 1, max(1, remaining)))
     sha, version = file_sha256(str(fmu_path)), code_version()
+    lib, why = batch_library()
     stats = {"sweep": sweep_id, "total": plan.total, "already": plan.already, "ran": 0, "errors": 0,
-             "recorded": 0, "skipped": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "python_seconds": 0.0}
+             "recorded": 0, "skipped": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "db_cpu_seconds": 0.0,
+             "python_seconds": 0.0, "batch": lib is not None, "batch_unavailable": why}
+    constants = RunConstants(plan.scene_id, sweep_id, "two blocks" if plan.two else "one block", sha, version)
     t_start = time.perf_counter()
-    rows: list[tuple] = []
-
-    def insert_rows(session, batch_rows: list[tuple]) -> None:
-        excited = [r for r in batch_rows if r[3] is not None]  # points on records: their excitation first
-        if excited:
-            eids = session.scalars(insert(Excitation).returning(Excitation.id, sort_by_parameter_order=True),
-                                   [r[3] for r in excited]).all()
-            for r, eid in zip(excited, eids):
-                r[0]["excitation_id"] = eid
-        ids = session.execute(insert(Run).returning(Run.id, Run.grid_index), [r[0] for r in batch_rows]).all()
-        by_index = {gi: rid for rid, gi in ids}
-        summaries = [{"run_id": by_index[r[0]["grid_index"]], **r[1]} for r in batch_rows if r[1] is not None]
-        if summaries:
-            session.execute(insert(RunSummary), summaries)
-        full = [_series_row(by_index[r[0]["grid_index"]], r[2]) for r in batch_rows if r[2] is not None]
-        if full:
-            session.execute(insert(RunSeries), full)
-        session.execute(update(Sweep).where(Sweep.id == sweep_id).values(done=Sweep.done + len(batch_rows)))
-        session.execute(update(Sweep).where(Sweep.id == sweep_id, Sweep.done >= Sweep.total).values(status="done"))
+    pending: list[Chunk] = []
+    last_flush = [t_start]
 
     def flush() -> None:
-        if not rows:
+        if not pending:
             return
-        t0 = time.perf_counter()
-        pending = list(rows)
-        while pending:  # each pass stores them all, or finds some another process stored: it ends
+        t0, c0 = time.perf_counter(), time.thread_time()
+        chunks = list(pending)
+        while chunks:  # each pass stores them all, or finds some another process stored: it ends
             try:
                 with _interrupts_deferred(), factory.begin() as session:
-                    insert_rows(session, pending)
+                    store(session, constants, chunks)
                 break
-            except IntegrityError:  # a concurrent resume stored some of these points meanwhile: store the others
-                indices = {r[0]["grid_index"] for r in pending}
+            except (IntegrityError, sqlite3.IntegrityError):  # a concurrent resume stored some: store the others
+                indices = {i for ch in chunks for i in ch.runs["grid_index"]}
                 taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1) & indices
                 if not taken:  # not a point stored twice
                     raise
-                pending = [r for r in pending if r[0]["grid_index"] not in taken]
+                chunks = [c for c in (ch.without(taken) for ch in chunks) if len(c)]
                 stats["skipped"] += len(taken)
-                for r in pending:
-                    r[0].pop("excitation_id", None)
         stats["db_seconds"] += time.perf_counter() - t0
-        rows.clear()
-
-    def task(i: int, point: tuple) -> tuple:
-        _, over, rec = point
-        return i, over, _recording_task(plan, i, record_dir, rec) if i in recorded else None, plan.stop_of(rec)
+        stats["db_cpu_seconds"] += time.thread_time() - c0
+        pending.clear()
+        last_flush[0] = time.perf_counter()
 
     if client is not None and recorded:
         raise ValueError("--record writes recordings where the point runs: use the local executor, or record "
@@ -1076,28 +777,36 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     try:
         with ExitStack() as stack:
             if remaining <= 0:
-                run_tasks = None
+                run_chunks = None
             elif client is not None:
-                run_tasks = _dask_results(plan, fmu_path, sha, client, chunk)
+                run_chunks = _dask_chunks(plan, fmu_path, sha, client, chunk, lib)
             else:
-                run_tasks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers)).results
-            for lo in range(0, plan.total if run_tasks else 0, WINDOW):
+                run_chunks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers, lib)).chunks
+            for lo in range(0, plan.total if run_chunks else 0, WINDOW):
                 hi = min(plan.total, lo + WINDOW)
                 stored = _stored_among(factory, sweep_id, lo, hi)  # (another process may be storing this sweep too)
-                points = {i: plan.grid.point(i, plan.base) for i in range(lo, hi) if i not in stored}  # one window's
-                tasks = [task(i, point) for i, point in points.items()]
-                for index, out, seconds, error, rec in run_tasks(tasks) if tasks else ():
-                    if index not in points:  # a chunk run twice (its worker died after sending): keep the first
-                        continue
+                todo = np.arange(lo, hi, dtype=np.int64)
+                if stored:
+                    todo = np.setdiff1d(todo, np.fromiter(stored, dtype=np.int64, count=len(stored)))
+                if not len(todo):
+                    continue
+                full = {i: _recording_task(plan, i, record_dir, plan.grid.point(i, plan.base)[2])
+                        for i in recorded if lo <= i < hi and i not in stored}
+                left = set(todo.tolist())
+                for ch in run_chunks(todo, full):
                     t_py = time.perf_counter()
-                    rows.append(_row(plan, index, points.pop(index), out, seconds, error, rec, sha, version))
-                    stats["ran"] += 1
-                    stats["errors"] += error is not None
-                    stats["recorded"] += rec is not None
-                    stats["fmu_seconds"] += seconds
-                    bar.update(1)
+                    first = ch.runs["grid_index"][0] if len(ch) else None
+                    if first not in left:  # a chunk run twice (its worker died after sending): keep the first
+                        continue
+                    left.difference_update(ch.runs["grid_index"])
+                    pending.append(ch)
+                    stats["ran"] += len(ch)
+                    stats["errors"] += ch.errors
+                    stats["recorded"] += len(ch.recorded)
+                    stats["fmu_seconds"] += ch.fmu_seconds
+                    bar.update(len(ch))
                     stats["python_seconds"] += time.perf_counter() - t_py
-                    if len(rows) >= batch:
+                    if time.perf_counter() - last_flush[0] >= FLUSH_SECONDS or sum(map(len, pending)) >= batch:
                         flush()
                 flush()
     except BaseException as exc:  # interrupted or failed: keep what arrived, and say the sweep is not running
@@ -1142,7 +851,7 @@ def record_points(factory, sweep_id: int, indices: list[int], fmu_path: Path, re
             with factory.begin() as session:
                 run = session.scalars(select(Run).where(Run.sweep_id == sweep_id, Run.grid_index == index)).one()
                 run.recording = rec.path
-                row = _series_row(run.id, rec)
+                row = series_row(run.id, rec)
                 if run.series is None:
                     run.series = RunSeries(**{k: v for k, v in row.items() if k != "run_id"})
                 else:
