@@ -171,6 +171,10 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
         from runners.analysis.bench_startup import run_startup_bench
 
         return [("start-up", lambda: run_startup_bench(args.baseline))]
+    if args.throughput:
+        from runners.analysis.throughput import run_throughput_bench
+
+        return [("sweep throughput", lambda: run_throughput_bench(fmu, args.workers, baseline=args.baseline))]
     if args.interfaces:
         return [("FMI interfaces", interfaces)]
     if args.against:
@@ -209,11 +213,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
     if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against,
-                      args.startup))) > 1:
-        raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against and "
-                         "--startup (or none: every benchmark)")
-    if args.baseline and not args.startup:
-        raise ValueError("--baseline is the other installation of --startup")
+                      args.startup, args.throughput))) > 1:
+        raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against, "
+                         "--startup and --throughput (or none: every benchmark)")
+    if args.baseline and not (args.startup or args.throughput):
+        raise ValueError("--baseline is the other installation of --startup or --throughput")
+    if args.workers != 2 and not args.throughput:
+        raise ValueError("--workers is the number of workers of --throughput")
+    if args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: give 1 or more")
     fmu = fmu_path_from(args.fmu)
     stages = dict(_bench_stages(args, fmu))
     texts = []

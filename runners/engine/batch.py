@@ -7,8 +7,8 @@ stays the only way into the model: the library loads the FMU's own binary and kn
 the model but the value references it is given.
 
 The library is compiled from its source on first use with the system's C compiler (cc or gcc)
-and kept in a cache folder (ROCKING_CACHE, else ~/.cache/rocking), one file per version of the
-source; `library()` returns None where no compiler is found, and the sweep then runs its points
+and kept in a cache folder (cache_dir: $ROCKING_CACHE/batch, else ~/.cache/rocking/batch), one
+file per version of the source; `library()` returns None where no compiler is found, and the sweep then runs its points
 one FMI call at a time through fmpy (the same results, slower). ROCKING_BATCH=0 forces that.
 """
 
@@ -38,8 +38,12 @@ class BatchUnavailable(RuntimeError):
 
 
 def cache_dir() -> Path:
-    """Where compiled libraries are kept: ROCKING_CACHE, else ~/.cache/rocking."""
-    return Path(os.environ.get("ROCKING_CACHE") or Path.home() / ".cache" / "rocking")
+    """Where compiled libraries are kept: $ROCKING_CACHE/batch, else $XDG_CACHE_HOME/rocking/batch,
+    else ~/.cache/rocking/batch (as the record files: runners.engine.record_files.cache_folder)."""
+    base = os.environ.get("ROCKING_CACHE")
+    if base:
+        return Path(base) / "batch"
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rocking" / "batch"
 
 
 def enabled() -> bool:

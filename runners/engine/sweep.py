@@ -29,7 +29,6 @@ import dataclasses
 import hashlib
 import math
 import os
-import sqlite3
 import sys
 import tempfile
 import threading
@@ -41,7 +40,6 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 from sqlalchemy import func, select, update
-from sqlalchemy.exc import IntegrityError
 
 from db.schema import Run, RunSeries, Scene, Sweep
 from db.store import add_scene, code_version, file_sha256
@@ -50,7 +48,7 @@ from runners.engine.grid import IM_UNITS, Axis, Grid, Intensity, RecordRef, pars
 from runners.engine import batch as batch_lib
 from runners.engine.motion import contact_model_value, rocking_sliding
 from runners.engine.scene import KINDS, unused_parameter
-from runners.engine.sweep_store import RunConstants, series_row, store
+from runners.engine.sweep_store import INTEGRITY_ERRORS, RunConstants, series_row, store
 from runners.engine.sweep_worker import Chunk, Setup, run_chunk, run_points, start_worker
 from runners.errors import RockingError
 
@@ -757,7 +755,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
                 with _interrupts_deferred(), factory.begin() as session:
                     store(session, constants, chunks)
                 break
-            except (IntegrityError, sqlite3.IntegrityError):  # a concurrent resume stored some: store the others
+            except INTEGRITY_ERRORS:  # a concurrent resume stored some of these points: store the others
                 indices = {i for ch in chunks for i in ch.runs["grid_index"]}
                 taken = _stored_among(factory, sweep_id, min(indices), max(indices) + 1) & indices
                 if not taken:  # not a point stored twice

