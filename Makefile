@@ -45,6 +45,7 @@ sanitize: $(INSTALLED)
 # needs Debian's chromium and pip install -e '.[docs]'; skipped with a reason without them).
 bench: fmu
 	$(BIN)/runners bench
+	$(BIN)/runners bench --throughput
 	$(BIN)/python -m pytest -m slow
 
 clean:
