@@ -168,6 +168,36 @@ def _store_postgresql(session, c: RunConstants, chunks: list[Chunk], created: da
         _store_series(session, chunk, run_ids)
 
 
+def _literal(value) -> str:
+    """An int, bool, str or None as an SQL literal."""
+    if value is None:
+        return "NULL"
+    if isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, int):
+        return str(value)
+    return "'" + str(value).replace("'", "''") + "'"
+
+
+def _insert(table: str, columns: dict[str, list], n: int) -> tuple[str, list[tuple]]:
+    """(INSERT statement, rows) of `columns` (name -> n values): a column of one int, str or None
+    throughout goes into the statement as a literal and is not bound for every row (binding is
+    most of the cost of a row), a column of None only is left out."""
+    names, marks, bound = [], [], []
+    for name, col in columns.items():
+        first = col[0]
+        if first is None and col.count(None) == n:
+            continue
+        names.append(name)
+        if not isinstance(first, float) and col.count(first) == n:
+            marks.append(_literal(first))
+        else:
+            marks.append("?")
+            bound.append(col)
+    return (f"INSERT INTO {table} ({', '.join(names)}) VALUES ({', '.join(marks)})",
+            list(zip(*bound)) if bound else [()] * n)
+
+
 def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: datetime) -> None:
     conn = session.connection()
     typ = Run.__table__.c.created_at.type.dialect_impl(conn.dialect)
@@ -175,7 +205,6 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
     stamp = process(created) if process else created
     cur = conn.connection.driver_connection.cursor()
     try:
-        run_sql = f"INSERT INTO runs ({', '.join(RUN_COLUMNS)}) VALUES ({', '.join('?' * len(RUN_COLUMNS))})"
         next_run = _next_id(cur, "runs")
         for chunk in chunks:
             n = len(chunk)
@@ -183,16 +212,20 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
             if chunk.excitations is not None:
                 first = _next_id(cur, "excitations")
                 exc_ids = list(range(first, first + n))
-                e = chunk.excitations
-                cur.executemany(f"INSERT INTO excitations (id, {', '.join(e)}) VALUES (?{', ?' * len(e)})",
-                                list(zip(exc_ids, *e.values())))
+                cur.executemany(*_insert("excitations", {"id": exc_ids, **chunk.excitations}, n))
             ids = list(range(next_run, next_run + n))
             next_run += n
-            cur.executemany(run_sql, _run_columns(c, chunk, ids, exc_ids, stamp))
-            names, rows = _summary_rows(chunk, ids)
-            if rows:
-                cur.executemany(f"INSERT INTO run_summaries ({', '.join(names)}) VALUES "
-                                f"({', '.join('?' * len(names))})", rows)
+            run = {"id": ids, "scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
+                   "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
+                   "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
+                   "created_at": [stamp] * n, **chunk.runs}
+            cur.executemany(*_insert("runs", run, n))
+            ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
+            if chunk.summaries and ok:
+                cols = {"run_id": ids, **{k: chunk.summaries[k] for k in SUMMARY_COLUMNS if k in chunk.summaries}}
+                if len(ok) < n:
+                    cols = {k: [v[i] for i in ok] for k, v in cols.items()}
+                cur.executemany(*_insert("run_summaries", cols, len(ok)))
             _store_series(session, chunk, ids)
     finally:
         cur.close()
