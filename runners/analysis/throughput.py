@@ -144,7 +144,7 @@ def run_throughput_bench(fmu_path: Path, workers: int = 2, maps: list[tuple[int,
                                              NATIVE_SAMPLE_RECORDS if case.needs_records else NATIVE_SAMPLE)
             n = st["ran"]
             per = st["wall_seconds"] / n
-            lines.append(f"| {case.label} | {n} | {1e3 * native:.4f} | {timed} | {st['wall_seconds']:.2f} | "
+            lines.append(f"| {case.label} | {n} | {1e3 * native:.4f} | {timed} | {st['wall_seconds']:.3f} | "
                          f"{1e3 * per:.4f} | {per / (native / workers):.2f} | {1e3 * st['db_cpu_seconds'] / n:.4f} | "
                          f"{runner_mb:.0f} | {worker_mb:.0f} |")
             bar.update(1)
