@@ -155,9 +155,8 @@ class Points:
         """runs.point of each point, as json.dumps writes it."""
         if self.records is not None or any(isinstance(c, list) for c in self.values.values()):
             return [json.dumps(self.values_of(k)) for k in range(len(self))]
-        parts = [[f"{key}: {v!r}" for v in col.tolist()] for key, col in
-                 ((json.dumps(name), col) for name, col in self.values.items())]
-        return ["{" + ", ".join(p) + "}" for p in zip(*parts)]
+        template = "{" + ", ".join(json.dumps(name).replace("%", "%%") + ": %r" for name in self.values) + "}"
+        return [template % p for p in zip(*(col.tolist() for col in self.values.values()))]
 
 
 def _plain(v: Any) -> Any:
