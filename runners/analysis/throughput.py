@@ -51,7 +51,7 @@ class Case:
 def cases(maps: list[tuple[int, int]] | None = None, records: bool = True) -> list[Case]:
     out = [Case(f"one-sine map {nw * na:.0e}".replace("e+0", "e"), ["--grid", f"w=1:12:{nw}", "--grid",
                                                                    f"a=1.01:8:{na}"],
-                ROOT / "examples" / "sweep_sine_pulse.toml") for nw, na in (maps or MAPS)]
+                ROOT / "examples" / "sweep_sine_pulse.toml") for nw, na in (MAPS if maps is None else maps)]
     if records:
         out.append(Case(f"record study ({RECORD_SET}, {RECORD_LEVELS} levels)",
                         ["--records", f"fema-p695/{RECORD_SET}", "--im", f"pga=0.05:1.2:{RECORD_LEVELS}"],

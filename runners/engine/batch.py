@@ -152,17 +152,18 @@ class BatchRunner:
         obool = np.zeros((n, len(obv)), dtype=np.int32)
         seconds = np.zeros(n, dtype=np.float64)
         status = np.zeros(n, dtype=np.int32)
-        messages = ctypes.create_string_buffer(n * MESSAGE)
+        messages = np.empty(n * MESSAGE, dtype=np.uint8)  # written for failed points only
         c_uint, c_double, c_int = ctypes.c_uint, ctypes.c_double, ctypes.c_int
         failed = self._lib.batch_run(
             self._b, n, _ptr(stop, c_double), len(rv), _ptr(rv, c_uint), _ptr(rx, c_double), len(iv), _ptr(iv, c_uint),
             _ptr(ix, c_int), len(bv), _ptr(bv, c_uint), _ptr(bx, c_int), len(sv), _ptr(sv, c_uint), sx, len(orv),
             _ptr(orv, c_uint), _ptr(oreal, c_double), len(oiv), _ptr(oiv, c_uint), _ptr(oint, c_int), len(obv),
-            _ptr(obv, c_uint), _ptr(obool, c_int), _ptr(seconds, c_double), _ptr(status, c_int), messages, MESSAGE)
+            _ptr(obv, c_uint), _ptr(obool, c_int), _ptr(seconds, c_double), _ptr(status, c_int),
+            messages.ctypes.data_as(ctypes.c_char_p), MESSAGE)
         bad = status != 0
         text: dict[int, str] = {}
         if failed:
-            raw = messages.raw
+            raw = messages.tobytes()
             for k in np.flatnonzero(bad).tolist():
                 line = raw[k * MESSAGE:(k + 1) * MESSAGE].split(b"\0", 1)[0].decode(errors="replace")
                 text[k] = (line.strip().splitlines() or ["error"])[0]

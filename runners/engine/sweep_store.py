@@ -15,6 +15,7 @@ databases (PostgreSQL) take SQLAlchemy Core's multi-row INSERT ... RETURNING.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from datetime import datetime, timezone
 
@@ -179,18 +180,31 @@ def _literal(value) -> str:
     return "'" + str(value).replace("'", "''") + "'"
 
 
-def _insert(table: str, columns: dict[str, list], n: int) -> tuple[str, list[tuple]]:
-    """(INSERT statement, rows) of `columns` (name -> n values): a column of one int, str or None
-    throughout goes into the statement as a literal and is not bound for every row (binding is
-    most of the cost of a row), a column of None only is left out."""
+def _float_literal(cur, value: float) -> str | None:
+    """repr(value) if SQLite reads that text back as exactly `value` (it does not for every
+    double), else None."""
+    text = repr(value)
+    if not math.isfinite(value) or cur.execute(f"SELECT {text} = ?", (value,)).fetchone()[0] != 1:
+        return None
+    return text
+
+
+def _insert(cur, table: str, columns: dict[str, list], n: int) -> tuple[str, list[tuple]]:
+    """(INSERT statement, rows) of `columns` (name -> n values): a column of one value throughout
+    goes into the statement as a literal and is not bound for every row (binding is most of the
+    cost of a row; a float only where SQLite reads its text back exactly), a column of None only
+    is left out."""
     names, marks, bound = [], [], []
     for name, col in columns.items():
         first = col[0]
         if first is None and col.count(None) == n:
             continue
         names.append(name)
-        if not isinstance(first, float) and col.count(first) == n:
-            marks.append(_literal(first))
+        literal = None
+        if col.count(first) == n:
+            literal = _float_literal(cur, first) if isinstance(first, float) else _literal(first)
+        if literal is not None:
+            marks.append(literal)
         else:
             marks.append("?")
             bound.append(col)
@@ -212,20 +226,20 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
             if chunk.excitations is not None:
                 first = _next_id(cur, "excitations")
                 exc_ids = list(range(first, first + n))
-                cur.executemany(*_insert("excitations", {"id": exc_ids, **chunk.excitations}, n))
+                cur.executemany(*_insert(cur, "excitations", {"id": exc_ids, **chunk.excitations}, n))
             ids = list(range(next_run, next_run + n))
             next_run += n
             run = {"id": ids, "scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
                    "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
                    "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
                    "created_at": [stamp] * n, **chunk.runs}
-            cur.executemany(*_insert("runs", run, n))
+            cur.executemany(*_insert(cur, "runs", run, n))
             ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
             if chunk.summaries and ok:
                 cols = {"run_id": ids, **{k: chunk.summaries[k] for k in SUMMARY_COLUMNS if k in chunk.summaries}}
                 if len(ok) < n:
                     cols = {k: [v[i] for i in ok] for k, v in cols.items()}
-                cur.executemany(*_insert("run_summaries", cols, len(ok)))
+                cur.executemany(*_insert(cur, "run_summaries", cols, len(ok)))
             _store_series(session, chunk, ids)
     finally:
         cur.close()

@@ -365,7 +365,10 @@ def _nullable_floats(col) -> list:
 
 def _pairwise(f: Callable[[float, float], float], x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """f(x, y) elementwise by the scalar function, once per distinct pair."""
-    pairs = np.column_stack([np.asarray(x, dtype=float), np.asarray(y, dtype=float)])
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if len(x) and (x == x[0]).all() and (y == y[0]).all():  # (the usual case: not on an axis)
+        return np.full(len(x), f(float(x[0]), float(y[0])))
+    pairs = np.column_stack([x, y])
     u, inv = np.unique(pairs, axis=0, return_inverse=True)
     return np.array([f(a, b) for a, b in u.tolist()])[inv.reshape(-1)]
 

@@ -158,7 +158,8 @@ static int run_point(Batch *b, double stop, int nr, const unsigned *rvr, const d
 /* Run n points. Inputs per point: stop[n] (s), Reals rval[n][nr], Integers ival[n][ni],
  * Booleans bval[n][nb] (0 or 1), Strings sval[n][ns]; outputs per point: oreal[n][nor],
  * oint[n][noi], obool[n][nob], seconds[n] (wall time of the point), status[n] (0 done, 1
- * failed) and messages[n][msgLen] (the failure's reason, "" when done). Returns the number
+ * failed) and messages[n][msgLen] (the reason of a failed point; a done point's row is not
+ * written). Returns the number
  * of failed points. */
 int batch_run(Batch *b, int n, const double *stop, int nr, const unsigned *rvr, const double *rval, int ni,
               const unsigned *ivr, const int *ival, int nb, const unsigned *bvr, const int *bval, int ns,
@@ -175,8 +176,8 @@ int batch_run(Batch *b, int n, const double *stop, int nr, const unsigned *rvr, 
         seconds[k] = now() - t0;
         status[k] = bad;
         failed += bad;
-        if (messages && msgLen > 0)
-            copy_text(messages + (size_t)k * msgLen, msgLen, bad ? (b->message[0] ? b->message : "error") : "");
+        if (bad && messages && msgLen > 0)
+            copy_text(messages + (size_t)k * msgLen, msgLen, b->message[0] ? b->message : "error");
     }
     return failed;
 }
