@@ -146,3 +146,20 @@ def test_bad_throughput_options_are_one_line_errors(args, message, fmu_path):
                        capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert "Traceback" not in p.stderr
+
+
+def test_a_damaged_cached_library_is_built_again(monkeypatch, tmp_path):
+    monkeypatch.setenv("ROCKING_CACHE", str(tmp_path))
+    path = batch_lib.library_path()
+    path.parent.mkdir(parents=True)
+    path.write_bytes(b"\x7fELF" + bytes(60))  # cut short (a full disk, a killed copy)
+    assert not batch_lib._loads(path)
+    assert batch_lib.library() == path and batch_lib._loads(path)
+
+
+def test_an_unwritable_cache_folder_is_unavailable_in_one_line(monkeypatch, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("ROCKING_CACHE", str(blocker))
+    with pytest.raises(batch_lib.BatchUnavailable, match="cannot write its cache folder"):
+        batch_lib.library()

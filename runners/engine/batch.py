@@ -61,16 +61,18 @@ def library() -> Path:
     from fmu_build.build import fmi_headers_dir
 
     headers = fmi_headers_dir()
-    key = hashlib.sha256(SOURCE.read_bytes() + (headers / "fmi2FunctionTypes.h").read_bytes()).hexdigest()[:16]
-    target = cache_dir() / f"rocking_batch-{key}.so"
+    target = library_path()
     with _LOCK:
-        if target.is_file():
+        if target.is_file() and _loads(target):
             return target
         cc = shutil.which("cc") or shutil.which("gcc")
         if cc is None:
             raise BatchUnavailable("no C compiler (cc or gcc) to build it")
-        target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".so", dir=target.parent)  # built aside, then renamed: atomic
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(suffix=".so", dir=target.parent)  # built aside, then renamed: atomic
+        except OSError as exc:
+            raise BatchUnavailable(f"cannot write its cache folder {target.parent}: {exc.strerror or exc}") from None
         os.close(fd)
         try:
             done = subprocess.run([cc, "-O2", "-shared", "-fPIC", "-I", str(headers), "-o", tmp, str(SOURCE), "-ldl"],
@@ -81,7 +83,25 @@ def library() -> Path:
         finally:
             if os.path.exists(tmp):
                 os.remove(tmp)
+        if not _loads(target):
+            raise BatchUnavailable(f"the library {cc} built cannot be loaded")
     return target
+
+
+def library_path() -> Path:
+    """Where the library of this version of its source is cached (built or not)."""
+    from fmu_build.build import fmi_headers_dir
+
+    key = hashlib.sha256(SOURCE.read_bytes() + (fmi_headers_dir() / "fmi2FunctionTypes.h").read_bytes())
+    return cache_dir() / f"rocking_batch-{key.hexdigest()[:16]}.so"
+
+
+def _loads(path: Path) -> bool:
+    """Whether `path` loads as the batch library (a cut-short or foreign file does not)."""
+    try:
+        return hasattr(ctypes.CDLL(str(path)), "batch_run")
+    except OSError:
+        return False
 
 
 def _arg_types(lib: ctypes.CDLL) -> None:
