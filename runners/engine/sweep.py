@@ -246,7 +246,7 @@ def stored_point_parameters(session, run: Run) -> dict[str, Any]:
     return {**base, **over}
 
 
-# ------------------------------------------------------------------ workers
+# ------------------------------------------------------------------ points to record
 
 def parse_points(spec: str, total: int) -> list[int]:
     """Grid indices from "3,17,40-45" or "all"; ValueError on anything outside 0..total-1."""
