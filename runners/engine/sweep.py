@@ -443,8 +443,8 @@ class _LocalExecutor:
     def chunks(self, indices: np.ndarray, recorded: dict[int, tuple]):
         """run_chunk of the grid points `indices` in pieces, as they finish; `recorded`: the
         points to record in full, index -> (recording path, name, record info)."""
-        size = max(1, min(LOCAL_CHUNK, math.ceil(len(indices) / (4 * self.workers))))
-        return self._finished(self.pool.submit(run_chunk, t) for t in _split(indices, recorded, size))
+        return self._finished(self.pool.submit(run_chunk, t) for t in _split(indices, recorded, LOCAL_CHUNK,
+                                                                               self.workers))
 
     def results(self, tasks: list, size: int | None = None):
         """run_point of each task (one point each, through fmpy), in lists of `size`, as they finish."""
@@ -633,10 +633,16 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
                   "(tcp://HOST:PORT, port 8786 by default)?") from None
 
 
-def _split(indices: np.ndarray, recorded: dict[int, tuple], size: int) -> list[tuple]:
-    """Tasks of run_chunk: `indices` in pieces of `size`, each with its points to record."""
-    return [(part, {i: recorded[i] for i in part.tolist() if i in recorded} if recorded else {})
-            for part in (indices[k:k + size] for k in range(0, len(indices), size))]
+def _split(indices: np.ndarray, recorded: dict[int, tuple], size: int, workers: int | None = None) -> list[tuple]:
+    """Tasks of run_chunk: `indices` in pieces of `size`, each with its points to record. With
+    `workers`, the pieces shrink towards the end (a quarter of what is left per worker, at least
+    LOCAL_CHUNK_MIN), so that the workers finish together instead of one waiting on the last piece."""
+    parts, k, n = [], 0, len(indices)
+    while k < n:
+        step = size if workers is None else max(min(size, math.ceil((n - k) / (4 * workers))), LOCAL_CHUNK_MIN)
+        parts.append(indices[k:k + step])
+        k += step
+    return [(part, {i: recorded[i] for i in part.tolist() if i in recorded} if recorded else {}) for part in parts]
 
 
 class _DaskExecutor:
@@ -696,8 +702,10 @@ class _ExecutorFailed(SweepError):
 
 
 WINDOW = 100_000  # grid points planned at a time: a sweep of any size runs in bounded memory
-LOCAL_CHUNK = 512  # grid points a local worker runs per task (each task costs about 0.2 ms to send)
+LOCAL_CHUNK = 512  # grid points a local worker runs per task at most (each task costs about 0.2 ms to send)
+LOCAL_CHUNK_MIN = 16  # and at least, but for the last
 FLUSH_SECONDS = 0.5  # results wait at most about this long between transactions (one commit each)
+FLUSH_POINTS = 2000  # or until this many points wait: storing keeps pace with the workers
 
 
 def batch_library() -> tuple[str | None, str | None]:
@@ -717,8 +725,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     """Run the grid points of a sweep that are not stored yet; returns counts and timings.
 
     Workers run the points in chunks through the C batch loop (runners.engine.batch), and this
-    process stores their results in bulk (runners.engine.sweep_store): one transaction about
-    every FLUSH_SECONDS, or sooner when `batch` points wait.
+    process stores their results in bulk (runners.engine.sweep_store): one transaction when
+    FLUSH_POINTS (or `batch`, if fewer) points wait, or after FLUSH_SECONDS.
     Points in `record` (grid indices) are simulated in full: their workers write a
     recording to record_dir/point-INDEX.rrd and their series and events are stored.
     With a Dask `client` the points run on its cluster in chunks of `chunk` points
@@ -804,7 +812,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
                     stats["fmu_seconds"] += ch.fmu_seconds
                     bar.update(len(ch))
                     stats["python_seconds"] += time.perf_counter() - t_py
-                    if time.perf_counter() - last_flush[0] >= FLUSH_SECONDS or sum(map(len, pending)) >= batch:
+                    waiting = sum(map(len, pending))
+                    if waiting >= min(batch, FLUSH_POINTS) or time.perf_counter() - last_flush[0] >= FLUSH_SECONDS:
                         flush()
                 flush()
     except BaseException as exc:  # interrupted or failed: keep what arrived, and say the sweep is not running
