@@ -163,3 +163,42 @@ def test_an_unwritable_cache_folder_is_unavailable_in_one_line(monkeypatch, tmp_
     monkeypatch.setenv("ROCKING_CACHE", str(blocker))
     with pytest.raises(batch_lib.BatchUnavailable, match="cannot write its cache folder"):
         batch_lib.library()
+
+
+def test_a_grid_of_many_windows_resumed_stores_every_point_once(tmp_path, fmu_path, fmu, monkeypatch):
+    """Windows of 7 points, chunks of at most 5: a sweep stopped after some of its points (here:
+    the points of another, identical sweep copied in first) stores each of the others once, and
+    the same rows as a sweep run whole."""
+    from sqlalchemy import insert, select, update
+
+    from db.schema import Run, RunSummary, Sweep
+    from db.session import open_database
+    from runners.engine import sweep as sweep_mod
+    from runners.engine.scene import load_scene
+
+    monkeypatch.setattr(sweep_mod, "WINDOW", 7)
+    monkeypatch.setattr(sweep_mod, "LOCAL_CHUNK", 5)
+    factory = open_database(f"sqlite:///{tmp_path / 'w.db'}")
+    axes = [sweep_mod.Axis("w", 1.0, 12.0, 6), sweep_mod.Axis("a", 1.01, 8.0, 8)]
+    whole = sweep_mod.create_sweep(factory, load_scene(SCENE), axes, fmu.defaults())
+    sweep_mod.run_sweep(factory, whole, fmu_path, workers=2, progress=False)
+    part = sweep_mod.create_sweep(factory, load_scene(SCENE), axes, fmu.defaults())
+    some = [0, 1, 2, 9, 13, 14, 15, 16, 17, 18, 19, 20, 47]  # whole windows, parts of windows, the last point
+    with factory.begin() as s:
+        for i in some:
+            run = s.scalars(select(Run).where(Run.sweep_id == whole, Run.grid_index == i)).one()
+            row = {c.name: getattr(run, c.name) for c in Run.__table__.columns if c.name != "id"}
+            new_id = s.execute(insert(Run).returning(Run.id), {**row, "sweep_id": part}).scalar_one()
+            summary = {c.name: getattr(run.summary, c.name) for c in RunSummary.__table__.columns}
+            s.execute(insert(RunSummary), {**summary, "run_id": new_id})
+        s.execute(update(Sweep).where(Sweep.id == part).values(done=len(some)))
+    st = sweep_mod.run_sweep(factory, part, fmu_path, workers=2, progress=False)
+    assert st["ran"] == 48 - len(some) and st["stored"] == 48
+
+    def stored(sweep_id: int) -> list[tuple]:
+        with factory() as s:
+            return s.execute(select(Run.grid_index, Run.status, RunSummary.impacts, RunSummary.peak1_over_alpha,
+                                    RunSummary.overturned).join(RunSummary).where(Run.sweep_id == sweep_id)
+                             .order_by(Run.grid_index)).all()
+
+    assert stored(part) == stored(whole) and [r[0] for r in stored(part)] == list(range(48))

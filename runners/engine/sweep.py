@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
+import itertools
 import math
 import os
 import sys
@@ -36,7 +37,7 @@ import time
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 from sqlalchemy import func, select, update
@@ -434,17 +435,30 @@ class _LocalExecutor:
     def __init__(self, plan: _Plan, fmu_path: Path, workers: int, batch: str | None = None):
         from concurrent.futures import ProcessPoolExecutor
 
-        self.workers = workers
+        self.workers, self.size = workers, LOCAL_CHUNK
         self.shared = RockingFMU(fmu_path)
         ctx = get_context("fork") if hasattr(os, "fork") else get_context()
         self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_start_pool_worker,
                                         initargs=(str(fmu_path), self.shared.unzipdir, plan.setup(batch)))
 
-    def chunks(self, indices: np.ndarray, recorded: dict[int, tuple]):
-        """run_chunk of the grid points `indices` in pieces, as they finish; `recorded`: the
-        points to record in full, index -> (recording path, name, record info)."""
-        return self._finished(self.pool.submit(run_chunk, t) for t in _split(indices, recorded, LOCAL_CHUNK,
-                                                                               self.workers))
+    def stream(self, tasks: Iterator[tuple]) -> Iterator[Chunk]:
+        """run_chunk of each task (flat indices, points to record), as they finish; a few tasks
+        at a time are handed out, so that `tasks` can plan the grid as the sweep goes."""
+        from concurrent.futures import FIRST_COMPLETED, wait
+        from concurrent.futures.process import BrokenProcessPool
+
+        inflight: set = set()
+        try:
+            while True:
+                while len(inflight) < 2 * self.workers + 2 and (task := next(tasks, None)) is not None:
+                    inflight.add(self.pool.submit(run_chunk, task))
+                if not inflight:
+                    return
+                done, inflight = wait(inflight, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield future.result()
+        except BrokenProcessPool:
+            raise SweepError("a worker process died (killed, or out of memory)") from None
 
     def results(self, tasks: list, size: int | None = None):
         """run_point of each task (one point each, through fmpy), in lists of `size`, as they finish."""
@@ -633,16 +647,36 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT) -> None:
                   "(tcp://HOST:PORT, port 8786 by default)?") from None
 
 
-def _split(indices: np.ndarray, recorded: dict[int, tuple], size: int, workers: int | None = None) -> list[tuple]:
-    """Tasks of run_chunk: `indices` in pieces of `size`, each with its points to record. With
-    `workers`, the pieces shrink towards the end (a quarter of what is left per worker, at least
-    LOCAL_CHUNK_MIN), so that the workers finish together instead of one waiting on the last piece."""
+def _split(indices: np.ndarray, recorded: dict[int, tuple], size: int, workers: int, after: int = 0) -> list[tuple]:
+    """Tasks of run_chunk: `indices` in pieces of at most `size`, each with its points to record.
+    Towards the end of the sweep (`after` points follow these) the pieces shrink, to a quarter
+    of what is left per worker and at least CHUNK_MIN, so that the workers finish together
+    instead of one waiting on the last piece."""
     parts, k, n = [], 0, len(indices)
     while k < n:
-        step = size if workers is None else max(min(size, math.ceil((n - k) / (4 * workers))), LOCAL_CHUNK_MIN)
+        step = max(min(size, math.ceil((n - k + after) / (4 * workers))), CHUNK_MIN)
         parts.append(indices[k:k + step])
         k += step
     return [(part, {i: recorded[i] for i in part.tolist() if i in recorded} if recorded else {}) for part in parts]
+
+
+def _window_tasks(plan: _Plan, factory, recorded: set[int], record_dir: Path, size: int, workers: int,
+                  left: dict[int, set[int]]) -> Iterator[tuple]:
+    """The run_chunk tasks of the grid points not stored yet, planned WINDOW points at a time as
+    the executor asks for them (memory does not grow with the grid); each window's points to run
+    go into left[window start]. A point another process stored meanwhile is not run."""
+    for lo in range(0, plan.total, WINDOW):
+        hi = min(plan.total, lo + WINDOW)
+        stored = _stored_among(factory, plan.sweep_id, lo, hi)  # (another process may be storing this sweep too)
+        todo = np.arange(lo, hi, dtype=np.int64)
+        if stored:
+            todo = np.setdiff1d(todo, np.fromiter(stored, dtype=np.int64, count=len(stored)))
+        if not len(todo):
+            continue
+        full = {i: _recording_task(plan, i, record_dir, plan.grid.point(i, plan.base)[2])
+                for i in recorded if lo <= i < hi and i not in stored}
+        left[lo] = set(todo.tolist())
+        yield from _split(todo, full, size, workers, plan.total - hi)
 
 
 class _DaskExecutor:
@@ -652,8 +686,9 @@ class _DaskExecutor:
     so a rerun chunk cannot store a point twice."""
 
     def __init__(self, plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None, batch: str | None):
-        self.plan, self.sha, self.client, self.chunk = plan, sha, client, chunk
-        self.n_workers = max(1, len(client.scheduler_info().get("workers", {})))
+        self.plan, self.sha, self.client = plan, sha, client
+        self.workers = max(1, len(client.scheduler_info().get("workers", {})))
+        self.size = chunk or DASK_CHUNK
         self.blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
         local = plan.files()
         self.files = client.scatter({k: Path(v).read_bytes() for k, v in local.items()},
@@ -662,22 +697,28 @@ class _DaskExecutor:
         self.setup = plan.setup(None, files={})
         self.key = f"{plan.sweep_id}:{sha}:{os.getpid()}:{time.time()}"
 
-    def chunks(self, indices: np.ndarray, recorded: dict[int, tuple]):
+    def stream(self, tasks: Iterator[tuple]) -> Iterator[Chunk]:
+        """As _LocalExecutor.stream, on the cluster: four tasks per worker in flight."""
         from distributed import as_completed
 
-        size = self.chunk or max(1, min(1000, math.ceil(len(indices) / (4 * self.n_workers))))
-        futures = [self.client.submit(_dask_chunk, self.blob, self.sha, self.setup, self.key, task, self.files,
+        def submit(task: tuple):
+            return self.client.submit(_dask_chunk, self.blob, self.sha, self.setup, self.key, task, self.files,
                                       self.batch, pure=False, retries=3)
-                   for task in _split(indices, recorded, size)]
-        for future in as_completed(futures):
+
+        running = as_completed([submit(t) for t in itertools.islice(tasks, 4 * self.workers)])
+        for future in running:
             yield future.result()
+            task = next(tasks, None)
+            if task is not None:
+                running.add(submit(task))
 
 
-def _dask_chunks(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None, batch: str | None):
-    """_DaskExecutor(...).chunks; _ExecutorFailed, in one line, when the cluster cannot take the
+def _dask_executor(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | None,
+                   batch: str | None) -> _DaskExecutor:
+    """_DaskExecutor(...); _ExecutorFailed, in one line, when the cluster cannot take the
     sweep (e.g. a scheduler without workers, which cannot hold the FMU sent to them)."""
     try:
-        return _DaskExecutor(plan, fmu_path, sha, client, chunk, batch).chunks
+        return _DaskExecutor(plan, fmu_path, sha, client, chunk, batch)
     except Exception as exc:
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise _ExecutorFailed(f"the Dask cluster cannot start the sweep: {text}") from None
@@ -703,7 +744,8 @@ class _ExecutorFailed(SweepError):
 
 WINDOW = 100_000  # grid points planned at a time: a sweep of any size runs in bounded memory
 LOCAL_CHUNK = 512  # grid points a local worker runs per task at most (each task costs about 0.2 ms to send)
-LOCAL_CHUNK_MIN = 16  # and at least, but for the last
+DASK_CHUNK = 1000  # and a Dask worker (--chunk)
+CHUNK_MIN = 16  # and at least, but for the last
 FLUSH_SECONDS = 0.5  # results wait at most about this long between transactions (one commit each)
 FLUSH_POINTS = 2000  # or until this many points wait: storing keeps pace with the workers
 
@@ -783,39 +825,34 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     try:
         with ExitStack() as stack:
             if remaining <= 0:
-                run_chunks = None
+                executor = None
             elif client is not None:
-                run_chunks = _dask_chunks(plan, fmu_path, sha, client, chunk, lib)
+                executor = _dask_executor(plan, fmu_path, sha, client, chunk, lib)
             else:
-                run_chunks = stack.enter_context(_LocalExecutor(plan, fmu_path, workers, lib)).chunks
-            for lo in range(0, plan.total if run_chunks else 0, WINDOW):
-                hi = min(plan.total, lo + WINDOW)
-                stored = _stored_among(factory, sweep_id, lo, hi)  # (another process may be storing this sweep too)
-                todo = np.arange(lo, hi, dtype=np.int64)
-                if stored:
-                    todo = np.setdiff1d(todo, np.fromiter(stored, dtype=np.int64, count=len(stored)))
-                if not len(todo):
+                executor = stack.enter_context(_LocalExecutor(plan, fmu_path, workers, lib))
+            left: dict[int, set[int]] = {}  # window start -> its points not run yet
+            tasks = _window_tasks(plan, factory, recorded, record_dir, executor.size, executor.workers, left) \
+                if executor else iter(())
+            for ch in executor.stream(tasks) if executor else ():
+                t_py = time.perf_counter()
+                first = ch.runs["grid_index"][0] if len(ch) else -1
+                window = left.get(first - first % WINDOW, set())
+                if first not in window:  # a chunk run twice (its worker died after sending): keep the first
                     continue
-                full = {i: _recording_task(plan, i, record_dir, plan.grid.point(i, plan.base)[2])
-                        for i in recorded if lo <= i < hi and i not in stored}
-                left = set(todo.tolist())
-                for ch in run_chunks(todo, full):
-                    t_py = time.perf_counter()
-                    first = ch.runs["grid_index"][0] if len(ch) else None
-                    if first not in left:  # a chunk run twice (its worker died after sending): keep the first
-                        continue
-                    left.difference_update(ch.runs["grid_index"])
-                    pending.append(ch)
-                    stats["ran"] += len(ch)
-                    stats["errors"] += ch.errors
-                    stats["recorded"] += len(ch.recorded)
-                    stats["fmu_seconds"] += ch.fmu_seconds
-                    bar.update(len(ch))
-                    stats["python_seconds"] += time.perf_counter() - t_py
-                    waiting = sum(map(len, pending))
-                    if waiting >= min(batch, FLUSH_POINTS) or time.perf_counter() - last_flush[0] >= FLUSH_SECONDS:
-                        flush()
-                flush()
+                window.difference_update(ch.runs["grid_index"])
+                if not window:
+                    del left[first - first % WINDOW]
+                pending.append(ch)
+                stats["ran"] += len(ch)
+                stats["errors"] += ch.errors
+                stats["recorded"] += len(ch.recorded)
+                stats["fmu_seconds"] += ch.fmu_seconds
+                bar.update(len(ch))
+                stats["python_seconds"] += time.perf_counter() - t_py
+                waiting = sum(map(len, pending))
+                if waiting >= min(batch, FLUSH_POINTS) or time.perf_counter() - last_flush[0] >= FLUSH_SECONDS:
+                    flush()
+            flush()
     except BaseException as exc:  # interrupted or failed: keep what arrived, and say the sweep is not running
         with contextlib.suppress(Exception):
             flush()
