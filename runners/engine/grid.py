@@ -155,8 +155,17 @@ class Points:
         """runs.point of each point, as json.dumps writes it."""
         if self.records is not None or any(isinstance(c, list) for c in self.values.values()):
             return [json.dumps(self.values_of(k)) for k in range(len(self))]
-        template = "{" + ", ".join(json.dumps(name).replace("%", "%%") + ": %r" for name in self.values) + "}"
-        return [template % p for p in zip(*(col.tolist() for col in self.values.values()))]
+        template = "{" + ", ".join(json.dumps(name).replace("%", "%%") + ": %s" for name in self.values) + "}"
+        return [template % p for p in zip(*(_reprs(col) for col in self.values.values()))]
+
+
+def _reprs(col: np.ndarray) -> list[str]:
+    """repr of each value of a column (as json.dumps writes a number), once per distinct value:
+    a grid's axes repeat theirs."""
+    col = np.asarray(col)
+    bits = col.view(np.int64) if col.dtype == np.float64 else col  # (-0.0 and 0.0 apart)
+    _, first, inv = np.unique(bits, return_index=True, return_inverse=True)
+    return np.array([repr(v) for v in col[first].tolist()], dtype=object)[inv.reshape(-1)].tolist()
 
 
 def _plain(v: Any) -> Any:

@@ -743,11 +743,11 @@ class _ExecutorFailed(SweepError):
 
 
 WINDOW = 100_000  # grid points planned at a time: a sweep of any size runs in bounded memory
-LOCAL_CHUNK = 512  # grid points a local worker runs per task at most (each task costs about 0.2 ms to send)
+LOCAL_CHUNK = 2048  # grid points a local worker runs per task at most (each task costs about 0.2 ms to send)
 DASK_CHUNK = 1000  # and a Dask worker (--chunk)
 CHUNK_MIN = 16  # and at least, but for the last
 FLUSH_SECONDS = 0.5  # results wait at most about this long between transactions (one commit each)
-FLUSH_POINTS = 2000  # or until this many points wait: storing keeps pace with the workers
+FLUSH_POINTS = 5000  # or until this many points wait: storing keeps pace with the workers
 
 
 def batch_library() -> tuple[str | None, str | None]:
