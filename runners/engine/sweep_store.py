@@ -234,7 +234,8 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
                    "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
                    "created_at": [stamp] * n, **chunk.runs}
             cur.executemany(*_insert(cur, "runs", run, n))
-            ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
+            status = chunk.runs["status"]
+            ok = range(n) if status.count("ok") == n else [k for k, v in enumerate(status) if v == "ok"]
             if chunk.summaries and ok:
                 cols = {"run_id": ids, **{k: chunk.summaries[k] for k in SUMMARY_COLUMNS if k in chunk.summaries}}
                 if len(ok) < n:

@@ -244,8 +244,10 @@ def _batch_args(w: dict, pts: Points, stops: np.ndarray, rows: np.ndarray) -> tu
         by_type[fmu.variable(name).type].append(name)
 
     def matrix(typ: str, dtype) -> tuple[list[int], np.ndarray]:
-        cols = [np.asarray(_column(pts, n, start))[rows] for n in by_type[typ]]
-        data = np.column_stack(cols).astype(dtype) if cols else np.zeros((len(rows), 0), dtype)
+        data = np.empty((len(rows), len(by_type[typ])), dtype)
+        for j, n in enumerate(by_type[typ]):
+            col = pts.over.get(n)
+            data[:, j] = start[n] if col is None else np.asarray(_column(pts, n, start))[rows]  # (one value: broadcast)
         return [fmu.variable(n).valueReference for n in by_type[typ]], data
 
     files = [[local_files({"excitation.file": v})["excitation.file"] for v in np.asarray(_column(pts, n, start),
