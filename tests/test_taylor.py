@@ -1,5 +1,6 @@
 """The Taylor-series integrator (solver.method = 1) against the exact reference and the
-Dormand-Prince integrator of the same FMU."""
+Dormand-Prince integrator of the same FMU (solver.method = 0); the default, auto (2), takes the
+Taylor series for one block in rigid rocking and Dormand-Prince for stacks and rocking-sliding."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from runners.engine.fmu import FMUError
 
 BLOCK = Block(0.1, 0.3)
 TAYLOR = {"solver.method": 1}
+DORMAND_PRINCE = {"solver.method": 0}
 
 
 @pytest.mark.parametrize("rtol,bound", [(1e-6, 1e-6), (1e-10, 1e-10), (1e-13, 1e-13)])
@@ -43,7 +45,7 @@ def test_forced_scenes_agree_with_dormand_prince(fmu, scene):
     outs = ["block1.theta", "impacts", "overturned", "atRest"]
     p = {**SCENES[scene], "solver.relTol": 1e-12, "solver.absTol": 1e-14}
     a = fmu.run({**p, **TAYLOR}, 5.0, 0.01, outputs=outs)
-    b = fmu.run(p, 5.0, 0.01, outputs=outs)
+    b = fmu.run({**p, **DORMAND_PRINCE}, 5.0, 0.01, outputs=outs)
     ta, tb = a.event_times("impact"), b.event_times("impact")
     assert len(ta) == len(tb) and a.outputs["overturned"][-1] == b.outputs["overturned"][-1]
     if len(ta):
@@ -68,6 +70,69 @@ def test_inputs_and_communication_steps(fmu):
 
 def test_invalid_method_settings_are_errors(fmu):
     with pytest.raises(FMUError, match="solver.method"):
-        fmu.run({"solver.method": 2}, 0.1, 0.1)
+        fmu.run({"solver.method": 3}, 0.1, 0.1)
+    with pytest.raises(FMUError, match="solver.method"):
+        fmu.run({"solver.method": -1}, 0.1, 0.1)
     with pytest.raises(FMUError, match="nBlocks = 1 only"):
         fmu.run({"solver.method": 1, "nBlocks": 2}, 0.1, 0.1)
+    with pytest.raises(FMUError, match="rocking-sliding"):
+        fmu.run({"solver.method": 1, "contact.model": 1}, 0.1, 0.1)
+
+
+def _bits(r, outs):
+    return [r.outputs[k].tobytes() for k in outs] + [r.event_times(e).tobytes() for e in ("impact", "peak")]
+
+
+AUTO_SCENES = {
+    "free rocking": {"block1.theta0": 0.2},
+    "sine pulse to rest": SCENES["sine pulse to rest"],
+    "overturning pulse": SCENES["overturning pulse"],
+}
+
+
+def _record_scene(tmp_path):
+    """A piecewise-linear record (samples every 0.02 s of two sines, 4 s), as a file."""
+    t = np.arange(0.0, 4.0 + 1e-9, 0.02)
+    a = 4.0 * np.sin(2 * math.pi * 1.7 * t) + 2.5 * np.sin(2 * math.pi * 4.3 * t + 0.4)
+    a[-1] = 0.0
+    path = tmp_path / "two_sines.txt"
+    np.savetxt(path, np.column_stack([t, a]), fmt="%.17g", header="time (s), ah (m/s2)")
+    return {"excitation.kind": 4, "excitation.file": str(path), "block1.halfWidth": 0.1, "block1.halfHeight": 0.4}
+
+
+def test_the_default_is_auto(fmu):
+    assert fmu.defaults()["solver.method"] == 2
+
+
+@pytest.mark.parametrize("scene", [*AUTO_SCENES, "record"])
+def test_auto_integrates_one_rigid_block_by_the_taylor_series(fmu, scene, tmp_path):
+    """The default run of one block is the Taylor series' to the bit, and not Dormand-Prince's."""
+    outs = ["block1.theta", "block1.omega", "impacts", "block1.maxAbsTheta"]
+    p = _record_scene(tmp_path) if scene == "record" else AUTO_SCENES[scene]
+    auto = fmu.run(p, 3.0, 0.01, outputs=outs)
+    taylor = fmu.run({**p, **TAYLOR}, 3.0, 0.01, outputs=outs)
+    dp = fmu.run({**p, **DORMAND_PRINCE}, 3.0, 0.01, outputs=outs)
+    assert _bits(auto, outs) == _bits(taylor, outs)
+    assert _bits(auto, outs) != _bits(dp, outs)
+    # the two integrators agree to their tolerance (relTol 1e-10): the same run
+    assert np.max(np.abs(auto.outputs["block1.theta"] - dp.outputs["block1.theta"])) < 1e-6
+    assert np.array_equal(auto.outputs["impacts"], dp.outputs["impacts"])
+
+
+STACK = {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": -0.08, "block2.halfWidth": 0.1,
+         "block2.halfHeight": 0.2, "block1.mass": 10.0, "block2.mass": 5.0}
+SLIDING = {"contact.model": 1, "contact.muGround": 0.35, "block1.halfWidth": 0.15, "block1.halfHeight": 0.45,
+           "excitation.kind": 1, "excitation.amplitude": 6.0, "excitation.frequency": 1.5}
+STACK_SLIDING = {**STACK, "contact.model": 1, "contact.muGround": 0.5, "contact.muInterface": 0.5}
+
+
+@pytest.mark.parametrize("scene", [STACK, SLIDING, STACK_SLIDING], ids=["stack", "rocking-sliding",
+                                                                       "rocking-sliding stack"])
+def test_auto_integrates_stacks_and_rocking_sliding_by_dormand_prince(fmu, scene):
+    """Where the Taylor series does not apply, the default is accepted (no refusal) and is
+    Dormand-Prince to the bit."""
+    outs = ["block1.theta", "block1.omega", "impacts"]
+    auto = fmu.run(scene, 2.0, 0.01, outputs=outs)
+    dp = fmu.run({**scene, **DORMAND_PRINCE}, 2.0, 0.01, outputs=outs)
+    assert auto.outputs["impacts"][-1] > 0
+    assert _bits(auto, outs) == _bits(dp, outs)

@@ -6,8 +6,13 @@
 
 #include "ground.h"
 
+int taylor_on(const Model *M) {
+    const Variables *v = &M->v;
+    return v->method == 1 || (v->method == 2 && v->nBlocks == 1 && v->contactModel == 0);
+}
+
 int taylor_order(double rtol) {
-    int n = (int)ceil(-0.6 * log(rtol)) + 2;
+    int n = (int)ceil(-0.6 * log(rtol)) + 8;
     if (n < 10) n = 10;
     if (n > TAYLOR_MAX) n = TAYLOR_MAX;
     return n;
@@ -20,6 +25,11 @@ void taylor_series(const Model *M, double t, double theta, double omega, int sid
     double kk = M->d.mROverI0;
     ground_series(M, t, piece, N, ah, ge); /* ge: a_v for now, then g + a_v */
     ge[0] += M->v.g;
+    /* the ground's series end early without a wave (free rocking, no vertical, a record's
+     * straight pieces): the products below stop at their last nonzero terms */
+    int nah = N, nge = N;
+    while (nah > 0 && ah[nah] == 0.0) nah--;
+    while (nge > 0 && ge[nge] == 0.0) nge--;
     x[0] = theta;
     x[1] = omega;
     ph[0] = side * M->d.alpha - theta;
@@ -37,7 +47,8 @@ void taylor_series(const Model *M, double t, double theta, double omega, int sid
             C[k] = -c / k;
         }
         double F = 0.0;
-        for (int j = 0; j <= k; j++) F += ge[j] * S[k - j] + ah[j] * C[k - j];
+        for (int j = 0; j <= k && j <= nge; j++) F += ge[j] * S[k - j];
+        for (int j = 0; j <= k && j <= nah; j++) F += ah[j] * C[k - j];
         x[k + 2] = -kk * F / ((k + 1.0) * (k + 2.0));
     }
 }
@@ -56,9 +67,11 @@ double taylor_step(const double *x, int N, double eps) {
 }
 
 void taylor_eval(const double *x, int N, double s, double *theta, double *omega) {
-    double th = x[N], om = N * x[N];
-    for (int k = N - 1; k >= 0; k--) th = th * s + x[k];
-    for (int k = N - 1; k >= 1; k--) om = om * s + k * x[k];
+    double th = x[N], om = 0.0; /* Horner for the polynomial and its derivative together */
+    for (int k = N - 1; k >= 0; k--) {
+        om = om * s + th;
+        th = th * s + x[k];
+    }
     *theta = th;
     if (omega) *omega = om;
 }
@@ -101,8 +114,38 @@ static double refine_root(const double *x, int N, double a, double b, int comp, 
     return b;
 }
 
+/* 1 if the polynomial sum a[k] s^k (k = 0..n) has no zero in (0, h]: its linear part keeps one
+ * sign there by more than the sum of the other terms' magnitudes at h (and a margin for the
+ * rounding of its evaluation); a zero at s = 0 is divided out first. A cheap proof that
+ * sampling would find no crossing in the step, taken before the samples. */
+static int no_zero(const double *a, int n, double h) {
+    while (n > 1 && a[0] == 0.0) a++, n--; /* p(s) = s q(s): q's sign on (0, h] is p's */
+    double a0 = a[0], a1h = a[1] * h, tail = 0.0, hk = h;
+    for (int k = 2; k <= n; k++) {
+        hk *= h;
+        tail += fabs(a[k]) * hk;
+    }
+    double lin = a0 > 0.0 ? fmin(a0, a0 + a1h) : -fmax(a0, a0 + a1h);
+    return a0 != 0.0 && lin - tail > 1e-12 * (fabs(a0) + fabs(a1h) + tail);
+}
+
 double taylor_first_crossing(const double *x, int N, double h, int comp, double sign, double target,
                              int slope, int samples) {
+    /* the polynomial whose sign change is sought: sign * (theta - target), or sign * omega */
+    double a[TAYLOR_MAX + 1];
+    int n = comp == 0 ? N : N - 1;
+    a[0] = comp == 0 ? sign * (x[0] - target) : sign * x[1];
+    for (int k = 1; k <= n; k++) a[k] = comp == 0 ? sign * x[k] : sign * (k + 1) * x[k + 1];
+    if (no_zero(a, n, h)) return 2.0 * h;
+    /* monotone on [0, h] (its derivative has no zero there): one crossing at most, bracketed by
+     * the step's ends (from a zero at s = 0 it leaves the surface at once: no crossing) */
+    double d[TAYLOR_MAX + 1];
+    for (int k = 0; k < n; k++) d[k] = (k + 1) * a[k + 1];
+    if (n >= 2 && no_zero(d, n - 1, h)) {
+        double v0 = value(x, N, 0.0, comp, sign, target), vh = value(x, N, h, comp, sign, target);
+        int crosses = slope < 0 ? v0 > 0.0 && vh <= 0.0 : v0 < 0.0 && vh >= 0.0;
+        return crosses ? refine_root(x, N, 0.0, h, comp, sign, target, slope) : 2.0 * h;
+    }
     double lo = 0.0, vlo = value(x, N, 0.0, comp, sign, target);
     for (int i = 1; i <= samples; i++) {
         double hi = h * i / samples, vhi = value(x, N, hi, comp, sign, target);
@@ -121,4 +164,9 @@ double taylor_first_crossing(const double *x, int N, double h, int comp, double 
         vlo = vhi;
     }
     return 2.0 * h;
+}
+
+double taylor_solve(const double *x, int N, double a, double b, double target) {
+    int slope = value(x, N, a, 0, 1.0, target) < 0.0 ? 1 : -1;
+    return refine_root(x, N, a, b, 0, 1.0, target, slope);
 }

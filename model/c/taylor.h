@@ -1,4 +1,5 @@
-/* Taylor-series integration of one rocking block (solver.method = 1).
+/* Taylor-series integration of one rocking block (solver.method = 1, and the default 2 = auto
+ * for one block in rigid rocking).
  *
  * Between events the block obeys theta'' = -(m R / I0) [ (g + a_v) sin(phi)
  * + a_h cos(phi) ], phi = s alpha - theta, with a_h, a_v sines or cosines of
@@ -13,6 +14,11 @@
 #define ROCKING_TAYLOR_H
 
 #include "model.h"
+
+/* 1 if the Taylor series integrates the model M: solver.method = 1, or the default
+ * solver.method = 2 (auto) for one block in rigid rocking (contact.model = 0); a stack and
+ * rocking-sliding are Dormand-Prince's. */
+int taylor_on(const Model *M);
 
 /* Order used for the tolerance rtol (10 to TAYLOR_MAX). */
 int taylor_order(double rtol);
@@ -33,5 +39,9 @@ void taylor_eval(const double *x, int N, double s, double *theta, double *omega)
  * `samples` sub-intervals and refined by bisection; > h if none. */
 double taylor_first_crossing(const double *x, int N, double h, int comp, double sign, double target,
                              int slope, int samples);
+
+/* The s in [a, b] where theta(s) = target, given that theta - target changes sign from a to b
+ * (to machine precision: the end beyond target). */
+double taylor_solve(const double *x, int N, double a, double b, double target);
 
 #endif
