@@ -76,42 +76,34 @@ void taylor_eval(const double *x, int N, double s, double *theta, double *omega)
     if (omega) *omega = om;
 }
 
-/* sign * (theta(s) - target) (comp 0) or sign * omega(s) (comp 1), by Horner. */
-static double value(const double *x, int N, double s, int comp, double sign, double target) {
-    double v;
-    if (comp == 0) {
-        v = x[N];
-        for (int k = N - 1; k >= 0; k--) v = v * s + x[k];
-        v -= target;
-    } else {
-        v = N * x[N];
-        for (int k = N - 1; k >= 1; k--) v = v * s + k * x[k];
-    }
-    return sign * v;
+/* The polynomial sum a[k] s^k (k = 0..n), by Horner. */
+static double poly(const double *a, int n, double s) {
+    double v = a[n];
+    for (int k = n - 1; k >= 0; k--) v = v * s + a[k];
+    return v;
 }
 
-/* Root of value in [a, b] with value(a) * slope < 0 <= value(b) * slope: the
- * Illinois variant of regula falsi, to machine precision. */
-static double refine_root(const double *x, int N, double a, double b, int comp, double sign, double target,
-                          int slope) {
-    double fa = value(x, N, a, comp, sign, target), fb = value(x, N, b, comp, sign, target);
+/* Root of the polynomial a in [lo, hi] with p(lo) * slope < 0 <= p(hi) * slope: the Illinois
+ * variant of regula falsi, to machine precision. */
+static double refine_root(const double *a, int n, double lo, double hi, int slope) {
+    double fa = poly(a, n, lo), fb = poly(a, n, hi);
     int side = 0;
-    for (int it = 0; it < 100 && b - a > 2.0 * DBL_EPSILON * fabs(b); it++) {
-        double m = (fa * b - fb * a) / (fa - fb);
-        if (!(m > a && m < b)) m = 0.5 * (a + b);
-        double fm = value(x, N, m, comp, sign, target);
+    for (int it = 0; it < 100 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
+        double m = (fa * hi - fb * lo) / (fa - fb);
+        if (!(m > lo && m < hi)) m = 0.5 * (lo + hi);
+        double fm = poly(a, n, m);
         if (fm * slope >= 0.0) {
-            b = m, fb = fm;
+            hi = m, fb = fm;
             if (side == -1) fa *= 0.5;
             side = -1;
         } else {
-            a = m, fa = fm;
+            lo = m, fa = fm;
             if (side == 1) fb *= 0.5;
             side = 1;
         }
         if (fm == 0.0) return m;
     }
-    return b;
+    return hi;
 }
 
 /* 1 if the polynomial sum a[k] s^k (k = 0..n) has no zero in (0, h]: its linear part keeps one
@@ -142,23 +134,23 @@ double taylor_first_crossing(const double *x, int N, double h, int comp, double 
     double d[TAYLOR_MAX + 1];
     for (int k = 0; k < n; k++) d[k] = (k + 1) * a[k + 1];
     if (n >= 2 && no_zero(d, n - 1, h)) {
-        double v0 = value(x, N, 0.0, comp, sign, target), vh = value(x, N, h, comp, sign, target);
+        double v0 = a[0], vh = poly(a, n, h);
         int crosses = slope < 0 ? v0 > 0.0 && vh <= 0.0 : v0 < 0.0 && vh >= 0.0;
-        return crosses ? refine_root(x, N, 0.0, h, comp, sign, target, slope) : 2.0 * h;
+        return crosses ? refine_root(a, n, 0.0, h, slope) : 2.0 * h;
     }
-    double lo = 0.0, vlo = value(x, N, 0.0, comp, sign, target);
+    double lo = 0.0, vlo = a[0];
     for (int i = 1; i <= samples; i++) {
-        double hi = h * i / samples, vhi = value(x, N, hi, comp, sign, target);
+        double hi = h * i / samples, vhi = poly(a, n, hi);
         int crosses = slope < 0 ? (vlo > 0.0 && vhi <= 0.0) || (i == 1 && vlo == 0.0 && vhi < 0.0)
                                 : (vlo < 0.0 && vhi >= 0.0);
         if (crosses) {
-            double a = lo;
+            double from = lo;
             if (vlo == 0.0) { /* starting on the surface (just after an impact): find where it leaves */
-                a = 0.5 * hi;
-                while (a > 1e-3 * DBL_EPSILON * h && value(x, N, a, comp, sign, target) * slope >= 0.0) a *= 0.5;
-                if (value(x, N, a, comp, sign, target) * slope >= 0.0) return 2.0 * h;
+                from = 0.5 * hi;
+                while (from > 1e-3 * DBL_EPSILON * h && poly(a, n, from) * slope >= 0.0) from *= 0.5;
+                if (poly(a, n, from) * slope >= 0.0) return 2.0 * h;
             }
-            return refine_root(x, N, a, hi, comp, sign, target, slope);
+            return refine_root(a, n, from, hi, slope);
         }
         lo = hi;
         vlo = vhi;
@@ -167,6 +159,8 @@ double taylor_first_crossing(const double *x, int N, double h, int comp, double 
 }
 
 double taylor_solve(const double *x, int N, double a, double b, double target) {
-    int slope = value(x, N, a, 0, 1.0, target) < 0.0 ? 1 : -1;
-    return refine_root(x, N, a, b, 0, 1.0, target, slope);
+    double p[TAYLOR_MAX + 1];
+    p[0] = x[0] - target;
+    for (int k = 1; k <= N; k++) p[k] = x[k];
+    return refine_root(p, N, a, b, poly(p, N, a) < 0.0 ? 1 : -1);
 }

@@ -20,7 +20,7 @@
  * rocking-sliding are Dormand-Prince's. */
 int taylor_on(const Model *M);
 
-/* Order used for the tolerance rtol (10 to TAYLOR_MAX). */
+/* Order used for the tolerance rtol: ceil(-0.6 ln rtol) + 8, within 10 to TAYLOR_MAX. */
 int taylor_order(double rtol);
 
 /* Coefficients x[0..N] of theta(t + s) = sum x[k] s^k for pivot side and
@@ -35,8 +35,11 @@ double taylor_step(const double *x, int N, double eps);
 void taylor_eval(const double *x, int N, double s, double *theta, double *omega);
 
 /* First s in (0, h] where sign * (theta(s) - target) (comp 0) or sign * omega(s)
- * (comp 1) crosses zero with the given slope (-1 falling, +1 rising), found on
- * `samples` sub-intervals and refined by bisection; > h if none. */
+ * (comp 1) crosses zero with the given slope (-1 falling, +1 rising); > h if none.
+ * Ruled out at once where the polynomial's linear part keeps its sign by more than
+ * the other terms can change it; solved on the whole step where its derivative is
+ * ruled out the same way (monotone); else found on `samples` sub-intervals. Refined
+ * by regula falsi (Illinois). */
 double taylor_first_crossing(const double *x, int N, double h, int comp, double sign, double target,
                              int slope, int samples);
 
