@@ -136,3 +136,40 @@ def test_auto_integrates_stacks_and_rocking_sliding_by_dormand_prince(fmu, scene
     dp = fmu.run({**scene, **DORMAND_PRINCE}, 2.0, 0.01, outputs=outs)
     assert auto.outputs["impacts"][-1] > 0
     assert _bits(auto, outs) == _bits(dp, outs)
+
+
+def test_the_monitors_sample_inside_taylor_steps(fmu):
+    """The default's steps are long; the monitors sample inside them, so the largest friction demand
+    of a pulse run is the largest |T| / N along the motion (outputs every 0.1 ms, each an exact
+    evaluation on the series), closer than Dormand-Prince's step-start samples get it."""
+    p = {**SCENES["sine pulse to rest"], "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block1.mass": 2.0}
+    outs = ["contact.groundT", "contact.groundN", "friction.demandMaxGround", "contact.normalMinGround"]
+    fine = fmu.run(p, 2.0, 1e-4, outputs=outs, events=False)
+    demand = np.abs(fine.outputs["contact.groundT"]) / fine.outputs["contact.groundN"]
+    weight = 2.0 * 9.81  # m g (N)
+    auto = fmu.run(p, 2.0, 2.0, outputs=outs, events=False)
+    dp = fmu.run({**p, **DORMAND_PRINCE}, 2.0, 2.0, outputs=outs, events=False)
+    true_max, true_min = demand.max(), fine.outputs["contact.groundN"].min() / weight
+    err_auto = abs(auto.outputs["friction.demandMaxGround"][-1] / true_max - 1)
+    err_dp = abs(dp.outputs["friction.demandMaxGround"][-1] / true_max - 1)
+    assert err_auto < 1e-6 and err_auto < err_dp
+    # the smallest normal reaction lies at an impact, which both integrators sample exactly (the
+    # 0.1 ms outputs fall beside it)
+    n_auto, n_dp = auto.outputs["contact.normalMinGround"][-1], dp.outputs["contact.normalMinGround"][-1]
+    assert n_auto == pytest.approx(n_dp, rel=1e-9) and n_auto <= true_min
+
+
+def test_fall_time_is_where_the_block_passes_its_limit(fmu):
+    """fallTime of the default is the time |theta| passes alpha before the overturn, not the start
+    of the step in which it does."""
+    b, h = 0.03, 0.06
+    p = {"block1.halfWidth": b, "block1.halfHeight": h, "excitation.kind": 1, "excitation.amplitude": 6.0,
+         "excitation.frequency": 1.5}
+    r = fmu.run(p, 1.0, 1e-4, outputs=["block1.theta", "fallTime", "overturned"], events=False)
+    assert r.outputs["overturned"][-1]
+    theta, alpha = np.abs(r.outputs["block1.theta"]), math.atan(b / h)
+    over = np.nonzero(theta > alpha)[0]
+    last_in = over[np.nonzero(theta[over - 1] <= alpha)[0][-1]] - 1  # the last sample within before the fall
+    t0, t1, y0, y1 = r.time[last_in], r.time[last_in + 1], theta[last_in], theta[last_in + 1]
+    crossing = t0 + (alpha - y0) / (y1 - y0) * (t1 - t0)  # linear between 0.1 ms samples
+    assert abs(r.outputs["fallTime"][-1] - crossing) < 1e-7
