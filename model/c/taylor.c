@@ -8,7 +8,7 @@
 
 int taylor_on(const Model *M) {
     const Variables *v = &M->v;
-    return v->method == 1 || (v->method == 2 && v->nBlocks == 1 && v->contactModel == 0);
+    return v->method == 1 || (v->method == 2 && v->nBlocks == 1 && v->contactModel == 0 && v->kind != KIND_RECORD);
 }
 
 int taylor_order(double rtol) {

@@ -16,8 +16,9 @@
 #include "model.h"
 
 /* 1 if the Taylor series integrates the model M: solver.method = 1, or the default
- * solver.method = 2 (auto) for one block in rigid rocking (contact.model = 0); a stack and
- * rocking-sliding are Dormand-Prince's. */
+ * solver.method = 2 (auto) for one block in rigid rocking (contact.model = 0) under any
+ * excitation but a record; a stack, rocking-sliding and a record (whose samples cut every
+ * step, where Dormand-Prince's cheaper steps cost less) are Dormand-Prince's. */
 int taylor_on(const Model *M);
 
 /* Order used for the tolerance rtol: ceil(-0.6 ln rtol) + 8, within 10 to TAYLOR_MAX. */
