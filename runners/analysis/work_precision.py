@@ -12,7 +12,7 @@ against the event-driven two-block reference at rtol 1e-13
 (model/two_block_solver.py).
 
 The FMU runs with its default integrator (solver.method 2, auto: for one block
-the Taylor series, to the bit the run of solver.method 1) and with Dormand-Prince
+under a built-in excitation the Taylor series, to the bit the run of solver.method 1) and with Dormand-Prince
 (solver.method 0, the earlier default); two blocks have Dormand-Prince
 only (auto's choice for them). Costs are wall
 seconds per simulation. The FMU appears three times: natively
