@@ -288,7 +288,7 @@ static void sample_taylor_step(Model *M, ReactionsFn moving, const double Tb[2],
     double a = S->monT, b = S->t, u[2];
     int n = S->h > 0 ? (int)ceil(TAYLOR_MONITOR_SAMPLES * (b - a) / S->h) : TAYLOR_MONITOR_SAMPLES;
     if (n > TAYLOR_MONITOR_SAMPLES) n = TAYLOR_MONITOR_SAMPLES;
-    Sample x[3 * TAYLOR_MONITOR_SAMPLES + 1];
+    Sample x[4 * TAYLOR_MONITOR_SAMPLES]; /* n + 1 nodes, n crossings of alpha, 2 (n - 1) extremes */
     double d[TAYLOR_MONITOR_SAMPLES + 1], w[TAYLOR_MONITOR_SAMPLES + 1], th[TAYLOR_MONITOR_SAMPLES + 1];
     for (int j = 0; j <= n; j++) {
         Sample *p = &x[j];
@@ -316,7 +316,6 @@ static void sample_taylor_step(Model *M, ReactionsFn moving, const double Tb[2],
             x[m].theta = lim;
             moving(M, x[m].t, 1, x[m].T, x[m].N);
             m++;
-            break;
         }
     }
     for (int j = 1; j < n; j++) {
