@@ -50,8 +50,11 @@ def test_method_taylor_reaches_the_fmu_and_both_integrators_meet_the_exact_solut
     taylor = load_scene(free_scene(tmp_path, "taylor", name="taylor"))
     default = load_scene(free_scene(tmp_path, None, name="default"))
     named = load_scene(free_scene(tmp_path, "dormand-prince", name="dopri"))
+    auto = load_scene(free_scene(tmp_path, "auto", name="auto"))
     assert taylor.parameters["solver.method"] == 1 and "solver.method" not in default.parameters
-    runs = {k: run_scene(fmu, s) for k, s in (("taylor", taylor), ("default", default), ("named", named))}
+    assert named.parameters["solver.method"] == 0 and auto.parameters["solver.method"] == 2
+    runs = {k: run_scene(fmu, s) for k, s in (("taylor", taylor), ("default", default), ("named", named),
+                                              ("auto", auto))}
     for key, r in runs.items():
         ti, pk = r.event_times("impact")[:10], r.event_values("peak", "theta")[:9]
         assert len(ti) == 10 and len(pk) == 9, key
@@ -62,15 +65,16 @@ def test_method_taylor_reaches_the_fmu_and_both_integrators_meet_the_exact_solut
         # energy: constant between impacts, times eta^2 at each (theta = 0 there, all kinetic)
         e, n = r.outputs["energy"], r.outputs["impacts"]
         assert np.max(np.abs(e / (e[0] * ETA ** (2 * n)) - 1)) < 10 * RTOL, key
-    a, b = runs["taylor"], runs["default"]
+    a, b = runs["taylor"], runs["named"]
     assert np.max(np.abs(a.event_times("impact")[:10] / b.event_times("impact")[:10] - 1)) < 10 * RTOL
-    # the key is not ignored: "taylor" integrates differently from the default (1e-6 apart here),
-    # and "dormand-prince" is the default, bit for bit
+    # the key is not ignored: "taylor" integrates differently from "dormand-prince" (1e-6 apart
+    # here), and the default, "auto", is the Taylor series for one block, bit for bit
     assert np.max(np.abs(a.outputs["block1.theta"] - b.outputs["block1.theta"])) > 1e-8
-    np.testing.assert_array_equal(runs["named"].outputs["block1.theta"], b.outputs["block1.theta"])
+    np.testing.assert_array_equal(runs["default"].outputs["block1.theta"], a.outputs["block1.theta"])
+    np.testing.assert_array_equal(runs["auto"].outputs["block1.theta"], a.outputs["block1.theta"])
     # docs/methods.md: at loose tolerances the Taylor series is the more accurate of the two
     err = {k: np.max(np.abs(r.event_values("peak", "theta")[:9] / REF.peak_thetas[:9] - 1)) for k, r in runs.items()}
-    assert err["taylor"] < err["default"] / 10
+    assert err["taylor"] < err["named"] / 10
 
 
 def test_simulate_stores_the_method_and_refuses_bad_ones(tmp_path, fmu_path):

@@ -15,6 +15,7 @@
 #include "stack.h"
 #include "stack_solver.h"
 #include "stack_sliding.h"
+#include "taylor.h"
 
 /* Acceleration relative to the ground of the point rot(theta) (ux, uy). */
 static void arm_accel(double theta, double omega, double alpha, double ux, double uy, double a[2]) {
@@ -256,6 +257,93 @@ void contact_now(const Model *M, ReactionsFn moving, double T[2], double N[2]) {
     (M->s.mode == MODE_REST ? contact_rest : moving)(M, M->s.t, 0, T, N);
 }
 
+/* A Taylor-series step (taylor.h) is several times longer than a Dormand-Prince step at the
+ * same tolerance: when its end is sampled (so never past a communication point) the monitors
+ * also sample inside it, from its series, at most TAYLOR_MONITOR_SAMPLES - 1 evenly spaced
+ * times (fewer in a step an event cut short: the spacing is a quarter of the step the series
+ * allowed, S->h), and where a parabola through three samples puts a new largest friction
+ * demand or smallest normal reaction of the ground (the extremes of a rocking block's
+ * reactions under excitation lie inside its steps). */
+#define TAYLOR_MONITOR_SAMPLES 4
+
+typedef struct {
+    double t, T[2], N[2], theta;
+    int edge; /* the block reaches its stability limit here */
+} Sample;
+
+/* Where the parabola through (j - 1, f[j - 1]), (j, f[j]), (j + 1, f[j + 1]) (abscissae in units
+ * of the spacing) has its extreme (sign +1 largest, -1 smallest) if that lies strictly between
+ * j - 1 and j + 1, off j, and beyond `best`; else -1. */
+static double vertex(const double *f, int j, double sign, double best) {
+    double l = sign * f[j - 1], m = sign * f[j], r = sign * f[j + 1], c = l - 2.0 * m + r;
+    if (!(c < 0)) return -1.0;
+    double u = 0.5 * (l - r) / c;
+    if (!(fabs(u) < 1.0) || u == 0.0 || !(m - 0.25 * (l - r) * u > sign * best)) return -1.0;
+    return j + u;
+}
+
+static void sample_taylor_step(Model *M, ReactionsFn moving, const double Tb[2], const double Nb[2],
+                               const Logger *log) {
+    State *S = &M->s;
+    double a = S->monT, b = S->t, u[2];
+    int n = S->h > 0 ? (int)ceil(TAYLOR_MONITOR_SAMPLES * (b - a) / S->h) : TAYLOR_MONITOR_SAMPLES;
+    if (n > TAYLOR_MONITOR_SAMPLES) n = TAYLOR_MONITOR_SAMPLES;
+    Sample x[4 * TAYLOR_MONITOR_SAMPLES]; /* n + 1 nodes, n crossings of alpha, 2 (n - 1) extremes */
+    double d[TAYLOR_MONITOR_SAMPLES + 1], w[TAYLOR_MONITOR_SAMPLES + 1], th[TAYLOR_MONITOR_SAMPLES + 1];
+    for (int j = 0; j <= n; j++) {
+        Sample *p = &x[j];
+        p->t = j == 0 ? a : j == n ? b : a + (b - a) * j / n;
+        p->edge = 0;
+        if (j == n) th[j] = S->y[0]; /* (an event's exact target) */
+        else if (p->t == S->tOld) th[j] = S->tay[0];
+        else taylor_eval(S->tay, S->tayN, p->t - S->tOld, &th[j], NULL);
+        p->theta = th[j];
+        if (j == 0) p->T[0] = S->monTr[0], p->N[0] = S->monN[0];
+        else if (j == n) p->T[0] = Tb[0], p->N[0] = Nb[0];
+        else moving(M, p->t, 1, p->T, p->N);
+        d[j] = p->N[0] > 0 ? fabs(p->T[0]) / p->N[0] : INFINITY; /* (a lift-off: no refinement) */
+        w[j] = p->N[0];
+    }
+    int m = n + 1;
+    /* fallTime: where the block passes its limit alpha, outwards, between two samples */
+    for (int j = 0; j < n; j++) {
+        double lim = th[j] > 0 ? M->d.alpha : -M->d.alpha;
+        if (fabs(th[j]) <= M->d.alpha && fabs(th[j + 1]) > M->d.alpha && th[j] * th[j + 1] > 0) {
+            double s = taylor_solve(S->tay, S->tayN, x[j].t - S->tOld, x[j + 1].t - S->tOld, lim);
+            x[m].t = S->tOld + s;
+            if (!(x[m].t > x[j].t && x[m].t < x[j + 1].t)) continue;
+            x[m].edge = 1;
+            x[m].theta = lim;
+            moving(M, x[m].t, 1, x[m].T, x[m].N);
+            m++;
+        }
+    }
+    for (int j = 1; j < n; j++) {
+        u[0] = isfinite(d[j - 1] + d[j] + d[j + 1]) ? vertex(d, j, 1.0, S->demandMax[0]) : -1.0;
+        u[1] = vertex(w, j, -1.0, S->normalMin[0] * weight(M, 0));
+        for (int k = 0; k < 2; k++)
+            if (u[k] > 0 && u[k] < n) {
+                x[m].t = a + (b - a) * u[k] / n;
+                x[m].edge = 0;
+                taylor_eval(S->tay, S->tayN, x[m].t - S->tOld, &x[m].theta, NULL);
+                moving(M, x[m].t, 1, x[m].T, x[m].N);
+                m++;
+            }
+    }
+    /* inside the step, in time order */
+    for (int i = n + 1; i < m; i++)
+        for (int k = i; k > 1 && x[k].t < x[k - 1].t; k--) {
+            Sample tmp = x[k];
+            x[k] = x[k - 1];
+            x[k - 1] = tmp;
+        }
+    for (int i = 1; i < m; i++) {
+        if (x[i].t >= b) continue; /* the end: the caller's sample */
+        contact_sample(M, x[i].t, x[i].T, x[i].N, moving, log);
+        if (x[i].edge || fabs(x[i].theta) <= M->d.alpha) S->withinTime = x[i].t;
+    }
+}
+
 void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int continuous) {
     State *S = &M->s;
     if (S->mode == MODE_OVERTURNED) return;
@@ -265,6 +353,7 @@ void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int c
     ReactionsFn path = NULL;
     if (continuous && rest) path = contact_rest;
     else if (continuous && S->denseValid && S->monValid && S->monT >= S->tOld) path = moving;
+    if (path == moving && S->denseTaylor && S->monT < S->t) sample_taylor_step(M, moving, T, N, log);
     contact_sample(M, S->t, T, N, path, log);
     if (within_limits(M)) S->withinTime = S->t;
 }

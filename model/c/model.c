@@ -115,8 +115,8 @@ int model_validate(const Variables *v, char *msg, size_t n) {
             FAIL("contact.model = 1 with nBlocks = 2 needs block 2 no wider than block 1 (block2.halfWidth = %g > "
                  "block1.halfWidth = %g): a wider block 2 would turn about block 1's edge, not modelled",
                  v->halfWidth2, v->halfWidth);
-        if (v->method != 0)
-            FAIL("contact.model = 1 (rocking-sliding) needs solver.method = 0 (Dormand-Prince)");
+        if (v->method == 1)
+            FAIL("contact.model = 1 (rocking-sliding) needs solver.method = 0 (Dormand-Prince) or 2 (auto)");
         if (v->earlyOverturn) FAIL("solver.earlyOverturn is available for contact.model = 0 only");
         if (!(v->restRatio >= 1e-12))
             FAIL("solver.restRatio = %g must be >= 1e-12 with contact.model = 1 (a smaller rebound lies below what "
@@ -128,8 +128,9 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     }
     if (!(v->muInterface > 0)) FAIL("contact.muInterface = %g must be > 0", v->muInterface);
     if (ground_validate(v, msg, n)) return 1;
-    if (v->method != 0 && v->method != 1)
-        FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)) or 1 (Taylor series)", v->method);
+    if (v->method < 0 || v->method > 2)
+        FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)), 1 (Taylor series) or 2 (auto: the Taylor series "
+             "for one block in rigid rocking, else Dormand-Prince)", v->method);
     if (v->method == 1 && v->nBlocks == 2)
         FAIL("solver.method = 1 (Taylor series) is available for nBlocks = 1 only");
     if (!(v->relTol >= REL_TOL_MIN && v->relTol <= 0.1))

@@ -23,9 +23,12 @@
 #define TAYLOR_SAMPLES 16
 /* The shortest Taylor step (before a break point cuts it), in units of the block's time
  * scale 1 / (p + |omega|) (1/p, or the time to turn by a radian): at the tolerances allowed
- * it is at least 0.1 of the series' radius (eps^(1/N) with N <= 22), far above this. A
+ * it is at least 0.1 of the series' radius (eps^(1/N) with N <= TAYLOR_MAX), far above this. A
  * shorter one would take 1e6 steps per time scale, a run that never returns: an error. */
 #define TAYLOR_STEP_FLOOR 1e-6
+/* The longest Taylor step, in units of 1 / p (the series' radius is about 1 / p and the steps
+ * a fraction of it; only a series that ends gives more). */
+#define TAYLOR_STEP_CAP 1e3
 
 typedef struct {
     const Model *M;
@@ -328,7 +331,7 @@ static int take_step_taylor(Model *M, const Logger *log);
 static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
-    if (v->method == 1) return take_step_taylor(M, log);
+    if (taylor_on(M)) return take_step_taylor(M, log);
     RhsCtx c = rhs_context(M, S->t, S->side, S->mode, S->sigma);
     int n = c.n, rocking = S->mode == MODE_ROCKING;
     /* rocking-sliding: the error control of a sticking pivot is the rigid model's */
@@ -503,7 +506,7 @@ static int take_step(Model *M, const Logger *log) {
     return finish_step(M, log, side, ev);
 }
 
-/* One step of the Taylor-series integrator (solver.method = 1). */
+/* One step of the Taylor-series integrator (taylor_on: solver.method = 1, or 2 for one rigid block). */
 static int take_step_taylor(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
@@ -511,6 +514,13 @@ static int take_step_taylor(Model *M, const Logger *log) {
     double x[TAYLOR_MAX + 1] = {0}, bp = next_breakpoint(M, S->t, piece); /* x[N + 1..]: 0 in the state */
     taylor_series(M, S->t, S->y[0], S->y[1], side, piece, N, x);
     double h = taylor_step(x, N, v->absTol + v->relTol * fabs(S->y[0]));
+    if (!isfinite(x[N]) || !isfinite(x[N - 1]) || isnan(h)) { /* rates beyond double precision's range */
+        say(log, LOG_ERROR, "no acceptable step size (the Taylor series of order %d is not finite) at t=%.17g", N, S->t);
+        return -1;
+    }
+    /* a series that ends (all its last terms 0: the block balanced on its corner) is exact for
+     * any step: a long one, but finite */
+    h = fmin(h, TAYLOR_STEP_CAP / sqrt(M->d.p2));
     double hFloor = TAYLOR_STEP_FLOOR / (sqrt(M->d.p2) + fabs(S->y[1]));
     if (!(h >= hFloor)) {
         say(log, LOG_ERROR,
@@ -519,6 +529,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
             h, S->t, hFloor, v->relTol, v->absTol);
         return -1;
     }
+    S->h = h; /* the step the series allows (the monitors' spacing inside it, contact.c) */
     int hitBp = 0;
     if (S->t + h >= bp) {
         h = bp - S->t;
@@ -891,7 +902,7 @@ static int not_finite(const double *x, int count) {
 static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
     const Variables *v = &M->v;
-    int two = v->nBlocks == 2, taylor = v->method == 1, mode = (int)S->mode, pending = (int)S->pending;
+    int two = v->nBlocks == 2, taylor = taylor_on(M), mode = (int)S->mode, pending = (int)S->pending;
     int rs = sliding_on(M) && !two, ss = ss_on(M);
     if (ss && ss_check_state(M, msg, n)) return 1;
     if (two ? !(mode == MODE_REST || mode == MODE_OVERTURNED || mode == MODE_UPPER || mode == MODE_LOCKED ||
@@ -1047,7 +1058,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
             if (!zero_bits(S->stepPeakTime[i]) || !zero_bits(S->stepPeakTheta[i]))
                 FAIL("two blocks locate no peaks: stepPeak %d must be 0", i);
     } else {
-        int taylor = M->v.method == 1; /* the Taylor-series integrator keeps neither f nor cont */
+        int taylor = taylor_on(M); /* the Taylor-series integrator keeps neither f nor cont */
         for (int i = 0; i < NMAX; i++) {
             int unused = i >= ny || taylor;
             int used = unused && (!zero_bits(S->f[i]) || (i >= ny && !zero_bits(S->y[i])));

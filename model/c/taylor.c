@@ -6,8 +6,13 @@
 
 #include "ground.h"
 
+int taylor_on(const Model *M) {
+    const Variables *v = &M->v;
+    return v->method == 1 || (v->method == 2 && v->nBlocks == 1 && v->contactModel == 0 && v->kind != KIND_RECORD);
+}
+
 int taylor_order(double rtol) {
-    int n = (int)ceil(-0.6 * log(rtol)) + 2;
+    int n = (int)ceil(-0.6 * log(rtol)) + 8;
     if (n < 10) n = 10;
     if (n > TAYLOR_MAX) n = TAYLOR_MAX;
     return n;
@@ -20,6 +25,11 @@ void taylor_series(const Model *M, double t, double theta, double omega, int sid
     double kk = M->d.mROverI0;
     ground_series(M, t, piece, N, ah, ge); /* ge: a_v for now, then g + a_v */
     ge[0] += M->v.g;
+    /* the ground's series end early without a wave (free rocking, no vertical, a record's
+     * straight pieces): the products below stop at their last nonzero terms */
+    int nah = N, nge = N;
+    while (nah > 0 && ah[nah] == 0.0) nah--;
+    while (nge > 0 && ge[nge] == 0.0) nge--;
     x[0] = theta;
     x[1] = omega;
     ph[0] = side * M->d.alpha - theta;
@@ -37,7 +47,8 @@ void taylor_series(const Model *M, double t, double theta, double omega, int sid
             C[k] = -c / k;
         }
         double F = 0.0;
-        for (int j = 0; j <= k; j++) F += ge[j] * S[k - j] + ah[j] * C[k - j];
+        for (int j = 0; j <= k && j <= nge; j++) F += ge[j] * S[k - j];
+        for (int j = 0; j <= k && j <= nah; j++) F += ah[j] * C[k - j];
         x[k + 2] = -kk * F / ((k + 1.0) * (k + 2.0));
     }
 }
@@ -56,69 +67,100 @@ double taylor_step(const double *x, int N, double eps) {
 }
 
 void taylor_eval(const double *x, int N, double s, double *theta, double *omega) {
-    double th = x[N], om = N * x[N];
-    for (int k = N - 1; k >= 0; k--) th = th * s + x[k];
-    for (int k = N - 1; k >= 1; k--) om = om * s + k * x[k];
+    double th = x[N], om = 0.0; /* Horner for the polynomial and its derivative together */
+    for (int k = N - 1; k >= 0; k--) {
+        om = om * s + th;
+        th = th * s + x[k];
+    }
     *theta = th;
     if (omega) *omega = om;
 }
 
-/* sign * (theta(s) - target) (comp 0) or sign * omega(s) (comp 1), by Horner. */
-static double value(const double *x, int N, double s, int comp, double sign, double target) {
-    double v;
-    if (comp == 0) {
-        v = x[N];
-        for (int k = N - 1; k >= 0; k--) v = v * s + x[k];
-        v -= target;
-    } else {
-        v = N * x[N];
-        for (int k = N - 1; k >= 1; k--) v = v * s + k * x[k];
-    }
-    return sign * v;
+/* The polynomial sum a[k] s^k (k = 0..n), by Horner. */
+static double poly(const double *a, int n, double s) {
+    double v = a[n];
+    for (int k = n - 1; k >= 0; k--) v = v * s + a[k];
+    return v;
 }
 
-/* Root of value in [a, b] with value(a) * slope < 0 <= value(b) * slope: the
- * Illinois variant of regula falsi, to machine precision. */
-static double refine_root(const double *x, int N, double a, double b, int comp, double sign, double target,
-                          int slope) {
-    double fa = value(x, N, a, comp, sign, target), fb = value(x, N, b, comp, sign, target);
+/* Root of the polynomial a in [lo, hi] with p(lo) * slope < 0 <= p(hi) * slope: the Illinois
+ * variant of regula falsi, to machine precision. */
+static double refine_root(const double *a, int n, double lo, double hi, int slope) {
+    double fa = poly(a, n, lo), fb = poly(a, n, hi);
     int side = 0;
-    for (int it = 0; it < 100 && b - a > 2.0 * DBL_EPSILON * fabs(b); it++) {
-        double m = (fa * b - fb * a) / (fa - fb);
-        if (!(m > a && m < b)) m = 0.5 * (a + b);
-        double fm = value(x, N, m, comp, sign, target);
+    for (int it = 0; it < 100 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
+        double m = (fa * hi - fb * lo) / (fa - fb);
+        if (!(m > lo && m < hi)) m = 0.5 * (lo + hi);
+        double fm = poly(a, n, m);
         if (fm * slope >= 0.0) {
-            b = m, fb = fm;
+            hi = m, fb = fm;
             if (side == -1) fa *= 0.5;
             side = -1;
         } else {
-            a = m, fa = fm;
+            lo = m, fa = fm;
             if (side == 1) fb *= 0.5;
             side = 1;
         }
         if (fm == 0.0) return m;
     }
-    return b;
+    return hi;
+}
+
+/* 1 if the polynomial sum a[k] s^k (k = 0..n) has no zero in (0, h]: its linear part keeps one
+ * sign there by more than the sum of the other terms' magnitudes at h (and a margin for the
+ * rounding of its evaluation); a zero at s = 0 is divided out first. A cheap proof that
+ * sampling would find no crossing in the step, taken before the samples. */
+static int no_zero(const double *a, int n, double h) {
+    while (n > 1 && a[0] == 0.0) a++, n--; /* p(s) = s q(s): q's sign on (0, h] is p's */
+    double a0 = a[0], a1h = a[1] * h, tail = 0.0, hk = h;
+    for (int k = 2; k <= n; k++) {
+        hk *= h;
+        tail += fabs(a[k]) * hk;
+    }
+    double lin = a0 > 0.0 ? fmin(a0, a0 + a1h) : -fmax(a0, a0 + a1h);
+    return a0 != 0.0 && lin - tail > 1e-12 * (fabs(a0) + fabs(a1h) + tail);
 }
 
 double taylor_first_crossing(const double *x, int N, double h, int comp, double sign, double target,
                              int slope, int samples) {
-    double lo = 0.0, vlo = value(x, N, 0.0, comp, sign, target);
+    /* the polynomial whose sign change is sought: sign * (theta - target), or sign * omega */
+    double a[TAYLOR_MAX + 1];
+    int n = comp == 0 ? N : N - 1;
+    a[0] = comp == 0 ? sign * (x[0] - target) : sign * x[1];
+    for (int k = 1; k <= n; k++) a[k] = comp == 0 ? sign * x[k] : sign * (k + 1) * x[k + 1];
+    if (no_zero(a, n, h)) return 2.0 * h;
+    /* monotone on [0, h] (its derivative has no zero there): one crossing at most, bracketed by
+     * the step's ends (from a zero at s = 0 it leaves the surface at once: no crossing) */
+    double d[TAYLOR_MAX + 1];
+    for (int k = 0; k < n; k++) d[k] = (k + 1) * a[k + 1];
+    if (n >= 2 && no_zero(d, n - 1, h)) {
+        double v0 = a[0], vh = poly(a, n, h);
+        int crosses = slope < 0 ? v0 > 0.0 && vh <= 0.0 : v0 < 0.0 && vh >= 0.0;
+        return crosses ? refine_root(a, n, 0.0, h, slope) : 2.0 * h;
+    }
+    double lo = 0.0, vlo = a[0];
     for (int i = 1; i <= samples; i++) {
-        double hi = h * i / samples, vhi = value(x, N, hi, comp, sign, target);
+        double hi = h * i / samples, vhi = poly(a, n, hi);
         int crosses = slope < 0 ? (vlo > 0.0 && vhi <= 0.0) || (i == 1 && vlo == 0.0 && vhi < 0.0)
                                 : (vlo < 0.0 && vhi >= 0.0);
         if (crosses) {
-            double a = lo;
+            double from = lo;
             if (vlo == 0.0) { /* starting on the surface (just after an impact): find where it leaves */
-                a = 0.5 * hi;
-                while (a > 1e-3 * DBL_EPSILON * h && value(x, N, a, comp, sign, target) * slope >= 0.0) a *= 0.5;
-                if (value(x, N, a, comp, sign, target) * slope >= 0.0) return 2.0 * h;
+                from = 0.5 * hi;
+                while (from > 1e-3 * DBL_EPSILON * h && poly(a, n, from) * slope >= 0.0) from *= 0.5;
+                if (poly(a, n, from) * slope >= 0.0) return 2.0 * h;
             }
-            return refine_root(x, N, a, hi, comp, sign, target, slope);
+            return refine_root(a, n, from, hi, slope);
         }
         lo = hi;
         vlo = vhi;
     }
     return 2.0 * h;
+}
+
+double taylor_solve(const double *x, int N, double a, double b, double target) {
+    double p[TAYLOR_MAX + 1];
+    p[0] = x[0] - target;
+    for (int k = 1; k <= N; k++) p[k] = x[k];
+    return refine_root(p, N, a, b, poly(p, N, a) < 0.0 ? 1 : -1);
 }

@@ -145,7 +145,7 @@ def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
             need = f"rigid rocking needs friction demand up to {a['friction_demand_max_ground']:.3g}"
         why = (f"{need} > mu {a['mu_ground']:g} (the block slides from t = {slide['t_s']:.6g} s): "
                "rocking-sliding used")
-    if int(p.get("solver.method", 0)) != 0:
+    if int(p.get("solver.method", 0)) == 1:  # the Taylor series asked for (auto, 2, picks Dormand-Prince itself)
         why += " (integrated by dormand-prince: taylor integrates rigid rocking only)"
     return why
 

@@ -30,8 +30,9 @@ LAWS = {"housner": 0, "momentum": 0, "modified": 1, "constant": 2}
 KINDS = {"none": 0, "sine-pulse": 1, "cosine-pulse": 2, "harmonic": 3, "record": 4, "ricker": 5,
          "ricker-antisymmetric": 6, "mavroeidis-papageorgiou": 7}
 KIND_NAMES = {v: k for k, v in KINDS.items()}  # excitation.kind -> its name in a scene
-# the FMU's integrators (solver.method, docs/methods.md): Taylor series for one block only
-METHODS = {"dormand-prince": 0, "taylor": 1}
+# the FMU's integrators (solver.method, docs/methods.md): Taylor series for one block only; auto
+# (the FMU's default) takes it for one block in rigid rocking but under a record, else Dormand-Prince
+METHODS = {"dormand-prince": 0, "taylor": 1, "auto": 2}
 # the FMU's contact models (contact.model, docs/contact.md): rigid rocking assumes the contacts
 # neither slide nor lift; rocking-sliding lets block 1 slide on the ground (Coulomb, one mu)
 CONTACT_MODELS = {"rigid-rocking": 0, "rocking-sliding": 1}
