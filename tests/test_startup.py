@@ -117,7 +117,7 @@ def test_bench_startup_times_both_commands_of_both_installations():
 def test_bench_baseline_without_startup_is_a_one_line_error(fmu_path, tmp_path):
     p = run_cli("bench", "--baseline", sys.executable, db=f"sqlite:///{tmp_path / 'b.db'}", fmu_path=fmu_path)
     assert p.returncode == 2 and p.stdout == "" and p.stderr.strip() == "error: --baseline is the other installation " \
-                                                                        "of --startup"
+                                                                        "of --startup or --throughput"
 
 
 def test_a_run_whose_frames_are_not_built_yet_pickles_and_builds_them_after(fmu_path):
