@@ -562,6 +562,7 @@ def sweep(
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
                                       local_workers, parse_axis, parse_points, record_axes, run_sweep)
+    from runners.engine.sweep_worker import check_outputs
 
     # every argument checked before anything is stored (ArgumentError, one line)
     specs = _axes_from(grid)
@@ -611,6 +612,9 @@ def sweep(
                                 ("--stop-time", stop_time is not None)) if v]
         raise ArgumentError(f"resuming finishes sweep {resume} as it was created: drop {', '.join(given)} "
                          "(start a new sweep to change them)")
+    from runners.engine import batch as batch_lib
+
+    batch_lib.enabled()  # ROCKING_BATCH: a value it does not know is an error before any work
     factory = open_database(db)
     require_writable(factory)  # before any work: a sweep stores every point
     fmu_path = fmu_path_from(None if fmu is None else str(fmu))
@@ -621,6 +625,7 @@ def sweep(
         check_times(sc.stop_time, sc.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fm:
             _check_fmu(fm, fmu_path)
+            check_outputs(fmu_path, int({**fm.defaults(), **sc.parameters}.get("nBlocks", 1)) == 2)
             sweepable = axis_parameters(fm)  # name -> "Real" or "Integer"
             defaults = fm.defaults()
             axes = [parse_axis(spec, sweepable) for spec in specs]

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from conftest import PATIENCE
 import pytest
 
 from runners.engine import batch as batch_lib
@@ -148,13 +149,32 @@ def test_bad_throughput_options_are_one_line_errors(args, message, fmu_path):
     assert "Traceback" not in p.stderr
 
 
-def test_a_damaged_cached_library_is_built_again(monkeypatch, tmp_path):
-    monkeypatch.setenv("ROCKING_CACHE", str(tmp_path))
-    path = batch_lib.library_path()
-    path.parent.mkdir(parents=True)
-    path.write_bytes(b"\x7fELF" + bytes(60))  # cut short (a full disk, a killed copy)
-    assert not batch_lib._loads(path)
-    assert batch_lib.library() == path and batch_lib._loads(path)
+@pytest.mark.parametrize("damage", ["cut", "flipped", "foreign", "folder"])
+def test_a_damaged_cached_library_is_built_again_without_loading_it(monkeypatch, tmp_path, damage):
+    """A library cut short inside its mapped segments kills the process that loads it (SIGBUS):
+    library() must find every damage without loading the file, in a process of its own here."""
+    cache = tmp_path / "cache"
+    env = {**os.environ, "ROCKING_CACHE": str(cache)}
+    code = "from runners.engine import batch; print(batch.library())"
+    first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=ROOT)
+    assert first.returncode == 0, first.stderr
+    path = Path(first.stdout.strip())
+    good = path.read_bytes()
+    if damage == "cut":
+        path.write_bytes(good[:4000])
+    elif damage == "flipped":
+        path.write_bytes(good[:3000] + bytes(200) + good[3200:])
+    elif damage == "foreign":
+        shutil.copy(sys.executable, path)
+    else:
+        path.unlink()
+        path.mkdir()
+    again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=ROOT)
+    if damage == "folder":  # it cannot be replaced: unavailable, in one line
+        assert again.returncode == 1 and "cannot write its cache folder" in again.stderr
+        return
+    assert again.returncode == 0, again.stderr
+    assert Path(again.stdout.strip()) == path and path.read_bytes() == good
 
 
 def test_an_unwritable_cache_folder_is_unavailable_in_one_line(monkeypatch, tmp_path):
@@ -202,3 +222,75 @@ def test_a_grid_of_many_windows_resumed_stores_every_point_once(tmp_path, fmu_pa
                              .order_by(Run.grid_index)).all()
 
     assert stored(part) == stored(whole) and [r[0] for r in stored(part)] == list(range(48))
+
+
+HANG = """
+import os, struct, sys
+from pathlib import Path
+import numpy as np
+from db.session import open_database
+from runners.engine.fmu import RockingFMU
+from runners.engine.scene import load_scene
+from runners.engine import sweep
+
+factory = open_database(sys.argv[1])
+fmu = RockingFMU(sys.argv[2])
+sid = sweep.create_sweep(factory, load_scene(sys.argv[3]), [sweep.Axis("w", 1.0, 2.0, 2)], fmu.defaults())
+plan = sweep._plan(factory, sid)
+try:
+    with sweep._LocalExecutor(plan, Path(sys.argv[2]), 1) as ex:
+        next(ex.stream(iter([(np.array([0]), {})])))  # the pool's reading thread runs
+        # what a worker killed half-way through sending a chunk leaves in the pipe: a length, part of the rest
+        os.write(ex.pool._result_queue._writer.fileno(), struct.pack("!i", 100000) + b"x" * 10)
+        raise KeyboardInterrupt
+except KeyboardInterrupt:
+    print("stopped")
+"""
+
+
+def test_an_interrupted_sweep_exits_even_when_a_killed_worker_left_a_message_cut_short(tmp_path, fmu_path):
+    """The interpreter's exit joins the pool's reading thread: it must not wait for the rest of a
+    message that a killed worker will never send."""
+    script = tmp_path / "hang.py"
+    script.write_text(HANG)
+    p = subprocess.run([sys.executable, str(script), f"sqlite:///{tmp_path / 'h.db'}", str(fmu_path), str(SCENE)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=PATIENCE)
+    assert p.returncode == 0 and p.stdout.strip() == "stopped", p.stderr
+
+
+def test_an_older_fmu_without_the_outputs_of_a_sweep_is_refused_before_the_sweep_exists(tmp_path, fmu_path):
+    """An FMU whose model description lacks outputs a sweep stores (an older build): one line, no sweep row."""
+    import zipfile
+
+    old = tmp_path / "old.fmu"
+    with zipfile.ZipFile(fmu_path) as src, zipfile.ZipFile(old, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'name="slideTime"', b'name="slideTimeX"')
+            dst.writestr(item, data)
+    db = tmp_path / "o.db"
+    p = _sweep(db, old, str(SCENE), "--grid", "w=1:2:2")
+    assert p.returncode == 2 and "lacks the output slideTime a sweep stores" in p.stderr, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    with sqlite3.connect(db) as conn:
+        assert conn.execute("SELECT count(*) FROM sweeps").fetchone()[0] == 0
+
+
+@pytest.mark.parametrize("args,env,message", [
+    (["--grid", "restitution.law=0:4294967296:2"], {}, "is an FMI Integer (32 bits)"),
+    (["--grid", "g=-9.81:9.81:5", "--grid", "w=1:4:3"], {}, "need g and the half heights above zero"),
+    (["--grid", "w=1:2:2"], {"ROCKING_BATCH": "maybe"}, "ROCKING_BATCH='maybe': give 1"),
+])
+def test_bad_sweep_settings_are_one_line_errors(tmp_path, fmu_path, args, env, message):
+    db = tmp_path / "b.db"
+    envs = {**os.environ, "ROCKING_FMU": str(fmu_path), "ROCKING_DB": f"sqlite:///{db}", **env}
+    p = subprocess.run([sys.executable, "-m", "runners.cli", "sweep", str(SCENE), *args, "--quiet"],
+                       capture_output=True, text=True, env=envs, cwd=ROOT)
+    assert p.returncode == 2 and message in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+@pytest.mark.parametrize("value,batch", [("OFF", False), ("False", False), ("no", False), ("YES", True)])
+def test_rocking_batch_takes_its_values_in_any_case(monkeypatch, value, batch):
+    monkeypatch.setenv("ROCKING_BATCH", value)
+    assert batch_lib.enabled() is batch

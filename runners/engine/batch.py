@@ -47,13 +47,25 @@ def cache_dir() -> Path:
 
 
 def enabled() -> bool:
-    """False when ROCKING_BATCH=0 asks for the one-call-per-point path."""
-    return os.environ.get("ROCKING_BATCH", "1").strip() not in ("0", "no", "off", "false")
+    """False when ROCKING_BATCH asks for the one-call-per-point path (0, no, off, false; 1, yes,
+    on, true or unset: the batch loop); ValueError for any other value."""
+    value = os.environ.get("ROCKING_BATCH", "1").strip().lower()
+    if value in ("0", "no", "off", "false"):
+        return False
+    if value in ("1", "yes", "on", "true", ""):
+        return True
+    raise ValueError(f"ROCKING_BATCH={os.environ['ROCKING_BATCH']!r}: give 1 (run a sweep's points in the C batch "
+                     "loop, the default) or 0 (one FMI call at a time through fmpy)")
 
 
 def library() -> Path:
     """The compiled batch library for this machine, built from SOURCE if not cached yet;
-    BatchUnavailable when it cannot be (no C compiler, not Linux or macOS, no source)."""
+    BatchUnavailable when it cannot be (no C compiler, not Linux or macOS, no source, a cache
+    folder that cannot be written).
+
+    A cached library is used only if its bytes have the sha256 recorded next to it when it was
+    built (a file cut short, changed or put there by something else is built again): it is
+    never loaded to find out, since loading a damaged library can kill the process."""
     if sys.platform.startswith("win"):
         raise BatchUnavailable("the batch library is built for Linux and macOS only")
     if not SOURCE.is_file():
@@ -63,28 +75,32 @@ def library() -> Path:
     headers = fmi_headers_dir()
     target = library_path()
     with _LOCK:
-        if target.is_file() and _loads(target):
+        if _verified(target):
             return target
         cc = shutil.which("cc") or shutil.which("gcc")
         if cc is None:
             raise BatchUnavailable("no C compiler (cc or gcc) to build it")
+        tmp = None
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(suffix=".so", dir=target.parent)  # built aside, then renamed: atomic
-        except OSError as exc:
-            raise BatchUnavailable(f"cannot write its cache folder {target.parent}: {exc.strerror or exc}") from None
-        os.close(fd)
-        try:
+            os.close(fd)
             done = subprocess.run([cc, "-O2", "-shared", "-fPIC", "-I", str(headers), "-o", tmp, str(SOURCE), "-ldl"],
                                   capture_output=True, text=True)
             if done.returncode != 0:
                 raise BatchUnavailable(f"{cc} failed: {(done.stderr.strip().splitlines() or ['?'])[0]}")
+            digest = _sha256(Path(tmp))
             os.replace(tmp, target)
+            side = Path(f"{target}.sha256.tmp{os.getpid()}")
+            side.write_text(digest)
+            os.replace(side, f"{target}.sha256")
+        except OSError as exc:
+            raise BatchUnavailable(f"cannot write its cache folder {target.parent}: {exc.strerror or exc}") from None
         finally:
-            if os.path.exists(tmp):
+            if tmp and os.path.exists(tmp):
                 os.remove(tmp)
-        if not _loads(target):
-            raise BatchUnavailable(f"the library {cc} built cannot be loaded")
+        if not _verified(target):
+            raise BatchUnavailable(f"another process changed {target} while it was built")
     return target
 
 
@@ -96,10 +112,14 @@ def library_path() -> Path:
     return cache_dir() / f"rocking_batch-{key.hexdigest()[:16]}.so"
 
 
-def _loads(path: Path) -> bool:
-    """Whether `path` loads as the batch library (a cut-short or foreign file does not)."""
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _verified(path: Path) -> bool:
+    """Whether `path` is a library this module built: its bytes match the sha256 beside it."""
     try:
-        return hasattr(ctypes.CDLL(str(path)), "batch_run")
+        return path.is_file() and Path(f"{path}.sha256").read_text().strip() == _sha256(path)
     except OSError:
         return False
 

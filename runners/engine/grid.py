@@ -52,10 +52,16 @@ def _linspace_at(start: float, stop: float, count: int, i: int) -> float:
 
 
 def scales(p: dict[str, Any]) -> tuple[float, float]:
-    """(p, uplift acceleration) of the scene: rad/s and m/s^2 per unit of w and a."""
+    """(p, uplift acceleration) of the scene: rad/s and m/s^2 per unit of w and a; ValueError,
+    in one line, where they do not exist (g or a half height not above zero)."""
     b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
+    two = int(p.get("nBlocks", 1)) == 2
+    if not (g > 0 and h > 0 and (not two or p["block2.halfHeight"] > 0)):
+        raise ValueError(f"w and a are scaled by block 1's p = sqrt(3 g / (4 R)) and the uplift acceleration, which "
+                         f"need g and the half heights above zero (g = {g:g}, block1.halfHeight = {h:g}"
+                         + (f", block2.halfHeight = {p['block2.halfHeight']:g}" if two else "") + ")")
     pf = math.sqrt(3 * g / (4 * math.hypot(b, h)))
-    if int(p.get("nBlocks", 1)) == 2:
+    if two:
         b2, h2, m1, m2 = p["block2.halfWidth"], p["block2.halfHeight"], p["block1.mass"], p["block2.mass"]
         y_g = (m1 * h + m2 * (2 * h + h2)) / (m1 + m2)
         return pf, g * min(b / y_g, min(b, b2) / h2)

@@ -50,7 +50,7 @@ from runners.engine import batch as batch_lib
 from runners.engine.motion import contact_model_value, rocking_sliding
 from runners.engine.scene import KINDS, unused_parameter
 from runners.engine.sweep_store import INTEGRITY_ERRORS, RunConstants, series_row, store
-from runners.engine.sweep_worker import Chunk, Setup, run_chunk, run_points, start_worker
+from runners.engine.sweep_worker import Chunk, Setup, check_outputs, run_chunk, run_points, start_worker
 from runners.errors import RockingError
 
 ALIASES = {"w": "w", "omega_g/p": "w", "a": "a", "a_g/(g tan alpha)": "a", "scale": "excitation.scale"}
@@ -89,6 +89,9 @@ def parse_axis(spec: str, parameters: Mapping[str, str] | Iterable[str]) -> Axis
         raise ValueError(f"--grid {spec!r}: START = STOP gives {count} identical points (COUNT 1, or set it in the "
                          "scene)")
     if types.get(name) == "Integer":
+        if not (INT_MIN <= start <= INT_MAX and INT_MIN <= stop <= INT_MAX):
+            raise ValueError(f"--grid {spec!r}: {name} is an FMI Integer (32 bits): START and STOP must lie in "
+                             f"{INT_MIN}..{INT_MAX}")
         gap = (stop - start) / (count - 1) if count > 1 else 1.0
         if not (start.is_integer() and stop.is_integer() and gap.is_integer()):
             raise ValueError(f"--grid {spec!r}: {name} is an Integer parameter: START, STOP and the spacing "
@@ -268,6 +271,7 @@ def parse_points(spec: str, total: int) -> list[int]:
 
 # ------------------------------------------------------------------ driver
 
+INT_MIN, INT_MAX = -2 ** 31, 2 ** 31 - 1  # an FMI 2.0 Integer (fmi2Integer: int)
 MAX_POINTS = 100_000_000  # grid points one sweep may have (about 40 GB in SQLite): split larger studies
 BYTES_PER_POINT = 400  # stored bytes of one point (run row, summary, index; 280 measured in SQLite)
 
@@ -276,7 +280,7 @@ def check_size(total: int, factory) -> None:
     """ValueError, before the sweep exists, for a grid too large to store: more than MAX_POINTS
     points, or (SQLite) more than the free space of the database's disk."""
     if total > MAX_POINTS:
-        raise ValueError(f"the grid has {total:.3g} points, more than the {MAX_POINTS:.0e} one sweep may have "
+        raise ValueError(f"the grid has {total:,} points, more than the {MAX_POINTS:,} one sweep may have "
                          "(about 40 GB of results): use fewer points, or split it into several sweeps")
     url = factory.kw["bind"].url
     if url.get_backend_name() == "sqlite" and url.database and url.database != ":memory:":
@@ -482,6 +486,7 @@ class _LocalExecutor:
 
     def __exit__(self, exc_type, *_exc) -> None:
         processes = list((getattr(self.pool, "_processes", None) or {}).values())
+        writer = getattr(getattr(self.pool, "_result_queue", None), "_writer", None)  # (shutdown forgets it)
         self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
         if exc_type is not None:  # interrupted or failed: stop the workers now, not after their chunks
             for proc in processes:
@@ -489,6 +494,12 @@ class _LocalExecutor:
                     proc.kill()
             for proc in processes:
                 proc.join(timeout=5)
+            # A worker killed half-way through sending a chunk leaves a message cut short, and the pool's
+            # thread that reads them would wait for its rest for ever (and the interpreter's exit with it):
+            # with this process's end of the pipe closed too, that read ends.
+            if writer is not None:
+                with contextlib.suppress(OSError):
+                    writer.close()
         self.shared.close()
 
 
@@ -754,7 +765,7 @@ def batch_library() -> tuple[str | None, str | None]:
     """(the C batch library's path, None) for the workers, or (None, why not) when the points
     must run one FMI call at a time (ROCKING_BATCH=0, or no C compiler)."""
     if not batch_lib.enabled():
-        return None, "ROCKING_BATCH=0"
+        return None, f"ROCKING_BATCH={os.environ.get('ROCKING_BATCH', '').strip()}"
     try:
         return str(batch_lib.library()), None
     except batch_lib.BatchUnavailable as exc:
@@ -820,6 +831,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     if client is not None and recorded:
         raise ValueError("--record writes recordings where the point runs: use the local executor, or record "
                          "points after the sweep with runners rrd --sweep ID --points")
+    if remaining > 0:
+        check_outputs(fmu_path, plan.two)
     bar = tqdm(total=plan.total, initial=plan.already, disable=not progress, unit="run", desc=f"sweep {sweep_id}")
     _set_status(factory, sweep_id, "running")
     try:

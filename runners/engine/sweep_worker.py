@@ -103,6 +103,18 @@ class Chunk:
                      {j: self.recorded[k] for j, k in enumerate(keep) if k in self.recorded})
 
 
+def check_outputs(fmu_path: str | Path, two: bool) -> None:
+    """ValueError, in one line, for an FMU that lacks an output a sweep reads (an older build)."""
+    from fmpy import read_model_description
+
+    names = {v.name for v in read_model_description(str(fmu_path)).modelVariables}
+    missing = [n for n in ONE + (TWO if two else []) if n not in names]
+    if missing:
+        raise ValueError(f"the FMU {fmu_path} lacks the output{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(missing[:4])}{' ...' if len(missing) > 4 else ''} a sweep stores: it is an older "
+                         "build (make fmu, or python -m fmu_build, builds build/RockingBlock.fmu)")
+
+
 def worker() -> dict[str, Any]:
     return _LOCAL.state
 
@@ -387,6 +399,12 @@ def summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], 
     and the rocking–sliding columns (runners.engine.motion) of points with contact.model = 1."""
     from runners.engine.motion import ROCKING_SLIDING
 
+    with np.errstate(divide="ignore", invalid="ignore"):  # (a point whose block has no size failed anyway)
+        return _summary_columns(out, param, two, ROCKING_SLIDING)
+
+
+def _summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], two: bool,
+                     rocking_sliding: int) -> dict[str, list]:
     n = len(out["impacts"])
     none = [None] * n
     alpha1 = _pairwise(math.atan2, param("block1.halfWidth"), param("block1.halfHeight"))
@@ -406,7 +424,7 @@ def summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], 
         "friction_demand_max_interface": list(none), "normal_min_interface": list(none),
         "assumptions_held": (~(slide >= 0) & ~(lift >= 0)).tolist(), "fall_time": _where(fall >= 0, fall)}
     model = np.asarray(param("contact.model"), dtype=float)
-    for k in np.flatnonzero(np.nan_to_num(model) == ROCKING_SLIDING).tolist():
+    for k in np.flatnonzero(np.nan_to_num(model) == rocking_sliding).tolist():
         # sliding is the model's now: only a lift-off (flight) is outside it
         final = {name: np.asarray(col)[k].item() for name, col in out.items()}
         cols = stack_slip_summary(final) if two else slip_summary(final)
