@@ -558,10 +558,11 @@ def sweep(
     SweepStopped when interrupted or when workers fail (the sweep stays resumable).
     """
     from db.schema import Sweep
-    from db.session import open_database, require_writable
+    from db.session import database_failure, open_database, require_writable
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
                                       local_workers, parse_axis, parse_points, record_axes, run_sweep)
+    from runners.engine.sweep_store import DATABASE_ERRORS
     from runners.engine.sweep_worker import check_outputs
 
     # every argument checked before anything is stored (ArgumentError, one line)
@@ -662,12 +663,13 @@ def sweep(
     try:
         st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
                        record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
-    except (KeyboardInterrupt, SweepError) as exc:
+    except (KeyboardInterrupt, SweepError, *DATABASE_ERRORS) as exc:
         with factory() as session:
             sw = session.get(Sweep, sweep_id)
             done, total = sw.done, sw.total
-        raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt),
-                           "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)) from exc
+        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc) if isinstance(exc, SweepError) \
+            else database_failure(exc)
+        raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt), reason) from exc
     finally:
         if client is not None:
             cluster = client.cluster

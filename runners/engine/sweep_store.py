@@ -28,24 +28,26 @@ from runners.engine.sweep_worker import Chunk, Recorded
 RUN_COLUMNS = [c.name for c in Run.__table__.columns]
 
 
-def _integrity_errors() -> tuple[type[BaseException], ...]:
-    """The errors of a row that breaks a constraint: SQLAlchemy's, and those of the drivers that
-    store() uses directly (sqlite3, psycopg)."""
+def _driver_errors(kind: str) -> tuple[type[BaseException], ...]:
+    """SQLAlchemy's error class `kind` (IntegrityError, or SQLAlchemyError for any) and those of
+    the drivers that store() uses directly (sqlite3, psycopg)."""
     import sqlite3
 
-    from sqlalchemy.exc import IntegrityError
+    from sqlalchemy import exc
 
-    found: list[type[BaseException]] = [IntegrityError, sqlite3.IntegrityError]
+    driver = "Error" if kind == "SQLAlchemyError" else kind
+    found: list[type[BaseException]] = [getattr(exc, kind), getattr(sqlite3, driver)]
     try:
         import psycopg
 
-        found.append(psycopg.IntegrityError)
+        found.append(getattr(psycopg, driver))
     except ImportError:
         pass
     return tuple(found)
 
 
-INTEGRITY_ERRORS = _integrity_errors()  # a point another process stored meanwhile (a concurrent resume)
+INTEGRITY_ERRORS = _driver_errors("IntegrityError")  # a point another process stored meanwhile (a concurrent resume)
+DATABASE_ERRORS = _driver_errors("SQLAlchemyError")  # any failure of the database (full, locked, gone)
 SUMMARY_COLUMNS = [c.name for c in RunSummary.__table__.columns if c.name != "run_id"]
 
 
