@@ -114,3 +114,14 @@ def test_bad_executor_settings_are_one_line_errors(tmp_path, fmu_path, args, mes
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and message in p.stderr, p.stderr
     with open_database(f"sqlite:///{tmp_path / 'e.db'}")() as s:
         assert s.scalar(select(func.count()).select_from(Sweep)) == 0  # refused before a sweep is created
+
+
+def test_sweeps_one_right_after_another_on_one_cluster_each_store_every_point(tmp_path, fmu, fmu_path, client):
+    """Each sweep sends the FMU and the batch loop to the cluster: the data of one just finished must
+    not be confused with the next one's (equal bytes under an equal key were released while the
+    next sweep's tasks waited for them: 'lost dependencies')."""
+    factory = open_database(f"sqlite:///{tmp_path / 'row.db'}")
+    for counts in ((1, 2), (20, 20), (1, 2), (20, 20)):
+        sweep_id = new_sweep(factory, fmu, counts)
+        st = run_sweep(factory, sweep_id, fmu_path, progress=False, client=client)
+        assert st["stored"] == counts[0] * counts[1] and st["errors"] == 0

@@ -700,11 +700,13 @@ class _DaskExecutor:
         self.plan, self.sha, self.client = plan, sha, client
         self.workers = max(1, len(client.scheduler_info().get("workers", {})))
         self.size = chunk or DASK_CHUNK
-        self.blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True)
+        # hash=False: keys of this sweep's own; a key equal to one an earlier sweep just released
+        # can lose its data on the cluster while this sweep's tasks wait for it ("lost dependencies")
+        self.blob = client.scatter(Path(fmu_path).read_bytes(), broadcast=True, hash=False)
         local = plan.files()
         self.files = client.scatter({k: Path(v).read_bytes() for k, v in local.items()},
-                                    broadcast=True) if local else None
-        self.batch = client.scatter(Path(batch).read_bytes(), broadcast=True) if batch else None
+                                    broadcast=True, hash=False) if local else None
+        self.batch = client.scatter(Path(batch).read_bytes(), broadcast=True, hash=False) if batch else None
         self.setup = plan.setup(None, files={})
         self.key = f"{plan.sweep_id}:{sha}:{os.getpid()}:{time.time()}"
 
