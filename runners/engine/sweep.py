@@ -30,6 +30,7 @@ import hashlib
 import itertools
 import math
 import os
+import shutil
 import sys
 import tempfile
 import threading
@@ -440,10 +441,12 @@ class _LocalExecutor:
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers, self.size = workers, LOCAL_CHUNK
-        self.shared = RockingFMU(fmu_path)
+        from fmpy import extract
+
+        self.unzipdir = extract(str(fmu_path))  # one extraction for every worker (its model description is theirs)
         ctx = get_context("fork") if hasattr(os, "fork") else get_context()
         self.pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_start_pool_worker,
-                                        initargs=(str(fmu_path), self.shared.unzipdir, plan.setup(batch)))
+                                        initargs=(str(fmu_path), self.unzipdir, plan.setup(batch)))
 
     def stream(self, tasks: Iterator[tuple]) -> Iterator[Chunk]:
         """run_chunk of each task (flat indices, points to record), as they finish; a few tasks
@@ -500,7 +503,7 @@ class _LocalExecutor:
             if writer is not None:
                 with contextlib.suppress(OSError):
                     writer.close()
-        self.shared.close()
+        shutil.rmtree(self.unzipdir, ignore_errors=True)
 
 
 def _recording_task(plan: _Plan, index: int, record_dir: Path, rec: RecordRef | None) -> tuple:

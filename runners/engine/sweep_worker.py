@@ -123,8 +123,6 @@ def start_worker(fmu_path: str, unzipdir: str, setup: Setup) -> None:
     """Set up this thread's FMU instance for the points of one sweep."""
     fmu = RockingFMU(fmu_path, unzipdir)
     errors: list[str] = []
-    slave, cb = fmu.instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3 else None,
-                                logging_on=False)
     slips = SLIP_OUTPUTS + (STACK_SLIP_OUTPUTS if setup.two else [])
     names = ONE + (TWO if setup.two else []) + [n for n in slips if n in fmu.vars]  # (an FMU without sliding lacks them)
     runner = None
@@ -137,7 +135,7 @@ def start_worker(fmu_path: str, unzipdir: str, setup: Setup) -> None:
             runner = None  # (another platform's worker): one call per point
     # base: the scene's parameters; the FMU's start values fill the rest, but for SCENE_DEFAULTS
     base = with_scene_defaults(setup.params)
-    _LOCAL.state = dict(fmu=fmu, slave=slave, cb=cb, errors=errors, base=base, setup=setup, runner=runner,
+    _LOCAL.state = dict(fmu=fmu, slave=None, cb=None, errors=errors, base=base, setup=setup, runner=runner,
                         names=names, vrs={n: fmu.variable(n) for n in names}, files=setup.files,
                         start={**fmu.defaults(), **base}, grid_base=setup.grid_base,
                         summary_base={**fmu.defaults(), **setup.grid_base})
@@ -192,6 +190,10 @@ def run_point(task: tuple) -> tuple[int, dict | None, float, str | None, Recorde
     or None, Recorded or None)."""
     index, over, record, stop = task
     w = worker()
+    if w["slave"] is None:  # (instantiated on first use: a sweep in the batch loop needs none)
+        errors = w["errors"]
+        w["slave"], w["cb"] = w["fmu"].instantiate(lambda status, cat, msg: errors.append(msg) if status >= 3
+                                                    else None, logging_on=False)
     s, fmu = w["slave"], w["fmu"]
     stop = w["setup"].stop_time if stop is None else stop
     w["errors"].clear()
