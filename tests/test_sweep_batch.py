@@ -294,3 +294,28 @@ def test_bad_sweep_settings_are_one_line_errors(tmp_path, fmu_path, args, env, m
 def test_rocking_batch_takes_its_values_in_any_case(monkeypatch, value, batch):
     monkeypatch.setenv("ROCKING_BATCH", value)
     assert batch_lib.enabled() is batch
+
+
+def test_a_map_of_many_points_reads_its_columns_and_counts_as_the_stored_rows_say(tmp_path, fmu, fmu_path):
+    """Above DOTS_UP_TO points the map reads its sweep in columns and hatches the points where rigid
+    rocking broke first; its counts are those of the stored rows, counted here in SQL."""
+    from runners.analysis import sweep_map
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+    from runners.engine.summary import outcome_held
+    from db.session import open_database
+
+    factory = open_database(f"sqlite:///{tmp_path / 'm.db'}")
+    sid = create_sweep(factory, load_scene(SCENE), [Axis("w", 12.0, 1.0, 150), Axis("a", 1.01, 8.0, 150)],
+                       fmu.defaults())  # (w descending: the map draws it ascending)
+    run_sweep(factory, sid, fmu_path, workers=2, progress=False)
+    text, counts, n_broke = sweep_map.draw_counted(factory, str(sid), tmp_path / "m.png")
+    assert (tmp_path / "m.png").stat().st_size > 10_000 and 150 * 150 > sweep_map.DOTS_UP_TO
+    with sqlite3.connect(tmp_path / "m.db") as conn:
+        rows = conn.execute("SELECT s.overturned, s.impacts, s.assumptions_held, s.slide_time, s.lift_time, "
+                            "s.fall_time FROM runs r JOIN run_summaries s ON s.run_id = r.id").fetchall()
+    assert len(rows) == 22_500
+    want = [sum(not o for o, *_ in rows), sum(bool(o) and i > 0 for o, i, *_ in rows),
+            sum(bool(o) and i == 0 for o, i, *_ in rows), 0]
+    assert list(counts.values()) == want and min(want[:3]) > 0
+    assert n_broke == sum(h == 0 and not outcome_held(bool(o), s, lf, f) for o, _, h, s, lf, f in rows) > 0

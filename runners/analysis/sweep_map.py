@@ -29,7 +29,7 @@ from db.schema import Run, RunSummary, Scene, Sweep
 from model import closed_form as cf
 from runners.analysis.least_model import restitution
 from runners.engine.summary import outcome_held
-from runners.engine.sweep import scales
+from runners.engine.sweep import Axis, scales
 
 # the axes of every overturning map (Dimitrakopoulos & DeJong 2012's dimensionless groups)
 FREQUENCY = "omega_g / p (pulse over block frequency)"
@@ -40,6 +40,7 @@ REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "fai
 COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]
 BROKE_COLOUR = "#e07000"  # points where rigid rocking broke first, in every map and study figure
 BROKE_LABEL = "rigid rocking broke first: a contact slid or lifted off before the outcome was decided"
+DOTS_UP_TO = 20_000  # points of a map up to which those points are dots; above, hatching
 
 
 def rigid_rocking_held(summary: RunSummary) -> bool:
@@ -66,7 +67,7 @@ def broke(run: Run) -> bool:
     return run.status == "ok" and run.summary is not None and not rigid_rocking_held(run.summary)
 
 
-def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
+def _sweep_and_scene(factory, sweep_id: str) -> tuple[Sweep, Scene]:
     with factory() as session:
         if sweep_id == "latest":
             sw = session.scalars(select(Sweep).order_by(Sweep.id.desc()).limit(1)).first()
@@ -76,9 +77,46 @@ def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
             sw = session.get(Sweep, int(sweep_id))
         if sw is None:
             raise ValueError(f"no sweep {sweep_id} in the database")
+        return sw, session.get(Scene, sw.scene_id)
+
+
+def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
+    sw, scene = _sweep_and_scene(factory, sweep_id)
+    with factory() as session:
         runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)
                                .options(selectinload(Run.summary))).all()  # one query, not one per run
-        return sw, session.get(Scene, sw.scene_id), list(runs)
+        return sw, scene, list(runs)
+
+
+MAP_ROWS = 200_000  # stored points read at a time by map_columns
+
+
+def map_columns(factory, sw: Sweep) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(grid indices, REGIONS index, rigid rocking broke first) of every stored point of sweep
+    `sw`, read in columns MAP_ROWS points at a time (a map of 10^6 points needs neither the
+    runs as objects nor their JSON points: the grid gives each index's values)."""
+    cols = (Run.grid_index, Run.status, RunSummary.run_id, RunSummary.overturned, RunSummary.impacts,
+            RunSummary.assumptions_held, RunSummary.motion, RunSummary.slide_time, RunSummary.lift_time,
+            RunSummary.fall_time)
+    stmt = select(*cols).outerjoin(RunSummary, RunSummary.run_id == Run.id).where(Run.sweep_id == sw.id)
+    index, regions, broken = [], [], []
+    with factory() as session:
+        for part in session.connection().execution_options(yield_per=MAP_ROWS).execute(stmt).partitions():
+            gi, status, sid, over, impacts, held, motion, slide, lift, fall = zip(*part)
+            ok = np.array([st == "ok" and k is not None for st, k in zip(status, sid)])
+            overturned = np.array([bool(o) for o in over])
+            hit = np.array([(i or 0) > 0 for i in impacts])
+            region_ = np.where(~ok, 3, np.where(~overturned, 0, np.where(hit, 1, 2)))
+            doubt = [k for k, h in enumerate(held) if ok[k] and h is not None and not h]
+            b = np.zeros(len(part), dtype=bool)
+            for k in doubt:  # as rigid_rocking_held, on the columns
+                b[k] = not outcome_held(bool(over[k]), None if motion[k] is not None else slide[k], lift[k], fall[k])
+            index.append(np.array(gi, dtype=np.int64))
+            regions.append(region_)
+            broken.append(b)
+    if not index:
+        return np.zeros(0, np.int64), np.zeros(0, int), np.zeros(0, bool)
+    return np.concatenate(index), np.concatenate(regions), np.concatenate(broken)
 
 
 def closed_form_curves(p: dict, ws: np.ndarray) -> list[tuple[str, np.ndarray]] | None:
@@ -135,18 +173,21 @@ def drawn_axes(sw: Sweep) -> list[str]:
     return [a[0] for a in axes if a[3] > 1] or [a[0] for a in axes[:1]]
 
 
-def mappable(factory, sweep_id: str, instead: str):
+def mappable(factory, sweep_id: str, instead: str, runs: bool = True):
     """(sweep, scene, runs, drawn axes, parameters) of a stored sweep a map can draw (one or two
     axes, not over records, points stored); ValueError in one line otherwise, naming `instead`
-    (the commands that draw a record sweep, with {id} for the sweep's id)."""
-    sw, scene, runs = load(factory, sweep_id)
+    (the commands that draw a record sweep, with {id} for the sweep's id). With runs=False the
+    runs are not loaded (None): the map reads its columns itself (map_columns)."""
+    sw, scene, runs = load(factory, sweep_id) if runs else (*_sweep_and_scene(factory, sweep_id), None)
+    if runs is None and not sw.done:
+        runs = []
     if sw.grid.get("records"):
         raise ValueError(f"sweep {sw.id} runs over records: draw it with {instead.format(id=sw.id)}")
     axes = drawn_axes(sw)
     if len(axes) > 2:
         raise ValueError(f"sweep {sw.id} has {len(axes)} axes ({', '.join(axes)}): a map draws one or two "
                          "(sweep two of them, with the others fixed in the scene)")
-    if not runs:
+    if runs is not None and not runs:
         raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
     return sw, scene, runs, axes, {**sw.grid["defaults"], **scene.parameters}
 
@@ -156,26 +197,37 @@ def map_figure(factory, sweep_id: str):
     (REGIONS order), the count of points where rigid rocking broke first, and the sweep."""
     import matplotlib.pyplot as plt
 
-    sw, scene, runs, axes, p = mappable(factory, sweep_id, "runners fragility {id} or runners ida {id}")
-    counts = [0] * len(REGIONS)
-    for r in runs:
-        counts[region(r)] += 1
-    n_broke = sum(broke(r) for r in runs)
+    sw, scene, _, axes, p = mappable(factory, sweep_id, "runners fragility {id} or runners ida {id}", runs=False)
+    gi, reg, brk = map_columns(factory, sw)
+    if not len(gi):
+        raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
+    counts = np.bincount(reg, minlength=len(REGIONS)).tolist()
+    n_broke = int(brk.sum())
+    grid_axes = [Axis(*a) for a in sw.grid["axes"]]
+    at, values = {}, {}
+    for a, i in zip(grid_axes, np.unravel_index(gi, [a.count for a in grid_axes])):
+        v = a.values  # each value as the sweep computed it (Axis.value), ascending for the drawing
+        order = np.argsort(v, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        at[a.name], values[a.name] = rank[i], v[order]
     fig, ax = plt.subplots(figsize=(9, 7.5))
     if len(axes) == 2:
-        xs = sorted({r.point[axes[0]] for r in runs})
-        ys = sorted({r.point[axes[1]] for r in runs})
+        xs, ys = values[axes[0]], values[axes[1]]
         field = np.full((len(ys), len(xs)), np.nan)
-        for r in runs:
-            field[ys.index(r.point[axes[1]]), xs.index(r.point[axes[0]])] = region(r)
+        field[at[axes[1]], at[axes[0]]] = reg
         from matplotlib.colors import ListedColormap
 
         ax.pcolormesh(xs, ys, field, cmap=ListedColormap(COLOURS), vmin=-0.5, vmax=len(REGIONS) - 0.5,
                       shading="nearest")
-        bx = [r.point[axes[0]] for r in runs if broke(r)]
-        by = [r.point[axes[1]] for r in runs if broke(r)]
-        size = max(1.5, min(30.0, 2.2e4 / len(runs)))  # dots that leave the colour beneath visible
-        ax.scatter(bx, by, s=size, marker="o", color=BROKE_COLOUR, lw=0)
+        if len(gi) <= DOTS_UP_TO:  # a dot per point, which leaves the colour beneath visible
+            size = max(1.5, min(30.0, 2.2e4 / len(gi)))
+            ax.scatter(xs[at[axes[0]][brk]], ys[at[axes[1]][brk]], s=size, marker="o", color=BROKE_COLOUR, lw=0)
+        else:  # too many for dots: hatching over those points, the regions' colours show between its lines
+            layer = np.zeros(field.shape)
+            layer[at[axes[1]][brk], at[axes[0]][brk]] = 1.0
+            with plt.rc_context({"hatch.color": BROKE_COLOUR, "hatch.linewidth": 1.2}):
+                ax.contourf(xs, ys, layer, levels=[0.5, 1.5], colors="none", hatches=["////"])
         if axes == ["w", "a"]:
             ws = np.linspace(min(xs), max(xs), 25)
             curves = closed_form_curves(p, ws)
@@ -183,10 +235,10 @@ def map_figure(factory, sweep_id: str):
                 ax.plot(ws, ys_cf, style, lw=1.2, label=label)
             ax.set_ylim(min(ys), max(ys))
     else:
-        xs = [r.point[axes[0]] for r in runs]
-        ax.scatter(xs, [region(r) for r in runs], c=[COLOURS[region(r)] for r in runs],
-                   edgecolors=[BROKE_COLOUR if broke(r) else "k" for r in runs], linewidths=[
-                       2.0 if broke(r) else 0.8 for r in runs])
+        xs = values[axes[0]][at[axes[0]]]
+        ax.scatter(xs, reg, c=[COLOURS[r] for r in reg.tolist()],
+                   edgecolors=[BROKE_COLOUR if b else "k" for b in brk.tolist()],
+                   linewidths=np.where(brk, 2.0, 0.8))
         ax.set_yticks(range(len(REGIONS)), REGIONS)
     names = {"w": FREQUENCY, "a": amplitude_label(p)}
     ax.set_xlabel(names.get(axes[0], axes[0]))
@@ -198,12 +250,13 @@ def map_figure(factory, sweep_id: str):
                                                    lambda f: f * 2 * math.pi / pf))
         top.set_xlabel("pulse frequency f_g = omega_g / 2 pi (Hz)", fontsize=9)
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in COLOURS]
-    handles.append(plt.Line2D([], [], ls="", marker="o", color=BROKE_COLOUR))
+    handles.append(plt.Line2D([], [], ls="", marker="o", color=BROKE_COLOUR) if len(gi) <= DOTS_UP_TO or len(axes) < 2
+                   else plt.Rectangle((0, 0), 1, 1, facecolor="none", edgecolor=BROKE_COLOUR, hatch="////"))
     labels = [f"{n} ({c})" for n, c in zip(REGIONS, counts)] + [f"{BROKE_LABEL} ({n_broke})"]
     h2, l2 = ax.get_legend_handles_labels()
     ax.legend(handles + h2, labels + l2, fontsize=8, ncol=2,
               loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
-    title = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points)", 100)
+    title = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(gi)} of {sw.total} points)", 100)
     ax.set_title(title + "\n" + textwrap.fill(block_title(p), 110), fontsize=8.5)
     fig.tight_layout()
     return fig, counts, n_broke, sw
