@@ -75,7 +75,7 @@ def _sweep_process(cmd: list[str], env: dict) -> tuple[dict, float, float]:
         time.sleep(0.2)
     out, err = proc.communicate()
     if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd[:4])} ...: {(err.strip().splitlines() or ['failed'])[-1]}")
+        raise ValueError(f"the benchmark's sweep failed: {(err.strip().splitlines() or ['no message'])[-1]}")
     runner = peaks.get(proc.pid, 0)
     workers = max((v for k, v in peaks.items() if k != proc.pid), default=0)
     return json.loads(out), runner / 1024, workers / 1024
@@ -103,7 +103,7 @@ def native_per_point(db: str, sweep_id: int, fmu_path: Path, sample: int) -> tup
         start_worker(str(fmu.path), fmu.unzipdir, plan.setup(str(batch_lib.library())))
         w = worker()
         if w["runner"] is None:
-            raise RuntimeError("the C batch loop cannot run here")
+            raise ValueError("the C batch loop cannot run here (no C compiler, or ROCKING_BATCH=0)")
         stride = max(1, math.ceil(plan.total / sample))
         indices = np.arange(0, plan.total, stride, dtype=np.int64)
         seconds = 0.0
@@ -118,10 +118,16 @@ def native_per_point(db: str, sweep_id: int, fmu_path: Path, sample: int) -> tup
 
 
 def run_throughput_bench(fmu_path: Path, workers: int = 2, maps: list[tuple[int, int]] | None = None,
-                         records: bool = True, baseline: str | None = None, rounds: int = 3) -> str:
+                         records: bool = True, baseline: str | None = None, rounds: int = 3,
+                         progress: bool = True) -> str:
     """The throughput table (markdown) of `cases`, and with `baseline` (the Python of another
-    installation) the 10^4-point map run by both, alternating `rounds` times."""
+    installation) the 10^4-point map run by both, alternating `rounds` times. ValueError, in one
+    line, for an FMU a sweep cannot use (an older build) or a sweep that fails."""
     from tqdm import tqdm
+
+    from runners.engine.sweep_worker import check_outputs
+
+    check_outputs(fmu_path, False)
 
     env = {**os.environ, "ROCKING_FMU": str(fmu_path)}
     load = os.getloadavg()[0]
@@ -131,7 +137,8 @@ def run_throughput_bench(fmu_path: Path, workers: int = 2, maps: list[tuple[int,
              "runner peak (MB) | worker peak (MB) |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     todo = cases(maps, records)
-    with tempfile.TemporaryDirectory() as tmp, tqdm(total=len(todo), desc="throughput", unit="sweep") as bar:
+    with tempfile.TemporaryDirectory() as tmp, tqdm(total=len(todo), desc="throughput", unit="sweep",
+                                                    disable=not progress) as bar:
         for case in todo:
             db = f"sqlite:///{tmp}/{re.sub(r'[^a-z0-9]+', '-', case.label.lower())}.db"
             if case.needs_records:
@@ -172,7 +179,7 @@ def regression_lines(fmu_path: Path, baseline: str, rounds: int) -> list[str]:
                 p = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp)
                 m = re.search(r"in ([0-9.]+) s wall", p.stdout)
                 if p.returncode != 0 or not m:
-                    raise RuntimeError(f"{who}: {(p.stderr.strip().splitlines() or ['no report'])[-1]}")
+                    raise ValueError(f"the {who}'s sweep failed: {(p.stderr.strip().splitlines() or ['no report'])[-1]}")
                 walls[who].append(float(m.group(1)))
     b, t = walls["baseline"], walls["this"]
     return [f"The 10^4-point map against {other_root} ({rounds} alternating rounds, 2 workers, its own report's wall "

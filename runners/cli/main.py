@@ -98,10 +98,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 0
     n = max(st["ran"], 1)
     skipped = f", {st['skipped']} already stored by another process" if st["skipped"] else ""
+    rate = f", {n / st['wall_seconds']:,.0f} points/s with {st['workers']} worker{'s' * (st['workers'] > 1)}" \
+        if st["ran"] and st["wall_seconds"] > 0 else ""
     print(f"sweep {sweep_id}: {st['stored']}/{st['total']} points stored ({st['ran'] - st['skipped']} now, "
-          f"{st['errors']} failed{skipped}) in {st['wall_seconds']:.2f} s wall; per point: FMU {1e3 * st['fmu_seconds'] / n:.3f} ms "
-          f"in a worker, database {1e3 * st['db_seconds'] / n:.3f} ms ({1e3 * st['db_cpu_seconds'] / n:.3f} ms of CPU), "
-          f"Python bookkeeping {1e3 * st['python_seconds'] / n:.3f} ms in the main process")
+          f"{st['errors']} failed{skipped}) in {st['wall_seconds']:.2f} s wall{rate}; per point: simulation "
+          f"{1e3 * st['fmu_seconds'] / n:.3f} ms in a worker, storing {1e3 * st['db_cpu_seconds'] / n:.4f} ms of "
+          "this process's CPU")
     if st.get("batch_unavailable") and st["ran"]:
         print(f"note: the points ran one FMI call at a time through fmpy, not in the C batch loop "
               f"({st['batch_unavailable']}): the same results, slower")
@@ -174,7 +176,8 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
     if args.throughput:
         from runners.analysis.throughput import run_throughput_bench
 
-        return [("sweep throughput", lambda: run_throughput_bench(fmu, args.workers, baseline=args.baseline))]
+        return [("sweep throughput", lambda: run_throughput_bench(fmu, args.workers or 2, baseline=args.baseline,
+                                                                  progress=output.progress()))]
     if args.interfaces:
         return [("FMI interfaces", interfaces)]
     if args.against:
@@ -218,9 +221,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
                          "--startup and --throughput (or none: every benchmark)")
     if args.baseline and not (args.startup or args.throughput):
         raise ValueError("--baseline is the other installation of --startup or --throughput")
-    if args.workers != 2 and not args.throughput:
+    if args.workers is not None and not args.throughput:
         raise ValueError("--workers is the number of workers of --throughput")
-    if args.workers < 1:
+    if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers {args.workers}: give 1 or more")
     fmu = fmu_path_from(args.fmu)
     stages = dict(_bench_stages(args, fmu))

@@ -198,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--throughput", action="store_true",
                        help="only sweep throughput: 1e4-, 1e5- and 1e6-point maps and a 5,000-run record study, "
                             "each against the native cost of its points")
-    bench.add_argument("--workers", type=int, default=2, metavar="N",
+    bench.add_argument("--workers", type=int, default=None, metavar="N",
                        help="with --throughput: worker processes of each sweep (default 2)")
     bench.add_argument("--baseline", metavar="PYTHON",
                        help="with --startup or --throughput: also the Python of another installation (say a "

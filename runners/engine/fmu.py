@@ -149,6 +149,13 @@ def with_scene_defaults(parameters: dict) -> dict:
     return {**SCENE_DEFAULTS, **parameters}
 
 
+class UnknownVariable(KeyError):
+    """A variable the FMU does not have; str() is the one-line message (KeyError's would quote it)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
 class RockingFMU:
     """One extracted copy of the FMU; :meth:`run` simulates a scene with it.
 
@@ -207,7 +214,8 @@ class RockingFMU:
         try:
             return self.vars[name]
         except KeyError:
-            raise KeyError(f"unknown FMU variable '{name}'") from None
+            raise UnknownVariable(f"the FMU {self.path} has no variable '{name}': a build from older sources lacks "
+                                  "the newer ones (make fmu builds build/RockingBlock.fmu)") from None
 
     def instantiate(self, log: Callable[[int, str, str], None], instance_name: str = "block",
                     logging_on: bool = True, interface: str = "CoSimulation",

@@ -805,7 +805,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     lib, why = batch_library()
     stats = {"sweep": sweep_id, "total": plan.total, "already": plan.already, "ran": 0, "errors": 0,
              "recorded": 0, "skipped": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "db_cpu_seconds": 0.0,
-             "python_seconds": 0.0, "batch": lib is not None, "batch_unavailable": why}
+             "python_seconds": 0.0, "workers": workers, "batch": lib is not None, "batch_unavailable": why}
     constants = RunConstants(plan.scene_id, sweep_id, "two blocks" if plan.two else "one block", sha, version)
     t_start = time.perf_counter()
     pending: list[Chunk] = []
@@ -846,6 +846,7 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
                 executor = None
             elif client is not None:
                 executor = _dask_executor(plan, fmu_path, sha, client, chunk, lib)
+                stats["workers"] = executor.workers
             else:
                 executor = stack.enter_context(_LocalExecutor(plan, fmu_path, workers, lib))
             left: dict[int, set[int]] = {}  # window start -> its points not run yet
