@@ -319,3 +319,25 @@ def test_a_map_of_many_points_reads_its_columns_and_counts_as_the_stored_rows_sa
             sum(bool(o) and i == 0 for o, i, *_ in rows), 0]
     assert list(counts.values()) == want and min(want[:3]) > 0
     assert n_broke == sum(h == 0 and not outcome_held(bool(o), s, lf, f) for o, _, h, s, lf, f in rows) > 0
+
+
+def test_the_store_of_other_databases_writes_the_rows_the_sqlite_one_does(tmp_path, fmu, fmu_path, monkeypatch):
+    """SQLAlchemy Core's path (any database but SQLite and PostgreSQL with psycopg), run here on
+    SQLite: the same rows as the SQLite path, failed points and records' excitations included."""
+    from db.session import open_database
+    from runners.engine import sweep_store
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import Axis, create_sweep, run_sweep
+
+    results = []
+    for path in ("fast", "core"):
+        if path == "core":
+            monkeypatch.setattr(sweep_store, "_store_sqlite", sweep_store._store_core)
+        db = tmp_path / f"{path}.db"
+        factory = open_database(f"sqlite:///{db}")
+        sid = create_sweep(factory, load_scene(SCENE), [Axis("block1.halfWidth", -0.01, 0.04, 3),
+                                                        Axis("w", 1.0, 12.0, 4)], fmu.defaults())
+        run_sweep(factory, sid, fmu_path, workers=1, progress=False)
+        results.append(_rows(db))
+    assert len(results[0]) == 12 and results[0] == results[1]
+    assert sum(r["status"] == "error" for r in results[0]) == 4  # halfWidth -0.01 at every w

@@ -25,7 +25,6 @@ from db.schema import Excitation, Run, RunSeries, RunSummary, Sweep
 from db.series import pack as pack_series
 from runners.engine.sweep_worker import Chunk, Recorded
 
-RUN_COLUMNS = [c.name for c in Run.__table__.columns]
 
 
 def _driver_errors(kind: str) -> tuple[type[BaseException], ...]:
@@ -67,15 +66,31 @@ def series_row(run_id: int, rec: Recorded) -> dict:
     return {"run_id": run_id, "names": names, "n_samples": n, "data": blob, "events": rec.events}
 
 
-def _run_values(c: RunConstants, chunk: Chunk, excitation_ids: list | None, created) -> list[dict]:
-    """The runs rows of a chunk as dicts (column -> value), in the chunk's order."""
-    r = chunk.runs
+def _run_table(c: RunConstants, chunk: Chunk, ids: list[int] | None, exc_ids: list[int] | None,
+               created) -> dict[str, list]:
+    """The runs columns of a chunk (column -> one value per point); without `ids` the database
+    gives them."""
     n = len(chunk)
-    shared = {"scene_id": c.scene_id, "sweep_id": c.sweep_id, "model": c.model, "method": "fmu",
-              "fmu_sha256": c.fmu_sha256, "code_version": c.code_version, "created_at": created}
-    cols = {**{k: [v] * n for k, v in shared.items()}, **r, "point": [json.loads(p) for p in r["point"]],
-            "excitation_id": excitation_ids if excitation_ids is not None else [None] * n}
-    return [dict(zip(cols, row)) for row in zip(*cols.values())]
+    cols = {"id": ids} if ids is not None else {}
+    cols.update({"scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
+                 "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
+                 "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
+                 "created_at": [created] * n, **chunk.runs})
+    return cols
+
+
+def _summary_table(chunk: Chunk, ids: list[int]) -> dict[str, list]:
+    """The run_summaries columns of a chunk's points that ran (run_id first); {} if none did."""
+    status = chunk.runs["status"]
+    ok = range(len(chunk)) if status.count("ok") == len(chunk) else [k for k, v in enumerate(status) if v == "ok"]
+    if not chunk.summaries or not ok:
+        return {}
+    cols = {"run_id": ids, **{k: chunk.summaries[k] for k in SUMMARY_COLUMNS if k in chunk.summaries}}
+    return cols if len(ok) == len(chunk) else {k: [v[i] for i in ok] for k, v in cols.items()}
+
+
+def _rows(cols: dict[str, list]) -> list[tuple]:
+    return list(zip(*cols.values()))
 
 
 def store(session, c: RunConstants, chunks: list[Chunk]) -> None:
@@ -93,25 +108,24 @@ def store(session, c: RunConstants, chunks: list[Chunk]) -> None:
     if dialect.name == "postgresql" and dialect.driver == "psycopg":
         _store_postgresql(session, c, chunks, created)
         return
+    _store_core(session, c, chunks, created)
+
+
+def _store_core(session, c: RunConstants, chunks: list[Chunk], created: datetime) -> None:
+    """Any other database: SQLAlchemy Core's multi-row INSERT ... RETURNING."""
     for chunk in chunks:
         exc_ids = None
         if chunk.excitations is not None:
-            rows = [dict(zip(chunk.excitations, v)) for v in zip(*chunk.excitations.values())]
-            exc_ids = session.scalars(insert(Excitation).returning(Excitation.id, sort_by_parameter_order=True),
-                                      rows).all()
-        ids = session.scalars(insert(Run).returning(Run.id, sort_by_parameter_order=True),
-                              _run_values(c, chunk, exc_ids, created)).all()
-        _store_rest(session, chunk, list(ids))
-
-
-def _store_rest(session, chunk: Chunk, ids: list[int]) -> None:
-    """The summaries of a chunk's points that ran (generic path), and its recorded series."""
-    s = chunk.summaries
-    ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
-    if s and ok:
-        session.execute(insert(RunSummary), [{"run_id": ids[k], **{name: col[k] for name, col in s.items()}}
-                                             for k in ok])
-    _store_series(session, chunk, ids)
+            exc_ids = list(session.scalars(insert(Excitation).returning(Excitation.id, sort_by_parameter_order=True),
+                                           [dict(zip(chunk.excitations, r)) for r in _rows(chunk.excitations)]))
+        runs = _run_table(c, chunk, None, exc_ids, created)
+        runs["point"] = [json.loads(p) for p in runs["point"]]  # (the JSON column encodes it again)
+        ids = list(session.scalars(insert(Run).returning(Run.id, sort_by_parameter_order=True),
+                                   [dict(zip(runs, r)) for r in _rows(runs)]))
+        summaries = _summary_table(chunk, ids)
+        if summaries:
+            session.execute(insert(RunSummary), [dict(zip(summaries, r)) for r in _rows(summaries)])
+        _store_series(session, chunk, ids)
 
 
 def _store_series(session, chunk: Chunk, ids: list[int]) -> None:
@@ -121,27 +135,6 @@ def _store_series(session, chunk: Chunk, ids: list[int]) -> None:
 
 def _next_id(cur, table: str) -> int:
     return cur.execute(f"SELECT coalesce(max(id), 0) FROM {table}").fetchone()[0] + 1
-
-
-def _run_columns(c: RunConstants, chunk: Chunk, ids: list[int], exc_ids: list[int] | None, stamp) -> list[tuple]:
-    """The runs rows of a chunk as tuples in RUN_COLUMNS' order."""
-    n = len(chunk)
-    values = {"id": ids, "scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
-              "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
-              "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
-              "created_at": [stamp] * n, **chunk.runs}
-    return list(zip(*[values[k] for k in RUN_COLUMNS]))
-
-
-def _summary_rows(chunk: Chunk, ids: list[int]) -> tuple[list[str], list[tuple]]:
-    """(columns, rows) of the summaries of a chunk's points that ran: run_id first."""
-    s = chunk.summaries
-    if not s:
-        return [], []
-    names = [k for k in SUMMARY_COLUMNS if k in s]
-    rows = list(zip(ids, *[s[k] for k in names]))
-    ok = [k for k, status in enumerate(chunk.runs["status"]) if status == "ok"]
-    return ["run_id", *names], rows if len(ok) == len(rows) else [rows[k] for k in ok]
 
 
 def _store_postgresql(session, c: RunConstants, chunks: list[Chunk], created: datetime) -> None:
@@ -164,10 +157,11 @@ def _store_postgresql(session, c: RunConstants, chunks: list[Chunk], created: da
             exc_ids = ids("excitations", n)
             copy("excitations", ["id", *chunk.excitations], list(zip(exc_ids, *chunk.excitations.values())))
         run_ids = ids("runs", n)
-        copy("runs", RUN_COLUMNS, _run_columns(c, chunk, run_ids, exc_ids, created))
-        names, rows = _summary_rows(chunk, run_ids)
-        if rows:
-            copy("run_summaries", names, rows)
+        runs = _run_table(c, chunk, run_ids, exc_ids, created)
+        copy("runs", list(runs), _rows(runs))
+        summaries = _summary_table(chunk, run_ids)
+        if summaries:
+            copy("run_summaries", list(summaries), _rows(summaries))
         _store_series(session, chunk, run_ids)
 
 
@@ -231,18 +225,10 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
                 cur.executemany(*_insert(cur, "excitations", {"id": exc_ids, **chunk.excitations}, n))
             ids = list(range(next_run, next_run + n))
             next_run += n
-            run = {"id": ids, "scene_id": [c.scene_id] * n, "excitation_id": exc_ids or [None] * n,
-                   "sweep_id": [c.sweep_id] * n, "model": [c.model] * n, "method": ["fmu"] * n,
-                   "fmu_sha256": [c.fmu_sha256] * n, "code_version": [c.code_version] * n,
-                   "created_at": [stamp] * n, **chunk.runs}
-            cur.executemany(*_insert(cur, "runs", run, n))
-            status = chunk.runs["status"]
-            ok = range(n) if status.count("ok") == n else [k for k, v in enumerate(status) if v == "ok"]
-            if chunk.summaries and ok:
-                cols = {"run_id": ids, **{k: chunk.summaries[k] for k in SUMMARY_COLUMNS if k in chunk.summaries}}
-                if len(ok) < n:
-                    cols = {k: [v[i] for i in ok] for k, v in cols.items()}
-                cur.executemany(*_insert(cur, "run_summaries", cols, len(ok)))
+            cur.executemany(*_insert(cur, "runs", _run_table(c, chunk, ids, exc_ids, stamp), n))
+            summaries = _summary_table(chunk, ids)
+            if summaries:
+                cur.executemany(*_insert(cur, "run_summaries", summaries, len(summaries["run_id"])))
             _store_series(session, chunk, ids)
     finally:
         cur.close()
