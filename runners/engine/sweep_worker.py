@@ -24,7 +24,7 @@ import numpy as np
 from runners.engine import batch as batch_lib
 from runners.engine.fmu import RockingFMU, with_scene_defaults
 from runners.engine.grid import Grid, Points
-from runners.engine.motion import SLIP_OUTPUTS, STACK_SLIP_OUTPUTS, slip_summary, stack_slip_summary
+from runners.engine.motion import ROCKING_SLIDING, SLIP_OUTPUTS, STACK_SLIP_OUTPUTS, slip_summary, stack_slip_summary
 
 # the FMU outputs a sweep reads at the end of each point: of one block, and those a stack adds
 ONE = ["overturned", "impacts", "block1.maxAbsTheta", "overturnTime", "restTime", "atRest",
@@ -358,15 +358,14 @@ def run_chunk(task: tuple[np.ndarray, dict[int, tuple]]) -> Chunk:
     excitations = None
     if pts.records is not None:
         excitations = {"kind": ["record"] * n, "record_id": [r.id for r in pts.records],
-                       "scale": _floats(pts, "excitation.scale", base.get("excitation.scale", 1.0)),
-                       "start_time": _floats(pts, "excitation.startTime", base.get("excitation.startTime", 0.0))}
+                       "scale": _floats(pts, "excitation.scale", {"excitation.scale": 1.0, **base}),
+                       "start_time": _floats(pts, "excitation.startTime", {"excitation.startTime": 0.0, **base})}
     return Chunk(runs, summaries, excitations, done)
 
 
-def _floats(pts: Points, name: str, default: float) -> list[float]:
-    """FMU parameter `name` of every point as floats: its override, else `default`."""
-    col = pts.over.get(name)
-    return [float(default)] * len(pts) if col is None else [float(default if v is None else v) for v in col]
+def _floats(pts: Points, name: str, start: Mapping[str, Any]) -> list[float]:
+    """FMU parameter `name` of every point as floats (_column)."""
+    return np.asarray(_column(pts, name, start), dtype=float).tolist()
 
 
 def _nullable_floats(col) -> list:
@@ -394,19 +393,12 @@ def _where(keep: np.ndarray, values: np.ndarray) -> list:
     return np.where(keep, np.asarray(values, dtype=float), None).tolist()
 
 
+@np.errstate(divide="ignore", invalid="ignore")  # (a point whose block has no size failed anyway)
 def summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], two: bool) -> dict[str, list]:
     """The db.schema.RunSummary columns of points from their final FMU outputs `out` (name ->
     one value per point) and their FMU parameters (`param(name)`: one value per point):
     peaks over alpha, overturning, impacts, rest, first slide and lift-off, contact monitors,
     and the rocking–sliding columns (runners.engine.motion) of points with contact.model = 1."""
-    from runners.engine.motion import ROCKING_SLIDING
-
-    with np.errstate(divide="ignore", invalid="ignore"):  # (a point whose block has no size failed anyway)
-        return _summary_columns(out, param, two, ROCKING_SLIDING)
-
-
-def _summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], two: bool,
-                     rocking_sliding: int) -> dict[str, list]:
     n = len(out["impacts"])
     none = [None] * n
     alpha1 = _pairwise(math.atan2, param("block1.halfWidth"), param("block1.halfHeight"))
@@ -426,7 +418,7 @@ def _summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any],
         "friction_demand_max_interface": list(none), "normal_min_interface": list(none),
         "assumptions_held": (~(slide >= 0) & ~(lift >= 0)).tolist(), "fall_time": _where(fall >= 0, fall)}
     model = np.asarray(param("contact.model"), dtype=float)
-    for k in np.flatnonzero(np.nan_to_num(model) == rocking_sliding).tolist():
+    for k in np.flatnonzero(np.nan_to_num(model) == ROCKING_SLIDING).tolist():
         # sliding is the model's now: only a lift-off (flight) is outside it
         final = {name: np.asarray(col)[k].item() for name, col in out.items()}
         cols = stack_slip_summary(final) if two else slip_summary(final)
