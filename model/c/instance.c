@@ -340,7 +340,10 @@ Status instance_begin_access(Instance *I, int set, const void *vr, size_t nvr, c
 
 void instance_update_outputs(Instance *I) {
     if (I->s.dirty || !(I->s.phase & (PHASE_INITIALIZATION | RUNNING_PHASES))) return;
+    Variables *v = &I->s.model.v;
+    double load = v->groundLoad;
     solver_outputs(&I->s.model, I->s.tc);
+    if (I->s.tc > I->s.startTime) v->groundLoad = load; /* the last step's mean stays until the next step */
 }
 
 Status instance_set_real(Instance *I, unsigned vr, double value, const char *fn) {
@@ -624,6 +627,7 @@ Status instance_do_step(Instance *I, double currentPoint, double h, int earlyRet
     Model *M = &I->s.model;
     Logger log = instance_solver_logger(I);
     EventStop stop = {earlyReturn, M->v.stopAtOverturn, tc, 0, 0.0};
+    double momentum0 = M->v.momentum;
     if (solver_advance(M, target, &log, &stop)) {
         I->s.phase = PHASE_ERROR;
         return STATUS_ERROR;
@@ -631,6 +635,8 @@ Status instance_do_step(Instance *I, double currentPoint, double h, int earlyRet
     double reached = stop.stopped ? stop.time : target;
     I->s.tc = reached;
     solver_outputs(M, reached);
+    /* the mean load over the step, impacts' impulses included: what the ground gave the blocks' momentum */
+    if (reached > tc) M->v.groundLoad = -(M->v.momentum - momentum0) / (reached - tc);
     r->time = reached;
     r->event = stop.stopped;
     r->earlyReturn = stop.stopped && reached < target;

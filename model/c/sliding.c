@@ -110,6 +110,12 @@ double sliding_energy(const Model *M, const double *y, Mode mode, int side) {
     return 0.5 * m * (Xd * Xd + Yd * Yd) + 0.5 * Ic * w * w + m * v->g * rise;
 }
 
+double sliding_momentum(const Model *M, const double *y, Mode mode, int side) {
+    double Xd = y[RS_RATE];
+    if (mode == MODE_ROCKING) Xd += M->d.R * cos(side * M->d.alpha - y[0]) * y[1];
+    return M->v.mass * Xd;
+}
+
 double sliding_stick_margin(const Model *M, double T, double N) { return M->v.muGround * N - fabs(T); }
 
 /* Reactions of a rocking block whose pivot sticks, at (t, y). */

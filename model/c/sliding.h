@@ -54,6 +54,8 @@ double sliding_rhs(const Model *M, double t, const double *y, Mode mode, int sid
 /* Energy (J): kinetic (rotation and the centre of mass's velocity relative to the
  * ground) plus m g times the rise of the centre of mass. */
 double sliding_energy(const Model *M, const double *y, Mode mode, int side);
+/* Horizontal momentum relative to the ground (kg m/s) of the block at y in mode with pivot side. */
+double sliding_momentum(const Model *M, const double *y, Mode mode, int side);
 
 /* Stick-to-slip indicator of a pivot that sticks: mu N - |T| (N). A pivot whose margin is
  * already negative (held in flight: N < 0, outside the model, flagged by the monitor lifts)

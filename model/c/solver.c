@@ -675,7 +675,7 @@ int solver_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     return advance_to(M, tc, log, &ONE_BLOCK, stop);
 }
 
-void solver_outputs(Model *M, double tc) {
+static void outputs_at(Model *M, double tc) {
     State *S = &M->s;
     Variables *v = &M->v;
     /* no sliding in the rigid models: block 1's contact mode follows the pattern */
@@ -767,6 +767,9 @@ void solver_outputs(Model *M, double tc) {
     } else {
         contact_one_block_terms(M, rocking ? y[1] : 0.0, v->alphaDD, &k, &v->groundT, &v->groundN);
     }
+    double p[2][2];
+    contact_momenta(M, S->mode, side, 0, y, p);
+    v->momentum = p[0][0];
     v->interfaceT = v->interfaceN = 0.0;
     v->contactMode = mode == MODE_REST ? 0 : mode == MODE_SLIDE ? 1 : mode == MODE_OVERTURNED ? 4 : 2;
     if (sliding_on(M)) {
@@ -787,9 +790,19 @@ void solver_outputs(Model *M, double tc) {
         v->groundWork = y[RS_WORK];
         v->slideStarts = S->slideStarts;
         v->energy = sliding_energy(M, y, mode, side);
+        v->momentum = sliding_momentum(M, y, mode, side);
         v->atRest = mode == MODE_REST;
     }
     contact_outputs(M, v);
+}
+
+void solver_outputs(Model *M, double tc) {
+    Variables *v = &M->v;
+    outputs_at(M, tc);
+    /* the load on the ground at tc, -(rate of change of the momentum relative to the ground);
+     * instance_do_step replaces it by its mean over the step */
+    double mass = v->mass + (v->nBlocks == 2 ? v->mass2 : 0.0);
+    v->groundLoad = M->s.mode == MODE_OVERTURNED ? 0.0 : -(v->groundT - mass * v->ahTotal);
 }
 
 void solver_log_pending(const Model *M, double tc, const Logger *log) {
@@ -1240,6 +1253,9 @@ int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg
     out.v.alphaDD2 = M->v.alphaDD2;
     out.v.ahTotal = M->v.ahTotal;
     out.v.avTotal = M->v.avTotal;
+    /* the last step's mean load depends on the momentum at the step's start, not on this state */
+    if (!isfinite(M->v.groundLoad)) FAIL("contact.groundLoad = %g is not finite", M->v.groundLoad);
+    out.v.groundLoad = M->v.groundLoad;
 #define VAR(T, vr, field, name, caus, var, start, unit, desc)         \
     if (memcmp(&out.v.field, &M->v.field, sizeof(out.v.field)) != 0) \
         FAIL("%s is not what the state gives at t = %.17g", name, tc);

@@ -367,6 +367,16 @@ double ss_kinetic(const Model *M, const double q[4], const double w[4], int s1, 
                   M->d.Ic1 * w[1] * w[1] + M->d.Ic2 * w[3] * w[3]);
 }
 
+double ss_momentum(const Model *M, const double *y, const StackPattern *p) {
+    const double zero[4] = {0, 0, 0, 0};
+    double q[4], w[4], v1[2], v2[2];
+    Kin k;
+    ss_qw(y, q, w);
+    kinematics(M, q, zero, p->g.s, p->i.s, &k);
+    body_velocities(&k, w, v1, v2);
+    return M->v.mass * v1[0] + M->v.mass2 * v2[0];
+}
+
 double ss_energy(const Model *M, const double *y, const StackPattern *p) {
     const Variables *v = &M->v;
     const double zero[4] = {0, 0, 0, 0};

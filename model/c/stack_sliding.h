@@ -83,6 +83,8 @@ int ss_rhs(const Model *M, const StackPattern *p, double t, const double *y, int
 /* Kinetic energy (J) relative to the ground, and kinetic plus potential energy (zero at rest). */
 double ss_kinetic(const Model *M, const double q[4], const double w[4], int s1, int s2);
 double ss_energy(const Model *M, const double *y, const StackPattern *p);
+/* Horizontal momentum relative to the ground (kg m/s) of both blocks at y in pattern p. */
+double ss_momentum(const Model *M, const double *y, const StackPattern *p);
 
 /* An impact of the contact `landing` (0 ground, 1 interface) in pattern p at positions q with
  * rates w: writes the pattern and rates after it. Returns 0 if no consistent impact exists

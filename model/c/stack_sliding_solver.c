@@ -723,6 +723,7 @@ void ss_outputs(Model *M, double tc) {
         v->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
     }
     v->energy = ss_energy(M, y, &p);
+    v->momentum = S->mode == MODE_OVERTURNED ? 0.0 : ss_momentum(M, y, &p);
     stack_counter_outputs(M, v, ah, av);
     v->locked = moving && !p.g.flat && p.i.flat;
     v->overturned = S->overturned2;

@@ -539,6 +539,9 @@ void stack_outputs(Model *M, double tc) {
     } else {
         contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &v->groundT, &v->groundN, &v->interfaceT, &v->interfaceN);
     }
+    double p[2][2];
+    contact_momenta(M, S->mode, s1, s2, y, p);
+    v->momentum = p[0][0] + p[1][0];
     contact_outputs(M, v);
 }
 
