@@ -156,6 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     from runners.cli.records import add_parser as add_records_parser
 
     add_records_parser(sub)
+    from runners.cli.cosim import add_parser as add_cosim_parser
+
+    add_cosim_parser(sub)
 
     mp = sub.add_parser("map", help="draw the overturning map of a stored sweep (or its mode or peak-slip map)")
     mp.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")

@@ -1,0 +1,161 @@
+"""``runners cosim SYSTEM.toml``: blocks on a floor of a shear building, co-simulated through an
+SSP file by fmpy or libcosim (runners.engine.cosim; docs/cosimulation.md)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from runners.cli import output
+from runners.cli.args import common, output_file, positive
+
+ENGINES = ("fmpy", "libcosim")  # runners.engine.cosim.ENGINES (imported when the command runs)
+COUPLINGS = ("one-way", "two-way")
+
+
+def _progress_bar(desc: str):
+    """A tqdm bar over the communication steps, or None (no terminal, --quiet)."""
+    if not output.progress():
+        return None, None
+    import sys
+
+    from tqdm import tqdm
+
+    bar = tqdm(desc=desc, unit="step", file=sys.stderr, leave=False, mininterval=0.3)
+
+    def tick(k: int, n: int) -> None:
+        bar.total = n
+        bar.n = k
+        if k == n or k % 200 == 0:
+            bar.refresh()
+
+    return bar, tick
+
+
+def summary(result, balance) -> dict:
+    """The run in numbers (SI units): floor, building and block peaks, and the energy balance."""
+    import numpy as np
+
+    from runners.engine.cosim import BLOCK, BUILDING
+
+    s, sys_ = result.series, result.system
+    out = {"system": sys_.name, "engine": result.engine, "coupling": sys_.coupling, "floor": sys_.floor,
+           "storeys": sys_.building.storeys, "step_s": sys_.step, "steps": len(result.time),
+           "frequencies_hz": [round(f, 6) for f in building_frequencies(result)],
+           "peak_base_acceleration": float(np.max(np.abs(s[f"{BUILDING}.base.aTotal"]))),
+           "peak_floor_acceleration": float(np.max(np.abs(result.floor("a")))),
+           "peak_floor_displacement": float(np.max(np.abs(result.floor("u")))),
+           "peak_base_shear": float(np.max(np.abs(s[f"{BUILDING}.baseShear"]))),
+           "peak_abs_theta": float(np.max(np.abs(s[f"{BLOCK}.block1.theta"]))),
+           "impacts": int(s[f"{BLOCK}.impacts"][-1]),
+           "final_slip": float(s[f"{BLOCK}.block1.slip"][-1]),
+           "overturned": bool(s[f"{BLOCK}.overturned"][-1]), "lifts": bool(s[f"{BLOCK}.lifts"][-1]),
+           "slides": bool(s[f"{BLOCK}.slides"][-1])}
+    if balance is not None:
+        out["energy_residual_j"] = float(np.max(np.abs(balance.residual)))
+        out["energy_scale_j"] = balance.scale
+    return out
+
+
+def building_frequencies(result) -> list[float]:
+    """Natural frequencies (Hz) of the building with the masses the run used."""
+    import numpy as np
+
+    p = result.system.building_parameters()
+    n = int(p["nStoreys"])
+    m = np.array([p[f"storey[{i}].mass"] for i in range(1, n + 1)])
+    k = np.array([p[f"storey[{i}].stiffness"] for i in range(1, n + 1)])
+    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    w2 = np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m)))
+    return list(np.sqrt(w2) / (2 * np.pi))
+
+
+def cmd_cosim(args: argparse.Namespace) -> int:
+    from runners.analysis import cosim as checks
+    from runners.engine import cosim
+
+    system = cosim.load_system(args.system)
+    if args.coupling:
+        system = replace(system, coupling=args.coupling)
+    if args.step is not None:
+        system = replace(system, step=args.step)
+    from runners.engine.scene import SceneError, check_times
+
+    try:
+        check_times(system.stop_time, system.step, "stop_time", "--step")
+    except SceneError as exc:
+        raise cosim.CosimError(str(exc)) from None
+    block_fmu = Path(args.fmu) if args.fmu else None
+    couplings = list(COUPLINGS) if args.compare else [system.coupling]
+    results = []
+    for coupling in couplings:
+        sys_c = replace(system, coupling=coupling)
+        bar, tick = _progress_bar(f"{args.engine}, {coupling}")
+        t0 = time.perf_counter()
+        try:
+            r = cosim.run(sys_c, engine=args.engine, block_fmu=block_fmu,
+                          ssp=args.ssp if coupling == system.coupling else None, progress=tick)
+        finally:
+            if bar is not None:
+                bar.close()
+        results.append((r, time.perf_counter() - t0))
+    docs = []
+    for r, seconds in results:
+        balance = None
+        if r.system.coupling == "two-way" and int(r.system.blocks.get("contact.model", 0)) == 1 and \
+                not any(float(r.system.blocks.get(k, 0.0)) for k in ("block1.theta0", "block1.omega0")):
+            balance = checks.energy_balance(r)
+        doc = summary(r, balance)
+        doc["seconds"] = round(seconds, 3)
+        docs.append(doc)
+    if args.out:
+        fig = checks.figure([r for r, _ in results], title=f"{system.name} (Jacobi, h = {system.step:g} s, {args.engine})")
+        fig.savefig(args.out, dpi=120)
+    if args.json:
+        out = {"runs": docs}
+        if args.ssp:
+            out["ssp"] = str(args.ssp)
+        if args.out:
+            out["figure"] = str(args.out)
+        output.emit_json(out)
+        return 0
+    g = 9.81
+    for d in docs:
+        f = ", ".join(f"{x:.3g}" for x in d["frequencies_hz"][:3])
+        print(f"{d['system']}: {d['storeys']}-storey building (f = {f} Hz), blocks on floor {d['floor']}, "
+              f"{d['coupling']} coupling, {d['engine']}, h = {d['step_s']:g} s: {d['steps']} steps in {d['seconds']:.2f} s")
+        print(f"  floor {d['floor']}: peak acceleration {d['peak_floor_acceleration'] / g:.3g} g "
+              f"(base {d['peak_base_acceleration'] / g:.3g} g), peak displacement {1000 * d['peak_floor_displacement']:.3g} mm; "
+              f"peak base shear {d['peak_base_shear'] / 1000:.4g} kN")
+        verdicts = ", ".join(n for n in ("overturned", "lifts", "slides") if d[n]) or "none"
+        print(f"  block: peak |theta| {d['peak_abs_theta']:.4g} rad, {d['impacts']} impacts, "
+              f"final slip {1000 * d['final_slip']:.3g} mm; verdicts: {verdicts}")
+        if "energy_residual_j" in d:
+            print(f"  energy balance (building + blocks): residual {d['energy_residual_j']:.3g} J, "
+                  f"{100 * d['energy_residual_j'] / d['energy_scale_j']:.2g} % of {d['energy_scale_j']:.4g} J "
+                  "(the coupling's error; it shrinks with the step, docs/cosimulation.md)")
+    if args.ssp:
+        print(f"SSP written to {args.ssp}")
+    if args.out:
+        print(f"figure written to {args.out}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("cosim", help="co-simulate blocks on a floor of a shear building (an SSP run by fmpy or libcosim)")
+    p.add_argument("system", metavar="SYSTEM.toml",
+                   help="a scene file with [building] and [coupling] tables; its [excitation] is the base's record "
+                        "(docs/cosimulation.md, examples/cabinet_on_floor.toml)")
+    p.add_argument("--engine", choices=list(ENGINES), default="fmpy",
+                   help="the co-simulation master: fmpy (reads the SSP, steps the FMUs here) or libcosim (its SSP "
+                        "loader and fixed-step algorithm); default fmpy")
+    p.add_argument("--coupling", choices=list(COUPLINGS), help="override [coupling] mode")
+    p.add_argument("--compare", action="store_true", help="run one-way and two-way coupling and plot both")
+    p.add_argument("--step", type=positive, metavar="SECONDS", help="override [coupling] step (communication step)")
+    p.add_argument("--ssp", type=output_file, metavar="FILE.ssp",
+                   help="also keep the SSP file (both FMUs inside) to open in another co-simulation tool")
+    p.add_argument("--out", type=output_file, metavar="FILE.png", help="draw the floor motion and block response")
+    common(p, fmu=True)
+    p.set_defaults(func=cmd_cosim)

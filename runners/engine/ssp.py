@@ -1,0 +1,123 @@
+"""SSP (System Structure and Parameterization 1.0, Modelica Association 2019) archives of
+FMUs connected into a system: the file a co-simulation tool (libcosim, OMSimulator, ...)
+opens to run the system.
+
+An archive holds ``SystemStructure.ssd`` and the FMUs under ``resources/``. Each component's
+parameters are bound inline (``ssv:ParameterSet``); connections join an output connector of
+one component to an input connector of another, unchanged (no linear transformation).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+NS = ('xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+      'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
+      'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"')
+
+Value = float | int | bool | str
+
+
+@dataclass
+class Component:
+    """One FMU of the system: its instance name, the FMU file, the connectors the system uses
+    (name -> (kind "input"/"output", type "Real"/"Integer"/"Boolean")) and its parameters."""
+
+    name: str
+    fmu: Path
+    connectors: dict[str, tuple[str, str]] = field(default_factory=dict)
+    parameters: dict[str, Value] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Connection:
+    """Output ``start`` of component ``start_element`` drives input ``end`` of ``end_element``."""
+
+    start_element: str
+    start: str
+    end_element: str
+    end: str
+
+
+def _ssv(value: Value) -> str:
+    if isinstance(value, bool):
+        return f'<ssv:Boolean value="{str(value).lower()}"/>'
+    if isinstance(value, int):
+        return f'<ssv:Integer value="{value}"/>'
+    if isinstance(value, float):
+        return f'<ssv:Real value="{value!r}"/>'
+    return f"<ssv:String value={quoteattr(value)}/>"
+
+
+def ssd_text(name: str, components: list[Component], connections: list[Connection], start_time: float,
+             stop_time: float, description: str = "") -> str:
+    """The XML of SystemStructure.ssd: components with their FMUs under resources/, their
+    connectors and inline parameter values, the connections and the default experiment."""
+    names = {c.name: c for c in components}
+    for k in connections:
+        for element, connector, kind in ((k.start_element, k.start, "output"), (k.end_element, k.end, "input")):
+            if element not in names:
+                raise ValueError(f"connection names an unknown component '{element}'")
+            if names[element].connectors.get(connector, ("", ""))[0] != kind:
+                raise ValueError(f"connection: {element}.{connector} is not an {kind} connector of {element}")
+    w: list[str] = ['<?xml version="1.0" encoding="UTF-8"?>',
+                    f'<ssd:SystemStructureDescription {NS} version="1.0" name={quoteattr(name)}>',
+                    f"  <ssd:System name={quoteattr(name)} description={quoteattr(description)}>",
+                    "    <ssd:Elements>"]
+    for c in components:
+        w.append(f'      <ssd:Component name={quoteattr(c.name)} source="resources/{c.fmu.name}" '
+                 'type="application/x-fmu-sharedlibrary">')
+        w.append("        <ssd:Connectors>")
+        for cname, (kind, typ) in c.connectors.items():
+            w.append(f"          <ssd:Connector name={quoteattr(cname)} kind=\"{kind}\"><ssc:{typ}/></ssd:Connector>")
+        w.append("        </ssd:Connectors>")
+        if c.parameters:
+            w += ["        <ssd:ParameterBindings>", "          <ssd:ParameterBinding>",
+                  "            <ssd:ParameterValues>",
+                  f'              <ssv:ParameterSet version="1.0" name={quoteattr(c.name + " parameters")}>',
+                  "                <ssv:Parameters>"]
+            for pname, value in c.parameters.items():
+                w.append(f"                  <ssv:Parameter name={quoteattr(pname)}>{_ssv(value)}</ssv:Parameter>")
+            w += ["                </ssv:Parameters>", "              </ssv:ParameterSet>",
+                  "            </ssd:ParameterValues>", "          </ssd:ParameterBinding>",
+                  "        </ssd:ParameterBindings>"]
+        w.append("      </ssd:Component>")
+    w.append("    </ssd:Elements>")
+    w.append("    <ssd:Connections>")
+    for k in connections:
+        w.append(f"      <ssd:Connection startElement={quoteattr(k.start_element)} startConnector={quoteattr(k.start)} "
+                 f"endElement={quoteattr(k.end_element)} endConnector={quoteattr(k.end)}/>")
+    w.append("    </ssd:Connections>")
+    w.append("  </ssd:System>")
+    w.append(f'  <ssd:DefaultExperiment startTime="{start_time!r}" stopTime="{stop_time!r}"/>')
+    w.append("</ssd:SystemStructureDescription>")
+    return "\n".join(w) + "\n"
+
+
+def write_ssp(path: str | Path, name: str, components: list[Component], connections: list[Connection],
+              start_time: float, stop_time: float, description: str = "") -> Path:
+    """Write the SSP archive ``path`` (SystemStructure.ssd and the FMUs in resources/), atomically."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"cannot write {path}: the folder {path.parent} does not exist")
+    fmus = {c.fmu.name: c.fmu for c in components}
+    if len(fmus) != len({c.fmu for c in components}):
+        raise ValueError("two different FMU files with the same name")
+    text = ssd_text(name, components, connections, start_time, stop_time, description)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    os.close(fd)
+    try:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+            zf.writestr("SystemStructure.ssd", text)
+            for fname, fpath in sorted(fmus.items()):
+                zf.write(fpath, f"resources/{fname}")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path

@@ -1,0 +1,245 @@
+"""The block inside a real co-simulation: RockingBlock.fmu on a floor of ShearBuilding.fmu,
+connected by an SSP file and run by fmpy (our master over fmpy's SSP reader and FMI wrapper)
+and by libcosim (its SSP loader). The references are independent: the block run alone under the
+floor's motion stored as a record, the energy of the whole system, and the other engine.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import zipfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+from runners.analysis import cosim as checks
+from runners.engine import cosim
+from runners.engine.record_files import write_record_file
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "cabinet_on_floor.toml"
+
+
+@pytest.fixture(scope="session")
+def building_fmu() -> Path:
+    env = os.environ.get("ROCKING_BUILDING_FMU")
+    if env:
+        return Path(env).resolve()
+    from fmu_build.building import build_building_fmu
+
+    return build_building_fmu()
+
+
+@pytest.fixture(scope="module")
+def system() -> cosim.System:
+    return cosim.load_system(EXAMPLE)
+
+
+def sliding_only(s: cosim.System) -> cosim.System:
+    """A squat crate (b = h = 0.5 m, mu = 0.3 < b/h): it slides on the floor and never rocks, so no
+    impact: the coupled energy balance has only the coupling's error."""
+    return replace(s, blocks={**s.blocks, "block1.halfWidth": 0.5, "block1.halfHeight": 0.5, "contact.muGround": 0.3})
+
+
+def run(s, fmu_path, building_fmu, engine="fmpy", **kw):
+    return cosim.run(s, engine=engine, block_fmu=fmu_path, building_fmu=building_fmu, **kw)
+
+
+# ------------------------------------------------------------------ the SSP
+
+def test_ssp_is_valid_and_carries_both_fmus(system, fmu_path, building_fmu, tmp_path):
+    from fmpy.ssp.ssd import read_ssd
+
+    path = cosim.write_system_ssp(system, tmp_path / "cabinet.ssp", fmu_path, building_fmu)
+    with zipfile.ZipFile(path) as zf:
+        names = set(zf.namelist())
+    assert {"SystemStructure.ssd", f"resources/{fmu_path.name}", f"resources/{building_fmu.name}"} <= names
+    ssd = read_ssd(str(path), validate=True)  # the SSP 1.0 schema
+    comps = {c.name: c for c in ssd.system.elements}
+    assert set(comps) == {"building", "block"}
+    links = {(c.startElement, c.startConnector, c.endElement, c.endConnector) for c in ssd.system.connections}
+    assert links == {("building", "storey[3].a", "block", "ground.ah"),
+                     ("block", "contact.groundLoad", "building", "storey[3].force")}
+    params = {p.name: p.value for b in comps["building"].parameterBindings for s in b.parameterValues
+              for p in s.parameters}
+    # two-way: the floor carries the cabinet's mass
+    assert float(params["storey[3].mass"]) == 2000.0 + 1000.0 and float(params["storey[1].mass"]) == 2000.0
+    block = {p.name for b in comps["block"].parameterBindings for s in b.parameterValues for p in s.parameters}
+    assert "contact.modelCode" in block and "contact.model" not in block  # the Integer code every engine can set
+
+
+# ------------------------------------------------------------------ the block's coupling outputs
+
+def test_momentum_is_the_closed_form_and_the_load_returns_it(fmu_path):
+    """momentum = m R cos(side alpha - theta) omega for one rocking block; the mean loads of all
+    steps, times the step, give back minus the change of momentum (impacts included)."""
+    h, b, hh, m = 1e-3, 0.1, 0.3, 10.0
+    r = simulate_fmu(str(fmu_path), start_values={"block1.theta0": 0.0, "excitation.kind": 1,
+                                                  "excitation.amplitude": 5.0, "excitation.frequency": 3.0},
+                     stop_time=3.0, output_interval=h,
+                     output=["block1.theta", "block1.omega", "momentum", "contact.groundLoad", "impacts"])
+    assert r["impacts"][-1] >= 10
+    th, om = r["block1.theta"], r["block1.omega"]
+    side = np.where(th >= 0, 1.0, -1.0)
+    closed = m * np.hypot(b, hh) * np.cos(side * np.arctan(b / hh) - th) * om
+    assert np.max(np.abs(closed - r["momentum"])) < 1e-12 * np.max(np.abs(closed))
+    assert abs(np.sum(r["contact.groundLoad"][1:] * h) + r["momentum"][-1] - r["momentum"][0]) < 1e-9
+
+
+def test_stack_load_is_minus_the_rate_of_the_two_blocks_momentum(fmu_path):
+    """A rocking stack (both contact models): between impacts the load, -(groundT - (m1 + m2) a),
+    is minus the time derivative of the momentum (central differences of the momentum at 0.1 ms)."""
+    for model in (0, 1):
+        p = {"nBlocks": 2, "block1.theta0": 0.0, "block2.theta0": 0.0, "block1.halfWidth": 0.2,
+             "block1.halfHeight": 0.3, "block2.halfWidth": 0.1, "block2.halfHeight": 0.3,
+             "excitation.kind": 1, "excitation.amplitude": 6.0, "excitation.frequency": 2.0,
+             "contact.model": model, "contact.muGround": 2.0, "contact.muInterface": 2.0}
+        h = 1e-4
+        r = simulate_fmu(str(fmu_path), start_values=p, stop_time=0.6, output_interval=h,
+                         output=["momentum", "contact.groundT", "ground.ahTotal", "impacts"])
+        pm, imp = r["momentum"], r["impacts"]
+        assert np.max(np.abs(pm)) > 0.1, model
+        rate = (pm[2:] - pm[:-2]) / (2 * h)
+        inst = r["contact.groundT"][1:-1] - 15.0 * r["ground.ahTotal"][1:-1]  # masses 10 + 5 kg (start values)
+        smooth = (imp[2:] == imp[:-2])
+        assert np.max(np.abs(rate - inst)[smooth]) < 1e-3 * np.max(np.abs(inst)), model
+
+
+# ------------------------------------------------------------------ one-way: the record run
+
+def test_one_way_is_the_block_under_the_floors_held_motion(system, fmu_path, building_fmu):
+    """The one-way co-simulation gives the block the floor's acceleration at t_k held over the step:
+    the block run alone under that staircase (a record of the samples with 2 us ramps between
+    them) is the same run, to the ramps' effect."""
+    s = replace(system, coupling="one-way")
+    r = run(s, fmu_path, building_fmu)
+    h, d = s.step, 2e-6
+    a = np.concatenate([[0.0], r.floor("a")])
+    tk = np.arange(len(a)) * h
+    t = np.empty(2 * len(a) - 1)
+    acc = np.empty_like(t)
+    t[0::2], acc[0::2] = tk, a
+    t[1::2], acc[1::2] = tk[1:] - d, a[:-1]
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = write_record_file(Path(tmp) / "held.txt", t, acc)
+        alone = simulate_fmu(str(fmu_path), start_values={**s.block_parameters(), "excitation.kind": 4,
+                                                          "excitation.file": str(rec)},
+                             stop_time=float(r.time[-1]), output_interval=h,
+                             output=["block1.theta", "impacts", "block1.slip"])
+    assert alone["impacts"][-1] == r["block.impacts"][-1] >= 5
+    assert np.max(np.abs(alone["block1.theta"][1:] - r["block.block1.theta"])) < 1e-5
+    assert np.max(np.abs(alone["block1.slip"][1:] - r["block.block1.slip"])) < 1e-7
+
+
+def test_one_way_matches_the_record_run_to_the_interpolation_error(system, fmu_path, building_fmu):
+    """Against the floor's acceleration stored as an ordinary record (linear between the
+    communication points), the one-way run differs by the hold's interpolation error: first
+    order in the step, halving with it."""
+    errors = []
+    for h in (2e-3, 1e-3, 5e-4):
+        s = replace(system, coupling="one-way", step=h)
+        r = run(s, fmu_path, building_fmu)
+        ref = checks.record_run(s, r, fmu_path)
+        np.testing.assert_allclose(ref["time"], r.time, rtol=0, atol=1e-12)
+        assert ref["impacts"][-1] == r["block.impacts"][-1]
+        errors.append(np.max(np.abs(ref["block1.theta"] - r["block.block1.theta"])))
+    ratios = np.array(errors[1:]) / np.array(errors[:-1])
+    assert np.all((ratios > 0.4) & (ratios < 0.6)), (errors, ratios)
+    assert errors[-1] < 0.003 * np.max(np.abs(r["block.block1.theta"]))  # 0.2 % of the peak at 0.5 ms
+
+
+# ------------------------------------------------------------------ two-way: energy
+
+def test_two_way_energy_balance_closes_as_the_step_shrinks(system, fmu_path, building_fmu):
+    """Building + crate, two-way: each FMU's own balance holds to its tolerance, and the system's
+    (docs/cosimulation.md) to the coupling's first-order error: about 45 h/s of the energy scale,
+    halving with the step."""
+    rel = []
+    for h in (1e-3, 5e-4, 2.5e-4):
+        r = run(replace(sliding_only(system), step=h), fmu_path, building_fmu)
+        s = r.series
+        assert s["block.impacts"][-1] == 0 and np.max(np.abs(s["block.block1.slip"])) > 0.05  # it slid 10 cm
+        bld = s["building.energy"] - (s["building.baseWork"] + s["building.forceWork"] - s["building.dampingLoss"])
+        blk = s["block.energy"] + s["block.block1.frictionLoss"] + s["block.impactLoss"] - s["block.groundWork"]
+        assert np.max(np.abs(bld)) < 1e-7 * np.max(np.abs(s["building.baseWork"]))
+        assert np.max(np.abs(blk)) < 1e-7 * np.max(np.abs(s["block.groundWork"]))
+        rel.append(checks.energy_balance(r).relative)
+    ratios = np.array(rel[1:]) / np.array(rel[:-1])
+    assert np.all((ratios > 0.4) & (ratios < 0.6)), (rel, ratios)
+    assert rel[-1] < 45 * 2.5e-4, rel
+
+
+def test_energy_balance_refuses_what_it_cannot_account(system, fmu_path, building_fmu):
+    r = run(replace(system, coupling="one-way", stop_time=0.1), fmu_path, building_fmu)
+    with pytest.raises(cosim.CosimError, match="two-way"):
+        checks.energy_balance(r)
+
+
+# ------------------------------------------------------------------ engines
+
+def test_libcosim_runs_the_ssp_as_fmpy_does(system, fmu_path, building_fmu):
+    """libcosim's SSP loader and fixed-step algorithm against our fmpy master, equal steps, the
+    two-way cabinet (rocking, sliding, impacts): every output to 1e-9 of its scale."""
+    why = cosim.libcosim_available()
+    if why:
+        pytest.skip(why)
+    a = run(system, fmu_path, building_fmu, "fmpy")
+    b = run(system, fmu_path, building_fmu, "libcosim")
+    assert a["block.impacts"][-1] >= 3 and np.max(np.abs(a["block.block1.slip"])) > 0
+    np.testing.assert_array_equal(a.time, b.time)
+    for name, x in a.series.items():
+        scale = max(np.max(np.abs(x)), 1e-300)
+        assert np.max(np.abs(x - b[name])) <= 1e-9 * scale, name
+
+
+# ------------------------------------------------------------------ the command line
+
+def runners(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    exe = Path(sys.executable).parent / "runners"
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+def test_cli_cosim_writes_ssp_figure_and_json(fmu_path, building_fmu, tmp_path):
+    env_fmu = ["--fmu", str(fmu_path)]
+    os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
+    try:
+        p = runners("cosim", str(EXAMPLE), "--step", "0.002", "--compare", "--ssp", str(tmp_path / "s.ssp"),
+                    "--out", str(tmp_path / "f.png"), "--json", *env_fmu)
+    finally:
+        del os.environ["ROCKING_BUILDING_FMU"]
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    one, two = doc["runs"]
+    assert (one["coupling"], two["coupling"]) == ("one-way", "two-way")
+    assert "energy_residual_j" in two and "energy_residual_j" not in one
+    # the cabinet's mass on the top floor lowers the building's first frequency
+    assert two["frequencies_hz"][0] < one["frequencies_hz"][0]
+    assert (tmp_path / "f.png").stat().st_size > 10_000 and zipfile.is_zipfile(tmp_path / "s.ssp")
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace("[building]", "[buildings]"), "no [building] table"),
+    (lambda t: t.replace("floor = 3", "floor = 4"), "floor must be a floor of the building, 1 to 3"),
+    (lambda t: t.replace('mode = "two-way"', 'mode = "both"'), "mode must be one of"),
+    (lambda t: t.replace("storeys = 3", "storeys = 11"), "storeys must be a whole number from 1 to 10"),
+    (lambda t: t.replace("stiffness = 2.5e6", "stiffness = [1e6, 2e6]"), "2 values for 3 storeys"),
+    (lambda t: t.replace('file = "pulse_3hz.AT2"', 'kind = "sine-pulse"\namplitude = 3.0'), "must be the base's record"),
+    (lambda t: t.replace("step = 0.001", "step = 0.0"), "step"),
+])
+def test_cli_cosim_bad_system_is_one_line(tmp_path, edit, message):
+    text = edit(EXAMPLE.read_text())
+    (tmp_path / "pulse_3hz.AT2").write_bytes((ROOT / "examples" / "pulse_3hz.AT2").read_bytes())
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    p = runners("cosim", str(bad))
+    assert p.returncode == 2, p.stdout + p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], p.stderr
