@@ -9,6 +9,9 @@ themselves (damping ratio zeta at modes 1 and 2 from eigh's frequencies; N = 1: 
 from __future__ import annotations
 
 import os
+import shutil
+import subprocess
+import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -180,7 +183,8 @@ def test_free_vibration_after_a_force_step_is_the_exact_modal_solution(building,
 
 
 def write_record(path: Path, t: np.ndarray, a: np.ndarray) -> None:
-    path.write_text("# time s, horizontal acceleration m/s2\n" + "".join(f"{float(x)!r} {float(y)!r}\n" for x, y in zip(t, a)))
+    lines = "".join(f"{float(x)!r} {float(y)!r}\n" for x, y in zip(t, a))
+    path.write_text("# time s, horizontal acceleration m/s2\n" + lines)
 
 
 def reference_record_run(ref: Reference, t_rec: np.ndarray, a_rec: np.ndarray, stop: float,
@@ -367,3 +371,47 @@ def test_the_fmu_validates_and_declares_its_interface(building_fmu):
             assert by_name[f"storey[{i}].{member}"].causality == causality
     assert by_name["frequency1"].causality == "calculatedParameter"
     assert by_name["excitation.file"].type == "String"
+
+
+def test_a_relative_record_path_is_read_from_the_resources_folder(building_fmu, tmp_path):
+    t_rec = np.round(np.arange(0, 51) * 0.02, 12)
+    a_rec = np.sin(2 * np.pi * t_rec)
+    resources = Path(building_fmu[0]) / "resources"
+    resources.mkdir(exist_ok=True)
+    write_record(resources / "in_resources.txt", t_rec, a_rec)
+    write_record(tmp_path / "absolute.txt", t_rec, a_rec)
+    runs = []
+    for file in ("in_resources.txt", str(tmp_path / "absolute.txt")):
+        b = Building(building_fmu)
+        b.start({"excitation.file": file})
+        runs.append(b.run(1.0, 0.1, ["storey[3].u", "base.aTotal"])[1])
+        b.close()
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.abs(runs[0][:, 0]).max() > 0
+
+
+def test_only_fmi2_functions_are_exported(building_fmu):
+    so = Path(building_fmu[0]) / "binaries" / "linux64" / "ShearBuilding.so"
+    out = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True, check=True).stdout
+    exported = [line.split()[-1] for line in out.splitlines() if line.strip()]
+    assert "fmi2DoStep" in exported and all(n.startswith("fmi2") for n in exported), exported
+
+
+def test_the_shipped_sources_rebuild_into_the_same_model(building_fmu, tmp_path):
+    from fmpy.build import build_platform_binary
+
+    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    unzipdir = tmp_path / "fmu"
+    with zipfile.ZipFile(path) as zf:
+        zf.extractall(unzipdir)
+    shutil.rmtree(unzipdir / "binaries")
+    (tmp_path / "cmake").mkdir()
+    build_platform_binary(unzipdir, build_dir=tmp_path / "cmake")
+    cols = names(3, "u", "a")
+    runs = []
+    for fmu in (building_fmu, (str(unzipdir), building_fmu[1])):
+        b = Building(fmu)
+        b.start({"damping.ratio": 0.02})
+        runs.append(b.run(1.0, 0.05, cols, inputs=lambda t: {"storey[2].force": 1e5 * np.cos(7 * t)})[1])
+        b.close()
+    np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-9 * np.abs(runs[0]).max())

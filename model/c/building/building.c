@@ -236,7 +236,8 @@ int building_advance(Building *B, double target, char *msg, size_t n) {
             } else if (h > 0.5 * rest) {
                 h = 0.5 * rest; /* two even steps, not one and a sliver */
             }
-            if (++tries > MAX_STEPS) FAIL("more than %ld steps in one communication step at t = %.17g", MAX_STEPS, B->t);
+            if (++tries > MAX_STEPS)
+                FAIL("more than %ld steps in one communication step at t = %.17g", MAX_STEPS, B->t);
             dopri5_step(rhs, &ctx, dim, B->t, B->y, f0, h, y1, f1, err, cont);
             double e = dopri5_error_norm(dim, B->y, y1, err, rtol, atol);
             if (!isfinite(e)) e = 1e10;

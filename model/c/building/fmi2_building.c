@@ -93,8 +93,8 @@ static int load_record(Instance *I) {
     record_free(&I->rec, I->cb.freeMemory);
     if (!file[0]) return 0;
     if (!I->resourceDir && I->resourceNote[0] && !record_is_absolute(file)) {
-        LOG_ERROR(I, "invalid parameter: excitation.file: '%s' is a relative path, but the importer's resources location %s",
-              file, I->resourceNote);
+        LOG_ERROR(I, "invalid parameter: excitation.file: '%s' is a relative path, but the importer's resources "
+                     "location %s", file, I->resourceNote);
         return 1;
     }
     if (record_path(file, I->resourceDir, path, sizeof(path), msg, sizeof(msg)) ||
@@ -389,7 +389,8 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     Instance *I = (Instance *)c;
     if (begin_access(I, 1, vr, nvr, value, "fmi2SetBoolean")) return fmi2Error;
     if (nvr > 0) {
-        LOG_ERROR(I, "fmi2SetBoolean: unknown Boolean value reference %u (ShearBuilding has no Boolean variables)", vr[0]);
+        LOG_ERROR(I, "fmi2SetBoolean: unknown Boolean value reference %u (ShearBuilding has no Boolean variables)",
+                  vr[0]);
         return fmi2Error;
     }
     return fmi2OK;
@@ -445,7 +446,8 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
     Instance *I = (Instance *)c;
     if (begin_access(I, 0, vr, nvr, value, "fmi2GetBoolean")) return fmi2Error;
     if (nvr > 0) {
-        LOG_ERROR(I, "fmi2GetBoolean: unknown Boolean value reference %u (ShearBuilding has no Boolean variables)", vr[0]);
+        LOG_ERROR(I, "fmi2GetBoolean: unknown Boolean value reference %u (ShearBuilding has no Boolean variables)",
+                  vr[0]);
         return fmi2Error;
     }
     return fmi2OK;
@@ -543,8 +545,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         return fmi2Error;
     }
     if (fabs(currentCommunicationPoint - tc) > 1e-9 * fmax(1.0, fabs(tc))) {
-        LOG_ERROR(I, "fmi2DoStep: communication point %.17g does not match the FMU time %.17g", currentCommunicationPoint,
-              tc);
+        LOG_ERROR(I, "fmi2DoStep: communication point %.17g does not match the FMU time %.17g",
+                  currentCommunicationPoint, tc);
         return fmi2Error;
     }
     double target = currentCommunicationPoint + h;
