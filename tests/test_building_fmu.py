@@ -415,3 +415,46 @@ def test_the_shipped_sources_rebuild_into_the_same_model(building_fmu, tmp_path)
         runs.append(b.run(1.0, 0.05, cols, inputs=lambda t: {"storey[2].force": 1e5 * np.cos(7 * t)})[1])
         b.close()
     np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-9 * np.abs(runs[0]).max())
+
+
+def test_libcosim_runs_it_as_fmpy_does(building_fmu):
+    """libcosim (pip libcosimpy, the engine of the SSP runs) sees every variable, sets start values
+    and inputs, and steps it to the same result as fmpy (it keeps time in integer nanoseconds)."""
+    pytest.importorskip("libcosimpy", reason="libcosimpy is not installed")
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimManipulator import CosimManipulator
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.WARNING)
+    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    execution = CosimExecution.from_step_size(10_000_000)  # 10 ms
+    index = execution.add_local_slave(CosimLocalSlave(fmu_path=path, instance_name="building"))
+    assert index >= 0
+    variables = {v.name.decode(): v for v in execution.slave_variables(index)}
+    assert set(variables) == {v.name for v in building_fmu[1].modelVariables}
+    assert execution.integer_initial_value(index, variables["nStoreys"].reference, 2)
+    assert execution.real_initial_value(index, variables["storey[2].mass"].reference, 2e4)
+    observer = CosimObserver.create_last_value()
+    assert execution.add_observer(observer)
+    manipulator = CosimManipulator.create_override()
+    assert execution.add_manipulator(manipulator)
+    outputs = ["storey[2].u", "storey[2].a", "energy", "forceWork", "baseWork", "frequency2"]
+
+    def inputs(t: float) -> dict[str, float]:
+        return {"storey[2].force": 1e4 * np.sin(6 * t), "base.a": 0.3}
+
+    rows = []
+    for k in range(100):
+        values = inputs(k * 0.01)
+        assert manipulator.slave_real_values(index, [variables[n].reference for n in values], list(values.values()))
+        assert execution.step()
+        rows.append(observer.last_real_values(index, [variables[n].reference for n in outputs]))
+    b = Building(building_fmu)
+    b.start({"nStoreys": 2, "storey[2].mass": 2e4})
+    _, ours = b.run(1.0, 0.01, outputs, inputs=inputs)
+    b.close()
+    assert np.abs(ours[:, 0]).max() > 1e-4
+    scale = np.abs(ours).max(axis=0)
+    np.testing.assert_allclose(np.array(rows) / scale, ours[1:] / scale, rtol=0, atol=1e-12)
