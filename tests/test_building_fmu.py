@@ -160,7 +160,11 @@ def names(n: int, *members: str) -> list[str]:
     return [f"storey[{i}].{m}" for m in members for i in range(1, n + 1)]
 
 
-@pytest.mark.parametrize("m,k", [([3.0e4], [2.0e7]), (MASSES, STIFFNESSES)], ids=["one storey", "three storeys"])
+TEN_STOREYS = (list(np.linspace(3.0e4, 1.0e4, 10)), list(np.linspace(5.0e7, 2.0e7, 10)))  # 23 integrator states
+
+
+@pytest.mark.parametrize("m,k", [([3.0e4], [2.0e7]), (MASSES, STIFFNESSES), TEN_STOREYS],
+                         ids=["one storey", "three storeys", "ten storeys"])
 def test_free_vibration_after_a_force_step_is_the_exact_modal_solution(building, m, k):
     ref = Reference(m, k, ZETA)
     n = len(m)
