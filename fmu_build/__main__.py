@@ -1,5 +1,5 @@
 """``python -m fmu_build``: build build/RockingBlock.fmu (FMI 2.0) and build/RockingBlock3.fmu (FMI 3.0)
-from model/c."""
+from model/c, and build/ShearBuilding.fmu (the shear building, FMI 2.0 Co-Simulation) from model/c/building."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 from fmu_build.build import BuildError, build_fmu
 from fmu_build.build3 import build_fmu3
+from fmu_build.building import build_building_fmu
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,11 +26,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         path = build_fmu(args.out, sanitize=args.sanitize, force=args.force, platforms=args.platforms)
         path3 = build_fmu3(args.out3, sanitize=args.sanitize, force=args.force)
+        building = None if args.sanitize else build_building_fmu(force=args.force)  # build/ShearBuilding.fmu
     except (BuildError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     print(path)
     print(path3)
+    if building:
+        print(building)
     return 0
 
 

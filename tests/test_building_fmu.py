@@ -1,0 +1,464 @@
+"""ShearBuilding.fmu (model/c/building), the real FMU through fmpy, against independent references:
+the exact modal solution (scipy.linalg.eigh), a second integrator (scipy's DOP853) under a
+record file, the energy balance, and its refusals of bad parameters and call sequences.
+
+The references build M, K and the Rayleigh damping C = a0 M + a1 K from the parameters
+themselves (damping ratio zeta at modes 1 and 2 from eigh's frequencies; N = 1: C = 2 zeta w1 m).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+from scipy.integrate import solve_ivp
+from scipy.linalg import eigh
+
+from fmu_build.building import build_building_fmu
+
+# a three-storey building with unequal floors (kg, N/m)
+MASSES = [2.0e4, 1.5e4, 1.0e4]
+STIFFNESSES = [3.0e7, 2.0e7, 1.5e7]
+ZETA = 0.05
+
+
+@pytest.fixture(scope="module")
+def building_fmu(tmp_path_factory) -> tuple[str, object]:
+    env = os.environ.get("SHEAR_BUILDING_FMU")
+    path = Path(env).resolve() if env else build_building_fmu()
+    return extract(str(path), str(tmp_path_factory.mktemp("shear_building"))), read_model_description(str(path))
+
+
+class Building:
+    """One instance of the FMU, its log captured."""
+
+    def __init__(self, fmu: tuple[str, object]):
+        unzipdir, md = fmu
+        self.messages: list[str] = []
+
+        def logger(env, name, status, category, message):
+            self.messages.append((message or b"").decode(errors="replace").replace("%%", "%"))
+
+        self._callbacks = fmi2CallbackFunctions()
+        self._callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.s = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier="ShearBuilding",
+                           instanceName="building")
+        self.s.instantiate(callbacks=self._callbacks)
+        self.t = 0.0
+
+    def set(self, values: dict[str, float | int | str]) -> None:
+        for name, value in values.items():
+            v = self.vars[name]
+            if v.type == "Integer":
+                self.s.setInteger([v.valueReference], [int(value)])
+            elif v.type == "String":
+                self.s.setString([v.valueReference], [str(value)])
+            else:
+                self.s.setReal([v.valueReference], [float(value)])
+
+    def start(self, params: dict[str, float | int | str], t0: float = 0.0) -> None:
+        self.s.setupExperiment(startTime=t0)
+        self.set(params)
+        self.s.enterInitializationMode()
+        self.s.exitInitializationMode()
+        self.t = t0
+
+    def get(self, names: Sequence[str]) -> np.ndarray:
+        return np.array(self.s.getReal([self.vars[n].valueReference for n in names]))
+
+    def run(self, stop: float, h: float, names: Sequence[str],
+            inputs: Callable[[float], dict[str, float]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Step to ``stop`` by ``h`` (inputs(t) set at each communication point): times and outputs."""
+        n = int(round((stop - self.t) / h))
+        times, rows = [self.t], [self.get(names)]
+        for _ in range(n):
+            if inputs:
+                self.set(inputs(self.t))
+            self.s.doStep(self.t, h)
+            self.t += h  # the FMU's own arithmetic: its time is the communication point plus the step
+            times.append(self.t)
+            rows.append(self.get(names))
+        return np.array(times), np.array(rows)
+
+    def close(self) -> None:
+        self.s.freeInstance()
+
+
+@pytest.fixture
+def building(building_fmu):
+    b = Building(building_fmu)
+    yield b
+    b.close()
+
+
+def structure(params: dict) -> dict:
+    """The parameters of a building of the given masses and stiffnesses."""
+    out = {"nStoreys": len(params["m"]), "damping.ratio": params["zeta"]}
+    for i, (m, k) in enumerate(zip(params["m"], params["k"]), start=1):
+        out[f"storey[{i}].mass"] = m
+        out[f"storey[{i}].stiffness"] = k
+    return out
+
+
+class Reference:
+    """M, K, the modes (eigh) and the Rayleigh damping of a shear building, independently of the FMU."""
+
+    def __init__(self, m: Sequence[float], k: Sequence[float], zeta: float):
+        n = len(m)
+        self.M = np.diag(m)
+        self.K = np.zeros((n, n))
+        for i in range(n):  # storey i joins floor i-1 (or the base) and floor i
+            self.K[i, i] += k[i]
+            if i > 0:
+                self.K[i - 1, i - 1] += k[i]
+                self.K[i - 1, i] -= k[i]
+                self.K[i, i - 1] -= k[i]
+        w2, self.phi = eigh(self.K, self.M)  # phi^T M phi = I
+        self.w = np.sqrt(w2)
+        if n == 1:
+            self.a0, self.a1 = 0.0, 2 * zeta / self.w[0]
+        else:
+            w1, w2_ = self.w[0], self.w[1]
+            self.a0, self.a1 = 2 * zeta * w1 * w2_ / (w1 + w2_), 2 * zeta / (w1 + w2_)
+        self.C = self.a0 * self.M + self.a1 * self.K
+        self.zeta = self.a0 / (2 * self.w) + self.a1 * self.w / 2  # modal damping ratios
+
+    def free(self, q0: np.ndarray, v0: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
+        """Damped free vibration of the modal coordinates from (q0, v0) after tau seconds."""
+        s, wd = self.zeta * self.w, self.w * np.sqrt(1 - self.zeta ** 2)
+        a, b = q0, (v0 + s * q0) / wd
+        e, c, sn = np.exp(-s * tau), np.cos(wd * tau), np.sin(wd * tau)
+        return e * (a * c + b * sn), e * ((-s * a + wd * b) * c + (-s * b - wd * a) * sn)
+
+    def step_response(self, force: np.ndarray, release: float, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """u, u' at t from rest under a force held over [0, release] and zero after (exact, modal)."""
+        p = self.phi.T @ force
+        qs = p / self.w ** 2  # the static deflection under the force
+        if t <= release:
+            q, v = self.free(-qs, np.zeros_like(qs), t)
+            q = q + qs
+        else:
+            q1, v1 = self.free(-qs, np.zeros_like(qs), release)
+            q, v = self.free(q1 + qs, v1, t - release)
+        return self.phi @ q, self.phi @ v
+
+
+def names(n: int, *members: str) -> list[str]:
+    return [f"storey[{i}].{m}" for m in members for i in range(1, n + 1)]
+
+
+TEN_STOREYS = (list(np.linspace(3.0e4, 1.0e4, 10)), list(np.linspace(5.0e7, 2.0e7, 10)))  # 23 integrator states
+
+
+@pytest.mark.parametrize("m,k", [([3.0e4], [2.0e7]), (MASSES, STIFFNESSES), TEN_STOREYS],
+                         ids=["one storey", "three storeys", "ten storeys"])
+def test_free_vibration_after_a_force_step_is_the_exact_modal_solution(building, m, k):
+    ref = Reference(m, k, ZETA)
+    n = len(m)
+    force = np.zeros(n)
+    force[-1] = 5.0e4  # N on the top floor, released at 0.5 s
+    building.start(structure({"m": m, "k": k, "zeta": ZETA}))
+    cols = names(n, "u", "v", "a")
+    times, out = building.run(3.0, 0.01, cols, inputs=lambda t: {f"storey[{n}].force": force[-1] if t < 0.5 - 1e-9
+                                                                  else 0.0})
+    exact = []
+    for t in times:
+        u, v = ref.step_response(force, 0.5, t)
+        f = force if 0 < t < 0.5 + 1e-9 else 0 * force  # the force set when the output was read (feedthrough)
+        exact.append(np.concatenate([u, v, np.linalg.solve(ref.M, f - ref.C @ v - ref.K @ u)]))  # a: absolute
+    exact = np.array(exact)
+    assert np.abs(exact[:, :n]).max() > 1e-3  # displacements of millimetres
+    for j in range(3):  # u, v, a: each to 1e-7 of its largest value
+        part = slice(j * n, (j + 1) * n)
+        np.testing.assert_allclose(out[:, part], exact[:, part], rtol=0, atol=1e-7 * np.abs(exact[:, part]).max())
+
+
+def write_record(path: Path, t: np.ndarray, a: np.ndarray) -> None:
+    lines = "".join(f"{float(x)!r} {float(y)!r}\n" for x, y in zip(t, a))
+    path.write_text("# time s, horizontal acceleration m/s2\n" + lines)
+
+
+def reference_record_run(ref: Reference, t_rec: np.ndarray, a_rec: np.ndarray, stop: float,
+                         t_out: np.ndarray) -> np.ndarray:
+    """u, u' at t_out of M u'' + C u' + K u = -M 1 a_g by DOP853 (rtol 1e-11), piece by piece between
+    the record's samples (a_g linear between them, zero outside)."""
+    n = ref.M.shape[0]
+    minv = np.linalg.inv(ref.M)
+    ones = np.ones(n)
+
+    def ag(t):
+        return float(np.interp(t, t_rec, a_rec, left=0.0, right=0.0))
+
+    def rhs(t, y, piece):
+        u, v = y[:n], y[n:]
+        return np.concatenate([v, -minv @ (ref.C @ v + ref.K @ u) - ones * piece(t)])
+
+    # break points at the record's samples and at the output times
+    breaks = np.unique(np.concatenate([[0.0], t_rec[(t_rec > 0) & (t_rec < stop)], t_out]))
+    y = np.zeros(2 * n)
+    states = {0.0: y}
+    for t0, t1 in zip(breaks[:-1], breaks[1:]):
+        mid = 0.5 * (t0 + t1)
+        g0, g1 = (ag(t0), ag(t1)) if t_rec[0] <= mid <= t_rec[-1] else (0.0, 0.0)
+
+        def piece(t, t0=t0, t1=t1, g0=g0, g1=g1):
+            return g0 + (g1 - g0) * (t - t0) / (t1 - t0)
+
+        y = solve_ivp(rhs, (t0, t1), y, method="DOP853", rtol=1e-11, atol=1e-14, args=(piece,)).y[:, -1]
+        states[t1] = y
+    return np.array([states[t] for t in t_out])
+
+
+def test_base_excitation_from_a_record_matches_a_second_integrator(building, tmp_path):
+    ref = Reference(MASSES, STIFFNESSES, ZETA)
+    n = 3
+    t_rec = np.round(np.arange(0, 201) * 0.01, 12)
+    a_rec = 0.5 * np.sin(2 * np.pi * 1.7 * t_rec)
+    write_record(tmp_path / "sine.txt", t_rec, a_rec)
+    scale, start = 2.0, 0.3
+    building.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}), "excitation.file":
+                    str(tmp_path / "sine.txt"), "excitation.scale": scale, "excitation.startTime": start})
+    cols = names(n, "u", "v", "a") + ["base.aTotal", "baseShear"]
+    times, out = building.run(4.0, 0.05, cols)
+    y = reference_record_run(ref, t_rec + start, scale * a_rec, 4.0, times)
+    u, v = y[:, :n], y[:, n:]
+    ag = np.interp(times, t_rec + start, scale * a_rec, left=0.0, right=0.0)
+    a_abs = np.linalg.solve(ref.M, -(ref.C @ v.T + ref.K @ u.T)).T  # = u'' + a_g
+    umax, vmax, amax = np.abs(u).max(), np.abs(v).max(), np.abs(a_abs).max()
+    assert umax > 1e-3  # the record shakes it
+    np.testing.assert_allclose(out[:, :n], u, rtol=0, atol=1e-7 * umax)
+    np.testing.assert_allclose(out[:, n:2 * n], v, rtol=0, atol=1e-7 * vmax)
+    np.testing.assert_allclose(out[:, 2 * n:3 * n], a_abs, rtol=0, atol=1e-7 * amax)
+    np.testing.assert_allclose(out[:, 3 * n], ag, rtol=0, atol=1e-12)
+    # the force of the building on the base: 1^T (K u + C u')
+    shear = (ref.K @ u.T + ref.C @ v.T).sum(axis=0)
+    np.testing.assert_allclose(out[:, 3 * n + 1], shear, rtol=0, atol=1e-7 * np.abs(shear).max())
+
+
+def test_energy_balance_holds_under_record_force_and_base_input(building, tmp_path):
+    t_rec = np.round(np.arange(0, 301) * 0.01, 12)
+    a_rec = 1.5 * np.sin(2 * np.pi * 2.3 * t_rec) * np.exp(-t_rec)
+    write_record(tmp_path / "decay.txt", t_rec, a_rec)
+    building.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": 0.03}),
+                    "excitation.file": str(tmp_path / "decay.txt")})
+    cols = ["energy", "baseWork", "forceWork", "dampingLoss"]
+    _, out = building.run(5.0, 0.02, cols, inputs=lambda t: {"storey[2].force": 2e4 * np.sin(5 * t),
+                                                             "base.a": 0.2 if t < 1.0 else 0.0})
+    energy, base, force, loss = out.T
+    assert energy.max() > 10 and np.abs(force).max() > 1 and np.abs(base).max() > 1 and loss[-1] > 1
+    assert np.all(np.diff(loss) >= 0)
+    np.testing.assert_allclose(energy - energy[0], base + force - loss, rtol=0, atol=1e-8 * energy.max())
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 10])
+def test_frequencies_are_those_of_the_generalised_eigenproblem(building, n):
+    rng = np.random.default_rng(n)
+    m = list(rng.uniform(5e3, 5e4, n))
+    k = list(rng.uniform(5e6, 5e7, n))
+    building.start(structure({"m": m, "k": k, "zeta": ZETA}))
+    f1, f2 = building.get(["frequency1", "frequency2"])
+    w = Reference(m, k, ZETA).w / (2 * np.pi)
+    assert f1 == pytest.approx(w[0], rel=1e-10)
+    assert f2 == pytest.approx(w[1] if n > 1 else w[0], rel=1e-10)
+
+
+def test_results_do_not_depend_on_the_communication_step(building_fmu, tmp_path):
+    t_rec = np.round(np.arange(0, 101) * 0.01, 12)
+    write_record(tmp_path / "r.txt", t_rec, np.cos(2 * np.pi * 3 * t_rec))
+    params = {**structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}), "excitation.file": str(tmp_path / "r.txt"),
+              "storey[2].force": 3e4, "base.a": -0.4}
+    cols = names(3, "u", "v", "a") + ["energy", "dampingLoss", "baseWork", "forceWork", "baseShear"]
+    runs = []
+    for h in (0.01, 0.001):
+        b = Building(building_fmu)
+        b.start(params)
+        runs.append(b.run(1.5, h, cols))
+        b.close()
+    (t1, coarse), (t2, fine) = runs
+    np.testing.assert_allclose(t2[::10], t1, atol=1e-12)
+    scale = np.abs(coarse).max(axis=0)
+    np.testing.assert_allclose(fine[::10] / scale, coarse / scale, rtol=0, atol=1e-8)
+
+
+def test_storeys_above_n_read_zero_and_their_inputs_are_ignored(building_fmu):
+    cols = names(10, "u", "a")
+    runs = []
+    for extra in ({}, {"storey[5].force": 1e6, "storey[10].force": -1e6}):
+        b = Building(building_fmu)
+        b.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}), "storey[5].mass": 0.0,
+                 "storey[7].stiffness": -1.0})  # inactive storeys: not checked
+        _, out = b.run(0.5, 0.05, cols, inputs=lambda t, extra=extra: {"storey[1].force": 1e5, **extra})
+        b.close()
+        runs.append(out)
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.all(runs[0][:, 3:10] == 0) and np.all(runs[0][:, 13:] == 0)
+    assert np.abs(runs[0][:, :3]).max() > 0
+
+
+@pytest.mark.parametrize("name,value,words", [
+    ("nStoreys", 0, "nStoreys = 0"),
+    ("nStoreys", 11, "nStoreys = 11"),
+    ("storey[2].mass", 0.0, "storey[2].mass"),
+    ("storey[3].stiffness", -5.0, "storey[3].stiffness"),
+    ("damping.ratio", 1.0, "damping.ratio"),
+    ("damping.ratio", -0.01, "damping.ratio"),
+    ("solver.relTol", 0.0, "solver.relTol"),
+    ("solver.absTol", 0.0, "solver.absTol"),
+    ("excitation.file", "/nonexistent/record.txt", "cannot be opened"),
+])
+def test_bad_parameters_are_errors_with_a_one_line_message(building, name, value, words):
+    building.s.setupExperiment(startTime=0.0)
+    building.set({name: value})
+    building.s.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        building.s.exitInitializationMode()
+    assert any(words in m for m in building.messages), building.messages
+    assert all("\n" not in m for m in building.messages)
+
+
+def test_an_unreadable_record_is_an_error_naming_the_line(building, tmp_path):
+    (tmp_path / "bad.txt").write_text("0 0\n0.01 zero\n")
+    building.s.setupExperiment(startTime=0.0)
+    building.set({"excitation.file": str(tmp_path / "bad.txt")})
+    building.s.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        building.s.exitInitializationMode()
+    assert any("line 2" in m and "'zero' is not a number" in m for m in building.messages), building.messages
+
+
+def test_invalid_call_sequences_are_errors_not_crashes(building):
+    with pytest.raises(FMICallException):
+        building.s.doStep(0.0, 0.1)  # before initialisation
+    with pytest.raises(FMICallException):
+        building.get(["storey[1].u"])  # nothing to read before initialisation
+    assert any("fmi2DoStep must not be called" in m for m in building.messages)
+    building.start({})
+    with pytest.raises(FMICallException):
+        building.set({"storey[1].mass": 2e4})  # a parameter after initialisation
+    with pytest.raises(FMICallException):
+        building.set({"energy": 1.0})  # an output
+    with pytest.raises(FMICallException):
+        building.s.doStep(0.5, 0.1)  # not the FMU's time
+    with pytest.raises(FMICallException):
+        building.s.getFMUstate()
+    building.s.doStep(0.0, 0.1)  # still usable
+    assert building.get(["storey[1].u"])[0] == 0.0  # at rest without excitation
+    building.s.terminate()
+    with pytest.raises(FMICallException):
+        building.s.doStep(0.1, 0.1)
+
+
+def test_the_fmu_validates_and_declares_its_interface(building_fmu):
+    from fmpy.validation import validate_fmu
+
+    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    assert validate_fmu(path) == []
+    md = building_fmu[1]
+    assert md.coSimulation.canHandleVariableCommunicationStepSize and md.modelExchange is None
+    by_name = {v.name: v for v in md.modelVariables}
+    for i in range(1, 11):
+        for member, causality in (("mass", "parameter"), ("stiffness", "parameter"), ("force", "input"),
+                                  ("u", "output"), ("v", "output"), ("a", "output")):
+            assert by_name[f"storey[{i}].{member}"].causality == causality
+    assert by_name["frequency1"].causality == "calculatedParameter"
+    assert by_name["excitation.file"].type == "String"
+
+
+def test_a_relative_record_path_is_read_from_the_resources_folder(building_fmu, tmp_path):
+    t_rec = np.round(np.arange(0, 51) * 0.02, 12)
+    a_rec = np.sin(2 * np.pi * t_rec)
+    resources = Path(building_fmu[0]) / "resources"
+    resources.mkdir(exist_ok=True)
+    write_record(resources / "in_resources.txt", t_rec, a_rec)
+    write_record(tmp_path / "absolute.txt", t_rec, a_rec)
+    runs = []
+    for file in ("in_resources.txt", str(tmp_path / "absolute.txt")):
+        b = Building(building_fmu)
+        b.start({"excitation.file": file})
+        runs.append(b.run(1.0, 0.1, ["storey[3].u", "base.aTotal"])[1])
+        b.close()
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.abs(runs[0][:, 0]).max() > 0
+
+
+def test_only_fmi2_functions_are_exported(building_fmu):
+    so = Path(building_fmu[0]) / "binaries" / "linux64" / "ShearBuilding.so"
+    out = subprocess.run(["nm", "-D", "--defined-only", str(so)], capture_output=True, text=True, check=True).stdout
+    exported = [line.split()[-1] for line in out.splitlines() if line.strip()]
+    assert "fmi2DoStep" in exported and all(n.startswith("fmi2") for n in exported), exported
+
+
+def test_the_shipped_sources_rebuild_into_the_same_model(building_fmu, tmp_path):
+    from fmpy.build import build_platform_binary
+
+    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    unzipdir = tmp_path / "fmu"
+    with zipfile.ZipFile(path) as zf:
+        zf.extractall(unzipdir)
+    shutil.rmtree(unzipdir / "binaries")
+    (tmp_path / "cmake").mkdir()
+    build_platform_binary(unzipdir, build_dir=tmp_path / "cmake")
+    cols = names(3, "u", "a")
+    runs = []
+    for fmu in (building_fmu, (str(unzipdir), building_fmu[1])):
+        b = Building(fmu)
+        b.start({"damping.ratio": 0.02})
+        runs.append(b.run(1.0, 0.05, cols, inputs=lambda t: {"storey[2].force": 1e5 * np.cos(7 * t)})[1])
+        b.close()
+    np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-9 * np.abs(runs[0]).max())
+
+
+def test_libcosim_runs_it_as_fmpy_does(building_fmu):
+    """libcosim (pip libcosimpy, the engine of the SSP runs) sees every variable, sets start values
+    and inputs, and steps it to the same result as fmpy (it keeps time in integer nanoseconds)."""
+    pytest.importorskip("libcosimpy", reason="libcosimpy is not installed")
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimManipulator import CosimManipulator
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.WARNING)
+    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    execution = CosimExecution.from_step_size(10_000_000)  # 10 ms
+    index = execution.add_local_slave(CosimLocalSlave(fmu_path=path, instance_name="building"))
+    assert index >= 0
+    variables = {v.name.decode(): v for v in execution.slave_variables(index)}
+    assert set(variables) == {v.name for v in building_fmu[1].modelVariables}
+    assert execution.integer_initial_value(index, variables["nStoreys"].reference, 2)
+    assert execution.real_initial_value(index, variables["storey[2].mass"].reference, 2e4)
+    observer = CosimObserver.create_last_value()
+    assert execution.add_observer(observer)
+    manipulator = CosimManipulator.create_override()
+    assert execution.add_manipulator(manipulator)
+    outputs = ["storey[2].u", "storey[2].a", "energy", "forceWork", "baseWork", "frequency2"]
+
+    def inputs(t: float) -> dict[str, float]:
+        return {"storey[2].force": 1e4 * np.sin(6 * t), "base.a": 0.3}
+
+    rows = []
+    for k in range(100):
+        values = inputs(k * 0.01)
+        assert manipulator.slave_real_values(index, [variables[n].reference for n in values], list(values.values()))
+        assert execution.step()
+        rows.append(observer.last_real_values(index, [variables[n].reference for n in outputs]))
+    b = Building(building_fmu)
+    b.start({"nStoreys": 2, "storey[2].mass": 2e4})
+    _, ours = b.run(1.0, 0.01, outputs, inputs=inputs)
+    b.close()
+    assert np.abs(ours[:, 0]).max() > 1e-4
+    scale = np.abs(ours).max(axis=0)
+    np.testing.assert_allclose(np.array(rows) / scale, ours[1:] / scale, rtol=0, atol=1e-12)
