@@ -43,7 +43,7 @@ def summary(result, balance) -> dict:
     s, sys_ = result.series, result.system
     out = {"system": sys_.name, "engine": result.engine, "coupling": sys_.coupling, "floor": sys_.floor,
            "storeys": sys_.building.storeys, "step_s": sys_.step, "steps": len(result.time),
-           "frequencies_hz": [round(f, 6) for f in building_frequencies(result)],
+           "frequencies_hz": [round(float(f), 6) for f in building_frequencies(result)],
            "peak_base_acceleration": float(np.max(np.abs(s[f"{BUILDING}.base.aTotal"]))),
            "peak_floor_acceleration": float(np.max(np.abs(result.floor("a")))),
            "peak_floor_displacement": float(np.max(np.abs(result.floor("u")))),
