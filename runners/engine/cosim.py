@@ -211,6 +211,8 @@ def load_system(path: str | Path, factory=None) -> System:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except FileNotFoundError:
         raise CosimError(f"{path}: no such system file") from None
+    except IsADirectoryError:
+        raise CosimError(f"{path}: is a folder, not a system file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise CosimError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
@@ -339,10 +341,23 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
     parameter bindings and connections; fmpy's FMI 2.0 wrapper runs each FMU; the master steps
     them as libcosim's fixed-step algorithm does."""
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
     from fmpy.ssp.ssd import read_ssd
 
+    from runners.engine.fmu import calloc, free
+
     ssd = read_ssd(str(ssp), validate=True)
+    errors: list[str] = []  # the FMUs' own error messages, for a one-line error
+
+    def logger(env, name, status, category, message):
+        if status >= 3:
+            errors.append(f"{(name or b'').decode()}: {(message or b'').decode(errors='replace').replace('%%', '%')}")
+
+    callbacks = fmi2CallbackFunctions()  # kept alive until the instances are freed
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
     h, n = system.step, n_steps(system)
     wanted = recorded_outputs(system)
     unzip = Path(tempfile.mkdtemp(prefix="rocking-cosim-"))
@@ -357,7 +372,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
             vars_ = _typed(md)
             s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu), unzipdir=str(unzip / comp.name)),
                           modelIdentifier=md.coSimulation.modelIdentifier, instanceName=comp.name)
-            s.instantiate()
+            s.instantiate(callbacks=callbacks, loggingOn=False)
             slaves[comp.name] = s
             info[comp.name] = vars_
             s.setupExperiment(startTime=0.0, stopTime=n * h)
@@ -398,7 +413,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
     except Exception as exc:  # an FMU's error status comes as fmpy's exception
         if isinstance(exc, CosimError):
             raise
-        raise CosimError(f"fmpy: {exc}") from None
+        raise CosimError(f"fmpy: {errors[-1] if errors else exc}") from None
     finally:
         for s in slaves.values():
             try:
