@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from fmu_build.documentation import DOCS, PAGES, documentation_html
-from fmu_build.variables import read_enumerations, read_variables
+from fmu_build.variables import check_tables, read_codes, read_enumerations, read_ranges, read_variables
 
 MODEL_IDENTIFIER = "RockingBlock"
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,7 +25,7 @@ C_SOURCES = ["fmi2.c", "instance.c", "me.c", "model.c", "ground.c", "record.c", 
              "taylor.c", "integrator.c", "contact.c", "sliding.c",
              "stack_sliding.c", "stack_sliding_solver.c"]
 C_HEADERS = ["instance.h", "me.h", "model.h", "ground.h", "record.h", "solver.h", "stack.h", "stack_solver.h", "events.h", "taylor.h",
-             "integrator.h", "contact.h", "sliding.h", "stack_sliding.h", "variables.def"]
+             "integrator.h", "contact.h", "sliding.h", "stack_sliding.h", "codes.h", "variables.def"]
 VERSION = "0.1.0"
 
 CFLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra"]
@@ -127,6 +127,28 @@ def win64_compiler() -> str | None:
     return cc if shutil.which(cc) else None
 
 
+def build_platforms(platforms: list[str] | None, sanitize: bool, cc: str
+                    ) -> tuple[list[str], dict[str, tuple[str | None, list[str]]]]:
+    """The binaries to build (of PLATFORMS) and each platform's compiler and flags, for both
+    editions: ``platforms`` if given (an error if one cannot be built), else linux64, and win64
+    too where the mingw-w64 cross compiler is installed; the sanitizer build is linux64 only."""
+    if shutil.which(cc) is None:
+        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
+    wincc = win64_compiler()
+    wanted = list(dict.fromkeys(platforms)) if platforms else None
+    for p in wanted or ():
+        if p not in PLATFORMS:
+            raise BuildError(f"unknown platform '{p}' (known: {', '.join(PLATFORMS)})")
+    if sanitize and wanted and wanted != ["linux64"]:
+        raise BuildError("the sanitizer build is for linux64 only")
+    if wanted and "win64" in wanted and wincc is None:
+        raise BuildError(f"win64: the cross compiler '{_win64_cc_name()}' is not installed "
+                         "(Debian: apt-get install gcc-mingw-w64-x86-64)")
+    if wanted is None:
+        wanted = ["linux64"] if sanitize or wincc is None else ["linux64", "win64"]
+    return wanted, {"linux64": (cc, SANITIZE_FLAGS if sanitize else CFLAGS), "win64": (wincc, WIN64_CFLAGS)}
+
+
 def build_fmu(
     out: Path | None = None,
     sanitize: bool = False,
@@ -144,21 +166,8 @@ def build_fmu(
     """
     out = Path(out) if out else default_fmu_path(sanitize)
     cc = cc or os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
-    wincc = win64_compiler()
-    wanted = list(dict.fromkeys(platforms)) if platforms else None
-    for p in wanted or ():
-        if p not in PLATFORMS:
-            raise BuildError(f"unknown platform '{p}' (known: {', '.join(PLATFORMS)})")
-    if sanitize and wanted and wanted != ["linux64"]:
-        raise BuildError("the sanitizer build is for linux64 only")
-    if wanted and "win64" in wanted and wincc is None:
-        raise BuildError(f"win64: the cross compiler '{_win64_cc_name()}' is not installed "
-                         "(Debian: apt-get install gcc-mingw-w64-x86-64)")
-    if wanted is None:
-        wanted = ["linux64"] if sanitize or wincc is None else ["linux64", "win64"]
-    compilers = {"linux64": (cc, SANITIZE_FLAGS if sanitize else CFLAGS), "win64": (wincc, WIN64_CFLAGS)}
+    wanted, compilers = build_platforms(platforms, sanitize, cc)
+    wincc = compilers["win64"][0]
     sources_digest = _sources_digest()
     build_line = " ".join(f"{p}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
     digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
@@ -186,8 +195,10 @@ def build_fmu(
             f'#define MODEL_GUID "{guid}"\n#endif\n'
         )
         enumerations = read_enumerations(C_DIR / "variables.def")
+        ranges = read_ranges(C_DIR / "variables.def")
+        check_tables(variables, enumerations, ranges, read_codes(C_DIR / "variables.def"))
         (root / "modelDescription.xml").write_text(
-            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION, enumerations)
+            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION, enumerations, ranges)
         )
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(

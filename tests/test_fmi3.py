@@ -80,7 +80,7 @@ class Instance:
         for name, value in params.items():
             v = self.f.vars[name]
             setter = {"Float64": self.slave.setFloat64, "Int32": self.slave.setInt32, "Boolean": self.slave.setBoolean,
-                      "String": self.slave.setString}[v.type]
+                      "String": self.slave.setString, "Enumeration": self.slave.setInt64}[v.type]
             setter([v.valueReference], [value])
 
     def get(self, names):
@@ -88,7 +88,7 @@ class Instance:
         for n in names:
             v = self.f.vars[n]
             getter = {"Float64": self.slave.getFloat64, "Int32": self.slave.getInt32,
-                      "Boolean": self.slave.getBoolean}[v.type]
+                      "Boolean": self.slave.getBoolean, "Enumeration": self.slave.getInt64}[v.type]
             out.append(float(getter([v.valueReference])[0]))
         return out
 
