@@ -93,3 +93,132 @@ def test_a_platform_that_cannot_be_built_is_a_one_line_error(tmp_path, monkeypat
         err = capsys.readouterr().err
         assert err.startswith("error: ") and err.count("\n") == 1 and message in err, err
     assert not out.exists()
+
+
+# ------------------------------------------------------------------ declared ranges
+
+RUNNING_EXTREMES = ("block1.maxAbsTheta", "block2.maxAbsTheta", "friction.demandMaxGround",
+                    "friction.demandMaxInterface", "contact.normalMinGround", "contact.normalMinInterface")
+
+# The choices under which the FMU checks a range (the others are checked always): a pulse's
+# shape only for a built-in pulse, the second block's only with two blocks. Sizes far from the
+# default block's 0.1 x 0.3 m come with the constant restitution law (Housner's needs b/h <= sqrt 2).
+RANGE_CONTEXT: dict[str, dict] = {
+    "excitation.amplitude": {"excitation.kind": 1},
+    "excitation.frequency": {"excitation.kind": 1},
+    "excitation.verticalAmplitude": {"excitation.kind": 1},
+    "excitation.cycles": {"excitation.kind": 3},  # harmonic: >= 0 (a pulse needs > 0)
+    "excitation.gamma": {"excitation.kind": 7},
+    "block1.halfWidth": {"restitution.law": 2},
+    "block1.halfHeight": {"restitution.law": 2},
+    "block2.halfWidth": {"nBlocks": 2, "restitution.law": 2},
+    "block2.halfHeight": {"nBlocks": 2, "restitution.law": 2},
+    "block2.mass": {"nBlocks": 2},
+    "restitution.etaGround": {"nBlocks": 2},
+    "restitution.etaInterface": {"nBlocks": 2},
+}
+
+
+def _tables():
+    from fmu_build.build import C_DIR
+    from fmu_build.variables import read_codes, read_enumerations, read_ranges, read_variables
+
+    path = C_DIR / "variables.def"
+    return read_variables(path), read_enumerations(path), read_ranges(path), read_codes(path)
+
+
+def _declared(md) -> dict[str, tuple[float | None, float | None]]:
+    return {v.name: (None if v.min is None else float(v.min), None if v.max is None else float(v.max))
+            for v in md.modelVariables if v.min is not None or v.max is not None}
+
+
+@pytest.mark.parametrize("edition", ["FMI 2.0", "FMI 3.0"])
+def test_both_editions_declare_the_ranges_of_variables_def_and_discrete_running_extremes(edition, request):
+    from fmpy import read_model_description
+
+    variables, enumerations, ranges, _ = _tables()
+    md = read_model_description(str(request.getfixturevalue("fmu_path" if edition == "FMI 2.0" else "fmu3_path")))
+    declared = _declared(md)
+    assert declared == {name: (r.min, r.max) for name, r in ranges.items()}
+    assert not set(declared) & set(enumerations)  # the items are an Enumeration's range
+    # an open bound is declared as the next double inside it: mass > 0 is min = 5e-324
+    assert declared["block1.mass"] == (5e-324, None) and declared["solver.restRatio"] == (5e-324, 1 - 2 ** -53)
+    assert declared["nBlocks"] == (1, 2)
+    by_name = {v.name: v for v in md.modelVariables}
+    for name in RUNNING_EXTREMES:
+        assert by_name[name].variability == "discrete", name
+    counters = [v.name for v in variables if v.causality == "output" and v.type == "Integer"]
+    assert counters and all(by_name[n].variability == "discrete" for n in counters)
+
+
+def _outside_and_inside(r, integer: bool):
+    """(value, accepted) pairs at each bound: the bound itself if closed, else the declared
+    min or max (the next double inside); and the next value outside (an open bound itself)."""
+    import math
+
+    pairs = []
+    for bound, declared, outward in ((r.lower, r.min, -math.inf), (r.upper, r.max, math.inf)):
+        if bound is None:
+            continue
+        pairs.append((declared, True))
+        if integer:
+            pairs.append((declared + (1 if outward > 0 else -1), False))
+        else:
+            pairs.append((bound.value if not bound.closed else math.nextafter(bound.value, outward), False))
+    return pairs
+
+
+def _exit_initialization(fmu, values: dict) -> tuple[bool, list[str]]:
+    """Set values in initialisation mode; True if fmi2ExitInitializationMode accepts them,
+    False if it returns fmi2Error (any other failure is raised), with the FMU's log."""
+    from fmpy.fmi1 import FMICallException
+
+    from conftest import Slave
+
+    slave = Slave(fmu)
+    try:
+        slave.s.setupExperiment(startTime=0.0)
+        slave.s.enterInitializationMode()
+        for name, value in values.items():
+            v = fmu.vars[name]
+            if v.type == "Real":
+                slave.s.setReal([v.valueReference], [float(value)])
+            else:
+                slave.s.setInteger([v.valueReference], [int(value)])
+        try:
+            slave.s.exitInitializationMode()
+        except FMICallException as exc:
+            assert exc.status == 3, exc  # fmi2Error
+            return False, slave.messages
+        return True, slave.messages
+    finally:
+        slave.close()
+
+
+def test_the_fmu_accepts_every_declared_range_and_rejects_what_lies_beyond(fmu):
+    """For every RANGE line: the FMU's own checks (model_validate, ground_validate, the codes)
+    accept the declared min and max and reject the next value outside, at
+    fmi2ExitInitializationMode, with a message naming the variable."""
+    variables, _, ranges, _ = _tables()
+    types = {v.name: v.type for v in variables}
+    checked = 0
+    for name, r in ranges.items():
+        context = RANGE_CONTEXT.get(name, {})
+        for value, accepted in _outside_and_inside(r, types[name] == "Integer"):
+            ok, log = _exit_initialization(fmu, {**context, name: value})
+            assert ok == accepted, f"{name} = {value!r}: {'rejected' if accepted else 'accepted'} ({log[-1:]})"
+            if not accepted:
+                # the variable, or its block ("block1 half sizes 1e-06 x 0.3 m must be in ...")
+                assert any("invalid parameter" in m and (name in m or name.split(".")[0] + " " in m) for m in log), \
+                    (name, log)
+            checked += 1
+    assert checked >= 4 * len(ranges) - 2 * sum((r.lower is None) + (r.upper is None) for r in ranges.values())
+
+
+def test_every_range_line_names_a_parameter_and_a_code_spans_its_enumeration():
+    from fmu_build.variables import check_tables
+
+    variables, enumerations, ranges, codes = _tables()
+    check_tables(variables, enumerations, ranges, codes)  # what the build checks
+    assert set(codes) <= set(ranges)
+    assert set(codes.values()) == {"excitation.kind", "restitution.law", "solver.method", "contact.model"}
