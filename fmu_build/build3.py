@@ -14,6 +14,7 @@ import hashlib
 import os
 import platform
 import shutil
+import sys
 import tempfile
 import uuid
 import zipfile
@@ -21,7 +22,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from fmu_build.build import (BINARY_SUFFIX, C_DIR, C_HEADERS, C_SOURCES, VERSION, BuildError, _sources_digest,
-                             build_platforms, compile_binary, default_fmu_path, fmi_headers_dir)
+                             build_platforms, compile_binary, default_fmu_path, fmi_headers_dir, _win64_cc_name)
 from fmu_build.documentation import documentation_html
 from fmu_build.variables import check_tables, read_codes, read_enumerations, read_ranges, read_variables
 
@@ -76,6 +77,9 @@ def build_fmu3(
     stamp = out.with_name(out.name + ".sha256")
     if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
+    if not sanitize and platforms is None and compilers["win64"][0] is None:
+        print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
+              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
 
     from fmu_build.model_description3 import build_description3, model_description3  # only to build
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import zipfile
+from pathlib import Path
 
 import pytest
 
@@ -222,3 +224,51 @@ def test_every_range_line_names_a_parameter_and_a_code_spans_its_enumeration():
     check_tables(variables, enumerations, ranges, codes)  # what the build checks
     assert set(codes) <= set(ranges)
     assert set(codes.values()) == {"excitation.kind", "restitution.law", "solver.method", "contact.model"}
+
+
+# ------------------------------------------------------------------ make release
+
+def test_release_installs_the_cross_compiler_as_root_or_says_in_one_line_why_it_cannot(tmp_path, monkeypatch):
+    """fmu_build.release (make release): without mingw-w64 and not root, or as root when the
+    install does not bring it, a reason to print; as root, the install commands run and, once
+    they put the compiler on the PATH, nothing is skipped. The install command here writes a
+    stand-in compiler, instead of apt-get."""
+    from fmu_build.release import PACKAGE, ensure_win64_compiler
+
+    monkeypatch.setenv("CC_WIN64", "rocking-test-mingw-gcc")
+    monkeypatch.setenv("PATH", f"{tmp_path}{os.pathsep}{os.environ['PATH']}")
+    reason = ensure_win64_compiler(is_root=False, attempts=())
+    assert reason == f"rocking-test-mingw-gcc is not installed and this is not root (sudo apt-get install {PACKAGE})"
+    reason = ensure_win64_compiler(is_root=True, attempts=((["false"],), (["true"],)))
+    assert reason == f"rocking-test-mingw-gcc is not installed and apt-get install {PACKAGE} did not install it"
+    fake = tmp_path / "rocking-test-mingw-gcc"
+    install = ["sh", "-c", f"printf '#!/bin/sh\\n' > '{fake}' && chmod +x '{fake}'"]
+    assert ensure_win64_compiler(is_root=True, attempts=((["false"],), (install,))) is None
+    assert fake.is_file()
+    assert ensure_win64_compiler(is_root=False, attempts=()) is None  # there now: nothing to do
+
+
+def test_make_release_builds_every_fmu_with_the_platforms_given():
+    """The Makefile's release target goes through fmu_build.release, which hands --platforms to
+    python -m fmu_build, which gives it to every build (the FMI 3.0 one too)."""
+    import inspect
+
+    from fmu_build import __main__ as entry
+
+    makefile = (Path(__file__).parent.parent / "Makefile").read_text()
+    assert "\nrelease: " in makefile and "-m fmu_build.release" in makefile
+    calls = [line for line in inspect.getsource(entry).splitlines() if "build_fmu" in line and "(" in line
+             and "import" not in line]
+    assert calls and all("platforms=args.platforms" in line for line in calls), calls
+
+
+def test_the_fmi3_build_takes_the_platforms_of_the_fmi2_build(tmp_path, monkeypatch):
+    from fmu_build.build import BuildError
+    from fmu_build.build3 import build_fmu3
+
+    out = build_fmu3(tmp_path / "RockingBlock3.fmu", platforms=["linux64"])
+    assert [n for n in zipfile.ZipFile(out).namelist() if n.startswith("binaries/")] == [
+        "binaries/x86_64-linux/RockingBlock3.so"]
+    monkeypatch.setenv("CC_WIN64", "x86_64-w64-mingw32-gcc-not-installed")
+    with pytest.raises(BuildError, match="cross compiler 'x86_64-w64-mingw32-gcc-not-installed' is not installed"):
+        build_fmu3(tmp_path / "other.fmu", platforms=["linux64", "win64"])
