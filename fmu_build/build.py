@@ -202,7 +202,7 @@ def build_fmu(
         )
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(
-            documentation_html(variables, enumerations, MODEL_IDENTIFIER, VERSION), encoding="utf-8")
+            documentation_html(variables, enumerations, MODEL_IDENTIFIER, VERSION, ranges), encoding="utf-8")
         jobs = []
         with ThreadPoolExecutor(max_workers=len(wanted)) as pool:  # the compilers run side by side
             for platform in wanted:

@@ -105,7 +105,7 @@ def build_fmu3(
             model_description3(variables, MODEL_IDENTIFIER3, token, VERSION, enumerations, ranges))
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(
-            documentation_html(variables, enumerations, MODEL_IDENTIFIER3, VERSION), encoding="utf-8")
+            documentation_html(variables, enumerations, MODEL_IDENTIFIER3, VERSION, ranges), encoding="utf-8")
         # the FMI 2.0 build's compiler calls: on x86_64 glibc, loadable on glibc 2.17 or newer; the
         # Windows DLL needing only Windows' own DLLs
         jobs = []

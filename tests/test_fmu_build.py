@@ -66,6 +66,8 @@ def test_the_fmu_documents_every_variable(fmu_path):
         assert v.name in text and v.description.split("(")[0].strip() in text, v.name
     for enum in read_enumerations(C_DIR / "variables.def").values():
         assert all(item in text for _, item, _ in enum.items)
+    # the valid ranges, open bounds as such
+    assert "<td>(0, inf)</td>" in page and "<td>[0, 1]</td>" in page and "<td>(1, 20]</td>" in page
     assert "Equation of motion" in text and "Model Exchange" in text
 
 
