@@ -148,6 +148,9 @@ def test_both_editions_declare_the_ranges_of_variables_def_and_discrete_running_
     # an open bound is declared as the next double inside it: mass > 0 is min = 5e-324
     assert declared["block1.mass"] == (5e-324, None) and declared["solver.restRatio"] == (5e-324, 1 - 2 ** -53)
     assert declared["nBlocks"] == (1, 2)
+    starts = {v.name: float(v.start) for v in md.modelVariables if v.name in declared}
+    for name, (low, high) in declared.items():  # FMI: min <= start <= max
+        assert (low is None or low <= starts[name]) and (high is None or starts[name] <= high), name
     by_name = {v.name: v for v in md.modelVariables}
     for name in RUNNING_EXTREMES:
         assert by_name[name].variability == "discrete", name
@@ -278,3 +281,26 @@ def test_the_fmi3_build_takes_the_platforms_of_the_fmi2_build(tmp_path, monkeypa
     monkeypatch.setenv("CC_WIN64", "x86_64-w64-mingw32-gcc-not-installed")
     with pytest.raises(BuildError, match="cross compiler 'x86_64-w64-mingw32-gcc-not-installed' is not installed"):
         build_fmu3(tmp_path / "other.fmu", platforms=["linux64", "win64"])
+
+
+@pytest.mark.parametrize("edition", ["FMI 2.0", "FMI 3.0"])
+def test_the_fmu_manipulation_toolbox_check_finds_nothing(edition, request):
+    """A second opinion beside fmpy validate (tests/test_fmu_interface.py, tests/test_fmi3.py):
+    fmutool -check (pip fmu-manipulation-toolbox), its schema and semantic checks. The FMU
+    Compliance Checker (FMIL) has no package on PyPI or Debian."""
+    import shutil
+    import subprocess
+    import sys
+
+    tool = Path(sys.executable).parent / "fmutool"
+    if not tool.exists():
+        tool = shutil.which("fmutool")
+    if not tool:
+        pytest.skip("fmutool is not installed (pip fmu-manipulation-toolbox, in the test extra)")
+    path = request.getfixturevalue("fmu_path" if edition == "FMI 2.0" else "fmu3_path")
+    proc = subprocess.run([str(tool), "-input", str(path), "-check"], capture_output=True, text=True, timeout=300)
+    out = proc.stdout + proc.stderr
+    version = edition.split()[1]
+    assert proc.returncode == 0, out
+    assert f"compliant with FMI-{version}" in out and f"No semantic error against the FMI-{version[0]} standard" in out, out
+    assert "ERROR" not in out and "WARNING" not in out, out
