@@ -1,7 +1,8 @@
 """The FMU's binaries: the Linux one loads on glibc 2.17 or newer; the Windows one (cross-compiled
 with mingw-w64) exports the FMI functions the Linux one does, needs only Windows' own DLLs and,
 run under wine by the C harness tests/harness/fmi2_harness.c, computes what the Linux one does,
-which the same harness checks against fmpy."""
+which the same harness checks against fmpy. The FMI 3.0 edition's x86_64-windows binary likewise,
+through tests/harness/fmi3_harness.c."""
 
 from __future__ import annotations
 
