@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 INSTALLED := $(VENV)/.installed
 
-.PHONY: run test fmu sanitize bench clean
+.PHONY: run test fmu release sanitize bench clean
 
 $(INSTALLED): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,6 +15,12 @@ $(INSTALLED): pyproject.toml
 
 fmu: $(INSTALLED)
 	$(BIN)/python -m fmu_build
+
+# The FMUs to hand out: every FMU `python -m fmu_build` makes, each with its Windows binary. The
+# mingw-w64 cross compiler is installed with apt-get when missing and this runs as root; else the
+# FMUs are for Linux alone and one line says that the Windows binaries were skipped and why.
+release: $(INSTALLED)
+	$(BIN)/python -m fmu_build.release
 
 # The main job, into the SQLite default (rocking.db here): one stored single run, a
 # one-sine-pulse overturning map (60 x 60 grid) and its PNG, and a museum statue under the

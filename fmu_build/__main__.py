@@ -25,8 +25,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         path = build_fmu(args.out, sanitize=args.sanitize, force=args.force, platforms=args.platforms)
-        path3 = build_fmu3(args.out3, sanitize=args.sanitize, force=args.force)
-        building = None if args.sanitize else build_building_fmu(force=args.force)  # build/ShearBuilding.fmu
+        path3 = build_fmu3(args.out3, sanitize=args.sanitize, force=args.force, platforms=args.platforms)
+        building = None if args.sanitize else build_building_fmu(force=args.force, platforms=args.platforms)
     except (BuildError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

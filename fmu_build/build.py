@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from fmu_build.documentation import DOCS, PAGES, documentation_html
-from fmu_build.variables import read_enumerations, read_variables
+from fmu_build.variables import check_tables, read_codes, read_enumerations, read_ranges, read_variables
 
 MODEL_IDENTIFIER = "RockingBlock"
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,7 +25,7 @@ C_SOURCES = ["fmi2.c", "instance.c", "me.c", "model.c", "ground.c", "record.c", 
              "taylor.c", "integrator.c", "contact.c", "sliding.c",
              "stack_sliding.c", "stack_sliding_solver.c"]
 C_HEADERS = ["instance.h", "me.h", "model.h", "ground.h", "record.h", "solver.h", "stack.h", "stack_solver.h", "events.h", "taylor.h",
-             "integrator.h", "contact.h", "sliding.h", "stack_sliding.h", "variables.def"]
+             "integrator.h", "contact.h", "sliding.h", "stack_sliding.h", "codes.h", "variables.def"]
 VERSION = "0.1.0"
 
 CFLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra"]
@@ -126,6 +126,60 @@ def win64_compiler() -> str | None:
     cc = _win64_cc_name()
     return cc if shutil.which(cc) else None
 
+def compile_platforms(sources: list[Path], root: Path, identifier: str, wanted: list[str],
+                      compilers: dict[str, tuple[str | None, list[str]]], include_dirs: list[Path],
+                      folder: dict[str, str] | None = None) -> None:
+    """Compile ``sources`` for every platform of ``wanted``, the compilers side by side, into
+    root/binaries/<folder of the platform>/<identifier>.so or .dll (folder: FMI 2.0's platform
+    names unless given, e.g. FMI 3.0's x86_64-linux); print what the compilers warned."""
+    jobs = []
+    with ThreadPoolExecutor(max_workers=len(wanted)) as pool:
+        for platform in wanted:
+            bindir = root / "binaries" / (folder or {}).get(platform, platform)
+            bindir.mkdir(parents=True)
+            pcc, flags = compilers[platform]
+            jobs.append(pool.submit(compile_binary, sources, bindir / (identifier + BINARY_SUFFIX[platform]),
+                                    platform, pcc, flags, include_dirs))
+    for job in jobs:
+        warnings = job.result()
+        if warnings:
+            print(warnings)
+
+
+def zip_fmu(root: Path, out: Path, stamp: Path, digest: str) -> Path:
+    """Zip the folder ``root`` into the FMU ``out`` (through a .part file of this process, so that
+    builds side by side, e.g. test workers, do not mix) and record ``digest`` in ``stamp``."""
+    partial = out.with_name(f"{out.name}.{os.getpid()}.part")
+    with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
+        for path in sorted(root.rglob("*")):
+            if path.is_file():
+                zf.write(path, path.relative_to(root).as_posix())
+    partial.replace(out)
+    stamp.write_text(digest + "\n")
+    return out
+
+
+def build_platforms(platforms: list[str] | None, sanitize: bool, cc: str
+                    ) -> tuple[list[str], dict[str, tuple[str | None, list[str]]]]:
+    """The binaries to build (of PLATFORMS) and each platform's compiler and flags, for both
+    editions: ``platforms`` if given (an error if one cannot be built), else linux64, and win64
+    too where the mingw-w64 cross compiler is installed; the sanitizer build is linux64 only."""
+    if shutil.which(cc) is None:
+        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
+    wincc = win64_compiler()
+    wanted = list(dict.fromkeys(platforms)) if platforms else None
+    for p in wanted or ():
+        if p not in PLATFORMS:
+            raise BuildError(f"unknown platform '{p}' (known: {', '.join(PLATFORMS)})")
+    if sanitize and wanted and wanted != ["linux64"]:
+        raise BuildError("the sanitizer build is for linux64 only")
+    if wanted and "win64" in wanted and wincc is None:
+        raise BuildError(f"win64: the cross compiler '{_win64_cc_name()}' is not installed "
+                         "(Debian: apt-get install gcc-mingw-w64-x86-64)")
+    if wanted is None:
+        wanted = ["linux64"] if sanitize or wincc is None else ["linux64", "win64"]
+    return wanted, {"linux64": (cc, SANITIZE_FLAGS if sanitize else CFLAGS), "win64": (wincc, WIN64_CFLAGS)}
+
 
 def build_fmu(
     out: Path | None = None,
@@ -144,21 +198,8 @@ def build_fmu(
     """
     out = Path(out) if out else default_fmu_path(sanitize)
     cc = cc or os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
-    wincc = win64_compiler()
-    wanted = list(dict.fromkeys(platforms)) if platforms else None
-    for p in wanted or ():
-        if p not in PLATFORMS:
-            raise BuildError(f"unknown platform '{p}' (known: {', '.join(PLATFORMS)})")
-    if sanitize and wanted and wanted != ["linux64"]:
-        raise BuildError("the sanitizer build is for linux64 only")
-    if wanted and "win64" in wanted and wincc is None:
-        raise BuildError(f"win64: the cross compiler '{_win64_cc_name()}' is not installed "
-                         "(Debian: apt-get install gcc-mingw-w64-x86-64)")
-    if wanted is None:
-        wanted = ["linux64"] if sanitize or wincc is None else ["linux64", "win64"]
-    compilers = {"linux64": (cc, SANITIZE_FLAGS if sanitize else CFLAGS), "win64": (wincc, WIN64_CFLAGS)}
+    wanted, compilers = build_platforms(platforms, sanitize, cc)
+    wincc = compilers["win64"][0]
     sources_digest = _sources_digest()
     build_line = " ".join(f"{p}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
     digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
@@ -186,30 +227,14 @@ def build_fmu(
             f'#define MODEL_GUID "{guid}"\n#endif\n'
         )
         enumerations = read_enumerations(C_DIR / "variables.def")
+        ranges = read_ranges(C_DIR / "variables.def")
+        check_tables(variables, enumerations, ranges, read_codes(C_DIR / "variables.def"))
         (root / "modelDescription.xml").write_text(
-            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION, enumerations)
+            model_description(variables, MODEL_IDENTIFIER, guid, C_SOURCES, VERSION, enumerations, ranges)
         )
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(
-            documentation_html(variables, enumerations, MODEL_IDENTIFIER, VERSION), encoding="utf-8")
-        jobs = []
-        with ThreadPoolExecutor(max_workers=len(wanted)) as pool:  # the compilers run side by side
-            for platform in wanted:
-                bindir = root / "binaries" / platform
-                bindir.mkdir(parents=True)
-                pcc, flags = compilers[platform]
-                jobs.append(pool.submit(compile_binary, [src / s for s in C_SOURCES],
-                                        bindir / (MODEL_IDENTIFIER + BINARY_SUFFIX[platform]), platform, pcc, flags,
-                                        [src, fmi_headers_dir()]))
-        for job in jobs:
-            warnings = job.result()
-            if warnings:
-                print(warnings)
-        partial = out.with_name(f"{out.name}.{os.getpid()}.part")  # builds side by side (test workers) do not mix
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    zf.write(path, path.relative_to(root).as_posix())
-        partial.replace(out)
-    stamp.write_text(digest + "\n")
-    return out
+            documentation_html(variables, enumerations, MODEL_IDENTIFIER, VERSION, ranges), encoding="utf-8")
+        compile_platforms([src / s for s in C_SOURCES], root, MODEL_IDENTIFIER, wanted, compilers,
+                          [src, fmi_headers_dir()])
+        return zip_fmu(root, out, stamp, digest)

@@ -2,8 +2,10 @@
 
 The same C core as RockingBlock.fmu (every source of ``C_SOURCES`` but the FMI
 2.0 layer ``fmi2.c``) with the FMI 3.0 layer ``fmi3.c``, compiled against the
-FMI 3.0 headers shipped in fmpy. Like :func:`fmu_build.build.build_fmu`, it
-rebuilds only when the sources changed (a sha256 stamp next to the FMU).
+FMI 3.0 headers shipped in fmpy, for the platforms the FMI 2.0 build chooses
+(:func:`fmu_build.build.build_platforms`: x86_64-linux, and x86_64-windows with
+mingw-w64). Like :func:`fmu_build.build.build_fmu`, it rebuilds only when the
+sources changed (a sha256 stamp next to the FMU).
 """
 
 from __future__ import annotations
@@ -12,15 +14,15 @@ import hashlib
 import os
 import platform
 import shutil
+import sys
 import tempfile
 import uuid
-import zipfile
 from pathlib import Path
 
-from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, CFLAGS, SANITIZE_FLAGS, VERSION, BuildError,
-                             _sources_digest, compile_binary, default_fmu_path, fmi_headers_dir)
+from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, VERSION, BuildError, _sources_digest, _win64_cc_name,
+                             build_platforms, compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
 from fmu_build.documentation import documentation_html
-from fmu_build.variables import read_enumerations, read_variables
+from fmu_build.variables import check_tables, read_codes, read_enumerations, read_ranges, read_variables
 
 MODEL_IDENTIFIER3 = "RockingBlock3"
 C_SOURCES3 = ["fmi3.c"] + [s for s in C_SOURCES if s != "fmi2.c"]
@@ -29,6 +31,10 @@ C_SOURCES3 = ["fmi3.c"] + [s for s in C_SOURCES if s != "fmi2.c"]
 def default_fmu3_path(sanitize: bool = False) -> Path:
     """Where ``python -m fmu_build`` puts the FMI 3.0 FMU."""
     return default_fmu_path(sanitize, MODEL_IDENTIFIER3)
+
+
+# the FMI 2.0 platform names of build.py and FMI 3.0's platform tuples
+WINDOWS_TUPLE = "x86_64-windows"
 
 
 def platform_tuple() -> str:
@@ -55,19 +61,23 @@ def build_fmu3(
     sanitize: bool = False,
     force: bool = False,
     cc: str | None = None,
+    platforms: list[str] | None = None,
 ) -> Path:
-    """Build RockingBlock3.fmu if its sources changed; return its path."""
+    """Build RockingBlock3.fmu if its sources changed; return its path. ``platforms`` as for
+    :func:`fmu_build.build.build_fmu` (linux64, win64), the same default."""
     out = Path(out) if out else default_fmu3_path(sanitize)
     cc = cc or os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
-    flags = SANITIZE_FLAGS if sanitize else CFLAGS
-    tuple_ = platform_tuple()
+    wanted, compilers = build_platforms(platforms, sanitize, cc)
+    tuples = {"linux64": platform_tuple(), "win64": WINDOWS_TUPLE}
     sources_digest = _sources_digest3()
-    digest = hashlib.sha256((sources_digest + " ".join([cc, tuple_] + flags)).encode()).hexdigest()
+    build_line = " ".join(f"{tuples[p]}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
+    digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
     stamp = out.with_name(out.name + ".sha256")
     if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
+    if not sanitize and platforms is None and compilers["win64"][0] is None:
+        print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
+              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
 
     from fmu_build.model_description3 import build_description3, model_description3  # only to build
 
@@ -77,9 +87,7 @@ def build_fmu3(
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
-        bindir = root / "binaries" / tuple_
         src.mkdir(parents=True)
-        bindir.mkdir(parents=True)
         for name in C_SOURCES3 + C_HEADERS:
             shutil.copy2(C_DIR / name, src / name)
         (src / "config.h").write_text(
@@ -88,22 +96,16 @@ def build_fmu3(
             f'#define MODEL_GUID "{token}"\n#endif\n'
         )
         (src / "buildDescription.xml").write_text(build_description3(MODEL_IDENTIFIER3, C_SOURCES3))
+        enumerations = read_enumerations(C_DIR / "variables.def")
+        ranges = read_ranges(C_DIR / "variables.def")
+        check_tables(variables, enumerations, ranges, read_codes(C_DIR / "variables.def"))
         (root / "modelDescription.xml").write_text(
-            model_description3(variables, MODEL_IDENTIFIER3, token, VERSION))
+            model_description3(variables, MODEL_IDENTIFIER3, token, VERSION, enumerations, ranges))
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(
-            documentation_html(variables, read_enumerations(C_DIR / "variables.def"), MODEL_IDENTIFIER3, VERSION),
-            encoding="utf-8")
-        # the FMI 2.0 build's compiler call: on x86_64 glibc, loadable on glibc 2.17 or newer
-        warnings = compile_binary([src / name for name in C_SOURCES3], bindir / f"{MODEL_IDENTIFIER3}.so",
-                                  "linux64", cc, flags, [src, fmi_headers_dir("3")])
-        if warnings:
-            print(warnings)
-        partial = out.with_name(f"{out.name}.{os.getpid()}.part")  # builds side by side do not mix
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    zf.write(path, path.relative_to(root).as_posix())
-        partial.replace(out)
-    stamp.write_text(digest + "\n")
-    return out
+            documentation_html(variables, enumerations, MODEL_IDENTIFIER3, VERSION, ranges), encoding="utf-8")
+        # the FMI 2.0 build's compiler calls: on x86_64 glibc, loadable on glibc 2.17 or newer; the
+        # Windows DLL needing only Windows' own DLLs
+        compile_platforms([src / name for name in C_SOURCES3], root, MODEL_IDENTIFIER3, wanted, compilers,
+                          [src, fmi_headers_dir("3")], tuples)
+        return zip_fmu(root, out, stamp, digest)

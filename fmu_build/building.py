@@ -19,14 +19,11 @@ import shutil
 import sys
 import tempfile
 import uuid
-import zipfile
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.build import (BINARY_SUFFIX, C_DIR, CFLAGS, GLIBC_COMPAT, GLIBC_COMPAT_FILES, VERSION, WIN64_CC,
-                             WIN64_CFLAGS, BuildError, compile_binary, default_fmu_path, fmi_headers_dir,
-                             win64_compiler)
+from fmu_build.build import (C_DIR, GLIBC_COMPAT, GLIBC_COMPAT_FILES, VERSION, WIN64_CC, build_platforms,
+                             compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
 from fmu_build.variables import Variable, read_variables
 
 BUILDING_IDENTIFIER = "ShearBuilding"
@@ -169,27 +166,25 @@ def _sources_digest() -> str:
     return h.hexdigest()
 
 
-def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | None = None) -> Path:
+def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | None = None,
+                       platforms: list[str] | None = None) -> Path:
     """Build ShearBuilding.fmu if its sources changed; return its path.
 
-    linux64 always, win64 too where the mingw-w64 cross compiler is installed (else a one-line
-    note says the FMU has no Windows binary). Raises BuildError when a compiler is missing or fails.
+    ``platforms`` as for :func:`fmu_build.build.build_fmu`: by default linux64, and win64 too where
+    the mingw-w64 cross compiler is installed (else a one-line note says the FMU has no Windows
+    binary). Raises BuildError when a compiler is missing or fails.
     """
     out = Path(out) if out else default_building_path()
     cc = cc or os.environ.get("CC", "cc")
-    if shutil.which(cc) is None:
-        raise BuildError(f"C compiler '{cc}' not found (set CC or install gcc)")
-    wincc = win64_compiler()
-    compilers = {"linux64": (cc, CFLAGS)}
-    if wincc:
-        compilers["win64"] = (wincc, WIN64_CFLAGS)
+    wanted, compilers = build_platforms(platforms, False, cc)
+    wincc = compilers["win64"][0]
     sources_digest = _sources_digest()
-    build_line = " ".join(f"{p}: {c} {' '.join(f)};" for p, (c, f) in compilers.items())
+    build_line = " ".join(f"{p}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
     digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
     stamp = out.with_name(out.name + ".sha256")
     if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
         return out
-    if wincc is None:
+    if platforms is None and wincc is None:
         print(f"note: {os.environ.get('CC_WIN64', WIN64_CC)} not found, so {out.name} has no Windows binary "
               "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
     guid = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
@@ -209,24 +204,6 @@ def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | N
         (root / "modelDescription.xml").write_text(building_model_description(variables, guid))
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(building_documentation(variables), encoding="utf-8")
-        sources = [src / s for s in BUILDING_SOURCES + CORE_SOURCES]
-        with ThreadPoolExecutor(max_workers=len(compilers)) as pool:
-            jobs = []
-            for platform, (pcc, flags) in compilers.items():
-                bindir = root / "binaries" / platform
-                bindir.mkdir(parents=True)
-                jobs.append(pool.submit(compile_binary, sources,
-                                        bindir / (BUILDING_IDENTIFIER + BINARY_SUFFIX[platform]), platform, pcc,
-                                        flags, [src, fmi_headers_dir()]))
-            for job in jobs:
-                warnings = job.result()
-                if warnings:
-                    print(warnings)
-        partial = out.with_name(f"{out.name}.{os.getpid()}.part")  # builds side by side do not mix
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
-            for path in sorted(root.rglob("*")):
-                if path.is_file():
-                    zf.write(path, path.relative_to(root).as_posix())
-        partial.replace(out)
-    stamp.write_text(digest + "\n")
-    return out
+        compile_platforms([src / s for s in BUILDING_SOURCES + CORE_SOURCES], root, BUILDING_IDENTIFIER, wanted,
+                          compilers, [src, fmi_headers_dir()])
+        return zip_fmu(root, out, stamp, digest)

@@ -12,7 +12,7 @@ import html
 import re
 from pathlib import Path
 
-from fmu_build.variables import Enumeration, Variable
+from fmu_build.variables import Enumeration, Range, Variable
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 PAGES = ("model.md", "two_blocks.md", "conventions.md")
@@ -33,7 +33,17 @@ def _markdown(text: str) -> str:
     return markdown.markdown(_LOCAL_LINK.sub(r"\1", text), extensions=["tables", "fenced_code"])
 
 
-def _variable_rows(variables: list[Variable], enumerations: dict[str, Enumeration]) -> list[str]:
+def _range_text(r: Range | None) -> str:
+    """A valid range as the FMU checks it: [0, 1], (0, inf), ..."""
+    if r is None:
+        return ""
+    low = "(-inf" if r.lower is None else ("[" if r.lower.closed else "(") + f"{r.lower.value:g}"
+    high = "inf)" if r.upper is None else f"{r.upper.value:g}" + ("]" if r.upper.closed else ")")
+    return f"{low}, {high}"
+
+
+def _variable_rows(variables: list[Variable], enumerations: dict[str, Enumeration],
+                   ranges: dict[str, Range]) -> list[str]:
     rows = []
     for v in variables:
         description = html.escape(v.description)
@@ -44,13 +54,15 @@ def _variable_rows(variables: list[Variable], enumerations: dict[str, Enumeratio
         start = "" if v.causality == "output" else html.escape(v.start if v.type == "String" else str(v.start))
         kind = enumerations[v.name].name if v.name in enumerations else v.type
         rows.append(f"<tr><td><code>{html.escape(v.name)}</code></td><td>{v.causality}</td><td>{kind}</td>"
-                    f"<td>{html.escape(v.unit)}</td><td>{start}</td><td>{description}</td></tr>")
+                    f"<td>{html.escape(v.unit)}</td><td>{start}</td><td>{_range_text(ranges.get(v.name))}</td>"
+                    f"<td>{description}</td></tr>")
     return rows
 
 
 def documentation_html(variables: list[Variable], enumerations: dict[str, Enumeration], model_name: str,
-                       version: str) -> str:
-    """The text of documentation/index.html."""
+                       version: str, ranges: dict[str, Range] | None = None) -> str:
+    """The text of documentation/index.html; ``ranges``: the valid ranges of the parameters
+    (declared as min and max, an open bound as the next double inside it)."""
     out = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -61,8 +73,8 @@ def documentation_html(variables: list[Variable], enumerations: dict[str, Enumer
         "acceleration: one block, or a stack of two. SI units; angles in radians (displayed in degrees).</p>",
         '<h2 id="variables">Variables</h2>',
         "<table><tr><th>Name</th><th>Causality</th><th>Type</th><th>Unit</th><th>Start</th>"
-        "<th>Description</th></tr>",
-        *_variable_rows(variables, enumerations),
+        "<th>Valid range</th><th>Description</th></tr>",
+        *_variable_rows(variables, enumerations, ranges or {}),
         "</table>",
     ]
     for page in PAGES:

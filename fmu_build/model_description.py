@@ -5,7 +5,7 @@ from __future__ import annotations
 from xml.sax.saxutils import quoteattr
 
 from fmu_build.model_structure import DEPENDENCIES, STATES
-from fmu_build.variables import Enumeration, Variable
+from fmu_build.variables import Enumeration, Range, Variable
 
 # SI base-unit exponents of every unit the model uses
 UNITS: dict[str, dict[str, int]] = {
@@ -63,6 +63,15 @@ def _start(v: Variable) -> str:
     return repr(float(v.start))
 
 
+def range_attributes(v: Variable, ranges: dict[str, Range]) -> str:
+    """The min and max attributes (FMI 2.0 and 3.0 alike, inclusive) of v's valid range, if it has one."""
+    r = ranges.get(v.name)
+    if r is None:
+        return ""
+    text = (lambda x: str(int(x))) if v.type == "Integer" else repr
+    return "".join(f' {attr}="{text(x)}"' for attr, x in (("min", r.min), ("max", r.max)) if x is not None)
+
+
 def model_description(
     variables: list[Variable],
     model_identifier: str,
@@ -70,9 +79,11 @@ def model_description(
     source_files: list[str],
     version: str,
     enumerations: dict[str, Enumeration] | None = None,
+    ranges: dict[str, Range] | None = None,
 ) -> str:
     """Return the XML text of modelDescription.xml (Co-Simulation and Model Exchange)."""
     enumerations = enumerations or {}
+    ranges = ranges or {}
     index = {v.name: i for i, v in enumerate(variables, start=1)}
     unknown_names = [n for n in list(DEPENDENCIES) + list(STATES) + list(STATES.values()) + list(enumerations)
                      if n not in index]
@@ -152,6 +163,7 @@ def model_description(
                 extra += f' displayUnit="{DISPLAY_UNITS[v.unit][0]}"'
         if v.name in derivative_of:
             extra += f' derivative="{index[derivative_of[v.name]]}"'
+        extra += range_attributes(v, ranges)
         if v.causality != "output":
             extra = f" start={quoteattr(_start(v))}" + extra
         w(f"    <ScalarVariable {attrs}><{element}{extra}/></ScalarVariable>")

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.model_description import DISPLAY_UNITS, unit_definitions
+from fmu_build.model_description import DISPLAY_UNITS, range_attributes, unit_definitions
 from fmu_build.model_structure import DEPENDENCIES
-from fmu_build.variables import Variable
+from fmu_build.variables import Enumeration, Range, Variable
 
 # value reference of the independent variable "time" (TIME_VR in model/c/fmi3.c)
 TIME_VALUE_REFERENCE = 0
@@ -24,7 +24,7 @@ def _start(v: Variable) -> str:
     return repr(float(v.start))
 
 
-def _variable(v: Variable) -> str:
+def _variable(v: Variable, enumerations: dict[str, Enumeration], ranges: dict[str, Range]) -> str:
     try:
         element = FMI3_TYPES[v.type]
     except KeyError:
@@ -36,6 +36,12 @@ def _variable(v: Variable) -> str:
         f'causality="{v.causality}"',
         f'variability="{v.variability}"',
     ]
+    if v.name in enumerations:  # read and set with fmi3GetInt64 and fmi3SetInt64 (model/c/fmi3.c)
+        element = "Enumeration"
+        attrs.append(f'declaredType="{enumerations[v.name].name}"')
+    bounds = range_attributes(v, ranges).strip()
+    if bounds:
+        attrs.append(bounds)
     if v.causality == "output":
         attrs.append('intermediateUpdate="true"')  # readable from the intermediateUpdate callback
     if element == "Float64" and v.unit:
@@ -54,8 +60,13 @@ def model_description3(
     model_identifier: str,
     instantiation_token: str,
     version: str,
+    enumerations: dict[str, Enumeration] | None = None,
+    ranges: dict[str, Range] | None = None,
 ) -> str:
-    """Return the XML text of the FMI 3.0 modelDescription.xml."""
+    """Return the XML text of the FMI 3.0 modelDescription.xml: the Enumerations of
+    ``enumerations`` (variable name -> type) as EnumerationTypes, the min and max of ``ranges``."""
+    enumerations = enumerations or {}
+    ranges = ranges or {}
     if any(v.value_reference == TIME_VALUE_REFERENCE for v in variables):
         raise ValueError(f"value reference {TIME_VALUE_REFERENCE} is the FMI 3.0 'time': no variable may use it")
     used_units = sorted({v.unit for v in variables if v.unit} | {"s"})
@@ -76,6 +87,14 @@ def model_description3(
         'canBeInstantiatedOnlyOncePerProcess="false" needsExecutionTool="false"/>'
     )
     out += unit_definitions(used_units)
+    if enumerations:
+        w("  <TypeDefinitions>")
+        for enum in sorted({e.name: e for e in enumerations.values()}.values(), key=lambda e: e.name):
+            w(f'    <EnumerationType name="{enum.name}">')
+            for value, item, description in enum.items:
+                w(f'      <Item name="{item}" value="{value}" description={quoteattr(description)}/>')
+            w("    </EnumerationType>")
+        w("  </TypeDefinitions>")
     w("  <LogCategories>")
     w('    <Category name="logEvents" description="Impacts, peaks, uplift, rest and overturn with full-precision times"/>')
     w('    <Category name="logStatusError" description="Errors: invalid parameters, invalid call sequences, solver failures"/>')
@@ -85,7 +104,7 @@ def model_description3(
     w(f'    <Float64 name="time" valueReference="{TIME_VALUE_REFERENCE}" description="Simulation time" '
       'causality="independent" variability="continuous" unit="s"/>')
     for v in variables:
-        w(_variable(v))
+        w(_variable(v, enumerations, ranges))
     w("  </ModelVariables>")
     w("  <ModelStructure>")
     # Co-Simulation has no states: an output's dependencies are the inputs it follows at once

@@ -3,6 +3,7 @@ shared by the C core and modelDescription.xml)."""
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,3 +88,114 @@ def read_enumerations(path: Path) -> dict[str, Enumeration]:
             raise ValueError(f"{path}:{lineno}: '{m['var']}' has two enumeration types")
         items.append((int(m["value"]), m["item"], m["description"]))
     return {var: Enumeration(t, tuple(sorted(items))) for var, (t, items) in found.items()}
+
+
+_RANGE = re.compile(
+    r'^RANGE\(\s*"(?P<var>[^"]+)"\s*,\s*(?P<op1>>=|<=|>|<)\s*,\s*(?P<b1>[-+.\deE]+)\s*'
+    r'(?:,\s*(?P<op2>>=|<=|>|<)\s*,\s*(?P<b2>[-+.\deE]+)\s*)?\)\s*$'
+)
+
+
+@dataclass(frozen=True)
+class Bound:
+    """One side of a valid range: ``value`` and whether it belongs to the range (closed)."""
+
+    value: float
+    closed: bool
+
+    def declared(self, upward: bool) -> float:
+        """The FMI min (``upward``: the next double above an open bound) or max (the next below)
+        that declares this bound: FMI's min and max are inclusive."""
+        if self.closed:
+            return self.value
+        return math.nextafter(self.value, math.inf if upward else -math.inf)
+
+
+@dataclass(frozen=True)
+class Range:
+    """The valid range of a parameter: a lower and an upper bound, each optional."""
+
+    lower: Bound | None
+    upper: Bound | None
+
+    @property
+    def min(self) -> float | None:
+        """The declared (inclusive) FMI min."""
+        return self.lower.declared(True) if self.lower else None
+
+    @property
+    def max(self) -> float | None:
+        """The declared (inclusive) FMI max."""
+        return self.upper.declared(False) if self.upper else None
+
+
+def read_ranges(path: Path) -> dict[str, Range]:
+    """The ``RANGE(...)`` lines of ``path``: variable name -> its valid range."""
+    ranges: dict[str, Range] = {}
+    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+        if not line.startswith("RANGE("):
+            continue
+        m = _RANGE.match(line.strip())
+        if not m:
+            raise ValueError(f"{path}:{lineno}: malformed RANGE line: {line.strip()}")
+        lower = upper = None
+        for op, bound in ((m["op1"], m["b1"]), (m["op2"], m["b2"])):
+            if op is None:
+                continue
+            b = Bound(float(bound), closed=op.endswith("="))
+            if op.startswith(">"):
+                if lower is not None:
+                    raise ValueError(f"{path}:{lineno}: two lower bounds")
+                lower = b
+            else:
+                if upper is not None:
+                    raise ValueError(f"{path}:{lineno}: two upper bounds")
+                upper = b
+        if m["var"] in ranges:
+            raise ValueError(f"{path}:{lineno}: a second range for '{m['var']}'")
+        if lower and upper and not lower.declared(True) <= upper.declared(False):
+            raise ValueError(f"{path}:{lineno}: empty range")
+        ranges[m["var"]] = Range(lower, upper)
+    return ranges
+
+
+_CODE = re.compile(r'^CODE\(\s*(?P<field>\w+)\s*,\s*(?P<enum_field>\w+)\s*,\s*"(?P<name>[^"]+)"\s*,'
+                   r'\s*"(?P<enum>[^"]+)"\s*\)\s*$')
+
+
+def read_codes(path: Path) -> dict[str, str]:
+    """The ``CODE(...)`` lines of ``path``: the name of each Integer code -> the name of the
+    Enumeration it replaces when set (model/c/codes.h)."""
+    codes: dict[str, str] = {}
+    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+        if not line.startswith("CODE("):
+            continue
+        m = _CODE.match(line.strip())
+        if not m:
+            raise ValueError(f"{path}:{lineno}: malformed CODE line: {line.strip()}")
+        codes[m["name"]] = m["enum"]
+    return codes
+
+
+def check_tables(variables: list[Variable], enumerations: dict[str, Enumeration], ranges: dict[str, Range],
+                 codes: dict[str, str]) -> None:
+    """Raise ValueError unless the lines agree: a range or a code names a parameter, no
+    Enumeration has a range, and a code's range is -1 to its Enumeration's largest item."""
+    by_name = {v.name: v for v in variables}
+    for name, r in ranges.items():
+        v = by_name.get(name)
+        if v is None or v.causality != "parameter" or v.type not in ("Real", "Integer"):
+            raise ValueError(f"RANGE of '{name}': not a Real or Integer parameter")
+        if name in enumerations:
+            raise ValueError(f"RANGE of '{name}': an Enumeration's items are its range")
+        if v.type == "Integer" and ((r.lower and not r.lower.closed) or (r.upper and not r.upper.closed)):
+            raise ValueError(f"RANGE of Integer '{name}': write its bounds closed (>= and <=)")
+        start = float(v.start)
+        if (r.min is not None and start < r.min) or (r.max is not None and start > r.max):
+            raise ValueError(f"'{name}': start value {v.start} outside its range")
+    for code, enum in codes.items():
+        if code not in by_name or enum not in enumerations:
+            raise ValueError(f"CODE '{code}' of '{enum}': unknown variable or not an Enumeration")
+        r = ranges.get(code)
+        if r is None or (r.min, r.max) != (-1, max(value for value, _, _ in enumerations[enum].items)):
+            raise ValueError(f"CODE '{code}': its RANGE must be -1 to the largest item of '{enum}'")

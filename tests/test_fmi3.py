@@ -80,7 +80,7 @@ class Instance:
         for name, value in params.items():
             v = self.f.vars[name]
             setter = {"Float64": self.slave.setFloat64, "Int32": self.slave.setInt32, "Boolean": self.slave.setBoolean,
-                      "String": self.slave.setString}[v.type]
+                      "String": self.slave.setString, "Enumeration": self.slave.setInt64}[v.type]
             setter([v.valueReference], [value])
 
     def get(self, names):
@@ -88,7 +88,7 @@ class Instance:
         for n in names:
             v = self.f.vars[n]
             getter = {"Float64": self.slave.getFloat64, "Int32": self.slave.getInt32,
-                      "Boolean": self.slave.getBoolean}[v.type]
+                      "Boolean": self.slave.getBoolean, "Enumeration": self.slave.getInt64}[v.type]
             out.append(float(getter([v.valueReference])[0]))
         return out
 
@@ -459,6 +459,9 @@ def test_the_fmi3_build_is_valid_and_rebuilt_only_when_its_sources_change(fmu3_p
     assert {"modelDescription.xml", "binaries/x86_64-linux/RockingBlock3.so", "sources/buildDescription.xml",
             "sources/fmi3.c", "sources/instance.c", "sources/config.h", "sources/variables.def"} <= names
     assert "sources/fmi2.c" not in names
+    # the Windows binary whenever the FMI 2.0 build makes one (mingw-w64 installed)
+    from fmu_build.build import win64_compiler
+    assert ("binaries/x86_64-windows/RockingBlock3.dll" in names) == (win64_compiler() is not None)
     stamp = out.stat().st_mtime_ns
     assert build_fmu3(out) == out and out.stat().st_mtime_ns == stamp  # unchanged sources: nothing to do
 
@@ -483,3 +486,49 @@ def test_the_runners_refuse_the_fmi3_fmu_in_one_line(fmu3_path, tmp_path):
         with sqlite3.connect(tmp_path / "r.db") as con:
             tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
             assert "runs" not in tables or con.execute("SELECT count(*) FROM runs").fetchone()[0] == 0
+
+
+# ------------------------------------------------------------------ Enumerations
+
+def test_the_enumerations_are_enumeration_types_with_the_items_of_variables_def(fmu3):
+    from fmu_build.build import C_DIR
+    from fmu_build.variables import read_enumerations
+
+    enumerations = read_enumerations(C_DIR / "variables.def")
+    types = {t.name: t for t in fmu3.md.typeDefinitions}
+    for name, enum in enumerations.items():
+        v = fmu3.vars[name]
+        assert v.type == "Enumeration" and v.declaredType.name == enum.name, name
+        assert types[enum.name].type == "Enumeration"
+        assert [(int(i.value), i.name, i.description) for i in types[enum.name].items] == list(enum.items)
+    plain = {n for n, v in fmu3.vars.items() if v.type == "Int32"}
+    assert {"nBlocks", "impacts", "excitation.kindCode"} <= plain and not plain & set(enumerations)
+
+
+def test_enumerations_are_read_and_set_with_int64_alone(fmu3, fmu_path):
+    """FMI 3.0 gives an Enumeration the C type fmi3Int64: fmi3GetInt64/fmi3SetInt64 serve the
+    Enumerations (a pulse chosen so runs as the FMI 2.0 FMU's), fmi3GetInt32/fmi3SetInt32 refuse
+    them with fmi3Error and say why, and the Int64 functions refuse the Int32 variables."""
+    x = Instance(fmu3)
+    try:
+        kind, n_blocks = x.vr("excitation.kind"), x.vr("nBlocks")
+        one = (fmi3ValueReference * 1)
+        assert x.raw("fmi3SetInt32", one(kind), 1, (ctypes.c_int32 * 1)(1), 1) == ERROR
+        assert "is an Enumeration" in x.errors()[-1] and "fmi3SetInt64" in x.errors()[-1]
+        assert x.raw("fmi3SetInt64", one(n_blocks), 1, (ctypes.c_int64 * 1)(1), 1) == ERROR
+        assert "unknown Int64 value reference" in x.errors()[-1]
+        assert x.raw("fmi3SetInt64", one(kind), 1, (ctypes.c_int64 * 1)(2 ** 40), 1) == ERROR
+        x.set({**PULSE, "block1.theta0": 0.0})  # excitation.kind through fmi3SetInt64
+        x.slave.enterInitializationMode(startTime=0.0, stopTime=3.0)
+        x.slave.exitInitializationMode()
+        assert x.slave.getInt64([kind, x.vr("pattern")]) == [1, 1]
+        assert x.raw("fmi3GetInt32", one(kind), 1, (ctypes.c_int32 * 1)(), 1) == ERROR
+        assert "is an Enumeration" in x.errors()[-1]
+        assert x.do_step(0.0, 3.0)[0] == OK
+        theta, impacts = x.get(["block1.theta", "impacts"])
+    finally:
+        x.free()
+    r2 = simulate_fmu(str(fmu_path), stop_time=3.0, output_interval=3.0,
+                      start_values={**PULSE, "block1.theta0": 0.0}, output=["block1.theta", "impacts"])
+    assert impacts == r2["impacts"][-1] > 0
+    assert theta == r2["block1.theta"][-1]

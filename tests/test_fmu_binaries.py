@@ -1,7 +1,8 @@
 """The FMU's binaries: the Linux one loads on glibc 2.17 or newer; the Windows one (cross-compiled
 with mingw-w64) exports the FMI functions the Linux one does, needs only Windows' own DLLs and,
 run under wine by the C harness tests/harness/fmi2_harness.c, computes what the Linux one does,
-which the same harness checks against fmpy."""
+which the same harness checks against fmpy. The FMI 3.0 edition's x86_64-windows binary likewise,
+through tests/harness/fmi3_harness.c."""
 
 from __future__ import annotations
 
@@ -267,3 +268,117 @@ def test_the_windows_binary_reads_a_record_by_a_windows_path_or_from_its_resourc
                     env=env)
     _assert_same(linux, by_drive_path)
     _assert_same(linux, relative)
+
+
+# ------------------------------------------------------------------------- FMI 3.0 win64
+
+HARNESS3 = Path(__file__).parent / "harness" / "fmi3_harness.c"
+PULSE = {"block1.theta0": 0.0, "excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}
+STACK = {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": 0.12}
+
+
+@pytest.fixture(scope="module")
+def unpacked3(fmu3_path, tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("unpacked3w")
+    zipfile.ZipFile(fmu3_path).extractall(folder)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def dll3(unpacked3) -> Path:
+    path = unpacked3 / "binaries" / "x86_64-windows" / "RockingBlock3.dll"
+    if not path.is_file():
+        if win64_compiler() is None:
+            pytest.skip("x86_64-w64-mingw32-gcc is not installed (Debian: gcc-mingw-w64-x86-64), so the FMI 3.0 "
+                        "FMU has no x86_64-windows binary")
+        if os.environ.get("ROCKING_FMU3"):
+            pytest.skip("the FMU named by ROCKING_FMU3 has no x86_64-windows binary")
+        pytest.fail("the mingw-w64 cross compiler is installed, but the FMI 3.0 FMU has no x86_64-windows binary")
+    return path
+
+
+def test_the_fmi3_windows_binary_exports_the_fmi_functions_the_linux_binary_does(unpacked3, dll3):
+    so3 = unpacked3 / "binaries" / "x86_64-linux" / "RockingBlock3.so"
+    exports, imports = _pe_tables(dll3)
+    linux = _linux_exports(so3)
+    assert {"fmi3InstantiateCoSimulation", "fmi3DoStep", "fmi3GetInt64", "fmi3SetInt64"} <= linux
+    assert all(name.startswith("fmi3") for name in linux), linux
+    assert exports == linux
+    assert imports and all(SYSTEM_DLLS.fullmatch(name) for name in imports), imports
+
+
+def _compile3(cc: str, out: Path, *extra: str) -> Path:
+    cmd = [cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-I", str(fmi_headers_dir("3")), "-o", str(out), str(HARNESS3),
+           *extra]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0 and not proc.stderr.strip(), proc.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def native_harness3(tmp_path_factory) -> Path:
+    return _compile3(os.environ.get("CC", "cc"), tmp_path_factory.mktemp("harness3") / "fmi3_harness", "-ldl")
+
+
+@pytest.fixture(scope="module")
+def windows_harness3(dll3, tmp_path_factory) -> Path:
+    return _compile3(win64_compiler(), tmp_path_factory.mktemp("harness3") / "fmi3_harness.exe",
+                     "-D__USE_MINGW_ANSI_STDIO=1", "-static-libgcc")
+
+
+@pytest.fixture(scope="module")
+def model3(fmu3_path) -> tuple[str, dict]:
+    """The FMI 3.0 FMU's instantiationToken, and its variables by name."""
+    md = read_model_description(str(fmu3_path))
+    return md.instantiationToken, {v.name: v for v in md.modelVariables}
+
+
+def _run3(cmd: list[str], binary: str, model3, settings: dict, outputs: tuple[str, ...], resources: str = "",
+          env=None) -> dict[str, np.ndarray]:
+    """Run the FMI 3.0 harness on binary: the outputs at 0, STEP, ..., STOP."""
+    token, variables = model3
+    outs = ",".join(("i" if variables[n].type == "Int32" else "r") + str(variables[n].valueReference) for n in outputs)
+    args = [{"Float64": "r", "Int32": "i", "Enumeration": "e", "String": "s"}[variables[n].type]
+            + f"{variables[n].valueReference}={value}" for n, value in settings.items()]
+    proc = _exec([*cmd, binary, token, resources, repr(STOP), repr(STEP), outs, *args], env=env)
+    assert proc.returncode == 0, f"exit status {proc.returncode}:\n{proc.stderr[-3000:]}"
+    rows = np.array([line.split() for line in proc.stdout.splitlines()], dtype=float)
+    assert rows.shape == (round(STOP / STEP) + 1, 1 + len(outputs)), proc.stdout[-2000:]
+    return {"time": rows[:, 0], **{name: rows[:, 1 + k] for k, name in enumerate(outputs)}}
+
+
+def test_the_fmi3_harness_on_the_linux_binary_agrees_with_fmpy(native_harness3, unpacked3, model3, fmu3_path):
+    so3 = unpacked3 / "binaries" / "x86_64-linux" / "RockingBlock3.so"
+    mine = _run3([str(native_harness3)], str(so3), model3, PULSE, OUTPUTS)
+    ref = simulate_fmu(str(fmu3_path), start_values=PULSE, stop_time=STOP, output_interval=STEP, output=list(OUTPUTS))
+    assert mine["impacts"][-1] > 10  # the pulse sets it rocking: excitation.kind reached the FMU
+    _assert_same(mine, {"time": ref["time"], **{n: ref[n] for n in OUTPUTS}})
+
+
+def test_the_fmi3_windows_binary_under_wine_computes_what_the_linux_binary_does(
+        wine, windows_harness3, native_harness3, unpacked3, dll3, model3, tmp_path):
+    """Three scenes to 1e-12: a built-in pulse (an Enumeration set with fmi3SetInt64), a record
+    file (by a Windows path, and relative to the resources folder) and a two-block stack."""
+    (exe, _), env = wine
+    so3 = str(unpacked3 / "binaries" / "x86_64-linux" / "RockingBlock3.so")
+    resources = tmp_path / "an FMU" / "resources"
+    (resources / "records").mkdir(parents=True)
+    t = np.arange(0.0, 3.0 + 1e-9, 0.005)
+    record = resources / "records" / "pulse.txt"
+    np.savetxt(record, np.column_stack([t, np.where(t < 1.0, 5.0 * np.sin(2 * np.pi * 2.0 * t), 0.0)]), fmt="%.17g")
+    stack_outputs = OUTPUTS + ("block2.theta", "impactsInterface")
+    for settings, outputs, win_settings, win_resources in [
+        (PULSE, OUTPUTS, PULSE, ""),
+        ({"excitation.kind": 4, "excitation.file": str(record)}, OUTPUTS,
+         {"excitation.kind": 4, "excitation.file": _windows_path(record)}, ""),
+        ({"excitation.kind": 4, "excitation.file": str(record)}, OUTPUTS,
+         {"excitation.kind": 4, "excitation.file": "records\\pulse.txt"}, _windows_path(resources) + "\\"),
+        (STACK, stack_outputs, STACK, ""),
+    ]:
+        linux = _run3([str(native_harness3)], so3, model3, settings, outputs)
+        windows = _run3([exe, str(windows_harness3)], str(dll3), model3, win_settings, outputs,
+                        resources=win_resources, env=env)
+        assert linux["impacts"][-1] > 0, settings
+        _assert_same(linux, windows)
+        for name in outputs[3:]:
+            np.testing.assert_allclose(linux[name], windows[name], rtol=0, atol=1e-12, err_msg=name)

@@ -2,7 +2,9 @@
 
 The engines are the Open Simulation Platform's libcosim (pip libcosimpy) and Ecos
 (pip ecospy). Each runs four scenes with a fixed communication step: free rocking,
-a built-in sine pulse, the ground acceleration given through the input `ground.ah`
+a built-in sine pulse with the constant restitution law (both Enumerations, which neither
+engine can set: they set the Integer codes excitation.kindCode and restitution.lawCode
+instead, docs/model.md), the ground acceleration given through the input `ground.ah`
 (a sampled signal, changed by the engine at each communication point and held over
 the step), and a two-block stack. fmpy's simulate_fmu runs the same scenes with the
 same start values and an output interval equal to the engine's step; theta must
@@ -51,7 +53,10 @@ TALL_STACK = {"nBlocks": 2, "block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "
 SCENES = {
     "free": Scene({"block1.theta0": 0.1}),
     # from rest: a master driving the block sets block1.theta0 = 0 (its start value tilts the block)
-    "pulse": Scene({"block1.theta0": 0.0, "excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0}),
+    # the Enumerations excitation.kind and restitution.law, which the engines set through their Integer
+    # codes excitation.kindCode and restitution.lawCode (by_codes)
+    "pulse": Scene({"block1.theta0": 0.0, "excitation.kind": 1, "excitation.amplitude": 5.0, "excitation.frequency": 3.0,
+                    "restitution.law": 2, "restitution.eta": 0.8}),
     "input": Scene({"block1.theta0": 0.0}, signal=sampled_pulse, outputs=("block1.theta", "impacts", "ground.ahTotal")),
     # both blocks tilted: they rock, lock and part again, with ground and interface impacts (Housner's
     # law, the default: libcosim and Ecos cannot set the Enumeration restitution.law)
@@ -83,6 +88,24 @@ def types_of(fmu_path: Path) -> dict[str, str]:
     return {v.name: v.type for v in read_model_description(str(fmu_path)).modelVariables}
 
 
+def by_codes(params: dict, types: dict[str, str]) -> dict:
+    """params with each Enumeration replaced by its Integer code (excitation.kind ->
+    excitation.kindCode, ...: the CODE lines of model/c/variables.def, docs/model.md): libcosim
+    and Ecos cannot set an FMI 2.0 Enumeration variable, they can set an Integer."""
+    from fmu_build.build import C_DIR
+    from fmu_build.variables import read_codes
+
+    code_of = {enum: code for code, enum in read_codes(C_DIR / "variables.def").items()}
+    out = {}
+    for name, value in params.items():
+        if types[name] == "Enumeration":
+            assert name in code_of, f"the Enumeration {name} has no Integer code"
+            name = code_of[name]
+            assert types[name] == "Integer", name
+        out[name] = value
+    return out
+
+
 # ------------------------------------------------------------------ libcosim
 
 def run_libcosim(fmu_path: Path, scene: Scene) -> dict[str, np.ndarray]:
@@ -103,10 +126,8 @@ def run_libcosim(fmu_path: Path, scene: Scene) -> dict[str, np.ndarray]:
     set_initial = {CosimVariableType.REAL: (execution.real_initial_value, float),
                    CosimVariableType.INTEGER: (execution.integer_initial_value, int),
                    CosimVariableType.BOOLEAN: (execution.boolean_initial_value, bool)}
-    hidden = sorted(n for n in scene.params if n not in variables and types_of(fmu_path)[n] == "Enumeration")
-    if hidden:  # libcosim 0.0.6 lists no FMI 2.0 Enumeration variables, so it cannot set them
-        pytest.skip(f"libcosim does not list the Enumeration parameter(s) {', '.join(hidden)} of the FMU")
-    for name, value in scene.params.items():
+    # libcosim 0.0.6 lists no FMI 2.0 Enumeration variable, so it cannot set one: their Integer codes
+    for name, value in by_codes(scene.params, types_of(fmu_path)).items():
         setter, cast = set_initial[CosimVariableType(variables[name].type)]
         assert setter(index, variables[name].reference, cast(value)), f"libcosim refused the start value of {name}"
     observer = CosimObserver.create_last_value()
@@ -143,22 +164,22 @@ def run_ecos(fmu_path: Path, scene: Scene) -> dict[str, np.ndarray]:
     from ecospy.EcosParameterSet import EcosParameterSet
 
     types = types_of(fmu_path)
-    hidden = sorted(n for n in scene.params if types[n] == "Enumeration")
-    if hidden:  # Ecos 0.7.2 registers no FMI 2.0 Enumeration variable ("No variable named ... of type int")
-        pytest.skip(f"Ecos does not register the Enumeration parameter(s) {', '.join(hidden)} of the FMU")
+    # Ecos 0.7.2 registers no FMI 2.0 Enumeration variable ("No variable named ... of type int"): their codes
+    params = by_codes(scene.params, types)
     ident = functools.partial("{}::{}".format, INSTANCE)
     # the structure outlives the simulation made from it: it owns the loaded model
-    with EcosSimulationStructure() as structure, EcosParameterSet() as params:
+    with EcosSimulationStructure() as structure, EcosParameterSet() as parameter_set:
         structure.add_model(INSTANCE, str(fmu_path))
-        add = {"Real": (params.add_real, float), "Integer": (params.add_int, int), "Boolean": (params.add_bool, bool)}
-        for name, value in scene.params.items():
+        add = {"Real": (parameter_set.add_real, float), "Integer": (parameter_set.add_int, int),
+               "Boolean": (parameter_set.add_bool, bool)}
+        for name, value in params.items():
             setter, cast = add[types[name]]
             setter(ident(name), cast(value))
-        assert structure.add_parameter_set("scene", params)
+        assert structure.add_parameter_set("scene", parameter_set)
         with EcosSimulation(structure=structure, step_size=H) as sim:
             assert sim.init(parameter_set="scene")
             get = {"Real": sim.get_real, "Integer": sim.get_integer, "Boolean": sim.get_bool}
-            for name, value in scene.params.items():  # the parameter set reached the FMU
+            for name, value in params.items():  # the parameter set reached the FMU
                 assert get[types[name]](ident(name)) == value, name
             u = scene.held_input() if scene.signal is not None else None
             rows = []

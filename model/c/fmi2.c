@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "fmi2Functions.h"
+#include "codes.h"
 #include "config.h" /* MODEL_GUID, written by fmu_build */
 #include "instance.h"
 #include "me.h"
@@ -89,7 +90,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     Instance *I = (Instance *)c;
     CHECK(I, PHASE_INSTANTIATED, "fmi2EnterInitializationMode");
     I->s.dirty = 1;
-    if (instance_initialize(I) != STATUS_OK) return fmi2Error;
+    if (codes_apply(I, "fmi2EnterInitializationMode") || instance_initialize(I) != STATUS_OK) return fmi2Error;
     if (I->s.type == INTERFACE_ME && me_check(I)) return fmi2Error;
     I->s.phase = PHASE_INITIALIZATION;
     return fmi2OK;
@@ -98,7 +99,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *I = (Instance *)c;
     CHECK(I, PHASE_INITIALIZATION, "fmi2ExitInitializationMode");
-    if (instance_initialize(I) != STATUS_OK) return fmi2Error;
+    if (codes_apply(I, "fmi2ExitInitializationMode") || instance_initialize(I) != STATUS_OK) return fmi2Error;
     if (I->s.type == INTERFACE_ME) {
         if (me_check(I)) return fmi2Error;
         me_start(I);

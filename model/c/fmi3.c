@@ -12,11 +12,13 @@
  * inside the step and the step ends there only if it asks to. Events are
  * applied inside the step, so the event mode that follows has nothing left
  * to update. */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "fmi3Functions.h"
+#include "codes.h"
 #include "config.h" /* MODEL_GUID (the instantiationToken), written by fmu_build */
 #include "instance.h"
 #include "solver.h"
@@ -86,6 +88,46 @@ static int intermediate_variable(fmi3ValueReference vr) {
     default:
         return 0;
     }
+}
+
+/* Nonzero for an Enumeration variable (one an ITEM line of variables.def names): FMI 3.0
+ * reads and sets those with fmi3GetInt64 and fmi3SetInt64 only (the C type of an
+ * Enumeration is fmi3Int64), its Int32 functions serve the Int32 variables only. */
+static int is_enumeration(fmi3ValueReference vr) {
+    const char *name;
+    switch (vr) {
+#define VAR(T, ref, field, name_, caus, var, start, unit, desc) \
+    case ref:                                                   \
+        name = name_;                                           \
+        break;
+#include "variables.def"
+#undef VAR
+    default:
+        return 0;
+    }
+#define VAR(T, ref, field, name_, caus, var, start, unit, desc)
+#define RANGE(...)
+#define CODE(code, field, codeName, enumName)
+#define ITEM(var, type, value, item, desc) \
+    if (strcmp(var, name) == 0) return 1;
+#include "variables.def"
+#undef ITEM
+#undef CODE
+#undef RANGE
+#undef VAR
+    return 0;
+}
+
+/* Nonzero (after logging) if vr is (enumeration) or is not (!enumeration) an Enumeration. */
+static int wrong_integer_type(Fmu3 *W, fmi3ValueReference vr, int enumeration, const char *fn) {
+    if (is_enumeration(vr) == enumeration) return 0;
+    if (enumeration)
+        INSTANCE_ERROR(W->I, "%s: unknown Int64 value reference %u (the FMU's Int64 variables are its Enumerations)",
+                       fn, (unsigned)vr);
+    else
+        INSTANCE_ERROR(W->I, "%s: value reference %u is an Enumeration: FMI 3.0 reads and sets it with "
+                       "fmi3GetInt64 and fmi3SetInt64", fn, (unsigned)vr);
+    return 1;
 }
 
 /* FMI 3.0 gives the resources folder as a local path ending in a separator;
@@ -224,7 +266,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
     if (instance_setup_experiment(I, toleranceDefined, tolerance, startTime, stopTimeDefined, stopTime, fn))
         return fmi3Error;
     I->s.dirty = 1;
-    if (instance_initialize(I) != STATUS_OK) return fmi3Error;
+    if (codes_apply(I, fn) || instance_initialize(I) != STATUS_OK) return fmi3Error;
     I->s.phase = PHASE_INITIALIZATION;
     return fmi3OK;
 }
@@ -232,7 +274,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     Fmu3 *W = (Fmu3 *)instance;
     CHECK(W, PHASE_INITIALIZATION, "fmi3ExitInitializationMode");
-    if (instance_initialize(W->I) != STATUS_OK) return fmi3Error;
+    if (codes_apply(W->I, "fmi3ExitInitializationMode") || instance_initialize(W->I) != STATUS_OK) return fmi3Error;
     /* FMI 3.0: with eventModeUsed, Co-Simulation starts in event mode */
     W->I->s.phase = W->eventModeUsed ? PHASE_EVENT : PHASE_STEP_COMPLETE;
     return fmi3OK;
@@ -320,8 +362,21 @@ fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference vr[], si
     if (begin_access(W, 0, vr, nvr, values, nValues, fn)) return fmi3Error;
     for (size_t i = 0; i < nvr; i++) {
         int v;
-        if (instance_get_integer(W->I, vr[i], &v, fn)) return fmi3Error;
+        if (wrong_integer_type(W, vr[i], 0, fn) || instance_get_integer(W->I, vr[i], &v, fn)) return fmi3Error;
         values[i] = (fmi3Int32)v;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetInt64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, fmi3Int64 values[],
+                        size_t nValues) {
+    Fmu3 *W = (Fmu3 *)instance;
+    const char *fn = "fmi3GetInt64";
+    if (begin_access(W, 0, vr, nvr, values, nValues, fn)) return fmi3Error;
+    for (size_t i = 0; i < nvr; i++) {
+        int v;
+        if (wrong_integer_type(W, vr[i], 1, fn) || instance_get_integer(W->I, vr[i], &v, fn)) return fmi3Error;
+        values[i] = (fmi3Int64)v;
     }
     return fmi3OK;
 }
@@ -371,7 +426,25 @@ fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference vr[], si
     const char *fn = "fmi3SetInt32";
     if (begin_access(W, 1, vr, nvr, values, nValues, fn)) return fmi3Error;
     for (size_t i = 0; i < nvr; i++)
+        if (wrong_integer_type(W, vr[i], 0, fn) || instance_set_integer(W->I, vr[i], (int)values[i], fn))
+            return fmi3Error;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetInt64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, const fmi3Int64 values[],
+                        size_t nValues) {
+    Fmu3 *W = (Fmu3 *)instance;
+    const char *fn = "fmi3SetInt64";
+    if (begin_access(W, 1, vr, nvr, values, nValues, fn)) return fmi3Error;
+    for (size_t i = 0; i < nvr; i++) {
+        if (wrong_integer_type(W, vr[i], 1, fn)) return fmi3Error;
+        if (values[i] < INT_MIN || values[i] > INT_MAX) {  /* no item is that far out */
+            INSTANCE_ERROR(W->I, "%s: value %lld of value reference %u is not a value of its Enumeration", fn,
+                           (long long)values[i], (unsigned)vr[i]);
+            return fmi3Error;
+        }
         if (instance_set_integer(W->I, vr[i], (int)values[i], fn)) return fmi3Error;
+    }
     return fmi3OK;
 }
 
@@ -407,7 +480,6 @@ NO_VARIABLES(UInt8, fmi3UInt8, Get, )
 NO_VARIABLES(Int16, fmi3Int16, Get, )
 NO_VARIABLES(UInt16, fmi3UInt16, Get, )
 NO_VARIABLES(UInt32, fmi3UInt32, Get, )
-NO_VARIABLES(Int64, fmi3Int64, Get, )
 NO_VARIABLES(UInt64, fmi3UInt64, Get, )
 NO_VARIABLES(Float32, fmi3Float32, Set, const)
 NO_VARIABLES(Int8, fmi3Int8, Set, const)
@@ -415,7 +487,6 @@ NO_VARIABLES(UInt8, fmi3UInt8, Set, const)
 NO_VARIABLES(Int16, fmi3Int16, Set, const)
 NO_VARIABLES(UInt16, fmi3UInt16, Set, const)
 NO_VARIABLES(UInt32, fmi3UInt32, Set, const)
-NO_VARIABLES(Int64, fmi3Int64, Set, const)
 NO_VARIABLES(UInt64, fmi3UInt64, Set, const)
 
 fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, size_t valueSizes[],

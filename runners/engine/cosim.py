@@ -32,14 +32,14 @@ import shutil
 import tempfile
 import tomllib
 import zipfile
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from runners.engine.fmu import SCENE_DEFAULTS
-from runners.engine.scene import Scene, SceneError, check_times, scene_from_dict
+from runners.engine.scene import SceneError, check_times, scene_from_dict
 from runners.engine.ssp import Component, Connection, write_ssp
 from runners.errors import RockingError
 
@@ -454,8 +454,10 @@ def _result(system: System, engine: str, h: float, rows: list[list[float]], want
 
 def libcosim_available() -> str | None:
     """Why libcosim cannot run here, or None."""
+    import importlib
+
     try:
-        import libcosimpy.CosimExecution  # noqa: F401
+        importlib.import_module("libcosimpy.CosimExecution")
     except Exception as exc:  # noqa: BLE001 - a missing wheel or native library
         return f"libcosim (pip libcosimpy) is not usable here: {exc}"
     return None
