@@ -286,7 +286,9 @@ def _fmus(block_fmu: Path | None, building_fmu: Path | None) -> tuple[Path, Path
 @dataclass
 class CosimResult:
     """Outputs after every communication step, at t_1 .. t_n (t_k = k h; libcosim offers no
-    sample of t_0): ``time`` (s) and series named "building.<variable>" and "block.<variable>"."""
+    sample of t_0), read right after the step, before the outputs are passed to the inputs (an
+    output that follows an input at once, such as contact.groundT, still has the input of the step
+    that ended): ``time`` (s) and series named "building.<variable>" and "block.<variable>"."""
 
     system: System
     engine: str
@@ -404,8 +406,8 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
                 status = s.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
                 if status not in (0, None):
                     raise CosimError(f"fmpy: a doStep at t = {k * h:g} s returned status {status}")
+            rows.append(sample())  # as libcosim's observer: after the step, before the transfer
             transfer()
-            rows.append(sample())
             if progress:
                 progress(k + 1, n)
         for s in slaves.values():
