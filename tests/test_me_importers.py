@@ -260,6 +260,25 @@ def test_a_crossing_into_the_ground_is_still_an_impact(fmu_path):
         m.close()
 
 
+def test_a_monitor_violation_stepped_over_is_a_step_event(fmu_path):
+    """A fixed-step importer that steps over the lift-off indicator's root (N / W < 0 at the
+    step's end): fmi2CompletedIntegratorStep asks for an event, and `lifts` (discrete) turns
+    true in the event update, not in continuous-time mode. N < 0 needs omega^2 R > g about:
+    8 rad/s on this block (R = 0.32 m)."""
+    m = MeModel(fmu_path, ["lifts", "liftTime"])
+    run = MeRun()
+    try:
+        m.start({**BLOCK, "block1.theta0": 0.05}, 1.0)
+        t, x = 0.01, np.array([0.05, -8.0])  # falling back as released: no peak, no impact
+        assert m.indicators(t, x)[5] < 0 < m.indicators(0.0, np.array([0.05, 0.0]))[5]
+        assert m.completed(t, x)
+        assert m.get("lifts") == 0
+        m.event(t, run)
+        assert run.samples[-1].values == {"lifts": 1, "liftTime": t}
+    finally:
+        m.close()
+
+
 # ------------------------------------------------------ running extremes change at events
 
 def _masters():
@@ -271,9 +290,9 @@ def _masters():
 @pytest.mark.parametrize("run,solver", list(_masters()))
 @pytest.mark.parametrize("scene", ["ricker_pulse", "sweep_point_lifts"])
 def test_running_extremes_change_only_at_events(fmu_path, run, solver, scene):
-    """block1.maxAbsTheta, friction.demandMax*, contact.normalMin* (and block 2's, 0 here) are
-    discrete: read at every output point and on both sides of every event, they change only
-    across an event update. The run ends at an event (rest, overturn): then the largest
+    """block1.maxAbsTheta, friction.demandMax*, contact.normalMin* (and block 2's, 0 here), like
+    `lifts` and `slides`, are discrete: read at every output point and on both sides of every
+    event, they change only across an event update. The run ends at an event (rest, overturn): then the largest
     rotation is Co-Simulation's to 1e-9."""
     if run is run_assimulo:
         pytest.importorskip("assimulo", reason="Assimulo is not installed (pip install assimulo-testing)")
@@ -281,7 +300,7 @@ def test_running_extremes_change_only_at_events(fmu_path, run, solver, scene):
     r = run(fmu_path, params, stop, OUTPUTS, solver, interval=INTERVAL, rtol=RTOL, atol=RTOL * 1e-2)
     changes = 0
     for before, after in zip(r.samples, r.samples[1:]):
-        for k in EXTREMES:
+        for k in (*EXTREMES, "lifts", "slides"):
             if after.values[k] != before.values[k]:
                 assert after.kind == "post" and after.t == before.t, (k, before, after)
                 changes += 1

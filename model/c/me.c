@@ -448,6 +448,15 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     return 0;
 }
 
+/* The contact monitors' indicators (me_get_event_indicators) show a first violation now. */
+static int monitor_violated(const Model *M) {
+    const State *S = &M->s;
+    if (S->mode == MODE_OVERTURNED || (S->slideTime >= 0 && S->liftTime >= 0)) return 0;
+    double T, N;
+    solver_contact_now(M, &T, &N);
+    return (S->slideTime < 0 && M->v.muGround * N - fabs(T) < 0) || (S->liftTime < 0 && N < 0);
+}
+
 int me_completed_step(Instance *I, int *enterEventMode) {
     /* a step event when the states no longer fit the discrete state in a way no event
      * indicator shows: states the importer set on a block at rest or overturned, or
@@ -455,9 +464,16 @@ int me_completed_step(Instance *I, int *enterEventMode) {
      * of theta's indicator from its domain z <= 0) */
     *enterEventMode = me_event_pending(I);
     I->meTimeFloor = I->s.model.s.t; /* the step is accepted: the importer goes on from here */
-    if (!I->s.dirty && !*enterEventMode) { /* the monitors' extremes at the importer's steps */
-        Logger log = instance_solver_logger(I);
-        solver_sample_contacts(&I->s.model, &log);
+    if (!I->s.dirty && !*enterEventMode) {
+        /* a monitor's first violation that the importer's solver stepped over without locating
+         * it (a fixed-step Euler): an event, so that `slides` and `lifts` (discrete) change in
+         * event mode; else the monitors' extremes at the importer's steps */
+        if (monitor_violated(&I->s.model)) {
+            *enterEventMode = 1;
+        } else {
+            Logger log = instance_solver_logger(I);
+            solver_sample_contacts(&I->s.model, &log);
+        }
     }
     return 0;
 }
