@@ -448,13 +448,14 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     return 0;
 }
 
-/* The contact monitors' indicators (me_get_event_indicators) show a first violation now. */
+/* A first violation that sampling the contact now records (contact_sample): a tensile
+ * normal reaction, or a pressed contact needing more friction than mu gives. */
 static int monitor_violated(const Model *M) {
     const State *S = &M->s;
     if (S->mode == MODE_OVERTURNED || (S->slideTime >= 0 && S->liftTime >= 0)) return 0;
     double T, N;
     solver_contact_now(M, &T, &N);
-    return (S->slideTime < 0 && M->v.muGround * N - fabs(T) < 0) || (S->liftTime < 0 && N < 0);
+    return (S->slideTime < 0 && N > 0 && fabs(T) > M->v.muGround * N) || (S->liftTime < 0 && N < 0);
 }
 
 int me_completed_step(Instance *I, int *enterEventMode) {
