@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
+from fmpy.util import read_csv
 
 from me_master import MeModel, MeRun, run_assimulo, run_scipy
 from runners.engine.fmu import with_scene_defaults
@@ -111,6 +112,7 @@ def _fmusim(fmu_path, params, stop):
     if not exe or not shutil.which(exe):
         pytest.skip("fmusim (Reference-FMUs) not available: set FMUSIM=path (it is published on GitHub only, "
                     "not on PyPI or Debian)")
+    # not run here (no fmusim on PyPI or Debian): options as in Reference-FMUs v0.0.39's fmusim
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "fmusim.csv"
         cmd = [exe, "--interface-type", "me", "--solver", "cvode", "--stop-time", str(stop),
@@ -120,7 +122,7 @@ def _fmusim(fmu_path, params, stop):
         for name in OUTPUTS:
             cmd += ["--output-variable", name]
         subprocess.run([*cmd, str(fmu_path)], check=True, capture_output=True, timeout=120)
-        data = np.genfromtxt(out, delimiter=",", names=True, deletechars="")
+        data = read_csv(str(out))  # fmusim quotes the column names
     return {k: float(data[k][-1]) for k in OUTPUTS}
 
 
