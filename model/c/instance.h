@@ -56,6 +56,11 @@ typedef struct {
     int dirty; /* parameters set since the last initialisation */
     int terminated; /* the run ended at an overturn (solver.stopAtOverturn) */
     InterfaceType type;
+    /* Model Exchange: the running extremes (block1.maxAbsTheta, block2.maxAbsTheta,
+     * friction.demandMaxGround/Interface, contact.normalMinGround/Interface) as the last
+     * event left them, the outputs between events (discrete variables; me.c) */
+    int meHeld;
+    double meExtremes[6];
 } Snapshot;
 
 /* The file a record was read from, to read it again only when it changed. */

@@ -15,7 +15,19 @@
  * motion below the threshold would otherwise be searched for ever) */
 #define UPLIFT_HORIZON 1000.0
 
+/* Hysteresis of the impact and peak indicators, relative to the states' nominal values
+ * (alpha and alpha p): an indicator crosses zero that far past its event, so that none is
+ * exactly 0 where the importer's solver (re)starts, on the boundary (a block released from
+ * rest at theta = omega = 0, the restart after a located impact or peak). LSODAR stops with
+ * flag -3 on a root at its initial point; root finders that count a 0 at the start as a sign
+ * change locate an event at once and never advance. Impacts are then located 1e-10 alpha past
+ * theta = 0 (a delay of 1e-10 alpha / |omega|), peaks where omega has turned by 1e-10 alpha p
+ * (theta off by the square of that). */
+#define ME_HYSTERESIS 1e-10
+
 static int sign_of(double x) { return x > 0 ? 1 : x < 0 ? -1 : 0; }
+
+static void hold_extremes(Instance *I);
 
 int me_check(Instance *I) {
     const Variables *v = &I->s.model.v;
@@ -107,17 +119,38 @@ void me_start(Instance *I) {
     S->omegaSign = S->mode == MODE_ROCKING ? moving_sign(M) : 0; /* released at rest: it moves as it accelerates */
     Logger log = instance_solver_logger(I);
     settle(I, &log);
-    me_update_outputs(I);
+    hold_extremes(I);
 }
 
 void me_enter_continuous(Instance *I) {
     Logger log = instance_solver_logger(I);
-    if (settle(I, &log)) me_update_outputs(I);
+    settle(I, &log);
+    hold_extremes(I);
+}
+
+/* The running extremes are discrete variables: between events the outputs keep the values
+ * the last event gave them (FMI 2.0 lets a discrete variable change in event mode only). */
+static double *extreme(Variables *v, int i) {
+    double *p[6] = {&v->maxAbsTheta, &v->maxAbsTheta2, &v->demandMaxGround, &v->demandMaxInterface,
+                    &v->normalMinGround, &v->normalMinInterface};
+    return p[i];
 }
 
 void me_update_outputs(Instance *I) {
     if (I->s.dirty) return;
     solver_outputs(&I->s.model, I->s.model.s.t);
+    if (I->s.meHeld)
+        for (int i = 0; i < 6; i++) *extreme(&I->s.model.v, i) = I->s.meExtremes[i];
+}
+
+/* At an event (initialization, the event update, entering continuous-time mode): the
+ * extremes reached up to now become the outputs until the next event. */
+static void hold_extremes(Instance *I) {
+    I->s.meHeld = 0;
+    me_update_outputs(I);
+    if (I->s.dirty) return;
+    for (int i = 0; i < 6; i++) I->s.meExtremes[i] = *extreme(&I->s.model.v, i);
+    I->s.meHeld = 1;
 }
 
 Status me_set_time(Instance *I, double t, const char *fn) {
@@ -240,9 +273,11 @@ Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn
     const State *S = &M->s;
     double w[ME_INDICATORS] = {1.0, 1.0, 1.0, 1.0, 1.0, 1.0};
     if (S->mode == MODE_ROCKING) {
-        w[0] = S->y[0];
+        /* theta on the pivot side, omega in the direction it turns, each with its hysteresis
+         * (ME_HYSTERESIS): positive from a release or an event until the impact or the peak */
+        w[0] = S->side * S->y[0] + ME_HYSTERESIS * M->d.alpha;
         w[1] = M_PI / 2 - fabs(S->y[0]);
-        w[3] = S->y[1];
+        w[3] = S->omegaSign * S->y[1] + ME_HYSTERESIS * M->d.alpha * sqrt(M->d.p2);
     } else if (S->mode == MODE_REST) {
         double ah, av;
         model_ground(M, S->t, &ah, &av);
@@ -266,11 +301,29 @@ Status me_get_event_indicators(Instance *I, double *z, size_t nz, const char *fn
     return STATUS_OK;
 }
 
-/* An impact due: theta on the far side of 0 from the pivot corner, or at 0 moving there. */
-static int past_impact(const State *S) {
-    double theta = S->y[0], omega = S->y[1];
-    return S->side * theta < 0 || (theta == 0 && S->side * omega < 0);
+/* rad/s: half the peak indicator's hysteresis. An omega smaller than that against the way
+ * the block turns is rounding (a dense output right after a release gives omega = 1e-25 of
+ * either sign), not a turn: neither a peak nor a rotation into the ground. */
+static double omega_noise(const Model *M) { return 0.5 * ME_HYSTERESIS * M->d.alpha * sqrt(M->d.p2); }
+
+/* An impact due: theta at 0 or on the far side of it from the pivot corner, with omega
+ * turning the block into the ground (towards the other side). */
+static int past_impact(const Model *M) {
+    const State *S = &M->s;
+    return S->side * S->y[0] <= 0 && S->side * S->y[1] < -omega_noise(M);
 }
+
+/* theta on the far side of 0 with omega not turning the block into the ground: an importer's
+ * solver that stopped right after a release, where the dense output's rounding gives
+ * theta = -1.5e-36 while omega points away from the ground. No impact: the block leaves the
+ * ground on its pivot side. */
+static int leaving_ground(const Model *M) {
+    const State *S = &M->s;
+    return S->side * S->y[0] < 0 && !past_impact(M);
+}
+
+/* omega turned against the way the block was turning: a peak. */
+static int turned(const Model *M) { return M->s.omegaSign * M->s.y[1] < -omega_noise(M); }
 
 int me_event_pending(Instance *I) {
     const Model *M = &I->s.model;
@@ -282,8 +335,7 @@ int me_event_pending(Instance *I) {
     case MODE_OVERTURNED:
         return S->y[0] != S->side * M_PI / 2 || S->y[1] != 0.0;
     case MODE_ROCKING:
-        return fabs(S->y[0]) >= M_PI / 2 || past_impact(S) || flat_and_falling_back(M) ||
-               S->y[1] * S->omegaSign < 0;
+        return fabs(S->y[0]) >= M_PI / 2 || past_impact(M) || flat_and_falling_back(M) || turned(M);
     default:
         return 0;
     }
@@ -302,7 +354,9 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             "vertical ground acceleration %g <= -g at t=%.17g: the block would leave the ground (not modelled)", av, t);
         return -1;
     }
-    solver_sample_contacts(M, &log); /* as the importer's solver left it: a located violation */
+    /* as the importer's solver left it: a located violation (not a state past the overturn,
+     * where a long step of the importer's solver carried the block beyond the model) */
+    if (!(S->mode == MODE_ROCKING && fabs(S->y[0]) >= M_PI / 2)) solver_sample_contacts(M, &log);
     if (S->mode == MODE_REST && (S->y[0] != 0.0 || S->y[1] != 0.0)) {
         /* the importer set the states of a block at rest: it moves from there (as one
          * released with block1.theta0 and block1.omega0 would), on the corner it leans on */
@@ -330,7 +384,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             S->maxAbsTheta = M_PI / 2;
             info->statesChanged = 1;
             say(&log, LOG_EVENTS, "overturn t=%.17g side=%d", t, S->side);
-        } else if (past_impact(S)) {
+        } else if (past_impact(M)) {
             /* block 1 lands on the corner of the other side: the impact map */
             double wp;
             int rest = model_impact(M, t, omega, &wp);
@@ -340,6 +394,7 @@ int me_event_update(Instance *I, MeEventInfo *info) {
             }
             S->impacts++;
             S->lastImpactTime = t;
+            S->y[0] = 0.0; /* on the ground line (the indicator's hysteresis located it a hair past) */
             S->y[1] = wp;
             S->side = -S->side;
             info->statesChanged = 1;
@@ -350,14 +405,21 @@ int me_event_update(Instance *I, MeEventInfo *info) {
                 S->restTime = t;
                 say(&log, LOG_EVENTS, "rest t=%.17g", t);
             }
-        } else if (omega * S->omegaSign < 0) { /* omega changed sign: a peak */
+        } else if (leaving_ground(M)) {
+            /* not an impact: it (re)starts rocking on the side omega points to, from theta = 0
+             * (omega = 0: settle below decides from its acceleration) */
+            S->y[0] = 0.0;
+            info->statesChanged = 1;
+            say(&log, LOG_EVENTS, "lift-off t=%.17g side=%d omega=%.17g", t, S->side, omega);
+        } else if (turned(M)) { /* omega changed sign: a peak */
             S->peaks++;
             S->lastPeakTime = t;
             S->lastPeakTheta = theta;
             if (fabs(theta) > S->maxAbsTheta) S->maxAbsTheta = fabs(theta);
             say(&log, LOG_EVENTS, "peak t=%.17g theta=%.17g", t, theta);
         }
-        if (S->mode == MODE_ROCKING && sign_of(S->y[1])) S->omegaSign = sign_of(S->y[1]);
+        /* the way it turns now (an omega at rounding level right after a release says nothing) */
+        if (S->mode == MODE_ROCKING && fabs(S->y[1]) > omega_noise(M)) S->omegaSign = sign_of(S->y[1]);
         if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
     }
     /* a block on its base: the ground tips it (uplift), or one rocking flat on its base
@@ -381,9 +443,19 @@ int me_event_update(Instance *I, MeEventInfo *info) {
     info->nextTimeDefined = isfinite(next) && next > t;
     info->nextTime = info->nextTimeDefined ? next : 0.0;
     solver_sample_contacts(M, &log); /* after the event */
-    me_update_outputs(I);
+    hold_extremes(I);
     I->meTimeFloor = t;
     return 0;
+}
+
+/* A first violation that sampling the contact now records (contact_sample): a tensile
+ * normal reaction, or a pressed contact needing more friction than mu gives. */
+static int monitor_violated(const Model *M) {
+    const State *S = &M->s;
+    if (S->mode == MODE_OVERTURNED || (S->slideTime >= 0 && S->liftTime >= 0)) return 0;
+    double T, N;
+    solver_contact_now(M, &T, &N);
+    return (S->slideTime < 0 && N > 0 && fabs(T) > M->v.muGround * N) || (S->liftTime < 0 && N < 0);
 }
 
 int me_completed_step(Instance *I, int *enterEventMode) {
@@ -393,9 +465,16 @@ int me_completed_step(Instance *I, int *enterEventMode) {
      * of theta's indicator from its domain z <= 0) */
     *enterEventMode = me_event_pending(I);
     I->meTimeFloor = I->s.model.s.t; /* the step is accepted: the importer goes on from here */
-    if (!I->s.dirty && !*enterEventMode) { /* the monitors' extremes at the importer's steps */
-        Logger log = instance_solver_logger(I);
-        solver_sample_contacts(&I->s.model, &log);
+    if (!I->s.dirty && !*enterEventMode) {
+        /* a monitor's first violation that the importer's solver stepped over without locating
+         * it (a fixed-step Euler): an event, so that `slides` and `lifts` (discrete) change in
+         * event mode; else the monitors' extremes at the importer's steps */
+        if (monitor_violated(&I->s.model)) {
+            *enterEventMode = 1;
+        } else {
+            Logger log = instance_solver_logger(I);
+            solver_sample_contacts(&I->s.model, &log);
+        }
     }
     return 0;
 }
