@@ -157,11 +157,10 @@ def building_from_dict(d: dict[str, Any], where: str) -> Building:
                     _floats(f"{where}: [building] stiffness", d["stiffness"], n), float(zeta))
 
 
-def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=None) -> System:
-    """Validate a parsed system document: a scene (its [excitation] is the base motion, a
-    record) with a [building] and a [coupling] table."""
-    from runners.engine.records import prepare_scene  # reads the base record
-
+def system_tables(data: dict[str, Any], source: str = "<system>") -> tuple[Building, int, str, float, dict[str, Any]]:
+    """Validate a system document's [building] and [coupling] tables: the building, the blocks'
+    floor, the coupling mode and the communication step (s), and the rest of the document (the
+    blocks' scene)."""
     data = dict(data)
     if "building" not in data:
         raise CosimError(f"{source}: no [building] table (storeys, mass, stiffness, damping_ratio)")
@@ -182,6 +181,15 @@ def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=Non
     step = coupling.get("step", DEFAULT_STEP)
     if isinstance(step, bool) or not isinstance(step, (int, float)):
         raise CosimError(f"{source}: [coupling] step must be a number of seconds, got {step!r}")
+    return b, floor, mode, float(step), data
+
+
+def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=None) -> System:
+    """Validate a parsed system document: a scene (its [excitation] is the base motion, a
+    record) with a [building] and a [coupling] table."""
+    from runners.engine.records import prepare_scene  # reads the base record
+
+    b, floor, mode, step, data = system_tables(data, source)
     try:
         scene = scene_from_dict(data, source)
     except SceneError as exc:
@@ -193,12 +201,12 @@ def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=Non
         raise CosimError(f"{source}: [simulation] step: the communication step is [coupling] step")
     try:
         prepare_scene(scene, factory)
-        check_times(scene.stop_time, float(step), "[simulation] stop_time", "[coupling] step")
+        check_times(scene.stop_time, step, "[simulation] stop_time", "[coupling] step")
     except (SceneError, ValueError) as exc:
         raise CosimError(f"{source}: {exc}") from None
     p = dict(scene.parameters)
     base = {k: p.pop(k) for k in list(p) if k.startswith("excitation.")}
-    return System(name=scene.name, blocks=p, building=b, floor=floor, coupling=mode, step=float(step),
+    return System(name=scene.name, blocks=p, building=b, floor=floor, coupling=mode, step=step,
                   stop_time=float(scene.stop_time), base_file=Path(base["excitation.file"]),
                   base_scale=float(base.get("excitation.scale", 1.0)),
                   base_start=float(base.get("excitation.startTime", 0.0)), source=source)
