@@ -126,6 +126,23 @@ def win64_compiler() -> str | None:
     cc = _win64_cc_name()
     return cc if shutil.which(cc) else None
 
+
+def build_stamp(out: Path, sources_digest: str, wanted: list[str], compilers: dict[str, tuple[str | None, list[str]]],
+                platforms: list[str] | None, sanitize: bool = False, folder: dict[str, str] | None = None,
+                force: bool = False) -> tuple[Path, str, bool]:
+    """The sha256 stamp next to ``out``, the digest of this build (sources, compilers, flags and
+    platforms, each named by its folder) and whether ``out`` is already that build. When it is to
+    be built without a Windows binary for want of the cross compiler, a one-line note says so."""
+    line = " ".join(f"{(folder or {}).get(p, p)}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
+    digest = hashlib.sha256((sources_digest + line).encode()).hexdigest()
+    stamp = out.with_name(out.name + ".sha256")
+    current = not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest
+    if not current and not sanitize and platforms is None and compilers["win64"][0] is None:
+        print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
+              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
+    return stamp, digest, current
+
+
 def compile_platforms(sources: list[Path], root: Path, identifier: str, wanted: list[str],
                       compilers: dict[str, tuple[str | None, list[str]]], include_dirs: list[Path],
                       folder: dict[str, str] | None = None) -> None:
@@ -199,16 +216,10 @@ def build_fmu(
     out = Path(out) if out else default_fmu_path(sanitize)
     cc = cc or os.environ.get("CC", "cc")
     wanted, compilers = build_platforms(platforms, sanitize, cc)
-    wincc = compilers["win64"][0]
     sources_digest = _sources_digest()
-    build_line = " ".join(f"{p}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
-    digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
-    stamp = out.with_name(out.name + ".sha256")
-    if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
+    stamp, digest, current = build_stamp(out, sources_digest, wanted, compilers, platforms, sanitize, force=force)
+    if current:
         return out
-    if not sanitize and platforms is None and wincc is None:
-        print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
-              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
 
     from fmu_build.model_description import model_description  # only to build: it loads xml.sax and urllib
 

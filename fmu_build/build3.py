@@ -14,13 +14,12 @@ import hashlib
 import os
 import platform
 import shutil
-import sys
 import tempfile
 import uuid
 from pathlib import Path
 
-from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, VERSION, BuildError, _sources_digest, _win64_cc_name,
-                             build_platforms, compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
+from fmu_build.build import (C_DIR, C_HEADERS, C_SOURCES, VERSION, BuildError, _sources_digest, build_platforms,
+                             build_stamp, compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
 from fmu_build.documentation import documentation_html
 from fmu_build.variables import check_tables, read_codes, read_enumerations, read_ranges, read_variables
 
@@ -70,14 +69,9 @@ def build_fmu3(
     wanted, compilers = build_platforms(platforms, sanitize, cc)
     tuples = {"linux64": platform_tuple(), "win64": WINDOWS_TUPLE}
     sources_digest = _sources_digest3()
-    build_line = " ".join(f"{tuples[p]}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
-    digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
-    stamp = out.with_name(out.name + ".sha256")
-    if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
+    stamp, digest, current = build_stamp(out, sources_digest, wanted, compilers, platforms, sanitize, tuples, force)
+    if current:
         return out
-    if not sanitize and platforms is None and compilers["win64"][0] is None:
-        print(f"note: {_win64_cc_name()} not found, so {out.name} has no Windows binary "
-              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
 
     from fmu_build.model_description3 import build_description3, model_description3  # only to build
 

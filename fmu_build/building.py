@@ -16,13 +16,12 @@ import html
 import os
 import re
 import shutil
-import sys
 import tempfile
 import uuid
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.build import (C_DIR, GLIBC_COMPAT, GLIBC_COMPAT_FILES, VERSION, WIN64_CC, build_platforms,
+from fmu_build.build import (C_DIR, GLIBC_COMPAT, GLIBC_COMPAT_FILES, VERSION, build_platforms, build_stamp,
                              compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
 from fmu_build.variables import Variable, read_variables
 
@@ -177,16 +176,10 @@ def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | N
     out = Path(out) if out else default_building_path()
     cc = cc or os.environ.get("CC", "cc")
     wanted, compilers = build_platforms(platforms, False, cc)
-    wincc = compilers["win64"][0]
     sources_digest = _sources_digest()
-    build_line = " ".join(f"{p}: {compilers[p][0]} {' '.join(compilers[p][1])};" for p in wanted)
-    digest = hashlib.sha256((sources_digest + build_line).encode()).hexdigest()
-    stamp = out.with_name(out.name + ".sha256")
-    if not force and out.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
+    stamp, digest, current = build_stamp(out, sources_digest, wanted, compilers, platforms, force=force)
+    if current:
         return out
-    if platforms is None and wincc is None:
-        print(f"note: {os.environ.get('CC_WIN64', WIN64_CC)} not found, so {out.name} has no Windows binary "
-              "(Debian: apt-get install gcc-mingw-w64-x86-64)", file=sys.stderr)
     guid = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
     out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:

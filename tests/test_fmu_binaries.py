@@ -130,8 +130,8 @@ def test_the_windows_binary_exports_the_fmi_functions_the_linux_binary_does(so, 
 
 # ------------------------------------------------------------------------- the harness
 
-def _compile(cc: str, out: Path, *extra: str) -> Path:
-    cmd = [cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-I", str(fmi_headers_dir()), "-o", str(out), str(HARNESS),
+def _compile(cc: str, out: Path, *extra: str, harness: Path = HARNESS, fmi: str = "2") -> Path:
+    cmd = [cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-I", str(fmi_headers_dir(fmi)), "-o", str(out), str(harness),
            *extra]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0 and not proc.stderr.strip(), proc.stderr
@@ -307,23 +307,16 @@ def test_the_fmi3_windows_binary_exports_the_fmi_functions_the_linux_binary_does
     assert imports and all(SYSTEM_DLLS.fullmatch(name) for name in imports), imports
 
 
-def _compile3(cc: str, out: Path, *extra: str) -> Path:
-    cmd = [cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-I", str(fmi_headers_dir("3")), "-o", str(out), str(HARNESS3),
-           *extra]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    assert proc.returncode == 0 and not proc.stderr.strip(), proc.stderr
-    return out
-
-
 @pytest.fixture(scope="module")
 def native_harness3(tmp_path_factory) -> Path:
-    return _compile3(os.environ.get("CC", "cc"), tmp_path_factory.mktemp("harness3") / "fmi3_harness", "-ldl")
+    return _compile(os.environ.get("CC", "cc"), tmp_path_factory.mktemp("harness3") / "fmi3_harness", "-ldl",
+                    harness=HARNESS3, fmi="3")
 
 
 @pytest.fixture(scope="module")
 def windows_harness3(dll3, tmp_path_factory) -> Path:
-    return _compile3(win64_compiler(), tmp_path_factory.mktemp("harness3") / "fmi3_harness.exe",
-                     "-D__USE_MINGW_ANSI_STDIO=1", "-static-libgcc")
+    return _compile(win64_compiler(), tmp_path_factory.mktemp("harness3") / "fmi3_harness.exe",
+                    "-D__USE_MINGW_ANSI_STDIO=1", "-static-libgcc", harness=HARNESS3, fmi="3")
 
 
 @pytest.fixture(scope="module")
