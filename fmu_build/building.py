@@ -23,7 +23,8 @@ from xml.sax.saxutils import quoteattr
 
 from fmu_build.build import (C_DIR, GLIBC_COMPAT, GLIBC_COMPAT_FILES, VERSION, build_platforms, build_stamp,
                              compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
-from fmu_build.variables import Variable, read_variables
+from fmu_build.model_description import range_attributes, unit_definitions
+from fmu_build.variables import Range, Variable, read_ranges, read_variables
 
 BUILDING_IDENTIFIER = "ShearBuilding"
 BUILDING_DIR = C_DIR / "building"
@@ -33,13 +34,6 @@ BUILDING_SOURCES = ["fmi2_building.c", "building.c", "building_integrator.c"]
 CORE_SOURCES = ["record.c"]
 BUILDING_HEADERS = ["building.h", "variables.def"]
 CORE_HEADERS = ["integrator.h", "integrator.c", "record.h"]
-
-# SI base-unit exponents of the units the building uses
-UNITS: dict[str, dict[str, int]] = {
-    "1": {}, "s": {"s": 1}, "Hz": {"s": -1}, "kg": {"kg": 1}, "m": {"m": 1}, "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2}, "N": {"kg": 1, "m": 1, "s": -2}, "N/m": {"kg": 1, "s": -2},
-    "J": {"kg": 1, "m": 2, "s": -2},
-}
 
 # direct feedthrough of the outputs (every other output depends on the state only): the absolute
 # floor acceleration a = M^-1 (F - C u' - K u) on the floor's force, a_g on base.a
@@ -60,6 +54,9 @@ def expand_variables(def_text: str) -> str:
     :func:`fmu_build.variables.read_variables` reads it."""
     out = []
     for line in def_text.splitlines():
+        if line.startswith("RANGE(") and "storey[*]" in line:  # one range line per storey
+            out += [line.replace("storey[*]", f"storey[{i}]") for i in range(1, MAX_STOREYS + 1)]
+            continue
         m = _STOREY.match(line.strip())
         if not m:
             out.append(line)
@@ -70,11 +67,17 @@ def expand_variables(def_text: str) -> str:
     return "\n".join(out) + "\n"
 
 
-def building_variables(tmp: Path) -> list[Variable]:
-    """The building's variables in declaration order (the expanded table is written to ``tmp``)."""
+def building_variables(tmp: Path) -> tuple[list[Variable], dict[str, Range]]:
+    """The building's variables in declaration order and their valid ranges (the expanded table
+    is written to ``tmp``)."""
     path = tmp / "variables_expanded.def"
     path.write_text(expand_variables((BUILDING_DIR / "variables.def").read_text()))
-    return read_variables(path)
+    variables, ranges = read_variables(path), read_ranges(path)
+    names = {v.name for v in variables if v.causality == "parameter"}
+    unknown = sorted(set(ranges) - names)
+    if unknown:
+        raise ValueError(f"RANGE lines name no parameter of the building: {unknown}")
+    return variables, ranges
 
 
 def _start(v: Variable) -> str:
@@ -85,13 +88,10 @@ def _start(v: Variable) -> str:
     return repr(float(v.start))
 
 
-def building_model_description(variables: list[Variable], guid: str) -> str:
+def building_model_description(variables: list[Variable], guid: str, ranges: dict[str, Range] | None = None) -> str:
     """The text of ShearBuilding's modelDescription.xml (FMI 2.0 Co-Simulation)."""
     index = {v.name: i for i, v in enumerate(variables, start=1)}
     used_units = sorted({v.unit for v in variables if v.unit})
-    unknown = [u for u in used_units if u not in UNITS]
-    if unknown:
-        raise ValueError(f"unit(s) without a definition: {unknown}")
     files = BUILDING_SOURCES + CORE_SOURCES
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            f'<fmiModelDescription fmiVersion="2.0" modelName="{BUILDING_IDENTIFIER}" guid="{guid}" '
@@ -102,12 +102,8 @@ def building_model_description(variables: list[Variable], guid: str) -> str:
            'canGetAndSetFMUstate="false" canSerializeFMUstate="false" canInterpolateInputs="false" '
            'canBeInstantiatedOnlyOncePerProcess="false" needsExecutionTool="false">',
            "    <SourceFiles>", *[f'      <File name="{f}"/>' for f in files], "    </SourceFiles>",
-           "  </CoSimulation>", "  <UnitDefinitions>"]
-    for u in used_units:
-        exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
-        out.append(f"    <Unit name={quoteattr(u)}><BaseUnit {exps}/></Unit>" if exps
-                   else f"    <Unit name={quoteattr(u)}/>")
-    out += ["  </UnitDefinitions>", "  <LogCategories>",
+           "  </CoSimulation>", *unit_definitions(used_units)]
+    out += ["  <LogCategories>",
             '    <Category name="logStatusError" description="Errors: invalid parameters, invalid call sequences, '
             'integrator failures"/>', "  </LogCategories>",
             '  <DefaultExperiment startTime="0" stopTime="10" tolerance="1e-10"/>', "  <ModelVariables>"]
@@ -115,6 +111,7 @@ def building_model_description(variables: list[Variable], guid: str) -> str:
         attrs = (f'name={quoteattr(v.name)} valueReference="{v.value_reference}" causality="{v.causality}" '
                  f'variability="{v.variability}" description={quoteattr(v.description)}')
         extra = f' unit="{v.unit}"' if v.type == "Real" and v.unit else ""
+        extra += range_attributes(v, ranges or {})
         if v.causality in ("parameter", "input"):
             extra = f" start={quoteattr(_start(v))}" + extra
         out.append(f"    <ScalarVariable {attrs}><{v.type}{extra}/></ScalarVariable>")
@@ -183,7 +180,7 @@ def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | N
     guid = "{" + str(uuid.UUID(sources_digest[:32])) + "}"
     out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        variables = building_variables(Path(tmp))
+        variables, ranges = building_variables(Path(tmp))
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)
@@ -194,7 +191,7 @@ def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | N
             f"/* Written by fmu_build: identifies this build of {BUILDING_IDENTIFIER}. */\n"
             "#ifndef BUILDING_CONFIG_H\n#define BUILDING_CONFIG_H\n"
             f'#define MODEL_GUID "{guid}"\n#endif\n')
-        (root / "modelDescription.xml").write_text(building_model_description(variables, guid))
+        (root / "modelDescription.xml").write_text(building_model_description(variables, guid, ranges))
         (root / "documentation").mkdir()
         (root / "documentation" / "index.html").write_text(building_documentation(variables), encoding="utf-8")
         compile_platforms([src / s for s in BUILDING_SOURCES + CORE_SOURCES], root, BUILDING_IDENTIFIER, wanted,

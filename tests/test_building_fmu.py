@@ -329,6 +329,53 @@ def test_bad_parameters_are_errors_with_a_one_line_message(building, name, value
     assert all("\n" not in m for m in building.messages)
 
 
+@pytest.mark.parametrize("masses,stiffness", [([1e-6, 1e-6, 2000.0], 1e12), ([5e-324, 1.0, 1.0], 1e6)])
+def test_a_building_too_stiff_for_its_masses_is_refused_not_run_for_hours(building, masses, stiffness):
+    """Floors of a microgram on a stiff frame vibrate at megahertz (or overflow): refused at
+    initialisation with the highest frequency, instead of an explicit integration that would take
+    hours (or give NaN)."""
+    building.s.setupExperiment(startTime=0.0)
+    building.set({"nStoreys": 3, **{f"storey[{i}].mass": m for i, m in enumerate(masses, start=1)},
+                  **{f"storey[{i}].stiffness": stiffness for i in (1, 2, 3)}})
+    building.s.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        building.s.exitInitializationMode()
+    assert any("highest natural frequency" in m for m in building.messages), building.messages
+
+
+def test_the_declared_ranges_are_those_the_fmu_checks(building_fmu):
+    """Every parameter's declared min and max (modelDescription.xml): the bound itself is accepted,
+    the next value beyond it refused at initialisation."""
+    md = building_fmu[1]
+    ranged = [v for v in md.modelVariables if v.min is not None or v.max is not None]
+    assert {v.name for v in ranged} >= {"nStoreys", "storey[1].mass", "storey[10].stiffness", "damping.ratio",
+                                        "solver.relTol", "solver.absTol"}
+    base = {"nStoreys": 2, "storey[1].mass": 1e4, "storey[2].mass": 1e4}
+    for v in ranged:
+        for bound, outward in ((v.min, -np.inf), (v.max, np.inf)):
+            if bound is None:
+                continue
+            b = float(bound)
+            beyond = b + (1 if outward > 0 else -1) if v.type == "Integer" else float(np.nextafter(b, outward))
+            for value, ok in ((b, True), (beyond, False)):
+                if v.name.startswith("storey[") and v.name.split(".")[0] not in ("storey[1]", "storey[2]"):
+                    continue  # storeys above nStoreys = 2 are not checked
+                if "mass" in v.name and ok and value < 1e-3:
+                    continue  # the smallest positive double: a valid mass, but megahertz floors (the check above)
+                b_ = Building(building_fmu)
+                try:
+                    b_.s.setupExperiment(startTime=0.0)
+                    b_.set({**base, v.name: value})
+                    b_.s.enterInitializationMode()
+                    if ok:
+                        b_.s.exitInitializationMode()
+                    else:
+                        with pytest.raises(FMICallException):
+                            b_.s.exitInitializationMode()
+                finally:
+                    b_.close()
+
+
 def test_an_unreadable_record_is_an_error_naming_the_line(building, tmp_path):
     (tmp_path / "bad.txt").write_text("0 0\n0.01 zero\n")
     building.s.setupExperiment(startTime=0.0)

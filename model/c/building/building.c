@@ -42,6 +42,11 @@ int building_validate(const BuildingVars *v, char *msg, size_t n) {
             FAIL("storey[%d].stiffness = %g N/m must be > 0 (storey %d of nStoreys = %d)", i + 1, v->stiffness[i],
                  i + 1, v->nStoreys);
     }
+    double fmax_ = building_highest_frequency(v->nStoreys, v->mass, v->stiffness) / TWO_PI;
+    if (!(fmax_ <= BUILDING_MAX_FREQUENCY))
+        FAIL("the highest natural frequency, %g Hz, is above %g Hz: check the storeys' masses (kg) and "
+             "stiffnesses (N/m); the integrator would need millions of steps per second", fmax_,
+             BUILDING_MAX_FREQUENCY);
     if (!(v->dampingRatio >= 0 && v->dampingRatio < 1))
         FAIL("damping.ratio = %g must be in [0, 1)", v->dampingRatio);
     if (!isfinite(v->scale)) FAIL("excitation.scale = %g must be a finite number", v->scale);
@@ -76,28 +81,42 @@ static int sturm_count(int n, const double *d, const double *e, double x) {
     return count;
 }
 
-void building_frequencies(int n, const double *m, const double *k, double omega[2]) {
-    double d[BUILDING_MAX_STOREYS], e[BUILDING_MAX_STOREYS], hi = 0.0;
-    /* M^-1/2 K M^-1/2 */
+/* M^-1/2 K M^-1/2 as (d, e), and the Gershgorin bound of its eigenvalues (each is in (0, hi]). */
+static double tridiagonal(int n, const double *m, const double *k, double *d, double *e) {
+    double hi = 0.0;
     for (int i = 0; i < n; i++) {
         double kAbove = i + 1 < n ? k[i + 1] : 0.0;
         d[i] = (k[i] + kAbove) / m[i];
         e[i] = i + 1 < n ? -k[i + 1] / sqrt(m[i] * m[i + 1]) : 0.0;
     }
-    for (int i = 0; i < n; i++) /* Gershgorin: every eigenvalue is below */
+    for (int i = 0; i < n; i++)
         hi = fmax(hi, d[i] + fabs(e[i]) + (i > 0 ? fabs(e[i - 1]) : 0.0));
-    for (int j = 0; j < 2 && j < n; j++) {
-        /* K is positive definite: every eigenvalue is in (0, hi] */
-        double lo = 0.0, up = hi * (1.0 + 4.0 * DBL_EPSILON);
-        for (int it = 0; it < 2000; it++) {
-            double mid = 0.5 * (lo + up);
-            if (!(mid > lo && mid < up)) break;
-            if (sturm_count(n, d, e, mid) > j) up = mid;
-            else lo = mid;
-        }
-        omega[j] = sqrt(0.5 * (lo + up));
+    return hi;
+}
+
+/* The (j + 1)-th smallest eigenvalue of (d, e) in (0, hi], by bisection to adjacent doubles. */
+static double eigenvalue(int n, const double *d, const double *e, double hi, int j) {
+    double lo = 0.0, up = hi * (1.0 + 4.0 * DBL_EPSILON);
+    for (int it = 0; it < 2000; it++) {
+        double mid = 0.5 * (lo + up);
+        if (!(mid > lo && mid < up)) break;
+        if (sturm_count(n, d, e, mid) > j) up = mid;
+        else lo = mid;
     }
+    return 0.5 * (lo + up);
+}
+
+void building_frequencies(int n, const double *m, const double *k, double omega[2]) {
+    double d[BUILDING_MAX_STOREYS], e[BUILDING_MAX_STOREYS];
+    double hi = tridiagonal(n, m, k, d, e);
+    for (int j = 0; j < 2 && j < n; j++) omega[j] = sqrt(eigenvalue(n, d, e, hi, j));
     if (n == 1) omega[1] = omega[0];
+}
+
+double building_highest_frequency(int n, const double *m, const double *k) {
+    double d[BUILDING_MAX_STOREYS], e[BUILDING_MAX_STOREYS];
+    double hi = tridiagonal(n, m, k, d, e);
+    return isfinite(hi) ? sqrt(eigenvalue(n, d, e, hi, n - 1)) : INFINITY;
 }
 
 /* ------------------------------------------------------------- excitation */

@@ -41,6 +41,9 @@
 #define BUILDING_FILE_CAPACITY 4096 /* bytes of excitation.file, its terminating NUL included */
 #define BUILDING_REL_TOL_MIN 1e-14
 #define BUILDING_REL_TOL_MAX 0.1
+/* Hz: above it the explicit integrator would take more than about a million steps a second of
+ * simulated time (no structure a block stands on vibrates that fast: wrong units, most likely) */
+#define BUILDING_MAX_FREQUENCY 1e4
 
 /* The variables of the FMU, addressed by value reference through variables.def. */
 typedef struct {
@@ -94,6 +97,9 @@ int building_validate_record(const BuildingVars *v, const Record *rec, char *msg
 /* The two lowest natural circular frequencies of K phi = w^2 M phi (rad/s), by Sturm bisection
  * on the symmetric tridiagonal M^-1/2 K M^-1/2; omega[1] = omega[0] when n = 1. */
 void building_frequencies(int n, const double *m, const double *k, double omega[2]);
+
+/* The highest natural circular frequency (rad/s), likewise; inf when a ratio k/m overflows. */
+double building_highest_frequency(int n, const double *m, const double *k);
 
 /* Derive frequencies and damping from valid parameters, attach rec (may be NULL), put the
  * building at rest at time t0 and compute the outputs. */
