@@ -59,7 +59,7 @@ def test_ssp_is_valid_and_carries_both_fmus(system, fmu_path, building_fmu, tmp_
     path = cosim.write_system_ssp(system, tmp_path / "cabinet.ssp", fmu_path, building_fmu)
     with zipfile.ZipFile(path) as zf:
         names = set(zf.namelist())
-    assert {"SystemStructure.ssd", f"resources/{fmu_path.name}", f"resources/{building_fmu.name}"} <= names
+    assert {"SystemStructure.ssd", "resources/block.fmu", "resources/building.fmu"} <= names
     ssd = read_ssd(str(path), validate=True)  # the SSP 1.0 schema
     comps = {c.name: c for c in ssd.system.elements}
     assert set(comps) == {"building", "block"}
@@ -233,6 +233,11 @@ def test_cli_cosim_writes_ssp_figure_and_json(fmu_path, building_fmu, tmp_path):
     (lambda t: t.replace("stiffness = 2.5e6", "stiffness = [1e6, 2e6]"), "2 values for 3 storeys"),
     (lambda t: t.replace('file = "pulse_3hz.AT2"', 'kind = "sine-pulse"\namplitude = 3.0'), "must be the base's record"),
     (lambda t: t.replace("step = 0.001", "step = 0.0"), "step"),
+    (lambda t: t.replace("step = 0.001", "step = 0.0003"), "not a whole number of communication steps"),
+    (lambda t: t.replace("step = 0.001", "step = 1e300"), "not a whole number of communication steps"),
+    (lambda t: t.replace('file = "pulse_3hz.AT2"', 'file = "pulse_3hz.AT2"\nvertical_amplitude = 1.0'),
+     "[excitation] vertical_amplitude: the building's base moves with a record, horizontally"),
+    (lambda t: t.replace("mass = 1000.0", "mass = -1.0"), "block1.mass"),
 ])
 def test_cli_cosim_bad_system_is_one_line(tmp_path, edit, message):
     text = edit(EXAMPLE.read_text())
@@ -243,3 +248,48 @@ def test_cli_cosim_bad_system_is_one_line(tmp_path, edit, message):
     assert p.returncode == 2, p.stdout + p.stderr
     lines = p.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], p.stderr
+
+
+def test_libcosim_gets_no_parameters_an_fmu_would_refuse(fmu_path, building_fmu, tmp_path):
+    """libcosim ends the process when an FMU refuses a parameter: the runner initialises the FMUs
+    with fmpy first, so a bad value is one line naming it, whichever engine."""
+    if cosim.libcosim_available():
+        pytest.skip(cosim.libcosim_available())
+    (tmp_path / "pulse_3hz.AT2").write_bytes((ROOT / "examples" / "pulse_3hz.AT2").read_bytes())
+    bad = tmp_path / "bad.toml"
+    bad.write_text(EXAMPLE.read_text().replace("[simulation]", "[simulation]\ng = 0.0"))
+    os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
+    try:
+        p = runners("cosim", str(bad), "--engine", "libcosim", "--fmu", str(fmu_path))
+    finally:
+        del os.environ["ROCKING_BUILDING_FMU"]
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    assert p.stderr.strip().splitlines() == [p.stderr.strip()] and "g = 0" in p.stderr, p.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (lambda root, tmp: ["--fmu", str(root / "build" / "ShearBuilding.fmu")], "has no variable contact.groundLoad"),
+    (lambda root, tmp: ["--fmu", str(root / "build" / "RockingBlock3.fmu")], "is an FMI 3.0 FMU"),
+    (lambda root, tmp: ["--fmu", str(root / "README.md")], "is not an FMU"),
+    (lambda root, tmp: ["--out", str(tmp / "nowhere" / "f.png")], "does not exist"),
+    (lambda root, tmp: ["--out", str(tmp / "f.xyz")], "give a file name ending in one of"),
+    (lambda root, tmp: ["--step", "0.0003"], "not a whole number of communication steps"),
+])
+def test_cli_cosim_bad_options_are_one_line_before_any_run(fmu_path, tmp_path, args, message):
+    p = runners("cosim", str(EXAMPLE), *args(ROOT, tmp_path))
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr.strip().splitlines() == [p.stderr.strip()] and message in p.stderr, p.stderr
+
+
+def test_fmu_files_with_any_name_go_into_the_ssp(system, fmu_path, building_fmu, tmp_path):
+    """An FMU file named with characters XML or a URI would escape (&, a quote, a space): the SSP
+    keeps every FMU under its component's name, and both engines load it."""
+    odd = tmp_path / 'R&B "x" y.fmu'
+    odd.write_bytes(fmu_path.read_bytes())
+    short = replace(system, stop_time=0.05)
+    engines = ["fmpy"] + ([] if cosim.libcosim_available() else ["libcosim"])
+    results = [run(short, odd, building_fmu, engine) for engine in engines]
+    for r in results:
+        assert len(r.time) == 50
+    if len(results) == 2:
+        np.testing.assert_allclose(results[0]["block.block1.theta"], results[1]["block.block1.theta"], atol=1e-12)

@@ -72,6 +72,18 @@ def building_frequencies(result) -> list[float]:
     return list(np.sqrt(w2) / (2 * np.pi))
 
 
+def _check_figure_path(out: str) -> None:
+    """ValueError, before any run, unless the figure can be written there in a format matplotlib knows."""
+    from matplotlib.figure import Figure
+
+    path = Path(out)
+    if not path.parent.is_dir():
+        raise ValueError(f"--out {out}: the folder {path.parent} does not exist")
+    formats = Figure().canvas.get_supported_filetypes()
+    if path.suffix.lower().lstrip(".") not in formats:
+        raise ValueError(f"--out {out}: give a file name ending in one of {', '.join('.' + f for f in sorted(formats))}")
+
+
 def cmd_cosim(args: argparse.Namespace) -> int:
     from runners.analysis import cosim as checks
     from runners.engine import cosim
@@ -81,13 +93,15 @@ def cmd_cosim(args: argparse.Namespace) -> int:
         system = replace(system, coupling=args.coupling)
     if args.step is not None:
         system = replace(system, step=args.step)
-    from runners.engine.scene import SceneError, check_times
-
-    try:
-        check_times(system.stop_time, system.step, "stop_time", "--step")
-    except SceneError as exc:
-        raise cosim.CosimError(str(exc)) from None
+        cosim.check_step(system.stop_time, system.step, "--step")
+    if args.out:
+        _check_figure_path(args.out)
     block_fmu = Path(args.fmu) if args.fmu else None
+    if "two-way" in ([*COUPLINGS] if args.compare else [system.coupling]):
+        floor_mass = system.building.mass[system.floor - 1]
+        if system.blocks_mass > floor_mass:
+            output.note(f"the blocks ({system.blocks_mass:g} kg) outweigh their floor ({floor_mass:g} kg): two-way "
+                        "coupling with impacts may not converge as the step shrinks (docs/cosimulation.md#limits)")
     couplings = list(COUPLINGS) if args.compare else [system.coupling]
     results = []
     for coupling in couplings:

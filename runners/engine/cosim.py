@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from runners.engine.fmu import SCENE_DEFAULTS
-from runners.engine.scene import SceneError, check_times, scene_from_dict
+from runners.engine.scene import SCHEMA, SceneError, check_times, scene_from_dict
 from runners.engine.ssp import Component, Connection, write_ssp
 from runners.errors import RockingError
 
@@ -51,6 +51,8 @@ ENGINES = ("fmpy", "libcosim")
 DEFAULT_STEP = 1e-3  # s
 
 BUILDING_KEYS = {"storeys", "mass", "stiffness", "damping_ratio"}
+# the base motion's FMU parameters a system file may set ([excitation] record, file and pga besides)
+BASE_KEYS = {"excitation.kind", "excitation.scale", "excitation.startTime", "excitation.file"}
 COUPLING_KEYS = {"floor", "mode", "step"}
 
 # the blocks' outputs a result keeps (block 2's only for a stack)
@@ -199,10 +201,20 @@ def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=Non
                          "the building's base moves with a record, the blocks with the floor")
     if scene.step_given:
         raise CosimError(f"{source}: [simulation] step: the communication step is [coupling] step")
+    base_keys = {k for k in scene.parameters if k.startswith("excitation.")} - BASE_KEYS
+    if base_keys:
+        key = {fmu: k for k, (fmu, _) in SCHEMA["excitation"].items()}.get(min(base_keys), min(base_keys))
+        raise CosimError(f"{source}: [excitation] {key}: the building's base moves with a record, horizontally "
+                         "(give record or file, scale or pga, start_time)")
     try:
         prepare_scene(scene, factory)
-        check_times(scene.stop_time, step, "[simulation] stop_time", "[coupling] step")
+    except OSError as exc:
+        raise CosimError(f"{source}: [excitation] cannot read the record: {exc.strerror or exc}") from None
     except (SceneError, ValueError) as exc:
+        raise CosimError(f"{source}: {exc}") from None
+    try:
+        check_step(scene.stop_time, step)
+    except CosimError as exc:
         raise CosimError(f"{source}: {exc}") from None
     p = dict(scene.parameters)
     base = {k: p.pop(k) for k in list(p) if k.startswith("excitation.")}
@@ -266,7 +278,10 @@ def write_system_ssp(system: System, path: str | Path, block_fmu: Path | None = 
     components, connections = system_components(system, block_fmu, building_fmu)
     description = (f"{system.name}: blocks on floor {system.floor} of a {system.building.storeys}-storey shear "
                    f"building, {system.coupling} coupling, communication step {system.step:g} s")
-    return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.stop_time, description)
+    try:
+        return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.stop_time, description)
+    except OSError as exc:
+        raise CosimError(f"cannot write the SSP {path}: {exc.strerror or exc}") from None
 
 
 def _ssp_name(name: str) -> str:
@@ -283,10 +298,27 @@ def _fmus(block_fmu: Path | None, building_fmu: Path | None) -> tuple[Path, Path
         from fmu_build.building import build_building_fmu
 
         building_fmu = build_building_fmu()
-    for p in (block, Path(building_fmu)):
-        if not Path(p).is_file():
-            raise CosimError(f"FMU {p} not found (make fmu builds it)")
+    for p, role, needs in ((Path(block), "the blocks' FMU (--fmu)", "contact.groundLoad"),
+                           (Path(building_fmu), "the building's FMU", "storey[1].a")):
+        _check_fmu(p, role, needs)
     return Path(block), Path(building_fmu)
+
+
+def _check_fmu(path: Path, role: str, needs: str) -> None:
+    """CosimError unless ``path`` is an FMI 2.0 Co-Simulation FMU with the variable ``needs``."""
+    from fmpy import read_model_description
+
+    if not path.is_file():
+        raise CosimError(f"{role} {path} not found (make fmu builds it)")
+    try:
+        md = read_model_description(str(path), validate=False)
+    except Exception as exc:  # noqa: BLE001 - not a zip, no modelDescription.xml, bad XML
+        raise CosimError(f"{role} {path} is not an FMU: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    if md.fmiVersion != "2.0" or md.coSimulation is None:
+        raise CosimError(f"{role} {path} is an FMI {md.fmiVersion} FMU{'' if md.coSimulation else ' without Co-Simulation'}: "
+                         "the co-simulation runs FMI 2.0 Co-Simulation FMUs")
+    if needs not in {v.name for v in md.modelVariables}:
+        raise CosimError(f"{role} {path} has no variable {needs}: not the FMU this needs, or an older build (make fmu)")
 
 
 # ------------------------------------------------------------------ results
@@ -319,11 +351,22 @@ def recorded_outputs(system: System) -> dict[str, list[str]]:
     return {BLOCK: block, BUILDING: building}
 
 
-def n_steps(system: System) -> int:
-    n = round(system.stop_time / system.step)
-    if not math.isclose(n * system.step, system.stop_time, rel_tol=1e-9, abs_tol=1e-12):
-        n = math.ceil(system.stop_time / system.step)
+def check_step(stop_time: float, step: float, step_name: str = "[coupling] step") -> int:
+    """The number of communication steps to stop_time (s); CosimError unless both are finite and
+    positive and stop_time is a whole number of steps (a fixed-step master cannot stop between)."""
+    try:
+        check_times(stop_time, step, "stop_time", step_name)
+    except SceneError as exc:
+        raise CosimError(str(exc)) from None
+    n = round(stop_time / step)
+    if n < 1 or abs(n * step - stop_time) > 1e-9 * stop_time:
+        raise CosimError(f"stop_time {stop_time:g} s is not a whole number of communication steps of {step:g} s "
+                         f"({stop_time / step:.6g}): a fixed-step co-simulation cannot stop between two")
     return n
+
+
+def n_steps(system: System) -> int:
+    return check_step(system.stop_time, system.step)
 
 
 # ------------------------------------------------------------------ engines
@@ -346,10 +389,11 @@ def _typed(md) -> dict[str, Any]:
     return {v.name: v for v in md.modelVariables}
 
 
-def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
+def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = None) -> CosimResult | None:
     """Run the SSP with fmpy: its SSD reader (validated against the SSP schema) gives components,
     parameter bindings and connections; fmpy's FMI 2.0 wrapper runs each FMU; the master steps
-    them as libcosim's fixed-step algorithm does."""
+    them as libcosim's fixed-step algorithm does. ``steps = 0`` only initialises the FMUs (None
+    when they accept their parameters, else CosimError with the FMU's message)."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                            fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
@@ -368,7 +412,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
     callbacks.logger = fmi2CallbackLoggerTYPE(logger)
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    h, n = system.step, n_steps(system)
+    h, n = system.step, n_steps(system) if steps is None else steps
     wanted = recorded_outputs(system)
     unzip = Path(tempfile.mkdtemp(prefix="rocking-cosim-"))
     slaves: dict[str, Any] = {}
@@ -431,7 +475,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None) -> CosimResult:
             except Exception:  # noqa: BLE001 - freeing after a failure
                 pass
         shutil.rmtree(unzip, ignore_errors=True)
-    return _result(system, "fmpy", h, rows, wanted)
+    return _result(system, "fmpy", h, rows, wanted) if rows else None
 
 
 def _set(slave, var, value) -> None:
@@ -480,6 +524,9 @@ def run_ssp_libcosim(system: System, ssp: Path, progress=None) -> CosimResult:
     why = libcosim_available()
     if why:
         raise CosimError(why)
+    # libcosim ends the process (std::terminate) when an FMU refuses its parameters: initialise
+    # them with fmpy first, which reports the FMU's own message
+    run_ssp_fmpy(system, ssp, steps=0)
     from libcosimpy.CosimEnums import CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
@@ -524,7 +571,8 @@ def run_ssp_libcosim(system: System, ssp: Path, progress=None) -> CosimResult:
         rows = []
         for k in range(n):
             if not execution.step():
-                raise CosimError(f"libcosim: the step from t = {k * h:g} s failed: {execution.status()}")
+                raise CosimError(f"libcosim: the step from t = {k * h:g} s failed (an FMU returned an error; "
+                                 "--engine fmpy shows its message)")
             rows.append(sample())
             if progress:
                 progress(k + 1, n)

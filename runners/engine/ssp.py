@@ -44,6 +44,14 @@ class Connection:
     end: str
 
 
+def resource(c: Component) -> str:
+    """Where the archive keeps c's FMU: resources/<component name>.fmu (whatever the file's own
+    name, which may hold characters a URI reference would need escaped)."""
+    if not c.name or not all(ch.isalnum() or ch in "_-" for ch in c.name):
+        raise ValueError(f"component name {c.name!r}: letters, digits, _ and - only")
+    return f"resources/{c.name}.fmu"
+
+
 def _ssv(value: Value) -> str:
     if isinstance(value, bool):
         return f'<ssv:Boolean value="{str(value).lower()}"/>'
@@ -70,7 +78,7 @@ def ssd_text(name: str, components: list[Component], connections: list[Connectio
                     f"  <ssd:System name={quoteattr(name)} description={quoteattr(description)}>",
                     "    <ssd:Elements>"]
     for c in components:
-        w.append(f'      <ssd:Component name={quoteattr(c.name)} source="resources/{c.fmu.name}" '
+        w.append(f'      <ssd:Component name={quoteattr(c.name)} source={quoteattr(resource(c))} '
                  'type="application/x-fmu-sharedlibrary">')
         w.append("        <ssd:Connectors>")
         for cname, (kind, typ) in c.connectors.items():
@@ -101,13 +109,14 @@ def ssd_text(name: str, components: list[Component], connections: list[Connectio
 
 def write_ssp(path: str | Path, name: str, components: list[Component], connections: list[Connection],
               start_time: float, stop_time: float, description: str = "") -> Path:
-    """Write the SSP archive ``path`` (SystemStructure.ssd and the FMUs in resources/), atomically."""
+    """Write the SSP archive ``path`` (SystemStructure.ssd and the FMUs in resources/, each named
+    after its component), atomically."""
     path = Path(path)
     if not path.parent.is_dir():
         raise FileNotFoundError(f"cannot write {path}: the folder {path.parent} does not exist")
-    fmus = {c.fmu.name: c.fmu for c in components}
-    if len(fmus) != len({c.fmu for c in components}):
-        raise ValueError("two different FMU files with the same name")
+    fmus = {resource(c): c.fmu for c in components}
+    if len(fmus) != len(components):
+        raise ValueError("two components with the same name")
     text = ssd_text(name, components, connections, start_time, stop_time, description)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     os.close(fd)
@@ -115,7 +124,7 @@ def write_ssp(path: str | Path, name: str, components: list[Component], connecti
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
             zf.writestr("SystemStructure.ssd", text)
             for fname, fpath in sorted(fmus.items()):
-                zf.write(fpath, f"resources/{fname}")
+                zf.write(fpath, fname)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
