@@ -212,17 +212,29 @@ def test_cli_cosim_writes_ssp_figure_and_json(fmu_path, building_fmu, tmp_path):
     os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
     try:
         p = runners("cosim", str(EXAMPLE), "--step", "0.002", "--compare", "--ssp", str(tmp_path / "s.ssp"),
-                    "--out", str(tmp_path / "f.png"), "--json", *env_fmu)
+                    "--out", str(tmp_path / "f.png"), "--csv", str(tmp_path / "s.csv"), "--json", *env_fmu)
     finally:
         del os.environ["ROCKING_BUILDING_FMU"]
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
     one, two = doc["runs"]
     assert (one["coupling"], two["coupling"]) == ("one-way", "two-way")
-    assert "energy_residual_j" in two and "energy_residual_j" not in one
+    assert "energy_residual_end_j" in two and "energy_residual_end_j" not in one
     # the cabinet's mass on the top floor lowers the building's first frequency
     assert two["frequencies_hz"][0] < one["frequencies_hz"][0]
     assert (tmp_path / "f.png").stat().st_size > 10_000 and zipfile.is_zipfile(tmp_path / "s.ssp")
+    # the series, every output at every communication point, read back: the two-way floor spikes at impacts
+    import pandas as pd
+
+    assert doc["series"] == [str(tmp_path / "s-one-way.csv"), str(tmp_path / "s-two-way.csv")]
+    series = pd.read_csv(tmp_path / "s-two-way.csv")
+    assert len(series) == two["steps"] and series["time"].iloc[-1] == pytest.approx(4.0)
+    assert series["building.storey[3].a"].abs().max() == pytest.approx(two["peak_floor_acceleration"], rel=1e-12)
+    assert two["peak_floor_acceleration_between_impacts"] < two["peak_floor_acceleration"]
+    # libcosim reads the step from the SSP's own annotation
+    from fmpy.ssp.ssd import read_ssd
+
+    assert read_ssd(str(tmp_path / "s.ssp"), validate=True).system.name
 
 
 @pytest.mark.parametrize("edit, message", [
@@ -293,3 +305,21 @@ def test_fmu_files_with_any_name_go_into_the_ssp(system, fmu_path, building_fmu,
         assert len(r.time) == 50
     if len(results) == 2:
         np.testing.assert_allclose(results[0]["block.block1.theta"], results[1]["block.block1.theta"], atol=1e-12)
+
+
+def test_a_stored_record_moves_the_base(fmu_path, building_fmu, tmp_path):
+    """[excitation] record = NAME reads the record from --db (the same motion as the file it came from)."""
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    p = runners("records", "import", str(ROOT / "examples" / "pulse_3hz.AT2"), "--db", db, "--quiet")
+    assert p.returncode == 0, p.stderr
+    stored = tmp_path / "stored.toml"
+    stored.write_text(EXAMPLE.read_text().replace('file = "pulse_3hz.AT2"', 'record = "pulse_3hz"'))
+    os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
+    try:
+        runs = [json.loads(runners("cosim", str(path), "--step", "0.002", "--json", "--fmu", str(fmu_path),
+                                   *extra).stdout)["runs"][0]
+                for path, extra in ((stored, ["--db", db]), (EXAMPLE, []))]
+    finally:
+        del os.environ["ROCKING_BUILDING_FMU"]
+    for key in ("peak_floor_displacement", "peak_abs_theta", "impacts", "final_slip"):
+        assert runs[0][key] == runs[1][key], key

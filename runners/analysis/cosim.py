@@ -22,7 +22,8 @@ from runners.engine.cosim import BLOCK, BUILDING, CosimError, CosimResult, Syste
 
 @dataclass
 class EnergyBalance:
-    """The two-way system's energy terms at t_1 .. t_n (J): ``energy`` E(t) - E(0) and
+    """The two-way system's energy terms at t_1 .. t_n (J), up to the blocks' overturn if they
+    overturn (the model then lays them down, outside any balance): ``energy`` E(t) - E(0) and
     ``expected`` (the base's work less the losses); ``residual`` their difference, ``scale`` the
     largest energy the system held or took in (the denominator a relative residual uses)."""
 
@@ -57,16 +58,21 @@ def energy_balance(result: CosimResult) -> EnergyBalance:
         raise CosimError("the energy balance needs the blocks' losses: contact.model = 1 (rocking-sliding) reports them")
     if any(float(sys_.blocks.get(k, 0.0)) != 0.0 for k in ("block1.theta0", "block1.omega0", "block2.theta0", "block2.omega0")):
         raise CosimError("the energy balance starts from rest: the blocks' theta0 and omega0 must be 0")
-    s = result.series
     b, k = f"{BUILDING}.", f"{BLOCK}."
+    standing = result.series[k + "overturned"] == 0
+    if not standing[0]:
+        raise CosimError("the blocks overturned in the first step: no energy balance to draw")
+    end = len(standing) if standing.all() else int(np.argmin(standing))
+    s = {name: x[:end] for name, x in result.series.items()}
     p = s[k + "momentum"]
-    e = s[b + "energy"] + s[k + "energy"] + result.floor("v") * p
+    e = s[b + "energy"] + s[k + "energy"] + s[f"{b}storey[{sys_.floor}].v"] * p
     losses = s[b + "dampingLoss"] + s[k + "block1.frictionLoss"] + s[k + "impactLoss"]
     if k + "block2.frictionLoss" in s:
         losses = losses + s[k + "block2.frictionLoss"]
-    expected = s[b + "baseWork"] - _cumtrapz0(result.time, s[b + "base.aTotal"] * p) - losses
+    time = result.time[:end]
+    expected = s[b + "baseWork"] - _cumtrapz0(time, s[b + "base.aTotal"] * p) - losses
     scale = float(max(np.max(np.abs(e)), np.max(np.abs(s[b + "baseWork"])), np.max(np.abs(losses)), 1e-300))
-    return EnergyBalance(result.time, e, expected, e - expected, scale)
+    return EnergyBalance(time, e, expected, e - expected, scale)
 
 
 def record_run(system: System, result: CosimResult, block_fmu: Path | None = None) -> dict[str, np.ndarray]:

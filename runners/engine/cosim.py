@@ -147,11 +147,13 @@ def building_from_dict(d: dict[str, Any], where: str) -> Building:
     n = d.get("storeys")
     if n is None and isinstance(d.get("mass"), list):
         n = len(d["mass"])
+    if n is None:
+        raise CosimError(f"{where}: [building] needs storeys (1 to {MAX_STOREYS}), or mass as a list of one value per floor")
     if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_STOREYS:
         raise CosimError(f"{where}: [building] storeys must be a whole number from 1 to {MAX_STOREYS}, got {n!r}")
-    for key in ("mass", "stiffness"):
+    for key, what in (("mass", "kg per floor"), ("stiffness", "N/m per storey")):
         if key not in d:
-            raise CosimError(f"{where}: [building] needs {key} (kg per floor / N/m per storey: one value or a list)")
+            raise CosimError(f"{where}: [building] needs {key} ({what}: one value, or a list bottom to top)")
     zeta = d.get("damping_ratio", 0.05)
     if isinstance(zeta, bool) or not isinstance(zeta, (int, float)) or not 0 <= zeta < 1:
         raise CosimError(f"{where}: [building] damping_ratio must be in [0, 1), got {zeta!r}")
@@ -279,7 +281,8 @@ def write_system_ssp(system: System, path: str | Path, block_fmu: Path | None = 
     description = (f"{system.name}: blocks on floor {system.floor} of a {system.building.storeys}-storey shear "
                    f"building, {system.coupling} coupling, communication step {system.step:g} s")
     try:
-        return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.stop_time, description)
+        return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.stop_time, description,
+                         system.step)
     except OSError as exc:
         raise CosimError(f"cannot write the SSP {path}: {exc.strerror or exc}") from None
 
@@ -543,7 +546,7 @@ def run_ssp_libcosim(system: System, ssp: Path, progress=None) -> CosimResult:
         with zipfile.ZipFile(ssp) as zf:
             zf.extractall(unzip)
         try:
-            execution = CosimExecution.from_ssp_file(str(unzip / "SystemStructure.ssd"), step_size=step_ns)
+            execution = CosimExecution.from_ssp_file(str(unzip / "SystemStructure.ssd"))  # the SSP's own step
         except Exception as exc:  # noqa: BLE001 - libcosim's loader reports through exceptions
             raise CosimError(f"libcosim could not load the SSP: {exc}") from None
         index = {s.name.decode(): s.index for s in execution.slave_infos()}

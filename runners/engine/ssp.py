@@ -18,7 +18,8 @@ from xml.sax.saxutils import quoteattr
 
 NS = ('xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
       'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
-      'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"')
+      'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" '
+      'xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations"')
 
 Value = float | int | bool | str
 
@@ -63,9 +64,11 @@ def _ssv(value: Value) -> str:
 
 
 def ssd_text(name: str, components: list[Component], connections: list[Connection], start_time: float,
-             stop_time: float, description: str = "") -> str:
+             stop_time: float, description: str = "", step: float | None = None) -> str:
     """The XML of SystemStructure.ssd: components with their FMUs under resources/, their
-    connectors and inline parameter values, the connections and the default experiment."""
+    connectors and inline parameter values, the connections and the default experiment; with
+    ``step`` (s), the fixed communication step as the Open Simulation Platform's annotation
+    (libcosim reads it: its loader needs a step)."""
     names = {c.name: c for c in components}
     for k in connections:
         for element, connector, kind in ((k.start_element, k.start, "output"), (k.end_element, k.end, "input")):
@@ -102,13 +105,20 @@ def ssd_text(name: str, components: list[Component], connections: list[Connectio
                  f"endElement={quoteattr(k.end_element)} endConnector={quoteattr(k.end)}/>")
     w.append("    </ssd:Connections>")
     w.append("  </ssd:System>")
-    w.append(f'  <ssd:DefaultExperiment startTime="{start_time!r}" stopTime="{stop_time!r}"/>')
+    experiment = f'  <ssd:DefaultExperiment startTime="{start_time!r}" stopTime="{stop_time!r}"'
+    if step is None:
+        w.append(experiment + "/>")
+    else:
+        w += [experiment + ">", "    <ssd:Annotations>", '      <ssc:Annotation type="com.opensimulationplatform">',
+              "        <osp:Algorithm>", f'          <osp:FixedStepAlgorithm baseStepSize="{step!r}"/>',
+              "        </osp:Algorithm>", "      </ssc:Annotation>", "    </ssd:Annotations>",
+              "  </ssd:DefaultExperiment>"]
     w.append("</ssd:SystemStructureDescription>")
     return "\n".join(w) + "\n"
 
 
 def write_ssp(path: str | Path, name: str, components: list[Component], connections: list[Connection],
-              start_time: float, stop_time: float, description: str = "") -> Path:
+              start_time: float, stop_time: float, description: str = "", step: float | None = None) -> Path:
     """Write the SSP archive ``path`` (SystemStructure.ssd and the FMUs in resources/, each named
     after its component), atomically."""
     path = Path(path)
@@ -117,7 +127,7 @@ def write_ssp(path: str | Path, name: str, components: list[Component], connecti
     fmus = {resource(c): c.fmu for c in components}
     if len(fmus) != len(components):
         raise ValueError("two components with the same name")
-    text = ssd_text(name, components, connections, start_time, stop_time, description)
+    text = ssd_text(name, components, connections, start_time, stop_time, description, step)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     os.close(fd)
     try:
