@@ -135,6 +135,8 @@ def cmd_cosim(args: argparse.Namespace) -> int:
         cosim.check_step(system.stop_time, system.step, "--step")
     if args.out:
         _check_figure_path(args.out)
+    if args.csv and not Path(args.csv).parent.is_dir():
+        raise ValueError(f"--csv {args.csv}: the folder {Path(args.csv).parent} does not exist")
     block_fmu = Path(args.fmu) if args.fmu else None
     two_way = "two-way" in ([*COUPLINGS] if args.compare else [system.coupling])
     if two_way and int(system.blocks.get("contact.model", 0)) != 1:
@@ -173,11 +175,17 @@ def cmd_cosim(args: argparse.Namespace) -> int:
             table = {"time": r.time, **r.series}
             import pandas as pd
 
-            pd.DataFrame(table).to_csv(path, index=False, float_format="%.17g")
+            try:
+                pd.DataFrame(table).to_csv(path, index=False, float_format="%.17g")
+            except OSError as exc:
+                raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
             out_files.append(str(path))
     if args.out:
         fig = checks.figure([r for r, _ in results], title=f"{system.name} (Jacobi, h = {system.step:g} s, {args.engine})")
-        fig.savefig(args.out, dpi=120)
+        try:
+            fig.savefig(args.out, dpi=120)
+        except OSError as exc:
+            raise ValueError(f"cannot write {args.out}: {exc.strerror or exc}") from None
     if args.json:
         out = {"runs": docs}
         if args.ssp:
