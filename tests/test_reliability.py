@@ -618,8 +618,20 @@ def _freeze(p: subprocess.Popen) -> dict[str, int | str] | None:
     it had already ended."""
     if p.poll() is not None:
         return None
-    os.killpg(p.pid, signal.SIGSTOP)
-    state = wait_for(lambda: (m := signal_masks(p.pid))["State"] in ("T", "Z") and m, "the command stopped", p)
+    try:
+        os.killpg(p.pid, signal.SIGSTOP)
+    except ProcessLookupError:  # it ended, and was reaped, since the poll
+        return None
+
+    def stopped() -> dict[str, int | str] | bool:
+        try:
+            m = signal_masks(p.pid)
+        except FileNotFoundError:  # it was ending when the SIGSTOP came (which does not stop an exit)
+            return {"State": "Z"}
+        return m["State"] in ("T", "Z") and m
+
+    # not wait_for(..., p): the command's end is an answer here, not a failure (it may end as it stops)
+    state = wait_for(stopped, "the command stopped")
     return None if state["State"] == "Z" else state
 
 
