@@ -55,31 +55,48 @@ def test_a_dask_sweep_stores_what_the_local_one_does(db_url, fmu, fmu_path, clie
     assert len(a) == 400 and a == b  # bit for bit: the same FMU on the same parameters
 
 
-def test_a_killed_dask_worker_loses_and_duplicates_no_point(db_url, fmu, fmu_path, client):
+class KillFirstFinisher(distributed.WorkerPlugin):
+    """Kills (SIGKILL) the worker process on which a task first finishes computing, once: the first worker to
+    finish a chunk of the sweep dies right there, mid-sweep, however fast the machine is. The pid
+    goes into ``marker`` (created atomically: only one worker wins)."""
+
+    name = "kill-first-finisher"
+
+    def __init__(self, marker: str):
+        self.marker = marker
+
+    def transition(self, key, start, finish, **kwargs):
+        if (start, finish) != ("executing", "memory"):  # a computed chunk (not the scattered set-up)
+            return
+        try:
+            fd = os.open(self.marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            return
+        os.write(fd, str(os.getpid()).encode())
+        os.close(fd)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_a_killed_dask_worker_loses_and_duplicates_no_point(db_url, fmu, fmu_path, client, tmp_path):
     factory = open_database(db_url)
     sweep_id = new_sweep(factory, fmu, (120, 100))
-    done: dict = {}
-    worker = threading.Thread(target=lambda: done.update(run_sweep(factory, sweep_id, fmu_path, progress=False,
-                                                                   client=client, chunk=150, batch=300)))
-    worker.start()
-
-    def landed() -> bool:
-        assert worker.is_alive(), "the sweep ended before its first batch was seen"
-        with factory() as s:
-            return s.get(Sweep, sweep_id).done > 0
-
-    wait_for(landed, "the first batch stored")  # then kill one worker
-    pids = client.run(os.getpid)
-    victim = sorted(pids.values())[0]
-    os.kill(victim, signal.SIGKILL)
-    worker.join(timeout=PATIENCE)
-    assert not worker.is_alive()
+    marker = tmp_path / "killed.pid"
+    before = set(client.run(os.getpid).values())
+    client.register_plugin(KillFirstFinisher(str(marker)))
+    try:
+        done = run_sweep(factory, sweep_id, fmu_path, progress=False, client=client, chunk=150, batch=300)
+    finally:
+        client.unregister_worker_plugin(KillFirstFinisher.name)
+    victim = int(marker.read_text())
+    assert victim in before  # one of the cluster's workers died, with the sweep's first chunk done
     with factory() as s:
         n = s.scalar(select(func.count()).select_from(Run).where(Run.sweep_id == sweep_id))
         distinct = s.scalar(select(func.count(func.distinct(Run.grid_index))).where(Run.sweep_id == sweep_id))
         sw = s.get(Sweep, sweep_id)
         assert (n, distinct, sw.done, sw.status) == (12000, 12000, 12000, "done")
-    assert victim not in client.run(os.getpid).values()  # the worker really died (and was replaced)
+    # the worker really died and the nanny replaced it (once the new one has joined)
+    wait_for(lambda: len(client.run(os.getpid)) == 2 and victim not in client.run(os.getpid).values(),
+             "the killed worker replaced")
     assert integrity_ok(factory.kw["bind"])
 
 
