@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import os
 import signal
-import threading
 
 import pytest
 from sqlalchemy import func, select
 
-from conftest import PATIENCE, run_cli, wait_for
+from conftest import run_cli, wait_for
 from db.schema import Run, RunSummary, Sweep
 from db.session import integrity_ok, open_database
 from runners.engine.scene import load_scene
@@ -84,7 +83,7 @@ def test_a_killed_dask_worker_loses_and_duplicates_no_point(db_url, fmu, fmu_pat
     before = set(client.run(os.getpid).values())
     client.register_plugin(KillFirstFinisher(str(marker)))
     try:
-        done = run_sweep(factory, sweep_id, fmu_path, progress=False, client=client, chunk=150, batch=300)
+        run_sweep(factory, sweep_id, fmu_path, progress=False, client=client, chunk=150, batch=300)
     finally:
         client.unregister_worker_plugin(KillFirstFinisher.name)
     victim = int(marker.read_text())
