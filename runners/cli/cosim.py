@@ -172,11 +172,8 @@ def cmd_cosim(args: argparse.Namespace) -> int:
         docs.append(doc)
     if args.csv:
         for (r, _), path in zip(results, _csv_paths(args.csv, [r.system.coupling for r, _ in results])):
-            table = {"time": r.time, **r.series}
-            import pandas as pd
-
             try:
-                pd.DataFrame(table).to_csv(path, index=False, float_format="%.17g")
+                r.to_pandas().to_csv(path, index=False, float_format="%.17g")
             except OSError as exc:
                 raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
             out_files.append(str(path))

@@ -345,6 +345,12 @@ class CosimResult:
         """The building's storey output ``name`` (u, v or a) at the blocks' floor."""
         return self.series[f"{BUILDING}.storey[{self.system.floor}].{name}"]
 
+    def to_pandas(self):
+        """A DataFrame: a column ``time`` (s), then every series (SI units)."""
+        import pandas as pd
+
+        return pd.DataFrame({"time": self.time, **self.series})
+
 
 def recorded_outputs(system: System) -> dict[str, list[str]]:
     """The variables a result keeps, per component."""
