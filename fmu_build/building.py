@@ -23,7 +23,7 @@ from xml.sax.saxutils import quoteattr
 
 from fmu_build.build import (C_DIR, GLIBC_COMPAT, GLIBC_COMPAT_FILES, VERSION, build_platforms, build_stamp,
                              compile_platforms, default_fmu_path, fmi_headers_dir, zip_fmu)
-from fmu_build.model_description import range_attributes, unit_definitions
+from fmu_build.model_description import range_attributes, start_attribute, unit_definitions
 from fmu_build.variables import Range, Variable, read_ranges, read_variables
 
 BUILDING_IDENTIFIER = "ShearBuilding"
@@ -80,14 +80,6 @@ def building_variables(tmp: Path) -> tuple[list[Variable], dict[str, Range]]:
     return variables, ranges
 
 
-def _start(v: Variable) -> str:
-    if v.type == "String":
-        return v.start
-    if v.type == "Integer":
-        return str(int(float(v.start)))
-    return repr(float(v.start))
-
-
 def building_model_description(variables: list[Variable], guid: str, ranges: dict[str, Range] | None = None) -> str:
     """The text of ShearBuilding's modelDescription.xml (FMI 2.0 Co-Simulation)."""
     index = {v.name: i for i, v in enumerate(variables, start=1)}
@@ -113,7 +105,7 @@ def building_model_description(variables: list[Variable], guid: str, ranges: dic
         extra = f' unit="{v.unit}"' if v.type == "Real" and v.unit else ""
         extra += range_attributes(v, ranges or {})
         if v.causality in ("parameter", "input"):
-            extra = f" start={quoteattr(_start(v))}" + extra
+            extra = f" start={quoteattr(start_attribute(v))}" + extra
         out.append(f"    <ScalarVariable {attrs}><{v.type}{extra}/></ScalarVariable>")
     out += ["  </ModelVariables>", "  <ModelStructure>", "    <Outputs>"]
     for v in variables:

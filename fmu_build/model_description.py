@@ -54,7 +54,8 @@ def unit_definitions(used_units: list[str]) -> list[str]:
     return lines
 
 
-def _start(v: Variable) -> str:
+def start_attribute(v: Variable) -> str:
+    """The text of v's start attribute (FMI 2.0 and 3.0 alike; a String's text as it is)."""
     if v.type == "String":
         return v.start
     if v.type == "Boolean":
@@ -166,7 +167,7 @@ def model_description(
             extra += f' derivative="{index[derivative_of[v.name]]}"'
         extra += range_attributes(v, ranges)
         if v.causality != "output":
-            extra = f" start={quoteattr(_start(v))}" + extra
+            extra = f" start={quoteattr(start_attribute(v))}" + extra
         w(f"    <ScalarVariable {attrs}><{element}{extra}/></ScalarVariable>")
     w("  </ModelVariables>")
     w("  <ModelStructure>")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from fmu_build.model_description import DISPLAY_UNITS, range_attributes, unit_definitions
+from fmu_build.model_description import DISPLAY_UNITS, range_attributes, start_attribute, unit_definitions
 from fmu_build.model_structure import DEPENDENCIES
 from fmu_build.variables import Enumeration, Range, Variable
 
@@ -14,14 +14,6 @@ TIME_VALUE_REFERENCE = 0
 
 # variables.def types and their FMI 3.0 elements
 FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
-
-
-def _start(v: Variable) -> str:
-    if v.type == "Boolean":
-        return "true" if float(v.start) != 0 else "false"
-    if v.type == "Integer":
-        return str(int(float(v.start)))
-    return repr(float(v.start))
 
 
 def _variable(v: Variable, enumerations: dict[str, Enumeration], ranges: dict[str, Range]) -> str:
@@ -52,7 +44,7 @@ def _variable(v: Variable, enumerations: dict[str, Enumeration], ranges: dict[st
         return f"    <{element} {' '.join(attrs)}/>"
     if element == "String":
         return f"    <String {' '.join(attrs)}><Start value={quoteattr(v.start)}/></String>"
-    return f"    <{element} {' '.join(attrs)} start={quoteattr(_start(v))}/>"
+    return f"    <{element} {' '.join(attrs)} start={quoteattr(start_attribute(v))}/>"
 
 
 def model_description3(

@@ -89,16 +89,6 @@ def building_frequencies(result) -> list[float]:
     return list(np.sqrt(w2) / (2 * np.pi))
 
 
-def _excitation_keys(path: str) -> set[str]:
-    """The keys of a system file's [excitation] (empty if it cannot be read: load_system says why)."""
-    import tomllib
-
-    try:
-        return set(tomllib.loads(Path(path).read_text(encoding="utf-8-sig")).get("excitation", {}))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, AttributeError):
-        return set()
-
-
 def _check_figure_path(out: str) -> None:
     """ValueError, before any run, unless the figure can be written there in a format matplotlib knows."""
     from matplotlib.figure import Figure
@@ -123,7 +113,7 @@ def cmd_cosim(args: argparse.Namespace) -> int:
     from runners.engine import cosim
 
     factory = None
-    if args.db or "record" in _excitation_keys(args.system):  # a stored record: the database (--db, else ROCKING_DB)
+    if args.db:  # where a stored base record is read (without --db: ROCKING_DB or rocking.db, when one is named)
         from db.session import open_database
 
         factory = open_database(args.db)

@@ -394,33 +394,21 @@ def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, bui
         return runner(system, path, progress)
 
 
-def _typed(md) -> dict[str, Any]:
-    return {v.name: v for v in md.modelVariables}
-
-
 def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = None) -> CosimResult | None:
     """Run the SSP with fmpy: its SSD reader (validated against the SSP schema) gives components,
     parameter bindings and connections; fmpy's FMI 2.0 wrapper runs each FMU; the master steps
     them as libcosim's fixed-step algorithm does. ``steps = 0`` only initialises the FMUs (None
     when they accept their parameters, else CosimError with the FMU's message)."""
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+    from fmpy.fmi2 import FMU2Slave
     from fmpy.ssp.ssd import read_ssd
 
-    from runners.engine.fmu import calloc, free
+    from runners.engine.fmu import fmi2_callbacks, getter, set_value
 
     ssd = read_ssd(str(ssp), validate=True)
     errors: list[str] = []  # the FMUs' own error messages, for a one-line error
-
-    def logger(env, name, status, category, message):
-        if status >= 3:
-            errors.append(f"{(name or b'').decode()}: {(message or b'').decode(errors='replace').replace('%%', '%')}")
-
-    callbacks = fmi2CallbackFunctions()  # kept alive until the instances are freed
-    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    callbacks = fmi2_callbacks(  # kept alive until the instances are freed
+        lambda status, name, _category, message: errors.append(f"{name}: {message}") if status >= 3 else None)
     h, n = system.step, n_steps(system) if steps is None else steps
     wanted = recorded_outputs(system)
     unzip = Path(tempfile.mkdtemp(prefix="rocking-cosim-"))
@@ -432,7 +420,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
         for comp in ssd.system.elements:
             fmu = unzip / comp.source
             md = read_model_description(str(fmu), validate=False)
-            vars_ = _typed(md)
+            vars_ = {v.name: v for v in md.modelVariables}
             s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu), unzipdir=str(unzip / comp.name)),
                           modelIdentifier=md.coSimulation.modelIdentifier, instanceName=comp.name)
             s.instantiate(callbacks=callbacks, loggingOn=False)
@@ -441,8 +429,8 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
             s.setupExperiment(startTime=0.0, stopTime=n * h)
             for binding in comp.parameterBindings:
                 for pset in binding.parameterValues:
-                    for par in pset.parameters:
-                        _set(s, vars_[par.name], par.value)
+                    for par in pset.parameters:  # an SSV Boolean comes as the text "true" or "false"
+                        set_value(s, vars_[par.name], par.value == "true" if par.type == "Boolean" else par.value)
             s.enterInitializationMode()
             s.exitInitializationMode()
         links = [(c.startElement, info[c.startElement][c.startConnector].valueReference,
@@ -452,13 +440,10 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
             for a, out, b, inp in links:
                 slaves[b].setReal([inp], slaves[a].getReal([out]))
 
+        readers = [getter(slaves[comp], [info[comp][name] for name in names]) for comp, names in wanted.items()]
+
         def sample() -> list[float]:
-            row = []
-            for comp, names in wanted.items():
-                vs = info[comp]
-                for name in names:
-                    row.append(_get(slaves[comp], vs[name]))
-            return row
+            return [x for read in readers for x in read()]
 
         transfer()
         rows = []
@@ -485,27 +470,6 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
                 pass
         shutil.rmtree(unzip, ignore_errors=True)
     return _result(system, "fmpy", h, rows, wanted) if rows else None
-
-
-def _set(slave, var, value) -> None:
-    vr = [var.valueReference]
-    if var.type == "Real":
-        slave.setReal(vr, [float(value)])
-    elif var.type in ("Integer", "Enumeration"):
-        slave.setInteger(vr, [int(value)])
-    elif var.type == "Boolean":
-        slave.setBoolean(vr, [bool(value) if not isinstance(value, str) else value == "true"])
-    else:
-        slave.setString(vr, [str(value)])
-
-
-def _get(slave, var) -> float:
-    vr = [var.valueReference]
-    if var.type == "Real":
-        return slave.getReal(vr)[0]
-    if var.type in ("Integer", "Enumeration"):
-        return float(slave.getInteger(vr)[0])
-    return float(slave.getBoolean(vr)[0])
 
 
 def _result(system: System, engine: str, h: float, rows: list[list[float]], wanted: dict[str, list[str]]) -> CosimResult:

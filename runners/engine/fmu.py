@@ -149,6 +149,57 @@ def with_scene_defaults(parameters: dict) -> dict:
     return {**SCENE_DEFAULTS, **parameters}
 
 
+def fmi2_callbacks(log: Callable[[int, str, str, str], None]) -> fmi2CallbackFunctions:
+    """FMI 2.0 callbacks whose logger calls ``log(status, instance name, category, message)``
+    (text, a printf format's "%%" back to "%"), with the C runtime's allocator. Keep them alive
+    as long as the instance they are given to."""
+
+    def logger(env, name, status, category, message):
+        # the FMU writes a message as a printf format (FMI 2.0): a literal % is "%%"
+        log(status, (name or b"").decode(errors="replace"), (category or b"").decode(),
+            (message or b"").decode(errors="replace").replace("%%", "%"))
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    return callbacks
+
+
+def set_value(slave: FMU2Slave, v, value) -> None:
+    """Set variable ``v`` (an fmpy ModelVariable; an Enumeration as an Integer) of an FMI 2.0 instance."""
+    if v.type == "Real":
+        slave.setReal([v.valueReference], [float(value)])
+    elif v.type in ("Integer", "Enumeration"):
+        slave.setInteger([v.valueReference], [int(value)])
+    elif v.type == "Boolean":
+        slave.setBoolean([v.valueReference], [bool(value)])
+    elif v.type == "String":
+        slave.setString([v.valueReference], [str(value)])
+    else:
+        raise TypeError(f"unsupported variable type {v.type} of '{v.name}'")
+
+
+def getter(slave: FMU2Slave, variables: list) -> Callable[[], list[float]]:
+    """A function reading ``variables`` (fmpy ModelVariables) of an instance as floats, one
+    FMI call per type."""
+    groups: dict[str, list[tuple[int, int]]] = {"Real": [], "Integer": [], "Boolean": []}
+    for i, v in enumerate(variables):
+        groups["Integer" if v.type == "Enumeration" else v.type].append((i, v.valueReference))
+    getters = {"Real": slave.getReal, "Integer": slave.getInteger, "Boolean": slave.getBoolean}
+
+    def get() -> list[float]:
+        row = [0.0] * len(variables)
+        for typ, items in groups.items():
+            if items:
+                vals = getters[typ]([vr for _, vr in items])
+                for (i, _), val in zip(items, vals):
+                    row[i] = float(val)
+        return row
+
+    return get
+
+
 class UnknownVariable(KeyError):
     """A variable the FMU does not have; str() is the one-line message (KeyError's would quote it)."""
 
@@ -228,14 +279,7 @@ class RockingFMU:
         pointer to the last Python logger given to it, which dangles once that logger is
         collected and then crashes any other FMU that logs through fmpy's defaults."""
 
-        def logger(env, name, status, category, message):
-            # the FMU writes a message as a printf format (FMI 2.0): a literal % is "%%"
-            log(status, (category or b"").decode(), (message or b"").decode(errors="replace").replace("%%", "%"))
-
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        callbacks = fmi2_callbacks(lambda status, _name, category, message: log(status, category, message))
         md = self.model_description
         cls, kind = (FMU2Model, md.modelExchange) if interface == "ModelExchange" else (FMU2Slave, md.coSimulation)
         with _LOAD_LOCK:
@@ -264,36 +308,10 @@ class RockingFMU:
         """Set a scene's parameters on an instance before initialisation, with
         :data:`SCENE_DEFAULTS` for those it leaves out."""
         for name, value in with_scene_defaults(parameters).items():
-            v = self.variable(name)
-            if v.type == "Real":
-                slave.setReal([v.valueReference], [float(value)])
-            elif v.type == "Integer":
-                slave.setInteger([v.valueReference], [int(value)])
-            elif v.type == "Boolean":
-                slave.setBoolean([v.valueReference], [bool(value)])
-            elif v.type == "String":
-                slave.setString([v.valueReference], [str(value)])
-            else:
-                raise TypeError(f"unsupported variable type {v.type} of '{name}'")
+            set_value(slave, self.variable(name), value)
 
     def _getter(self, slave: FMU2Slave, names: Iterable[str]) -> Callable[[], list[float]]:
-        groups: dict[str, list[tuple[int, int]]] = {"Real": [], "Integer": [], "Boolean": []}
-        names = list(names)
-        for i, n in enumerate(names):
-            v = self.variable(n)
-            groups[v.type].append((i, v.valueReference))
-        getters = {"Real": slave.getReal, "Integer": slave.getInteger, "Boolean": slave.getBoolean}
-
-        def get() -> list[float]:
-            row = [0.0] * len(names)
-            for typ, items in groups.items():
-                if items:
-                    vals = getters[typ]([vr for _, vr in items])
-                    for (i, _), val in zip(items, vals):
-                        row[i] = float(val)
-            return row
-
-        return get
+        return getter(slave, [self.variable(n) for n in names])
 
     @staticmethod
     def _step(slave: FMU2Slave, t: float, h: float) -> bool:
