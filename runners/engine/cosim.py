@@ -523,22 +523,23 @@ def run_ssp_libcosim(system: System, ssp: Path, progress=None) -> CosimResult:
         observer = CosimObserver.create_last_value()
         execution.add_observer(observer)
         wanted = recorded_outputs(system)
-        refs = {}
+        read = {CosimVariableType.REAL: observer.last_real_values, CosimVariableType.INTEGER: observer.last_integer_values,
+                CosimVariableType.BOOLEAN: observer.last_boolean_values}
+        groups = []  # (slave, type, [(column, reference)]): one observer call per slave and type
+        column = 0
         for comp, names in wanted.items():
             vs = {v.name.decode(): v for v in execution.slave_variables(index[comp])}
-            refs[comp] = [(vs[name].reference, CosimVariableType(vs[name].type)) for name in names]
+            by_type: dict[CosimVariableType, list[tuple[int, int]]] = {}
+            for name in names:
+                by_type.setdefault(CosimVariableType(vs[name].type), []).append((column, vs[name].reference))
+                column += 1
+            groups += [(index[comp], typ, items) for typ, items in by_type.items()]
 
         def sample() -> list[float]:
-            row = []
-            for comp, rs in refs.items():
-                i = index[comp]
-                for ref, typ in rs:
-                    if typ == CosimVariableType.REAL:
-                        row.append(observer.last_real_values(i, [ref])[0])
-                    elif typ == CosimVariableType.INTEGER:
-                        row.append(float(observer.last_integer_values(i, [ref])[0]))
-                    else:
-                        row.append(float(observer.last_boolean_values(i, [ref])[0]))
+            row = [0.0] * column
+            for i, typ, items in groups:
+                for (j, _), value in zip(items, read[typ](i, [ref for _, ref in items])):
+                    row[j] = float(value)
             return row
 
         rows = []
