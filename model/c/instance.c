@@ -340,10 +340,7 @@ Status instance_begin_access(Instance *I, int set, const void *vr, size_t nvr, c
 
 void instance_update_outputs(Instance *I) {
     if (I->s.dirty || !(I->s.phase & (PHASE_INITIALIZATION | RUNNING_PHASES))) return;
-    Variables *v = &I->s.model.v;
-    double load = v->groundLoad;
     solver_outputs(&I->s.model, I->s.tc);
-    if (I->s.tc > I->s.startTime) v->groundLoad = load; /* the last step's mean stays until the next step */
 }
 
 Status instance_set_real(Instance *I, unsigned vr, double value, const char *fn) {
@@ -634,9 +631,14 @@ Status instance_do_step(Instance *I, double currentPoint, double h, int earlyRet
     }
     double reached = stop.stopped ? stop.time : target;
     I->s.tc = reached;
-    solver_outputs(M, reached);
     /* the mean load over the step, impacts' impulses included: what the ground gave the blocks' momentum */
-    if (reached > tc) M->v.groundLoad = -(M->v.momentum - momentum0) / (reached - tc);
+    M->s.loadValid = 0;
+    solver_outputs(M, reached);
+    if (reached > tc) {
+        M->s.loadMean = -(M->v.momentum - momentum0) / (reached - tc);
+        M->s.loadValid = 1;
+        M->v.groundLoad = M->s.loadMean;
+    }
     r->time = reached;
     r->event = stop.stopped;
     r->earlyReturn = stop.stopped && reached < target;

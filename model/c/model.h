@@ -218,6 +218,10 @@ typedef struct {
      * of the equation of motion (valid with fValid: while t, y, f are that end's) */
     int endValid;
     double endTr, endN;
+    /* contact.groundLoad's mean over the last communication step (Co-Simulation: instance_do_step
+     * sets it, with loadValid = 1); without one (loadValid = 0) the output is the load at the time */
+    int loadValid;
+    double loadMean;
 } State;
 
 typedef struct {

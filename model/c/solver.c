@@ -799,10 +799,12 @@ static void outputs_at(Model *M, double tc) {
 void solver_outputs(Model *M, double tc) {
     Variables *v = &M->v;
     outputs_at(M, tc);
-    /* the load on the ground at tc, -(rate of change of the momentum relative to the ground);
-     * instance_do_step replaces it by its mean over the step */
+    /* the last communication step's mean load, else the load on the ground at tc: -(rate of
+     * change of the momentum relative to the ground) */
     double mass = v->mass + (v->nBlocks == 2 ? v->mass2 : 0.0);
-    v->groundLoad = M->s.mode == MODE_OVERTURNED ? 0.0 : -(v->groundT - mass * v->ahTotal);
+    v->groundLoad = M->s.loadValid                ? M->s.loadMean
+                    : M->s.mode == MODE_OVERTURNED ? 0.0
+                                                   : -(v->groundT - mass * v->ahTotal);
 }
 
 void solver_log_pending(const Model *M, double tc, const Logger *log) {
@@ -1253,9 +1255,8 @@ int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg
     out.v.alphaDD2 = M->v.alphaDD2;
     out.v.ahTotal = M->v.ahTotal;
     out.v.avTotal = M->v.avTotal;
-    /* the last step's mean load depends on the momentum at the step's start, not on this state */
-    if (!isfinite(M->v.groundLoad)) FAIL("contact.groundLoad = %g is not finite", M->v.groundLoad);
-    out.v.groundLoad = M->v.groundLoad;
+    if (!(M->s.loadValid == 0 || M->s.loadValid == 1) || !isfinite(M->s.loadMean))
+        FAIL("the last step's mean load (valid %d) = %g is not a load", M->s.loadValid, M->s.loadMean);
 #define VAR(T, vr, field, name, caus, var, start, unit, desc)         \
     if (memcmp(&out.v.field, &M->v.field, sizeof(out.v.field)) != 0) \
         FAIL("%s is not what the state gives at t = %.17g", name, tc);
