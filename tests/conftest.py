@@ -32,6 +32,15 @@ def fmu3_path() -> Path:
 
 
 @pytest.fixture(scope="session")
+def building_fmu_path() -> Path:
+    """build/ShearBuilding.fmu (or ROCKING_BUILDING_FMU, which runners cosim reads too)."""
+    from fmu_build.building import build_building_fmu
+
+    env = os.environ.get("ROCKING_BUILDING_FMU")
+    return Path(env).resolve() if env else build_building_fmu()
+
+
+@pytest.fixture(scope="session")
 def fmu(fmu_path: Path):
     with RockingFMU(fmu_path) as f:
         yield f

@@ -8,7 +8,6 @@ themselves (damping ratio zeta at modes 1 and 2 from eigh's frequencies; N = 1: 
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import zipfile
@@ -24,7 +23,6 @@ from fmpy.fmi2 import (FMU2Slave, calloc, fmi2CallbackAllocateMemoryTYPE, fmi2Ca
 from scipy.integrate import solve_ivp
 from scipy.linalg import eigh
 
-from fmu_build.building import build_building_fmu
 
 # a three-storey building with unequal floors (kg, N/m)
 MASSES = [2.0e4, 1.5e4, 1.0e4]
@@ -33,9 +31,8 @@ ZETA = 0.05
 
 
 @pytest.fixture(scope="module")
-def building_fmu(tmp_path_factory) -> tuple[str, object]:
-    env = os.environ.get("SHEAR_BUILDING_FMU")
-    path = Path(env).resolve() if env else build_building_fmu()
+def building_fmu(building_fmu_path, tmp_path_factory) -> tuple[str, object]:
+    path = building_fmu_path
     return extract(str(path), str(tmp_path_factory.mktemp("shear_building"))), read_model_description(str(path))
 
 
@@ -408,10 +405,10 @@ def test_invalid_call_sequences_are_errors_not_crashes(building):
         building.s.doStep(0.1, 0.1)
 
 
-def test_the_fmu_validates_and_declares_its_interface(building_fmu):
+def test_the_fmu_validates_and_declares_its_interface(building_fmu, building_fmu_path):
     from fmpy.validation import validate_fmu
 
-    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    path = str(building_fmu_path)
     assert validate_fmu(path) == []
     md = building_fmu[1]
     assert md.coSimulation.canHandleVariableCommunicationStepSize and md.modelExchange is None
@@ -448,10 +445,10 @@ def test_only_fmi2_functions_are_exported(building_fmu):
     assert "fmi2DoStep" in exported and all(n.startswith("fmi2") for n in exported), exported
 
 
-def test_the_shipped_sources_rebuild_into_the_same_model(building_fmu, tmp_path):
+def test_the_shipped_sources_rebuild_into_the_same_model(building_fmu, building_fmu_path, tmp_path):
     from fmpy.build import build_platform_binary
 
-    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    path = str(building_fmu_path)
     unzipdir = tmp_path / "fmu"
     with zipfile.ZipFile(path) as zf:
         zf.extractall(unzipdir)
@@ -468,7 +465,7 @@ def test_the_shipped_sources_rebuild_into_the_same_model(building_fmu, tmp_path)
     np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-9 * np.abs(runs[0]).max())
 
 
-def test_libcosim_runs_it_as_fmpy_does(building_fmu):
+def test_libcosim_runs_it_as_fmpy_does(building_fmu, building_fmu_path):
     """libcosim (pip libcosimpy, the engine of the SSP runs) sees every variable, sets start values
     and inputs, and steps it to the same result as fmpy (it keeps time in integer nanoseconds)."""
     pytest.importorskip("libcosimpy", reason="libcosimpy is not installed")
@@ -479,7 +476,7 @@ def test_libcosim_runs_it_as_fmpy_does(building_fmu):
     from libcosimpy.CosimSlave import CosimLocalSlave
 
     log_output_level(CosimLogLevel.WARNING)
-    path = os.environ.get("SHEAR_BUILDING_FMU") or str(build_building_fmu())
+    path = str(building_fmu_path)
     execution = CosimExecution.from_step_size(10_000_000)  # 10 ms
     index = execution.add_local_slave(CosimLocalSlave(fmu_path=path, instance_name="building"))
     assert index >= 0

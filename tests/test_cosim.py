@@ -27,13 +27,8 @@ EXAMPLE = ROOT / "examples" / "cabinet_on_floor.toml"
 
 
 @pytest.fixture(scope="session")
-def building_fmu() -> Path:
-    env = os.environ.get("ROCKING_BUILDING_FMU")
-    if env:
-        return Path(env).resolve()
-    from fmu_build.building import build_building_fmu
-
-    return build_building_fmu()
+def building_fmu(building_fmu_path) -> Path:
+    return building_fmu_path
 
 
 @pytest.fixture(scope="module")
@@ -202,19 +197,18 @@ def test_libcosim_runs_the_ssp_as_fmpy_does(system, fmu_path, building_fmu):
 
 # ------------------------------------------------------------------ the command line
 
-def runners(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+def runners(*args: str, building: Path | None = None) -> subprocess.CompletedProcess:
+    """The command line in its own process; ``building``: the ShearBuilding.fmu it uses."""
     exe = Path(sys.executable).parent / "runners"
-    return subprocess.run([str(exe), *args], capture_output=True, text=True, cwd=cwd, timeout=300)
+    env = {**os.environ, **({"ROCKING_BUILDING_FMU": str(building)} if building else {})}
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, env=env, timeout=300)
 
 
 def test_cli_cosim_writes_ssp_figure_and_json(fmu_path, building_fmu, tmp_path):
     env_fmu = ["--fmu", str(fmu_path)]
-    os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
-    try:
-        p = runners("cosim", str(EXAMPLE), "--step", "0.002", "--compare", "--ssp", str(tmp_path / "s.ssp"),
-                    "--out", str(tmp_path / "f.png"), "--csv", str(tmp_path / "s.csv"), "--json", *env_fmu)
-    finally:
-        del os.environ["ROCKING_BUILDING_FMU"]
+    p = runners("cosim", str(EXAMPLE), "--step", "0.002", "--compare", "--ssp", str(tmp_path / "s.ssp"),
+                "--out", str(tmp_path / "f.png"), "--csv", str(tmp_path / "s.csv"), "--json", *env_fmu,
+                building=building_fmu)
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
     one, two = doc["runs"]
@@ -270,11 +264,7 @@ def test_libcosim_gets_no_parameters_an_fmu_would_refuse(fmu_path, building_fmu,
     (tmp_path / "pulse_3hz.AT2").write_bytes((ROOT / "examples" / "pulse_3hz.AT2").read_bytes())
     bad = tmp_path / "bad.toml"
     bad.write_text(EXAMPLE.read_text().replace("[simulation]", "[simulation]\ng = 0.0"))
-    os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
-    try:
-        p = runners("cosim", str(bad), "--engine", "libcosim", "--fmu", str(fmu_path))
-    finally:
-        del os.environ["ROCKING_BUILDING_FMU"]
+    p = runners("cosim", str(bad), "--engine", "libcosim", "--fmu", str(fmu_path), building=building_fmu)
     assert p.returncode == 2, (p.returncode, p.stderr)
     assert p.stderr.strip().splitlines() == [p.stderr.strip()] and "g = 0" in p.stderr, p.stderr
 
@@ -315,12 +305,8 @@ def test_a_stored_record_moves_the_base(fmu_path, building_fmu, tmp_path):
     assert p.returncode == 0, p.stderr
     stored = tmp_path / "stored.toml"
     stored.write_text(EXAMPLE.read_text().replace('file = "pulse_3hz.AT2"', 'record = "pulse_3hz"'))
-    os.environ["ROCKING_BUILDING_FMU"] = str(building_fmu)
-    try:
-        runs = [json.loads(runners("cosim", str(path), "--step", "0.002", "--json", "--fmu", str(fmu_path),
-                                   *extra).stdout)["runs"][0]
-                for path, extra in ((stored, ["--db", db]), (EXAMPLE, []))]
-    finally:
-        del os.environ["ROCKING_BUILDING_FMU"]
+    runs = [json.loads(runners("cosim", str(path), "--step", "0.002", "--json", "--fmu", str(fmu_path),
+                               *extra, building=building_fmu).stdout)["runs"][0]
+            for path, extra in ((stored, ["--db", db]), (EXAMPLE, []))]
     for key in ("peak_floor_displacement", "peak_abs_theta", "impacts", "final_slip"):
         assert runs[0][key] == runs[1][key], key
