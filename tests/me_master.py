@@ -48,6 +48,10 @@ class Sample:
 class MeRun:
     samples: list[Sample] = field(default_factory=list)
     events: int = 0  # event iterations after the initialization
+    # the times (s) at which the solver evaluated the event indicators: the ends of its steps
+    # (run_scipy records them; an indicator whose sign is the same at both ends of a step is
+    # not seen, whatever it did in between)
+    steps: list[float] = field(default_factory=list)
 
     def final(self, name: str) -> float:
         return self.samples[-1].values[name]
@@ -214,6 +218,7 @@ def run_scipy(fmu_path: Path, params: dict, stop: float, outputs: list[str], met
                 if sol.status < 0:
                     raise ImporterFailure(f"solve_ivp {method} failed at t={t}: {sol.message}")
                 t_new, x = sol.t[-1], sol.y[:, -1]
+                run.steps.extend(float(s) for s in sol.t[1:])
                 if sol.status == 1:
                     t_new, x = _past_root(m, sol.sol, t_new, z_start)
                 if sol.status == 1 and not t_new > t:
