@@ -170,12 +170,12 @@ def test_a_statue_on_a_plinth_gives_a_curve_per_block_and_damage_state_equal_to_
 
     matplotlib.use("Agg")
     import runners
-    from runners.engine import study
+    from runners.analysis import study_figures
 
     curves = runners.open_db(db).sweep(1).fragilities("pga", states)
     assert [(c.fragility.median, c.fragility.beta) for c in curves] == \
         [(c["median"], c["beta"]) for c in out["curves"]]
-    fig = study.curves_figure(curves)
+    fig = study_figures.curves_figure(curves)
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert len(fig.axes) == 1 and all(any(c.label in t for t in legend) for c in curves)
     assert runners.open_db(db).sweep(1).fragility(ds="block1:overturn").median == out["curves"][0]["median"]
@@ -187,6 +187,7 @@ def test_the_ida_of_a_stack_shows_each_blocks_own_peak_and_overturn(db, fmu_path
     import matplotlib
 
     matplotlib.use("Agg")
+    from runners.analysis import study_figures
     from runners.engine import study
 
     scene = tmp_path / "plinth.toml"
@@ -204,7 +205,7 @@ def test_the_ida_of_a_stack_shows_each_blocks_own_peak_and_overturn(db, fmu_path
         statue_alone += r["block2_overturned"] and not r["block1_overturned"]
     assert statue_alone > 0
     oc = study.outcome_sets(open_database(db), 1)[0]
-    fig = study.ida_figure(oc)
+    fig = study_figures.ida_figure(oc)
     top = 1.08
     plinth = fig.axes[0]
     names = list(dict.fromkeys(oc.record))

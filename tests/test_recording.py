@@ -222,6 +222,7 @@ def test_a_10000_point_sweep_recording_reads_back_in_under_500_mb(tmp_path, fmu_
     wait4 ru_maxrss either: Linux carries the forking pytest process's peak over the exec."""
     import time
 
+    from runners.analysis.sweep_map import sweep_picture
     from runners.engine.fmu import RockingFMU
     from runners.engine.recording import write_sweep_recording
     from runners.engine.scene import load_scene
@@ -234,7 +235,7 @@ def test_a_10000_point_sweep_recording_reads_back_in_under_500_mb(tmp_path, fmu_
         defaults = f.defaults()
     sid = create_sweep(factory, scene, [Axis("w", 1.0, 12.0, 100), Axis("a", 1.01, 8.0, 100)], defaults)
     assert run_sweep(factory, sid, fmu_path, progress=False)["stored"] == 10_000
-    rrd = write_sweep_recording(tmp_path / "big.rrd", factory, sid)
+    rrd = write_sweep_recording(tmp_path / "big.rrd", factory, sid, sweep_picture(factory, sid))
     child = subprocess.Popen([sys.executable, "-c", READ_SWEEP, str(rrd)], stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, text=True)
     seen, deadline = 0.0, time.monotonic() + PATIENCE  # a last resort: the cap is on memory

@@ -98,6 +98,7 @@ def run_record_bench(fmu_path: Path, repeats: int = 20, native_repeats: int = 20
 def _study(fmu_path: Path, parameters: dict, workers: int) -> dict:
     """The fragility study (import, sweep, fit) in a scratch database: its walls and fit."""
     from db.session import open_database
+    from runners.analysis import study_figures
     from runners.engine import records, study
     from runners.engine.scene import Scene
     from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep
@@ -118,7 +119,7 @@ def _study(fmu_path: Path, parameters: dict, workers: int) -> dict:
         t0 = time.perf_counter()
         oc = study.outcomes(factory, sid, "pga")
         frag = study.fragility(oc)
-        study.plot_fragility(Path(tmp) / "fragility.png", frag, oc)
+        study_figures.plot_fragility(Path(tmp) / "fragility.png", frag, oc)
         t_frag = time.perf_counter() - t0
     return {"import": t_import, "sweep": t_sweep, "fit": t_frag, "stats": st, "frag": frag}
 

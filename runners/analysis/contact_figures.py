@@ -161,7 +161,8 @@ def rigid_rocking_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Pa
 def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
     """contact_fragility.png: the cabinet's fragility with the runs outside rigid rocking marked."""
     from db.session import open_database
-    from runners.analysis.fragility import FragilityError
+    from runners.engine.fragility import FragilityError
+    from runners.analysis import study_figures
     from runners.engine import study
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -172,7 +173,7 @@ def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
             frag = study.fragility(oc)
         except FragilityError:
             frag = None
-        return study.plot_fragility(out, frag, oc)
+        return study_figures.plot_fragility(out, frag, oc)
 
 
 # motion classes of rocking–sliding runs (runners.engine.motion) and their colours

@@ -199,6 +199,7 @@ def sliding_cabinet(ctx: "Context", out: Path) -> list[Path]:
     one panel per mu, and the IDA of its peak slip."""
     from db.session import open_database
     from runners.analysis.record_figures import suite_refs
+    from runners.analysis import study_figures
     from runners.engine import study
     from runners.engine.scene import Scene
     from runners.engine.sweep import Axis, create_sweep, parse_intensity, run_sweep
@@ -211,8 +212,8 @@ def sliding_cabinet(ctx: "Context", out: Path) -> list[Path]:
                        ctx.fmu.defaults(), refs[:8] if ctx.quick else refs, parse_intensity(levels))
     run_sweep(factory, sid, ctx.fmu.path, progress=False)
     sets = study.outcome_sets(factory, sid, "pga")
-    return [study.plot_curves(out / "sliding_cabinet.png", study.curves(sets, CABINET_STATES)),
-            study.plot_ida(out / "sliding_cabinet_ida.png", sets, "slip")]
+    return [study_figures.plot_curves(out / "sliding_cabinet.png", study.curves(sets, CABINET_STATES)),
+            study_figures.plot_ida(out / "sliding_cabinet_ida.png", sets, "slip")]
 
 
 def cosim_cabinet(ctx: "Context", out: Path) -> list[Path]:

@@ -43,6 +43,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from runners.engine.scene import restitution
+
 TWO_BLOCK_PARAMETERS = ("block2.halfWidth", "block2.halfHeight", "block2.mass", "block2.theta0", "block2.omega0",
                         "restitution.etaGround", "restitution.etaInterface")
 
@@ -183,20 +185,6 @@ def combined_block_parameters(p: dict[str, Any]) -> dict[str, Any]:
 def one_block_parameters(p: dict[str, Any]) -> dict[str, Any]:
     """The scene's parameters for the one-block model (drops the upper block)."""
     return {k: v for k, v in p.items() if k not in TWO_BLOCK_PARAMETERS and k != "nBlocks"}
-
-
-def restitution(p: dict[str, Any], alpha: float) -> float:
-    """The one-block coefficient of restitution of the scene (as the FMU computes it)."""
-    from model.reference import housner_restitution, modified_restitution  # loads SciPy: only when used
-
-    law = int(p["restitution.law"])
-    if law == 0:
-        eta = housner_restitution(alpha)
-    elif law == 1:
-        eta = modified_restitution(alpha, p["restitution.k"])
-    else:
-        eta = p["restitution.eta"]
-    return eta * p["restitution.correction"]
 
 
 def closed_form_summary(p: dict[str, Any]) -> dict[str, Any]:

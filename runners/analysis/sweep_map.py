@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 from sqlalchemy import select
-from sqlalchemy.orm import selectinload
 
-from db.schema import Run, RunSummary, Scene, Sweep
+from db.schema import Run, RunSummary, Sweep
 from model import closed_form as cf
-from runners.analysis.least_model import restitution
+from runners.engine.scene import restitution
 from runners.engine.summary import outcome_held
+from runners.engine.sweep_runs import broke, load, rigid_rocking_held, sweep_and_scene  # noqa: F401 (read by the maps)
 from runners.engine.sweep import Axis, scales
 
 # the axes of every overturning map (Dimitrakopoulos & DeJong 2012's dimensionless groups)
@@ -43,16 +43,6 @@ BROKE_LABEL = "rigid rocking broke first: a contact slid or lifted off before th
 DOTS_UP_TO = 20_000  # points of a map up to which those points are dots; above, hatching
 
 
-def rigid_rocking_held(summary: RunSummary) -> bool:
-    """Whether the run's model decided its outcome (runners.engine.summary.outcome_held): True
-    where the method did not monitor the contacts. A rocking–sliding run (summary.motion set)
-    slides by its own model: only a lift-off (flight) is outside it."""
-    if summary.assumptions_held is None or summary.assumptions_held:
-        return True
-    slide = None if getattr(summary, "motion", None) is not None else summary.slide_time
-    return outcome_held(summary.overturned, slide, summary.lift_time, summary.fall_time)
-
-
 def region(run: Run) -> int:
     """The outcome of a point (REGIONS index), as rigid rocking gives it."""
     if run.status != "ok" or run.summary is None:
@@ -60,32 +50,6 @@ def region(run: Run) -> int:
     if not run.summary.overturned:
         return 0
     return 1 if (run.summary.impacts or 0) > 0 else 2
-
-
-def broke(run: Run) -> bool:
-    """A point whose contacts slid or lifted off before its outcome was decided."""
-    return run.status == "ok" and run.summary is not None and not rigid_rocking_held(run.summary)
-
-
-def _sweep_and_scene(factory, sweep_id: str) -> tuple[Sweep, Scene]:
-    with factory() as session:
-        if sweep_id == "latest":
-            sw = session.scalars(select(Sweep).order_by(Sweep.id.desc()).limit(1)).first()
-        else:
-            if not sweep_id.isdigit():
-                raise ValueError(f"SWEEP_ID must be an integer or 'latest', got {sweep_id!r}")
-            sw = session.get(Sweep, int(sweep_id))
-        if sw is None:
-            raise ValueError(f"no sweep {sweep_id} in the database")
-        return sw, session.get(Scene, sw.scene_id)
-
-
-def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
-    sw, scene = _sweep_and_scene(factory, sweep_id)
-    with factory() as session:
-        runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)
-                               .options(selectinload(Run.summary))).all()  # one query, not one per run
-        return sw, scene, list(runs)
 
 
 MAP_ROWS = 200_000  # stored points read at a time by map_columns
@@ -178,7 +142,7 @@ def mappable(factory, sweep_id: str, instead: str, runs: bool = True):
     axes, not over records, points stored); ValueError in one line otherwise, naming `instead`
     (the commands that draw a record sweep, with {id} for the sweep's id). With runs=False the
     runs are not loaded (None): the map reads its columns itself (map_columns)."""
-    sw, scene, runs = load(factory, sweep_id) if runs else (*_sweep_and_scene(factory, sweep_id), None)
+    sw, scene, runs = load(factory, sweep_id) if runs else (*sweep_and_scene(factory, sweep_id), None)
     if runs is None and not sw.done:
         runs = []
     if sw.grid.get("records"):
@@ -281,3 +245,21 @@ def draw_counted(factory, sweep_id: str, out: Path) -> tuple[str, dict[str, int]
     text = (f"sweep {sw.id}: " + ", ".join(f"{n} {c}" for n, c in zip(REGIONS, counts))
             + f"; rigid rocking broke first at {n_broke}; map written to {out}")
     return text, dict(zip(REGIONS, counts)), n_broke
+
+
+def sweep_picture(factory, sweep_id: int) -> bytes:
+    """A PNG of a stored sweep, for its recording (runners.engine.recording.write_sweep_recording):
+    its overturning map, or for a sweep over records its IDA curves (of the PGA)."""
+    import tempfile
+
+    sw, _ = sweep_and_scene(factory, str(sweep_id))
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "picture.png"
+        if sw.grid.get("records"):  # a sweep over records has no map: its IDA curves instead
+            from runners.analysis.study_figures import plot_ida
+            from runners.engine.study import outcomes
+
+            plot_ida(png, outcomes(factory, sweep_id, "pga"))
+        else:
+            draw(factory, str(sweep_id), png)
+        return png.read_bytes()

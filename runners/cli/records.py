@@ -193,11 +193,12 @@ def _head(sets) -> dict:
 
 
 def cmd_fragility(args: argparse.Namespace) -> int:
-    from runners.analysis.fragility import FragilityError
+    from runners.analysis import study_figures
+    from runners.engine.fragility import FragilityError
 
     study, sets, out = _study(args)
     cs = study.curves(sets, args.ds)
-    study.plot_curves(out, cs)
+    study_figures.plot_curves(out, cs)
     if all(c.fragility is None for c in cs):  # still show what was observed
         if len(cs) == 1:
             raise FragilityError(f"{cs[0].why} (the fractions {'overturned' if args.ds is None else 'reached'} are "
@@ -243,10 +244,12 @@ def _ida_run(oc, i: int) -> dict:
 
 
 def cmd_ida(args: argparse.Namespace) -> int:
+    from runners.analysis import study_figures
+
     study, sets, out = _study(args)
     demand = study.check_demand(args.demand, sets, args.block)
     block = study.check_block(args.block, sets)
-    study.plot_ida(out, sets, demand, block)
+    study_figures.plot_ida(out, sets, demand, block)
     if args.json:
         combos = [{"combination": oc.combination, "first_overturn": study.first_overturn(oc),
                    "not_monotonic": study.resurrections(oc),

@@ -96,10 +96,12 @@ def cmd_rrd(args: argparse.Namespace) -> int:
     if args.sweep is not None:
         if args.run is not None:
             raise ValueError("give a RUN_ID or --sweep SWEEP_ID, not both")
+        from runners.analysis.sweep_map import sweep_picture
         from runners.engine.recording import write_sweep_recording
 
         with output.busy(f"recording sweep {args.sweep}"):
-            path = write_sweep_recording(Path(out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep)
+            path = write_sweep_recording(Path(out or f"recordings/sweep-{args.sweep}.rrd"), factory, args.sweep,
+                                         sweep_picture(factory, args.sweep))
         emit_json({"sweep": args.sweep, "recording": str(path)}) if args.json else print(path)
         return 0
     if args.run is None:

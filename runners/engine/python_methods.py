@@ -17,7 +17,7 @@ from model import two_blocks as tb
 from model.reference import Block
 from model.solvers import Scene, solve_event_driven, solve_fixed_step
 from model.two_block_solver import StackScene, solve_stack
-from runners.analysis.least_model import restitution
+from runners.engine.scene import restitution
 from runners.errors import ArgumentError
 
 FIXED = {"rk4": ("rk4", False), "rk4-located": ("rk4", True), "newmark": ("newmark", True),

@@ -402,22 +402,21 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     return path
 
 
-def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
+def write_sweep_recording(path: Path, factory, sweep_id: int, picture: bytes | None = None) -> Path:
     """One recording of a sweep: on a `grid_index` sequence, each point's grid values (and record,
     scale and intensity measures) and summary (overturned, impacts, peak / alpha), whether the
-    point was recorded in full (runners sweep --record), and its overturning map (a sweep over
-    records: its IDA curves) as a PNG at the first grid index.
+    point was recorded in full (runners sweep --record), and `picture`, a PNG of the sweep (its
+    overturning map, or for a sweep over records its IDA curves: runners.analysis.sweep_map.
+    sweep_picture draws it), at the first grid index (entity /map, or /ida for a sweep over records).
 
     Nothing large is static: Rerun's dataframe API joins static data to every row of a query,
     so ``dataset.reader(index="grid_index").to_arrow_table()`` of a 10,000-point sweep would
     repeat a static image 10,000 times (23 GB for an 880 x 660 RGBA map). Logged once at the
     first index, the viewer still shows it at every index (latest-at) and the read stays small
     (1.5 MB for 10,000 points; tests/test_recording.py)."""
-    import tempfile
-
     import rerun as rr
 
-    from runners.analysis.sweep_map import draw, load
+    from runners.engine.sweep_runs import load
 
     sw, scene, runs = load(factory, str(sweep_id))
     runs = sorted(runs, key=lambda r: r.grid_index)
@@ -427,21 +426,13 @@ def write_sweep_recording(path: Path, factory, sweep_id: int) -> Path:
     rec.save(str(path))
     rec.send_property("sweep", rr.AnyValues(id=sw.id, scene=scene.name, total=sw.total))
     on_records = bool(sw.grid.get("records"))
-    with tempfile.TemporaryDirectory() as tmp:
-        png = Path(tmp) / "map.png"
-        if on_records:  # a sweep over records has no map: its IDA curves instead
-            from runners.engine.study import outcomes, plot_ida
-
-            plot_ida(png, outcomes(factory, sweep_id, "pga"))
-        else:
-            draw(factory, str(sweep_id), png)
-        png_bytes = png.read_bytes()
-    # The picture is logged once, at the first grid index, and not static: the viewer shows it at every
-    # later index (latest-at), while a dataframe query on grid_index carries it in one row only. Static
-    # data is joined to every row of such a query (a 10,000-point sweep would repeat it 10,000 times).
-    first = [rr.TimeColumn("grid_index", sequence=[min((r.grid_index for r in runs), default=0)])]
-    rec.send_columns("/ida" if on_records else "/map", indexes=first,
-                     columns=rr.EncodedImage.columns(blob=[png_bytes], media_type=["image/png"]))
+    if picture is not None:
+        # The picture is logged once, at the first grid index, and not static: the viewer shows it at every
+        # later index (latest-at), while a dataframe query on grid_index carries it in one row only. Static
+        # data is joined to every row of such a query (a 10,000-point sweep would repeat it 10,000 times).
+        first = [rr.TimeColumn("grid_index", sequence=[min((r.grid_index for r in runs), default=0)])]
+        rec.send_columns("/ida" if on_records else "/map", indexes=first,
+                         columns=rr.EncodedImage.columns(blob=[picture], media_type=["image/png"]))
     idx = [rr.TimeColumn("grid_index", sequence=np.array([r.grid_index for r in runs], dtype=np.int64))]
     ok = [r.summary is not None for r in runs]
     columns = {

@@ -17,7 +17,7 @@ from runners.errors import ArgumentError
 if TYPE_CHECKING:
     import pandas as pd
 
-    from runners.analysis.fragility import Fragility
+    from runners.engine.fragility import Fragility
     from runners.engine.study import Curve, Outcomes
     from sqlalchemy.orm import sessionmaker
 
@@ -108,10 +108,10 @@ class SweepResult:
                   select: dict[str, float] | None = None) -> "Fragility":
         """The lognormal fragility of damage state ``ds`` (default overturn, of either block; see
         fragilities) fitted to a record sweep by maximum likelihood
-        (runners.analysis.fragility.Fragility: median and dispersion beta, in the unit of
+        (runners.engine.fragility.Fragility: median and dispersion beta, in the unit of
         ``measure``). Raises FragilityError when the runs cannot determine it, StudyError when
         the sweep has other --grid axes and ``select`` does not pick one combination."""
-        from runners.analysis.fragility import FragilityError
+        from runners.engine.fragility import FragilityError
         from runners.engine import study
 
         if not isinstance(ds, str):
@@ -132,7 +132,7 @@ class SweepResult:
         ``[BLOCK:]slide>D`` (rocking-sliding sweeps: peak |slip| beyond D in m, cm or mm, e.g.
         ``slide>5cm``, or overturned; block 2's along block 1's top), ``block2:falloff``
         (rocking-sliding stacks: block 2 fell off block 1). Draw them with
-        runners.engine.study.curves_figure."""
+        runners.analysis.study_figures.curves_figure."""
         from runners.engine import study
 
         if not isinstance(ds, (list, tuple)) or not all(isinstance(d, str) for d in ds):

@@ -330,3 +330,17 @@ def load_scene(path: str | Path) -> Scene:
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: invalid TOML: {exc}") from None
     return scene_from_dict(data, str(path))
+
+
+def restitution(p: dict[str, Any], alpha: float) -> float:
+    """The one-block coefficient of restitution of the scene (as the FMU computes it)."""
+    from model.reference import housner_restitution, modified_restitution  # loads SciPy: only when used
+
+    law = int(p["restitution.law"])
+    if law == 0:
+        eta = housner_restitution(alpha)
+    elif law == 1:
+        eta = modified_restitution(alpha, p["restitution.k"])
+    else:
+        eta = p["restitution.eta"]
+    return eta * p["restitution.correction"]
