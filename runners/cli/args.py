@@ -173,3 +173,24 @@ def common(p: argparse.ArgumentParser, json: bool = True, db: bool = False, fmu:
     if fmu:
         p.add_argument("--fmu", help=fmu_help)
     return p
+
+
+def files(p: argparse.ArgumentParser, reads: tuple = (), writes: tuple = ()) -> None:
+    """Declare which of a command's arguments (by dest, or (dest, label)) name files it reads and
+    files it writes: runners.cli.clobber.check refuses, before the command runs, an output that is
+    an input, the database or another output. Each is named in messages by its label, else as the
+    user spelt it (its first long option; a positional by its dest). tests/test_cli_conventions.py
+    checks that every declared dest exists and that every option of type output_file is declared."""
+    def entry(item) -> tuple[str, str]:
+        dest, given = (item, None) if isinstance(item, str) else item
+        for action in p._actions:
+            if action.dest == dest and not isinstance(action, Renamed):
+                if given:
+                    return dest, given
+                if action.option_strings:
+                    return dest, next((o for o in action.option_strings if o.startswith("--")),
+                                      action.option_strings[0])
+                return dest, dest.replace("_", " ")
+        return dest, given or "--" + dest.replace("_", "-")  # an option common() adds later (--fmu)
+
+    p.set_defaults(_files=([entry(d) for d in reads], [entry(d) for d in writes]))

@@ -9,7 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import common, output_file, positive
+from runners.cli.args import common, files, output_file, positive
 
 ENGINES = ("fmpy", "libcosim")  # runners.engine.cosim.ENGINES (imported when the command runs)
 COUPLINGS = ("one-way", "two-way")
@@ -231,4 +231,5 @@ def add_parser(sub) -> None:
                    help="write every output at every communication point (SI units); with --compare, FILE-one-way.csv "
                         "and FILE-two-way.csv")
     common(p, db=True, fmu=True)
+    files(p, reads=[("system", "system file"), "fmu"], writes=["ssp", "out", "csv"])
     p.set_defaults(func=cmd_cosim)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from runners.cli.args import common, count, object_id
+from runners.cli.args import common, count, files, object_id
 from runners.cli.output import emit_json
 
 TABLE_NAMES = ["blocks", "runs", "scenes", "sweeps", "measurements"]
@@ -245,6 +245,7 @@ def add_parser(sub) -> None:
     imp = dsub.add_parser("import-unsaved", help="store a run that could not be stored when it ran "
                                                  "(the rocking-unsaved-*.json file the error named)")
     imp.add_argument("file", help="rocking-unsaved-*.json")
+    files(imp, reads=[("file", "unsaved run file")])
     imp.set_defaults(func=cmd_import_unsaved)
     for p in (init, lst, show, imp):
         common(p, db=True)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from runners.cli import output
-from runners.cli.args import common, object_id, output_file
+from runners.cli.args import common, files, object_id, output_file
 
 FORMATS = ("csv", "parquet", "json")  # runners.engine.export.FORMATS (imported when the command runs)
 
@@ -65,4 +65,5 @@ def add_parser(sub) -> None:
                     help="file to write (default: run-ID.EXT or sweep-ID.EXT in the working folder; a run's "
                          "events go beside it, as NAME-events.EXT; an existing file is replaced)")
     common(ex, db=True)
+    files(ex, writes=["out"])
     ex.set_defaults(func=cmd_export)

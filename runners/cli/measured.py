@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from runners.cli import output
-from runners.cli.args import common, object_id, output_file, renamed
+from runners.cli.args import common, files, object_id, output_file, renamed
 from runners.cli.output import emit_json
 
 if TYPE_CHECKING:
@@ -366,6 +366,7 @@ def add_parser(sub) -> None:
     imp.add_argument("--excitation", type=int, metavar="EXCITATION_ID",
                      help="for a forced-rocking rotation or peak table: the stored excitation that drove it "
                           "(e.g. the one a table record's import printed); none means free rocking")
+    files(imp, reads=[("file", "measured file")])
     imp.set_defaults(func=cmd_import)
     cmp_ = sub.add_parser("compare", help="a stored run against a measurement: aligned errors, plot, recording")
     cmp_.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
@@ -377,6 +378,7 @@ def add_parser(sub) -> None:
     cmp_.add_argument("--recording", type=output_file, metavar="RRD",
                       help="also write the run's Rerun recording with the measurement overlaid to this file")
     renamed(cmp_, "--rrd", "--recording", dest="recording", type=output_file)
+    files(cmp_, reads=["fmu"], writes=["out", "recording"])
     cmp_.set_defaults(func=cmd_compare)
     exp = sub.add_parser("export-measured", help="write a stored run as a measured CSV file, with optional noise")
     exp.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
@@ -389,6 +391,7 @@ def add_parser(sub) -> None:
     exp.add_argument("--seed", type=int, default=0, help="random seed of the noise")
     exp.add_argument("--every", type=int, default=1, help="rotation: keep every Nth output sample")
     exp.add_argument("--max-peaks", type=int, default=1000, help="peaks: keep at most this many (at least 1)")
+    files(exp, writes=["out"])
     exp.set_defaults(func=cmd_export)
     cal = sub.add_parser("calibrate", help="fit the restitution to a measured free-rocking decay")
     cal.add_argument("measurement", type=object_id, metavar="MEASUREMENT_ID",

@@ -18,9 +18,9 @@ import os
 import sys
 from pathlib import Path
 
-from runners.cli import output
-from runners.cli.args import (Once, Parser, common, count, finite, folder, object_id, output_file, positive,
-                              renamed, tolerance)
+from runners.cli import clobber, output
+from runners.cli.args import (Once, Parser, common, count, files, finite, folder, object_id, output_file,
+                              positive, renamed, tolerance)
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 
@@ -110,6 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--accuracy", type=tolerance, default=1e-2,
                      help="relative accuracy asked of --method auto (default 1e-2)")
     common(sim, db=True, fmu=True)
+    files(sim, reads=[("scene", "scene file"), ("measured", "measured file"), ("record", "record file"), "fmu"],
+          writes=["rrd"])
     sim.set_defaults(func=f"{main}:cmd_simulate")
 
     sw = sub.add_parser("sweep", help="run a grid of one scene in parallel and store it; or finish a stored sweep")
@@ -168,6 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--out", type=output_file, metavar="PNG",
                     help="figure to write (default: overturning_map.png, mode_map.png or slip_map.png)")
     common(mp, db=True)
+    files(mp, writes=["out"])
     mp.set_defaults(func=f"{main}:cmd_map")
 
     from runners.cli.db import add_parser as add_db_parser
@@ -307,6 +310,7 @@ def main(argv: list[str] | None = None) -> int:
     quiet = bool(getattr(args, "quiet", False))
     try:
         _prepare(args)
+        clobber.check(args)  # no output may be an input, the database or another output
         func = args.func
         if isinstance(func, str):
             module, name = func.split(":")

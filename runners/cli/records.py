@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import Once, common, object_id, output_file, renamed
+from runners.cli.args import Once, common, files, object_id, output_file, renamed
 from runners.cli.output import emit_json, note
 
 
@@ -280,6 +280,7 @@ def add_parser(sub) -> None:
                                      "otherwise): 'acceleration=g'")
     imp.add_argument("--sign", help="for .AT2 and .csv: +x (default) or -x")
     renamed(imp, "--no-progress", "--quiet", dest="no_progress", value=True)
+    files(imp, reads=[("source_or_file", "record file")])
     imp.set_defaults(func=cmd_import, no_progress=False)
     ls = rsub.add_parser("list", help="the stored records with their intensity measures")
     ls.add_argument("--suite", help="only this suite (or the suites under it, e.g. fema-p695)")
@@ -289,10 +290,12 @@ def add_parser(sub) -> None:
     sh.add_argument("--out", type=output_file, metavar="PNG",
                     help="also draw its acceleration, velocity and displacement in this figure")
     renamed(sh, "--plot", "--out", dest="out", type=output_file)
+    files(sh, writes=["out"])
     sh.set_defaults(func=cmd_show)
     ex = rsub.add_parser("export", help="write a stored record as a record file the FMU reads")
     ex.add_argument("record", metavar="RECORD", help="record name or id")
     ex.add_argument("--out", type=output_file, required=True, metavar="FILE", help="record file to write")
+    files(ex, writes=["out"])
     ex.set_defaults(func=cmd_export)
     studies = []
     for name, func, what in (
@@ -323,6 +326,7 @@ def add_parser(sub) -> None:
                                  "sweeps)")
             st.add_argument("--block", action=Once, metavar="1|2",
                             help="of a stack, only this block's demand (default: one panel per block)")
+        files(st, writes=["out"])
         st.set_defaults(func=func)
         studies.append(st)
     for p in (imp, ls, sh, ex, *studies):

@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import common, folder, object_id, output_file, renamed
+from runners.cli.args import common, files, folder, object_id, output_file, renamed
 from runners.cli.output import emit_json
 
 
@@ -175,6 +175,7 @@ def add_parser(sub) -> None:
     rr_.add_argument("--measured", metavar="CSV", help="overlay a measured series on a run's recording "
                                                         "(docs/measured.md)")
     renamed(rr_, "--no-progress", "--quiet", dest="no_progress", value=True)
+    files(rr_, reads=[("measured", "measured file"), "fmu"], writes=["out"])
     rr_.set_defaults(func=cmd_rrd, no_progress=False)
     vw = sub.add_parser("view", help="open a stored run's recording in the Rerun viewer")
     vw.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
@@ -184,6 +185,7 @@ def add_parser(sub) -> None:
     sh.add_argument("--out", type=output_file, default="rerun_viewer.png", metavar="PNG",
                     help="figure to write (default: ./rerun_viewer.png; --out docs/figures/rerun_viewer.png "
                          "replaces the tracked one)")
+    files(sh, writes=["out"])
     sh.set_defaults(func=cmd_screenshot)
     for p in (rr_, vw, sh):
         common(p, db=True, fmu=True, fmu_help="FMU whose parameter defaults the recording shows "
