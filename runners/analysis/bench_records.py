@@ -119,7 +119,7 @@ def _study(fmu_path: Path, parameters: dict, workers: int) -> dict:
         t0 = time.perf_counter()
         oc = study.outcomes(factory, sid, "pga")
         frag = study.fragility(oc)
-        study_figures.plot_fragility(Path(tmp) / "fragility.png", frag, oc)
+        study_figures.plot_fragility(Path(tmp) / "fragility.png", oc)
         t_frag = time.perf_counter() - t0
     return {"import": t_import, "sweep": t_sweep, "fit": t_frag, "stats": st, "frag": frag}
 

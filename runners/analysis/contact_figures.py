@@ -161,19 +161,13 @@ def rigid_rocking_regions(fmu: RockingFMU, out: Path, quick: bool = False) -> Pa
 def cabinet_fragility(fmu: RockingFMU, out: Path, quick: bool = False) -> Path:
     """contact_fragility.png: the cabinet's fragility with the runs outside rigid rocking marked."""
     from db.session import open_database
-    from runners.engine.fragility import FragilityError
     from runners.analysis import study_figures
-    from runners.engine import study
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'cabinet.db'}")
         refs = suite_refs(factory, SUITE)
         oc = record_study(factory, fmu, CABINET_NAME, CABINET, refs, "pga=0.1:1.5:6" if quick else PGA_LEVELS)
-        try:
-            frag = study.fragility(oc)
-        except FragilityError:
-            frag = None
-        return study_figures.plot_fragility(out, frag, oc)
+        return study_figures.plot_fragility(out, oc)
 
 
 # motion classes of rocking–sliding runs (runners.engine.motion) and their colours

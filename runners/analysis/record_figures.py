@@ -148,13 +148,11 @@ def statue_study(fmu: RockingFMU, out: Path) -> list[Path]:
     """The worked example: fragility (out) and IDA (records_statue_ida.png next to it)."""
     from db.session import open_database
     from runners.analysis import study_figures
-    from runners.engine import study
 
     with tempfile.TemporaryDirectory() as tmp:
         factory = open_database(f"sqlite:///{Path(tmp) / 'study.db'}")
         oc = record_study(factory, fmu, STATUE_NAME, STATUE, suite_refs(factory), "pga=0.05:1.0:20")
-        frag = study.fragility(oc)
-        return [study_figures.plot_fragility(out, frag, oc), study_figures.plot_ida(out.with_name("records_statue_ida.png"), oc)]
+        return [study_figures.plot_fragility(out, oc), study_figures.plot_ida(out.with_name("records_statue_ida.png"), oc)]
 
 
 def plinth_states(fmu: RockingFMU, out: Path) -> Path:

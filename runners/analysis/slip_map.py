@@ -18,12 +18,12 @@ was decided are dotted in the colour every map uses for a broken model
 from __future__ import annotations
 
 import math
-import textwrap
 from pathlib import Path
 
 import numpy as np
 
-from runners.analysis.sweep_map import BROKE_COLOUR, FREQUENCY, amplitude_label, block_title, broke, mappable
+from runners.analysis.sweep_map import (BROKE_COLOUR, FREQUENCY, amplitude_label, broke, map_title, mappable,
+                                        sweep_and_scene, sweep_parameters)
 from runners.engine.motion import MOTIONS, ROCKING_SLIDING, rocking_sliding
 from runners.engine.sweep import scales
 
@@ -56,8 +56,12 @@ def mode_of(run) -> str:
 def _sliding_sweep(factory, sweep_id: str):
     """(sweep, scene, runs, drawn axes, parameters) of a stored rocking–sliding sweep a map can
     draw; ValueError (NoSlip for rigid rocking) in one line otherwise."""
-    sw, scene, runs, axes, p = mappable(factory, sweep_id, "runners fragility {id} --ds slide>5cm or "
-                                                           "runners ida {id} --demand slip")
+    sw, scene = sweep_and_scene(factory, sweep_id)
+    instead = ("runners fragility {id} --ds slide>5cm or runners ida {id} --demand slip"
+               if sliding_sweep(sw, sweep_parameters(sw, scene)) else
+               "runners fragility {id} or runners ida {id} (its runs are rigid rocking, which has no modes or slip: "
+               "contact.model = rocking-sliding gives them)")
+    sw, scene, runs, axes, p = mappable(factory, sweep_id, instead)
     if not sliding_sweep(sw, p):
         raise NoSlip(no_slip(sw.id))
     if all(r.summary is None or r.summary.motion is None for r in runs):
@@ -127,11 +131,6 @@ def _lifted(ax, runs, axes: list[str], y_of) -> int:
     return len(lifted)
 
 
-def _title(ax, sw, scene, runs, p: dict, what: str, axes: list[str]) -> None:
-    mu = "" if MU in axes else f", mu = {p.get(MU, math.nan):g}"
-    head = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(runs)} of {sw.total} points): {what}, "
-                         f"rocking–sliding model{mu}", 100)
-    ax.set_title(head + "\n" + textwrap.fill(block_title(p), 110), fontsize=8.5)
 
 
 def mode_figure(factory, sweep_id: str):
@@ -168,8 +167,7 @@ def mode_figure(factory, sweep_id: str):
     h2, l2 = ax.get_legend_handles_labels()
     ax.legend(handles + h2, labels + l2, fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.09),
               frameon=False)
-    _title(ax, sw, scene, runs, p, "what the block does (Shenton 1996's modes)", axes)
-    fig.tight_layout()
+    map_title(fig, ax, sw, scene, p, axes, "what the block does (Shenton 1996's modes)", len(runs))
     return fig, {c: n for c, n in counts.items() if c in MOTIONS or n}, n_lifted, sw
 
 
@@ -218,8 +216,7 @@ def slip_figure(factory, sweep_id: str):
         handles.append(plt.Rectangle((0, 0), 1, 1, color=FAILED_COLOUR))
         labels.append(f"failed or no slip ({int(np.isnan(values).sum())})")
     ax.legend(handles, labels, fontsize=8, ncol=1, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
-    _title(ax, sw, scene, runs, p, "peak |slip| of block 1 (m)", axes)
-    fig.tight_layout()
+    map_title(fig, ax, sw, scene, p, axes, "peak |slip| of block 1 (m)", len(runs))
     return fig, largest, n_lifted, sw
 
 

@@ -7,177 +7,55 @@ grid combination) and IDA curves, as matplotlib Figures (shown inline in a noteb
     study_figures.curves_figure(study.curves(sets, ["block2:overturn", "block2:falloff"]))
     study_figures.plot_ida("ida.png", sets, "slip", block=2)
 
+What a reviewer needs is on the figure itself: each curve with its 95 % band, solid over the
+intensities run and dashed where it extrapolates; states reached by the same runs drawn as one
+curve that names them all; the runs the model did not answer (runners.engine.study.UNANSWERED)
+counted per level in a strip of their own, never mixed into the probability axis; titles built
+from the parameters the runs used (runners.engine.describe), not from the scene's name; the
+warnings of the fit (runners.engine.study.fit_warnings) in the footer; legends beside the axes,
+never over the data. In an IDA a run the model did not answer is a lower bound (an open
+triangle, its record's line broken there); a block that overturned or fell off is marked in a
+strip above the demand axis, never at an invented demand.
+
 Intensities in g (PGA), m/s (PGV, Arias intensity) or m (PGD); rotations over alpha; slips in m.
 """
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
 from runners.analysis.sweep_map import BROKE_COLOUR
-from runners.engine.fragility import Fragility
+from runners.engine import describe
 from runners.engine.intensity import G0
-from runners.engine.study import (Curve, DamageState, Outcomes, StudyError, by_combination, check_block,
-                                  check_demand, ida_panels, state_notes)
-
-
-def _save(fig, out: str | Path) -> Path:
-    import matplotlib.pyplot as plt
-
-    out = Path(out)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out
-
-
-def plot_fragility(out: str | Path, frag: Fragility | None, oc: Outcomes) -> Path:
-    """fragility_figure written to `out` (PNG)."""
-    return _save(fragility_figure(frag, oc), out)
-
-
-def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes], demand: str = "rotation",
-             block: int | str | None = None) -> Path:
-    """ida_figure written to `out` (PNG)."""
-    return _save(ida_figure(oc, demand, block), out)
-
+from runners.engine.study import (IDA_UNANSWERED, UNANSWERED, Curve, DamageState, Outcomes, StudyError,
+                                  by_combination, check_block, check_demand, check_unanswered, curves, fit_warnings,
+                                  ida_median, ida_panels, state_notes)
 
 MAX_PANELS = 12  # grid combinations one figure draws (more: select some)
 CURVE_COLOURS = ["#08519c", "#cb181d", "#6a51a3", "#d94801", "#525252", "#8c510a"]
 CURVE_MARKERS = ["o", "s", "^", "v", "D", "P"]
+WARNING_COLOUR = "#a50f15"
+SLIP_FLOOR = 1e-4  # m: an IDA's log axis of slips starts here; smaller peaks (no slip) sit on it
 
 
-def _uplift_label(oc: Outcomes) -> str | None:
-    thr = oc.uplift_threshold()
-    if thr is None:
-        return None
-    if oc.sliding and oc.two:
-        return f"no motion from rest below the stack's uplift and mu g of both contacts = {thr:.4g} g"
-    if oc.sliding:
-        return f"no motion from rest below min(mu, tan alpha) g = {thr:.4g} g (Shenton 1996)"
-    return (f"static uplift threshold {thr:.4g} g (= {thr * G0:.3g} m/s2 with the model's g = {oc.params['g']:g} "
-            f"m/s2, over g0 = {G0})")
+def _save(fig, out: str | Path) -> Path:
+    from runners.analysis.plotting import save_png
+
+    return save_png(fig, out, dpi=120)
 
 
-def _panel(ax, cs: list[Curve]) -> None:
-    """One combination's damage states on `ax`: per state the fraction of runs that reached it per
-    level (marker area ~ runs) and, with a fit, its curve and 95 % band; one state alone also gets
-    the median with its interval. Runs where rigid rocking broke first, and for PGA the uplift
-    threshold, are marked."""
-    oc = cs[0].outcomes
-    groups = oc.bins()
-    xs = np.array([np.median(oc.x[g]) for g in groups])
-    n = np.array([g.size for g in groups])
-    grid = np.geomspace(max(xs.min() * 0.5, 1e-6), xs.max() * 1.3, 400)
-    single = len(cs) == 1
-    per_level = f"{int(n.min())}" if n.min() == n.max() else f"{int(n.min())}-{int(n.max())}"
-    from matplotlib.lines import Line2D
-
-    states = []  # one legend entry per damage state (its curve and its markers), several states
-    for i, c in enumerate(cs):
-        colour = CURVE_COLOURS[i % len(CURVE_COLOURS)]
-        marker = CURVE_MARKERS[i % len(CURVE_MARKERS)]
-        k = np.array([int(c.reached[g].sum()) for g in groups])
-        f = c.fragility
-        if f is not None:
-            if single:  # several states' bands would hide each other
-                lo, hi = f.band(grid)
-                ax.fill_between(grid, lo, hi, color="#9ecae1", alpha=0.5, lw=0, label="95 % band")
-            ax.plot(grid, f.probability(grid), color=colour, lw=2,
-                    label=f"fit: median {f.median:.3g} {oc.unit}, beta {f.beta:.2f} (Baker 2015)" if single else None)
-        what = "overturned" if c.state == DamageState("overturn") else f"where {c.label}"
-        ax.scatter(xs, k / n, s=12 + 60 * n / n.max(), color="#cb181d" if single else colour, zorder=3,
-                   marker=marker, edgecolor="k", lw=0.4,
-                   label=f"fraction {what} ({per_level} runs per level)" if single else None)
-        fitted = f"median {f.median:.3g} {oc.unit}, beta {f.beta:.2f}" if f is not None else "no fit"
-        states.append(Line2D([], [], color=colour, marker=marker, markeredgecolor="k", markeredgewidth=0.4,
-                             lw=2 if f is not None else 0, label=f"{c.label}: {fitted}"))
-        if single and f is not None:
-            ax.axvline(f.median, color=colour, lw=0.8, ls="--")
-            ax.axvspan(*f.median_interval, color=colour, alpha=0.08,
-                       label=f"median 95 %: {f.median_interval[0]:.3g}-{f.median_interval[1]:.3g} {oc.unit}")
-    if oc.n_broke:
-        b = np.array([int(oc.broke[g].sum()) for g in groups])
-        ax.scatter(xs[b > 0], (b / n)[b > 0], s=30, marker="D", color=BROKE_COLOUR, zorder=4, edgecolor="k", lw=0.4,
-                   label=f"fraction where {oc.broke_words()} ({oc.n_broke} of {len(oc.x)} runs)")
-    thr = _uplift_label(oc)
-    if thr is not None:
-        ax.axvline(oc.uplift_threshold(), color="#238b45", lw=1.2, ls=":", label=thr)
-    ax.set_xlabel(f"{oc.label} ({oc.unit})")
-    what = f"P({'overturn' if cs[0].state == DamageState('overturn') else 'damage state'})" if single \
-        else "P(damage state reached)"
-    ax.set_ylabel(what + (f";\nfraction where {oc.broke_words()}" if oc.n_broke else ""))
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlim(0, grid.max())
-    handles, labels = ax.get_legend_handles_labels()
-    if not single:
-        handles, labels = states + handles, [h.get_label() for h in states] + labels
-    ax.legend(handles, labels, fontsize=8 if single else 7, loc="best")
+def plot_fragility(out: str | Path, oc: Outcomes, unanswered: str = "omit") -> Path:
+    """fragility_figure written to `out` (PNG)."""
+    return _save(fragility_figure(oc, unanswered), out)
 
 
-
-def _grid_of_axes(n: int, width: float, height: float):
-    import matplotlib.pyplot as plt
-
-    if n > MAX_PANELS:
-        raise StudyError(f"{n} grid combinations are more than one figure draws ({MAX_PANELS}): select some "
-                         "(--select NAME=VALUE)")
-    cols = 1 if n == 1 else min(3, n)
-    rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
-    for ax in axes.flat[n:]:
-        ax.set_visible(False)
-    return fig, axes
-
-
-def curves_figure(cs: list[Curve]):
-    """A matplotlib Figure of damage-state fragility curves (curves()): one panel per grid
-    combination, each damage state's fractions and fitted curve in its own colour; the title of
-    each panel names its combination and block(s)."""
-    import textwrap
-
-    groups = by_combination(cs)
-    oc0 = groups[0][0].outcomes
-    single = len(groups) == 1
-    fig, axes = _grid_of_axes(len(groups), 8 if single else 6.2, 5.5 if single else 4.8)
-    for ax, group in zip(axes.flat, groups):
-        _panel(ax, group)
-        oc = group[0].outcomes
-        head = f"sweep {oc.sweep_id}: {oc.scene}\n" if single else ""
-        at = f"{oc.combination_text()}: " if oc.combination else ""
-        reached = (f", {int(oc.overturned.sum())} overturned" if len(group) == 1 and group[0].state.kind == "overturn"
-                   and group[0].state.block == "either" else "")
-        ax.set_title(head + textwrap.fill(
-            f"{at}{oc.block_text()}; {oc.records_text()}, {len(oc.x)} runs{reached}"
-            + (f", {oc.n_broke} where {oc.broke_words()}" if oc.n_broke else ""), 105 if single else 80),
-            fontsize=9 if single else 8)
-    if not single:
-        fig.suptitle(f"sweep {oc0.sweep_id}: {oc0.scene}; one panel per value of "
-                     f"{', '.join(oc0.combination)} (never pooled)", fontsize=10)
-    methods = list(dict.fromkeys(c.fragility.interval_method for c in cs if c.fragility is not None))
-    several = any(len(g) > 1 for g in groups)
-    foot = (["markers: the fraction of each level's runs that reached the state; curves: lognormal, maximum "
-             "likelihood (Baker 2015)"] if several else []) + [f"intervals: {m}" for m in methods]
-    cut = [c.outcomes for c in cs if state_notes(c.state, c.outcomes)]
-    if cut:
-        foot.append("block 1 states: where block 2 overturned or fell off first the run ended there (docs/two_blocks.md, "
-                    "docs/stack_sliding.md), so they count block 1 reaching the state before that")
-    foot += [f"no fit ({c.state.spec}" + (f", {c.outcomes.combination_text()}" if c.outcomes.combination else "")
-             + f"): {c.why}" for c in cs if c.fragility is None]
-    text = "\n".join(line for f in foot for line in textwrap.wrap(f, 150)) or ""
-    fig.text(0.01, 0.005, text, fontsize=6.5, color="0.35")
-    fig.tight_layout(rect=(0, 0.012 * (text.count("\n") + 2), 1, 1))
-    return fig
-
-
-def fragility_figure(frag: Fragility | None, oc: Outcomes):
-    """A matplotlib Figure: the fraction overturned per level (marker area ~ runs), and, with a
-    fit, the curve, its 95 % band, the median with its interval; for PGA the static uplift
-    threshold. Without a fit (frag None: the outcomes could not give one), the fractions alone."""
-    state = DamageState("overturn")
-    why = None if frag is not None else "the outcomes do not determine one"
-    return curves_figure([Curve(oc, state, state.reached(oc), frag, why)])
+def plot_ida(out: str | Path, oc: Outcomes | list[Outcomes], demand: str = "rotation",
+             block: int | str | None = None, unanswered: str = "omit") -> Path:
+    """ida_figure written to `out` (PNG)."""
+    return _save(ida_figure(oc, demand, block, unanswered), out)
 
 
 def plot_curves(out: str | Path, cs: list[Curve]) -> Path:
@@ -185,71 +63,318 @@ def plot_curves(out: str | Path, cs: list[Curve]) -> Path:
     return _save(curves_figure(cs), out)
 
 
-def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation", block: int | str | None = None):
-    """A matplotlib Figure: the demand against intensity, one line per record (named in a legend up
-    to 12 records), each block's own overturns (and block 2's falls off block 1) marked at the top;
-    the median over records (the block's gone runs counted as infinite) in black. `demand`
-    rotation: peak |theta| / alpha; slip: peak |slip| (m) of rocking–sliding runs (block 2's along
-    block 1's top). One row per block of a stack (`block` 1 or 2: that block's only). For several
-    grid combinations (a list of Outcomes, outcome_sets) one column each."""
-    import textwrap
+def _uplift_label(oc: Outcomes) -> str | None:
+    thr = oc.uplift_threshold()
+    if thr is None:
+        return None
+    if oc.sliding and oc.two:
+        return f"no motion from rest below {thr:.3g} g (the stack's uplift, mu g of both contacts)"
+    if oc.sliding:
+        return f"no motion from rest below min(mu, tan alpha) g = {thr:.3g} g (Shenton 1996)"
+    return f"static uplift threshold {thr:.3g} g (g tan alpha, model g {oc.params['g']:g} m/s2, over g0 = {G0})"
 
+
+def _title_lines(oc: Outcomes, demand_of: str) -> list[str]:
+    """A panel's title: what is drawn, of which runs, and the parameters the runs used."""
+    at = f" at {oc.combination_text()}" if oc.combination else ""
+    head = f"sweep {oc.sweep_id}{at}: {demand_of}, {oc.records_text()}, {len(oc.x)} runs"
+    return [head, *describe.describe(oc.params, oc.combination, oc.fixed, with_excitation=False)]
+
+
+def _same_runs(cs: list[Curve]) -> list[list[Curve]]:
+    """The curves grouped where they fit the same runs counted the same way: one line each."""
+    groups: list[list[Curve]] = []
+    for c in cs:
+        for g in groups:
+            if np.array_equal(g[0].used, c.used) and np.array_equal(g[0].counted[c.used], c.counted[c.used]):
+                g.append(c)
+                break
+        else:
+            groups.append([c])
+    return groups
+
+
+def _levels(oc: Outcomes, mask: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The bins of `oc` (Outcomes.bins) restricted to the runs of `mask`: (index groups, median
+    intensity of each, runs in each)."""
+    groups = [g[mask[g]] for g in oc.bins()]
+    groups = [g for g in groups if g.size]
+    return groups, np.array([np.median(oc.x[g]) for g in groups]), np.array([g.size for g in groups])
+
+
+def _draw_fit(ax, c: Curve, grid: np.ndarray, colour: str, band_alpha: float) -> bool:
+    """Curve `c`'s fit and 95 % band on `ax`: solid over the intensities of the runs in its fit,
+    dashed beyond (an extrapolation). Whether any of it was dashed."""
+    f = c.fragility
+    x = c.outcomes.x[c.used]
+    inside = (grid >= x.min()) & (grid <= x.max())
+    lo, hi = f.band(grid)
+    ax.fill_between(grid, lo, hi, color=colour, alpha=band_alpha, lw=0)
+    p = f.probability(grid)
+    ax.plot(np.where(inside, grid, np.nan), p, color=colour, lw=2)
+    ax.plot(np.where(inside, np.nan, grid), p, color=colour, lw=1.6, ls="--")
+    return bool((~inside).any())
+
+
+def _panel(ax, strip, cs: list[Curve]) -> None:
+    """One combination's damage states: per state (states fitted on the same runs alike drawn
+    once) the fraction of its fitted runs that reached it per level (marker area ~ runs), its
+    fitted curve (dashed where extrapolated) and 95 % band; one state alone also gets the median
+    with its interval. In `strip` (None: every run answered), the runs the model did not answer,
+    per level. For PGA the uplift threshold."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    oc = cs[0].outcomes
+    groups_all, xs_all, _ = _levels(oc, np.ones(len(oc.x), bool))
+    grid = np.geomspace(max(float(oc.x.min()) * 0.5, 1e-6), float(oc.x.max()) * 1.3, 400)
+    lines = _same_runs(cs)
+    single = len(lines) == 1
+    handles = []
+    extrapolated = False
+    for i, same in enumerate(lines):
+        c = same[0]
+        colour = CURVE_COLOURS[i % len(CURVE_COLOURS)]
+        marker = CURVE_MARKERS[i % len(CURVE_MARKERS)]
+        groups, xs, n = _levels(oc, c.used)
+        k = np.array([int(c.counted[g].sum()) for g in groups])
+        f = c.fragility
+        if f is not None:
+            extrapolated |= _draw_fit(ax, c, grid, colour, 0.25 if single else 0.12)
+        ax.scatter(xs, k / n, s=12 + 60 * n / max(n.max(), 1), color=colour, zorder=3, marker=marker,
+                   edgecolor="k", lw=0.4)
+        names = " = ".join(s.label for s in same)
+        same_note = " (the same runs reach each)" if len(same) > 1 else ""
+        fitted = (f"median {f.median:.3g} {oc.unit} (95 %: {f.median_interval[0]:.3g} to "
+                  f"{f.median_interval[1]:.3g}), beta {f.beta:.2f}" if f is not None else "no fit")
+        handles.append(Line2D([], [], color=colour, marker=marker, markeredgecolor="k", markeredgewidth=0.4,
+                              lw=2 if f is not None else 0, label=textwrap.fill(f"{names}{same_note}: {fitted}", 60)))
+        if single and f is not None:
+            ax.axvline(f.median, color=colour, lw=0.8, ls=":")
+            ax.axvspan(*f.median_interval, color=colour, alpha=0.06)
+    per = "fractions: the runs of each level in the fit that reached the state (marker area ~ runs)"
+    handles.append(Line2D([], [], ls="", marker="o", color="0.6", label=textwrap.fill(per, 60)))
+    handles.append(Patch(color=CURVE_COLOURS[0], alpha=0.25 if single else 0.12,
+                         label="95 % band of the fit" if single else "95 % band of each fit"))
+    if extrapolated:
+        handles.append(Line2D([], [], color="0.3", ls="--", lw=1.6,
+                              label="dashed: beyond the intensities run (extrapolated)"))
+    thr = _uplift_label(oc)
+    if thr is not None:
+        for a in (ax, strip):
+            if a is not None:
+                a.axvline(oc.uplift_threshold(), color="#238b45", lw=1.2, ls=":")
+        handles.append(Line2D([], [], color="#238b45", lw=1.2, ls=":", label=textwrap.fill(thr, 60)))
+    ax.set_ylabel("P(overturn)" if single and cs[0].state == DamageState("overturn") else "P(damage state reached)")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlim(0, grid.max())
+    if strip is not None:
+        b = np.array([int(oc.broke[g].sum()) for g in groups_all])
+        n_all = np.array([g.size for g in groups_all])
+        width = 0.6 * float(np.min(np.diff(xs_all))) if xs_all.size > 1 else 0.05 * grid.max()
+        strip.bar(xs_all, b, width=width, color=BROKE_COLOUR, edgecolor="k", lw=0.4)
+        strip.set_ylim(0, max(int(n_all.max()), 1))
+        strip.set_xlim(ax.get_xlim())
+        strip.set_ylabel("runs", fontsize=8)
+        treatment = {c.unanswered for c in cs}.pop() if len({c.unanswered for c in cs}) == 1 else "omit"
+        handles.append(Patch(facecolor=BROKE_COLOUR, edgecolor="k", lw=0.4, label=textwrap.fill(
+            f"lower strip: runs per level the model did not answer ({oc.n_broke} of {len(oc.x)}: "
+            f"{oc.unanswered_words()}); {UNANSWERED[treatment]}", 60)))
+        strip.set_xlabel(f"{oc.label} ({oc.unit})")
+        ax.tick_params(labelbottom=False)
+    else:
+        ax.set_xlabel(f"{oc.label} ({oc.unit})")
+    ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)
+
+
+def _panel_axes(fig, n: int, strips: bool, width: float, height: float):
+    """(main axes, strip axes or None) of n panels, at most three a row, each a strip below it."""
+    if n > MAX_PANELS:
+        raise StudyError(f"{n} grid combinations are more than one figure draws ({MAX_PANELS}): select some "
+                         "(--select NAME=VALUE)")
+    cols = 1 if n == 1 else min(3, n)
+    rows = -(-n // cols)
+    fig.set_size_inches(width * cols, height * rows)
+    gs = fig.add_gridspec(rows * (2 if strips else 1), cols, height_ratios=[4, 1] * rows if strips else None,
+                          hspace=0.08 if strips else 0.35, wspace=1.1)
+    out = []
+    for k in range(n):
+        r, c = divmod(k, cols)
+        main = fig.add_subplot(gs[2 * r if strips else r, c])
+        strip = fig.add_subplot(gs[2 * r + 1, c], sharex=main) if strips else None
+        out.append((main, strip))
+    return out
+
+
+def _footer(fig, lines: list[tuple[str, str]]) -> int:
+    """Notes (grey) and warnings (red) at the foot of `fig`, wrapped; the number of lines."""
+    y, count = 0.005, 0
+    for text, colour in reversed(lines):
+        wrapped = textwrap.wrap(text, 170)
+        fig.text(0.01, y, "\n".join(wrapped), fontsize=6.5, color=colour, va="bottom")
+        y += 0.0125 * len(wrapped) * 10 / max(fig.get_size_inches()[1], 1)
+        count += len(wrapped)
+    return count
+
+
+def curves_figure(cs: list[Curve]):
+    """A matplotlib Figure of damage-state fragility curves (runners.engine.study.curves): one
+    panel per grid combination, each damage state (or states reached by the same runs) in its
+    own colour with its 95 % band, the runs the model did not answer counted per level in a strip
+    below, titles from the parameters the runs used, warnings and notes in the footer."""
+    import matplotlib.pyplot as plt
+
+    groups = by_combination(cs)
+    oc0 = groups[0][0].outcomes
+    single = len(groups) == 1
+    strips = any(g[0].outcomes.n_broke for g in groups)
+    fig = plt.figure()
+    panels = _panel_axes(fig, len(groups), strips, 11.5 if single else 9.5, 6.2 if single else 5.4)
+    for (ax, strip), group in zip(panels, groups):
+        oc = group[0].outcomes
+        _panel(ax, strip if oc.n_broke else None, group)
+        if strip is not None and not oc.n_broke:
+            strip.set_visible(False)
+            ax.tick_params(labelbottom=True)
+            ax.set_xlabel(f"{oc.label} ({oc.unit})")
+        ax.set_title("\n".join(textwrap.fill(t, 95 if single else 70) for t in _title_lines(oc, "fragility")),
+                     fontsize=8.5 if single else 7.5, loc="left")
+    if not single:
+        fig.suptitle(f"sweep {oc0.sweep_id}: one panel per value of {', '.join(oc0.combination)} (never pooled)",
+                     fontsize=10)
+    foot: list[tuple[str, str]] = []
+    for c in cs:
+        at = f" ({c.outcomes.combination_text()})" if c.outcomes.combination else ""
+        foot += [(f"warning, {c.state.spec}{at}: {w}", WARNING_COLOUR) for w in fit_warnings(c)]
+        if c.fragility is None:
+            foot.append((f"no fit, {c.state.spec}{at}: {c.why}", WARNING_COLOUR))
+    methods = list(dict.fromkeys(c.fragility.interval_method for c in cs if c.fragility is not None))
+    foot += [("curves: lognormal, maximum likelihood (Baker 2015); intervals: " + "; ".join(methods), "0.35")]
+    if any(state_notes(c.state, c.outcomes) for c in cs):
+        foot.append(("block 1 states: where block 2 overturned or fell off first the run ended there "
+                     "(docs/two_blocks.md, docs/stack_sliding.md), so they count block 1 reaching the state before "
+                     "that", "0.35"))
+    foot.append((f"scene file's name: {oc0.scene!r} (the titles give the parameters the runs used)", "0.35"))
+    n = _footer(fig, foot)
+    fig.subplots_adjust(left=0.07 if single else 0.05, right=0.64 if single else 0.8,
+                        bottom=0.09 + 0.02 * n * 6 / fig.get_size_inches()[1], top=0.86 if single else 0.88)
+    return fig
+
+
+def fragility_figure(oc: Outcomes, unanswered: str = "omit"):
+    """curves_figure of overturning (either block) alone: the fractions overturned per level, the
+    fit with its 95 % band and the median with its interval, the runs the model did not answer
+    (`unanswered`: left out by default, UNANSWERED); for PGA the static uplift threshold. Without
+    a fit (the outcomes do not determine one) the fractions alone, and why in the footer."""
+    return curves_figure(curves(oc, ["overturn"], unanswered))
+
+
+def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation", block: int | str | None = None,
+               unanswered: str = "omit"):
+    """A matplotlib Figure: the demand against intensity, one line per record (named beside the
+    axes up to 12 records; the record with the largest demand named on the axes always), broken
+    where the model did not answer a run (its peak up to the break drawn as a lower bound, an open
+    triangle) and where the block is gone (overturned: a cross, block 2 fell off: a triangle, in
+    a strip above the demand axis); the median over records in black, with the unanswered runs
+    treated as `unanswered` says (ida_median). `demand` rotation: peak |theta| / alpha; slip:
+    peak |slip| (m, on a log axis) of rocking–sliding runs (block 2's along block 1's top). One
+    row per block of a stack (`block` 1 or 2: that block's only). For several grid combinations
+    (a list of Outcomes, outcome_sets) one column each."""
     import matplotlib.pyplot as plt
 
     sets = [oc] if isinstance(oc, Outcomes) else list(oc)
     check_demand(demand, sets, block)
     block = check_block(block, sets)
+    unanswered = check_unanswered(unanswered)
     if len(sets) > MAX_PANELS // 2:
         raise StudyError(f"{len(sets)} grid combinations are more than one figure draws ({MAX_PANELS // 2}): select "
                          "some (--select NAME=VALUE)")
-    rows = len(ida_panels(sets[0], demand, block))
-    fig, axes = plt.subplots(rows, len(sets), figsize=(8 if len(sets) == 1 else 6.2 * len(sets), 4.8 * rows),
-                             sharex="col", squeeze=False)
+    rows = max(len(ida_panels(o, demand, block)) for o in sets)
+    fig = plt.figure(figsize=(12.5 if len(sets) == 1 else 9 * len(sets), 5.6 * rows + 0.8))
+    gs = fig.add_gridspec(2 * rows, len(sets), height_ratios=[1, 5] * rows, hspace=0.12, wspace=0.9)
     for col, o in enumerate(sets):
-        _ida_column(axes[:, col], o, demand, block)
-        at = f"{o.combination_text()}: " if o.combination else ""
-        axes[0, col].set_title(f"IDA, sweep {o.sweep_id}: {o.scene}\n" + textwrap.fill(
-            f"{at}{o.block_text()}; {o.records_text()}, one line each", 100 if len(sets) == 1 else 80),
-            fontsize=9 if len(sets) == 1 else 8)
-    fig.tight_layout()
+        pairs = [(fig.add_subplot(gs[2 * r, col]), fig.add_subplot(gs[2 * r + 1, col])) for r in range(rows)]
+        for top, main in pairs:
+            top.sharex(main)
+        _ida_column(pairs, o, demand, block, unanswered)
+        for top, main in pairs[len(ida_panels(o, demand, block)):]:  # (a one-block combination among stacks)
+            top.set_visible(False)
+            main.set_visible(False)
+        title = _title_lines(o, "IDA, one line per record")
+        pairs[0][0].set_title("\n".join(textwrap.fill(t, 95 if len(sets) == 1 else 70) for t in title),
+                              fontsize=8.5 if len(sets) == 1 else 7.5, loc="left")
+    n = _footer(fig, [(f"scene file's name: {sets[0].scene!r} (the titles give the parameters the runs used)",
+                       "0.35")])
+    fig.subplots_adjust(left=0.08, right=0.68 if len(sets) == 1 else 0.82, top=0.84 if rows == 1 else 0.91,
+                        bottom=0.07 + 0.015 * n)
     return fig
 
 
-def _ida_column(axes, oc: Outcomes, demand: str = "rotation", block: int | None = None) -> None:
-    names = list(dict.fromkeys(oc.record))
+def _ida_column(pairs, oc: Outcomes, demand: str, block: int | None, unanswered: str) -> None:
+    """One combination's IDA: per block (top strip, main axes) of `pairs`."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
+    names = list(dict.fromkeys(oc.record))
     cmap = plt.get_cmap("tab20", max(len(names), 1))
-    for ax, (i, peak, over) in zip(axes, ida_panels(oc, demand, block)):
-        title = f"block {i}"
-        top = 1.08
-        if demand == "slip":  # gone runs at the top, above every standing run's slip
-            standing = peak[~over]
-            top = 1.08 * (float(standing.max()) if standing.size and standing.max() > 0 else 0.01)
-        groups = oc.bins()
-        levels = np.array([np.median(oc.x[g]) for g in groups])
-        med = [np.median(np.where(over[g], np.inf, peak[g])) for g in groups]
+    record = np.array(oc.record)
+    for (top, ax), (i, peak, gone, answered) in zip(pairs, ida_panels(oc, demand, block)):
+        fell = None if i != 2 or oc.fell_off is None else np.asarray(oc.fell_off, bool) & ~np.asarray(oc.over2, bool)
+        over = gone if fell is None else gone & ~fell
+        shown = np.maximum(peak, SLIP_FLOOR) if demand == "slip" else peak
         for k, name in enumerate(names):
-            sel = np.array([r == name for r in oc.record])
-            order = np.argsort(oc.x[sel])
-            xs, ys, fell = oc.x[sel][order], peak[sel][order], over[sel][order]
-            ys = np.where(fell, top, np.minimum(ys, top))
-            ax.plot(xs, ys, lw=0.8, color=cmap(k), alpha=0.8, label=name if len(names) <= 12 else None)
-            ax.scatter(xs[fell], ys[fell], marker="x", s=18, color=cmap(k), lw=1)
-            if oc.n_broke:
-                broke = oc.broke[sel][order]
-                ax.scatter(xs[broke], ys[broke], marker="o", s=40, facecolors="none", edgecolors=BROKE_COLOUR,
-                           lw=1.2, label=oc.broke_words() if k == 0 else None)
-        med = np.minimum(np.array(med), top)
-        ax.plot(levels, med, color="k", lw=2.2, label="median over records")
-        if demand == "rotation":
-            ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
-        gone = "overturned or fell off" if i == 2 and oc.fell_off is not None else "overturned"
-        ax.text(levels.min(), top, f" x {title + ' ' if oc.two else ''}{gone}", va="bottom", fontsize=8,
-                color="0.3")
-        ax.set_ylim(0, top * (1 + 0.07 / 1.08))
+            sel = np.flatnonzero(record == name)
+            sel = sel[np.argsort(oc.x[sel])]
+            xs, ys = oc.x[sel], shown[sel]
+            standing = ~gone[sel] & answered[sel]
+            ax.plot(xs, np.where(standing, ys, np.nan), lw=0.8, color=cmap(k), alpha=0.85, marker=".", ms=3)
+            lower = ~gone[sel] & ~answered[sel]
+            ax.scatter(xs[lower], ys[lower], marker="^", s=34, facecolors="none", edgecolors=BROKE_COLOUR, lw=1.1,
+                       zorder=4)
+            top.scatter(xs[over[sel]], np.ones(int(over[sel].sum())), marker="x", s=22, color=cmap(k), lw=1.1)
+            if fell is not None:
+                top.scatter(xs[fell[sel]], np.zeros(int(fell[sel].sum())), marker="v", s=22, color=cmap(k))
+        levels, med, left = ida_median(oc, peak, gone, answered, unanswered)
+        finite = np.isfinite(med)
+        ax.plot(levels, np.where(finite, np.maximum(med, SLIP_FLOOR) if demand == "slip" else med, np.nan), color="k",
+                lw=2.4, zorder=5)
+        standing = ~gone & answered
+        if standing.any():  # name the record with the largest demand: it sets the axis
+            j = int(np.flatnonzero(standing)[np.argmax(shown[standing])])
+            right = oc.x[j] > 0.5 * (oc.x.min() + oc.x.max())
+            ax.annotate(f"largest: record {oc.record[j]}", (oc.x[j], shown[j]), xytext=(-6 if right else 6, -10),
+                        textcoords="offset points", fontsize=7, color="0.2", ha="right" if right else "left",
+                        arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6})
         where = "" if not oc.two else " on the ground" if i == 1 else " on block 1"
-        ax.set_ylabel(f"peak |theta| / alpha, {title}" if demand == "rotation" else
-                      f"peak |slip| of {title}{where} (m), rocking–sliding")
-        ax.legend(fontsize=7 if len(names) <= 12 else 8, loc="center right")
-    axes[-1].set_xlabel(f"{oc.label} ({oc.unit})")
+        if demand == "slip":
+            ax.set_yscale("log")
+            ax.set_ylabel(f"peak |slip| of block {i}{where} (m, log axis;\nat {SLIP_FLOOR:g} m: no slip or less)")
+        else:
+            ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
+            ax.set_ylim(bottom=0)
+            ax.set_ylabel(f"peak |theta| / alpha of block {i}")
+        top.set_ylim(-0.6, 1.6)
+        top.set_yticks([1, 0] if fell is not None else [1],
+                       ["overturned", "fell off"] if fell is not None else ["overturned"], fontsize=7)
+        top.tick_params(labelbottom=False)
+        top.set_title(f"block {i}" if oc.two else "", fontsize=8, loc="right")
+        ax.set_xlabel(f"{oc.label} ({oc.unit})")
+        handles = [Line2D([], [], color=cmap(k), lw=0.8, marker=".", label=n) for k, n in enumerate(names)] \
+            if len(names) <= 12 else [Line2D([], [], color="0.5", lw=0.8, label=f"{len(names)} records, one line each")]
+        infinite = levels[np.isinf(med)]
+        beyond = (f" (infinite from {infinite.min():.3g} {oc.unit}: more than half gone)"
+                  if infinite.size else "")
+        handles += [Line2D([], [], color="k", lw=2.4, label=textwrap.fill(
+                        f"median over records (gone: infinite){beyond}; the runs the model did not answer "
+                        f"{IDA_UNANSWERED[unanswered].replace(' demand', '')}", 55)),
+                    Line2D([], [], ls="", marker="x", color="0.3", label="overturned (upper strip)")]
+        if fell is not None:
+            handles.append(Line2D([], [], ls="", marker="v", color="0.3", label="fell off block 1 (upper strip)"))
+        if oc.n_broke:
+            handles.append(Line2D([], [], ls="", marker="^", markerfacecolor="none", markeredgecolor=BROKE_COLOUR,
+                                  label=textwrap.fill(f"the model did not answer ({oc.unanswered_words()}): the "
+                                                      f"peak up to the break, a lower bound ({int(left.sum())} runs "
+                                                      "left out of the median)" if unanswered == "omit" else
+                                                      f"the model did not answer ({oc.unanswered_words()}): the "
+                                                      "peak up to the break, a lower bound", 55)))
+        ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)

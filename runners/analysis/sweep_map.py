@@ -28,7 +28,8 @@ from db.schema import Run, RunSummary, Sweep
 from model import closed_form as cf
 from runners.engine.scene import restitution
 from runners.engine.summary import outcome_held
-from runners.engine.sweep_runs import broke, load, rigid_rocking_held, sweep_and_scene  # noqa: F401 (read by the maps)
+from runners.engine.sweep_runs import (broke, fixed_axes, load, rigid_rocking_held,  # noqa: F401 (the maps')
+                                       sweep_and_scene, sweep_parameters)
 from runners.engine.sweep import Axis, scales
 
 # the axes of every overturning map (Dimitrakopoulos & DeJong 2012's dimensionless groups)
@@ -130,6 +131,24 @@ def block_title(p: dict) -> str:
             f"p{one} = {pf:.3f} rad/s (p / 2 pi = {pf / (2 * math.pi):.3f} Hz); {rest}")
 
 
+def map_title(fig, ax, sw: Sweep, scene, p: dict, axes: list[str], what: str, n_points: int) -> None:
+    """The title of a map of sweep `sw`: what it shows, the block(s) in the map's terms (half
+    sizes, alpha, p, restitution), the contact model and its friction, the excitation (what the
+    map's axes do not vary) and any one-value --grid override: the parameters the points ran
+    with (`p`: runners.engine.sweep_runs.sweep_parameters), not the scene's name, which goes to
+    the foot of the figure. Lays the figure out (tight_layout) below it."""
+    from runners.engine import describe
+
+    fixed = {k: v for k, v in fixed_axes(sw.grid).items() if k not in axes}
+    lines = [f"sweep {sw.id}: {what} ({n_points} of {sw.total} points)", block_title(p),
+             f"{describe.contact(p)}; {describe.excitation(p, axes)}"
+             + (f"; set by --grid: {describe.overrides(fixed)}" if fixed else "")]
+    ax.set_title("\n".join(textwrap.fill(t, 110) for t in lines), fontsize=8.5)
+    fig.text(0.01, 0.005, f"scene file's name: {scene.name!r} (the title gives the parameters the points ran with)",
+             fontsize=6.5, color="0.35")
+    fig.tight_layout(rect=(0, 0.02, 1, 1))
+
+
 def drawn_axes(sw: Sweep) -> list[str]:
     """The --grid axes a map of sweep `sw` draws: those with more than one value (a fixed value,
     such as --grid contact.model=rocking-sliding, is the scene's, not an axis of the map)."""
@@ -153,7 +172,7 @@ def mappable(factory, sweep_id: str, instead: str, runs: bool = True):
                          "(sweep two of them, with the others fixed in the scene)")
     if runs is not None and not runs:
         raise ValueError(f"sweep {sw.id} has no stored points yet: finish it with runners sweep {sw.id}")
-    return sw, scene, runs, axes, {**sw.grid["defaults"], **scene.parameters}
+    return sw, scene, runs, axes, sweep_parameters(sw, scene)
 
 
 def map_figure(factory, sweep_id: str):
@@ -220,9 +239,7 @@ def map_figure(factory, sweep_id: str):
     h2, l2 = ax.get_legend_handles_labels()
     ax.legend(handles + h2, labels + l2, fontsize=8, ncol=2,
               loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
-    title = textwrap.fill(f"sweep {sw.id}: {scene.name} ({len(gi)} of {sw.total} points)", 100)
-    ax.set_title(title + "\n" + textwrap.fill(block_title(p), 110), fontsize=8.5)
-    fig.tight_layout()
+    map_title(fig, ax, sw, scene, p, axes, "outcome (Anagnostopoulos's regions)", len(gi))
     return fig, counts, n_broke, sw
 
 

@@ -197,23 +197,26 @@ def cmd_fragility(args: argparse.Namespace) -> int:
     from runners.engine.fragility import FragilityError
 
     study, sets, out = _study(args)
-    cs = study.curves(sets, args.ds)
+    cs = study.curves(sets, args.ds, args.unanswered)
     study_figures.plot_curves(out, cs)
     if all(c.fragility is None for c in cs):  # still show what was observed
+        left = [c for c in cs if c.n_unanswered and c.unanswered == "omit"]
+        also = (f"; {left[0].n_unanswered} of {len(left[0].reached)} runs the model did not answer were left out "
+                "(--unanswered reached, not-reached or as-run counts them)" if left else "")
         if len(cs) == 1:
             raise FragilityError(f"{cs[0].why} (the fractions {'overturned' if args.ds is None else 'reached'} are "
-                                 f"drawn in {out})")
+                                 f"drawn in {out}){also}")
         raise FragilityError(f"none of the {len(cs)} curves has a fit ({cs[0].state.spec}: {cs[0].why}); the "
-                             f"fractions reached are drawn in {out}")
+                             f"fractions reached are drawn in {out}{also}")
     if args.json:
         doc = {**_head(sets), "damage_states": list(dict.fromkeys(c.state.spec for c in cs)),
                "curves": [c.as_dict() for c in cs], "figure": str(out)}
         one = cs[0]
         if len(cs) == 1 and one.state == study.DamageState("overturn"):  # the fields as before, at the top too
-            oc = one.outcomes
+            oc, curve = one.outcomes, one.as_dict()
             doc = {**doc, "uplift_threshold": oc.uplift_threshold(), "failed": oc.failed, **one.fragility.as_dict(),
                    "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
-                   "notes": study.fragility_notes(one.fragility, oc)}
+                   **{k: curve[k] for k in ("notes", "warnings", "unanswered")}}
         emit_json(doc)
         return 0
     print(study.format_curves(cs) + f"\nfigure           {out}")
@@ -230,6 +233,7 @@ def _ida_run(oc, i: int) -> dict:
         row.update(peak2_over_alpha=float(oc.peak2[i]), block1_overturned=bool(oc.over1[i]),
                    block2_overturned=bool(oc.over2[i]))
     row["rigid_rocking_held"] = None if oc.broke is None else not bool(oc.broke[i])
+    row["answered"] = True if oc.broke is None else not bool(oc.broke[i])  # the model held until the outcome
     if oc.slip is not None:  # rocking–sliding runs: block 1's peak slip (m) and what it did
         row.update(max_abs_slip=float(oc.slip[i]), motion=oc.motion[i])
     if oc.two:
@@ -249,7 +253,8 @@ def cmd_ida(args: argparse.Namespace) -> int:
     study, sets, out = _study(args)
     demand = study.check_demand(args.demand, sets, args.block)
     block = study.check_block(args.block, sets)
-    study_figures.plot_ida(out, sets, demand, block)
+    unanswered = study.check_unanswered(args.unanswered)
+    study_figures.plot_ida(out, sets, demand, block, unanswered)
     if args.json:
         combos = [{"combination": oc.combination, "first_overturn": study.first_overturn(oc),
                    "not_monotonic": study.resurrections(oc),
@@ -257,10 +262,11 @@ def cmd_ida(args: argparse.Namespace) -> int:
         doc = {**_head(sets), **({k: v for k, v in combos[0].items() if k != "combination"} if len(sets) == 1 else {}),
                "combinations": combos, "runs": [_ida_run(oc, i) for oc in sets for i in range(len(oc.x))],
                "demand": demand, "demand_unit": "m" if demand == "slip" else "alpha",
-               "blocks": [b for b, _, _ in study.ida_panels(sets[0], demand, block)], "figure": str(out)}
+               "blocks": [b for b, *_ in study.ida_panels(sets[0], demand, block)], "unanswered": unanswered,
+               "figure": str(out)}
         emit_json(doc)
         return 0
-    print("\n\n".join(study.format_ida(oc) for oc in sets) + f"\nfigure           {out}")
+    print("\n\n".join(study.format_ida(oc, unanswered) for oc in sets) + f"\nfigure           {out}")
     return 0
 
 
@@ -326,6 +332,12 @@ def add_parser(sub) -> None:
                                  "sweeps)")
             st.add_argument("--block", action=Once, metavar="1|2",
                             help="of a stack, only this block's demand (default: one panel per block)")
+        st.add_argument("--unanswered", choices=("omit", "reached", "not-reached", "as-run"), default="omit",
+                        help="the runs the model did not answer (its assumptions broke first: rigid rocking slid or "
+                             "lifted off, rocking-sliding lifted off): omit (left out, the default), or counted as "
+                             "reaching the damage state (reached), as not reaching it (not-reached) or as the model "
+                             "ran them (as-run), to see how much they could move the "
+                             + ("curve" if name == "fragility" else "median demand"))
         files(st, writes=["out"])
         st.set_defaults(func=func)
         studies.append(st)

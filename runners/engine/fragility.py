@@ -98,27 +98,46 @@ def _terms(eta: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return ll, sign * lam, lam * (z + lam)
 
 
-def _mle(x: np.ndarray, y: np.ndarray, unit: str = "") -> tuple[float, float, np.ndarray]:
+@dataclass(frozen=True)
+class Words:
+    """How a fit's messages speak of the event fitted: overturning by default, or a damage state."""
+
+    reached: str = "overturned"  # past tense: "none of the 420 runs overturned"
+    stands: str = "stands"  # a run short of it
+    falls: str = "falls"  # a run that reached it
+    span: str = "where blocks stand to where they fall"
+    becoming: str = "overturning"  # "... does not become more likely with intensity"
+
+    @staticmethod
+    def of(state: str) -> "Words":
+        """The words of a damage state spelt `state` (e.g. 'block1:slides'); overturning's for 'overturn'."""
+        if state == "overturn":
+            return Words()
+        return Words(f"reached {state}", "stays short of it", "reaches it", "where no run reaches it to where runs do",
+                     f"reaching {state}")
+
+
+def _mle(x: np.ndarray, y: np.ndarray, unit: str = "", words: Words = Words()) -> tuple[float, float, np.ndarray]:
     """(a, b, observed information) of the probit fit Phi(a + b ln x) to outcomes y (x in `unit`,
-    for the messages)."""
+    `words` the event's, for the messages)."""
     u = f" {unit}" if unit else ""
     n, k = x.size, int(y.sum())
     if k == 0 or k == n:
-        raise FragilityError(f"{'none' if k == 0 else 'all'} of the {n} runs overturned: the intensities must "
-                             "reach from where blocks stand to where they fall")
+        raise FragilityError(f"{'none' if k == 0 else 'all'} of the {n} runs {words.reached}: the intensities must "
+                             f"reach from {words.span}")
     lx = np.log(x)
     stand, fall = lx[y == 0], lx[y == 1]
     if stand.max() < fall.min():
         raise FragilityError(
-            f"the outcomes separate completely: every run up to {math.exp(stand.max()):.4g}{u} stands and every run "
-            f"from {math.exp(fall.min()):.4g}{u} falls, so the dispersion is below what these levels resolve "
-            "(the median lies between them); add intensity levels in between")
+            f"the outcomes separate completely: every run up to {math.exp(stand.max()):.4g}{u} {words.stands} and "
+            f"every run from {math.exp(fall.min()):.4g}{u} {words.falls}, so the dispersion is below what these levels "
+            "resolve (the median lies between them); add intensity levels in between")
     if stand.max() == fall.min():  # quasi-complete separation: the likelihood grows as beta goes to 0
         below, above = lx[lx < stand.max()], lx[lx > stand.max()]
         raise FragilityError(
-            f"the outcomes change at one level only: every run below {math.exp(stand.max()):.4g}{u} stands, every run "
-            f"above it falls, so the dispersion is below what these levels resolve; add intensity levels between "
-            f"{math.exp(below.max()) if below.size else math.exp(stand.max()):.4g} and "
+            f"the outcomes change at one level only: every run below {math.exp(stand.max()):.4g}{u} {words.stands}, "
+            f"every run above it {words.falls}, so the dispersion is below what these levels resolve; add intensity "
+            f"levels between {math.exp(below.max()) if below.size else math.exp(stand.max()):.4g} and "
             f"{math.exp(above.min()) if above.size else math.exp(stand.max()):.4g}{u}")
     X = np.column_stack([np.ones(n), lx])
     b = 1.0 / max(np.std(lx), 1e-3)  # start: unit dispersion of the data about its mean
@@ -143,21 +162,23 @@ def _mle(x: np.ndarray, y: np.ndarray, unit: str = "") -> tuple[float, float, np
             break
     a, b = params
     if not b > 0:
-        raise FragilityError("overturning does not become more likely with intensity in these runs")
+        raise FragilityError(f"{words.becoming} does not become more likely with intensity in these runs")
     _, _, w = _terms(X @ params, y)
     return float(a), float(b), X.T @ (X * w[:, None])
 
 
-def fit(x: np.ndarray, overturned: np.ndarray, groups: np.ndarray | None = None, unit: str = "") -> Fragility:
+def fit(x: np.ndarray, overturned: np.ndarray, groups: np.ndarray | None = None, unit: str = "",
+        words: Words = Words()) -> Fragility:
     """Fit P(overturn | x) = Phi(ln(x / theta) / beta) to runs at intensities x (> 0, in `unit`) with
-    outcomes `overturned` (bool); `groups` labels each run's record (for the jackknife intervals)."""
+    outcomes `overturned` (bool; or whether each run reached another damage state, `words` then
+    its words for the messages); `groups` labels each run's record (for the jackknife intervals)."""
     x = np.asarray(x, dtype=float)
     y = np.asarray(overturned, dtype=float)
     if x.shape != y.shape or x.ndim != 1 or x.size < 3:
         raise FragilityError("a fragility fit needs at least three runs with an intensity and an outcome each")
     if not np.all(np.isfinite(x) & (x > 0)):
         raise FragilityError("every intensity must be a positive number")
-    a, b, info = _mle(x, y, unit)
+    a, b, info = _mle(x, y, unit, words)
     median, beta = math.exp(-a / b), 1.0 / b
     labels = np.asarray(groups) if groups is not None else np.arange(x.size)
     uniq = np.unique(labels)
@@ -169,7 +190,7 @@ def fit(x: np.ndarray, overturned: np.ndarray, groups: np.ndarray | None = None,
         try:
             for r in uniq:
                 keep = labels != r
-                jack.append(_mle(x[keep], y[keep])[:2])
+                jack.append(_mle(x[keep], y[keep], unit, words)[:2])
         except FragilityError as exc:  # no jackknife then: the fits made so far are dropped
             method = f"model-based (leaving a record out: {exc})"
             jack = []

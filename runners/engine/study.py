@@ -12,7 +12,7 @@ is runners.sweep)::
                        db="sqlite:///statue.db")
     oc = study.outcomes(sw.factory, sw.sweep_id, "pga")  # one row per run: intensity, outcome, peaks
     frag = study.fragility(oc)                           # runners.engine.fragility.Fragility
-    fig = study_figures.fragility_figure(frag, oc)       # a matplotlib Figure (shown inline in a notebook)
+    fig = study_figures.fragility_figure(oc)             # a matplotlib Figure (shown inline in a notebook)
     study_figures.plot_ida("ida.png", oc)                # or straight to a file
     curves = study.curves(study.outcome_sets(sw.factory, sw.sweep_id, "pga"), ["overturn", "rot>0.5alpha"])
     fig = study_figures.curves_figure(curves)            # damage states, one panel per grid combination
@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from runners.engine.fragility import Fragility, FragilityError, fit
+from runners.engine.fragility import Fragility, FragilityError, Words, fit
 from runners.engine.intensity import G0, SCALING
 from runners.errors import RockingError
 
@@ -82,6 +82,11 @@ class Outcomes:
     motion2: list[str] | None = None  # block 2's motion class per run (motion's, or falls-off)
     fell_off: np.ndarray | None = None  # bool per run: block 2 fell off block 1 (block2.fellOff)
     slid_blocks: tuple[np.ndarray, np.ndarray] | None = None  # bool per run: block 1 slid, block 2 slid on block 1
+    # the parameters a one-value --grid axis set for every run (SI), as the scene's would be
+    fixed: dict[str, float] = field(default_factory=dict)
+    # s per run, NaN for none: the first sliding and the first lift-off (None: not monitored)
+    slide_t: np.ndarray | None = None
+    lift_t: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.over1 is None:
@@ -96,6 +101,19 @@ class Outcomes:
         if self.sliding:
             return f"{'a contact' if self.two else 'the block'} lifted off first (outside the model)"
         return "rigid rocking broke first"
+
+    def unanswered_words(self) -> str:
+        """Why the model did not answer a run it broke in, in a few words (texts and legends)."""
+        if self.sliding:
+            return f"{'a contact' if self.two else 'the block'} lifted off first, into flight outside the rocking–sliding model"
+        return "a contact slid or lifted off first, outside rigid rocking"
+
+    @property
+    def ends_at_break(self) -> bool:
+        """Whether a run whose model broke ended there: a rocking–sliding stack's run stops at a
+        lift-off (flight), so what it reached by its end it reached before the model broke; the
+        other models hold the contacts and run on past the break."""
+        return self.two and self.sliding
 
     @property
     def sliding(self) -> bool:
@@ -261,12 +279,6 @@ def extra_axes(grid: dict) -> list[tuple[str, np.ndarray]]:
     return out
 
 
-def fixed_axes(grid: dict) -> dict[str, float]:
-    """The one-value --grid axes of a stored sweep (e.g. contact.model=rocking-sliding): parameters
-    every point runs with, as the scene's."""
-    return {a[0]: a[1] for a in grid.get("axes") or [] if a[3] == 1 and a[0] != "excitation.scale"}
-
-
 def _same(a: float, b: float) -> bool:
     return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
 
@@ -322,7 +334,7 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
     the values of its other --grid axes (one Outcomes when it has none), in grid order: runs of
     different blocks, restitutions, ... are never pooled. `select` ({name: value} or NAME=VALUE
     strings) keeps the combinations with those values."""
-    from runners.engine.sweep_runs import broke, load
+    from runners.engine.sweep_runs import broke, fixed_axes, load
 
     measure = measure.lower()
     if measure not in SCALING:
@@ -341,10 +353,11 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
         raise StudyError(f"sweep {sw.id} has no finished runs yet (runners sweep {sw.id})")
     factor = DISPLAY[measure][2]
     stripes = sw.grid.get("intensity")
-    two = int(scene.n_blocks) == 2
-    base = {**sw.grid["defaults"], **scene.parameters, **fixed_axes(sw.grid)}
+    fixed = fixed_axes(sw.grid)
+    base = {**sw.grid["defaults"], **scene.parameters, **fixed}
     out = []
     for combo in combos:
+        two = int(round(float({**base, **combo}.get("nBlocks", scene.n_blocks)))) == 2  # (an nBlocks axis)
         def here(r) -> bool:
             return all(_same(float(r.point[k]), v) for k, v in combo.items())
 
@@ -359,12 +372,14 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
         oc = Outcomes(sw.id, scene.name, measure, x, np.array([bool(r.summary.overturned) for r in mine]),
                       [r.point["record"] for r in mine], np.array([r.summary.peak1_over_alpha for r in mine]),
                       np.array([r.summary.peak2_over_alpha for r in mine]) if two else None,
-                      {**base, **combo}, failed=len(done) - len(mine), combination=combo,
+                      {**base, **combo}, failed=len(done) - len(mine), combination=combo, fixed=fixed,
                       over1=np.array(["1" in b for b in blocks]) if two else None,
                       over2=np.array(["2" in b for b in blocks]) if two else None)
         if all(r.summary.assumptions_held is not None for r in mine):
             oc.broke = np.array([broke(r) for r in mine])
             oc.slid = np.array([r.summary.slide_time is not None for r in mine])
+            oc.slide_t = np.array([np.nan if r.summary.slide_time is None else r.summary.slide_time for r in mine])
+            oc.lift_t = np.array([np.nan if r.summary.lift_time is None else r.summary.lift_time for r in mine])
         if all(r.summary.motion is not None for r in mine):  # rocking–sliding runs
             oc.slip = np.array([r.summary.max_abs_slip for r in mine], dtype=float)
             oc.motion = [r.summary.motion for r in mine]
@@ -404,9 +419,14 @@ def pooling_refusal(sets: list[Outcomes]) -> str:
             "outcome_sets")
 
 
-def fragility(oc: Outcomes) -> Fragility:
-    """The lognormal fragility of the sweep's outcomes (runners.engine.fragility.fit), records as groups."""
-    return fit(oc.x, oc.overturned, np.array(oc.record), oc.unit)
+def fragility(oc: Outcomes, unanswered: str = "omit") -> Fragility:
+    """The lognormal fragility of overturning (either block) of the sweep's outcomes
+    (runners.engine.fragility.fit, records as groups), the runs the model did not answer left out
+    (or counted as `unanswered` says: curves); FragilityError when they give no fit."""
+    curve = curves(oc, ["overturn"], unanswered)[0]
+    if curve.fragility is None:
+        raise FragilityError(curve.why)
+    return curve.fragility
 
 
 DS_FORMS = ("[block1:|block2:|either:]overturn, [block1:|block2:|either:]rot>Xalpha (peak |theta| / alpha "
@@ -415,6 +435,7 @@ DS_FORMS = ("[block1:|block2:|either:]overturn, [block1:|block2:|either:]rot>Xal
             "rocking–sliding sweeps; block 2's along block 1's top), or block2:falloff (block 2 fell off block 1; "
             "rocking–sliding stacks)")
 SLIP_UNITS = {"": 1.0, "m": 1.0, "cm": 0.01, "mm": 0.001}
+BARE_SLIP_MAX = 1.0  # m: slide>D without a unit is read in m below this; from it on the unit must be given
 
 
 @dataclass(frozen=True)
@@ -481,6 +502,24 @@ class DamageState:
                 hit |= over | (peak > self.limit)
         return hit
 
+    def answered(self, oc: Outcomes, reached: np.ndarray) -> np.ndarray:
+        """Bool per run of `oc`: whether the run's model answered this state. A run whose model held
+        until its outcome was decided answers every state. One whose model broke first (oc.broke:
+        rigid rocking slid or lifted off; rocking–sliding lifted off, flight) answers only what it
+        did before the break: a rocking–sliding stack's run ends at the lift-off, so it answers the
+        states it reached by its end; any run answers `slides` where it slid before any lift-off.
+        What the block did after the break is outside the model: the run does not answer it."""
+        if oc.broke is None:
+            return np.ones(len(oc.x), bool)
+        ok = ~np.asarray(oc.broke, bool)
+        if oc.ends_at_break:
+            return ok | np.asarray(reached, bool)
+        if self.kind == "slides" and self.block == "either" and oc.slide_t is not None:
+            with np.errstate(invalid="ignore"):
+                slid_first = np.isfinite(oc.slide_t) & ~(oc.lift_t < oc.slide_t)
+            return ok | (slid_first & np.asarray(reached, bool))
+        return ok
+
 
 def damage_state(spec: str, oc: Outcomes) -> DamageState:
     """The damage state `spec` names ([block1:|block2:|either:]overturn, ...rot>Xalpha, slides),
@@ -496,7 +535,7 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
         raise StudyError(f"damage state {spec!r}: {block!r} is not a block (block1, block2 or either)")
     which = blocks[block]
     if which == "2" and not oc.two:
-        raise StudyError(f"damage state {spec!r}: the scene has one block (block1 or no prefix)")
+        raise StudyError(f"damage state {spec!r}: {one_block(oc)}")
     if state in ("overturn", "overturned"):
         return DamageState("overturn", which)
     m = re.fullmatch(r"rot>([0-9.eE+-]+)\*?alpha", state)
@@ -529,6 +568,8 @@ def _falloff_state(spec: str, block: str, oc: Outcomes) -> DamageState:
     """block2:falloff (block 2 left block 1's top), of rocking–sliding stacks; StudyError in one line
     otherwise."""
     if not oc.two:
+        if "nBlocks" in oc.combination:
+            raise StudyError(f"damage state {spec!r}: {one_block(oc)}")
         raise StudyError(f"damage state {spec!r}: the scene has one block, which cannot fall off anything "
                          "(overturn, rot>Xalpha or slide>D)")
     if block == "1":
@@ -555,11 +596,24 @@ def _slip_state(spec: str, distance: str, block: str, oc: Outcomes) -> DamageSta
     if not (math.isfinite(d) and d > 0):
         raise StudyError(f"damage state {spec!r}: D in slide>D must be a distance above 0, in m or with its unit, "
                          "e.g. slide>0.05 or slide>5cm")
+    if m.group(2) is None and d >= BARE_SLIP_MAX:  # slide>5: 5 m, or 5 cm meant?
+        raise StudyError(f"damage state {spec!r}: a bare {m.group(1)} would be {d:g} m; give the unit: "
+                         f"slide>{m.group(1)}m if you mean metres, slide>{m.group(1)}cm or slide>{m.group(1)}mm "
+                         "otherwise (a distance without a unit is read in m only below 1)")
     if block == "2" and not oc.two:
-        raise StudyError(f"damage state {spec!r}: the scene has one block (block1 or no prefix)")
+        raise StudyError(f"damage state {spec!r}: {one_block(oc)}")
     if oc.slip is None:
         raise StudyError(f"damage state {spec!r}: {no_slip(oc)}")
     return DamageState("slip", block if oc.two else "either", d)
+
+
+def one_block(oc: Outcomes) -> str:
+    """Why a block-2 state does not apply to runs `oc` of one block, in words: the scene's, or a
+    one-block value of an nBlocks grid axis (then how to pick the stacks)."""
+    if "nBlocks" in oc.combination:
+        return (f"sweep {oc.sweep_id}'s runs at nBlocks = {oc.combination['nBlocks']:g} have one block: select the "
+                "stacks (--select nBlocks=2) for a block-2 state")
+    return "the scene has one block (block1 or no prefix)"
 
 
 def no_slip(oc: Outcomes) -> str:
@@ -572,50 +626,137 @@ def no_slip(oc: Outcomes) -> str:
             "again")
 
 
+# how a study counts the runs its model did not answer (DamageState.answered): left out of the fit
+# (the default: the model says nothing about them), or, to see how much they could move the curve,
+# counted as reaching the damage state, as not reaching it, or as the model ran them (its outcome as
+# if its assumptions had held: rigid rocking's had the block not slid; what a run that ended in
+# flight reached before it, which undercounts)
+UNANSWERED = {"omit": "left out of the fit", "reached": "counted as reaching the state",
+              "not-reached": "counted as not reaching the state",
+              "as-run": "counted as the model ran them (its assumptions ignored)"}
+
+
+# the same treatments in an IDA's median demand over records (ida_median)
+IDA_UNANSWERED = {"omit": "left out of the median demand",
+                  "reached": "counted as gone (an infinite demand) in the median",
+                  "not-reached": "counted as standing, at their stored peak (a lower bound) in the median",
+                  "as-run": "counted as the model ran them (its assumptions ignored) in the median"}
+
+
+def check_unanswered(unanswered: str) -> str:
+    """`unanswered` if it is a treatment of UNANSWERED; StudyError in one line otherwise."""
+    if unanswered not in UNANSWERED:
+        raise StudyError(f"--unanswered {unanswered!r}: expected omit (leave the runs the model did not answer out "
+                         "of the fit, the default), reached, not-reached or as-run (count them so, for sensitivity)")
+    return unanswered
+
+
+def treated(reached: np.ndarray, answered: np.ndarray, unanswered: str) -> tuple[np.ndarray, np.ndarray]:
+    """(the runs a fit uses, whether each run counts as reaching the state) under treatment
+    `unanswered` of the runs not answered (UNANSWERED)."""
+    y, ok = np.asarray(reached, bool), np.asarray(answered, bool)
+    if unanswered == "omit":
+        return ok, y
+    every = np.ones(y.size, bool)
+    return every, {"reached": y | ~ok, "not-reached": y & ok, "as-run": y}[unanswered]
+
+
 @dataclass
 class Curve:
     """One damage state's fragility at one combination of a sweep's grid axes: the runs' outcomes,
-    whether each reached the state, and the fit (None, with `why`, when the runs cannot give one)."""
+    whether each reached the state and whether its model answered that, and the fit (None, with
+    `why`, when the runs cannot give one) made with the unanswered runs treated as `unanswered`
+    says (UNANSWERED); `others` holds the fits under the other treatments (a Fragility, or why
+    there is none), when some run was not answered."""
 
     outcomes: Outcomes = field(repr=False)
     state: DamageState
     reached: np.ndarray = field(repr=False)
     fragility: Fragility | None
     why: str | None = None
+    answered: np.ndarray | None = field(default=None, repr=False)
+    unanswered: str = "omit"
+    others: dict[str, Fragility | str] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.answered is None:
+            self.answered = np.ones(len(self.reached), bool)
 
     @property
     def label(self) -> str:
         return self.state.label(self.outcomes.two, self.outcomes.sliding)
 
+    @property
+    def n_unanswered(self) -> int:
+        """Runs whose model did not answer this state."""
+        return int(np.sum(~self.answered))
+
+    @property
+    def used(self) -> np.ndarray:
+        """Bool per run: the run is in the fit."""
+        return treated(self.reached, self.answered, self.unanswered)[0]
+
+    @property
+    def counted(self) -> np.ndarray:
+        """Bool per run: the fit counts the run as reaching the state."""
+        return treated(self.reached, self.answered, self.unanswered)[1]
+
     def as_dict(self) -> dict:
         """The curve as runners fragility --json prints it: the fit (median, beta and their 95 %
-        intervals, in the measure's unit) or why there is none, the counts per level, and every run
-        (record, x, reached): the points the fit was made from."""
-        oc, y = self.outcomes, self.reached
+        intervals, in the measure's unit) or why there is none, the counts per level, the runs the
+        model did not answer (how many, why, how the fit treats them and the fits under the other
+        treatments), the warnings, and every run (record, x, reached, answered): the points the
+        fit was made from are those with "in_fit" true, "reached" then as the fit counts it."""
+        oc, y, used, counted = self.outcomes, self.reached, self.used, self.counted
         out = {"damage_state": self.state.spec, "label": self.label, "combination": oc.combination,
                "block": oc.block_text(), "runs": len(oc.x), "reached": int(y.sum()),
+               "runs_in_fit": int(used.sum()), "reached_in_fit": int((counted & used).sum()),
                "records": len(set(oc.record)), "failed": oc.failed, "uplift_threshold": oc.uplift_threshold(),
-               "rigid_rocking_broke": None if oc.broke is None else oc.n_broke}
+               "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
+               "unanswered": {"runs": self.n_unanswered, "why": oc.unanswered_words() if self.n_unanswered else None,
+                              "treatment": self.unanswered, "treatment_words": UNANSWERED[self.unanswered],
+                              "fits": {t: ({"median": f.median, "beta": f.beta} if isinstance(f, Fragility)
+                                           else {"median": None, "beta": None, "why": f})
+                                       for t, f in self.others.items()}}}
+        notes = oc.notes + state_notes(self.state, oc)
         if self.fragility is not None:
             f = self.fragility
             out.update(median=f.median, beta=f.beta, median_95=list(f.median_interval), beta_95=list(f.beta_interval),
-                       intervals=f.interval_method, notes=oc.notes + fragility_notes(f, oc)
-                       + state_notes(self.state, oc), why=None)
+                       intervals=f.interval_method, notes=notes, warnings=fit_warnings(self), why=None)
         else:
-            out.update(median=None, beta=None, median_95=None, beta_95=None, intervals=None,
-                       notes=oc.notes + state_notes(self.state, oc), why=self.why)
-        out["levels"] = [{"x": float(v), "runs": int((oc.x == v).sum()), "reached": int(y[oc.x == v].sum())}
-                         for v in np.unique(oc.x)]
-        out["points"] = [{"record": r, "x": float(x), "reached": bool(h)} for r, x, h in zip(oc.record, oc.x, y)]
+            out.update(median=None, beta=None, median_95=None, beta_95=None, intervals=None, notes=notes,
+                       warnings=[], why=self.why)
+        out["levels"] = [{"x": float(v), "runs": int((oc.x == v).sum()), "reached": int(y[oc.x == v].sum()),
+                          "unanswered": int((~self.answered[oc.x == v]).sum())} for v in np.unique(oc.x)]
+        out["points"] = [{"record": r, "x": float(x), "reached": bool(c), "answered": bool(a), "in_fit": bool(u)}
+                         for r, x, c, a, u in zip(oc.record, oc.x, counted, self.answered, used)]
         return out
 
 
-def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = None) -> list[Curve]:
+def _fit_treated(oc: Outcomes, ds: DamageState, reached: np.ndarray, answered: np.ndarray,
+                 unanswered: str) -> Fragility | str:
+    """The fit of damage state `ds` with the unanswered runs treated as `unanswered`, or why there is none."""
+    used, y = treated(reached, answered, unanswered)
+    if not used.any():
+        return f"the model answered none of the {len(oc.x)} runs for {ds.spec} ({oc.unanswered_words()})"
+    try:
+        return fit(oc.x[used], y[used], np.array(oc.record)[used], oc.unit, Words.of(ds.spec))
+    except FragilityError as exc:
+        return str(exc)
+
+
+def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = None,
+           unanswered: str = "omit") -> list[Curve]:
     """The fragility of each damage state (default: overturn, of either block) at each set of
-    outcomes (outcome_sets: one per grid combination), combination by combination. A state the
-    runs cannot fit gives a Curve without a fit and the reason; an unknown state a StudyError."""
+    outcomes (outcome_sets: one per grid combination), combination by combination. The runs
+    whose model did not answer a state (DamageState.answered) are left out of its fit by default
+    (`unanswered` "omit"), or counted as reaching it ("reached") or not ("not-reached"); the
+    fits under the other two treatments come with each curve (Curve.others) where such runs
+    exist. A state the runs cannot fit gives a Curve without a fit and the reason; an unknown
+    state a StudyError."""
     sets = [sets] if isinstance(sets, Outcomes) else list(sets)
     states = ["overturn"] if states is None else [states] if isinstance(states, str) else list(states)
+    unanswered = check_unanswered(unanswered)
     if not states:
         raise StudyError(f"no damage state given: expected {DS_FORMS}")
     out = []
@@ -626,15 +767,11 @@ def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = Non
             raise StudyError(f"damage state {specs[[specs.count(d) > 1 for d in specs].index(True)]} is given twice")
         for ds in chosen:
             y = ds.reached(oc)
-            try:
-                out.append(Curve(oc, ds, y, fit(oc.x, y, np.array(oc.record), oc.unit)))
-            except FragilityError as exc:
-                why = str(exc) if ds.kind == "overturn" else (
-                    str(exc).replace("overturned", f"reached {ds.spec}")
-                    .replace("where blocks stand to where they fall", "where no run reaches it to where runs do")
-                    .replace(" stands and every run", " stays short of it and every run")
-                    .replace(" falls, so", " reaches it, so"))
-                out.append(Curve(oc, ds, y, None, why))
+            ok = ds.answered(oc, y)
+            fits = {t: _fit_treated(oc, ds, y, ok, t) for t in (UNANSWERED if not ok.all() else [unanswered])}
+            main = fits.pop(unanswered)
+            good = isinstance(main, Fragility)
+            out.append(Curve(oc, ds, y, main if good else None, None if good else main, ok, unanswered, fits))
     return out
 
 
@@ -660,16 +797,77 @@ def state_notes(state: DamageState, oc: Outcomes) -> list[str]:
     return [note] if note else []
 
 
-def fragility_notes(frag: Fragility, oc: Outcomes) -> list[str]:
-    """What the curve does not show: a median or interval outside the intensities run."""
-    lo, hi = float(oc.x.min()), float(oc.x.max())
-    notes = []
-    if not lo <= frag.median <= hi:
-        notes.append(f"the median {frag.median:.4g} {oc.unit} lies outside the intensities run ({lo:.4g} to "
-                     f"{hi:.4g} {oc.unit}): the curve there is an extrapolation")
-    elif frag.median_interval[1] > hi or frag.median_interval[0] < lo:
-        notes.append(f"the median's interval reaches beyond the intensities run ({lo:.4g} to {hi:.4g} {oc.unit})")
-    return notes
+BETA_WARNING = 1.0  # a dispersion above this is flagged: P from 16 % to 84 % over a factor e^2 = 7.4 of intensity
+DROP_Z = 2.0  # a fall of the fraction reached between two levels this many standard errors deep is flagged
+MOVE_WARNING = 0.10  # the unanswered runs' treatments moving the median by more than this (relative) is flagged
+
+
+def fit_warnings(c: Curve) -> list[str]:
+    """What makes curve `c`'s fit doubtful, one sentence each: a dispersion beta above 1, fractions
+    reached that fall as intensity rises (more than sampling explains), a median (or its interval)
+    outside the intensities run, and runs the model did not answer that could move the median."""
+    f, oc = c.fragility, c.outcomes
+    if f is None:
+        return []
+    used = c.used
+    x, y, u = oc.x[used], c.counted[used], oc.unit
+    lo, hi = float(x.min()), float(x.max())
+    out = []
+    if f.beta > BETA_WARNING:
+        out.append(f"beta {f.beta:.3g} is above {BETA_WARNING:g}: the curve rises from 16 % to 84 % over a factor "
+                   f"{math.exp(2 * f.beta):.3g} of {oc.label}, so the runs hardly follow one lognormal curve; read it "
+                   "as an average over outcomes that barely depend on intensity")
+    drop = fraction_drop(x, y)
+    if drop is not None:
+        (x1, p1), (x2, p2), z = drop
+        out.append(f"the fraction reaching {c.state.spec} falls from {100 * p1:.0f} % at {x1:.3g} {u} to "
+                   f"{100 * p2:.0f} % at {x2:.3g} {u}, more than sampling explains (z = {z:.1f}): rocking is not "
+                   "monotonic in intensity and a lognormal curve cannot show it")
+    if not lo <= f.median <= hi:
+        out.append(f"the median {f.median:.4g} {u} lies outside the intensities run ({lo:.4g} to {hi:.4g} {u}): it is "
+                   "an extrapolation (dashed in the figure)")
+    elif f.median_interval[1] > hi or f.median_interval[0] < lo:
+        out.append(f"the median's 95 % interval [{f.median_interval[0]:.4g}, {f.median_interval[1]:.4g}] {u} reaches "
+                   f"beyond the intensities run ({lo:.4g} to {hi:.4g} {u})")
+    others = {t: g for t, g in c.others.items() if isinstance(g, Fragility)}
+    moved = [t for t, g in others.items() if abs(math.log(g.median / f.median)) > math.log1p(MOVE_WARNING)]
+    if moved or len(others) < len(c.others):
+        alt = "; ".join(f"{UNANSWERED[t]}, median {g.median:.4g} {u}" if isinstance(g, Fragility) else
+                        f"{UNANSWERED[t]}, no fit" for t, g in c.others.items())
+        out.append(f"the {c.n_unanswered} runs the model did not answer could move the curve: {alt} "
+                   f"(here {UNANSWERED[c.unanswered]}, median {f.median:.4g} {u})")
+    return out
+
+
+def fraction_drop(x: np.ndarray, reached: np.ndarray) -> tuple[tuple[float, float], tuple[float, float], float] | None:
+    """The deepest fall of the fraction reached from a lower intensity level to a higher one, as
+    ((x1, fraction), (x2, fraction), z) with z the fall over its standard error (pooled binomial),
+    if z exceeds DROP_Z; None otherwise. Levels are the distinct intensities (a sweep's --im
+    stripes), or about 12 bins of equal count where the runs have no common levels."""
+    levels = np.unique(x)
+    groups = ([x == v for v in levels] if levels.size <= 50 else
+              [np.isin(np.arange(x.size), g) for g in np.array_split(np.argsort(x), 12)])
+    xs = [float(np.median(x[g])) for g in groups]
+    n = np.array([g.sum() for g in groups], float)
+    p = np.array([reached[g].mean() for g in groups])
+    best = None
+    for i in range(len(groups)):
+        for j in range(i + 1, len(groups)):
+            if p[j] >= p[i]:
+                continue
+            pool = (p[i] * n[i] + p[j] * n[j]) / (n[i] + n[j])
+            se = math.sqrt(pool * (1 - pool) * (1 / n[i] + 1 / n[j]))
+            z = (p[i] - p[j]) / se if se > 0 else math.inf
+            if z > DROP_Z and (best is None or z > best[2]):
+                best = ((xs[i], float(p[i])), (xs[j], float(p[j])), z)
+    return best
+
+
+def _unanswered_records(oc: Outcomes) -> list[str]:
+    """The records with at least one run the model did not answer, in order."""
+    if oc.broke is None:
+        return []
+    return list(dict.fromkeys(r for r, b in zip(oc.record, oc.broke) if b))
 
 
 def first_overturn(oc: Outcomes) -> dict[str, float | None]:
@@ -684,10 +882,12 @@ def first_overturn(oc: Outcomes) -> dict[str, float | None]:
 
 def resurrections(oc: Outcomes) -> list[str]:
     """Records that overturn the block at some intensity but not at a higher one (rocking is not
-    monotonic in intensity)."""
+    monotonic in intensity), among the runs the model answered (a run it did not answer says
+    nothing about whether the block stood)."""
+    answered = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
     out = []
     for name in dict.fromkeys(oc.record):
-        sel = np.array([r == name for r in oc.record])
+        sel = np.array([r == name for r in oc.record]) & answered
         xs, fell = oc.x[sel], oc.overturned[sel]
         order = np.argsort(xs)
         f = fell[order]
@@ -727,14 +927,39 @@ def check_block(block: int | str | None, sets: list[Outcomes]) -> int | None:
 
 
 def ida_panels(oc: Outcomes, demand: str = "rotation", block: int | None = None) \
-        -> list[tuple[int, np.ndarray, np.ndarray]]:
+        -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
     """The demands an IDA of `oc` draws, one panel per block: (block, its demand per run (peak
     |theta| / alpha, or peak |slip| in m: block 2's along block 1's top), bool per run where the
-    block is gone: overturned, or for block 2 of a stack overturned or fallen off block 1)."""
+    block is gone: overturned, or for block 2 of a stack overturned or fallen off block 1, bool per
+    run where the model answered the demand: its assumptions held until the outcome was decided,
+    or, in a rocking–sliding stack's run, which ends where they broke, the block was gone before.
+    Where it did not, the demand is the peak up to the break: a lower bound)."""
     panels = [(1, np.asarray(oc.peak1 if demand == "rotation" else oc.slip, float), np.asarray(oc.over1, bool))]
     if oc.two and (demand == "rotation" or oc.slip2 is not None):
         panels.append((2, np.asarray(oc.peak2 if demand == "rotation" else oc.slip2, float), oc.gone2))
-    return [p for p in panels if block is None or p[0] == block]
+    ok = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
+    return [(i, peak, gone, ok | gone if oc.ends_at_break else ok) for i, peak, gone in panels
+            if block is None or i == block]
+
+
+def ida_median(oc: Outcomes, peak: np.ndarray, gone: np.ndarray, answered: np.ndarray,
+               unanswered: str = "omit") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(levels, median demand over records at each level, runs left out at each level) of one IDA
+    panel (ida_panels): a gone block's demand counts as infinite; a run the model did not answer
+    is left out ("omit"), counted as gone ("reached") or at its peak up to the break, a lower
+    bound ("not-reached"). NaN where a level has no run left."""
+    check_unanswered(unanswered)
+    groups = oc.bins()
+    levels = np.array([np.median(oc.x[g]) for g in groups])
+    demand = np.where(gone, np.inf, peak)
+    if unanswered == "reached":
+        demand = np.where(answered, demand, np.inf)
+    elif unanswered == "not-reached":
+        demand = np.where(answered | ~gone, demand, peak)  # standing, at the peak the run stored
+    keep = answered if unanswered == "omit" else np.ones(len(oc.x), bool)
+    med = np.array([np.median(demand[g][keep[g]]) if keep[g].any() else np.nan for g in groups])
+    left = np.array([int((~keep[g]).sum()) for g in groups])
+    return levels, med, left
 
 
 def by_combination(cs: list[Curve]) -> list[list[Curve]]:
@@ -763,36 +988,60 @@ def _context(oc: Outcomes) -> list[str]:
     return lines
 
 
-def format_fragility(frag: Fragility, oc: Outcomes, state: DamageState | None = None) -> str:
-    """One fragility curve for people (runners fragility): fit, intervals, context, notes."""
-    state = state or DamageState("overturn")
+def _fit_lines(c: Curve) -> list[str]:
+    """The fit of curve `c`: median and beta with their 95 % intervals."""
+    f, u = c.fragility, c.outcomes.unit
+    return [f"median           {f.median:.4g} {u}, 95 % interval [{f.median_interval[0]:.4g}, "
+            f"{f.median_interval[1]:.4g}]",
+            f"beta             {f.beta:.4g}, 95 % interval [{f.beta_interval[0]:.4g}, {f.beta_interval[1]:.4g}]"]
+
+
+def unanswered_line(c: Curve) -> str | None:
+    """How many runs the model did not answer for curve `c`'s state, why, how the fit treats
+    them and what the other treatments give; None where it answered every run."""
+    if not c.n_unanswered:
+        return None
+    oc, u = c.outcomes, c.outcomes.unit
+    alt = "; ".join(f"{UNANSWERED[t]}: median {g.median:.4g} {u}, beta {g.beta:.3g}" if isinstance(g, Fragility)
+                    else f"{UNANSWERED[t]}: no fit" for t, g in c.others.items())
+    return (f"{c.n_unanswered} of {len(oc.x)} runs the model did not answer ({oc.unanswered_words()}), "
+            f"{UNANSWERED[c.unanswered]}" + (f" (--unanswered); {alt}" if alt else ""))
+
+
+def format_curve(c: Curve) -> str:
+    """One fragility curve for people (runners fragility): runs, fit, intervals, the runs left
+    out, context, warnings and notes."""
+    oc, state, f = c.outcomes, c.state, c.fragility
     overturn = state == DamageState("overturn")
     event = "overturn" if overturn else state.spec
+    used = c.used
     lines = [
         _header(oc),
-        f"runs             {frag.n_runs} on {frag.n_groups} records, {frag.n_overturned} "
-        + ("overturned" if overturn else f"where {state.label(oc.two, oc.sliding)}")
+        f"runs             {int(used.sum())} on {len(set(np.array(oc.record)[used]))} records in the fit, "
+        f"{int((c.counted & used).sum())} " + ("overturned" if overturn else f"where {c.label}")
+        + (f"; {c.n_unanswered} left out (unanswered)" if c.unanswered == "omit" and c.n_unanswered else "")
         + (f"; {oc.failed} failed, left out" if oc.failed else ""),
         f"fragility        P({event} | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
         "(Baker 2015)",
-        f"median           {frag.median:.4g} {oc.unit}, 95 % interval [{frag.median_interval[0]:.4g}, "
-        f"{frag.median_interval[1]:.4g}]",
-        f"beta             {frag.beta:.4g}, 95 % interval [{frag.beta_interval[0]:.4g}, {frag.beta_interval[1]:.4g}]",
-        f"intervals        {frag.interval_method}",
+        *_fit_lines(c),
+        f"intervals        {f.interval_method}",
     ]
+    if unanswered_line(c):
+        lines.append(f"unanswered       {unanswered_line(c)}")
     lines += _context(oc)
-    lines += [f"note             {n}" for n in oc.notes + fragility_notes(frag, oc) + state_notes(state, oc)]
+    lines += [f"warning          {w}" for w in fit_warnings(c)]
+    lines += [f"note             {n}" for n in oc.notes + state_notes(state, oc)]
     return "\n".join(lines)
 
 
 def format_curves(cs: list[Curve]) -> str:
     """Damage-state curves for people, combination by combination (a blank line between): one
-    curve as format_fragility, several as one line per damage state."""
+    curve as format_curve, several as one line per damage state."""
     blocks = []
     for group in by_combination(cs):
         oc = group[0].outcomes
         if len(group) == 1 and group[0].fragility is not None:
-            blocks.append(format_fragility(group[0].fragility, oc, group[0].state))
+            blocks.append(format_curve(group[0]))
             continue
         width = max(16, max(len(c.state.spec) for c in group) + 1)
         lines = [_header(oc),
@@ -801,21 +1050,27 @@ def format_curves(cs: list[Curve]) -> str:
                  f"fragility        P(state | {oc.label}) = Phi(ln({oc.label} / median) / beta), maximum likelihood "
                  "(Baker 2015); median and beta with 95 % intervals"]
         notes: list[str] = []
+        warnings: list[str] = []
         for c in group:
-            f, k = c.fragility, int(c.reached.sum())
-            head = f"{c.state.spec:<{width}}{k:>4} of {len(oc.x)} runs ({c.label})"
-            if f is None:
+            used = c.used
+            k = int((c.counted & used).sum())
+            left = f", {c.n_unanswered} left out" if c.unanswered == "omit" and c.n_unanswered else ""
+            head = f"{c.state.spec:<{width}}{k:>4} of {int(used.sum())} runs{left} ({c.label})"
+            if c.fragility is None:
                 lines.append(f"{head}: no fit: {c.why}")
                 continue
+            f = c.fragility
             lines.append(f"{head}: median {f.median:.4g} {oc.unit} [{f.median_interval[0]:.4g}, "
                          f"{f.median_interval[1]:.4g}], beta {f.beta:.4g} [{f.beta_interval[0]:.4g}, "
                          f"{f.beta_interval[1]:.4g}]")
-            notes += [f"{c.state.spec}: {n}" for n in fragility_notes(f, oc)]
+            warnings += [f"{c.state.spec}: {w}" for w in fit_warnings(c)]
         if any(state_notes(c.state, oc) for c in group):
             notes += [f"block 1 states: {censored_note(oc)}"]
         methods = list(dict.fromkeys(c.fragility.interval_method for c in group if c.fragility is not None))
         lines += [f"intervals        {m}" for m in methods]
+        lines += [f"unanswered       {c.state.spec}: {unanswered_line(c)}" for c in group if unanswered_line(c)]
         lines += _context(oc)
+        lines += [f"warning          {w}" for w in warnings]
         lines += [f"note             {n}" for n in oc.notes + notes]
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
@@ -842,7 +1097,9 @@ def _slip_words(who: str, slip, gone, motion: list[str]) -> str:
     return f"{head}{big}; " + ", ".join(f"{n} {m}" for m, n in kinds.items())
 
 
-def format_ida(oc: Outcomes) -> str:
+def format_ida(oc: Outcomes, unanswered: str = "omit") -> str:
+    """The IDA of `oc` for people (runners ida): per record the first overturning intensity, each
+    block's counts, the runs the model did not answer and how the median treats them."""
     first = first_overturn(oc)
     back = resurrections(oc)
     fell = [v for v in first.values() if v is not None]
@@ -860,9 +1117,17 @@ def format_ida(oc: Outcomes) -> str:
                         f"; block 2 fell off block 1 in {int(np.sum(np.asarray(oc.fell_off, bool) & ~o2))}"))
         if censored_note(oc):
             lines.append(f"note             {censored_note(oc)}")
+    open_ = _unanswered_records(oc)
     never = [name for name, v in first.items() if v is None]
     if never:
-        lines.append(f"never overturned {', '.join(never)}")
+        doubt = [n for n in never if n in open_]
+        lines.append(f"never overturned {', '.join(never)}" + ("" if not doubt else
+                     f" (in the runs the model answered: it did not answer some runs of {', '.join(doubt)})"))
+    if open_:
+        n = int(np.sum(oc.broke)) if oc.broke is not None else 0
+        lines.append(f"unanswered       {n} of {len(oc.x)} runs the model did not answer ({oc.unanswered_words()}), "
+                     f"on {len(open_)} records: drawn as lower bounds (open markers, the record's line broken there), "
+                     f"{IDA_UNANSWERED[unanswered]} (--unanswered)")
     if back:
         lines.append(f"not monotonic    {len(back)} records overturn the block at one level but not at a higher "
                      f"one (rocking is not monotonic in intensity): {', '.join(back)}")

@@ -51,3 +51,15 @@ def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
         runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)
                                .options(selectinload(Run.summary))).all()  # one query, not one per run
         return sw, scene, list(runs)
+
+
+def fixed_axes(grid: dict) -> dict[str, float]:
+    """The one-value --grid axes of a stored sweep (e.g. contact.model=rocking-sliding): parameters
+    every point runs with, as the scene's."""
+    return {a[0]: a[1] for a in grid.get("axes") or [] if a[3] == 1 and a[0] != "excitation.scale"}
+
+
+def sweep_parameters(sw: Sweep, scene: Scene) -> dict:
+    """The FMU parameters every point of sweep `sw` shares: the FMU's defaults, the scene's, and
+    the values its one-value --grid axes set (which replace the scene's)."""
+    return {**sw.grid["defaults"], **scene.parameters, **fixed_axes(sw.grid)}
