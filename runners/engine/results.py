@@ -105,25 +105,28 @@ class SweepResult:
         return study.outcome_sets(self.factory, self.sweep_id, _measure(measure), _select(select))
 
     def fragility(self, measure: str = "pga", ds: str = "overturn",
-                  select: dict[str, float] | None = None) -> "Fragility":
+                  select: dict[str, float] | None = None, unanswered: str = "omit") -> "Fragility":
         """The lognormal fragility of damage state ``ds`` (default overturn, of either block; see
         fragilities) fitted to a record sweep by maximum likelihood
         (runners.engine.fragility.Fragility: median and dispersion beta, in the unit of
-        ``measure``). Raises FragilityError when the runs cannot determine it, StudyError when
-        the sweep has other --grid axes and ``select`` does not pick one combination."""
+        ``measure``). The runs the model did not answer (its assumptions broke before the
+        outcome) are left out, or counted as ``unanswered`` says ("reached", "not-reached",
+        "as-run"; docs/records.md). Raises FragilityError when the runs cannot determine it,
+        StudyError when the sweep has other --grid axes and ``select`` does not pick one
+        combination."""
         from runners.engine.fragility import FragilityError
         from runners.engine import study
 
         if not isinstance(ds, str):
             raise ArgumentError(f"ds={ds!r}: expected one damage state as a string, e.g. 'block2:overturn' "
                                 "(fragilities takes several)")
-        curve = study.curves(self.outcomes(measure, select), [ds])[0]
+        curve = study.curves(self.outcomes(measure, select), [ds], _unanswered(unanswered))[0]
         if curve.fragility is None:
             raise FragilityError(curve.why)
         return curve.fragility
 
     def fragilities(self, measure: str = "pga", ds: list[str] | tuple[str, ...] = ("overturn",),
-                    select: dict[str, float] | None = None) -> list["Curve"]:
+                    select: dict[str, float] | None = None, unanswered: str = "omit") -> list["Curve"]:
         """The fragility curve of each damage state in ``ds`` at each combination of the sweep's
         other --grid axes (runners.engine.study.Curve: ``.state``, ``.outcomes.combination``,
         ``.reached`` per run, ``.fragility`` or ``.why`` it has none, ``.as_dict()``). Damage
@@ -131,19 +134,29 @@ class SweepResult:
         beyond X, or overturned), ``slides`` (a contact needed more friction than its mu),
         ``[BLOCK:]slide>D`` (rocking-sliding sweeps: peak |slip| beyond D in m, cm or mm, e.g.
         ``slide>5cm``, or overturned; block 2's along block 1's top), ``block2:falloff``
-        (rocking-sliding stacks: block 2 fell off block 1). Draw them with
+        (rocking-sliding stacks: block 2 fell off block 1). The runs the model did not answer
+        are left out of each fit or counted as ``unanswered`` says (as fragility; each curve's
+        ``.others`` holds the fits under the other treatments). Draw them with
         runners.analysis.study_figures.curves_figure."""
         from runners.engine import study
 
         if not isinstance(ds, (list, tuple)) or not all(isinstance(d, str) for d in ds):
             raise ArgumentError(f"ds={ds!r}: expected a list of damage states, e.g. ['overturn', 'rot>0.5alpha']")
-        return study.curves(self.outcome_sets(measure, select), list(ds))
+        return study.curves(self.outcome_sets(measure, select), list(ds), _unanswered(unanswered))
 
 
 def _measure(measure: Any) -> str:
     from runners import arguments
 
     return arguments.text(measure, "measure", "an intensity measure (str): pga, pgv, pgd or arias")
+
+
+def _unanswered(unanswered: Any) -> str:
+    from runners.engine.study import UNANSWERED
+
+    if not isinstance(unanswered, str) or unanswered not in UNANSWERED:
+        raise ArgumentError(f"unanswered={unanswered!r}: expected one of {', '.join(UNANSWERED)}")
+    return unanswered
 
 
 def _select(select: Any) -> dict | None:
