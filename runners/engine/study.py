@@ -768,7 +768,10 @@ def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = Non
         for ds in chosen:
             y = ds.reached(oc)
             ok = ds.answered(oc, y)
-            fits = {t: _fit_treated(oc, ds, y, ok, t) for t in (UNANSWERED if not ok.all() else [unanswered])}
+            fits, done = {}, {}
+            for t in (UNANSWERED if not ok.all() else [unanswered]):
+                key = tuple(a.tobytes() for a in treated(y, ok, t))  # treatments that count alike fit once
+                fits[t] = done[key] if key in done else done.setdefault(key, _fit_treated(oc, ds, y, ok, t))
             main = fits.pop(unanswered)
             good = isinstance(main, Fragility)
             out.append(Curve(oc, ds, y, main if good else None, None if good else main, ok, unanswered, fits))
