@@ -44,8 +44,9 @@ def marble(template, tmp_path_factory, fmu_path):  # noqa: F811
 
 def stored(db: str, sweep_id: int = 1) -> list[tuple[dict, RunSummary]]:
     with open_database(db)() as s:
-        return [(r.point, rs) for r, rs in s.execute(select(Run, RunSummary).join(RunSummary, RunSummary.run_id == Run.id)
-                                                    .where(Run.sweep_id == sweep_id)).all()]
+        rows = s.execute(select(Run, RunSummary).join(RunSummary, RunSummary.run_id == Run.id)
+                         .where(Run.sweep_id == sweep_id)).all()
+        return [(r.point, rs) for r, rs in rows]
 
 
 def flew_before_block2_fell(rs: RunSummary) -> bool:

@@ -222,6 +222,6 @@ def _unanswered_study(fmu_path: Path, workers: int) -> str:
         f"beside it | {t_fits:.3f} |",
         f"| its figure | {t_fig:.2f} |",
         "",
-        f"The study's fits cost {t_fits / t_one:.1f}x the one fit (treatments that count alike are fitted once). Left out: median {f.median:.3f} g, beta {f.beta:.2f} "
-        f"({int(curve.used.sum())} runs); {alt}.",
+        f"The study's fits cost {t_fits / t_one:.1f}x the one fit (treatments that count alike are fitted once). "
+        f"Left out: median {f.median:.3f} g, beta {f.beta:.2f} ({int(curve.used.sum())} runs); {alt}.",
     ])

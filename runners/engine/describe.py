@@ -50,7 +50,8 @@ def restitution_text(p: Mapping[str, Any]) -> str:
         if law == 2:
             return (f"constant restitution, {float(p['restitution.etaGround']):.3g} on the ground, "
                     f"{float(p['restitution.etaInterface']):.3g} between the blocks")
-        return {0: "momentum restitution (docs/two_blocks.md)", 1: "modified restitution"}.get(law, f"restitution {law}")
+        names = {0: "momentum restitution (docs/two_blocks.md)", 1: "modified restitution"}
+        return names.get(law, f"restitution {law}")
     alpha = math.atan2(float(p["block1.halfWidth"]), float(p["block1.halfHeight"]))
     text = f"{LAW_NAMES.get(law, law)} restitution, eta {restitution(dict(p), alpha):.3f}"
     if law != 2 and float(p.get("restitution.correction", 1.0)) != 1.0:

@@ -105,7 +105,8 @@ class Outcomes:
     def unanswered_words(self) -> str:
         """Why the model did not answer a run it broke in, in a few words (texts and legends)."""
         if self.sliding:
-            return f"{'a contact' if self.two else 'the block'} lifted off first, into flight outside the rocking–sliding model"
+            who = "a contact" if self.two else "the block"
+            return f"{who} lifted off first, into flight outside the rocking–sliding model"
         return "a contact slid or lifted off first, outside rigid rocking"
 
     @property
