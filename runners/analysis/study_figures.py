@@ -102,17 +102,17 @@ def _levels(oc: Outcomes, mask: np.ndarray) -> tuple[list[np.ndarray], np.ndarra
     return groups, np.array([np.median(oc.x[g]) for g in groups]), np.array([g.size for g in groups])
 
 
-def _draw_fit(ax, c: Curve, grid: np.ndarray, colour: str, band_alpha: float) -> bool:
+def _draw_fit(ax, c: Curve, grid: np.ndarray, colour: str, band_alpha: float, lw: float = 2.0) -> bool:
     """Curve `c`'s fit and 95 % band on `ax`: solid over the intensities of the runs in its fit,
-    dashed beyond (an extrapolation). Whether any of it was dashed."""
+    dashed beyond (an extrapolation), `lw` wide. Whether any of it was dashed."""
     f = c.fragility
     x = c.outcomes.x[c.used]
     inside = (grid >= x.min()) & (grid <= x.max())
     lo, hi = f.band(grid)
     ax.fill_between(grid, lo, hi, color=colour, alpha=band_alpha, lw=0)
     p = f.probability(grid)
-    ax.plot(np.where(inside, grid, np.nan), p, color=colour, lw=2)
-    ax.plot(np.where(inside, np.nan, grid), p, color=colour, lw=1.6, ls="--")
+    ax.plot(np.where(inside, grid, np.nan), p, color=colour, lw=lw)
+    ax.plot(np.where(inside, np.nan, grid), p, color=colour, lw=0.8 * lw, ls="--")
     return bool((~inside).any())
 
 
@@ -124,6 +124,7 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
     per level. For PGA the uplift threshold."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
 
     oc = cs[0].outcomes
     groups_all, xs_all, _ = _levels(oc, np.ones(len(oc.x), bool))
@@ -139,16 +140,20 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
         groups, xs, n = _levels(oc, c.used)
         k = np.array([int(c.counted[g].sum()) for g in groups])
         f = c.fragility
+        # the first curves wider, their markers larger: a curve close to a later one still shows around it
+        later = len(lines) - 1 - i
+        wide = 1.0 + 0.5 * later
         if f is not None:
-            extrapolated |= _draw_fit(ax, c, grid, colour, 0.25 if single else 0.12)
-        ax.scatter(xs, k / n, s=12 + 60 * n / max(n.max(), 1), color=colour, zorder=3, marker=marker,
+            extrapolated |= _draw_fit(ax, c, grid, colour, 0.25 if single else 0.12, 2.0 * wide)
+        ax.scatter(xs, k / n, s=(12 + 60 * n / max(n.max(), 1)) * (1 + 0.2 * later) ** 2, color=colour, zorder=3,
+                   marker=marker,
                    edgecolor="k", lw=0.4)
         names = " = ".join(s.label for s in same)
         same_note = " (the same runs reach each)" if len(same) > 1 else ""
         fitted = (f"median {f.median:.3g} {oc.unit} (95 %: {f.median_interval[0]:.3g} to "
                   f"{f.median_interval[1]:.3g}), beta {f.beta:.2f}" if f is not None else "no fit")
         handles.append(Line2D([], [], color=colour, marker=marker, markeredgecolor="k", markeredgewidth=0.4,
-                              lw=2 if f is not None else 0, label=textwrap.fill(f"{names}{same_note}: {fitted}", 60)))
+                              lw=2 * wide if f is not None else 0, label=textwrap.fill(f"{names}{same_note}: {fitted}", 60)))
         if single and f is not None:
             ax.axvline(f.median, color=colour, lw=0.8, ls=":")
             ax.axvspan(*f.median_interval, color=colour, alpha=0.06)
@@ -165,7 +170,8 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
             if a is not None:
                 a.axvline(oc.uplift_threshold(), color="#238b45", lw=1.2, ls=":")
         handles.append(Line2D([], [], color="#238b45", lw=1.2, ls=":", label=textwrap.fill(thr, 60)))
-    ax.set_ylabel("P(overturn)" if single and cs[0].state == DamageState("overturn") else "P(damage state reached)")
+    ax.set_ylabel("P(overturn)" if len(cs) == 1 and cs[0].state == DamageState("overturn") else
+                  "P(damage state reached)")
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlim(0, grid.max())
     if strip is not None:
@@ -173,9 +179,11 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
         n_all = np.array([g.size for g in groups_all])
         width = 0.6 * float(np.min(np.diff(xs_all))) if xs_all.size > 1 else 0.05 * grid.max()
         strip.bar(xs_all, b, width=width, color=BROKE_COLOUR, edgecolor="k", lw=0.4)
-        strip.set_ylim(0, max(int(n_all.max()), 1))
+        strip.set_ylim(0, max(1.25 * int(b.max()), 1))
         strip.set_xlim(ax.get_xlim())
-        strip.set_ylabel("runs", fontsize=8)
+        per = f"{int(n_all.min())}" if n_all.min() == n_all.max() else f"{int(n_all.min())}-{int(n_all.max())}"
+        strip.set_ylabel(f"runs\n(of {per})", fontsize=7)
+        strip.yaxis.set_major_locator(MaxNLocator(integer=True))
         treatment = {c.unanswered for c in cs}.pop() if len({c.unanswered for c in cs}) == 1 else "omit"
         handles.append(Patch(facecolor=BROKE_COLOUR, edgecolor="k", lw=0.4, label=textwrap.fill(
             f"lower strip: runs per level the model did not answer ({oc.n_broke} of {len(oc.x)}: "
@@ -195,8 +203,7 @@ def _panel_axes(fig, n: int, strips: bool, width: float, height: float):
     cols = 1 if n == 1 else min(3, n)
     rows = -(-n // cols)
     fig.set_size_inches(width * cols, height * rows)
-    gs = fig.add_gridspec(rows * (2 if strips else 1), cols, height_ratios=[4, 1] * rows if strips else None,
-                          hspace=0.08 if strips else 0.35, wspace=1.1)
+    gs = fig.add_gridspec(rows * (2 if strips else 1), cols, height_ratios=[4, 1] * rows if strips else None)
     out = []
     for k in range(n):
         r, c = divmod(k, cols)
@@ -206,15 +213,20 @@ def _panel_axes(fig, n: int, strips: bool, width: float, height: float):
     return out
 
 
-def _footer(fig, lines: list[tuple[str, str]]) -> int:
-    """Notes (grey) and warnings (red) at the foot of `fig`, wrapped; the number of lines."""
-    y, count = 0.005, 0
+FOOT_LINE = 0.125  # in: the height of a footer line at its font size (6.5 pt, spaced)
+
+
+def _footer(fig, lines: list[tuple[str, str]]) -> None:
+    """Notes (grey) and warnings (red) at the foot of `fig`, wrapped to its width, in a band the
+    figure's (constrained) layout keeps clear of the axes."""
+    width, height = fig.get_size_inches()
+    chars = max(int(width * 15), 60)  # characters a line of 6.5 pt holds
+    y = 0.06 / height
     for text, colour in reversed(lines):
-        wrapped = textwrap.wrap(text, 170)
+        wrapped = textwrap.wrap(text, chars)
         fig.text(0.01, y, "\n".join(wrapped), fontsize=6.5, color=colour, va="bottom")
-        y += 0.0125 * len(wrapped) * 10 / max(fig.get_size_inches()[1], 1)
-        count += len(wrapped)
-    return count
+        y += FOOT_LINE * len(wrapped) / height
+    fig.get_layout_engine().set(rect=(0, min(y + 0.01, 0.5), 1, 1 - min(y + 0.01, 0.5)))
 
 
 def curves_figure(cs: list[Curve]):
@@ -228,7 +240,7 @@ def curves_figure(cs: list[Curve]):
     oc0 = groups[0][0].outcomes
     single = len(groups) == 1
     strips = any(g[0].outcomes.n_broke for g in groups)
-    fig = plt.figure()
+    fig = plt.figure(layout="constrained")
     panels = _panel_axes(fig, len(groups), strips, 11.5 if single else 9.5, 6.2 if single else 5.4)
     for (ax, strip), group in zip(panels, groups):
         oc = group[0].outcomes
@@ -255,9 +267,7 @@ def curves_figure(cs: list[Curve]):
                      "(docs/two_blocks.md, docs/stack_sliding.md), so they count block 1 reaching the state before "
                      "that", "0.35"))
     foot.append((f"scene file's name: {oc0.scene!r} (the titles give the parameters the runs used)", "0.35"))
-    n = _footer(fig, foot)
-    fig.subplots_adjust(left=0.07 if single else 0.05, right=0.64 if single else 0.8,
-                        bottom=0.09 + 0.02 * n * 6 / fig.get_size_inches()[1], top=0.86 if single else 0.88)
+    _footer(fig, foot)
     return fig
 
 
@@ -290,8 +300,8 @@ def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation", block: i
         raise StudyError(f"{len(sets)} grid combinations are more than one figure draws ({MAX_PANELS // 2}): select "
                          "some (--select NAME=VALUE)")
     rows = max(len(ida_panels(o, demand, block)) for o in sets)
-    fig = plt.figure(figsize=(12.5 if len(sets) == 1 else 9 * len(sets), 5.6 * rows + 0.8))
-    gs = fig.add_gridspec(2 * rows, len(sets), height_ratios=[1, 5] * rows, hspace=0.12, wspace=0.9)
+    fig = plt.figure(figsize=(12.5 if len(sets) == 1 else 9 * len(sets), 5.6 * rows + 0.8), layout="constrained")
+    gs = fig.add_gridspec(2 * rows, len(sets), height_ratios=[1, 5] * rows)
     for col, o in enumerate(sets):
         pairs = [(fig.add_subplot(gs[2 * r, col]), fig.add_subplot(gs[2 * r + 1, col])) for r in range(rows)]
         for top, main in pairs:
@@ -303,10 +313,8 @@ def ida_figure(oc: Outcomes | list[Outcomes], demand: str = "rotation", block: i
         title = _title_lines(o, "IDA, one line per record")
         pairs[0][0].set_title("\n".join(textwrap.fill(t, 95 if len(sets) == 1 else 70) for t in title),
                               fontsize=8.5 if len(sets) == 1 else 7.5, loc="left")
-    n = _footer(fig, [(f"scene file's name: {sets[0].scene!r} (the titles give the parameters the runs used)",
-                       "0.35")])
-    fig.subplots_adjust(left=0.08, right=0.68 if len(sets) == 1 else 0.82, top=0.84 if rows == 1 else 0.91,
-                        bottom=0.07 + 0.015 * n)
+    _footer(fig, [(f"scene file's name: {sets[0].scene!r} (the titles give the parameters the runs used)",
+                   "0.35")])
     return fig
 
 
@@ -339,7 +347,8 @@ def _ida_column(pairs, oc: Outcomes, demand: str, block: int | None, unanswered:
         ax.plot(levels, np.where(finite, np.maximum(med, SLIP_FLOOR) if demand == "slip" else med, np.nan), color="k",
                 lw=2.4, zorder=5)
         standing = ~gone & answered
-        if standing.any():  # name the record with the largest demand: it sets the axis
+        if standing.any() and peak[standing].max() > (SLIP_FLOOR if demand == "slip" else 0.0):
+            # name the record with the largest demand: it sets the axis
             j = int(np.flatnonzero(standing)[np.argmax(shown[standing])])
             right = oc.x[j] > 0.5 * (oc.x.min() + oc.x.max())
             ax.annotate(f"largest: record {oc.record[j]}", (oc.x[j], shown[j]), xytext=(-6 if right else 6, -10),
@@ -364,9 +373,10 @@ def _ida_column(pairs, oc: Outcomes, demand: str, block: int | None, unanswered:
         infinite = levels[np.isinf(med)]
         beyond = (f" (infinite from {infinite.min():.3g} {oc.unit}: more than half gone)"
                   if infinite.size else "")
+        treated = (f"; the runs the model did not answer {IDA_UNANSWERED[unanswered].replace(' demand', '')}"
+                   if oc.n_broke else "")
         handles += [Line2D([], [], color="k", lw=2.4, label=textwrap.fill(
-                        f"median over records (gone: infinite){beyond}; the runs the model did not answer "
-                        f"{IDA_UNANSWERED[unanswered].replace(' demand', '')}", 55)),
+                        f"median over records (gone: infinite){beyond}{treated}", 55)),
                     Line2D([], [], ls="", marker="x", color="0.3", label="overturned (upper strip)")]
         if fell is not None:
             handles.append(Line2D([], [], ls="", marker="v", color="0.3", label="fell off block 1 (upper strip)"))
