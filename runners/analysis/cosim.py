@@ -239,8 +239,8 @@ def figure(results: list[CosimResult], title: str = ""):
                 ax[0].plot(t[beyond], np.full(beyond.sum(), y), marker, ms=4, color=color, ls="none")
         ax[0].set_ylim(-top, top)
         handles.append(Line2D([], [], ls="none", marker="^", ms=4, color="0.3",
-                              label=f"two-way floor at an impact: a one-step spike, off the scale (up to {peak:.3g} g),\n"
-                                    "then a few steps of ringing (the impulse reaches the floor a step late)"))
+                              label=f"two-way floor at an impact: a one-step spike (up to {peak:.3g} g, marked where\n"
+                                    "off the scale), then a few steps of ringing (the impulse reaches the floor a step late)"))
     ax[0].set_ylabel(f"floor {first.system.floor} and base\nacceleration (g)")
     ax[1].set_ylabel("floor displacement\nrelative to base (mm)")
     ax[2].set_ylabel("block 1 rotation\ntheta (rad)")
