@@ -168,11 +168,11 @@ def describe(r: CosimResult) -> str:
         blocks.append(f"block {i}: {size}, {m:g} kg" if m else f"block {i}: {size}")
     model = int(_param(r, "contact.model") or 0)
     mu = _param(r, "contact.muGround")
-    contact = CONTACT_MODEL_NAMES.get(model, str(model)).replace("-", " ", 1).replace("rocking sliding", "rocking-sliding")
+    contact = CONTACT_MODEL_NAMES.get(model, str(model)).replace("rigid-rocking", "rigid rocking")
     friction = f", mu = {mu:g}" if mu is not None else ""
     s, b = r.system, r.system.building
     masses = f"{b.mass[0]:g} kg" if len(set(b.mass)) == 1 else "masses " + "/".join(f"{m:g}" for m in b.mass) + " kg"
-    stiff = f"{b.stiffness[0]:g} N/m" if len(set(b.stiffness)) == 1 else "/".join(f"{k:g}" for k in b.stiffness) + " N/m"
+    stiff = (f"{b.stiffness[0]:g}" if len(set(b.stiffness)) == 1 else "/".join(f"{k:g}" for k in b.stiffness)) + " N/m"
     return (f"{'; '.join(blocks)}; {contact}{friction}\n"
             f"on floor {s.floor} of a {b.storeys}-storey shear building ({masses}, {stiff} per storey, "
             f"damping {b.damping_ratio:g}); Jacobi, h = {s.step:g} s, {r.engine}")
@@ -239,8 +239,9 @@ def figure(results: list[CosimResult], title: str = ""):
                 ax[0].plot(t[beyond], np.full(beyond.sum(), y), marker, ms=4, color=color, ls="none")
         ax[0].set_ylim(-top, top)
         handles.append(Line2D([], [], ls="none", marker="^", ms=4, color="0.3",
-                              label=f"two-way floor at an impact: a one-step spike (up to {peak:.3g} g, marked where\n"
-                                    "off the scale), then a few steps of ringing (the impulse reaches the floor a step late)"))
+                              label=f"two-way floor at an impact: a one-step spike (up to {peak:.3g} g, marked "
+                                    "where\noff the scale), then a few steps of ringing (the impulse reaches the "
+                                    "floor a step late)"))
     ax[0].set_ylabel(f"floor {first.system.floor} and base\nacceleration (g)")
     ax[1].set_ylabel("floor displacement\nrelative to base (mm)")
     ax[2].set_ylabel("block 1 rotation\ntheta (rad)")

@@ -7,6 +7,7 @@ import argparse
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from runners.cli import output
 from runners.cli.args import common, files, output_file, positive
@@ -89,7 +90,7 @@ def _csv_files(csv: str | None, compare: bool) -> dict[str, Path]:
     return {f"--csv ({c})": path.with_name(f"{path.stem}-{c}{path.suffix or '.csv'}") for c in COUPLINGS}
 
 
-def _load(args: argparse.Namespace):
+def _load(args: argparse.Namespace) -> tuple[Any, list[str]]:
     """The system of the command line (its file, --coupling and --step over it), checked as the API
     checks it, and the couplings to run. ValueError, before the database is opened and before anything
     runs, if an output would overwrite another, the database or a file the system names (its base
@@ -124,7 +125,7 @@ def _refuse_clobbering(args: argparse.Namespace, reads: dict[str, str | None]) -
            reads, args.db)
 
 
-def _notes(system, couplings: list[str]) -> list[str]:
+def _notes(system: Any, couplings: list[str]) -> list[str]:
     """The notes of every coupling to run (runners.engine.cosim.system_notes), each once."""
     from runners.engine.cosim import system_notes
 
@@ -138,9 +139,8 @@ def cmd_cosim(args: argparse.Namespace) -> int:
     system, couplings = _load(args)
     if args.out:
         _check_figure_path(args.out)
-    for path in [args.csv] if args.csv else []:
-        if not Path(path).parent.is_dir():
-            raise ValueError(f"--csv {path}: the folder {Path(path).parent} does not exist")
+    if args.csv and not Path(args.csv).parent.is_dir():
+        raise ValueError(f"--csv {args.csv}: the folder {Path(args.csv).parent} does not exist")
     csvs = _csv_files(args.csv, args.compare)
     block_fmu = Path(args.fmu) if args.fmu else None
     if "two-way" in couplings and int(system.blocks.get("contact.model", 0)) != 1:

@@ -337,39 +337,51 @@ def check_system(system: System, names: dict[str, str] | None = None, where: str
     (the system file)."""
     name = {**{k: k for k in FILE_NAMES}, **(names or {})}
     try:
-        b = system.building
-        if not isinstance(b, Building):
-            raise CosimError(f"building must be a Building, got {type(b).__name__}")
-        for key in ("mass", "stiffness"):
-            if not isinstance(getattr(b, key), (list, tuple)) or not 1 <= len(getattr(b, key)) <= MAX_STOREYS:
-                raise CosimError(f"{name[key]} must be a list of 1 to {MAX_STOREYS} values, one per storey, got "
-                                 f"{getattr(b, key)!r}")
-            _positive(name[key], list(getattr(b, key)))
-        if len(b.stiffness) != len(b.mass):
-            raise CosimError(f"{name['stiffness']}: {len(b.stiffness)} values for {len(b.mass)} storeys")
-        _check_damping(name["damping_ratio"], b.damping_ratio)
-        _check_floor(name["floor"], system.floor, b.storeys)
+        _check_building(system.building, name)
+        _check_floor(name["floor"], system.floor, system.building.storeys)
         _check_coupling(name["coupling"], system.coupling)
-        _check_number(name["step"], system.step)
-        if not system.step > 0:
-            raise CosimError(f"{name['step']} must be > 0 s, got {system.step!r}")
-        if system.stop_time is not None:
-            _check_number(name["stop_time"], system.stop_time)
-            check_step(system.stop_time, system.step, name["step"])
-        else:
-            n_steps(system)
-        if not isinstance(system.blocks, dict):
-            raise CosimError(f"blocks must be a dict of the blocks' FMU parameters, got {type(system.blocks).__name__}")
-        moved = sorted(k for k in system.blocks if str(k).startswith("excitation.") or k == "ground.ah")
-        if moved:
-            raise CosimError(f"{name['blocks']} set {moved[0]}: the floor drives the blocks (the base's motion is "
-                             "the building's record)")
-        if not Path(system.base_file).is_file():
-            raise CosimError(f"{name['base_file']} {system.base_file}: no such record file")
-        _check_number(name["base_scale"], system.base_scale, "a finite number")
-        _check_number(name["base_start"], system.base_start)
+        _check_times(system, name)
+        _check_inputs(system, name)
     except CosimError as exc:
         raise InvalidSystem(f"{where}: {exc}" if where else str(exc)) from None
+
+
+def _check_building(b: Any, name: dict[str, str]) -> None:
+    if not isinstance(b, Building):
+        raise CosimError(f"building must be a Building, got {type(b).__name__}")
+    for key in ("mass", "stiffness"):
+        values = getattr(b, key)
+        if not isinstance(values, (list, tuple)) or not 1 <= len(values) <= MAX_STOREYS:
+            raise CosimError(f"{name[key]} must be a list of 1 to {MAX_STOREYS} values, one per storey, got {values!r}")
+        _positive(name[key], list(values))
+    if len(b.stiffness) != len(b.mass):
+        raise CosimError(f"{name['stiffness']}: {len(b.stiffness)} values for {len(b.mass)} storeys")
+    _check_damping(name["damping_ratio"], b.damping_ratio)
+
+
+def _check_times(system: System, name: dict[str, str]) -> None:
+    _check_number(name["step"], system.step)
+    if not system.step > 0:
+        raise CosimError(f"{name['step']} must be > 0 s, got {system.step!r}")
+    if system.stop_time is not None:
+        _check_number(name["stop_time"], system.stop_time)
+        check_step(system.stop_time, system.step, name["step"])
+    else:
+        n_steps(system)
+
+
+def _check_inputs(system: System, name: dict[str, str]) -> None:
+    """The blocks' parameters (no excitation of their own) and the base record."""
+    if not isinstance(system.blocks, dict):
+        raise CosimError(f"blocks must be a dict of the blocks' FMU parameters, got {type(system.blocks).__name__}")
+    moved = sorted(k for k in system.blocks if str(k).startswith("excitation.") or k == "ground.ah")
+    if moved:
+        raise CosimError(f"{name['blocks']} set {moved[0]}: the floor drives the blocks (the base's motion is "
+                         "the building's record)")
+    if not Path(system.base_file).is_file():
+        raise CosimError(f"{name['base_file']} {system.base_file}: no such record file")
+    _check_number(name["base_scale"], system.base_scale, "a finite number")
+    _check_number(name["base_start"], system.base_start)
 
 
 # a floor lighter than this (kg), or blocks this many times heavier than their floor: floor masses
@@ -465,7 +477,8 @@ def system_components(system: System, block_fmu: Path, building_fmu: Path) -> tu
     building = Component(BUILDING, Path(building_fmu),
                          {f"storey[{j}].a": ("output", "Real"), f"storey[{j}].force": ("input", "Real")},
                          system.building_parameters())
-    block = Component(BLOCK, Path(block_fmu), {"ground.ah": ("input", "Real"), "contact.groundLoad": ("output", "Real")},
+    block = Component(BLOCK, Path(block_fmu),
+                      {"ground.ah": ("input", "Real"), "contact.groundLoad": ("output", "Real")},
                       _block_parameters(system, Path(block_fmu)))
     connections = [Connection(BUILDING, f"storey[{j}].a", BLOCK, "ground.ah")]
     if system.coupling == "two-way":
@@ -483,6 +496,7 @@ def write_system_ssp(system: System, path: str | Path, block_fmu: Path | None = 
 
 
 def _write_ssp(system: System, path: str | Path, block_fmu: Path, building_fmu: Path) -> Path:
+    """write_system_ssp with the system checked and the FMUs found."""
     components, connections = system_components(system, block_fmu, building_fmu)
     description = (f"{system.name}: blocks on floor {system.floor} of a {system.building.storeys}-storey shear "
                    f"building, {system.coupling} coupling, communication step {system.step:g} s")
@@ -553,7 +567,8 @@ class CosimResult:
     engine: str
     time: np.ndarray
     series: dict[str, np.ndarray]
-    block_parameters: dict[str, Any] = field(default_factory=dict)  # as run: the FMU's start values, the system's over them
+    # the blocks' parameters as run: the FMU's start values, the system's over them
+    block_parameters: dict[str, Any] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.series[name]
@@ -639,8 +654,8 @@ def divergence(result: CosimResult) -> str | None:
     ratio = system.blocks_mass / system.building.mass[system.floor - 1]
     return (f"two-way coupling diverged at t = {result.time[k]:.4g} s: the blocks' load had done {work[k]:.3g} J of "
             f"work on the floor, more than {DIVERGED:g} times the {given[k]:.3g} J the system was given; the blocks "
-            f"weigh {ratio:.3g} times their floor (check the masses, in kg), so take a smaller step or one-way coupling "
-            "(docs/cosimulation.md#limits)")
+            f"weigh {ratio:.3g} times their floor (check the masses, in kg), so take a smaller step or one-way "
+            "coupling (docs/cosimulation.md#limits)")
 
 
 def _start_values(fmu: Path) -> dict[str, float]:

@@ -380,7 +380,8 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     for (size_t i = 0; i < nvr; i++) {
         double *p = (double *)lookup(I, vr[i], TYPE_REAL, 1, "fmi2SetReal", &info);
         if (!p || !isfinite(value[i]) || absent_storey(I, &info, value[i])) {
-            if (p && !isfinite(value[i])) LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", info.name, value[i]);
+            if (p && !isfinite(value[i]))
+                LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", info.name, value[i]);
             inputs_changed(I); /* the values before the refused one are set */
             return fmi2Error;
         }
