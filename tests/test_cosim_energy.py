@@ -42,8 +42,8 @@ def test_the_end_residual_shrinks_with_the_step_and_the_largest_does_not(fmu_pat
 def test_the_command_reports_the_end_residual_as_the_error(fmu_path, building_fmu_path):
     env = {**os.environ, "ROCKING_BUILDING_FMU": str(building_fmu_path)}
     exe = str(Path(sys.executable).parent / "runners")
-    text, doc = (subprocess.run([exe, "cosim", str(EXAMPLE), "--fmu", str(fmu_path), *extra], capture_output=True,
-                                text=True, env=env, timeout=300) for extra in ([], ["--json"]))
+    text, doc = (subprocess.run([exe, "cosim", str(EXAMPLE), "--step", "0.002", "--fmu", str(fmu_path), *extra],
+                                capture_output=True, text=True, env=env, timeout=300) for extra in ([], ["--json"]))
     assert text.returncode == doc.returncode == 0, text.stderr + doc.stderr
     run = json.loads(doc.stdout)["runs"][0]
     relative = abs(run["energy_residual_end_j"]) / run["energy_scale_j"]
