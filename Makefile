@@ -41,13 +41,16 @@ run: fmu
 test: fmu
 	$(BIN)/python -m pytest -n auto --maxprocesses 4 --durations=15
 
-# The FMU tests again, against FMUs (FMI 2.0 and 3.0) built with AddressSanitizer and UBSan.
+# The FMU tests again, against FMUs (FMI 2.0 and 3.0, and the shear building) built with
+# AddressSanitizer and UBSan.
 sanitize: $(INSTALLED)
 	$(BIN)/python -m fmu_build --sanitize
 	ROCKING_FMU=build/RockingBlock-sanitize.fmu ROCKING_FMU3=build/RockingBlock3-sanitize.fmu \
+	ROCKING_BUILDING_FMU=build/ShearBuilding-sanitize.fmu \
 	LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libubsan.so)" \
 	ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-	$(BIN)/python -m pytest -p no:cacheprovider tests/test_fmu_physics.py tests/test_fmu_interface.py tests/test_fmu_two_blocks.py tests/test_two_block_solver.py tests/test_taylor.py tests/test_records_fmu.py tests/test_fmu_state_fuzz.py tests/test_fmi3.py tests/test_fmu_hostile.py tests/test_fmu_me.py tests/test_fmi2_rules.py tests/test_contact_forces.py tests/test_contact_monitors.py
+	$(BIN)/python -m pytest -p no:cacheprovider tests/test_fmu_physics.py tests/test_fmu_interface.py tests/test_fmu_two_blocks.py tests/test_two_block_solver.py tests/test_taylor.py tests/test_records_fmu.py tests/test_fmu_state_fuzz.py tests/test_fmi3.py tests/test_fmu_hostile.py tests/test_fmu_me.py tests/test_fmi2_rules.py tests/test_contact_forces.py tests/test_contact_monitors.py \
+		tests/test_building_fmu.py
 
 # The benchmarks, then the tests marked slow (e.g. the viewer screenshot, which
 # needs Debian's chromium and pip install -e '.[docs]'; skipped with a reason without them).

@@ -43,9 +43,9 @@ _FEEDTHROUGH = {"base.aTotal": ["base.a"], **{f"storey[{i}].a": [f"storey[{i}].f
 _STOREY = re.compile(r'^STOREY\(\s*(\w+)\s*,\s*(\d+)\s*,\s*(\w+)\s*,\s*"([^"]+)"\s*,(.*)$')
 
 
-def default_building_path() -> Path:
-    """Where ``python -m fmu_build`` puts ShearBuilding.fmu."""
-    return default_fmu_path(model_identifier=BUILDING_IDENTIFIER)
+def default_building_path(sanitize: bool = False) -> Path:
+    """Where ``python -m fmu_build`` puts ShearBuilding.fmu (``--sanitize``: ShearBuilding-sanitize.fmu)."""
+    return default_fmu_path(sanitize, BUILDING_IDENTIFIER)
 
 
 def expand_variables(def_text: str) -> str:
@@ -155,18 +155,19 @@ def _sources_digest() -> str:
 
 
 def build_building_fmu(out: Path | None = None, force: bool = False, cc: str | None = None,
-                       platforms: list[str] | None = None) -> Path:
+                       platforms: list[str] | None = None, sanitize: bool = False) -> Path:
     """Build ShearBuilding.fmu if its sources changed; return its path.
 
     ``platforms`` as for :func:`fmu_build.build.build_fmu`: by default linux64, and win64 too where
     the mingw-w64 cross compiler is installed (else a one-line note says the FMU has no Windows
-    binary). Raises BuildError when a compiler is missing or fails.
+    binary). ``sanitize``: with AddressSanitizer and UBSan (linux64 only), by default into
+    build/ShearBuilding-sanitize.fmu. Raises BuildError when a compiler is missing or fails.
     """
-    out = Path(out) if out else default_building_path()
+    out = Path(out) if out else default_building_path(sanitize)
     cc = cc or os.environ.get("CC", "cc")
-    wanted, compilers = build_platforms(platforms, False, cc)
+    wanted, compilers = build_platforms(platforms, sanitize, cc)
     sources_digest = _sources_digest()
-    stamp, digest, current = build_stamp(out, sources_digest, wanted, compilers, platforms, force=force)
+    stamp, digest, current = build_stamp(out, sources_digest, wanted, compilers, platforms, sanitize, force=force)
     if current:
         return out
     guid = "{" + str(uuid.UUID(sources_digest[:32])) + "}"

@@ -290,10 +290,12 @@ def test_results_do_not_depend_on_the_communication_step(building_fmu, tmp_path)
     np.testing.assert_allclose(fine[::10] / scale, coarse / scale, rtol=0, atol=1e-8)
 
 
-def test_storeys_above_n_read_zero_and_their_inputs_are_ignored(building_fmu):
+def test_storeys_above_n_read_zero_and_take_no_force(building_fmu):
+    """Storeys above nStoreys read 0 and their parameters are not checked; their force may be set
+    to its start value, 0 (as importers set every input), which changes nothing."""
     cols = names(10, "u", "a")
     runs = []
-    for extra in ({}, {"storey[5].force": 1e6, "storey[10].force": -1e6}):
+    for extra in ({}, {"storey[5].force": 0.0, "storey[10].force": 0.0}):
         b = Building(building_fmu)
         b.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}), "storey[5].mass": 0.0,
                  "storey[7].stiffness": -1.0})  # inactive storeys: not checked
@@ -305,6 +307,34 @@ def test_storeys_above_n_read_zero_and_their_inputs_are_ignored(building_fmu):
     assert np.abs(runs[0][:, :3]).max() > 0
 
 
+def test_a_force_on_a_storey_the_building_does_not_have_is_an_error(building_fmu):
+    """storey[5].force on a two-storey building would act on nothing: refused with a logged message,
+    when set after initialisation, and at initialisation when set before it."""
+    two = {"nStoreys": 2, "storey[1].mass": 1e4, "storey[2].mass": 1e4}
+    b = Building(building_fmu)
+    try:
+        b.start(two)
+        with pytest.raises(FMICallException):
+            b.set({"storey[5].force": 1e6})
+        assert any("storey[5].force = 1e+06 N acts on a storey the building does not have (nStoreys = 2)" in m
+                   for m in b.messages), b.messages
+        b.set({"storey[2].force": 1e6})  # a storey it has: still usable
+        b.s.doStep(0.0, 0.01)
+        assert b.get(["storey[2].u"])[0] > 0
+    finally:
+        b.close()
+    b = Building(building_fmu)
+    try:
+        b.s.setupExperiment(startTime=0.0)
+        b.set({**two, "storey[3].force": -5.0})
+        b.s.enterInitializationMode()
+        with pytest.raises(FMICallException):
+            b.s.exitInitializationMode()
+        assert any("storey[3].force = -5 N acts on a storey the building does not have" in m for m in b.messages)
+    finally:
+        b.close()
+
+
 @pytest.mark.parametrize("name,value,words", [
     ("nStoreys", 0, "nStoreys = 0"),
     ("nStoreys", 11, "nStoreys = 11"),
@@ -314,6 +344,7 @@ def test_storeys_above_n_read_zero_and_their_inputs_are_ignored(building_fmu):
     ("damping.ratio", -0.01, "damping.ratio"),
     ("solver.relTol", 0.0, "solver.relTol"),
     ("solver.absTol", 0.0, "solver.absTol"),
+    ("solver.absTol", 1.0, "solver.absTol = 1 must be in (0, 1e-06]"),
     ("excitation.file", "/nonexistent/record.txt", "cannot be opened"),
 ])
 def test_bad_parameters_are_errors_with_a_one_line_message(building, name, value, words):
@@ -506,3 +537,20 @@ def test_libcosim_runs_it_as_fmpy_does(building_fmu, building_fmu_path):
     assert np.abs(ours[:, 0]).max() > 1e-4
     scale = np.abs(ours).max(axis=0)
     np.testing.assert_allclose(np.array(rows) / scale, ours[1:] / scale, rtol=0, atol=1e-12)
+
+
+def test_the_sanitizer_build_makes_the_building_too(tmp_path):
+    """python -m fmu_build --sanitize (make sanitize) builds ShearBuilding with AddressSanitizer and
+    UBSan, and make sanitize runs this file against it."""
+    from fmu_build.building import build_building_fmu, default_building_path
+
+    assert default_building_path(sanitize=True).name == "ShearBuilding-sanitize.fmu"
+    path = build_building_fmu(tmp_path / "ShearBuilding-sanitize.fmu", sanitize=True)
+    with zipfile.ZipFile(path) as zf:
+        zf.extract("binaries/linux64/ShearBuilding.so", tmp_path)
+    so = tmp_path / "binaries" / "linux64" / "ShearBuilding.so"
+    symbols = subprocess.run(["nm", "-D", str(so)], capture_output=True, text=True, check=True).stdout
+    assert "__asan_init" in symbols and "__ubsan_handle" in symbols
+    makefile = (Path(__file__).resolve().parents[1] / "Makefile").read_text()
+    recipe = makefile.split("\nsanitize:", 1)[1].split("\n\n", 1)[0]
+    assert "ROCKING_BUILDING_FMU=build/ShearBuilding-sanitize.fmu" in recipe and "tests/test_building_fmu.py" in recipe

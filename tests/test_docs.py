@@ -243,3 +243,25 @@ def test_documented_commands_use_options_that_exist():
                 if option.startswith("--") and option not in known:
                     wrong.append(f"{page}: runners {' '.join(path)} has no {option}: runners {command}")
     assert not wrong, "\n".join(wrong)
+
+
+def test_the_python_block_of_the_cosimulation_page_runs(tmp_path, monkeypatch, fmu_path, building_fmu_path):
+    """docs/cosimulation.md's Python block, as a reader pastes it, in a folder with the example system
+    (it writes cabinet.ssp there): it once used dataclasses without importing it."""
+    import shutil
+
+    from runners.engine.cosim import libcosim_available
+
+    if libcosim_available():
+        pytest.skip(libcosim_available())  # the block runs the system in libcosim too
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "cosimulation.md").read_text(encoding="utf-8"), re.S)
+    assert len(blocks) == 1
+    (tmp_path / "examples").mkdir()
+    for name in ("cabinet_on_floor.toml", "pulse_3hz.AT2"):
+        shutil.copy(ROOT / "examples" / name, tmp_path / "examples" / name)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ROCKING_FMU", str(fmu_path))
+    monkeypatch.setenv("ROCKING_BUILDING_FMU", str(building_fmu_path))
+    namespace: dict = {}
+    exec(compile(blocks[0], "docs/cosimulation.md", "exec"), namespace)
+    assert (tmp_path / "cabinet.ssp").is_file() and len(namespace["finer"].time) == 4 * len(namespace["result"].time)

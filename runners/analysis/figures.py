@@ -226,7 +226,7 @@ def cosim_cabinet(ctx: "Context", out: Path) -> list[Path]:
 
     system = cosim.load_system(ROOT / "examples" / "cabinet_on_floor.toml")
     results = [cosim.run(replace(system, coupling=c), block_fmu=ctx.fmu.path) for c in cosim.COUPLINGS]
-    fig = figure(results, title=f"{system.name}: one-way and two-way coupling (fmpy, h = {system.step:g} s)")
+    fig = figure(results, title=f"{system.name}: one-way and two-way coupling")
     fig.savefig(out / "cosim_cabinet.png", dpi=110)
     return [out / "cosim_cabinet.png"]
 

@@ -7,6 +7,7 @@ import argparse
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from runners.cli import output
 from runners.cli.args import common, files, output_file, positive
@@ -35,15 +36,18 @@ def _progress_bar(desc: str):
 
 
 def summary(result, balance) -> dict:
-    """The run in numbers (SI units): floor, building and block peaks, and the energy balance."""
+    """The run in numbers (SI units): floor, building and block peaks, and the energy balance's
+    residual at the end (the coupling's error measure; docs/cosimulation.md)."""
     import numpy as np
 
-    from runners.engine.cosim import BLOCK, BUILDING
+    from runners.analysis.cosim import between_impacts
+    from runners.engine.cosim import BLOCK, BUILDING, natural_frequencies
 
     s, sys_ = result.series, result.system
     out = {"system": sys_.name, "engine": result.engine, "coupling": sys_.coupling, "floor": sys_.floor,
            "storeys": sys_.building.storeys, "step_s": sys_.step, "steps": len(result.time),
-           "frequencies_hz": [round(float(f), 6) for f in building_frequencies(result)],
+           "stop_time_s": float(result.time[-1]),
+           "frequencies_hz": [round(f, 6) for f in natural_frequencies(sys_)],
            "peak_base_acceleration": float(np.max(np.abs(s[f"{BUILDING}.base.aTotal"]))),
            "peak_floor_acceleration": float(np.max(np.abs(result.floor("a")))),
            "peak_floor_acceleration_between_impacts": float(np.max(np.abs(between_impacts(result)))),
@@ -58,35 +62,9 @@ def summary(result, balance) -> dict:
         out["block2_overturned"] = bool(s[f"{BLOCK}.block2.overturned"][-1])
     if balance is not None:
         out["energy_residual_end_j"] = float(balance.residual[-1])
-        out["energy_residual_max_j"] = float(np.max(np.abs(balance.residual)))
+        out["energy_residual_end_relative"] = balance.relative_end
         out["energy_scale_j"] = balance.scale
     return out
-
-
-def between_impacts(result):
-    """The floor's acceleration at the samples at least two steps away from an impact or the overturn
-    of the blocks (two-way coupling turns their impulse into a one-step spike of the floor's acceleration)."""
-    import numpy as np
-
-    from runners.engine.cosim import BLOCK
-
-    a = result.floor("a")
-    hit = (np.diff(result[f"{BLOCK}.impacts"], prepend=0.0) != 0) | (np.diff(result[f"{BLOCK}.overturned"], prepend=0.0) != 0)
-    near = np.convolve(hit.astype(float), np.ones(5), mode="same") > 0  # within two steps either side
-    return a[~near] if np.any(~near) else a
-
-
-def building_frequencies(result) -> list[float]:
-    """Natural frequencies (Hz) of the building with the masses the run used."""
-    import numpy as np
-
-    p = result.system.building_parameters()
-    n = int(p["nStoreys"])
-    m = np.array([p[f"storey[{i}].mass"] for i in range(1, n + 1)])
-    k = np.array([p[f"storey[{i}].stiffness"] for i in range(1, n + 1)])
-    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
-    w2 = np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m)))
-    return list(np.sqrt(w2) / (2 * np.pi))
 
 
 def _check_figure_path(out: str) -> None:
@@ -101,43 +79,76 @@ def _check_figure_path(out: str) -> None:
         raise ValueError(f"--out {out}: give a file name ending in one of {', '.join('.' + f for f in sorted(formats))}")
 
 
-def _csv_paths(csv: str, couplings: list[str]) -> list[Path]:
+def _csv_files(csv: str | None, compare: bool) -> dict[str, Path]:
+    """The series files --csv names, by the label a refusal names them with: FILE itself, or with
+    --compare FILE-one-way.csv and FILE-two-way.csv (the suffix kept), in the order of COUPLINGS."""
+    if not csv:
+        return {}
     path = Path(csv)
-    if len(couplings) == 1:
-        return [path]
-    return [path.with_name(f"{path.stem}-{c}{path.suffix or '.csv'}") for c in couplings]
+    if not compare:
+        return {"--csv": path}
+    return {f"--csv ({c})": path.with_name(f"{path.stem}-{c}{path.suffix or '.csv'}") for c in COUPLINGS}
 
 
-def cmd_cosim(args: argparse.Namespace) -> int:
-    from runners.analysis import cosim as checks
+def _load(args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The system of the command line (its file, --coupling and --step over it), checked as the API
+    checks it, and the couplings to run. ValueError, before the database is opened and before anything
+    runs, if an output would overwrite another, the database or a file the system names (its base
+    record, the FMUs: runners.cli.clobber)."""
     from runners.engine import cosim
 
+    _refuse_clobbering(args, {})
     factory = None
     if args.db:  # where a stored base record is read (without --db: ROCKING_DB or rocking.db, when one is named)
         from db.session import open_database
 
         factory = open_database(args.db)
     system = cosim.load_system(args.system, factory)
+    names = dict(cosim.FILE_NAMES)
     if args.coupling:
-        system = replace(system, coupling=args.coupling)
+        system, names["coupling"] = replace(system, coupling=args.coupling), "--coupling"
     if args.step is not None:
-        system = replace(system, step=args.step)
-        cosim.check_step(system.stop_time, system.step, "--step")
+        system, names["step"] = replace(system, step=args.step), "--step"
+    cosim.check_system(system, names, args.system)
+    block, building = cosim.fmu_files(Path(args.fmu) if args.fmu else None)
+    _refuse_clobbering(args, {"record file": system.record_file and str(system.record_file),
+                              "blocks' FMU": str(block), "building's FMU": str(building)})
+    return system, list(COUPLINGS) if args.compare else [system.coupling]
+
+
+def _refuse_clobbering(args: argparse.Namespace, reads: dict[str, str | None]) -> None:
+    """runners.cli.clobber.refuse for the command's outputs, the series files of --csv each (--compare
+    derives one per coupling), against ``reads`` and the database."""
+    from runners.cli.clobber import refuse
+
+    refuse({"--ssp": args.ssp, "--out": args.out, **{k: str(v) for k, v in _csv_files(args.csv, args.compare).items()}},
+           reads, args.db)
+
+
+def _notes(system: Any, couplings: list[str]) -> list[str]:
+    """The notes of every coupling to run (runners.engine.cosim.system_notes), each once."""
+    from runners.engine.cosim import system_notes
+
+    return list(dict.fromkeys(n for c in couplings for n in system_notes(replace(system, coupling=c))))
+
+
+def cmd_cosim(args: argparse.Namespace) -> int:
+    from runners.analysis import cosim as checks
+    from runners.engine import cosim
+
+    system, couplings = _load(args)
     if args.out:
         _check_figure_path(args.out)
     if args.csv and not Path(args.csv).parent.is_dir():
         raise ValueError(f"--csv {args.csv}: the folder {Path(args.csv).parent} does not exist")
+    csvs = _csv_files(args.csv, args.compare)
     block_fmu = Path(args.fmu) if args.fmu else None
-    two_way = "two-way" in ([*COUPLINGS] if args.compare else [system.coupling])
-    if two_way and int(system.blocks.get("contact.model", 0)) != 1:
+    if "two-way" in couplings and int(system.blocks.get("contact.model", 0)) != 1:
         output.note("no energy balance: it needs the blocks' friction and impact losses, which the rocking-sliding "
                     "model reports ([contact] model = \"rocking-sliding\")")
-    if two_way:
-        floor_mass = system.building.mass[system.floor - 1]
-        if system.blocks_mass > floor_mass:
-            output.note(f"the blocks ({system.blocks_mass:g} kg) outweigh their floor ({floor_mass:g} kg): two-way "
-                        "coupling with impacts may not converge as the step shrinks (docs/cosimulation.md#limits)")
-    couplings = list(COUPLINGS) if args.compare else [system.coupling]
+    notes = _notes(system, couplings)
+    for text in notes:
+        output.note(text)
     results = []
     for coupling in couplings:
         sys_c = replace(system, coupling=coupling)
@@ -150,7 +161,6 @@ def cmd_cosim(args: argparse.Namespace) -> int:
             if bar is not None:
                 bar.close()
         results.append((r, time.perf_counter() - t0))
-    out_files: list[str] = []
     docs = []
     for r, seconds in results:
         balance = None
@@ -160,21 +170,21 @@ def cmd_cosim(args: argparse.Namespace) -> int:
         doc = summary(r, balance)
         doc["seconds"] = round(seconds, 3)
         docs.append(doc)
-    if args.csv:
-        for (r, _), path in zip(results, _csv_paths(args.csv, [r.system.coupling for r, _ in results])):
-            try:
-                r.to_pandas().to_csv(path, index=False, float_format="%.17g")
-            except OSError as exc:
-                raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
-            out_files.append(str(path))
+    out_files: list[str] = []
+    for (r, _), path in zip(results, csvs.values()):
+        try:
+            r.to_pandas().to_csv(path, index=False, float_format="%.17g")
+        except OSError as exc:
+            raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
+        out_files.append(str(path))
     if args.out:
-        fig = checks.figure([r for r, _ in results], title=f"{system.name} (Jacobi, h = {system.step:g} s, {args.engine})")
+        fig = checks.figure([r for r, _ in results], title=system.name)
         try:
             fig.savefig(args.out, dpi=120)
         except OSError as exc:
             raise ValueError(f"cannot write {args.out}: {exc.strerror or exc}") from None
     if args.json:
-        out = {"runs": docs}
+        out = {"runs": docs, "notes": notes}
         if args.ssp:
             out["ssp"] = str(args.ssp)
         if args.out:
@@ -183,11 +193,24 @@ def cmd_cosim(args: argparse.Namespace) -> int:
             out["series"] = out_files
         output.emit_json(out)
         return 0
+    _print_summaries(docs)
+    if args.ssp:
+        print(f"SSP written to {args.ssp}")
+    if args.out:
+        print(f"figure written to {args.out}")
+    for path in out_files:
+        print(f"series written to {path}")
+    return 0
+
+
+def _print_summaries(docs: list[dict]) -> None:
+    """The runs' summaries (summary()) as text."""
     g = 9.81
     for d in docs:
         f = ", ".join(f"{x:.3g}" for x in d["frequencies_hz"][:3])
         print(f"{d['system']}: {d['storeys']}-storey building (f = {f} Hz), blocks on floor {d['floor']}, "
-              f"{d['coupling']} coupling, {d['engine']}, h = {d['step_s']:g} s: {d['steps']} steps in {d['seconds']:.2f} s")
+              f"{d['coupling']} coupling, {d['engine']}, h = {d['step_s']:g} s: {d['steps']} steps to "
+              f"{d['stop_time_s']:.6g} s in {d['seconds']:.2f} s")
         spikes = d["peak_floor_acceleration"] > 1.01 * d["peak_floor_acceleration_between_impacts"]
         peak = (f"{d['peak_floor_acceleration_between_impacts'] / g:.3g} g ({d['peak_floor_acceleration'] / g:.3g} g "
                 "with the one-step spikes of the blocks' impacts)" if spikes else f"{d['peak_floor_acceleration'] / g:.3g} g")
@@ -200,17 +223,10 @@ def cmd_cosim(args: argparse.Namespace) -> int:
         print(f"  block 1: peak |theta| {d['peak_abs_theta']:.4g} rad, {d['impacts']} impacts, "
               f"slip at the end {1000 * d['final_slip']:.3g} mm; verdicts: {verdicts}")
         if "energy_residual_end_j" in d:
-            e, m, sc = d["energy_residual_end_j"], d["energy_residual_max_j"], d["energy_scale_j"]
+            e, sc = d["energy_residual_end_j"], d["energy_scale_j"]
             until = " up to the overturn" if d["overturned"] else ""
-            print(f"  energy balance (building + blocks){until}: residual {e:.3g} J at the end ({100 * abs(e) / sc:.2g} % of "
-                  f"{sc:.4g} J), {m:.3g} J at most (the coupling's error, docs/cosimulation.md)")
-    if args.ssp:
-        print(f"SSP written to {args.ssp}")
-    if args.out:
-        print(f"figure written to {args.out}")
-    for path in out_files:
-        print(f"series written to {path}")
-    return 0
+            print(f"  energy balance (building + blocks){until}: residual {e:.3g} J at the end, "
+                  f"{100 * abs(e) / sc:.2g} % of {sc:.4g} J: the coupling's error (docs/cosimulation.md)")
 
 
 def add_parser(sub) -> None:

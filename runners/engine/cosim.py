@@ -26,7 +26,9 @@ Units SI (s, m, kg, N, J), angles in radians; signs as docs/conventions.md (+x t
 
 from __future__ import annotations
 
+import functools
 import math
+import numbers
 import os
 import shutil
 import tempfile
@@ -39,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from runners.engine.fmu import SCENE_DEFAULTS
-from runners.engine.scene import SCHEMA, SceneError, check_times, scene_from_dict
+from runners.engine.scene import SCHEMA, SceneError, check_times, implausible_sizes, scene_from_dict
 from runners.engine.ssp import Component, Connection, write_ssp
 from runners.errors import RockingError
 
@@ -87,7 +89,13 @@ class Building:
 class System:
     """Blocks (a scene's [block], [block2], [contact], [restitution], [simulation]) standing on
     floor ``floor`` of ``building``, whose base moves with a record (file the building's FMU reads,
-    scale, start time)."""
+    scale, start time).
+
+    ``stop_time`` (s) must be a whole number of communication steps ``step`` (s). None: the run
+    ends at the first communication point at or after ``default_stop_time`` (the base record's end
+    plus 5 s, which load_system sets), so that it runs the whole record whatever the step.
+    :func:`check_system` says, in one line, what is wrong with a system before anything runs;
+    :func:`run` and :func:`write_system_ssp` call it."""
 
     name: str
     blocks: dict[str, Any]  # the blocks' FMU parameters (no excitation: the floor drives them)
@@ -95,12 +103,14 @@ class System:
     floor: int
     coupling: str
     step: float  # s, the communication step
-    stop_time: float  # s
+    stop_time: float | None  # s; None: at or after default_stop_time
     base_file: Path
     base_scale: float = 1.0
     base_start: float = 0.0
     source: str = ""
-    notes: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # the base record's notes (units, a run shorter than it)
+    default_stop_time: float | None = None  # s, the base record's end plus 5 s
+    record_file: Path | None = None  # the record file the system file names ([excitation] file), if any
 
     @property
     def blocks_mass(self) -> float:
@@ -109,6 +119,11 @@ class System:
         if int(self.blocks.get("nBlocks", 1)) == 2:
             m += float(self.blocks.get("block2.mass", 5.0))
         return m
+
+    @property
+    def end_time(self) -> float:
+        """s, when the run ends: a whole number of communication steps (:func:`n_steps`)."""
+        return n_steps(self) * self.step
 
     def building_parameters(self) -> dict[str, Any]:
         """ShearBuilding.fmu's parameters; two-way coupling adds the blocks' mass to their floor."""
@@ -128,16 +143,57 @@ class System:
         return {**SCENE_DEFAULTS, **self.blocks}
 
 
+# How a system file names what it sets (check_system's messages); the Python API's names are the
+# fields of System and Building
+FILE_NAMES = {"floor": "[coupling] floor", "coupling": "[coupling] mode", "step": "[coupling] step",
+              "stop_time": "[simulation] stop_time", "mass": "[building] mass", "stiffness": "[building] stiffness",
+              "damping_ratio": "[building] damping_ratio", "blocks": "the blocks' tables",
+              "base_file": "[excitation] file", "base_scale": "[excitation] scale",
+              "base_start": "[excitation] start_time"}
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _positive(where: str, values: list[Any], given: Any = None) -> list[float]:
+    """``values`` as floats; CosimError unless each is a finite number > 0."""
+    for v in values:
+        if not _is_number(v) or v <= 0:
+            raise CosimError(f"{where}: expected positive numbers (one, or one per storey), got "
+                             f"{values if given is None else given!r}")
+    return [float(v) for v in values]
+
+
 def _floats(where: str, value: Any, n: int) -> list[float]:
     values = value if isinstance(value, list) else [value] * n
     if len(values) != n:
         raise CosimError(f"{where}: {len(values)} values for {n} storeys")
-    out = []
-    for v in values:
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-            raise CosimError(f"{where}: expected positive numbers (one, or one per storey), got {value!r}")
-        out.append(float(v))
-    return out
+    return _positive(where, values, value)
+
+
+def _check_damping(where: str, zeta: Any) -> float:
+    if not _is_number(zeta) or not 0 <= zeta < 1:
+        raise CosimError(f"{where} must be in [0, 1), got {zeta!r}")
+    return float(zeta)
+
+
+def _check_floor(where: str, floor: Any, storeys: int) -> int:
+    if isinstance(floor, bool) or not isinstance(floor, numbers.Integral) or not 1 <= floor <= storeys:
+        raise CosimError(f"{where} must be a floor of the building, 1 to {storeys}, got {floor!r}")
+    return int(floor)
+
+
+def _check_coupling(where: str, mode: Any) -> str:
+    if mode not in COUPLINGS:
+        raise CosimError(f"{where} must be one of {', '.join(COUPLINGS)}, got {mode!r}")
+    return mode
+
+
+def _check_number(where: str, value: Any, what: str = "a number of seconds") -> float:
+    if not _is_number(value):
+        raise CosimError(f"{where} must be {what}, got {value!r}")
+    return float(value)
 
 
 def building_from_dict(d: dict[str, Any], where: str) -> Building:
@@ -154,11 +210,9 @@ def building_from_dict(d: dict[str, Any], where: str) -> Building:
     for key, what in (("mass", "kg per floor"), ("stiffness", "N/m per storey")):
         if key not in d:
             raise CosimError(f"{where}: [building] needs {key} ({what}: one value, or a list bottom to top)")
-    zeta = d.get("damping_ratio", 0.05)
-    if isinstance(zeta, bool) or not isinstance(zeta, (int, float)) or not 0 <= zeta < 1:
-        raise CosimError(f"{where}: [building] damping_ratio must be in [0, 1), got {zeta!r}")
     return Building(_floats(f"{where}: [building] mass", d["mass"], n),
-                    _floats(f"{where}: [building] stiffness", d["stiffness"], n), float(zeta))
+                    _floats(f"{where}: [building] stiffness", d["stiffness"], n),
+                    _check_damping(f"{where}: [building] damping_ratio", d.get("damping_ratio", 0.05)))
 
 
 def system_tables(data: dict[str, Any], source: str = "<system>") -> tuple[Building, int, str, float, dict[str, Any]]:
@@ -176,22 +230,16 @@ def system_tables(data: dict[str, Any], source: str = "<system>") -> tuple[Build
     unknown = sorted(set(coupling) - COUPLING_KEYS)
     if unknown:
         raise CosimError(f"{source}: [coupling] unknown key '{unknown[0]}' (expected floor, mode, step)")
-    floor = coupling.get("floor", b.storeys)
-    if isinstance(floor, bool) or not isinstance(floor, int) or not 1 <= floor <= b.storeys:
-        raise CosimError(f"{source}: [coupling] floor must be a floor of the building, 1 to {b.storeys}, got {floor!r}")
-    mode = coupling.get("mode", "two-way")
-    if mode not in COUPLINGS:
-        raise CosimError(f"{source}: [coupling] mode must be one of {', '.join(COUPLINGS)}, got {mode!r}")
-    step = coupling.get("step", DEFAULT_STEP)
-    if isinstance(step, bool) or not isinstance(step, (int, float)):
-        raise CosimError(f"{source}: [coupling] step must be a number of seconds, got {step!r}")
-    return b, floor, mode, float(step), data
+    floor = _check_floor(f"{source}: {FILE_NAMES['floor']}", coupling.get("floor", b.storeys), b.storeys)
+    mode = _check_coupling(f"{source}: {FILE_NAMES['coupling']}", coupling.get("mode", "two-way"))
+    step = _check_number(f"{source}: {FILE_NAMES['step']}", coupling.get("step", DEFAULT_STEP))
+    return b, floor, mode, step, data
 
 
 def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=None) -> System:
     """Validate a parsed system document: a scene (its [excitation] is the base motion, a
     record) with a [building] and a [coupling] table."""
-    from runners.engine.records import prepare_scene  # reads the base record
+    from runners.engine.records import TAIL, prepare_scene  # reads the base record
 
     b, floor, mode, step, data = system_tables(data, source)
     try:
@@ -209,21 +257,22 @@ def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=Non
         raise CosimError(f"{source}: [excitation] {key}: the building's base moves with a record, horizontally "
                          "(give record or file, scale or pga, start_time)")
     try:
-        prepare_scene(scene, factory)
+        prepared = prepare_scene(scene, factory)
     except OSError as exc:
         raise CosimError(f"{source}: [excitation] cannot read the record: {exc.strerror or exc}") from None
     except (SceneError, ValueError) as exc:
         raise CosimError(f"{source}: {exc}") from None
-    try:
-        check_step(scene.stop_time, step)
-    except CosimError as exc:
-        raise CosimError(f"{source}: {exc}") from None
     p = dict(scene.parameters)
     base = {k: p.pop(k) for k in list(p) if k.startswith("excitation.")}
-    return System(name=scene.name, blocks=p, building=b, floor=floor, coupling=mode, step=step,
-                  stop_time=float(scene.stop_time), base_file=Path(base["excitation.file"]),
-                  base_scale=float(base.get("excitation.scale", 1.0)),
-                  base_start=float(base.get("excitation.startTime", 0.0)), source=source)
+    start = float(base.get("excitation.startTime", 0.0))
+    system = System(name=scene.name, blocks=p, building=b, floor=floor, coupling=mode, step=step,
+                    stop_time=float(scene.stop_time) if scene.stop_time_given else None,
+                    base_file=Path(base["excitation.file"]), base_scale=float(base.get("excitation.scale", 1.0)),
+                    base_start=start, source=source, notes=list(prepared.notes),
+                    default_stop_time=start + prepared.end + TAIL,
+                    record_file=Path(scene.file) if scene.file else None)
+    check_system(system, FILE_NAMES, source)
+    return system
 
 
 def load_system(path: str | Path, factory=None) -> System:
@@ -242,30 +291,195 @@ def load_system(path: str | Path, factory=None) -> System:
     return system_from_dict(data, str(path), factory)
 
 
+# ------------------------------------------------------------------ checks the command line and the API share
+
+def check_step(stop_time: float, step: float, step_name: str = "[coupling] step") -> int:
+    """The number of communication steps to stop_time (s); CosimError unless both are finite and
+    positive and stop_time is a whole number of steps (a fixed-step master cannot stop between)."""
+    try:
+        check_times(stop_time, step, "stop_time", step_name)
+    except SceneError as exc:
+        raise CosimError(str(exc)) from None
+    n = round(stop_time / step)
+    if n < 1 or abs(n * step - stop_time) > 1e-9 * stop_time:
+        raise CosimError(f"stop_time {stop_time:g} s is not a whole number of communication steps of {step:g} s "
+                         f"({stop_time / step:.6g}): a fixed-step co-simulation cannot stop between two")
+    return n
+
+
+def n_steps(system: System) -> int:
+    """The number of communication steps of a run: to ``stop_time``, which must be a whole number
+    of them, or (``stop_time`` None) to the first communication point at or after
+    ``default_stop_time``, the base record's end plus 5 s (rounded up: the whole record runs)."""
+    if system.stop_time is not None:
+        return check_step(system.stop_time, system.step)
+    wanted = system.default_stop_time
+    try:
+        check_times(wanted, system.step, "default_stop_time", "step")
+    except (SceneError, TypeError) as exc:
+        raise CosimError(f"stop_time is None and {exc}" if isinstance(exc, SceneError) else
+                         f"stop_time is None and default_stop_time is {wanted!r}: give a stop time (s)") from None
+    return max(1, math.ceil(wanted / system.step - 1e-9))
+
+
+class InvalidSystem(CosimError):
+    """A System that cannot run (a floor the building does not have, an unknown coupling...);
+    one line, raised before anything runs."""
+
+
+def check_system(system: System, names: dict[str, str] | None = None, where: str = "") -> None:
+    """InvalidSystem, in one line, unless ``system`` can run: a building of 1 to 10 storeys with a
+    positive mass and stiffness each and a damping ratio in [0, 1), a floor of it, a known coupling,
+    a positive step and a stop time that is a whole number of steps (or None), blocks without an
+    excitation of their own (their floor drives them), an existing base record with a finite scale and
+    start time. ``names``: how the caller's user names the fields in messages (FILE_NAMES for a
+    system file, {"step": "--step"} for an option; else the fields' own names); ``where``: a prefix
+    (the system file)."""
+    name = {**{k: k for k in FILE_NAMES}, **(names or {})}
+    try:
+        _check_building(system.building, name)
+        _check_floor(name["floor"], system.floor, system.building.storeys)
+        _check_coupling(name["coupling"], system.coupling)
+        _check_times(system, name)
+        _check_inputs(system, name)
+    except CosimError as exc:
+        raise InvalidSystem(f"{where}: {exc}" if where else str(exc)) from None
+
+
+def _check_building(b: Any, name: dict[str, str]) -> None:
+    if not isinstance(b, Building):
+        raise CosimError(f"building must be a Building, got {type(b).__name__}")
+    for key in ("mass", "stiffness"):
+        values = getattr(b, key)
+        if not isinstance(values, (list, tuple)) or not 1 <= len(values) <= MAX_STOREYS:
+            raise CosimError(f"{name[key]} must be a list of 1 to {MAX_STOREYS} values, one per storey, got {values!r}")
+        _positive(name[key], list(values))
+    if len(b.stiffness) != len(b.mass):
+        raise CosimError(f"{name['stiffness']}: {len(b.stiffness)} values for {len(b.mass)} storeys")
+    _check_damping(name["damping_ratio"], b.damping_ratio)
+
+
+def _check_times(system: System, name: dict[str, str]) -> None:
+    _check_number(name["step"], system.step)
+    if not system.step > 0:
+        raise CosimError(f"{name['step']} must be > 0 s, got {system.step!r}")
+    if system.stop_time is not None:
+        _check_number(name["stop_time"], system.stop_time)
+        check_step(system.stop_time, system.step, name["step"])
+    else:
+        n_steps(system)
+
+
+def _check_inputs(system: System, name: dict[str, str]) -> None:
+    """The blocks' parameters (no excitation of their own) and the base record."""
+    if not isinstance(system.blocks, dict):
+        raise CosimError(f"blocks must be a dict of the blocks' FMU parameters, got {type(system.blocks).__name__}")
+    moved = sorted(k for k in system.blocks if str(k).startswith("excitation.") or k == "ground.ah")
+    if moved:
+        raise CosimError(f"{name['blocks']} set {moved[0]}: the floor drives the blocks (the base's motion is "
+                         "the building's record)")
+    if not Path(system.base_file).is_file():
+        raise CosimError(f"{name['base_file']} {system.base_file}: no such record file")
+    _check_number(name["base_scale"], system.base_scale, "a finite number")
+    _check_number(name["base_start"], system.base_start)
+
+
+# a floor lighter than this (kg), or blocks this many times heavier than their floor: floor masses
+# typed in tonnes, most likely (a building's floor weighs tonnes)
+LIGHT_FLOOR = 100.0
+UNIT_SLIP_RATIO = 10.0
+
+
+def mass_notes(system: System) -> list[str]:
+    """Notes on the building's masses: floors implausibly light for a building, or blocks much
+    heavier than their floor (floor masses in tonnes instead of kg, most likely), and, with two-way
+    coupling, blocks that outweigh their floor (docs/cosimulation.md#limits)."""
+    floor = system.building.mass[system.floor - 1]
+    ratio = system.blocks_mass / floor
+    notes = []
+    if ratio >= UNIT_SLIP_RATIO or min(system.building.mass) < LIGHT_FLOOR:
+        masses = ", ".join(f"{m:g}" for m in system.building.mass)
+        notes.append(f"check the building's masses: floors of {masses} kg carry {system.blocks_mass:g} kg of blocks "
+                     f"on floor {system.floor} ({ratio:.3g} times its mass); the masses are in kg per floor, not "
+                     "tonnes (a 20 t floor is mass = 20000.0)")
+    if system.coupling == "two-way" and ratio > 1:
+        notes.append(f"the blocks ({system.blocks_mass:g} kg) outweigh their floor ({floor:g} kg): two-way coupling "
+                     "with impacts may not converge as the step shrinks (docs/cosimulation.md#limits)")
+    return notes
+
+
+def natural_frequencies(system: System) -> list[float]:
+    """Hz, the building's natural frequencies with the floor masses the run uses (two-way: the
+    blocks' mass on their floor), lowest first."""
+    p = system.building_parameters()
+    n = int(p["nStoreys"])
+    m = np.array([p[f"storey[{i}].mass"] for i in range(1, n + 1)])
+    k = np.array([p[f"storey[{i}].stiffness"] for i in range(1, n + 1)])
+    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    w2 = np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m)))
+    return [float(f) for f in np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi)]
+
+
+STEPS_PER_PERIOD = 10  # communication steps per period of the building's highest mode, at least
+
+
+def step_notes(system: System) -> list[str]:
+    """A note when the communication step is longer than a tenth of the building's shortest
+    natural period: the floor's acceleration, held over each step, then misses its highest mode."""
+    f = max(natural_frequencies(system))
+    if system.step * f > 1 / STEPS_PER_PERIOD:
+        return [f"the communication step {system.step:g} s is longer than a tenth of the building's shortest natural "
+                f"period ({1 / f:.3g} s, {f:.3g} Hz): the blocks see the floor's acceleration held over each step, "
+                f"so take a step below {1 / (STEPS_PER_PERIOD * f):.2g} s (docs/cosimulation.md#limits)"]
+    return []
+
+
+def system_notes(system: System) -> list[str]:
+    """What to read before trusting a run of ``system`` (notes, not errors): the base record's own,
+    the blocks' implausible sizes, the building's masses and the communication step."""
+    return [*system.notes, *implausible_sizes(system.block_parameters()), *mass_notes(system), *step_notes(system)]
+
+
 # ------------------------------------------------------------------ the SSP
 
-def _enum_aliases(fmu: Path) -> dict[str, str]:
-    """Enumeration parameter -> its Integer code parameter ("contact.model" -> "contact.modelCode"),
-    where the FMU has one: libcosim and Ecos cannot set an FMI 2.0 Enumeration (docs/model.md), so the
-    SSP sets the code, which every engine can."""
+def _model_description(fmu: Path):
+    """fmpy's reading of an FMU's modelDescription.xml, read once per version of the file."""
+    st = Path(fmu).stat()
+    return _read_model_description(str(Path(fmu).resolve()), st.st_mtime_ns, st.st_size)
+
+
+@functools.lru_cache(maxsize=8)
+def _read_model_description(path: str, _mtime_ns: int, _size: int):
     from fmpy import read_model_description
 
-    md = read_model_description(str(fmu), validate=False)
-    ints = {v.name for v in md.modelVariables if v.type == "Integer" and v.causality == "parameter"}
-    return {v.name: v.name + "Code" for v in md.modelVariables
-            if v.type == "Enumeration" and v.causality == "parameter" and v.name + "Code" in ints}
+    return read_model_description(path, validate=False)
+
+
+def _block_parameters(system: System, fmu: Path) -> dict[str, Any]:
+    """The blocks' parameters as the SSP binds them: an Enumeration by its Integer code parameter
+    ("contact.model" -> "contact.modelCode") where the FMU has one (libcosim and Ecos cannot set an
+    FMI 2.0 Enumeration, docs/model.md; every engine can set the code). InvalidSystem for a name
+    that is no parameter or input of the blocks' FMU."""
+    md = _model_description(fmu)
+    settable = {v.name: v for v in md.modelVariables if v.causality in ("parameter", "input")}
+    ints = {name for name, v in settable.items() if v.type == "Integer" and v.causality == "parameter"}
+    aliases = {name: name + "Code" for name, v in settable.items()
+               if v.type == "Enumeration" and v.causality == "parameter" and name + "Code" in ints}
+    unknown = sorted(k for k in system.blocks if k not in settable)
+    if unknown:
+        raise InvalidSystem(f"blocks: {unknown[0]!r} is not a parameter of the blocks' FMU {fmu.name}")
+    return {aliases.get(k, k): v for k, v in system.block_parameters().items()}
 
 
 def system_components(system: System, block_fmu: Path, building_fmu: Path) -> tuple[list[Component], list[Connection]]:
     """The SSP's two components (parameters bound) and their connections."""
     j = system.floor
-    aliases = _enum_aliases(block_fmu)
-    block_params = {aliases.get(k, k): v for k, v in system.block_parameters().items()}
     building = Component(BUILDING, Path(building_fmu),
                          {f"storey[{j}].a": ("output", "Real"), f"storey[{j}].force": ("input", "Real")},
                          system.building_parameters())
     block = Component(BLOCK, Path(block_fmu),
-                      {"ground.ah": ("input", "Real"), "contact.groundLoad": ("output", "Real")}, block_params)
+                      {"ground.ah": ("input", "Real"), "contact.groundLoad": ("output", "Real")},
+                      _block_parameters(system, Path(block_fmu)))
     connections = [Connection(BUILDING, f"storey[{j}].a", BLOCK, "ground.ah")]
     if system.coupling == "two-way":
         connections.append(Connection(BLOCK, "contact.groundLoad", BUILDING, f"storey[{j}].force"))
@@ -275,13 +489,19 @@ def system_components(system: System, block_fmu: Path, building_fmu: Path) -> tu
 def write_system_ssp(system: System, path: str | Path, block_fmu: Path | None = None,
                      building_fmu: Path | None = None) -> Path:
     """Write the system as an SSP archive (both FMUs inside, parameters bound, the base record
-    named by its absolute path)."""
-    block_fmu, building_fmu = _fmus(block_fmu, building_fmu)
+    named by its absolute path). InvalidSystem, before anything is written, for a system that
+    cannot run (:func:`check_system`)."""
+    check_system(system)
+    return _write_ssp(system, path, *_fmus(block_fmu, building_fmu))
+
+
+def _write_ssp(system: System, path: str | Path, block_fmu: Path, building_fmu: Path) -> Path:
+    """write_system_ssp with the system checked and the FMUs found."""
     components, connections = system_components(system, block_fmu, building_fmu)
     description = (f"{system.name}: blocks on floor {system.floor} of a {system.building.storeys}-storey shear "
                    f"building, {system.coupling} coupling, communication step {system.step:g} s")
     try:
-        return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.stop_time, description,
+        return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.end_time, description,
                          system.step)
     except OSError as exc:
         raise CosimError(f"cannot write the SSP {path}: {exc.strerror or exc}") from None
@@ -291,30 +511,40 @@ def _ssp_name(name: str) -> str:
     return "".join(c if c.isalnum() else "_" for c in name).strip("_")[:60] or "system"
 
 
+def fmu_files(block_fmu: Path | None = None, building_fmu: Path | None = None) -> tuple[Path, Path]:
+    """The FMU files a run reads, without building them: the blocks' (``block_fmu``, else
+    ROCKING_FMU, else build/RockingBlock.fmu) and the building's (``building_fmu``, else
+    ROCKING_BUILDING_FMU, else build/ShearBuilding.fmu)."""
+    from fmu_build.build import default_fmu_path
+    from fmu_build.building import default_building_path
+
+    block = block_fmu or os.environ.get("ROCKING_FMU") or default_fmu_path()
+    return Path(block), Path(building_fmu or os.environ.get("ROCKING_BUILDING_FMU") or default_building_path())
+
+
 def _fmus(block_fmu: Path | None, building_fmu: Path | None) -> tuple[Path, Path]:
+    """fmu_files(), each built first if it is the default build and missing or out of date;
+    CosimError unless they are the FMUs a system needs."""
     from runners.engine.fmu import fmu_path_from
 
     block = fmu_path_from(str(block_fmu) if block_fmu else None)
-    if building_fmu is None and os.environ.get("ROCKING_BUILDING_FMU"):
-        building_fmu = Path(os.environ["ROCKING_BUILDING_FMU"])
-    if building_fmu is None:
+    building = fmu_files(block, building_fmu)[1]
+    if building_fmu is None and not os.environ.get("ROCKING_BUILDING_FMU"):
         from fmu_build.building import build_building_fmu
 
-        building_fmu = build_building_fmu()
-    for p, role, needs in ((Path(block), "the blocks' FMU (--fmu)", "contact.groundLoad"),
-                           (Path(building_fmu), "the building's FMU", "storey[1].a")):
+        building = build_building_fmu()
+    for p, role, needs in ((block, "the blocks' FMU (--fmu)", "contact.groundLoad"),
+                           (building, "the building's FMU", "storey[1].a")):
         _check_fmu(p, role, needs)
-    return Path(block), Path(building_fmu)
+    return block, building
 
 
 def _check_fmu(path: Path, role: str, needs: str) -> None:
     """CosimError unless ``path`` is an FMI 2.0 Co-Simulation FMU with the variable ``needs``."""
-    from fmpy import read_model_description
-
     if not path.is_file():
         raise CosimError(f"{role} {path} not found (make fmu builds it)")
     try:
-        md = read_model_description(str(path), validate=False)
+        md = _model_description(path)
     except Exception as exc:  # noqa: BLE001 - not a zip, no modelDescription.xml, bad XML
         raise CosimError(f"{role} {path} is not an FMU: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
     if md.fmiVersion != "2.0" or md.coSimulation is None:
@@ -337,6 +567,8 @@ class CosimResult:
     engine: str
     time: np.ndarray
     series: dict[str, np.ndarray]
+    # the blocks' parameters as run: the FMU's start values, the system's over them
+    block_parameters: dict[str, Any] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.series[name]
@@ -344,6 +576,11 @@ class CosimResult:
     def floor(self, name: str) -> np.ndarray:
         """The building's storey output ``name`` (u, v or a) at the blocks' floor."""
         return self.series[f"{BUILDING}.storey[{self.system.floor}].{name}"]
+
+    @property
+    def notes(self) -> list[str]:
+        """What to read before trusting the run (system_notes: the building's masses, the step...)."""
+        return system_notes(self.system)
 
     def to_pandas(self):
         """A DataFrame: a column ``time`` (s), then every series (SI units)."""
@@ -360,38 +597,71 @@ def recorded_outputs(system: System) -> dict[str, list[str]]:
     return {BLOCK: block, BUILDING: building}
 
 
-def check_step(stop_time: float, step: float, step_name: str = "[coupling] step") -> int:
-    """The number of communication steps to stop_time (s); CosimError unless both are finite and
-    positive and stop_time is a whole number of steps (a fixed-step master cannot stop between)."""
-    try:
-        check_times(stop_time, step, "stop_time", step_name)
-    except SceneError as exc:
-        raise CosimError(str(exc)) from None
-    n = round(stop_time / step)
-    if n < 1 or abs(n * step - stop_time) > 1e-9 * stop_time:
-        raise CosimError(f"stop_time {stop_time:g} s is not a whole number of communication steps of {step:g} s "
-                         f"({stop_time / step:.6g}): a fixed-step co-simulation cannot stop between two")
-    return n
-
-
-def n_steps(system: System) -> int:
-    return check_step(system.stop_time, system.step)
-
-
 # ------------------------------------------------------------------ engines
 
 def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, building_fmu: Path | None = None,
         ssp: str | Path | None = None, progress=None) -> CosimResult:
     """Write the system's SSP (to ``ssp``, else a temporary file) and run it with ``engine``
     ("fmpy": fmpy reads the SSP and the master here steps its FMUs; "libcosim": libcosim's SSP
-    loader and fixed-step algorithm). ``progress(k, n)`` is called after every step, if given."""
+    loader and fixed-step algorithm). ``progress(k, n)`` is called after every step, if given.
+    InvalidSystem, before anything runs, for a system that cannot run (:func:`check_system`);
+    ``result.notes`` says what to read before trusting the run (:func:`system_notes`)."""
     if engine not in ENGINES:
         raise CosimError(f"unknown engine '{engine}' (expected {', '.join(ENGINES)})")
+    check_system(system)
+    block_fmu, building_fmu = _fmus(block_fmu, building_fmu)
     with tempfile.TemporaryDirectory(prefix="rocking-ssp-") as tmp:
         path = Path(ssp) if ssp else Path(tmp) / f"{_ssp_name(system.name)}.ssp"
-        write_system_ssp(system, path, block_fmu, building_fmu)
+        _write_ssp(system, path, block_fmu, building_fmu)
         runner = run_ssp_fmpy if engine == "fmpy" else run_ssp_libcosim
-        return runner(system, path, progress)
+        result = runner(system, path, progress)
+    result.block_parameters = {**_start_values(block_fmu), **system.block_parameters()}
+    why = divergence(result)
+    if why:
+        raise CosimDiverged(why, result)
+    return result
+
+
+class CosimDiverged(CosimError):
+    """Two-way coupling made energy (the run diverged); ``result`` holds the run."""
+
+    def __init__(self, message: str, result: CosimResult):
+        super().__init__(message)
+        self.result = result
+
+
+# the blocks' load doing more work on the floor than this many times the energy the system was given
+# (the base's work so far, the blocks' initial energy): energy the coupling made, a run that diverged.
+# Measured on examples/cabinet_on_floor.toml's cabinet and on a crate that slides, floors of 2 t down
+# to 20 kg, steps of 2 to 0.25 ms: the runs that hold stay below 3.5, those that diverge (blocks 2 to 50
+# times their floor) pass 500, most of them 1e17, within seconds.
+DIVERGED = 10.0
+
+
+def divergence(result: CosimResult) -> str | None:
+    """Why a two-way run diverged (one line), or None: its floor forces' work beyond DIVERGED times the
+    energy the system was given, or outputs that are not finite."""
+    s = result.series
+    if result.system.coupling != "two-way":
+        return None
+    work = np.abs(s[f"{BUILDING}.forceWork"])
+    given = np.maximum.accumulate(np.abs(s[f"{BUILDING}.baseWork"])) + abs(float(s[f"{BLOCK}.energy"][0])) + 1e-9
+    bad = (work > DIVERGED * given) | ~np.all(np.isfinite(np.column_stack(list(s.values()))), axis=1)
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad))
+    system = result.system
+    ratio = system.blocks_mass / system.building.mass[system.floor - 1]
+    return (f"two-way coupling diverged at t = {result.time[k]:.4g} s: the blocks' load had done {work[k]:.3g} J of "
+            f"work on the floor, more than {DIVERGED:g} times the {given[k]:.3g} J the system was given; the blocks "
+            f"weigh {ratio:.3g} times their floor (check the masses, in kg), so take a smaller step or one-way "
+            "coupling (docs/cosimulation.md#limits)")
+
+
+def _start_values(fmu: Path) -> dict[str, float]:
+    """The start values of an FMU's Real and Integer parameters."""
+    return {v.name: float(v.start) for v in _model_description(fmu).modelVariables
+            if v.causality == "parameter" and v.type in ("Real", "Integer") and v.start is not None}
 
 
 def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = None) -> CosimResult | None:

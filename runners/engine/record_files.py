@@ -22,11 +22,11 @@ import logging
 import math
 import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from runners.engine.files import create_beside
 from runners.errors import RockingError
 
 MAX_SAMPLES = 10_000_000
@@ -54,7 +54,7 @@ def write_record_file(path: str | Path, time: np.ndarray, ah: np.ndarray, av: np
     head = [f"# {c}" for line in comments for c in str(line).splitlines()]
     head.append("# time (s), horizontal acceleration (m/s2)" + ("" if av is None else ", vertical acceleration (m/s2)"))
     body = "\n".join(" ".join(repr(float(x)) for x in row) for row in zip(*cols))
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    fd, tmp = create_beside(path)  # mode 0666 less the umask, as open() makes it
     with os.fdopen(fd, "w") as fh:
         fh.write("\n".join(head) + "\n" + body + "\n")
     os.replace(tmp, path)

@@ -10,11 +10,12 @@ one component to an input connector of another, unchanged (no linear transformat
 from __future__ import annotations
 
 import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
+
+from runners.engine.files import create_beside
 
 NS = ('xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
       'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
@@ -128,10 +129,9 @@ def write_ssp(path: str | Path, name: str, components: list[Component], connecti
     if len(fmus) != len(components):
         raise ValueError("two components with the same name")
     text = ssd_text(name, components, connections, start_time, stop_time, description, step)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    os.close(fd)
+    fd, tmp = create_beside(path)
     try:
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        with os.fdopen(fd, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as zf:
             zf.writestr("SystemStructure.ssd", text)
             for fname, fpath in sorted(fmus.items()):
                 zf.write(fpath, fname)
@@ -140,3 +140,4 @@ def write_ssp(path: str | Path, name: str, components: list[Component], connecti
         if os.path.exists(tmp):
             os.unlink(tmp)
     return path
+

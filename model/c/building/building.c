@@ -54,7 +54,12 @@ int building_validate(const BuildingVars *v, char *msg, size_t n) {
         FAIL("excitation.startTime = %g s must be a finite time within %g s", v->startTime, RECORD_MAX_TIME);
     if (!(v->relTol >= BUILDING_REL_TOL_MIN && v->relTol <= BUILDING_REL_TOL_MAX))
         FAIL("solver.relTol = %g must be in [%g, %g]", v->relTol, BUILDING_REL_TOL_MIN, BUILDING_REL_TOL_MAX);
-    if (!(v->absTol > 0 && isfinite(v->absTol))) FAIL("solver.absTol = %g must be > 0", v->absTol);
+    if (!(v->absTol > 0 && v->absTol <= BUILDING_ABS_TOL_MAX))
+        FAIL("solver.absTol = %g must be in (0, %g] (m, m/s, J)", v->absTol, BUILDING_ABS_TOL_MAX);
+    for (int i = v->nStoreys; i < BUILDING_MAX_STOREYS; i++)
+        if (v->force[i] != 0.0)
+            FAIL("storey[%d].force = %g N acts on a storey the building does not have (nStoreys = %d)", i + 1,
+                 v->force[i], v->nStoreys);
     return 0;
 }
 

@@ -41,6 +41,9 @@
 #define BUILDING_FILE_CAPACITY 4096 /* bytes of excitation.file, its terminating NUL included */
 #define BUILDING_REL_TOL_MIN 1e-14
 #define BUILDING_REL_TOL_MAX 0.1
+/* m, m/s, J: the integrator's absolute error per state at most; a micrometre (per second, a
+ * microjoule) is already coarse for floors that move millimetres */
+#define BUILDING_ABS_TOL_MAX 1e-6
 /* Hz: above it the explicit integrator would take more than about a million steps a second of
  * simulated time (no structure a block stands on vibrates that fast: wrong units, most likely) */
 #define BUILDING_MAX_FREQUENCY 1e4

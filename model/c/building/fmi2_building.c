@@ -287,6 +287,7 @@ typedef struct {
     VarType type;
     Causality causality;
     char name[64];
+    unsigned storey; /* i of a storey[i] variable, else 0 */
 } VarInfo;
 
 /* Address of the variable with value reference vr, and what it is; NULL when unknown. */
@@ -296,6 +297,7 @@ static void *var_address(BuildingVars *v, unsigned vr, VarInfo *info) {
     case ref:                                                   \
         info->type = TYPE_##T;                                  \
         info->causality = CAUSALITY_##caus;                     \
+        info->storey = 0;                                       \
         snprintf(info->name, sizeof(info->name), "%s", name_);  \
         return &v->field;
 #define STOREY(T, base, field, member, caus, var, start, unit, desc)
@@ -310,6 +312,7 @@ static void *var_address(BuildingVars *v, unsigned vr, VarInfo *info) {
     if (vr > (base) && vr <= (base) + BUILDING_MAX_STOREYS) {                              \
         info->type = TYPE_##T;                                                             \
         info->causality = CAUSALITY_##caus;                                                \
+        info->storey = vr - (base);                                                        \
         snprintf(info->name, sizeof(info->name), "storey[%u].%s", vr - (base), member);    \
         return &v->field[vr - (base) - 1];                                                 \
     }
@@ -356,14 +359,29 @@ static void inputs_changed(Instance *I) {
     if (!I->dirty && (I->phase & (PHASE_INITIALIZATION | PHASE_STEP_COMPLETE))) building_outputs(&I->b);
 }
 
+/* 1 after logging when an input other than 0 is set on a storey above nStoreys after initialisation.
+ * Before, nStoreys may still change: initialisation checks it (building_validate). */
+static int absent_storey(Instance *I, const VarInfo *info, double value) {
+    int n = I->b.v.nStoreys;
+    if (info->causality != CAUSALITY_input || info->storey == 0 || value == 0.0 || (int)info->storey <= n) return 0;
+    if (I->phase != PHASE_STEP_COMPLETE) {
+        I->dirty = 1; /* validated again when initialisation ends or an output is read */
+        return 0;
+    }
+    LOG_ERROR(I, "fmi2SetReal: %s = %g N acts on a storey the building does not have (nStoreys = %d)", info->name,
+              value, n);
+    return 1;
+}
+
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
     Instance *I = (Instance *)c;
     VarInfo info;
     if (begin_access(I, 1, vr, nvr, value, "fmi2SetReal")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
         double *p = (double *)lookup(I, vr[i], TYPE_REAL, 1, "fmi2SetReal", &info);
-        if (!p || !isfinite(value[i])) {
-            if (p) LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", info.name, value[i]);
+        if (!p || !isfinite(value[i]) || absent_storey(I, &info, value[i])) {
+            if (p && !isfinite(value[i]))
+                LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", info.name, value[i]);
             inputs_changed(I); /* the values before the refused one are set */
             return fmi2Error;
         }
