@@ -20,7 +20,7 @@ from pathlib import Path
 
 from runners.cli import clobber, output
 from runners.cli.args import (Once, Parser, common, count, files, finite, folder, object_id, output_file,
-                              positive, renamed, tolerance)
+                              output_folders, positive, renamed, tolerance)
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 
@@ -315,7 +315,8 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(func, str):
             module, name = func.split(":")
             func = getattr(importlib.import_module(module), name)
-        code = func(args)
+        with output_folders(args):  # the missing folders of its output files, now that the command line is checked
+            code = func(args)
         if code == 0 and not quiet:  # after the result, so that a failure stays one line
             for text in getattr(args, "_renamed", None) or []:
                 print(f"note: {text}", file=sys.stderr)
