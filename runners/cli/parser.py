@@ -143,6 +143,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --executor dask: tcp://HOST:PORT of the scheduler, or local:N for N local workers")
     sw.add_argument("--chunk", type=count, metavar="N",
                     help="with --executor dask: grid points per task (default: about 4 tasks per worker)")
+    sw.add_argument("-y", "--yes", action="store_true",
+                    help="run a large sweep (1 GB of results or ten minutes, estimated) without asking; without "
+                         "it such a sweep asks on a terminal and is refused elsewhere")
     common(sw, db=True, fmu=True)
     sw.set_defaults(func=f"{main}:cmd_sweep", resume=None, no_progress=False)
 

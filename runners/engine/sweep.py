@@ -293,6 +293,98 @@ def check_size(total: int, factory) -> None:
                              f"the database's disk has {free / 1e9:.3g} GB free: use fewer points")
 
 
+# A sweep this large is estimated, and run only when confirmed (runners.sweep(confirm=...), runners
+# sweep --yes or an answer on the terminal), if it would need CONFIRM_BYTES of database or take
+# CONFIRM_SECONDS. Below ESTIMATE_FROM points neither can happen with the points measured here (at
+# most a few ms each; docs/BENCHMARKS.md): nothing is measured or asked, and small sweeps start at
+# once. 1 GB is more than any study of the docs stores (a 10^6-point map: 0.4 GB) and more than a
+# laptop's disk can lose unnoticed; ten minutes is past a sweep one waits for at the terminal.
+ESTIMATE_FROM = 10_000  # grid points
+CONFIRM_BYTES = 1e9  # B of results in the database
+CONFIRM_SECONDS = 600.0  # s of wall time
+SAMPLE_POINTS = 16  # grid points, evenly spread, timed for the estimate, unless the first one shows
+SAMPLE_SECONDS = 0.5  # that they would take longer than this (s): then that one alone
+
+
+@dataclass(frozen=True)
+class SweepEstimate:
+    """What a sweep will cost: its points, the database it fills (B, BYTES_PER_POINT a point) and
+    its wall time (s) from the simulation cost of a point (s, in one worker, measured here on
+    `measured` of its points through the sweep's own worker code) over `workers` workers (None: a
+    Dask cluster's, not known yet)."""
+
+    points: int
+    seconds_per_point: float
+    measured: int
+    workers: int | None
+
+    @property
+    def bytes(self) -> float:
+        return self.points * BYTES_PER_POINT
+
+    @property
+    def seconds(self) -> float:
+        """s of wall time (of one worker's time on a Dask cluster)."""
+        return self.points * self.seconds_per_point / (self.workers or 1)
+
+    @property
+    def large(self) -> bool:
+        """Whether the sweep asks to be confirmed (CONFIRM_BYTES, CONFIRM_SECONDS)."""
+        return self.bytes >= CONFIRM_BYTES or (self.workers is not None and self.seconds >= CONFIRM_SECONDS)
+
+    def text(self) -> str:
+        """One line: '12,000,000 points: about 4.8 GB in the database and about 25 min with 2 workers
+        (0.25 ms a point, measured on 16 of them)'."""
+        who = (f"with {self.workers} worker{'s' * (self.workers > 1)}" if self.workers else
+               "of one worker's time (the Dask cluster's workers share it)")
+        return (f"{self.points:,} points: about {self.bytes / 1e9:.2g} GB in the database and about "
+                f"{_duration(self.seconds)} {who} ({1e3 * self.seconds_per_point:.3g} ms a point, measured on "
+                f"{self.measured} of them)")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"points": self.points, "bytes": self.bytes, "seconds": self.seconds,
+                "seconds_per_point": self.seconds_per_point, "measured": self.measured, "workers": self.workers}
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+def estimate(fm: RockingFMU, scene, grid: Grid, defaults: dict[str, Any], workers: int | None,
+             factory) -> SweepEstimate | None:
+    """The cost of a new sweep of `scene` (runners.engine.scene.Scene) over `grid`, or None below
+    ESTIMATE_FROM points. SAMPLE_POINTS of its points, spread over the grid, run here through the
+    sweep's own worker code (the C batch loop where it can be built), in one chunk after the first
+    (or the first alone, if the others would take more than SAMPLE_SECONDS); nothing is stored. `fm`: the FMU (its extraction is used), `factory`: the
+    database holding the grid's records."""
+    if grid.total < ESTIMATE_FROM:
+        return None
+    indices = np.unique(np.linspace(0, grid.total - 1, SAMPLE_POINTS).astype(np.int64))
+    base = {**defaults, **scene.parameters}
+    files = {}
+    if grid.records:
+        from runners.engine.records import file_of
+
+        for rec in (grid.point(int(i), base)[2] for i in indices):
+            if rec.sha256 not in files:
+                files[rec.sha256] = str(file_of(factory, rec.id))
+    setup = Setup({k: v for k, v in scene.parameters.items() if k != "excitation.file" or not grid.records}, grid,
+                  base, scene.stop_time, scene.step, int(base.get("nBlocks", 1)) == 2,
+                  bool(scene.stop_time_given) or not grid.records, files, batch_library()[0])
+    start_worker(str(fm.path), fm.unzipdir, setup)
+    t0 = time.perf_counter()
+    run_chunk((indices[:1], {}))  # the first point alone (it also sets the worker up)...
+    first = time.perf_counter() - t0
+    if first * len(indices) > SAMPLE_SECONDS or len(indices) == 1:
+        return SweepEstimate(grid.total, first, 1, workers)
+    t0 = time.perf_counter()
+    run_chunk((indices[1:], {}))  # ...then the others in one chunk, as a worker runs them
+    return SweepEstimate(grid.total, (time.perf_counter() - t0) / (len(indices) - 1), len(indices) - 1, workers)
+
+
 def check_corners(fmu: RockingFMU, grid: Grid, base: dict[str, Any], limit: int = 64) -> list[str]:
     """Initialise the FMU at the corners of the grid (the first and last value of every axis;
     at most `limit` corners). ValueError naming a point when it refuses every corner (every
