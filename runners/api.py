@@ -508,10 +508,11 @@ class SweepStopped(RockingError):
     """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM) or its workers failed.
     The points run so far are stored; ``sweep(resume=sweep_id)`` finishes it."""
 
-    def __init__(self, sweep_id: int, done: int, total: int, interrupted: bool, reason: str):
+    def __init__(self, sweep_id: int, done: int | None, total: int | None, interrupted: bool, reason: str):
         self.sweep_id, self.done, self.total, self.interrupted = sweep_id, done, total, interrupted
-        super().__init__(f"{reason}; sweep {sweep_id} has {done} of {total} points stored: finish it with "
-                         f"runners sweep {sweep_id}")
+        stored = f"has {done} of {total} points stored" if done is not None else \
+            "keeps the points stored before (the database cannot say how many now)"
+        super().__init__(f"{reason}; sweep {sweep_id} {stored}: finish it with runners sweep {sweep_id}")
 
 
 @_own_errors
@@ -569,7 +570,9 @@ def sweep(
     from db.session import database_failure, open_database, require_writable
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
-                                      estimate, local_workers, parse_axis, parse_points, record_axes, run_sweep)
+                                      estimate, local_workers, parse_axis, parse_points, progress_of, record_axes,
+                                      run_sweep)
+    from runners.engine.sweep_lock import running
     from runners.engine.sweep_store import DATABASE_ERRORS
     from runners.engine.sweep_worker import check_outputs
 
@@ -669,30 +672,29 @@ def sweep(
                 raise ArgumentError(f"no sweep {sweep_id} in the database")
             points = parse_points(record, sw.total) if record else None
     client = None
-    if executor == "dask":
-        from runners.engine.sweep import dask_client, mark_failed
+    with running(factory, sweep_id):  # from its creation on: readers see it running, not stopped
+        if executor == "dask":
+            from runners.engine.sweep import dask_client, mark_failed
 
+            try:
+                client = dask_client(scheduler)
+            except (OSError, SweepError) as exc:  # the sweep cannot run: say so, not "running"
+                done, total = mark_failed(factory, sweep_id)
+                raise SweepStopped(sweep_id, done, total, False, str(exc)) from None
         try:
-            client = dask_client(scheduler)
-        except (OSError, SweepError) as exc:  # the sweep cannot run: say so, not "running"
-            done, total = mark_failed(factory, sweep_id)
-            raise SweepStopped(sweep_id, done, total, False, str(exc)) from None
-    try:
-        st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
-                       record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
-    except (KeyboardInterrupt, SweepError, *DATABASE_ERRORS) as exc:
-        with factory() as session:
-            sw = session.get(Sweep, sweep_id)
-            done, total = sw.done, sw.total
-        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc) if isinstance(exc, SweepError) \
-            else database_failure(exc)
-        raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt), reason) from exc
-    finally:
-        if client is not None:
-            cluster = client.cluster
-            client.close()
-            if cluster is not None and scheduler.startswith("local:"):
-                cluster.close()
+            st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
+                           record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
+        except (KeyboardInterrupt, SweepError, *DATABASE_ERRORS) as exc:
+            done, total = progress_of(factory, sweep_id)  # (None, None) if the database cannot tell now
+            reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc) if isinstance(exc, SweepError) \
+                else database_failure(exc)
+            raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt), reason) from exc
+        finally:
+            if client is not None:
+                cluster = client.cluster
+                client.close()
+                if cluster is not None and scheduler.startswith("local:"):
+                    cluster.close()
     return SweepResult(sweep_id=sweep_id, factory=factory, stats=st)
 
 

@@ -149,9 +149,10 @@ def cmd_list(args: argparse.Namespace) -> int:
     with factory() as session:
         total = session.scalar(select(func.count()).select_from(model))
         rows = session.scalars(select(model).order_by(model.id.desc()).limit(min(args.limit, MAX_ID()))).all()
+        status = _statuses(factory, rows) if args.table == "sweeps" else {}
         if args.json:
             emit_json({"database": _url(factory), "total": total, "shown": len(rows), "more": total - len(rows),
-                       args.table: [_row(r) for r in rows]})
+                       args.table: [_row(r) | ({"status": status[r.id]} if status else {}) for r in rows]})
             return 0
         print(f"{args.table}: {total} in {_url(factory)}" + (f", newest {args.limit}" if total > args.limit else ""))
         for r in rows:
@@ -167,10 +168,21 @@ def cmd_list(args: argparse.Namespace) -> int:
                 print(f"  {r.id:5d}  {r.name}  ({r.n_blocks} block{'s' if r.n_blocks > 1 else ''})")
             else:
                 name = session.get(Scene, r.scene_id).name
-                print(f"  {r.id:5d}  scene {name[:28]:28s} {r.done}/{r.total} {r.status}")
+                how = status[r.id] + (f" (runners sweep {r.id} finishes it)" if status[r.id] in UNFINISHED else "")
+                print(f"  {r.id:5d}  scene {name[:28]:28s} {r.done}/{r.total} {how}")
         if total > len(rows):
             print(f"... {total - len(rows)} more: --limit {total} shows them all")
     return 0
+
+
+UNFINISHED = ("interrupted", "stopped", "failed")  # statuses of a sweep that runners sweep ID finishes
+
+
+def _statuses(factory, sweeps) -> dict[int, str]:
+    """Each sweep's status as it is: "running" only while a process runs it (runners.engine.sweep_lock)."""
+    from runners.engine.sweep_lock import shown_status
+
+    return shown_status(factory, {r.id: r.status for r in sweeps})
 
 
 def cmd_show(args: argparse.Namespace) -> int:
@@ -195,6 +207,8 @@ def cmd_show(args: argparse.Namespace) -> int:
         if obj is None:
             raise ValueError(f"no {args.what} {args.key!r} in {_url(factory)}")
         out = _row(obj)
+        if args.what == "sweep":
+            out["status"] = _statuses(factory, [obj])[obj.id]
         if isinstance(obj, Run):
             out["summary"] = _row(obj.summary) if obj.summary else None
             out["series"] = ({"names": obj.series.names, "n_samples": obj.series.n_samples}

@@ -72,8 +72,15 @@ class Database:
 
     def sweeps(self) -> "pd.DataFrame":
         """Stored sweeps: scene name, the grid in one line (w=1:12:5, a=1.01:8:4), stop_time (s),
-        total points, points stored (done), status (running, interrupted, failed, done), created_at."""
-        return stored_table(self.factory, "sweeps")
+        total points, points stored (done), status, created_at. The status is running (a process
+        runs it now), interrupted (Ctrl-C, SIGTERM), stopped (its database or a worker failed, or its
+        process was killed), failed (its executor could not start) or done."""
+        from runners.engine.sweep_lock import shown_status
+
+        df = stored_table(self.factory, "sweeps")
+        shown = shown_status(self.factory, dict(zip(df.index.tolist(), df["status"].tolist())))
+        df["status"] = [shown[i] for i in df.index.tolist()]
+        return df
 
     def records(self, suite: str | None = None) -> "pd.DataFrame":
         """Stored ground-motion records with their provenance and intensity measures (pga in
@@ -123,8 +130,9 @@ class Database:
 
     def sweep(self, sweep_id: int) -> SweepResult:
         """A stored sweep; its points come with to_pandas() (one row per grid point). stats
-        holds its scene, grid, total points, points stored and status. ValueError for a
-        sweep that is not there."""
+        holds its scene, grid, total points, points stored and status (as sweeps() gives it).
+        ValueError for a sweep that is not there."""
+        from runners.engine.sweep_lock import shown_status
         from runners.engine.tables import grid_text
 
         sweep_id = arguments.whole(sweep_id, "sweep_id")
@@ -133,7 +141,8 @@ class Database:
             if sw is None:
                 raise ArgumentError(f"no sweep {sweep_id} in the database")
             stats = {"sweep": sw.id, "scene": session.get(Scene, sw.scene_id).name, "grid": grid_text(sw.grid),
-                     "total": sw.total, "stored": sw.done, "status": sw.status}
+                     "total": sw.total, "stored": sw.done,
+                     "status": shown_status(self.factory, {sw.id: sw.status})[sw.id]}
         return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
 
 

@@ -50,6 +50,7 @@ from runners.engine.grid import IM_UNITS, Axis, Grid, Intensity, RecordRef, pars
 from runners.engine import batch as batch_lib
 from runners.engine.motion import contact_model_value, rocking_sliding
 from runners.engine.scene import KINDS, unused_parameter
+from runners.engine.sweep_lock import running
 from runners.engine.sweep_store import INTEGRITY_ERRORS, RunConstants, series_row, store
 from runners.engine.sweep_worker import Chunk, Setup, check_outputs, run_chunk, run_points, start_worker
 from runners.errors import RockingError
@@ -832,10 +833,30 @@ def _dask_executor(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | N
         raise _ExecutorFailed(f"the Dask cluster cannot start the sweep: {text}") from None
 
 
+def stop_status(exc: BaseException) -> str:
+    """The status of a sweep that `exc` stopped: "interrupted" (Ctrl-C, SIGTERM), "failed" (its
+    executor could not start) or "stopped" (its database or a worker failed on the way)."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted"
+    return "failed" if isinstance(exc, _ExecutorFailed) else "stopped"
+
+
 def _set_status(factory, sweep_id: int, status: str) -> None:
-    """Mark an unfinished sweep running, interrupted or failed (a finished one stays done)."""
+    """Mark an unfinished sweep running, interrupted, stopped or failed (a finished one stays done)."""
     with factory.begin() as session:
         session.execute(update(Sweep).where(Sweep.id == sweep_id, Sweep.done < Sweep.total).values(status=status))
+
+
+def progress_of(factory, sweep_id: int) -> tuple[int | None, int | None]:
+    """(points stored, total) of a sweep, or (None, None) when the database cannot say (it failed)."""
+    from runners.engine.sweep_store import DATABASE_ERRORS
+
+    try:
+        with factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            return sw.done, sw.total
+    except DATABASE_ERRORS:
+        return None, None
 
 
 def mark_failed(factory, sweep_id: int) -> tuple[int, int]:
@@ -931,9 +952,10 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     if remaining > 0:
         check_outputs(fmu_path, plan.two)
     bar = tqdm(total=plan.total, initial=plan.already, disable=not progress, unit="run", desc=f"sweep {sweep_id}")
-    _set_status(factory, sweep_id, "running")
     try:
         with ExitStack() as stack:
+            stack.enter_context(running(factory, sweep_id))  # released when this process ends, however it ends
+            _set_status(factory, sweep_id, "running")
             if remaining <= 0:
                 executor = None
             elif client is not None:
@@ -967,8 +989,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     except BaseException as exc:  # interrupted or failed: keep what arrived, and say the sweep is not running
         with contextlib.suppress(Exception):
             flush()
-        with contextlib.suppress(Exception):
-            _set_status(factory, sweep_id, "failed" if isinstance(exc, _ExecutorFailed) else "interrupted")
+        with contextlib.suppress(Exception):  # (a database that failed may refuse this too: readers see no runner)
+            _set_status(factory, sweep_id, stop_status(exc))
         raise
     bar.close()
     with factory() as session:
