@@ -1,4 +1,4 @@
-"""``runners db init | list | show | import-unsaved``: the database from the command line."""
+"""``runners db init | list | show | delete | import-unsaved``: the database from the command line."""
 
 from __future__ import annotations
 
@@ -218,6 +218,21 @@ def cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_delete(args: argparse.Namespace) -> int:
+    """runners db delete sweep|run|record KEY [--force]: runners.engine.database.Database.delete."""
+    from runners.cli import output
+    from runners.engine.database import open_db
+
+    db = open_db(args.db)
+    with output.busy(f"deleting {args.what} {args.key}"):
+        done = db.delete(args.what, args.key, force=args.force)
+    if args.json:
+        emit_json({**done.as_dict(), "database": db.url})
+    else:
+        print(f"{done.text()} (in {db.url})")
+    return 0
+
+
 def cmd_import_unsaved(args: argparse.Namespace) -> int:
     from db.session import open_database
     from db.store import read_unsaved, store_pending, stored_already
@@ -239,7 +254,7 @@ def cmd_import_unsaved(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
-    dbp = sub.add_parser("db", help="the experiment database: init, list, show, import-unsaved")
+    dbp = sub.add_parser("db", help="the experiment database: init, list, show, delete, import-unsaved")
     dsub = dbp.add_subparsers(dest="db_command", required=True, metavar="COMMAND")
     init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
     init.set_defaults(func=cmd_init)
@@ -256,10 +271,18 @@ def add_parser(sub) -> None:
     show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement"])
     show.add_argument("key", metavar="ID", help="the id (or 'latest'); a block's name or id")
     show.set_defaults(func=cmd_show)
+    rm = dsub.add_parser("delete", help="delete a sweep, a run or a record with every row that belongs to it "
+                                        "(refused if other rows need it, unless --force)")
+    rm.add_argument("what", choices=["sweep", "run", "record"])
+    rm.add_argument("key", metavar="ID|NAME", help="a sweep's or run's id (or 'latest'); a record's name or id")
+    rm.add_argument("--force", action="store_true",
+                    help="also delete what needs it (a record's runs, sweeps and measurements) and take a run out of "
+                         "its sweep; says how many")
+    rm.set_defaults(func=cmd_delete)
     imp = dsub.add_parser("import-unsaved", help="store a run that could not be stored when it ran "
                                                  "(the rocking-unsaved-*.json file the error named)")
     imp.add_argument("file", help="rocking-unsaved-*.json")
     files(imp, reads=[("file", "unsaved run file")])
     imp.set_defaults(func=cmd_import_unsaved)
-    for p in (init, lst, show, imp):
+    for p in (init, lst, show, rm, imp):
         common(p, db=True)

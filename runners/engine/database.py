@@ -26,9 +26,11 @@ from runners.engine.tables import OUTCOMES, fmu_defaults, stored_table
 if TYPE_CHECKING:
     import pandas as pd
 
+    from runners.engine.deletion import Deleted
+
 
 class Database:
-    """A database of runs, opened by open_db. Every method reads; none writes.
+    """A database of runs, opened by open_db. Every method reads but delete().
 
     Tables come back as DataFrames indexed by ``id`` with readable columns (names next to
     ids, no blob columns); runs are newest first, the other tables in id order.
@@ -144,6 +146,47 @@ class Database:
                      "total": sw.total, "stored": sw.done,
                      "status": shown_status(self.factory, {sw.id: sw.status})[sw.id]}
         return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
+
+
+    # -- deleting ----------------------------------------------------------------------------
+
+    def delete(self, kind: str, key: int | str, *, force: bool = False) -> "Deleted":
+        """Delete a stored sweep or run (its id, or "latest") or record (its name or id) with every
+        row that belongs to it, in one transaction (runners.engine.deletion): a sweep's points with
+        their summaries and series, a run's summary, series and excitation, and the scenes no other
+        row uses. Something other rows need is refused (InUse, a RockingError and ValueError, one
+        line naming them; nothing changes): a record that runs, sweeps or measurements were driven by
+        or made from, a run that is a point of a sweep; with force=True those go too (a sweep's point
+        is taken out of it, to be run again by resuming it). A sweep a process is running is never
+        deleted. Returns a runners.engine.deletion.Deleted: rows deleted per table (.rows), what
+        went with it (.with_it), .text(), .as_dict(). The database is opened for writing for this
+        (DatabaseError, in one line, if it cannot be written)."""
+        from runners.engine.deletion import KINDS, delete_stored
+
+        kind = arguments.text(kind, "kind", f"one of {', '.join(KINDS)}")
+        if kind not in KINDS:
+            raise ArgumentError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        if not (isinstance(key, str) and key.strip()) and not arguments.is_whole(key):
+            raise ArgumentError(f"key must be an id (int), 'latest' or a record's name, got {key!r}")
+        key = key.strip() if isinstance(key, str) else int(key)
+        if kind != "record" and isinstance(key, str) and key != "latest":
+            if not key.isdecimal():
+                raise ArgumentError(f"{kind} ids are whole numbers (or 'latest'), got {key!r}")
+            key = int(key)
+        writable = open_database(_url_of(self.factory), write=True)
+        try:
+            return delete_stored(writable, kind, key, force=arguments.flag(force, "force"))
+        finally:
+            writable.kw["bind"].dispose()
+
+
+def _url_of(factory: sessionmaker) -> str:
+    """The URL a session factory was opened with, password included (a read-only SQLite file's own)."""
+    from db.session import sqlite_file
+
+    engine = factory.kw["bind"]
+    path = sqlite_file(engine)
+    return f"sqlite:///{path}" if path is not None else engine.url.render_as_string(hide_password=False)
 
 
 def _full_summary(scene: str, parameters: dict[str, Any], t, cols: dict, events: list[dict]) -> dict[str, Any]:
