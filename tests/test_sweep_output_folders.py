@@ -38,8 +38,8 @@ def test_an_output_file_in_missing_folders_is_written_there(study, fmu_path, tmp
 def test_a_folder_that_cannot_be_created_is_one_line_before_any_work(study, fmu_path, tmp_path):
     p = run_cli("ida", "1", "--out", "/proc/rocking-nonexistent/x.png", db=study, fmu_path=fmu_path)
     assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
-    assert p.stderr.startswith("error: --out /proc/rocking-nonexistent/x.png: its folder /proc/rocking-nonexistent "
-                               "cannot be created"), p.stderr
+    assert p.stderr.startswith("error: --out: cannot write /proc/rocking-nonexistent/x.png: its folder "
+                               "/proc/rocking-nonexistent cannot be created"), p.stderr
     assert p.stdout == ""  # no figure drawn: the study's text would be on stdout
 
 

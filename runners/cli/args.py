@@ -118,7 +118,7 @@ def output_folders(args: argparse.Namespace):
                 parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 _remove_empty(made)
-                raise ValueError(f"{label} {path}: its folder {parent} cannot be created "
+                raise ValueError(f"{label}: cannot write {path}: its folder {parent} cannot be created "
                                  f"({exc.strerror or exc})") from None
             made.extend(missing)
     try:
