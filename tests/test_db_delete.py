@@ -21,7 +21,7 @@ from sqlalchemy import create_engine, func, select, text
 
 import runners
 from conftest import PATIENCE, run_cli, wait_for
-from db.schema import Base, Excitation, Record, Run, RunSeries, RunSummary, Scene, Sweep
+from db.schema import Base, Excitation, Record, Run, RunSeries, RunSummary, Sweep
 from db.session import open_database
 from runners.engine.record_files import write_record_file
 

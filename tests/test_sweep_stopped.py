@@ -9,17 +9,15 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import pytest
 from sqlalchemy import create_engine, func, select, text
 
 import runners
-from conftest import PATIENCE, _postgres_bin, run_cli, wait_for
+from conftest import PATIENCE, PostgresServer, run_cli, wait_for
 from db.schema import Run, Sweep
 from db.session import open_database
 
@@ -119,43 +117,15 @@ def test_a_sweep_stopped_by_a_full_disk_is_listed_stopped_and_resumes(tmp_path, 
 
 @pytest.fixture
 def own_postgres_server():
-    """A PostgreSQL server of this test's own, which it may stop and start again: (its URL, stop,
-    start). Skipped where PostgreSQL is not installed."""
-    bindir = _postgres_bin()
-    if bindir is None:
-        pytest.skip("PostgreSQL is not installed (Debian: apt-get install postgresql)")
-    folder = Path(tempfile.mkdtemp(prefix="rocking-postgres-"))
-    as_user: list[str] = []
-    if os.geteuid() == 0:  # initdb refuses root: the server runs as Debian's postgres user
-        shutil.chown(folder, "postgres")
-        as_user = ["runuser", "-u", "postgres", "--"]
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    data = folder / "data"
-    subprocess.run([*as_user, str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "postgres", "--no-sync"],
-                   check=True, capture_output=True)
-
-    def pg_ctl(*args: str) -> None:
-        subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), *args], check=True, capture_output=True)
-
-    def start() -> None:
-        pg_ctl("-w", "-t", f"{PATIENCE:.0f}", "-l", str(folder / "log"), "-o",
-               f"-p {port} -k {folder} -c listen_addresses=127.0.0.1 -c fsync=off", "start")
-
-    def stop() -> None:
-        pg_ctl("-m", "immediate", "stop")  # as a crash: no goodbye to the clients
-
-    start()
-    server = f"postgresql+psycopg://postgres@127.0.0.1:{port}"
-    engine = create_engine(f"{server}/postgres", isolation_level="AUTOCOMMIT")
+    """A PostgreSQL server of this test's own, which it may stop and start again, with a database
+    "sweeps": (its URL, stop, start). Skipped where PostgreSQL is not installed."""
+    server = PostgresServer()
+    engine = create_engine(f"{server.url}/postgres", isolation_level="AUTOCOMMIT")
     with engine.connect() as conn:
         conn.execute(text("CREATE DATABASE sweeps"))
     engine.dispose()
-    yield f"{server}/sweeps", stop, start
-    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"],
-                   capture_output=True)
-    shutil.rmtree(folder, ignore_errors=True)
+    yield f"{server.url}/sweeps", server.stop, server.start
+    server.remove()
 
 
 def test_a_sweep_whose_database_server_went_away_is_listed_stopped_and_resumes(own_postgres_server, fmu_path):
