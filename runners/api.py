@@ -505,8 +505,9 @@ def _records_spec(records: Any) -> str | None:
 
 
 class SweepStopped(RockingError):
-    """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM) or its workers failed.
-    The points run so far are stored; ``sweep(resume=sweep_id)`` finishes it."""
+    """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM), or its workers or its
+    database failed. The points stored so far are kept; ``sweep(resume=sweep_id)`` finishes it.
+    ``done`` and ``total`` are None when the database could not say how many are stored."""
 
     def __init__(self, sweep_id: int, done: int | None, total: int | None, interrupted: bool, reason: str):
         self.sweep_id, self.done, self.total, self.interrupted = sweep_id, done, total, interrupted
