@@ -54,9 +54,31 @@ def find_record(session: Session, key: str | int) -> Record:
         rec = session.get(Record, int(str(key).strip()))
     if rec is None:
         file = " and no such record file" if str(key).lower().endswith((".at2", ".csv", ".txt")) else ""
-        raise ValueError(f"no record {key!r} in the database{file} (runners records list shows them; "
-                         "runners records import adds them)")
+        raise ValueError(f"no record {key!r} in the database{file}{closest_names(session, str(key))} (runners records "
+                         "list shows them; runners records import adds them)")
     return rec
+
+
+def closest_names(session: Session, key: str, spread: float = 0.01) -> str:
+    """': did you mean ...?' naming the stored suites or record names closest to a mistyped `key`
+    (difflib; those within `spread` of the best ratio, at most three, suites first where one is
+    the closest), or the FEMA P695 set `key` names when it is not stored; '' when nothing is close."""
+    import difflib
+
+    from runners.engine.fema import SETS
+
+    stored = dict(suites(session))
+    head, _, rest = key.strip().partition("/")
+    fema_set = rest.split("/")[0]
+    if head == "fema-p695" and fema_set in SETS and f"fema-p695/{fema_set}" not in stored:
+        return f": the FEMA P695 set {fema_set} is not stored; runners records import fema-p695 {fema_set} stores it"
+    names = [*stored, *session.scalars(select(Record.name))]
+    ratios = sorted(((difflib.SequenceMatcher(None, key, n).ratio(), n) for n in names), reverse=True)
+    close = [n for r, n in ratios[:3] if r >= max(0.6, ratios[0][0] - spread)] if ratios else []
+    if not close:
+        return ""
+    said = [f"the suite {n}" if n in stored else n for n in close]
+    return f": did you mean {' or '.join([', '.join(said[:-1]), said[-1]] if len(said) > 1 else said)}?"
 
 
 def suite_records(session: Session, suite: str) -> list[Record]:

@@ -505,13 +505,15 @@ def _records_spec(records: Any) -> str | None:
 
 
 class SweepStopped(RockingError):
-    """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM) or its workers failed.
-    The points run so far are stored; ``sweep(resume=sweep_id)`` finishes it."""
+    """A sweep stopped before every point ran: interrupted (Ctrl-C, SIGTERM), or its workers or its
+    database failed. The points stored so far are kept; ``sweep(resume=sweep_id)`` finishes it.
+    ``done`` and ``total`` are None when the database could not say how many are stored."""
 
-    def __init__(self, sweep_id: int, done: int, total: int, interrupted: bool, reason: str):
+    def __init__(self, sweep_id: int, done: int | None, total: int | None, interrupted: bool, reason: str):
         self.sweep_id, self.done, self.total, self.interrupted = sweep_id, done, total, interrupted
-        super().__init__(f"{reason}; sweep {sweep_id} has {done} of {total} points stored: finish it with "
-                         f"runners sweep {sweep_id}")
+        stored = f"has {done} of {total} points stored" if done is not None else \
+            "keeps the points stored before (the database cannot say how many now)"
+        super().__init__(f"{reason}; sweep {sweep_id} {stored}: finish it with runners sweep {sweep_id}")
 
 
 @_own_errors
@@ -533,6 +535,7 @@ def sweep(
     scheduler: str | None = None,
     chunk: int | None = None,
     on_note=None,
+    confirm=False,
 ) -> SweepResult:
     """Run a grid of one scene in parallel, store every point in the database, return the sweep.
 
@@ -551,6 +554,13 @@ def sweep(
     executor, scheduler, chunk: "local" (default) or "dask" with the scheduler's address
         (``tcp://HOST:PORT`` or ``local:N``) and the points per task (docs/cluster.md).
     on_note: called with each note (a str) about the scene, e.g. ``print``.
+    confirm: whether to run a large new sweep: one that would fill 1 GB of database or take ten
+        minutes (runners.engine.sweep.CONFIRM_BYTES, CONFIRM_SECONDS; sweeps of 10,000 points and
+        more are estimated by timing a few of their points first). False (default): such a sweep
+        raises ArgumentError, in one line with its estimate, before anything is stored; True: it
+        runs (its estimate goes to on_note); a function: called with the estimate
+        (runners.engine.sweep.SweepEstimate: points, bytes, seconds, workers, text()), it runs if
+        that returns True (it may raise instead). Smaller sweeps and resumes do not ask.
 
     The returned SweepResult's ``stats`` count the points stored and failed and the time spent;
     its ``to_pandas()`` reads the points back. Numbers may be numpy scalars. Raises ArgumentError
@@ -561,7 +571,9 @@ def sweep(
     from db.session import database_failure, open_database, require_writable
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
-                                      local_workers, parse_axis, parse_points, record_axes, run_sweep)
+                                      estimate, local_workers, parse_axis, parse_points, progress_of, record_axes,
+                                      run_sweep)
+    from runners.engine.sweep_lock import running
     from runners.engine.sweep_store import DATABASE_ERRORS
     from runners.engine.sweep_worker import check_outputs
 
@@ -587,6 +599,8 @@ def sweep(
     scheduler = args.optional(args.text, scheduler, "scheduler", "an address tcp://HOST:PORT or local:N")
     if on_note is not None and not callable(on_note):
         raise ArgumentError(f"on_note must be a function of one str (e.g. print), got {type(on_note).__name__}")
+    if not callable(confirm):
+        confirm = args.flag(confirm, "confirm")
     if (resume is None) == (scene is None):
         raise ArgumentError("give a scene with a grid or records, or resume=SWEEP_ID")
     if (chunk is not None and chunk < 1) or (workers is not None and workers < 1):
@@ -639,10 +653,17 @@ def sweep(
             if not recs:  # the FMU's own checks, at the grid's corners, before the sweep exists
                 notes += check_corners(fm, full, {**defaults, **sc.parameters})
             notes += implausible_sizes({**defaults, **sc.parameters})
+            cost = estimate(fm, sc, full, defaults, None if executor == "dask" else
+                            max(1, min(workers or cores, full.total)), factory)
+        points = parse_points(record, full.total) if record else None
+        if cost is not None and cost.large:
+            if not (confirm(cost) if callable(confirm) else confirm):
+                raise ArgumentError(f"a large sweep: {cost.text()}; nothing was stored: give confirm=True to run it")
+            if confirm is True:  # (a function has been shown it)
+                notes.append(f"a large sweep: {cost.text()}")
         for note in notes:
             if on_note is not None:
                 on_note(note)
-        points = parse_points(record, full.total) if record else None
         sweep_id = create_sweep(factory, sc, axes, defaults, recs, intensity)
     else:
         sweep_id = resume
@@ -652,30 +673,29 @@ def sweep(
                 raise ArgumentError(f"no sweep {sweep_id} in the database")
             points = parse_points(record, sw.total) if record else None
     client = None
-    if executor == "dask":
-        from runners.engine.sweep import dask_client, mark_failed
+    with running(factory, sweep_id):  # from its creation on: readers see it running, not stopped
+        if executor == "dask":
+            from runners.engine.sweep import dask_client, mark_failed
 
+            try:
+                client = dask_client(scheduler)
+            except (OSError, SweepError) as exc:  # the sweep cannot run: say so, not "running"
+                done, total = mark_failed(factory, sweep_id)
+                raise SweepStopped(sweep_id, done, total, False, str(exc)) from None
         try:
-            client = dask_client(scheduler)
-        except (OSError, SweepError) as exc:  # the sweep cannot run: say so, not "running"
-            done, total = mark_failed(factory, sweep_id)
-            raise SweepStopped(sweep_id, done, total, False, str(exc)) from None
-    try:
-        st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
-                       record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
-    except (KeyboardInterrupt, SweepError, *DATABASE_ERRORS) as exc:
-        with factory() as session:
-            sw = session.get(Sweep, sweep_id)
-            done, total = sw.done, sw.total
-        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc) if isinstance(exc, SweepError) \
-            else database_failure(exc)
-        raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt), reason) from exc
-    finally:
-        if client is not None:
-            cluster = client.cluster
-            client.close()
-            if cluster is not None and scheduler.startswith("local:"):
-                cluster.close()
+            st = run_sweep(factory, sweep_id, fmu_path, workers=workers, progress=progress, record=points,
+                           record_dir=None if record_dir is None else str(record_dir), client=client, chunk=chunk)
+        except (KeyboardInterrupt, SweepError, *DATABASE_ERRORS) as exc:
+            done, total = progress_of(factory, sweep_id)  # (None, None) if the database cannot tell now
+            reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc) if isinstance(exc, SweepError) \
+                else database_failure(exc)
+            raise SweepStopped(sweep_id, done, total, isinstance(exc, KeyboardInterrupt), reason) from exc
+        finally:
+            if client is not None:
+                cluster = client.cluster
+                client.close()
+                if cluster is not None and scheduler.startswith("local:"):
+                    cluster.close()
     return SweepResult(sweep_id=sweep_id, factory=factory, stats=st)
 
 

@@ -183,38 +183,57 @@ def _postgres_bin() -> Path | None:
     return found[-1].parent if found else None
 
 
+class PostgresServer:
+    """A throw-away PostgreSQL server from Debian's packages on loopback (initdb in a temporary
+    folder, trust authentication, fsync off): .url, and .start(), .stop() (immediate: as a crash,
+    no goodbye to its clients), .remove(). pytest.skip with the reason where it is not installed."""
+
+    def __init__(self):
+        import socket
+        import tempfile
+
+        bindir = _postgres_bin()
+        if bindir is None:
+            pytest.skip("PostgreSQL is not installed (Debian: apt-get install postgresql; .ci/run installs it)")
+        # not under pytest's temporary folder: as root that is private to root, and the server runs as postgres
+        self.folder = Path(tempfile.mkdtemp(prefix="rocking-postgres-"))
+        self.as_user: list[str] = []
+        if os.geteuid() == 0:  # initdb refuses to run as root: run the server as Debian's postgres user
+            shutil.chown(self.folder, "postgres")
+            self.as_user = ["runuser", "-u", "postgres", "--"]
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            self.port = s.getsockname()[1]
+        self.bindir, self.data = bindir, self.folder / "data"
+        subprocess.run([*self.as_user, str(bindir / "initdb"), "-D", str(self.data), "-A", "trust", "-U", "postgres",
+                        "--no-sync"], check=True, capture_output=True)
+        self.url = f"postgresql+psycopg://postgres@127.0.0.1:{self.port}"
+        self.start()
+
+    def _pg_ctl(self, *args: str, check: bool = True) -> None:
+        subprocess.run([*self.as_user, str(self.bindir / "pg_ctl"), "-D", str(self.data), *args], check=check,
+                       capture_output=True)
+
+    def start(self) -> None:
+        self._pg_ctl("-w", "-t", f"{PATIENCE:.0f}", "-l", str(self.folder / "log"), "-o",  # not 60 s
+                     f"-p {self.port} -k {self.folder} -c listen_addresses=127.0.0.1 -c fsync=off "
+                     "-c max_connections=200", "start")
+
+    def stop(self) -> None:
+        self._pg_ctl("-m", "immediate", "stop")
+
+    def remove(self) -> None:
+        self._pg_ctl("-m", "immediate", "stop", check=False)
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
 @pytest.fixture(scope="session")
 def postgres_server(tmp_path_factory):
-    """A throw-away PostgreSQL server from Debian's packages on loopback (initdb in a
-    temporary folder, trust authentication, fsync off); skipped with the reason where the
-    server is not installed (.ci/run installs it)."""
-    import socket
-
-    bindir = _postgres_bin()
-    if bindir is None:
-        pytest.skip("PostgreSQL is not installed (Debian: apt-get install postgresql; .ci/run installs it)")
-    import tempfile
-
-    # not under pytest's temporary folder: as root that is private to root, and the server runs as postgres
-    folder = Path(tempfile.mkdtemp(prefix="rocking-postgres-"))
-    as_user: list[str] = []
-    if os.geteuid() == 0:  # initdb refuses to run as root: run the server as Debian's postgres user
-        shutil.chown(folder, "postgres")
-        as_user = ["runuser", "-u", "postgres", "--"]
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    data = folder / "data"
-    subprocess.run([*as_user, str(bindir / "initdb"), "-D", str(data), "-A", "trust", "-U", "postgres",
-                    "--no-sync"], check=True, capture_output=True)
-    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-w", "-t", f"{PATIENCE:.0f}",  # not 60 s
-                    "-l", str(folder / "log"), "-o",
-                    f"-p {port} -k {folder} -c listen_addresses=127.0.0.1 -c fsync=off -c max_connections=200",
-                    "start"], check=True, capture_output=True)
-    yield f"postgresql+psycopg://postgres@127.0.0.1:{port}"
-    subprocess.run([*as_user, str(bindir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"],
-                   capture_output=True)
-    shutil.rmtree(folder, ignore_errors=True)
+    """The URL of a PostgreSQL server (PostgresServer) for the session's tests; skipped with the
+    reason where the server is not installed."""
+    server = PostgresServer()
+    yield server.url
+    server.remove()
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])

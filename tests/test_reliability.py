@@ -347,7 +347,7 @@ class RockingDefaults:
 def test_a_ten_million_point_sweep_runs_in_bounded_memory(fmu_path, tmp_path):
     db = f"sqlite:///{tmp_path / 's.db'}"
     p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:12:10000", "--grid", "a=1.01:8:1000",
-            "--quiet", "--workers", "1", db=db, fmu_path=fmu_path, background=True)
+            "--quiet", "--yes", "--workers", "1", db=db, fmu_path=fmu_path, background=True)
     def peak_mb() -> float:
         status = Path(f"/proc/{p.pid}/status").read_text()
         return int(next(x for x in status.splitlines() if x.startswith("VmHWM")).split()[1]) / 1024
@@ -484,8 +484,8 @@ def test_a_block_released_flat_with_a_real_rate_rocks_as_the_reference_says(fmu)
 def test_a_ten_million_point_axis_starts_at_once(fmu_path, tmp_path):
     """A point's value was taken from the whole axis (np.linspace of 1e7 values per point)."""
     db = f"sqlite:///{tmp_path / 's.db'}"
-    p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:10000000", "--quiet", "--workers", "1",
-            db=db, fmu_path=fmu_path, background=True)
+    p = cli("sweep", str(EX / "sweep_sine_pulse.toml"), "--grid", "w=1:2:10000000", "--quiet", "--yes",
+            "--workers", "1", db=db, fmu_path=fmu_path, background=True)
     try:
         def quick() -> None:  # the runner's CPU time, start-up included (a busy machine stretches wall time, not this)
             assert cpu_seconds(p.pid) < 15, f"{cpu_seconds(p.pid):.1f} s of CPU and not yet 500 points"

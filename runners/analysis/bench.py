@@ -507,7 +507,7 @@ def run_sweep_size_bench(fmu_path: Path, first: int = 1000) -> str:
         for nw, na in SIZE_CASES:
             db = Path(tmp) / f"size-{nw * na}.db"
             cmd = [sys.executable, "-m", "runners.cli", "sweep", str(root / "examples" / "sweep_sine_pulse.toml"),
-                   "--grid", f"w=1:12:{nw}", "--grid", f"a=1.01:8:{na}", "--workers", "1", "--quiet",
+                   "--grid", f"w=1:12:{nw}", "--grid", f"a=1.01:8:{na}", "--workers", "1", "--quiet", "--yes",
                    "--db", str(db), "--fmu", str(fmu_path)]
             t0 = time.perf_counter()
             proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)

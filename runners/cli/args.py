@@ -4,6 +4,7 @@ argument is refused by argparse itself, in one line, before any work is done."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 
@@ -80,7 +81,9 @@ def _unusable(text: str, exc: OSError) -> argparse.ArgumentTypeError:
 
 def output_file(text: str):
     """A file to write (a figure, a recording, an export): not a folder, its folder not a file,
-    not a device or pipe; through a symbolic link, the file it points to."""
+    not a device or pipe; through a symbolic link, the file it points to. Its folder, if missing,
+    is created once the whole command line has been checked (make_folders), as a folder output
+    and a recording's folder are."""
     from pathlib import Path
 
     path = Path(text)
@@ -93,6 +96,43 @@ def output_file(text: str):
         return str(path.resolve()) if path.is_symlink() else text
     except OSError as exc:
         raise _unusable(text, exc) from None
+
+
+@contextlib.contextmanager
+def output_folders(args: argparse.Namespace):
+    """Around a command's work: first create the missing folders of the files its parsed command
+    line writes (those it declares, files()), as a folder output (folder) and a recording's are
+    made; after a failure, remove those of them that stayed empty. ValueError, in one line naming
+    the option, for a folder that cannot be made (before any work)."""
+    from pathlib import Path
+
+    made: list[Path] = []
+    for dest, label in (getattr(args, "_files", None) or ((), ()))[1]:
+        value = getattr(args, dest, None)
+        for path in value if isinstance(value, (list, tuple)) else [value]:
+            if not isinstance(path, str) or not path:
+                continue
+            parent = Path(path).parent
+            missing = [p for p in (parent, *parent.parents) if not p.exists()]
+            try:
+                parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                _remove_empty(made)
+                raise ValueError(f"{label}: cannot write {path}: its folder {parent} cannot be created "
+                                 f"({exc.strerror or exc})") from None
+            made.extend(missing)
+    try:
+        yield
+    except BaseException:
+        _remove_empty(made)
+        raise
+
+
+def _remove_empty(folders: list) -> None:
+    """Remove the folders that are empty, deepest first (a folder written into stays)."""
+    for path in folders:  # each folder's own missing parents follow it
+        with contextlib.suppress(OSError):
+            path.rmdir()
 
 
 def folder(text: str) -> str:

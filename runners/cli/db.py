@@ -1,4 +1,4 @@
-"""``runners db init | list | show | import-unsaved``: the database from the command line."""
+"""``runners db init | list | show | delete | import-unsaved``: the database from the command line."""
 
 from __future__ import annotations
 
@@ -149,9 +149,10 @@ def cmd_list(args: argparse.Namespace) -> int:
     with factory() as session:
         total = session.scalar(select(func.count()).select_from(model))
         rows = session.scalars(select(model).order_by(model.id.desc()).limit(min(args.limit, MAX_ID()))).all()
+        status = _statuses(factory, rows) if args.table == "sweeps" else {}
         if args.json:
             emit_json({"database": _url(factory), "total": total, "shown": len(rows), "more": total - len(rows),
-                       args.table: [_row(r) for r in rows]})
+                       args.table: [_row(r) | ({"status": status[r.id]} if status else {}) for r in rows]})
             return 0
         print(f"{args.table}: {total} in {_url(factory)}" + (f", newest {args.limit}" if total > args.limit else ""))
         for r in rows:
@@ -167,10 +168,21 @@ def cmd_list(args: argparse.Namespace) -> int:
                 print(f"  {r.id:5d}  {r.name}  ({r.n_blocks} block{'s' if r.n_blocks > 1 else ''})")
             else:
                 name = session.get(Scene, r.scene_id).name
-                print(f"  {r.id:5d}  scene {name[:28]:28s} {r.done}/{r.total} {r.status}")
+                how = status[r.id] + (f" (runners sweep {r.id} finishes it)" if status[r.id] in UNFINISHED else "")
+                print(f"  {r.id:5d}  scene {name[:28]:28s} {r.done}/{r.total} {how}")
         if total > len(rows):
             print(f"... {total - len(rows)} more: --limit {total} shows them all")
     return 0
+
+
+UNFINISHED = ("interrupted", "stopped", "failed")  # statuses of a sweep that runners sweep ID finishes
+
+
+def _statuses(factory, sweeps) -> dict[int, str]:
+    """Each sweep's status as it is: "running" only while a process runs it (runners.engine.sweep_lock)."""
+    from runners.engine.sweep_lock import shown_status
+
+    return shown_status(factory, {r.id: r.status for r in sweeps})
 
 
 def cmd_show(args: argparse.Namespace) -> int:
@@ -195,12 +207,29 @@ def cmd_show(args: argparse.Namespace) -> int:
         if obj is None:
             raise ValueError(f"no {args.what} {args.key!r} in {_url(factory)}")
         out = _row(obj)
+        if args.what == "sweep":
+            out["status"] = _statuses(factory, [obj])[obj.id]
         if isinstance(obj, Run):
             out["summary"] = _row(obj.summary) if obj.summary else None
             out["series"] = ({"names": obj.series.names, "n_samples": obj.series.n_samples}
                              if obj.series else None)
             out["scene"] = {"name": obj.scene.name, "parameters": obj.scene.parameters}
     emit_json(out)
+    return 0
+
+
+def cmd_delete(args: argparse.Namespace) -> int:
+    """runners db delete sweep|run|record KEY [--force]: runners.engine.database.Database.delete."""
+    from runners.cli import output
+    from runners.engine.database import open_db
+
+    db = open_db(args.db)
+    with output.busy(f"deleting {args.what} {args.key}"):
+        done = db.delete(args.what, args.key, force=args.force)
+    if args.json:
+        emit_json({**done.as_dict(), "database": db.url})
+    else:
+        print(f"{done.text()} (in {db.url})")
     return 0
 
 
@@ -225,7 +254,7 @@ def cmd_import_unsaved(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
-    dbp = sub.add_parser("db", help="the experiment database: init, list, show, import-unsaved")
+    dbp = sub.add_parser("db", help="the experiment database: init, list, show, delete, import-unsaved")
     dsub = dbp.add_subparsers(dest="db_command", required=True, metavar="COMMAND")
     init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
     init.set_defaults(func=cmd_init)
@@ -242,10 +271,18 @@ def add_parser(sub) -> None:
     show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement"])
     show.add_argument("key", metavar="ID", help="the id (or 'latest'); a block's name or id")
     show.set_defaults(func=cmd_show)
+    rm = dsub.add_parser("delete", help="delete a sweep, a run or a record with every row that belongs to it "
+                                        "(refused if other rows need it, unless --force)")
+    rm.add_argument("what", choices=["sweep", "run", "record"])
+    rm.add_argument("key", metavar="ID|NAME", help="a sweep's or run's id (or 'latest'); a record's name or id")
+    rm.add_argument("--force", action="store_true",
+                    help="also delete what needs it (a record's runs, sweeps and measurements) and take a run out of "
+                         "its sweep; says how many")
+    rm.set_defaults(func=cmd_delete)
     imp = dsub.add_parser("import-unsaved", help="store a run that could not be stored when it ran "
                                                  "(the rocking-unsaved-*.json file the error named)")
     imp.add_argument("file", help="rocking-unsaved-*.json")
     files(imp, reads=[("file", "unsaved run file")])
     imp.set_defaults(func=cmd_import_unsaved)
-    for p in (init, lst, show, imp):
+    for p in (init, lst, show, rm, imp):
         common(p, db=True)

@@ -74,6 +74,19 @@ def _model_of(assumptions: dict) -> str:
 STRICT_EXIT = 4  # runners simulate --strict or --method auto: the run finished, but its assumptions did not hold
 
 
+def confirm_on_terminal(estimate) -> bool:
+    """Whether to run a large sweep (runners.engine.sweep.SweepEstimate): asked on the terminal, on
+    stderr; not on a terminal (a pipe, CI), ValueError in one line saying to add --yes."""
+    if not (sys.stdin.isatty() and sys.stderr.isatty()):
+        raise ValueError(f"a large sweep: {estimate.text()}; nothing was stored: add --yes to run it")
+    sys.stderr.write(f"a large sweep: {estimate.text()}.\nRun it? [y/N] ")
+    sys.stderr.flush()
+    answer = sys.stdin.readline().strip().lower()
+    if answer not in ("y", "yes"):
+        raise ValueError("not confirmed: the sweep was not started and nothing was stored")
+    return True
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     """runners sweep: runners.api.sweep, with its notes (stderr) and statistics (stdout)."""
     from runners.api import SweepStopped, sweep
@@ -83,7 +96,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                    stop_time=args.stop_time, workers=args.workers, db=args.db, fmu=args.fmu,
                    progress=output.progress() and not args.no_progress, record=args.record,
                    record_dir=args.record_dir, executor=args.executor, scheduler=args.scheduler, chunk=args.chunk,
-                   on_note=output.note)
+                   on_note=output.note, confirm=True if args.yes else confirm_on_terminal)
     except SweepStopped as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 130 if exc.interrupted else 2

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from runners.cli import clobber, output
 from runners.cli.args import (Once, Parser, common, count, files, finite, folder, object_id, output_file,
-                              positive, renamed, tolerance)
+                              output_folders, positive, renamed, tolerance)
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 
@@ -143,6 +143,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --executor dask: tcp://HOST:PORT of the scheduler, or local:N for N local workers")
     sw.add_argument("--chunk", type=count, metavar="N",
                     help="with --executor dask: grid points per task (default: about 4 tasks per worker)")
+    sw.add_argument("-y", "--yes", action="store_true",
+                    help="run a large sweep (1 GB of results or ten minutes, estimated) without asking; without "
+                         "it such a sweep asks on a terminal and is refused elsewhere")
     common(sw, db=True, fmu=True)
     sw.set_defaults(func=f"{main}:cmd_sweep", resume=None, no_progress=False)
 
@@ -315,7 +318,8 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(func, str):
             module, name = func.split(":")
             func = getattr(importlib.import_module(module), name)
-        code = func(args)
+        with output_folders(args):  # the missing folders of its output files, now that the command line is checked
+            code = func(args)
         if code == 0 and not quiet:  # after the result, so that a failure stays one line
             for text in getattr(args, "_renamed", None) or []:
                 print(f"note: {text}", file=sys.stderr)

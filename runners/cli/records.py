@@ -284,7 +284,8 @@ def add_parser(sub) -> None:
     imp.add_argument("--source", help="where the record comes from (provenance)")
     imp.add_argument("--units", help="for a .csv: e.g. 'time=s, acceleration=g'; for a record file (read in m/s2 "
                                      "otherwise): 'acceleration=g'")
-    imp.add_argument("--sign", help="for .AT2 and .csv: +x (default) or -x")
+    imp.add_argument("--sign", help="for .AT2 and .csv: +x or -x (an .AT2 is +x by default; a .csv declares it, "
+                                    "'# sign: +x', or takes it here)")
     renamed(imp, "--no-progress", "--quiet", dest="no_progress", value=True)
     files(imp, reads=[("source_or_file", "record file")])
     imp.set_defaults(func=cmd_import, no_progress=False)

@@ -26,9 +26,11 @@ from runners.engine.tables import OUTCOMES, fmu_defaults, stored_table
 if TYPE_CHECKING:
     import pandas as pd
 
+    from runners.engine.deletion import Deleted
+
 
 class Database:
-    """A database of runs, opened by open_db. Every method reads; none writes.
+    """A database of runs, opened by open_db. Every method reads but delete().
 
     Tables come back as DataFrames indexed by ``id`` with readable columns (names next to
     ids, no blob columns); runs are newest first, the other tables in id order.
@@ -72,8 +74,15 @@ class Database:
 
     def sweeps(self) -> "pd.DataFrame":
         """Stored sweeps: scene name, the grid in one line (w=1:12:5, a=1.01:8:4), stop_time (s),
-        total points, points stored (done), status (running, interrupted, failed, done), created_at."""
-        return stored_table(self.factory, "sweeps")
+        total points, points stored (done), status, created_at. The status is running (a process
+        runs it now), interrupted (Ctrl-C, SIGTERM), stopped (its database or a worker failed, or its
+        process was killed), failed (its executor could not start) or done."""
+        from runners.engine.sweep_lock import shown_status
+
+        df = stored_table(self.factory, "sweeps")
+        shown = shown_status(self.factory, dict(zip(df.index.tolist(), df["status"].tolist())))
+        df["status"] = [shown[i] for i in df.index.tolist()]
+        return df
 
     def records(self, suite: str | None = None) -> "pd.DataFrame":
         """Stored ground-motion records with their provenance and intensity measures (pga in
@@ -123,8 +132,9 @@ class Database:
 
     def sweep(self, sweep_id: int) -> SweepResult:
         """A stored sweep; its points come with to_pandas() (one row per grid point). stats
-        holds its scene, grid, total points, points stored and status. ValueError for a
-        sweep that is not there."""
+        holds its scene, grid, total points, points stored and status (as sweeps() gives it).
+        ValueError for a sweep that is not there."""
+        from runners.engine.sweep_lock import shown_status
         from runners.engine.tables import grid_text
 
         sweep_id = arguments.whole(sweep_id, "sweep_id")
@@ -133,8 +143,50 @@ class Database:
             if sw is None:
                 raise ArgumentError(f"no sweep {sweep_id} in the database")
             stats = {"sweep": sw.id, "scene": session.get(Scene, sw.scene_id).name, "grid": grid_text(sw.grid),
-                     "total": sw.total, "stored": sw.done, "status": sw.status}
+                     "total": sw.total, "stored": sw.done,
+                     "status": shown_status(self.factory, {sw.id: sw.status})[sw.id]}
         return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
+
+
+    # -- deleting ----------------------------------------------------------------------------
+
+    def delete(self, kind: str, key: int | str, *, force: bool = False) -> "Deleted":
+        """Delete a stored sweep or run (its id, or "latest") or record (its name or id) with every
+        row that belongs to it, in one transaction (runners.engine.deletion): a sweep's points with
+        their summaries and series, a run's summary, series and excitation, and the scenes no other
+        row uses. Something other rows need is refused (InUse, a RockingError and ValueError, one
+        line naming them; nothing changes): a record that runs, sweeps or measurements were driven by
+        or made from, a run that is a point of a sweep; with force=True those go too (a sweep's point
+        is taken out of it, to be run again by resuming it). A sweep a process is running is never
+        deleted. Returns a runners.engine.deletion.Deleted: rows deleted per table (.rows), what
+        went with it (.with_it), .text(), .as_dict(). The database is opened for writing for this
+        (DatabaseError, in one line, if it cannot be written)."""
+        from runners.engine.deletion import KINDS, delete_stored
+
+        kind = arguments.text(kind, "kind", f"one of {', '.join(KINDS)}")
+        if kind not in KINDS:
+            raise ArgumentError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        if not (isinstance(key, str) and key.strip()) and not arguments.is_whole(key):
+            raise ArgumentError(f"key must be an id (int), 'latest' or a record's name, got {key!r}")
+        key = key.strip() if isinstance(key, str) else int(key)
+        if kind != "record" and isinstance(key, str) and key != "latest":
+            if not key.isdecimal():
+                raise ArgumentError(f"{kind} ids are whole numbers (or 'latest'), got {key!r}")
+            key = int(key)
+        writable = open_database(_url_of(self.factory), write=True)
+        try:
+            return delete_stored(writable, kind, key, force=arguments.flag(force, "force"))
+        finally:
+            writable.kw["bind"].dispose()
+
+
+def _url_of(factory: sessionmaker) -> str:
+    """The URL a session factory was opened with, password included (a read-only SQLite file's own)."""
+    from db.session import sqlite_file
+
+    engine = factory.kw["bind"]
+    path = sqlite_file(engine)
+    return f"sqlite:///{path}" if path is not None else engine.url.render_as_string(hide_password=False)
 
 
 def _full_summary(scene: str, parameters: dict[str, Any], t, cols: dict, events: list[dict]) -> dict[str, Any]:

@@ -179,6 +179,31 @@ def _plain(v: Any) -> Any:
     return v.item() if isinstance(v, np.generic) else v
 
 
+# relative: a block 2 wider than block 1 by at most this is as wide as block 1. A grid's values are
+# np.linspace's, whose rounding gives block2.halfWidth=0.1:0.2:3 the middle value 0.15000000000000002:
+# a few ulps above a block 1 of 0.15, which the FMU's exact check (a rocking–sliding stack needs
+# block 2 no wider than block 1) would refuse, though the user asked for equal widths
+WIDTH_RTOL = 1e-12
+
+
+def _level_widths(over: dict[str, Any], base: dict[str, Any], n: int) -> None:
+    """Give the FMU block 1's half width (m) as block 2's at the points of a rocking–sliding stack
+    where a --grid axis makes block 2 wider than block 1 by at most WIDTH_RTOL (relative); the
+    stored grid value (runs.point) stays the axis's."""
+    if "block2.halfWidth" not in over and "block1.halfWidth" not in over:
+        return
+
+    def column(name: str) -> np.ndarray:
+        col = over.get(name, base.get(name, 0))
+        return np.asarray(col if not isinstance(col, list) else [base.get(name, 0) if v is None else v for v in col],
+                          dtype=float) * np.ones(n)
+
+    b1, b2 = column("block1.halfWidth"), column("block2.halfWidth")
+    level = (b2 > b1) & (b2 <= b1 * (1 + WIDTH_RTOL)) & (column("nBlocks") == 2) & (column("contact.model") == 1)
+    if level.any():
+        over["block2.halfWidth"] = np.where(level, b1, b2)
+
+
 def _table(values: np.ndarray, f) -> np.ndarray:
     """f(i) for each i of `values`, computed once per distinct i."""
     u, inv = np.unique(values, return_inverse=True)
@@ -238,6 +263,7 @@ class Grid:
             if ax.name not in ("w", "a"):
                 over[ax.name] = values[ax.name]
                 others.append((i, ax.count))
+        _level_widths(over, base, n)
         if "w" in values or "a" in values:
             self._scale_w_a(values, over, others, base, n)
         if recs is not None:  # the scaled record's measures, for fragility and IDA

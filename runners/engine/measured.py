@@ -277,6 +277,68 @@ def _read_table(path: Path, where: str) -> _Table:
     return table
 
 
+def _header(table: _Table, meta: dict[str, str], where: str, kind_implied: bool
+            ) -> tuple[str, list[str], dict[str, str], str]:
+    """(kind, column names, units, sign) a CSV declares (`meta`: its header's keys with the command
+    line's); ValueError naming, in one line, everything the header lacks or gets wrong at once, with
+    a header that works (`kind_implied`: the caller's default kind, left out of it)."""
+    problems: list[str] = []
+    kind = meta.get("kind")
+    if kind not in KINDS:
+        problems.append(f"declare the kind (# kind: or --kind) as one of {', '.join(KINDS)}"
+                        + (f", not {kind!r}" if kind else ""))
+    names = None if table.names is None else [ALIASES.get(h.strip(), h.strip()) for h in table.names]
+    allowed = COLUMNS[KINDS[kind]] if kind in KINDS else None
+    columns_ok = False
+    if names is None:
+        problems.append("no column names row (time, then the measured columns)")
+    elif names[0] != "time":  # (quoting the line showed /etc/shadow's)
+        problems.append(f"line {table.names_line}: the first column must be 'time' (lower case; a column names row "
+                        "such as time,acceleration): this line is not one")
+    elif allowed is not None:
+        bad = [h for h in names[1:] if h not in allowed]
+        columns_ok = not bad and len(names) >= 2 and len(set(names)) == len(names)
+        if not columns_ok:
+            problems.append(f"line {table.names_line}: columns after 'time' must be distinct names among "
+                            f"{', '.join(allowed)} for kind {kind}" + (f" (got {', '.join(bad)})" if bad else ""))
+    example_names = names if columns_ok else ["time", allowed[0] if allowed else "theta"]
+    needed = ["time", *dict.fromkeys(_quantity_of(h) for h in example_names[1:])]
+    units: dict[str, str] = {}
+    if "units" not in meta:
+        problems.append(f"declare the units (# units: or --units) of {' and '.join(needed)}")
+    else:
+        try:
+            units = parse_units(meta["units"], where)
+        except ValueError as exc:
+            problems.append(str(exc).removeprefix(f"{where}: "))
+        else:
+            missing = [q for q in needed if q not in units]
+            if missing:
+                problems.append(f"units: no unit declared for {', '.join(missing)}")
+    sign_kind = "motion" if needed[1] in ("displacement", "acceleration") else "theta"
+    sign = meta.get("sign")
+    if sign not in SIGNS[sign_kind]:
+        problems.append(f"declare the sign convention (# sign: or --sign) as one of {', '.join(SIGNS[sign_kind])}"
+                        + (f", not {sign!r}" if sign else ""))
+    if problems:
+        raise ValueError(f"{where}: {'; '.join(problems)}. A header that works: "
+                         + _example_header(kind, not kind_implied, example_names, needed, sign_kind))
+    return kind, names, units, sign
+
+
+def _example_header(kind: str | None, show_kind: bool, names: list[str], quantities: list[str],
+                    sign_kind: str) -> str:
+    """The lines of a CSV header, quoted on one line: its kind (if `show_kind`: `kind`, or the first
+    its columns fit), units, sign convention and column names; the other units each quantity takes."""
+    kind = kind if kind in KINDS else next(k for k, q in KINDS.items() if q == _quantity_of(names[1]))
+    first = {q: next(iter(UNITS[q])) for q in quantities}
+    lines = ([f"# kind: {kind}"] if show_kind else []) + ["# units: " + ", ".join(f"{q}={u}" for q, u in first.items()),
+                                                    f"# sign: {next(iter(SIGNS[sign_kind]))}", ",".join(names)]
+    others = "; ".join(f"{q} also in {', '.join(u for u in UNITS[q] if u != first[q] and '^' not in u)}"
+                       for q in quantities)
+    return " / ".join(f"'{line}'" for line in lines) + f" ({others})"
+
+
 def read_csv(path: str | Path, given: dict[str, str] | None = None,
              defaults: dict[str, str] | None = None) -> Measured:
     """A measured CSV file. `given` (command line) wins over the file's header, which wins
@@ -287,36 +349,9 @@ def read_csv(path: str | Path, given: dict[str, str] | None = None,
     table = _read_table(path, where)
     meta = {**(defaults or {}), **{k: v for k, (_, v) in table.meta.items()},
             **{k: v for k, v in (given or {}).items() if v is not None}}
-    kind = meta.get("kind")
-    if kind not in KINDS:
-        raise ValueError(f"{where}: declare the kind (# kind: or --kind) as one of {', '.join(KINDS)}"
-                         + (f", not {kind!r}" if kind else ""))
-    if table.names is None:
-        raise ValueError(f"{where}: no column names row (time, then the measured columns)")
-    line = table.names_line
-    names = [ALIASES.get(h.strip(), h.strip()) for h in table.names]
+    kind, names, units, sign = _header(table, meta, where, "kind" in (defaults or {}))
     quantity = KINDS[kind]
-    allowed = COLUMNS[quantity]
-    if names[0] != "time":
-        raise ValueError(f"{where}, line {line}: the first column must be 'time' (lower case; a column names row "
-                         "such as time,acceleration): this line is not one")  # quoting it showed /etc/shadow's
-    bad = [h for h in names[1:] if h not in allowed]
-    if bad or len(names) < 2 or len(set(names)) != len(names):
-        raise ValueError(f"{where}, line {line}: columns after 'time' must be distinct names among "
-                         f"{', '.join(allowed)} for kind {kind}" + (f" (got {', '.join(bad)})" if bad else ""))
-    if "units" not in meta:
-        raise ValueError(f"{where}: declare the units (# units: or --units), e.g. time=s, "
-                         f"{_quantity_of(names[1])}={next(iter(UNITS[_quantity_of(names[1])]))}")
-    units = parse_units(meta["units"], where)
-    needed = {"time"} | {_quantity_of(h) for h in names[1:]}
-    missing = sorted(needed - set(units))
-    if missing:
-        raise ValueError(f"{where}: units: no unit declared for {', '.join(missing)}")
     sign_kind = "theta" if quantity == "theta" else "motion"
-    sign = meta.get("sign")
-    if sign not in SIGNS[sign_kind]:
-        raise ValueError(f"{where}: declare the sign convention (# sign: or --sign) as one of "
-                         f"{', '.join(SIGNS[sign_kind])}" + (f", not {sign!r}" if sign else ""))
     if table.data_rows < 2:
         raise ValueError(f"{where}: needs at least two data rows")
     if table.error is not None:

@@ -50,6 +50,7 @@ from runners.engine.grid import IM_UNITS, Axis, Grid, Intensity, RecordRef, pars
 from runners.engine import batch as batch_lib
 from runners.engine.motion import contact_model_value, rocking_sliding
 from runners.engine.scene import KINDS, unused_parameter
+from runners.engine.sweep_lock import running
 from runners.engine.sweep_store import INTEGRITY_ERRORS, RunConstants, series_row, store
 from runners.engine.sweep_worker import Chunk, Setup, check_outputs, run_chunk, run_points, start_worker
 from runners.errors import RockingError
@@ -118,9 +119,9 @@ def target(name: str, p: dict[str, Any]) -> str:
 
 # parameters rigid rocking does not let change the motion: the friction coefficients enter the
 # contact monitors only (docs/contact.md); the column that answers for any mu instead. The
-# rocking–sliding model (contact.model = 1, one block) slides on contact.muGround: there it may be swept
+# rocking–sliding model (contact.model = 1) slides on them, one block on contact.muGround and a stack
+# also block 2 on block 1 on contact.muInterface: there they may be swept
 MOTION_FREE = {"contact.muGround": "friction_demand_max", "contact.muInterface": "friction_demand_max_interface"}
-SLIDING_ON = {"contact.muGround"}  # the friction coefficients the rocking–sliding model slides on
 
 
 def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
@@ -140,12 +141,12 @@ def check_axes(axes: list[Axis], p: dict[str, Any]) -> None:
     ints = [ax for ax in axes if ax.integer]
     cases = [{**p, **dict(zip([ax.name for ax in ints], combo))}
              for combo in itertools.islice(itertools.product(*[ax.values.tolist() for ax in ints]), 1024)]
-    sliding = any(rocking_sliding(q) and int(q.get("nBlocks", 1)) == 1 for q in cases)
+    sliding = any(rocking_sliding(q) for q in cases)  # (contact.muInterface on one block: unused_parameter below)
     for ax in axes:
-        if ax.name in MOTION_FREE and not (sliding and ax.name in SLIDING_ON):
+        if ax.name in MOTION_FREE and not sliding:
             raise ValueError(f"--grid {ax.name}: with rigid rocking friction does not change the motion (every point "
                              f"would run the same simulation; each run stores {MOTION_FREE[ax.name]}, the friction it "
-                             "needed): let one block slide, contact.model = rocking-sliding "
+                             "needed): let the blocks slide, contact.model = rocking-sliding "
                              "(--grid contact.model=rocking-sliding)")
     for ax in axes:
         whys = [unused_parameter(target(ax.name, q), q) for q in cases]
@@ -291,6 +292,98 @@ def check_size(total: int, factory) -> None:
         if total * BYTES_PER_POINT > free:
             raise ValueError(f"the grid's {total:.3g} points need about {total * BYTES_PER_POINT / 1e9:.3g} GB and "
                              f"the database's disk has {free / 1e9:.3g} GB free: use fewer points")
+
+
+# A sweep this large is estimated, and run only when confirmed (runners.sweep(confirm=...), runners
+# sweep --yes or an answer on the terminal), if it would need CONFIRM_BYTES of database or take
+# CONFIRM_SECONDS. Below ESTIMATE_FROM points neither can happen with the points measured here (at
+# most a few ms each; docs/BENCHMARKS.md): nothing is measured or asked, and small sweeps start at
+# once. 1 GB is more than any study of the docs stores (a 10^6-point map: 0.4 GB) and more than a
+# laptop's disk can lose unnoticed; ten minutes is past a sweep one waits for at the terminal.
+ESTIMATE_FROM = 10_000  # grid points
+CONFIRM_BYTES = 1e9  # B of results in the database
+CONFIRM_SECONDS = 600.0  # s of wall time
+SAMPLE_POINTS = 16  # grid points, evenly spread, timed for the estimate, unless the first one shows
+SAMPLE_SECONDS = 0.5  # that they would take longer than this (s): then that one alone
+
+
+@dataclass(frozen=True)
+class SweepEstimate:
+    """What a sweep will cost: its points, the database it fills (B, BYTES_PER_POINT a point) and
+    its wall time (s) from the simulation cost of a point (s, in one worker, measured here on
+    `measured` of its points through the sweep's own worker code) over `workers` workers (None: a
+    Dask cluster's, not known yet)."""
+
+    points: int
+    seconds_per_point: float
+    measured: int
+    workers: int | None
+
+    @property
+    def bytes(self) -> float:
+        return self.points * BYTES_PER_POINT
+
+    @property
+    def seconds(self) -> float:
+        """s of wall time (of one worker's time on a Dask cluster)."""
+        return self.points * self.seconds_per_point / (self.workers or 1)
+
+    @property
+    def large(self) -> bool:
+        """Whether the sweep asks to be confirmed (CONFIRM_BYTES, CONFIRM_SECONDS)."""
+        return self.bytes >= CONFIRM_BYTES or (self.workers is not None and self.seconds >= CONFIRM_SECONDS)
+
+    def text(self) -> str:
+        """One line: '12,000,000 points: about 4.8 GB in the database and about 25 min with 2 workers
+        (0.25 ms a point, measured on 16 of them)'."""
+        who = (f"with {self.workers} worker{'s' * (self.workers > 1)}" if self.workers else
+               "of one worker's time (the Dask cluster's workers share it)")
+        return (f"{self.points:,} points: about {self.bytes / 1e9:.2g} GB in the database and about "
+                f"{_duration(self.seconds)} {who} ({1e3 * self.seconds_per_point:.3g} ms a point, measured on "
+                f"{self.measured} of them)")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"points": self.points, "bytes": self.bytes, "seconds": self.seconds,
+                "seconds_per_point": self.seconds_per_point, "measured": self.measured, "workers": self.workers}
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= 2 * size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+def estimate(fm: RockingFMU, scene, grid: Grid, defaults: dict[str, Any], workers: int | None,
+             factory) -> SweepEstimate | None:
+    """The cost of a new sweep of `scene` (runners.engine.scene.Scene) over `grid`, or None below
+    ESTIMATE_FROM points. SAMPLE_POINTS of its points, spread over the grid, run here through the
+    sweep's own worker code (the C batch loop where it can be built), in one chunk after the first
+    (or the first alone, if the others would take more than SAMPLE_SECONDS); nothing is stored. `fm`: the FMU (its extraction is used), `factory`: the
+    database holding the grid's records."""
+    if grid.total < ESTIMATE_FROM:
+        return None
+    indices = np.unique(np.linspace(0, grid.total - 1, SAMPLE_POINTS).astype(np.int64))
+    base = {**defaults, **scene.parameters}
+    files = {}
+    if grid.records:
+        from runners.engine.records import file_of
+
+        for rec in (grid.point(int(i), base)[2] for i in indices):
+            if rec.sha256 not in files:
+                files[rec.sha256] = str(file_of(factory, rec.id))
+    setup = Setup({k: v for k, v in scene.parameters.items() if k != "excitation.file" or not grid.records}, grid,
+                  base, scene.stop_time, scene.step, int(base.get("nBlocks", 1)) == 2,
+                  bool(scene.stop_time_given) or not grid.records, files, batch_library()[0])
+    start_worker(str(fm.path), fm.unzipdir, setup)
+    t0 = time.perf_counter()
+    run_chunk((indices[:1], {}))  # the first point alone (it also sets the worker up)...
+    first = time.perf_counter() - t0
+    if first * len(indices) > SAMPLE_SECONDS or len(indices) == 1:
+        return SweepEstimate(grid.total, first, 1, workers)
+    t0 = time.perf_counter()
+    run_chunk((indices[1:], {}))  # ...then the others in one chunk, as a worker runs them
+    return SweepEstimate(grid.total, (time.perf_counter() - t0) / (len(indices) - 1), len(indices) - 1, workers)
 
 
 def check_corners(fmu: RockingFMU, grid: Grid, base: dict[str, Any], limit: int = 64) -> list[str]:
@@ -740,10 +833,30 @@ def _dask_executor(plan: _Plan, fmu_path: Path, sha: str, client, chunk: int | N
         raise _ExecutorFailed(f"the Dask cluster cannot start the sweep: {text}") from None
 
 
+def stop_status(exc: BaseException) -> str:
+    """The status of a sweep that `exc` stopped: "interrupted" (Ctrl-C, SIGTERM), "failed" (its
+    executor could not start) or "stopped" (its database or a worker failed on the way)."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted"
+    return "failed" if isinstance(exc, _ExecutorFailed) else "stopped"
+
+
 def _set_status(factory, sweep_id: int, status: str) -> None:
-    """Mark an unfinished sweep running, interrupted or failed (a finished one stays done)."""
+    """Mark an unfinished sweep running, interrupted, stopped or failed (a finished one stays done)."""
     with factory.begin() as session:
         session.execute(update(Sweep).where(Sweep.id == sweep_id, Sweep.done < Sweep.total).values(status=status))
+
+
+def progress_of(factory, sweep_id: int) -> tuple[int | None, int | None]:
+    """(points stored, total) of a sweep, or (None, None) when the database cannot say (it failed)."""
+    from runners.engine.sweep_store import DATABASE_ERRORS
+
+    try:
+        with factory() as session:
+            sw = session.get(Sweep, sweep_id)
+            return sw.done, sw.total
+    except DATABASE_ERRORS:
+        return None, None
 
 
 def mark_failed(factory, sweep_id: int) -> tuple[int, int]:
@@ -839,9 +952,10 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     if remaining > 0:
         check_outputs(fmu_path, plan.two)
     bar = tqdm(total=plan.total, initial=plan.already, disable=not progress, unit="run", desc=f"sweep {sweep_id}")
-    _set_status(factory, sweep_id, "running")
     try:
         with ExitStack() as stack:
+            stack.enter_context(running(factory, sweep_id))  # released when this process ends, however it ends
+            _set_status(factory, sweep_id, "running")
             if remaining <= 0:
                 executor = None
             elif client is not None:
@@ -875,8 +989,8 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     except BaseException as exc:  # interrupted or failed: keep what arrived, and say the sweep is not running
         with contextlib.suppress(Exception):
             flush()
-        with contextlib.suppress(Exception):
-            _set_status(factory, sweep_id, "failed" if isinstance(exc, _ExecutorFailed) else "interrupted")
+        with contextlib.suppress(Exception):  # (a database that failed may refuse this too: readers see no runner)
+            _set_status(factory, sweep_id, stop_status(exc))
         raise
     bar.close()
     with factory() as session:

@@ -1,0 +1,201 @@
+"""Deleting a stored sweep, run or record, with every row that belongs to it, in one transaction.
+
+What belongs to it (db/schema.py, every foreign key): a run's summary (run_summaries), series
+(run_series) and excitation (excitations, when no other run or measurement shares it) and its
+scene (scenes, when no other run or sweep uses it); a sweep's runs with all of theirs, and its
+scene. What needs it, and so refuses the delete unless ``force`` (then it goes too, and is
+counted): a record is needed by the runs and sweeps driven by it (runs.excitation_id ->
+excitations.record_id, and sweeps.grid["records"]) and by the measurements it was made from
+(measurements.excitation_id); a run that is a point of a sweep is needed by that sweep (``force``
+takes the point out of it, which ``runners sweep ID`` then runs again). Nothing else in the
+schema refers to a run or a sweep (measurements and calibrations refer to blocks and excitations,
+not to runs). A sweep a live process is running (runners.engine.sweep_lock) is never deleted.
+
+Each delete is one transaction: it happens whole or not at all (a failure on the way rolls back
+everything), and a refused one changes nothing. Statements work on sets (``DELETE ... WHERE
+run_id IN (SELECT ...)``), so a sweep of a million points goes in seconds, on SQLite and PostgreSQL.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from sqlalchemy import delete, func, select, update
+from sqlalchemy.orm import sessionmaker
+
+from db.schema import Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene, Sweep
+from runners.errors import RockingError
+
+KINDS = ("sweep", "run", "record")
+TABLES = {"runs": "run", "run_summaries": "run summary", "run_series": "run series", "excitations": "excitation",
+          "sweeps": "sweep", "scenes": "scene", "measurements": "measurement", "records": "record"}  # table -> one row
+
+
+class InUse(RockingError, ValueError):
+    """A delete refused: other stored rows need what it would delete (or a process is running the
+    sweep); str() is one line naming them and what to do."""
+
+
+@dataclass
+class Deleted:
+    """What a delete removed: `kind` ("sweep", "run", "record") `id` (`name`: its scene's or the
+    record's), the rows deleted per table, and with force what needed it and went too (kind ->
+    ids: sweeps, runs, measurements; or "taken out of sweep": [sweep id])."""
+
+    kind: str
+    id: int
+    name: str
+    rows: dict[str, int] = field(default_factory=lambda: dict.fromkeys(TABLES, 0))
+    with_it: dict[str, list[int]] = field(default_factory=dict)
+
+    def add(self, counts: dict[str, int]) -> None:
+        for table, n in counts.items():
+            self.rows[table] += n
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"deleted": self.kind, "id": self.id, "name": self.name, "rows": dict(self.rows),
+                "with_it": {k: list(v) for k, v in self.with_it.items()}}
+
+    def text(self) -> str:
+        """One line: 'deleted sweep 3 (sine pulse, 4,900 of 4,900 points); rows: 4,900 runs, 4,900 run
+        summaries, 1 sweep, 1 scene'; with what went with it ('with --force also: sweep 1, run 7')."""
+        rows = ", ".join(f"{n:,} {TABLES[table] if n == 1 else table.replace('_', ' ')}"
+                         for table, n in self.rows.items() if n)
+        also = ", ".join(f"{k if len(v) > 1 or k.startswith('taken') else TABLES[k]} {', '.join(map(str, v[:10]))}"
+                         f"{' ...' if len(v) > 10 else ''}" for k, v in self.with_it.items() if v)
+        return (f"deleted {self.kind} {self.id} ({self.name})" + (f"; with --force also: {also}" if also else "")
+                + f"; rows: {rows or 'none'}")
+
+
+def delete_stored(factory: sessionmaker, kind: str, key: int | str, force: bool = False) -> Deleted:
+    """Delete a stored sweep or run (by id, or "latest": the newest) or record (by name or id)
+    with everything that belongs to it, in one transaction; with `force` also what needs it.
+    InUse (one line, nothing changed) when something needs it and not `force`, or when a
+    process is running the sweep; ValueError for one that is not there."""
+    from db.session import display_url
+
+    if kind not in KINDS:
+        raise ValueError(f"cannot delete a {kind!r}: a sweep, a run or a record")
+    where = display_url(factory.kw["bind"])
+    with factory.begin() as session:
+        if kind == "record":
+            from db.records import find_record
+
+            rec = find_record(session, key)
+            done = _delete_record(session, factory, rec, force)
+        else:
+            model = Sweep if kind == "sweep" else Run
+            ident = _newest(session, model, kind) if key == "latest" else int(key)
+            row = session.get(model, ident)
+            if row is None:
+                raise ValueError(f"no {kind} {key} in {where}")
+            done = (_delete_sweep if kind == "sweep" else _delete_run)(session, factory, row, force)
+    if done.kind == "sweep" or done.with_it.get("sweeps"):
+        from runners.engine.sweep_lock import remove_leftover
+
+        for sweep_id in [done.id] if done.kind == "sweep" else done.with_it["sweeps"]:
+            remove_leftover(factory, sweep_id)
+    return done
+
+
+def _newest(session, model, kind: str) -> int:
+    newest = session.scalar(select(func.max(model.id)))
+    if newest is None:
+        raise ValueError(f"no {kind} in the database, so none is the latest")
+    return int(newest)
+
+
+def _refuse_running(factory: sessionmaker, sweep_ids: list[int]) -> None:
+    from runners.engine.sweep_lock import held
+
+    running = sorted(held(factory, sweep_ids) or ())
+    if running:
+        raise InUse(f"sweep {running[0]} is running (a process is storing its points): stop it (Ctrl-C) before "
+                    "deleting it")
+
+
+def _delete_sweep(session, factory: sessionmaker, sw: Sweep, force: bool) -> Deleted:
+    _refuse_running(factory, [sw.id])
+    done = Deleted("sweep", sw.id, f"{session.get(Scene, sw.scene_id).name}, {sw.done:,} of {sw.total:,} points")
+    done.add(_delete_sweeps(session, [sw.id]))
+    return done
+
+
+def _delete_run(session, factory: sessionmaker, run: Run, force: bool) -> Deleted:
+    done = Deleted("run", run.id, run.scene.name)
+    if run.sweep_id is not None:
+        if not force:
+            raise InUse(f"run {run.id} is point {run.grid_index} of sweep {run.sweep_id}, which needs it: delete the "
+                        f"sweep (runners db delete sweep {run.sweep_id}), or give --force to take the point out of it "
+                        f"(runners sweep {run.sweep_id} then runs it again)")
+        _refuse_running(factory, [run.sweep_id])
+        session.execute(update(Sweep).where(Sweep.id == run.sweep_id)
+                        .values(done=Sweep.done - 1, status="stopped"))
+        done.with_it["taken out of sweep"] = [run.sweep_id]
+    done.add(_delete_runs(session, Run.id == run.id))
+    return done
+
+
+def _delete_record(session, factory: sessionmaker, rec: Record, force: bool) -> Deleted:
+    uses = select(Excitation.id).where(Excitation.record_id == rec.id)
+    sweeps = sorted({sw.id for sw in session.scalars(select(Sweep)) if rec.id in (sw.grid.get("records") or [])}
+                    | set(session.scalars(select(Run.sweep_id).distinct().where(Run.excitation_id.in_(uses),
+                                                                                Run.sweep_id.is_not(None)))))
+    runs = sorted(session.scalars(select(Run.id).where(Run.excitation_id.in_(uses), Run.sweep_id.is_(None))))
+    measurements = sorted(session.scalars(select(Measurement.id).where(Measurement.excitation_id.in_(uses))))
+    needs = {"sweeps": sweeps, "runs": runs, "measurements": measurements}
+    if any(needs.values()) and not force:
+        named = " and ".join(f"{len(ids)} {k[:-1] if len(ids) == 1 else k} ({', '.join(map(str, ids[:5]))}"
+                             f"{' ...' if len(ids) > 5 else ''})" for k, ids in needs.items() if ids)
+        raise InUse(f"record {rec.name!r} (id {rec.id}) is needed by {named}: delete them first, or give --force to "
+                    "delete them with it")
+    _refuse_running(factory, sweeps)
+    done = Deleted("record", rec.id, rec.name, with_it={k: v for k, v in needs.items() if v})
+    done.add(_delete_sweeps(session, sweeps))
+    if runs:
+        done.add(_delete_runs(session, Run.id.in_(runs)))
+    done.add({"measurements": _execute(session, delete(Measurement).where(Measurement.id.in_(measurements)))})
+    done.add({"excitations": _execute(session, delete(Excitation).where(Excitation.record_id == rec.id)),
+              "records": _execute(session, delete(Record).where(Record.id == rec.id))})
+    return done
+
+
+def _execute(session, statement) -> int:
+    """Run a bulk DELETE or UPDATE without loading its rows; the rows it matched."""
+    return session.execute(statement.execution_options(synchronize_session=False)).rowcount
+
+
+def _delete_sweeps(session, sweep_ids: list[int]) -> dict[str, int]:
+    """Delete sweeps, their runs with all of theirs, and their scenes no other row uses."""
+    if not sweep_ids:
+        return {}
+    scenes = list(session.scalars(select(Sweep.scene_id).where(Sweep.id.in_(sweep_ids))))
+    counts = _delete_runs(session, Run.sweep_id.in_(sweep_ids), scenes=False)
+    counts["sweeps"] = _execute(session, delete(Sweep).where(Sweep.id.in_(sweep_ids)))
+    counts["scenes"] = counts.get("scenes", 0) + _delete_unused_scenes(session, scenes)
+    return counts
+
+
+def _delete_runs(session, which, scenes: bool = True) -> dict[str, int]:
+    """Delete the runs `which` (a condition on runs) with their summaries and series, their
+    excitations no other run or measurement shares and (`scenes`) their scenes no other row uses."""
+    ids = select(Run.id).where(which)
+    lo, hi = session.execute(select(func.min(Run.excitation_id), func.max(Run.excitation_id)).where(which)).one()
+    used_scenes = list(session.scalars(select(Run.scene_id).distinct().where(which))) if scenes else []
+    counts = {"run_summaries": _execute(session, delete(RunSummary).where(RunSummary.run_id.in_(ids))),
+              "run_series": _execute(session, delete(RunSeries).where(RunSeries.run_id.in_(ids))),
+              "runs": _execute(session, delete(Run).where(which))}
+    counts["excitations"] = 0 if lo is None else _execute(session, delete(Excitation).where(
+        Excitation.id.between(lo, hi),  # (a sweep's own excitations: the range keeps the NOT IN below cheap)
+        Excitation.id.not_in(select(Run.excitation_id).where(Run.excitation_id.is_not(None))),
+        Excitation.id.not_in(select(Measurement.excitation_id).where(Measurement.excitation_id.is_not(None)))))
+    counts["scenes"] = _delete_unused_scenes(session, used_scenes)
+    return counts
+
+
+def _delete_unused_scenes(session, scene_ids: list[int]) -> int:
+    if not scene_ids:
+        return 0
+    return _execute(session, delete(Scene).where(Scene.id.in_(scene_ids), Scene.id.not_in(select(Run.scene_id)),
+                                                 Scene.id.not_in(select(Sweep.scene_id))))
