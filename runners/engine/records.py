@@ -17,7 +17,7 @@ Units SI (time in s, accelerations in m/s^2), signs as docs/conventions.md.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -29,7 +29,7 @@ from db.schema import Record
 from runners.engine.intensity import G0, measures
 from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, check_size,
                                          read_record_file, samples_sha256)
-from runners.engine.scene import MAX_PGA_G, Scene
+from runners.engine.scene import KIND_NAMES, KINDS, MAX_PGA_G, Scene, check_pga, with_times
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
 PLAIN_TEXT_HINT = 1.0  # m/s^2: a record file (our text format) whose PGA is below this may be in g
@@ -372,6 +372,64 @@ class SceneRecord:
         where = f" ({i['event']} {i['year'] or ''}, {i['station']})" if i.get("event") else ""
         pga = f" (PGA {abs(scale) * i['pga_g']:.3g} g)" if i.get("pga_g") else ""
         return f"record {self.name}{where} x {scale:g}{pga}"
+
+    def summary(self, scale: float) -> dict[str, Any]:
+        """The run's summary keys of the record scaled by `scale`: ``excitation`` (in words) and
+        ``record`` (id, name, end_s: its last sample's time in s, scale, pga_g: the scaled PGA in g)."""
+        return {"excitation": self.describe(scale),
+                "record": {"id": self.record_id, "name": self.name, "end_s": self.end, "scale": scale,
+                           "pga_g": abs(scale) * self.info["pga_g"]}}
+
+
+def prepare_run(scene: Scene, record: str | int | Path | None = None, scale: float | None = None,
+                pga: float | None = None, *, stop_time: float | None = None, step: float | None = None,
+                factory=None, db: str | None = None) -> tuple[Scene, SceneRecord | None]:
+    """The scene of one run and its record (None without one): ``runners.simulate``'s preparation
+    of a record, in one place.
+
+    record: a stored record's name or id, or a record file (a Path, or a str naming an existing
+        file), which replaces the scene's excitation and the times the scene set for it (a note
+        says what it replaced); None keeps the scene's own record, if any.
+    scale: the record's multiplier; pga: scale it to this PGA instead (in g). ValueError for either
+        without a record, or both.
+    stop_time, step: s, the run's own times, which replace the scene's; without them a record runs
+        to its end plus TAIL seconds at its own sampling (prepare_scene).
+    factory, db: the database of a stored record (a sessionmaker, else the SQLAlchemy URL db, else
+        the default SQLite file); a record file is stored there only when factory is given.
+    """
+    replaced = []
+    if record is not None:
+        kind = int(scene.parameters.get("excitation.kind", 0))
+        if kind not in (0, KINDS["record"]):
+            replaced.append(f"the record replaces the scene's {KIND_NAMES[kind]}")
+        from_file = isinstance(record, Path) or (isinstance(record, str) and Path(record).is_file())
+        scene = replace(scene, record=None if from_file else str(record),
+                        file=str(Path(record).resolve()) if from_file else None, stop_time_given=False,
+                        step_given=False, parameters={**{k: v for k, v in scene.parameters.items()
+                                                         if not k.startswith("excitation.")
+                                                         or k == "excitation.startTime"},
+                                                      "excitation.kind": KINDS["record"]})
+    scene = with_times(scene, stop_time, step)
+    if scale is not None or pga is not None:
+        if not scene.is_record:
+            raise ValueError("scale and pga scale a record: give a record scene or a record")
+        if scale is not None and pga is not None:
+            raise ValueError("give scale or pga, not both")
+        if pga is not None:
+            check_pga(pga, "pga")
+        scene.parameters.pop("excitation.scale", None)
+        scene.pga = pga
+        if scale is not None:
+            scene.parameters["excitation.scale"] = float(scale)
+    if not scene.is_record:
+        return scene, None
+    if factory is None and scene.record is not None:  # a stored record: its database
+        from db.session import open_database
+
+        factory = open_database(db)
+    rec = prepare_scene(scene, factory)
+    rec.notes[:0] = replaced
+    return scene, rec
 
 
 def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:

@@ -148,6 +148,32 @@ def implausible_sizes(p: dict[str, Any]) -> list[str]:
     return notes
 
 
+def uplift_threshold(p: dict[str, Any]) -> tuple[float, str]:
+    """(|a_h| in m/s^2 above which the ground tips the block or stack of parameters `p` (defaults
+    included) off its base from rest with a_v = 0, what starts then): g tan(alpha) for one block;
+    for a stack the lower of the pair's g b1 / yG (yG the height of the pair's centre of mass)
+    and block 2's g min(b1, b2) / h2."""
+    g, b1, h1 = float(p["g"]), float(p["block1.halfWidth"]), float(p["block1.halfHeight"])
+    if int(p.get("nBlocks", 1)) != 2:
+        return g * b1 / h1, "the block rocks"
+    m1, b2, h2, m2 = (float(p[k]) for k in ("block1.mass", "block2.halfWidth", "block2.halfHeight", "block2.mass"))
+    y_g = (m1 * h1 + m2 * (2 * h1 + h2)) / (m1 + m2)
+    pair, upper = b1 / y_g, min(b1, b2) / h2
+    if pair <= upper:
+        return g * pair, "the pair rocks as one body"
+    return g * upper, "the upper block rocks alone"
+
+
+def with_times(scene: Scene, stop_time: float | None = None, step: float | None = None) -> Scene:
+    """`scene` (changed in place) with the run's own stop time and output step (s) where given:
+    they replace the scene's, and a record no longer sets them."""
+    if stop_time is not None:
+        scene.stop_time, scene.stop_time_given = float(stop_time), True
+    if step is not None:
+        scene.step, scene.step_given = float(step), True
+    return scene
+
+
 class SceneError(RockingError, ValueError):
     """A scene file is unreadable or invalid; str() is a one-line message."""
 

@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from runners.engine.fmu import RunResult
-from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene
+from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene, uplift_threshold
 
 SUMMARY_OUTPUTS = (
     "block1.theta",
@@ -98,17 +98,6 @@ PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking
             4: "locked pair rocking", 5: "both blocks rocking", 6: "a contact sliding"}
 
 
-def _stack_threshold(p: dict[str, float]) -> tuple[float, str]:
-    """Uplift threshold (m/s^2) of a two-block stack at rest and which pattern it starts."""
-    b1, h1, m1 = p["block1.halfWidth"], p["block1.halfHeight"], p["block1.mass"]
-    b2, h2, m2 = p["block2.halfWidth"], p["block2.halfHeight"], p["block2.mass"]
-    y_g = (m1 * h1 + m2 * (2 * h1 + h2)) / (m1 + m2)
-    pair, upper = b1 / y_g, min(b1, b2) / h2
-    if pair <= upper:
-        return p["g"] * pair, "the pair rocks as one body"
-    return p["g"] * upper, "the upper block rocks alone"
-
-
 RICKER_HALF_WINDOW = 3.0  # a Ricker pulse lasts 2 x 3 / frequency s (model/c/ground.c)
 
 
@@ -184,7 +173,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     if held is not None:
         summary["assumptions"] = held
     if two:
-        threshold, first = _stack_threshold(p)
+        threshold, first = uplift_threshold(p)
         summary.update({
             "uplift_threshold_m_s2": threshold,
             "first_pattern": first,
@@ -502,6 +491,40 @@ def format_summary(s: dict[str, Any]) -> str:
         *([f"sliding          {sliding_story(s)}"] if "contact_model" in s else []),
     ]
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
+
+
+def run_summary(found, record=None, notes: list[str] | tuple[str, ...] = ()) -> tuple[dict[str, Any], str]:
+    """summarise: the summary (what ``runners simulate --json`` prints) and the report (what it
+    prints for people) of the answer `found` (runners.engine.least_model.Answer), run on `record`
+    (runners.engine.records.SceneRecord, or None), with `notes` on the scene. Units SI."""
+    s, p = found.summary, found.parameters
+    notes = [*notes, *found.notes]
+    if record is not None:
+        if found.result is not None:
+            s.update(record.summary(float(p["excitation.scale"])))
+        notes += record.notes
+    if notes:
+        s["notes"] = notes
+    return s, _report(found, s)
+
+
+def _report(found, s: dict[str, Any]) -> str:
+    """The report of an answer's summary `s`, in the words of its kind; notes stay in summary["notes"]."""
+    if found.kind == "python":
+        from runners.engine.python_methods import format_python
+
+        text = format_python(found.scene.name, s, found.scene.stop_time)
+    elif found.kind == "closed form":
+        from runners.engine.least_model import format_closed_form
+
+        text = format_closed_form(found.scene.name, s["model_reason"], s)
+        if "assumptions" in s:
+            text += f"\nassumptions      {format_assumptions(s['assumptions'])}"
+    else:
+        text = format_summary({k: v for k, v in s.items() if k != "notes"})
+    if "model_sufficient" in s:  # --method auto: whether the least model holds
+        text += "\n" + model_check_line(s)
+    return text
 
 
 def _with_block1(s: dict[str, Any]) -> bool:
