@@ -215,8 +215,10 @@ CASES = {"1.1": "after an impact within the pulse (eqs. 3.20-3.21)",
 
 
 def format_closed_form(name: str, why: str, s: dict[str, Any]) -> str:
-    """The report of the closed forms' answer `s` (closed_form_summary)."""
-    lines = [f"scene            {name}",
+    """The report of the closed forms' answer `s` (closed_form_summary, with the block's sizes)."""
+    from runners.engine.summary import size_lines
+
+    lines = [f"scene            {name}", *size_lines(s),
              f"model            closed form (Dimitrakopoulos & DeJong 2012): {why}",
              f"groups           a = a_g/(g alpha) = {s['a']:.4f}, omega_g/p = {s['omega_over_p']:.4f}, "
              f"eta = {s['eta']:.4f}"]

@@ -412,7 +412,8 @@ def prepare_run(scene: Scene, record: str | int | Path | None = None, scale: flo
     scene = with_times(scene, stop_time, step)
     if scale is not None or pga is not None:
         if not scene.is_record:
-            raise ValueError("scale and pga scale a record: give a record scene or a record")
+            raise ValueError("scale and pga scale a record: give the record (record=NAME, an id or a file) or a "
+                             "scene whose [excitation] names one (record = NAME or file = PATH)")
         if scale is not None and pga is not None:
             raise ValueError("give scale or pga, not both")
         if pga is not None:
