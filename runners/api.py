@@ -27,7 +27,7 @@ from runners import arguments as args
 from runners.engine.least_model import FIXED_STEP_METHODS, METHODS, PYTHON_METHODS
 from runners.engine.results import RunResult, SweepResult
 from runners.engine.scene import (Scene, SceneError, check_times, contact_model_problem, implausible_sizes,
-                                  load_scene, scene_from_dict, unused_parameter, with_times)
+                                  load_scene, scene_from_dict, unused_parameter, weak_excitation, with_times)
 from runners.errors import ArgumentError, RockingError
 
 __all__ = ["simulate", "sweep", "open_db", "import_records", "as_scene", "RunResult", "SweepResult", "SweepStopped", "Scene", "SceneError",
@@ -325,8 +325,9 @@ def _prepare_record(sc: Scene, opts: _RunOptions, supports: _Supports) -> tuple[
 
 def _prepare_parameters(fm, sc: Scene, given: dict[str, Any]) -> list[str]:
     """prepare: the parameters given to simulate, checked against the FMU and set on the scene
-    (changed in place); the notes on the scene's parameters (unused, implausible sizes).
-    ArgumentError for an FMU runners cannot drive or a contact model the parameters make impossible."""
+    (changed in place); the notes on the scene's parameters (unused, implausible sizes, an
+    excitation too weak to move anything). ArgumentError for an FMU runners cannot drive or a
+    contact model the parameters make impossible."""
     _check_fmu(fm, fm.path)
     sc.parameters.update(_check_overrides(given, fm.vars))
     merged = {**fm.defaults(), **sc.parameters}
@@ -334,7 +335,7 @@ def _prepare_parameters(fm, sc: Scene, given: dict[str, Any]) -> list[str]:
     if wrong:  # an override made the scene's contact model impossible (nothing has run)
         raise ArgumentError(wrong)
     return [*(f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
-              and (why := unused_parameter(k, merged))), *implausible_sizes(merged)]
+              and (why := unused_parameter(k, merged))), *implausible_sizes(merged), *weak_excitation(merged)]
 
 
 def _write_recording(opts: _RunOptions, supports: _Supports, found, rec) -> Path | None:

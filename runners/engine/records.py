@@ -33,6 +33,14 @@ from runners.engine.scene import KIND_NAMES, KINDS, MAX_PGA_G, Scene, check_pga,
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
 PLAIN_TEXT_HINT = 1.0  # m/s^2: a record file (our text format) whose PGA is below this may be in g
+# Notes (not errors) on a scaled record (docs/limits.md, "Notes, not errors"). The
+# strongest motions recorded: Anderson (2010) lists the 100 largest PGAs up to 2007 (35 above 1 g)
+# and PGVs (the largest 3.18 m/s, Chi-Chi 1999); the largest horizontal PGA since is about 2.7 g
+# (K-NET MYG004, Tohoku 2011; NIED). Scaling a record far changes more than its size: the response
+# to records scaled by large factors is biased (Luco & Bazzurro 2007).
+HIGH_PGA_G = 2.0  # g: a scaled PGA above this is beyond all but a handful of recorded motions
+LARGE_SCALE = 4.0  # a record scaled by more than this (in absolute value)
+HIGH_PGV = 2.0  # m/s: or to a PGV above this
 
 
 def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
@@ -76,6 +84,64 @@ def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float
     if not abs(scale) * top <= 1000.0:
         raise ValueError(f"{label}: scale {scale:g} brings its peak acceleration to {abs(scale) * top:g} m/s2, beyond "
                          "1000 m/s2 (about 100 g)")
+
+
+def scaling_notes(cases: Iterable[tuple[str, str, float, dict[str, Any]]]) -> list[str]:
+    """Notes on records scaled beyond recorded motions, at most two whatever the number of runs:
+    a PGA above HIGH_PGA_G (likely a PGA meant in m/s2 given in g), and a scale factor above
+    LARGE_SCALE or a PGV above HIGH_PGV. `cases`: (record name, level as text or "", scale, the
+    unscaled record's measures in SI: pga in m/s2, pgv in m/s), one per scaled record the runs use."""
+    cases = [(name, level, abs(scale), m) for name, level, scale, m in cases if m.get("pga")]
+    high = [c for c in cases if c[2] * c[3]["pga"] / G0 > HIGH_PGA_G]
+    large = [c for c in cases if c[2] > LARGE_SCALE or c[2] * (c[3].get("pgv") or 0.0) > HIGH_PGV]
+    notes = []
+    if high:
+        notes.append(f"PGA above {HIGH_PGA_G:g} g: {_listing(high, cases)}. PGAs are in g (3.5 m/s2 is 0.357 g); "
+                     "the largest horizontal PGA recorded is about 2.7 g (K-NET MYG004, Tohoku 2011) and only 35 "
+                     "records up to 2007 exceed 1 g (Anderson 2010)")
+    if large:
+        notes.append(f"scaled by more than {LARGE_SCALE:g} or to a PGV above {HIGH_PGV:g} m/s: {_listing(large, cases)}. "
+                     "The largest PGV recorded is 3.18 m/s (Anderson 2010), and the response to a record scaled "
+                     "far from its own intensity is biased (Luco & Bazzurro 2007): prefer records nearer the level")
+    return notes
+
+
+def _listing(chosen: list[tuple[str, str, float, dict]], cases: list[tuple[str, str, float, dict]]) -> str:
+    """The records and levels of `chosen` (among `cases`) in one phrase: each record with its
+    levels, scale factors and largest scaled PGA (g) and PGV (m/s), or "all N records at LEVELS"
+    when every record is concerned at the same levels."""
+    by: dict[str, list[tuple[str, float, dict]]] = {}
+    for name, level, scale, m in chosen:
+        by.setdefault(name, []).append((level, scale, m))
+    levels = {name: [lv for lv, _, _ in rows if lv] for name, rows in by.items()}
+    names = dict.fromkeys(name for name, *_ in cases)
+    first = next(iter(levels.values()))
+    if len(names) > 1 and len(by) == len(names) and first and all(lv == first for lv in levels.values()):
+        return f"all {len(names)} records at {', '.join(first)}"
+    parts = []
+    for name, rows in by.items():
+        scales = [s for _, s, _ in rows]
+        pga = max(s * m["pga"] / G0 for _, s, m in rows)
+        pgv = max(s * (m.get("pgv") or 0.0) for _, s, m in rows)
+        at = f" at {', '.join(levels[name])}" if levels[name] else ""
+        span = f"x{min(scales):.3g}" + (f" to x{max(scales):.3g}" if max(scales) > min(scales) else "")
+        parts.append(f"{name}{at} ({span}, PGA {'up to ' * (len(rows) > 1)}{pga:.3g} g, "
+                     f"PGV {'up to ' * (len(rows) > 1)}{pgv:.3g} m/s)")
+    return "; ".join(parts)
+
+
+def sweep_scaling_notes(refs: list, intensity, axes: list, parameters: dict[str, Any]) -> list[str]:
+    """scaling_notes of a record sweep, once for the whole sweep: its records (RecordRefs) at each
+    intensity level (runners.engine.grid.Intensity: its levels in g or m/s), at each value of a
+    --grid scale axis, or else at the scene's own excitation.scale (`parameters`)."""
+    if intensity is not None:
+        cases = [(r.name, f"{lv:g} {intensity.unit}", intensity.si(lv) / r.measures[intensity.measure], r.measures)
+                 for r in refs for lv in intensity.values if r.measures.get(intensity.measure)]
+    else:
+        axis = next((a for a in axes if a.name == "excitation.scale"), None)
+        scales = [float(parameters.get("excitation.scale", 1.0))] if axis is None else axis.values.tolist()
+        cases = [(r.name, "" if axis is None else f"scale {s:g}", s, r.measures) for r in refs for s in scales]
+    return scaling_notes(cases)
 
 
 def fill_missing_measures(session) -> int:
@@ -379,6 +445,10 @@ class SceneRecord:
         return {"excitation": self.describe(scale),
                 "record": {"id": self.record_id, "name": self.name, "end_s": self.end, "scale": scale,
                            "pga_g": abs(scale) * self.info["pga_g"]}}
+
+    def scaling_notes(self, scale: float) -> list[str]:
+        """scaling_notes of this record scaled by `scale`."""
+        return scaling_notes([(self.name, "", scale, self.info)])
 
 
 def prepare_run(scene: Scene, record: str | int | Path | None = None, scale: float | None = None,

@@ -579,7 +579,7 @@ def run_summary(found, record=None, notes: list[str] | tuple[str, ...] = ()) -> 
         scale = float(p["excitation.scale"])
         if found.result is not None:
             s.update(record.summary(scale))
-        notes += record.notes
+        notes += [*record.notes, *record.scaling_notes(scale)]
     if record is not None and found.kind == "fmu":  # the record's end, which summarize does not know
         s["record_end_s"] = float(p.get("excitation.startTime", 0.0)) + record.end
         end = run_end(s, s["record_end_s"])
