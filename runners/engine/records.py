@@ -17,6 +17,7 @@ Units SI (time in s, accelerations in m/s^2), signs as docs/conventions.md.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable
@@ -108,26 +109,39 @@ def scaling_notes(cases: Iterable[tuple[str, str, float, dict[str, Any]]]) -> li
 
 def _listing(chosen: list[tuple[str, str, float, dict]], cases: list[tuple[str, str, float, dict]]) -> str:
     """The records and levels of `chosen` (among `cases`) in one phrase: each record with its
-    levels, scale factors and largest scaled PGA (g) and PGV (m/s), or "all N records at LEVELS"
-    when every record is concerned at the same levels."""
+    levels (consecutive ones as a range), scale factors and largest scaled PGA (g) and PGV (m/s),
+    their common suite named once; or "all N records at LEVELS" when every record is concerned at
+    the same levels."""
     by: dict[str, list[tuple[str, float, dict]]] = {}
     for name, level, scale, m in chosen:
         by.setdefault(name, []).append((level, scale, m))
-    levels = {name: [lv for lv, _, _ in rows if lv] for name, rows in by.items()}
-    names = dict.fromkeys(name for name, *_ in cases)
+    every: dict[str, list[str]] = {}  # each record's levels, in the runs' order
+    for name, level, *_ in cases:
+        every.setdefault(name, []).append(level)
+    levels = {name: _levels_text([lv for lv, _, _ in rows if lv], every[name]) for name, rows in by.items()}
     first = next(iter(levels.values()))
-    if len(names) > 1 and len(by) == len(names) and first and all(lv == first for lv in levels.values()):
-        return f"all {len(names)} records at {', '.join(first)}"
+    if len(every) > 1 and len(by) == len(every) and first and all(lv == first for lv in levels.values()):
+        return f"all {len(every)} records at {first}"
+    suite = os.path.commonprefix(list(every)).rpartition("/")[0] if len(every) > 1 else ""
     parts = []
     for name, rows in by.items():
         scales = [s for _, s, _ in rows]
         pga = max(s * m["pga"] / G0 for _, s, m in rows)
         pgv = max(s * (m.get("pgv") or 0.0) for _, s, m in rows)
-        at = f" at {', '.join(levels[name])}" if levels[name] else ""
+        at = f" at {levels[name]}" if levels[name] else ""
         span = f"x{min(scales):.3g}" + (f" to x{max(scales):.3g}" if max(scales) > min(scales) else "")
-        parts.append(f"{name}{at} ({span}, PGA {'up to ' * (len(rows) > 1)}{pga:.3g} g, "
-                     f"PGV {'up to ' * (len(rows) > 1)}{pgv:.3g} m/s)")
-    return "; ".join(parts)
+        parts.append(f"{name.removeprefix(suite + '/') if suite else name}{at} ({span}, PGA "
+                     f"{'up to ' * (len(rows) > 1)}{pga:.3g} g, PGV {'up to ' * (len(rows) > 1)}{pgv:.3g} m/s)")
+    return (f"in {suite}, " if suite else "") + "; ".join(parts)
+
+
+def _levels_text(levels: list[str], every: list[str]) -> str:
+    """Levels as text: "0.8 g to 1.2 g" for more than two consecutive ones of `every` (a record's
+    levels in order), else each of them."""
+    at = [every.index(lv) for lv in levels]
+    if len(levels) > 2 and at == list(range(at[0], at[0] + len(at))):
+        return f"{levels[0]} to {levels[-1]}"
+    return ", ".join(levels)
 
 
 def sweep_scaling_notes(refs: list, intensity, axes: list, parameters: dict[str, Any]) -> list[str]:
