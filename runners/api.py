@@ -210,6 +210,7 @@ def simulate(
     from runners.engine.least_model import answer
     from runners.engine.summary import run_summary
 
+    # prepare: the arguments, the scene, the database, FMU and measurement the run needs, the record
     opts = _RunOptions.checked(parameters, overrides, stop_time=stop_time, step=step, method=method,
                                accuracy=accuracy, h=h, rtol=rtol, record=record, scale=scale, pga=pga, outputs=outputs,
                                recording=recording, measured=measured, store=store, db=db, fmu=fmu)
@@ -219,17 +220,13 @@ def simulate(
     check_times(sc.stop_time, sc.step, "the stop time", "the output step")
     with RockingFMU(supports.fmu_path) as fm:
         notes = _prepare_parameters(fm, sc, opts.given)
+        # choose the model and run it
         found = answer(fm, sc, opts.method, opts.accuracy, opts.outputs, opts.h, opts.rtol)
+    # summarise, then write the recording and store the run where asked
     summary, report = run_summary(found, rec, notes)
     written = _write_recording(opts, supports, found, rec)
-    if written is not None:
-        summary["recording"] = str(written)
-        report += f"\nrecording        {written}"
-    run_id = None
-    if supports.factory is not None:
-        run_id = _store(supports.factory, found, opts.method, supports.fmu_path, written, rec)
-        summary["run_id"] = run_id
-        report += f"\nstored           run {run_id} in {supports.factory.kw['bind'].url.render_as_string(hide_password=True)}"
+    run_id = _store(supports.factory, found, opts.method, supports.fmu_path, written, rec)
+    report += _kept(summary, written, run_id, supports.factory)
     return RunResult(scene=found.scene.name, series=_series(found), events=_events(found), summary=summary,
                      parameters=found.parameters, run_id=run_id, recording=written, report=report)
 
@@ -351,6 +348,19 @@ def _write_recording(opts: _RunOptions, supports: _Supports, found, rec) -> Path
                            supports.measured, record=None if rec is None else rec.info)
 
 
+def _kept(summary: dict[str, Any], written: Path | None, run_id: int | None, factory) -> str:
+    """The report's lines on the recording written and the run stored (summary["recording"] and
+    summary["run_id"] too)."""
+    lines = ""
+    if written is not None:
+        summary["recording"] = str(written)
+        lines += f"\nrecording        {written}"
+    if run_id is not None:
+        summary["run_id"] = run_id
+        lines += f"\nstored           run {run_id} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
+    return lines
+
+
 def _series(found):
     """The answer's series (a function that builds it on first use; empty without an FMU run)."""
     from runners.engine.results import series_later
@@ -373,9 +383,12 @@ def _empty():
     return np.empty(0)
 
 
-def _store(factory, found, method: str, fmu_path, recording=None, rec=None) -> int:
-    """store: the run and everything it refers to, in one transaction; if the database fails, the
-    run is kept in a file that ``runners db import-unsaved`` stores later (db.store.store_or_keep)."""
+def _store(factory, found, method: str, fmu_path, recording=None, rec=None) -> int | None:
+    """store: the run and everything it refers to, in one transaction, in the database of `factory`
+    (None: not stored); if the database fails, the run is kept in a file that ``runners db
+    import-unsaved`` stores later (db.store.store_or_keep). Its id."""
+    if factory is None:
+        return None
     from db.store import pending_run, store_or_keep
     from runners.engine.summary import summary_row
 
