@@ -19,19 +19,16 @@ Examples (docs/python.md has more)::
 from __future__ import annotations
 
 import os
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from runners import arguments as args
+from runners.engine.least_model import FIXED_STEP_METHODS, METHODS, PYTHON_METHODS
 from runners.engine.results import RunResult, SweepResult
 from runners.engine.scene import (Scene, SceneError, check_times, contact_model_problem, implausible_sizes,
-                                  load_scene, scene_from_dict, unused_parameter)
+                                  load_scene, scene_from_dict, unused_parameter, weak_excitation, with_times)
 from runners.errors import ArgumentError, RockingError
-
-PYTHON_METHODS = ("scipy", "rk4", "rk4-located", "newmark", "euler")
-METHODS = ("fmu", "auto", "closed-form", *PYTHON_METHODS)
-FIXED_STEP_METHODS = ("rk4", "rk4-located", "newmark", "euler")
 
 __all__ = ["simulate", "sweep", "open_db", "import_records", "as_scene", "RunResult", "SweepResult", "SweepStopped", "Scene", "SceneError",
            "METHODS"]
@@ -202,218 +199,182 @@ def simulate(
         see docs/database.md); its id is ``result.run_id``.
     fmu: the FMU (default build/RockingBlock.fmu, built if needed).
 
+    The way of a scene: prepare (the scene, its record, the database, FMU and measurement the run
+    needs), choose the model and run it (runners.engine.least_model.answer), summarise
+    (runners.engine.summary.run_summary), then write the recording and store the run.
+
     Numbers may be numpy scalars. Raises ArgumentError (an argument of the wrong type or value) or
     SceneError (a one-line message) for invalid input, FMUError when the FMU refuses a parameter.
     """
-    from runners.engine.fmu import FMUError, RockingFMU, fmu_path_from
-    from runners.engine.summary import (MONITOR_OUTPUTS, SUMMARY_OUTPUTS, format_assumptions, format_summary,
-                                        model_check_line, summarize)
-    from runners.engine.results import events_later, series_later
+    from runners.engine.fmu import RockingFMU
+    from runners.engine.least_model import answer
+    from runners.engine.summary import run_summary
 
-    method = _choice(method, "method", METHODS)
-    accuracy = args.positive(accuracy, "accuracy", "a relative accuracy > 0 (a number such as 1e-2)")
-    h = args.optional(args.positive, h, "h", "a fixed step > 0 s")
-    rtol = args.optional(args.positive, rtol, "rtol", "a relative tolerance > 0")
-    record = _record_ref(record, "record")
-    scale = args.optional(args.number, scale, "scale", "a finite number (the record's multiplier)")
-    pga = args.optional(args.positive, pga, "pga", "a PGA > 0 in g (a number)")
-    outputs = args.optional(args.names, outputs, "outputs", "a list of FMU output names (str)")
-    recording = args.optional(args.path, recording, "recording", "a .rrd file's path")
-    measured = args.optional(args.path, measured, "measured", "a measured CSV file's path")
-    store = args.flag(store, "store")
-    db = args.database_url(db)
-    fmu = args.optional(args.path, fmu, "fmu", "an FMU file's path")
-    if h is not None and method not in FIXED_STEP_METHODS:
-        raise ArgumentError("h is the fixed step of method rk4, rk4-located, newmark or euler")
-    if rtol is not None and method != "scipy":
-        raise ArgumentError("rtol is the tolerance of method scipy (the FMU's is [simulation] rel_tol)")
-    if measured is not None and recording is None:
-        raise ArgumentError("measured overlays a measurement on a recording: give recording too")
+    # prepare: the arguments, the scene, the database, FMU and measurement the run needs, the record
+    opts = _RunOptions.checked(parameters, overrides, stop_time=stop_time, step=step, method=method,
+                               accuracy=accuracy, h=h, rtol=rtol, record=record, scale=scale, pga=pga, outputs=outputs,
+                               recording=recording, measured=measured, store=store, db=db, fmu=fmu)
     sc = as_scene(scene)
-    given = _overrides(parameters, overrides)
-    if stop_time is not None:
-        sc.stop_time, sc.stop_time_given = _seconds(stop_time, "stop_time"), True
-    if step is not None:
-        sc.step, sc.step_given = _seconds(step, "step"), True
-    measured_series = None
-    if measured is not None:  # fail on a bad file before simulating
-        from runners.engine.measured import read_measured_csv
-
-        measured_series = read_measured_csv(str(measured))
-    factory = None
-    if store:  # fail on a bad or read-only database before simulating: the run would be lost after it ran
-        from db.session import open_database, require_writable
-
-        factory = open_database(db)
-        require_writable(factory, "or run with --no-store")
-    fmu_path = fmu_path_from(None if fmu is None else str(fmu))
-    notes: list[str] = []
-    if record is not None:  # the record replaces the scene's excitation, and the times set for it
-        from runners.engine.scene import KIND_NAMES
-
-        kind = int(sc.parameters.get("excitation.kind", 0))
-        if kind not in (0, 4):
-            notes.append(f"the record replaces the scene's {KIND_NAMES[kind]}")
-        from_file = isinstance(record, Path) or (isinstance(record, str) and Path(record).is_file())
-        sc = replace(sc, record=None if from_file else str(record),
-                     file=str(Path(record).resolve()) if from_file else None, stop_time_given=stop_time is not None,
-                     step_given=step is not None,
-                     parameters={**{k: v for k, v in sc.parameters.items()
-                                    if not k.startswith("excitation.") or k == "excitation.startTime"},
-                                 "excitation.kind": 4})
-    if scale is not None or pga is not None:
-        if not sc.is_record:
-            raise ValueError("scale and pga scale a record: give a record scene or a record")
-        if scale is not None and pga is not None:
-            raise ValueError("give scale or pga, not both")
-        if pga is not None:
-            from runners.engine.scene import check_pga
-
-            check_pga(pga, "pga")
-        sc.parameters.pop("excitation.scale", None)
-        sc.pga = pga
-        if scale is not None:
-            sc.parameters["excitation.scale"] = float(scale)
-    rec = _prepare_record(sc, factory if factory is not None or sc.record is None else _factory(db))
+    supports = _Supports.opened(opts)
+    sc, rec = _prepare_record(sc, opts, supports)
     check_times(sc.stop_time, sc.step, "the stop time", "the output step")
-    result = None
-    series = events = None
-    with RockingFMU(fmu_path) as fm:
-        _check_fmu(fm, fmu_path)
-        sc.parameters.update(_check_overrides(given, fm.vars))
-        defaults = fm.defaults()
-        merged = {**defaults, **sc.parameters}
-        wrong = contact_model_problem(merged)
-        if wrong:  # an override made the scene's contact model impossible (nothing has run)
-            raise ArgumentError(wrong)
-        notes += [f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
-                  and (why := unused_parameter(k, merged))]
-        notes += implausible_sizes(merged)
-        sliding = int(merged.get("contact.model", 0)) == 1
-        if sliding and method not in ("fmu", "auto"):
-            raise ArgumentError(f"method {method} solves rigid rocking; the scene's [contact] model is "
-                                "rocking-sliding (method fmu, or auto)")
-        if method in PYTHON_METHODS:
-            from runners.engine.python_methods import format_python, run_python
-
-            s = {"scene": sc.name, **run_python(method, merged, sc.stop_time, 1e-4 if h is None else h,
-                                                1e-10 if rtol is None else rtol)}
-            if "solver.method" in sc.parameters:
-                notes.append(f"the scene's FMU integrator ([simulation] method) does not apply to method {method}")
-            if notes:
-                s["notes"] = notes
-            report = format_python(sc.name, s, sc.stop_time)
-            model = s["model"]
-        else:
-            from runners.analysis.least_model import (ROCKING_SLIDING, ROCKING_SLIDING_STACK, SLIDING_MODELS,
-                                                      STACK_SLIDING_OUTPUTS, choose_model, closed_form_summary,
-                                                      combined_block_parameters, format_closed_form,
-                                                      one_block_parameters, rigid_rocking_parameters,
-                                                      rocking_sliding_parameters, rocking_sliding_reason,
-                                                      sliding_contact, sliding_model)
-            from runners.engine.summary import SLIDING_OUTPUTS
-
-            if method == "fmu":
-                model = (sliding_model(merged) if sliding
-                         else "two blocks" if int(merged["nBlocks"]) == 2 else "one block")
-                why = "the model the scene describes (--method fmu)"
-            else:
-                if sliding:  # auto tries rigid rocking first, as for every scene
-                    sc = replace(sc, parameters=rigid_rocking_parameters(sc.parameters))
-                    merged = {**defaults, **sc.parameters}
-                model, why = choose_model(merged, accuracy)
-                if method == "closed-form" and model != "closed form":
-                    raise ArgumentError("method closed-form does not apply to this scene: "
-                                     f"{why.removeprefix('no closed form: ')}")
-            described = sc  # the scene as it describes itself, before auto's substitutions
-            refused = None  # why the FMU refused rocking-sliding for this scene, if it did
-            rigid = None  # rigid rocking's assumptions, once auto has switched to rocking-sliding
-            while True:  # a second pass only for auto's rocking-sliding (one block's or the stack's)
-                if model == "closed form":
-                    s = {"scene": sc.name, "model": model, "model_reason": why, **closed_form_summary(merged)}
-                    report = format_closed_form(sc.name, why, s)
-                    if method == "auto":  # the closed form is rigid rocking too: the FMU's monitors check that
-                        s["assumptions"] = _monitored(fm, described, merged)
-                        report += f"\nassumptions      {format_assumptions(s['assumptions'])}"
-                else:
-                    if model == "one block" and int(merged["nBlocks"]) == 2:
-                        sc = replace(sc, parameters=one_block_parameters(sc.parameters))
-                    if model == "one block (combined)":
-                        combined = combined_block_parameters(merged)
-                        sc = replace(sc, parameters={k: v for k, v in combined.items()
-                                                     if k in sc.parameters or k.startswith("block1.")})
-                    own = (SLIDING_OUTPUTS if model == ROCKING_SLIDING  # its channels, stored and exported
-                           else (*SLIDING_OUTPUTS, *STACK_SLIDING_OUTPUTS) if model == ROCKING_SLIDING_STACK else ())
-                    wanted = list(dict.fromkeys([*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own, *(outputs or ())]))
-                    result = fm.run(sc.parameters, sc.stop_time, sc.step, outputs=wanted)
-                    s = summarize(sc, result, defaults)
-                    s["model"], s["model_reason"] = model, why
-                    if rigid is not None:  # what rigid rocking's monitors said, which made auto switch
-                        s["rigid_rocking_assumptions"], s["sliding_contact"] = rigid
-                    if method == "auto" and int(merged["nBlocks"]) == 2 and model not in ("two blocks",
-                                                                                           ROCKING_SLIDING_STACK):
-                        # a stack run as one block: only the two-block model sees its interface
-                        s["assumptions"] = _monitored(fm, described, merged)
-                    run_notes = list(notes)
-                    if rec is not None:
-                        sc_scale = float({**defaults, **sc.parameters}["excitation.scale"])
-                        s["excitation"] = rec.describe(sc_scale)
-                        s["record"] = {"id": rec.record_id, "name": rec.name, "end_s": rec.end, "scale": sc_scale,
-                                       "pga_g": abs(sc_scale) * rec.info["pga_g"]}
-                        run_notes += rec.notes
-                    if run_notes:
-                        s["notes"] = run_notes
-                    report = format_summary({k: v for k, v in s.items() if k != "notes"})  # notes: summary["notes"]
-                    keep = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own]  # stored, exported
-                    series = series_later(result.time, {k: result.outputs[k] for k in keep})
-                    events = events_later([e.as_dict() for e in result.events])
-                switch = rocking_sliding_reason(s, merged) if method == "auto" and refused is None else None
-                if switch is None or model in SLIDING_MODELS:
-                    break
-                trial = rocking_sliding_parameters(described.parameters)
-                try:  # the FMU's own checks (the restitution law's eta, ...) before the run
-                    fm.validate(trial)
-                except FMUError as exc:
-                    refused = str(exc)
-                    s["rocking_sliding_refused"], s["sliding_contact"] = refused, sliding_contact(s, merged)
-                    break
-                sc, model, why = replace(described, parameters=trial), sliding_model(merged), switch
-                rigid = s["assumptions"], sliding_contact(s, merged)  # the contact that decided: ground or interface
-                merged = {**defaults, **sc.parameters}
-        if method == "auto" and "assumptions" in s:  # the least model must also be a model that holds
-            s["model_sufficient"] = s["assumptions"]["outcome_held"]
-            report += "\n" + model_check_line(s)
-        merged = {name: int(v) if fm.vars[name].type == "Integer" else bool(v) if fm.vars[name].type == "Boolean"
-                  else v for name, v in {**defaults, **sc.parameters}.items()}
-    written = None
-    if recording is not None:
-        if result is None:
-            raise ArgumentError("a recording records FMU runs (method fmu, or auto running the FMU)")
-        from runners.engine.recording import write_recording
-
-        written = write_recording(Path(recording), sc.name, result.time, result.outputs, merged, result.events,
-                                  measured_series, record=None if rec is None else rec.info)
-        s["recording"] = str(written)
-        report += f"\nrecording        {written}"
-    run_id = None
-    if factory is not None:
-        run_id = _store(factory, sc, merged, s, model, method, fmu_path, result, written,
-                        None if rec is None else (rec.record_id, rec.name))
-        s["run_id"] = run_id
-        report += f"\nstored           run {run_id} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
-    if series is None:
-        series, events = series_later(_empty(), {}), events_later([])
-    return RunResult(scene=sc.name, series=series, events=events, summary=s, parameters=merged, run_id=run_id,
-                     recording=written, report=report)
+    with RockingFMU(supports.fmu_path) as fm:
+        notes = _prepare_parameters(fm, sc, opts.given)
+        # choose the model and run it
+        found = answer(fm, sc, opts.method, opts.accuracy, opts.outputs, opts.h, opts.rtol)
+    # summarise, then write the recording and store the run where asked
+    summary, report = run_summary(found, rec, notes)
+    written = _write_recording(opts, supports, found, rec)
+    run_id = _store(supports.factory, found, opts.method, supports.fmu_path, written, rec)
+    report += _kept(summary, written, run_id, supports.factory)
+    return RunResult(scene=found.scene.name, series=_series(found), events=_events(found), summary=summary,
+                     parameters=found.parameters, run_id=run_id, recording=written, report=report)
 
 
-def _monitored(fm, scene: Scene, merged: dict[str, Any]) -> dict[str, Any]:
-    """The rigid-rocking assumptions of `scene` as the FMU's contact monitors see them (for a
-    method whose own run does not monitor all of the scene's contacts)."""
-    from runners.engine.summary import MONITOR_OUTPUTS, assumptions
+@dataclass(frozen=True)
+class _RunOptions:
+    """simulate's arguments besides the scene, each checked before anything runs or is stored
+    (ArgumentError, in one line, for a wrong one): times in s, parameters by their dotted names."""
 
-    run = fm.run(scene.parameters, scene.stop_time, scene.step, outputs=[*MONITOR_OUTPUTS, "overturned"])
-    return assumptions(run, merged, int(merged["nBlocks"]) == 2)
+    given: dict[str, Any]
+    stop_time: float | None
+    step: float | None
+    method: str
+    accuracy: float
+    h: float | None
+    rtol: float | None
+    record: str | int | Path | None
+    scale: float | None
+    pga: float | None
+    outputs: list[str] | None
+    recording: Path | None
+    measured: Path | None
+    store: bool
+    db: str | None
+    fmu: Path | None
+
+    @classmethod
+    def checked(cls, parameters: Mapping[str, Any] | None, overrides: Mapping[str, Any], *, stop_time, step, method,
+                accuracy, h, rtol, record, scale, pga, outputs, recording, measured, store, db, fmu) -> "_RunOptions":
+        method = _choice(method, "method", METHODS)
+        opts = cls(given=_overrides(parameters, overrides),
+                   stop_time=args.optional(_seconds, stop_time, "stop_time"),
+                   step=args.optional(_seconds, step, "step"), method=method,
+                   accuracy=args.positive(accuracy, "accuracy", "a relative accuracy > 0 (a number such as 1e-2)"),
+                   h=args.optional(args.positive, h, "h", "a fixed step > 0 s"),
+                   rtol=args.optional(args.positive, rtol, "rtol", "a relative tolerance > 0"),
+                   record=_record_ref(record, "record"),
+                   scale=args.optional(args.number, scale, "scale", "a finite number (the record's multiplier)"),
+                   pga=args.optional(args.positive, pga, "pga", "a PGA > 0 in g (a number)"),
+                   outputs=args.optional(args.names, outputs, "outputs", "a list of FMU output names (str)"),
+                   recording=args.optional(args.path, recording, "recording", "a .rrd file's path"),
+                   measured=args.optional(args.path, measured, "measured", "a measured CSV file's path"),
+                   store=args.flag(store, "store"), db=args.database_url(db),
+                   fmu=args.optional(args.path, fmu, "fmu", "an FMU file's path"))
+        if opts.h is not None and method not in FIXED_STEP_METHODS:
+            raise ArgumentError("h is the fixed step of method rk4, rk4-located, newmark or euler")
+        if opts.rtol is not None and method != "scipy":
+            raise ArgumentError("rtol is the tolerance of method scipy (the FMU's is [simulation] rel_tol)")
+        if opts.measured is not None and opts.recording is None:
+            raise ArgumentError("measured overlays a measurement on a recording: give recording too")
+        return opts
+
+
+@dataclass
+class _Supports:
+    """What a run needs besides its scene, each opened before anything runs: the database it is
+    stored in (None: not stored; a bad or read-only one fails now, not after the run), the FMU,
+    and a measured series to overlay on its recording."""
+
+    factory: Any
+    fmu_path: Path
+    measured: Any = None
+
+    @classmethod
+    def opened(cls, opts: _RunOptions) -> "_Supports":
+        from runners.engine.fmu import fmu_path_from
+
+        series = None
+        if opts.measured is not None:  # fail on a bad file before simulating
+            from runners.engine.measured import read_measured_csv
+
+            series = read_measured_csv(str(opts.measured))
+        factory = None
+        if opts.store:  # the run would be lost after it ran
+            from db.session import open_database, require_writable
+
+            factory = open_database(opts.db)
+            require_writable(factory, "or run with --no-store")
+        return cls(factory, fmu_path_from(None if opts.fmu is None else str(opts.fmu)), series)
+
+
+def _prepare_record(sc: Scene, opts: _RunOptions, supports: _Supports) -> tuple[Scene, Any]:
+    """prepare: the scene with the run's times (s) and, for a record, its record
+    (runners.engine.records.prepare_run, imported for a record only: it loads SQLAlchemy, which a
+    scene without a record does not need; tests/test_startup.py)."""
+    if opts.record is None and opts.scale is None and opts.pga is None and not sc.is_record:
+        return with_times(sc, opts.stop_time, opts.step), None
+    from runners.engine.records import prepare_run
+
+    return prepare_run(sc, opts.record, opts.scale, opts.pga, stop_time=opts.stop_time, step=opts.step,
+                       factory=supports.factory, db=opts.db)
+
+
+def _prepare_parameters(fm, sc: Scene, given: dict[str, Any]) -> list[str]:
+    """prepare: the parameters given to simulate, checked against the FMU and set on the scene
+    (changed in place); the notes on the scene's parameters (unused, implausible sizes, an
+    excitation too weak to move anything). ArgumentError for an FMU runners cannot drive or a
+    contact model the parameters make impossible."""
+    _check_fmu(fm, fm.path)
+    sc.parameters.update(_check_overrides(given, fm.vars))
+    merged = {**fm.defaults(), **sc.parameters}
+    wrong = contact_model_problem(merged)
+    if wrong:  # an override made the scene's contact model impossible (nothing has run)
+        raise ArgumentError(wrong)
+    return [*(f"{why} (the scene sets it)" for k in sc.parameters if k != "block1.mass"
+              and (why := unused_parameter(k, merged))), *implausible_sizes(merged), *weak_excitation(merged)]
+
+
+def _write_recording(opts: _RunOptions, supports: _Supports, found, rec) -> Path | None:
+    """The run's Rerun recording (runners.engine.recording), where asked for; None otherwise."""
+    if opts.recording is None:
+        return None
+    if found.result is None:
+        raise ArgumentError("a recording records FMU runs (method fmu, or auto running the FMU)")
+    from runners.engine.recording import write_recording
+
+    r = found.result
+    return write_recording(opts.recording, found.scene.name, r.time, r.outputs, found.parameters, r.events,
+                           supports.measured, record=None if rec is None else rec.info)
+
+
+def _kept(summary: dict[str, Any], written: Path | None, run_id: int | None, factory) -> str:
+    """The report's lines on the recording written and the run stored (summary["recording"] and
+    summary["run_id"] too)."""
+    lines = ""
+    if written is not None:
+        summary["recording"] = str(written)
+        lines += f"\nrecording        {written}"
+    if run_id is not None:
+        summary["run_id"] = run_id
+        lines += f"\nstored           run {run_id} in {factory.kw['bind'].url.render_as_string(hide_password=True)}"
+    return lines
+
+
+def _series(found):
+    """The answer's series (a function that builds it on first use; empty without an FMU run)."""
+    from runners.engine.results import series_later
+
+    if found.result is None:
+        return series_later(_empty(), {})
+    return series_later(found.result.time, {k: found.result.outputs[k] for k in found.columns})
+
+
+def _events(found):
+    """The answer's events (built on first use; none without an FMU run)."""
+    from runners.engine.results import events_later
+
+    return events_later([] if found.result is None else [e.as_dict() for e in found.result.events])
 
 
 def _empty():
@@ -422,39 +383,25 @@ def _empty():
     return np.empty(0)
 
 
-def _prepare_record(scene: Scene, factory=None):
-    """runners.engine.records.prepare_scene, imported for a record scene only: it loads SQLAlchemy
-    and SciPy, which a scene without a record does not need (tests/test_startup.py)."""
-    if not scene.is_record:
+def _store(factory, found, method: str, fmu_path, recording=None, rec=None) -> int | None:
+    """store: the run and everything it refers to, in one transaction, in the database of `factory`
+    (None: not stored); if the database fails, the run is kept in a file that ``runners db
+    import-unsaved`` stores later (db.store.store_or_keep). Its id."""
+    if factory is None:
         return None
-    from runners.engine.records import prepare_scene
-
-    return prepare_scene(scene, factory)
-
-
-def _factory(url: str | None):
-    """The sessionmaker of database ``url`` (None: the default SQLite file)."""
-    from db.session import open_database
-
-    return open_database(url)
-
-
-def _store(factory, scene: Scene, merged: dict[str, Any], s: dict[str, Any], model: str, method: str, fmu_path,
-           result, recording=None, record: tuple[int, str] | None = None) -> int:
-    """The run and everything it refers to, in one transaction; if the database fails, the run
-    is kept in a file that ``runners db import-unsaved`` stores later (db.store.store_or_keep)."""
     from db.store import pending_run, store_or_keep
     from runners.engine.summary import summary_row
 
+    scene, result, s = found.scene, found.result, found.summary
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
-    pending = pending_run(scene_name=scene.name, parameters=scene.parameters, source=source, merged=merged,
-                          summary=summary_row(s, merged), model=model, method=method, stop_time=scene.stop_time,
-                          fmu_path=str(fmu_path) if result is not None else None, wall_time=s.get("wall_time_s"),
-                          time=None if result is None else result.time,
+    pending = pending_run(scene_name=scene.name, parameters=scene.parameters, source=source, merged=found.parameters,
+                          summary=summary_row(s, found.parameters), model=found.model, method=method,
+                          stop_time=scene.stop_time, fmu_path=str(fmu_path) if result is not None else None,
+                          wall_time=s.get("wall_time_s"), time=None if result is None else result.time,
                           outputs=None if result is None else result.outputs,
                           events=None if result is None else [e.as_dict() for e in result.events],
                           recording=None if recording is None else str(Path(recording).resolve()),
-                          record=record)
+                          record=None if rec is None else (rec.record_id, rec.name))
     return store_or_keep(factory, pending)
 
 

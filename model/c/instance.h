@@ -50,7 +50,7 @@ typedef struct {
     Model model;
     double tc, startTime, stopTime;
     int stopDefined;
-    int toleranceDefined; /* the importer's tolerance replaces solver.relTol */
+    int toleranceDefined; /* the importer's tolerance: solver.relTol is at most it */
     double tolerance;
     Phase phase;
     int dirty; /* parameters set since the last initialisation */
@@ -115,7 +115,7 @@ int instance_bad_call(Instance *I, int allowed, const char *fn);
 Status instance_set_logging(Instance *I, int loggingOn, size_t n, const char *const categories[], const char *fn);
 
 /* The experiment: start and stop time; an importer's tolerance (toleranceDefined)
- * becomes the integrator's relative tolerance (solver.relTol). */
+ * tightens the integrator's relative tolerance (solver.relTol) when it is the smaller. */
 Status instance_setup_experiment(Instance *I, int toleranceDefined, double tolerance, double startTime,
                                  int stopTimeDefined, double stopTime, const char *fn);
 

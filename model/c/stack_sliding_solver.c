@@ -188,7 +188,9 @@ void ss_initialize(Model *M) {
 }
 
 /* The ground moves the stack at rest at time t: the pattern that starts is chosen as at any event
- * (its corners and slip signs among the candidates, so the side find_uplift reports is not needed). */
+ * (its corners and slip signs among the candidates, so the side find_uplift reports is not needed).
+ * A contact that opens is an uplift; a contact that starts to slide is logged as a slide by
+ * set_pattern, so a stack that only slides logs no uplift. */
 static void start_moving(Model *M, double t, int side, const Logger *log) {
     State *S = &M->s;
     double q[4] = {0}, w[4] = {0};
@@ -202,7 +204,7 @@ static void start_moving(Model *M, double t, int side, const Logger *log) {
         return;
     }
     char buf[40];
-    say(log, LOG_EVENTS, "uplift t=%.17g pattern=%s", t, ss_label(&p, buf));
+    if (!p.g.flat || !p.i.flat) say(log, LOG_EVENTS, "uplift t=%.17g pattern=%s", t, ss_label(&p, buf));
     set_pattern(M, &p, log);
 }
 

@@ -33,6 +33,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.strict and args.method not in ("fmu", "auto"):  # before anything runs or is stored
         raise ValueError(f"--strict: method {args.method} does not monitor the contacts (the FMU does: "
                          "--method fmu or auto)")
+    if (args.pga is not None or args.scale is not None) and record is None and args.motion is None:
+        from runners.api import as_scene
+
+        if not as_scene(args.scene).is_record:
+            option = "--pga G scales a record to that PGA (in g)" if args.pga is not None else \
+                "--scale multiplies a record's accelerations"
+            raise ValueError(f"{option}, and the scene {args.scene} names none: give one with --record NAME|ID|FILE (runners "
+                             "records list shows the stored ones), or use a scene whose [excitation] names one "
+                             "(record = NAME or file = PATH)")
     if args.motion is not None:  # the record a stored ground or table motion amounts to
         from db.session import open_database
         from runners.cli.measured import motion_record

@@ -102,8 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--record", action=Once, metavar="NAME|ID|FILE",
                      help="drive the block with a stored record (runners records list) or a record file instead "
                           "of the scene's excitation")
-    sim.add_argument("--scale", action=Once, type=finite, help="multiply the record's accelerations (excitation.scale)")
-    sim.add_argument("--pga", action=Once, type=positive, metavar="G", help="scale the record so that its PGA is G (in g)")
+    sim.add_argument("--scale", action=Once, type=finite,
+                     help="multiply the record's accelerations (excitation.scale): the record of --record, or the "
+                          "scene's")
+    sim.add_argument("--pga", action=Once, type=positive, metavar="G",
+                     help="scale the record (of --record, or the scene's) so that its PGA is G, in g (a note says "
+                          "when G is above 2 g)")
     sim.add_argument("--motion", type=object_id, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")

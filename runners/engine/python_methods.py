@@ -118,14 +118,14 @@ def run_python(method: str, p: dict[str, Any], stop_time: float, h: float, rtol:
 
 
 def format_python(name: str, s: dict[str, Any], stop_time: float) -> str:
-    from runners.engine.summary import peak_line
+    from runners.engine.summary import peak_line, size_lines
 
     outcome = s["final_state"]
     if s["overturned"]:
         outcome += f" at t = {s['overturn_time_s']:.4f} s"
     elif s["rest_time_s"] is not None:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
-    lines = [f"scene            {name}", f"model            {s['model']}",
+    lines = [f"scene            {name}", *size_lines(s), f"model            {s['model']}",
              f"simulated        0 .. {stop_time:g} s in {1e3 * s['wall_time_s']:.1f} ms wall",
              f"outcome          {outcome}"]
     if s["blocks"] == 2:

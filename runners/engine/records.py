@@ -17,7 +17,8 @@ Units SI (time in s, accelerations in m/s^2), signs as docs/conventions.md.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import os
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -29,10 +30,18 @@ from db.schema import Record
 from runners.engine.intensity import G0, measures
 from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, check_size,
                                          read_record_file, samples_sha256)
-from runners.engine.scene import MAX_PGA_G, Scene
+from runners.engine.scene import KIND_NAMES, KINDS, MAX_PGA_G, Scene, check_pga, with_times
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
 PLAIN_TEXT_HINT = 1.0  # m/s^2: a record file (our text format) whose PGA is below this may be in g
+# Notes (not errors) on a scaled record (docs/limits.md, "Notes, not errors"). The
+# strongest motions recorded: Anderson (2010) lists the 100 largest PGAs up to 2007 (35 above 1 g)
+# and PGVs (the largest 3.18 m/s, Chi-Chi 1999); the largest horizontal PGA since is about 2.7 g
+# (K-NET MYG004, Tohoku 2011; NIED). Scaling a record far changes more than its size: the response
+# to records scaled by large factors is biased (Luco & Bazzurro 2007).
+HIGH_PGA_G = 2.0  # g: a scaled PGA above this is beyond all but a handful of recorded motions
+LARGE_SCALE = 4.0  # a record scaled by more than this (in absolute value)
+HIGH_PGV = 2.0  # m/s: or to a PGV above this
 
 
 def store_record(session, name: str, time: np.ndarray, ah: np.ndarray, av: np.ndarray | None = None,
@@ -76,6 +85,77 @@ def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float
     if not abs(scale) * top <= 1000.0:
         raise ValueError(f"{label}: scale {scale:g} brings its peak acceleration to {abs(scale) * top:g} m/s2, beyond "
                          "1000 m/s2 (about 100 g)")
+
+
+def scaling_notes(cases: Iterable[tuple[str, str, float, dict[str, Any]]]) -> list[str]:
+    """Notes on records scaled beyond recorded motions, at most two whatever the number of runs:
+    a PGA above HIGH_PGA_G (likely a PGA meant in m/s2 given in g), and a scale factor above
+    LARGE_SCALE or a PGV above HIGH_PGV. `cases`: (record name, level as text or "", scale, the
+    unscaled record's measures in SI: pga in m/s2, pgv in m/s), one per scaled record the runs use."""
+    cases = [(name, level, abs(scale), m) for name, level, scale, m in cases if m.get("pga")]
+    high = [c for c in cases if c[2] * c[3]["pga"] / G0 > HIGH_PGA_G]
+    large = [c for c in cases if c[2] > LARGE_SCALE or c[2] * (c[3].get("pgv") or 0.0) > HIGH_PGV]
+    notes = []
+    if high:
+        notes.append(f"PGA above {HIGH_PGA_G:g} g: {_listing(high, cases)}. PGAs are in g (3.5 m/s2 is 0.357 g); "
+                     "the largest horizontal PGA recorded is about 2.7 g (K-NET MYG004, Tohoku 2011) and only 35 "
+                     "records up to 2007 exceed 1 g (Anderson 2010)")
+    if large:
+        notes.append(f"scaled by more than {LARGE_SCALE:g} or to a PGV above {HIGH_PGV:g} m/s: {_listing(large, cases)}. "
+                     "The largest PGV recorded is 3.18 m/s (Anderson 2010), and the response to a record scaled "
+                     "far from its own intensity is biased (Luco & Bazzurro 2007): prefer records nearer the level")
+    return notes
+
+
+def _listing(chosen: list[tuple[str, str, float, dict]], cases: list[tuple[str, str, float, dict]]) -> str:
+    """The records and levels of `chosen` (among `cases`) in one phrase: each record with its
+    levels (consecutive ones as a range), scale factors and largest scaled PGA (g) and PGV (m/s),
+    their common suite named once; or "all N records at LEVELS" when every record is concerned at
+    the same levels."""
+    by: dict[str, list[tuple[str, float, dict]]] = {}
+    for name, level, scale, m in chosen:
+        by.setdefault(name, []).append((level, scale, m))
+    every: dict[str, list[str]] = {}  # each record's levels, in the runs' order
+    for name, level, *_ in cases:
+        every.setdefault(name, []).append(level)
+    levels = {name: _levels_text([lv for lv, _, _ in rows if lv], every[name]) for name, rows in by.items()}
+    first = next(iter(levels.values()))
+    if len(every) > 1 and len(by) == len(every) and first and all(lv == first for lv in levels.values()):
+        return f"all {len(every)} records at {first}"
+    suite = os.path.commonprefix(list(every)).rpartition("/")[0] if len(every) > 1 else ""
+    parts = []
+    for name, rows in by.items():
+        scales = [s for _, s, _ in rows]
+        pga = max(s * m["pga"] / G0 for _, s, m in rows)
+        pgv = max(s * (m.get("pgv") or 0.0) for _, s, m in rows)
+        at = f" at {levels[name]}" if levels[name] else ""
+        span = f"x{min(scales):.3g}" + (f" to x{max(scales):.3g}" if max(scales) > min(scales) else "")
+        parts.append(f"{name.removeprefix(suite + '/') if suite else name}{at} ({span}, PGA "
+                     f"{'up to ' * (len(rows) > 1)}{pga:.3g} g, PGV {'up to ' * (len(rows) > 1)}{pgv:.3g} m/s)")
+    return (f"in {suite}, " if suite else "") + "; ".join(parts)
+
+
+def _levels_text(levels: list[str], every: list[str]) -> str:
+    """Levels as text: "0.8 g to 1.2 g" for more than two consecutive ones of `every` (a record's
+    levels in order), else each of them."""
+    at = [every.index(lv) for lv in levels]
+    if len(levels) > 2 and at == list(range(at[0], at[0] + len(at))):
+        return f"{levels[0]} to {levels[-1]}"
+    return ", ".join(levels)
+
+
+def sweep_scaling_notes(refs: list, intensity, axes: list, parameters: dict[str, Any]) -> list[str]:
+    """scaling_notes of a record sweep, once for the whole sweep: its records (RecordRefs) at each
+    intensity level (runners.engine.grid.Intensity: its levels in g or m/s), at each value of a
+    --grid scale axis, or else at the scene's own excitation.scale (`parameters`)."""
+    if intensity is not None:
+        cases = [(r.name, f"{lv:g} {intensity.unit}", intensity.si(lv) / r.measures[intensity.measure], r.measures)
+                 for r in refs for lv in intensity.values if r.measures.get(intensity.measure)]
+    else:
+        axis = next((a for a in axes if a.name == "excitation.scale"), None)
+        scales = [float(parameters.get("excitation.scale", 1.0))] if axis is None else axis.values.tolist()
+        cases = [(r.name, "" if axis is None else f"scale {s:g}", s, r.measures) for r in refs for s in scales]
+    return scaling_notes(cases)
 
 
 def fill_missing_measures(session) -> int:
@@ -372,6 +452,69 @@ class SceneRecord:
         where = f" ({i['event']} {i['year'] or ''}, {i['station']})" if i.get("event") else ""
         pga = f" (PGA {abs(scale) * i['pga_g']:.3g} g)" if i.get("pga_g") else ""
         return f"record {self.name}{where} x {scale:g}{pga}"
+
+    def summary(self, scale: float) -> dict[str, Any]:
+        """The run's summary keys of the record scaled by `scale`: ``excitation`` (in words) and
+        ``record`` (id, name, end_s: its last sample's time in s, scale, pga_g: the scaled PGA in g)."""
+        return {"excitation": self.describe(scale),
+                "record": {"id": self.record_id, "name": self.name, "end_s": self.end, "scale": scale,
+                           "pga_g": abs(scale) * self.info["pga_g"]}}
+
+    def scaling_notes(self, scale: float) -> list[str]:
+        """scaling_notes of this record scaled by `scale`."""
+        return scaling_notes([(self.name, "", scale, self.info)])
+
+
+def prepare_run(scene: Scene, record: str | int | Path | None = None, scale: float | None = None,
+                pga: float | None = None, *, stop_time: float | None = None, step: float | None = None,
+                factory=None, db: str | None = None) -> tuple[Scene, SceneRecord | None]:
+    """The scene of one run and its record (None without one): ``runners.simulate``'s preparation
+    of a record, in one place.
+
+    record: a stored record's name or id, or a record file (a Path, or a str naming an existing
+        file), which replaces the scene's excitation and the times the scene set for it (a note
+        says what it replaced); None keeps the scene's own record, if any.
+    scale: the record's multiplier; pga: scale it to this PGA instead (in g). ValueError for either
+        without a record, or both.
+    stop_time, step: s, the run's own times, which replace the scene's; without them a record runs
+        to its end plus TAIL seconds at its own sampling (prepare_scene).
+    factory, db: the database of a stored record (a sessionmaker, else the SQLAlchemy URL db, else
+        the default SQLite file); a record file is stored there only when factory is given.
+    """
+    replaced = []
+    if record is not None:
+        kind = int(scene.parameters.get("excitation.kind", 0))
+        if kind not in (0, KINDS["record"]):
+            replaced.append(f"the record replaces the scene's {KIND_NAMES[kind]}")
+        from_file = isinstance(record, Path) or (isinstance(record, str) and Path(record).is_file())
+        scene = replace(scene, record=None if from_file else str(record),
+                        file=str(Path(record).resolve()) if from_file else None, stop_time_given=False,
+                        step_given=False, parameters={**{k: v for k, v in scene.parameters.items()
+                                                         if not k.startswith("excitation.")
+                                                         or k == "excitation.startTime"},
+                                                      "excitation.kind": KINDS["record"]})
+    scene = with_times(scene, stop_time, step)
+    if scale is not None or pga is not None:
+        if not scene.is_record:
+            raise ValueError("scale and pga scale a record: give the record (record=NAME, an id or a file) or a "
+                             "scene whose [excitation] names one (record = NAME or file = PATH)")
+        if scale is not None and pga is not None:
+            raise ValueError("give scale or pga, not both")
+        if pga is not None:
+            check_pga(pga, "pga")
+        scene.parameters.pop("excitation.scale", None)
+        scene.pga = pga
+        if scale is not None:
+            scene.parameters["excitation.scale"] = float(scale)
+    if not scene.is_record:
+        return scene, None
+    if factory is None and scene.record is not None:  # a stored record: its database
+        from db.session import open_database
+
+        factory = open_database(db)
+    rec = prepare_scene(scene, factory)
+    rec.notes[:0] = replaced
+    return scene, rec
 
 
 def prepare_scene(scene: Scene, factory=None) -> SceneRecord | None:

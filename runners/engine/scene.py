@@ -148,6 +148,69 @@ def implausible_sizes(p: dict[str, Any]) -> list[str]:
     return notes
 
 
+def uplift_threshold(p: dict[str, Any]) -> tuple[float, str]:
+    """(|a_h| in m/s^2 above which the ground tips the block or stack of parameters `p` (defaults
+    included) off its base from rest with a_v = 0, what starts then): g tan(alpha) for one block;
+    for a stack the lower of the pair's g b1 / yG (yG the height of the pair's centre of mass)
+    and block 2's g min(b1, b2) / h2."""
+    g, b1, h1 = float(p["g"]), float(p["block1.halfWidth"]), float(p["block1.halfHeight"])
+    if int(p.get("nBlocks", 1)) != 2:
+        return g * b1 / h1, "the block rocks"
+    m1, b2, h2, m2 = (float(p[k]) for k in ("block1.mass", "block2.halfWidth", "block2.halfHeight", "block2.mass"))
+    y_g = (m1 * h1 + m2 * (2 * h1 + h2)) / (m1 + m2)
+    pair, upper = b1 / y_g, min(b1, b2) / h2
+    if pair <= upper:
+        return g * pair, "the pair rocks as one body"
+    return g * upper, "the upper block rocks alone"
+
+
+def motion_threshold(p: dict[str, Any]) -> tuple[float, str]:
+    """(|a_h| in m/s^2 below which nothing of the scene of parameters `p` moves from rest with
+    a_v = 0, what it is): the uplift threshold (uplift_threshold), or with rocking-sliding
+    (contact.model = 1) the least of it and the contacts' mu g (Shenton 1996)."""
+    uplift, _ = uplift_threshold(p)
+    if int(p.get("contact.model", 0)) != CONTACT_MODELS["rocking-sliding"]:
+        return uplift, "uplift, g tan(alpha)" if int(p.get("nBlocks", 1)) != 2 else "uplift of the stack"
+    mu = float(p["contact.muGround"])
+    if int(p.get("nBlocks", 1)) == 2:
+        mu = min(mu, float(p["contact.muInterface"]))
+    slide = mu * float(p["g"])
+    return (slide, "sliding, mu g") if slide < uplift else (uplift, "uplift")
+
+
+PULSE_KINDS = (1, 2, 5, 6, 7)  # the excitations whose excitation.amplitude is their peak acceleration
+
+
+def weak_excitation(p: dict[str, Any]) -> list[str]:
+    """A note (not an error) when a pulse's amplitude (excitation.amplitude, m/s^2) cannot move the
+    scene of parameters `p` (defaults included), at rest at the start, at all: below its threshold
+    of motion (motion_threshold) even where a vertical amplitude V lowers gravity to g - |V|. Such
+    an amplitude was often meant in g."""
+    from runners.engine.intensity import G0
+
+    if int(p.get("excitation.kind", 0)) not in PULSE_KINDS:
+        return []
+    blocks = (1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,)
+    if any(p.get(f"block{i}.{k}", 0.0) != 0 for i in blocks for k in ("theta0", "omega0")):  # it moves anyway
+        return []
+    amplitude, vertical, g = abs(float(p["excitation.amplitude"])), abs(float(p["excitation.verticalAmplitude"])), float(p["g"])
+    threshold, what = motion_threshold(p)
+    if not 0 < amplitude < threshold * max(g - vertical, 0.0) / g:
+        return []
+    return [f"excitation amplitude {amplitude:g} m/s2 is below the threshold of motion {threshold:.4g} m/s2 ({what}): "
+            f"nothing can move. Amplitudes are in m/s2, not g ({amplitude:g} g would be {amplitude * G0:.4g} m/s2)"]
+
+
+def with_times(scene: Scene, stop_time: float | None = None, step: float | None = None) -> Scene:
+    """`scene` (changed in place) with the run's own stop time and output step (s) where given:
+    they replace the scene's, and a record no longer sets them."""
+    if stop_time is not None:
+        scene.stop_time, scene.stop_time_given = float(stop_time), True
+    if step is not None:
+        scene.step, scene.step_given = float(step), True
+    return scene
+
+
 class SceneError(RockingError, ValueError):
     """A scene file is unreadable or invalid; str() is a one-line message."""
 

@@ -6,7 +6,7 @@ import math
 from typing import Any
 
 from runners.engine.fmu import RunResult
-from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene
+from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene, uplift_threshold
 
 SUMMARY_OUTPUTS = (
     "block1.theta",
@@ -98,15 +98,11 @@ PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking
             4: "locked pair rocking", 5: "both blocks rocking", 6: "a contact sliding"}
 
 
-def _stack_threshold(p: dict[str, float]) -> tuple[float, str]:
-    """Uplift threshold (m/s^2) of a two-block stack at rest and which pattern it starts."""
-    b1, h1, m1 = p["block1.halfWidth"], p["block1.halfHeight"], p["block1.mass"]
-    b2, h2, m2 = p["block2.halfWidth"], p["block2.halfHeight"], p["block2.mass"]
-    y_g = (m1 * h1 + m2 * (2 * h1 + h2)) / (m1 + m2)
-    pair, upper = b1 / y_g, min(b1, b2) / h2
-    if pair <= upper:
-        return p["g"] * pair, "the pair rocks as one body"
-    return p["g"] * upper, "the upper block rocks alone"
+def block_sizes(p: dict[str, Any]) -> list[dict[str, Any]]:
+    """Each block's full width and height (m) and mass (kg) from parameters `p` (defaults
+    included; the FMU's are half sizes)."""
+    return [{"block": i, "width_m": 2 * float(p[f"block{i}.halfWidth"]), "height_m": 2 * float(p[f"block{i}.halfHeight"]),
+             "mass_kg": float(p[f"block{i}.mass"])} for i in ((1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,))]
 
 
 RICKER_HALF_WINDOW = 3.0  # a Ricker pulse lasts 2 x 3 / frequency s (model/c/ground.c)
@@ -150,6 +146,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     summary: dict[str, Any] = {
         "scene": scene.name,
         "blocks": 2 if two else 1,
+        "sizes": block_sizes(p),
         "alpha_rad": alpha,
         "p_rad_per_s": math.sqrt(3 * g / (4 * R)),
         "uplift_threshold_m_s2": g * math.tan(alpha),
@@ -184,7 +181,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     if held is not None:
         summary["assumptions"] = held
     if two:
-        threshold, first = _stack_threshold(p)
+        threshold, first = uplift_threshold(p)
         summary.update({
             "uplift_threshold_m_s2": threshold,
             "first_pattern": first,
@@ -203,6 +200,9 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         if sliding and flight is not None and not overturned and not summary["per_block"][1]["fell_off"]:
             # a normal force would have had to pull: the rocking-sliding stack's run ends there
             summary["final_state"], summary["flight_time_s"] = "flight", float(flight.t)
+    ended = run_end(summary, excitation_end(p) if int(p["excitation.kind"]) else 0.0)  # (a record's end: run_summary)
+    if ended is not None:
+        summary["run_end"] = ended
     return summary
 
 
@@ -263,16 +263,18 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float, two: boo
     cols = slip_summary(final, 1, stack=two)  # the stored columns, as a sweep point stores them
     rocked, slid = rocked_and_slid(final, 1, stack=two)
     mode = int(final["block1.mode"])
-    mu = float(p["contact.muGround"])
-    where = None
+    mu_g = mu = float(p["contact.muGround"])
+    contacts: dict[str, Any] = {}
     if two:  # the stack slides on the ground as one body beyond muGround g, block 2 on block 1 beyond muInterface g
         mu_i = float(p["contact.muInterface"])
-        where = "muGround g: the stack on the ground" if mu <= mu_i else "muInterface g: block 2 on block 1"
+        contacts = {"slide_threshold_contact": "muGround g: the stack on the ground" if mu <= mu_i
+                    else "muInterface g: block 2 on block 1", "mu_interface": mu_i}
         mu = min(mu, mu_i)
     return {
         "contact_model": "rocking-sliding",
         "slide_threshold_m_s2": mu * float(p["g"]),
-        **({"slide_threshold_contact": where} if two else {}),
+        "mu_ground": mu_g,
+        **contacts,
         "motion": cols["motion"],
         "slid": slid,
         "rocked": rocked,
@@ -391,12 +393,20 @@ def _rocking_sliding_assumptions(a: dict[str, Any]) -> str:
     """format_assumptions of a rocking-sliding run: sliding is modelled, flight is not."""
     if a["held"]:
         return (f"held: no flight (normal force at least {a['normal_min_ground']:.3g} of the weight); sliding is "
-                f"part of the model (rocking-sliding, mu {a['mu_ground']:g})")
+                f"part of the model (rocking-sliding, {mu_text(a)})")
     if a.get("outcome_held"):
         return (f"held until the overturning fall (from t = {a['fall_time_s']:.6g} s), which then {violations(a)}: "
                 "the block fell either way")
     return (f"NOT HELD: {violations(a)}: rocking-sliding does not describe the motion after t = "
             f"{a['lifts']['t_s']:.6g} s (flight is outside the model)")
+
+
+def mu_text(s: dict[str, Any]) -> str:
+    """The friction coefficients of a summary (or its assumptions) with ``mu_ground`` and, for a
+    stack, ``mu_interface``: "mu 0.5", or "mu 0.5 on the ground, 0.4 between the blocks"."""
+    if "mu_interface" not in s:
+        return f"mu {s['mu_ground']:g}"
+    return f"mu {s['mu_ground']:g} on the ground, {s['mu_interface']:g} between the blocks"
 
 
 def model_check_line(s: dict[str, Any]) -> str:
@@ -441,19 +451,22 @@ def format_summary(s: dict[str, Any]) -> str:
         block = (f"two blocks       uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2, "
                  f"then {s['first_pattern']}")
         if "contact_model" in s:
-            block += f"; sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 ({s['slide_threshold_contact']})"
+            first = ("the stack slides on the ground first" if s["mu_ground"] <= s["mu_interface"]
+                     else "block 2 slides on block 1 first")
+            block += f"; sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 ({mu_text(s)}: {first})"
     else:
         block = (f"block            alpha = {s['alpha_rad']:.4f} rad, p = {s['p_rad_per_s']:.3f} rad/s, "
                  f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2")
         if "contact_model" in s:
-            block += f", sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 (mu g)"
+            block += f", sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 (mu g, {mu_text(s)})"
     lines = [
         f"scene            {s['scene']}",
+        *size_lines(s),
         *([f"model            {s['model']}: {s['model_reason']}"] if "model" in s else []),
         block,
         f"restitution      {s['restitution_law']}",
         f"excitation       {s['excitation']}",
-        f"simulated        0 .. {s['stop_time_s']:g} s in {1e3 * s['wall_time_s']:.1f} ms wall",
+        simulated_line(s),
     ]
     outcome = s["final_state"]
     if s["overturned"]:
@@ -502,6 +515,98 @@ def format_summary(s: dict[str, Any]) -> str:
         *([f"sliding          {sliding_story(s)}"] if "contact_model" in s else []),
     ]
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
+
+
+def size_lines(s: dict[str, Any]) -> list[str]:
+    """The summary's line of block sizes (full width x height in m, mass in kg), if it has them."""
+    sizes = s.get("sizes")
+    if not sizes:
+        return []
+    text = "; ".join(("" if len(sizes) == 1 else f"block {b['block']} ")
+                     + f"{b['width_m']:g} m x {b['height_m']:g} m, {b['mass_kg']:g} kg" for b in sizes)
+    return [f"{'block size' if len(sizes) == 1 else 'block sizes':<17}{text} (width x height, mass)"]
+
+
+def simulated_line(s: dict[str, Any]) -> str:
+    """The summary's span of time simulated: the span that ran and, when the run ended before its
+    stop time (``run_end``: an overturn, a fall, flight) when and why; when the motion ended at rest
+    after the excitation, or a record ended before the stop time, when (times in s)."""
+    wall = f"in {1e3 * s['wall_time_s']:.1f} ms wall"
+    end, stop = s.get("run_end"), s["stop_time_s"]
+    if end is not None and end["t_s"] < stop:
+        if end["run_ended"]:
+            return (f"simulated        0 .. {end['t_s']:.6g} s (of 0 .. {stop:g} s) {wall}: the run ended there, "
+                    f"{end['why']}")
+        return f"simulated        0 .. {stop:g} s {wall}; the motion ended at t = {end['t_s']:.6g} s, {end['why']}"
+    record_end = s.get("record_end_s")
+    tail = f"; the record ended at t = {record_end:g} s" if record_end is not None and record_end < stop else ""
+    return f"simulated        0 .. {stop:g} s {wall}{tail}"
+
+
+def run_end(s: dict[str, Any], excitation_end: float | None) -> dict[str, Any] | None:
+    """When (``t_s``, s) and why (``why``) the run of summary `s` stopped following the motion
+    (``run_ended``: a block overturned and lies on its side, block 2 fell off block 1, for which
+    the model has no contact, or flight ended a rocking-sliding stack's run; the outputs keep their
+    values after), or the motion ended at rest after the excitation ended (`excitation_end`, s;
+    None while it goes on, 0 for none). None otherwise."""
+    if s.get("overturned") and s.get("overturn_time_s") is not None:
+        fell = s.get("overturned_blocks") or [1]
+        which = ("the block overturned" if s["blocks"] == 1 else "block 1 overturned, taking block 2 with it"
+                 if fell == [1, 2] else " and ".join(f"block {i}" for i in fell) + " overturned")
+        return {"t_s": s["overturn_time_s"], "why": f"{which} (it lies on its side from then on)", "run_ended": True}
+    upper = (s.get("per_block") or [{}, {}])[1]
+    if upper.get("fell_off") and upper.get("fell_off_time_s") is not None:
+        return {"t_s": upper["fell_off_time_s"], "why": "block 2 fell off block 1 (the model has no contact for it)",
+                "run_ended": True}
+    if s.get("final_state") == "flight":
+        return {"t_s": s["flight_time_s"], "why": "in flight (a contact would have had to pull: outside the model)",
+                "run_ended": True}
+    rest = s.get("rest_time_s")
+    if rest is not None and excitation_end is not None and excitation_end <= rest:
+        after = "" if excitation_end <= 0 else f" after the excitation ended at t = {excitation_end:.6g} s"
+        return {"t_s": rest, "why": f"at rest{after}", "run_ended": False}
+    return None
+
+
+def run_summary(found, record=None, notes: list[str] | tuple[str, ...] = ()) -> tuple[dict[str, Any], str]:
+    """summarise: the summary (what ``runners simulate --json`` prints) and the report (what it
+    prints for people) of the answer `found` (runners.engine.least_model.Answer), run on `record`
+    (runners.engine.records.SceneRecord, or None), with `notes` on the scene. Units SI."""
+    s, p = found.summary, found.parameters
+    notes = [*notes, *found.notes]
+    s.setdefault("sizes", block_sizes(p))
+    if record is not None:
+        scale = float(p["excitation.scale"])
+        if found.result is not None:
+            s.update(record.summary(scale))
+        notes += [*record.notes, *record.scaling_notes(scale)]
+    if record is not None and found.kind == "fmu":  # the record's end, which summarize does not know
+        s["record_end_s"] = float(p.get("excitation.startTime", 0.0)) + record.end
+        end = run_end(s, s["record_end_s"])
+        if end is not None:
+            s["run_end"] = end
+    if notes:
+        s["notes"] = notes
+    return s, _report(found, s)
+
+
+def _report(found, s: dict[str, Any]) -> str:
+    """The report of an answer's summary `s`, in the words of its kind; notes stay in summary["notes"]."""
+    if found.kind == "python":
+        from runners.engine.python_methods import format_python
+
+        text = format_python(found.scene.name, s, found.scene.stop_time)
+    elif found.kind == "closed form":
+        from runners.engine.least_model import format_closed_form
+
+        text = format_closed_form(found.scene.name, s["model_reason"], s)
+        if "assumptions" in s:
+            text += f"\nassumptions      {format_assumptions(s['assumptions'])}"
+    else:
+        text = format_summary({k: v for k, v in s.items() if k != "notes"})
+    if "model_sufficient" in s:  # --method auto: whether the least model holds
+        text += "\n" + model_check_line(s)
+    return text
 
 
 def _with_block1(s: dict[str, Any]) -> bool:

@@ -167,7 +167,7 @@ def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_s
     `records_spec` (runners.engine.records.select_records) or the scene's own record, scaled by
     `im_spec` (pga=START:STOP:COUNT, ...); `stop_given`: a stop time was given for this sweep.
     ValueError, before anything is stored, for combinations a record would ignore or that conflict."""
-    from runners.engine.records import prepare_scene, select_records
+    from runners.engine.records import prepare_scene, select_records, sweep_scaling_notes
 
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
@@ -210,6 +210,7 @@ def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_s
         notes.append(f"every point stops at {scene.stop_time:g} s, before {len(longer)} of the {len(refs)} records "
                      f"end (the longest at {start + max(r.end for r in longer):g} s); without a stop time each "
                      "record runs to its end plus 5 s")
+    notes += sweep_scaling_notes(refs, intensity, axes, scene.parameters)  # scaled beyond recorded motions
     return refs, intensity, notes
 
 
