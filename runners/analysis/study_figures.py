@@ -78,7 +78,7 @@ def _title_lines(oc: Outcomes, demand_of: str) -> list[str]:
     """A panel's title: what is drawn, of which runs, and the parameters the runs used."""
     at = f" at {oc.combination_text()}" if oc.combination else ""
     head = f"sweep {oc.sweep_id}{at}: {demand_of}, {oc.records_text()}, {len(oc.x)} runs"
-    return [head, *describe.describe(oc.params, oc.combination, oc.fixed, with_excitation=False)]
+    return [head, *describe.describe(oc.params, (), oc.fixed, with_excitation=False)]
 
 
 def _same_runs(cs: list[Curve]) -> list[list[Curve]]:

@@ -141,7 +141,7 @@ def map_title(fig, ax, sw: Sweep, scene, p: dict, axes: list[str], what: str, n_
 
     fixed = {k: v for k, v in fixed_axes(sw.grid).items() if k not in axes}
     lines = [f"sweep {sw.id}: {what} ({n_points} of {sw.total} points)", block_title(p),
-             f"{describe.contact(p)}; {describe.excitation(p, axes)}"
+             f"{describe.contact(p, axes)}; {describe.excitation(p, axes)}"
              + (f"; set by --grid: {describe.overrides(fixed)}" if fixed else "")]
     ax.set_title("\n".join(textwrap.fill(t, 110) for t in lines), fontsize=8.5)
     fig.text(0.01, 0.005, f"scene file's name: {scene.name!r} (the title gives the parameters the points ran with)",

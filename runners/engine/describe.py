@@ -31,13 +31,19 @@ def blocks(p: Mapping[str, Any]) -> str:
     return f"block {one(1)}"
 
 
-def contact(p: Mapping[str, Any]) -> str:
+def contact(p: Mapping[str, Any], varied: Iterable[str] = ()) -> str:
     """The contact model and the friction it uses: rocking–sliding slides at mu; rigid rocking
-    never slides, its mu only judges whether it should have (docs/contact.md)."""
+    never slides, its mu only judges whether it should have (docs/contact.md). A mu a --grid axis
+    varies (`varied`) is said to be swept."""
+    varied = set(varied)
     two = int(p.get("nBlocks", 1)) == 2
-    mu = f"mu {float(p['contact.muGround']):.3g} on the ground"
+
+    def mu_of(name: str) -> str:
+        return "swept" if name in varied else f"{float(p[name]):.3g}"
+
+    mu = f"mu {mu_of('contact.muGround')} on the ground"
     if two:
-        mu += f", {float(p['contact.muInterface']):.3g} between the blocks"
+        mu += f", {mu_of('contact.muInterface')} between the blocks"
     if int(p.get("contact.model", 0)) == 1:
         return f"rocking–sliding, {mu}"
     return f"rigid rocking ({mu}, monitored)"
@@ -89,7 +95,7 @@ def describe(p: Mapping[str, Any], varied: Iterable[str] = (), fixed: Mapping[st
              with_excitation: bool = True) -> list[str]:
     """The lines a title needs: blocks; contact model, friction and restitution; the excitation
     (with_excitation) and the one-value --grid overrides (`fixed`)."""
-    lines = [blocks(p), f"{contact(p)}; {restitution_text(p)}"]
+    lines = [blocks(p), f"{contact(p, varied)}; {restitution_text(p)}"]
     tail = []
     if with_excitation:
         tail.append(excitation(p, varied))
