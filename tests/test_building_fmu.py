@@ -66,8 +66,8 @@ class Building:
             else:
                 self.s.setReal([v.valueReference], [float(value)])
 
-    def start(self, params: dict[str, float | int | str], t0: float = 0.0) -> None:
-        self.s.setupExperiment(startTime=t0)
+    def start(self, params: dict[str, float | int | str], t0: float = 0.0, tolerance: float | None = None) -> None:
+        self.s.setupExperiment(startTime=t0, tolerance=tolerance)
         self.set(params)
         self.s.enterInitializationMode()
         self.s.exitInitializationMode()
@@ -288,6 +288,26 @@ def test_results_do_not_depend_on_the_communication_step(building_fmu, tmp_path)
     np.testing.assert_allclose(t2[::10], t1, atol=1e-12)
     scale = np.abs(coarse).max(axis=0)
     np.testing.assert_allclose(fine[::10] / scale, coarse / scale, rtol=0, atol=1e-8)
+
+
+def test_the_tighter_of_its_relative_tolerance_and_the_importers_is_used(building_fmu, tmp_path):
+    """An importer's coarse tolerance (OMSimulator passes 1e-4) leaves the run as it is; a tighter
+    one than solver.relTol is used (reading solver.relTol shows the value in use)."""
+    t_rec = np.round(np.arange(0, 101) * 0.01, 12)
+    write_record(tmp_path / "r.txt", t_rec, np.cos(2 * np.pi * 3 * t_rec))
+    params = {**structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}), "excitation.file": str(tmp_path / "r.txt")}
+    cols = names(3, "u", "v", "a")
+    runs, used = [], []
+    for tolerance in (None, 1e-4, 1e-12):
+        b = Building(building_fmu)
+        b.start(params, tolerance=tolerance)
+        used.append(float(b.get(["solver.relTol"])[0]))
+        runs.append(b.run(1.0, 0.01, cols)[1])
+        b.close()
+    assert used[0] == used[1] > 1e-12 and used[2] == 1e-12
+    assert np.array_equal(runs[0], runs[1])  # bit for bit
+    assert not np.array_equal(runs[0], runs[2])  # the tighter tolerance was used
+    np.testing.assert_allclose(runs[2], runs[0], rtol=0, atol=1e-6 * np.abs(runs[0]).max())
 
 
 def test_storeys_above_n_read_zero_and_take_no_force(building_fmu):

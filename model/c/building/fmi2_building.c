@@ -110,7 +110,9 @@ static int load_record(Instance *I) {
 static int initialize(Instance *I) {
     char msg[MSG_LEN];
     if (!I->dirty) return 0;
-    if (I->toleranceDefined) I->b.v.relTol = I->tolerance;
+    /* the tighter of solver.relTol and the importer's tolerance (as RockingBlock, docs/model.md):
+     * an importer's coarse default (OMSimulator's 1e-4) must not loosen what the user set */
+    if (I->toleranceDefined && I->tolerance < I->b.v.relTol) I->b.v.relTol = I->tolerance;
     if (building_validate(&I->b.v, msg, sizeof(msg))) {
         LOG_ERROR(I, "invalid parameter: %s", msg);
         return 1;
@@ -233,7 +235,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
         return fmi2Error;
     }
     if (toleranceDefined && !(tolerance >= BUILDING_REL_TOL_MIN && tolerance <= BUILDING_REL_TOL_MAX)) {
-        LOG_ERROR(I, "fmi2SetupExperiment: tolerance %g must be in [%g, %g] (it becomes solver.relTol)", tolerance,
+        LOG_ERROR(I, "fmi2SetupExperiment: tolerance %g must be in [%g, %g] (the tighter of it and solver.relTol is used)", tolerance,
               BUILDING_REL_TOL_MIN, BUILDING_REL_TOL_MAX);
         return fmi2Error;
     }
