@@ -83,6 +83,10 @@ def test_the_marble_study_leaves_the_runs_that_flew_out_of_its_fit_and_gives_the
                    fmu_path=fmu_path).stdout
     assert f"{n} left out (unanswered)" in text and f"{n} of 420 runs the model did not answer" in text
     assert f"counted as reaching the state: median {as_reached[0]:.4g} g" in text
+    # most of the runs that flew were already falling: a block past its stability limit before the lift-off
+    falling = sum(f and rs.fall_time is not None and rs.fall_time < rs.lift_time for (_, rs), f in zip(runs, flew))
+    assert curve["unanswered"]["falling"] == falling > n // 2
+    assert f"in {falling} of them a block was already past its stability limit" in text
     for option, expected in (("reached", as_reached), ("not-reached", as_standing)):
         doc = json.loads(run_cli("fragility", "1", "--ds", "block2:overturn", "--unanswered", option, "--json", "--out",
                                  str(tmp_path / "f.png"), db=marble, fmu_path=fmu_path).stdout)
@@ -120,6 +124,17 @@ def test_the_marble_ida_draws_the_flights_as_lower_bounds_and_leaves_them_out_of
     for r in doc["runs"]:
         rs = by_key[(r["record"], round(r["x"], 9))]
         assert r["answered"] == (rs.lift_time is None or "2" in (rs.overturned_blocks or "")), r
+    # the text's slips are those of the runs the model answered, and its overturns follow --unanswered
+    text = run_cli("ida", "1", "--out", str(tmp_path / "ida.png"), db=marble, fmu_path=fmu_path).stdout
+    answered = [rs for _, rs in runs if rs.lift_time is None or "2" in (rs.overturned_blocks or "")]
+    standing2 = [rs.block2_max_abs_slip for rs in answered if not rs.overturned_blocks and not rs.block2_fell_off]
+    assert f"block 2 on block 1: largest peak |slip| of a standing block {max(standing2):.4g} m" in text
+    records = {p["record"] for p, _ in runs}
+    over = {p["record"] for p, rs in runs if rs.overturned or rs.lift_time is not None}
+    reached = run_cli("ida", "1", "--unanswered", "reached", "--out", str(tmp_path / "ida.png"), db=marble,
+                      fmu_path=fmu_path).stdout
+    assert f"overturned       {len(over)} of {len(records)} records at some level" in reached
+    assert "the overturns above count them as overturned" in reached
     oc = study.outcome_sets(open_database(marble), 1)[0]
     fig = study_figures.ida_figure(oc, "rotation", block=2)
     main = fig.axes[1]
@@ -189,7 +204,11 @@ def test_a_one_value_grid_override_is_in_every_title_and_not_the_scene_name(temp
     from runners.analysis import study_figures
     from runners.engine import study
 
+    text = run_cli("ida", "1", "--out", str(tmp_path / "i.png"), db=db, fmu_path=fmu_path).stdout
+    assert "mu 0.3 on the ground" in text.splitlines()[1] and "set by --grid: contact.muGround = 0.3" in text
     oc = study.outcome_sets(open_database(db), 1)[0]
+    curve = study.curves(oc, ["block2:overturn"])[0].as_dict()  # (with a fit or without: the JSON's fields)
+    assert curve["fixed"] == {"contact.muGround": 0.3} and "mu 0.3 on the ground" in curve["parameters"]
     for fig in (study_figures.curves_figure(study.curves(oc, ["block2:overturn", "block1:slide>5cm"])),
                 study_figures.ida_figure(oc, "slip")):
         titles = " ".join(a.get_title(loc="left") for a in fig.axes)
@@ -303,3 +322,10 @@ def test_a_no_fit_reason_speaks_of_its_own_state():
                         slid_blocks=(slid, np.zeros(x.size, bool)))
     curve = study.curves(oc, ["block1:slides"])[0]
     assert curve.fragility is None and "overturn" not in curve.why and "block1:slides" in curve.why
+
+
+def test_a_one_value_axis_of_a_coded_parameter_is_named_by_its_name():
+    from runners.engine import describe
+
+    assert describe.overrides({"contact.model": 1.0, "contact.muGround": 0.3, "excitation.kind": 1.0}) == \
+        "contact.model = rocking-sliding, contact.muGround = 0.3, excitation.kind = sine-pulse"

@@ -380,7 +380,7 @@ def test_a_study_marks_the_runs_where_rigid_rocking_broke_first(db, fmu_path, tm
     # out by default, and what is left (no run overturned) gives no fit; it says so, and still draws
     png = tmp_path / "fragility.png"
     text = cli("fragility", "1", "--out", str(png), db=db, fmu_path=fmu_path)
-    assert text.returncode == 2 and f"{n} of 30 runs the model did not answer were left out" in text.stderr
+    assert text.returncode == 2 and f"{n} of 30 runs the model did not answer are left out" in text.stderr
     assert png.stat().st_size > 30_000
     # counted as rigid rocking ran them, the study says how many broke rigid rocking
     text = cli("fragility", "1", "--out", str(png), "--unanswered", "as-run", db=db, fmu_path=fmu_path)

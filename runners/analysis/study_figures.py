@@ -159,8 +159,9 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
             ax.axvspan(*f.median_interval, color=colour, alpha=0.06)
     per = "fractions: the runs of each level in the fit that reached the state (marker area ~ runs)"
     handles.append(Line2D([], [], ls="", marker="o", color="0.6", label=textwrap.fill(per, 60)))
-    handles.append(Patch(color=CURVE_COLOURS[0], alpha=0.25 if single else 0.12,
-                         label="95 % band of the fit" if single else "95 % band of each fit"))
+    if any(c.fragility is not None for c in cs):
+        handles.append(Patch(color=CURVE_COLOURS[0], alpha=0.25 if single else 0.12,
+                             label="95 % band of the fit" if single else "95 % band of each fit"))
     if extrapolated:
         handles.append(Line2D([], [], color="0.3", ls="--", lw=1.6,
                               label="dashed: beyond the intensities run (extrapolated)"))
@@ -179,15 +180,17 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
         n_all = np.array([g.size for g in groups_all])
         width = 0.6 * float(np.min(np.diff(xs_all))) if xs_all.size > 1 else 0.05 * grid.max()
         strip.bar(xs_all, b, width=width, color=BROKE_COLOUR, edgecolor="k", lw=0.4)
-        strip.set_ylim(0, max(1.25 * int(b.max()), 1))
+        strip.set_ylim(0, min(max(1.25 * int(b.max()), 1), 1.05 * int(n_all.max())))
         strip.set_xlim(ax.get_xlim())
         per = f"{int(n_all.min())}" if n_all.min() == n_all.max() else f"{int(n_all.min())}-{int(n_all.max())}"
         strip.set_ylabel(f"runs\n(of {per})", fontsize=7)
-        strip.yaxis.set_major_locator(MaxNLocator(integer=True))
+        strip.yaxis.set_major_locator(MaxNLocator(integer=True, nbins=3))
         treatment = {c.unanswered for c in cs}.pop() if len({c.unanswered for c in cs}) == 1 else "omit"
         handles.append(Patch(facecolor=BROKE_COLOUR, edgecolor="k", lw=0.4, label=textwrap.fill(
-            f"lower strip: runs per level the model did not answer ({oc.n_broke} of {len(oc.x)}: "
-            f"{oc.unanswered_words()}); {UNANSWERED[treatment]}", 60)))
+            f"lower strip: runs per level whose model broke first ({oc.n_broke} of {len(oc.x)}: "
+            f"{oc.unanswered_words()}); those that had not reached a state before it are "
+            + ("left out of its fit" if treatment == "omit" else
+               f"{UNANSWERED[treatment].replace('the state', 'it')} in its fit (--unanswered)"), 60)))
         strip.set_xlabel(f"{oc.label} ({oc.unit})")
         ax.tick_params(labelbottom=False)
     else:
@@ -261,7 +264,8 @@ def curves_figure(cs: list[Curve]):
         if c.fragility is None:
             foot.append((f"no fit, {c.state.spec}{at}: {c.why}", WARNING_COLOUR))
     methods = list(dict.fromkeys(c.fragility.interval_method for c in cs if c.fragility is not None))
-    foot += [("curves: lognormal, maximum likelihood (Baker 2015); intervals: " + "; ".join(methods), "0.35")]
+    if methods:
+        foot += [("curves: lognormal, maximum likelihood (Baker 2015); intervals: " + "; ".join(methods), "0.35")]
     if any(state_notes(c.state, c.outcomes) for c in cs):
         foot.append(("block 1 states: where block 2 overturned or fell off first the run ended there "
                      "(docs/two_blocks.md, docs/stack_sliding.md), so they count block 1 reaching the state before "

@@ -34,8 +34,10 @@ from runners.engine.sweep import Axis, scales
 
 # the axes of every overturning map (Dimitrakopoulos & DeJong 2012's dimensionless groups)
 FREQUENCY = "omega_g / p (pulse over block frequency)"
-AMPLITUDE = ("a_g / (g tan alpha)   (1 = uplift)\nDimitrakopoulos & DeJong (2012)'s a_g / (g alpha) "
-             "for a slender block")
+AMPLITUDE = "a_g / (g tan alpha)   (1 = uplift)"
+# the foot of a map with that axis: how it relates to the closed forms' amplitude
+AMPLITUDE_NOTE = ("a_g / (g tan alpha) tends to Dimitrakopoulos & DeJong (2012)'s a_g / (g alpha) for a slender block; "
+                  "their closed-form curves are converted by alpha / tan(alpha)")
 
 REGIONS = ["safe", "overturns after impact(s)", "overturns without impact", "failed"]
 COLOURS = ["#b8e0b0", "#f6c9c9", "#c9d7f3", "#888888"]
@@ -144,9 +146,11 @@ def map_title(fig, ax, sw: Sweep, scene, p: dict, axes: list[str], what: str, n_
              f"{describe.contact(p, axes)}; {describe.excitation(p, axes)}"
              + (f"; set by --grid: {describe.overrides(fixed)}" if fixed else "")]
     ax.set_title("\n".join(textwrap.fill(t, 110) for t in lines), fontsize=8.5)
-    fig.text(0.01, 0.005, f"scene file's name: {scene.name!r} (the title gives the parameters the points ran with)",
-             fontsize=6.5, color="0.35")
-    fig.tight_layout(rect=(0, 0.02, 1, 1))
+    foot = f"scene file's name: {scene.name!r} (the title gives the parameters the points ran with)"
+    if "a" in axes:
+        foot = f"{AMPLITUDE_NOTE}\n{foot}"
+    fig.text(0.01, 0.005, foot, fontsize=6.5, color="0.35")
+    fig.tight_layout(rect=(0, 0.015 * (foot.count("\n") + 1.5), 1, 1))
 
 
 def drawn_axes(sw: Sweep) -> list[str]:

@@ -200,14 +200,11 @@ def cmd_fragility(args: argparse.Namespace) -> int:
     cs = study.curves(sets, args.ds, args.unanswered)
     study_figures.plot_curves(out, cs)
     if all(c.fragility is None for c in cs):  # still show what was observed
-        left = [c for c in cs if c.n_unanswered and c.unanswered == "omit"]
-        also = (f"; {left[0].n_unanswered} of {len(left[0].reached)} runs the model did not answer were left out "
-                "(--unanswered reached, not-reached or as-run counts them)" if left else "")
         if len(cs) == 1:
             raise FragilityError(f"{cs[0].why} (the fractions {'overturned' if args.ds is None else 'reached'} are "
-                                 f"drawn in {out}){also}")
+                                 f"drawn in {out})")
         raise FragilityError(f"none of the {len(cs)} curves has a fit ({cs[0].state.spec}: {cs[0].why}); the "
-                             f"fractions reached are drawn in {out}{also}")
+                             f"fractions reached are drawn in {out}")
     if args.json:
         doc = {**_head(sets), "damage_states": list(dict.fromkeys(c.state.spec for c in cs)),
                "curves": [c.as_dict() for c in cs], "figure": str(out)}

@@ -86,9 +86,17 @@ def excitation(p: Mapping[str, Any], varied: Iterable[str] = ()) -> str:
     return f"{name}, amplitude {amp}, frequency {freq}{many}{vert}"
 
 
+NAMED = {"contact.model": {0: "rigid-rocking", 1: "rocking-sliding"}, "excitation.kind": KIND_NAMES}
+
+
 def overrides(fixed: Mapping[str, float]) -> str:
-    """The parameters a one-value --grid axis set, as the sweep spelt them ('' when none)."""
-    return ", ".join(f"{k} = {v:g}" for k, v in fixed.items())
+    """The parameters a one-value --grid axis set ('' when none); a code by its name
+    (contact.model = rocking-sliding, not 1)."""
+    def shown(k: str, v: float) -> str:
+        name = NAMED.get(k, {}).get(int(v)) if float(v).is_integer() else None
+        return name or f"{v:g}"
+
+    return ", ".join(f"{k} = {shown(k, v)}" for k, v in fixed.items())
 
 
 def describe(p: Mapping[str, Any], varied: Iterable[str] = (), fixed: Mapping[str, float] | None = None,

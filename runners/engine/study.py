@@ -87,6 +87,9 @@ class Outcomes:
     # s per run, NaN for none: the first sliding and the first lift-off (None: not monitored)
     slide_t: np.ndarray | None = None
     lift_t: np.ndarray | None = None
+    # s per run, NaN for none: the last time every block was within its stability limit before a
+    # fall (the FMU's fallTime), None where not stored
+    fall_t: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.over1 is None:
@@ -108,6 +111,25 @@ class Outcomes:
             who = "a contact" if self.two else "the block"
             return f"{who} lifted off first, into flight outside the rocking–sliding model"
         return "a contact slid or lifted off first, outside rigid rocking"
+
+    @property
+    def falling(self) -> np.ndarray:
+        """Bool per run: the model broke while a block was past its stability limit, in a fall
+        (its fallTime, the last time every block was within its limit, before the break). Such a
+        run is still unanswered (a block past its limit can come back), but it leans towards
+        overturning: the text says how many."""
+        if self.broke is None or self.fall_t is None or self.lift_t is None:
+            return np.zeros(len(self.x), bool)
+        with np.errstate(invalid="ignore"):
+            return np.asarray(self.broke, bool) & (self.fall_t < self.lift_t)
+
+    def parameters_text(self) -> str:
+        """The contact model, its mu, the restitution and any one-value --grid override, from
+        the parameters the runs used (runners.engine.describe)."""
+        from runners.engine import describe
+
+        text = f"{describe.contact(self.params)}; {describe.restitution_text(self.params)}"
+        return text + (f"; set by --grid: {describe.overrides(self.fixed)}" if self.fixed else "")
 
     @property
     def ends_at_break(self) -> bool:
@@ -381,6 +403,7 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
             oc.slid = np.array([r.summary.slide_time is not None for r in mine])
             oc.slide_t = np.array([np.nan if r.summary.slide_time is None else r.summary.slide_time for r in mine])
             oc.lift_t = np.array([np.nan if r.summary.lift_time is None else r.summary.lift_time for r in mine])
+            oc.fall_t = np.array([np.nan if r.summary.fall_time is None else r.summary.fall_time for r in mine])
         if all(r.summary.motion is not None for r in mine):  # rocking–sliding runs
             oc.slip = np.array([r.summary.max_abs_slip for r in mine], dtype=float)
             oc.motion = [r.summary.motion for r in mine]
@@ -714,7 +737,9 @@ class Curve:
                "runs_in_fit": int(used.sum()), "reached_in_fit": int((counted & used).sum()),
                "records": len(set(oc.record)), "failed": oc.failed, "uplift_threshold": oc.uplift_threshold(),
                "rigid_rocking_broke": None if oc.broke is None else oc.n_broke,
+               "parameters": oc.parameters_text(), "fixed": oc.fixed,
                "unanswered": {"runs": self.n_unanswered, "why": oc.unanswered_words() if self.n_unanswered else None,
+                              "falling": int(np.sum(oc.falling & ~self.answered)),
                               "treatment": self.unanswered, "treatment_words": UNANSWERED[self.unanswered],
                               "fits": {t: ({"median": f.median, "beta": f.beta} if isinstance(f, Fragility)
                                            else {"median": None, "beta": None, "why": f})
@@ -743,7 +768,9 @@ def _fit_treated(oc: Outcomes, ds: DamageState, reached: np.ndarray, answered: n
     try:
         return fit(oc.x[used], y[used], np.array(oc.record)[used], oc.unit, Words.of(ds.spec))
     except FragilityError as exc:
-        return str(exc)
+        left = int(np.sum(~np.asarray(answered, bool))) if unanswered == "omit" else 0
+        return str(exc) + (f"; {left} of {len(oc.x)} runs the model did not answer are left out of it, and may be "
+                           "what is missing (--unanswered reached, not-reached or as-run counts them)" if left else "")
 
 
 def curves(sets: list[Outcomes] | Outcomes, states: list[str] | str | None = None,
@@ -874,25 +901,38 @@ def _unanswered_records(oc: Outcomes) -> list[str]:
     return list(dict.fromkeys(r for r, b in zip(oc.record, oc.broke) if b))
 
 
-def first_overturn(oc: Outcomes) -> dict[str, float | None]:
-    """Per record: the smallest intensity at which the block overturned (None if it never did)."""
+def overturns(oc: Outcomes, unanswered: str = "omit") -> tuple[np.ndarray, np.ndarray]:
+    """(the runs that count, whether each counts as overturned: either block) with the runs the
+    model did not answer treated as `unanswered` says (treated; a run of a rocking–sliding stack
+    that overturned before it ended in flight is answered)."""
+    over = np.asarray(oc.overturned, bool)
+    answered = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
+    if oc.ends_at_break:
+        answered |= over
+    return treated(over, answered, check_unanswered(unanswered))
+
+
+def first_overturn(oc: Outcomes, unanswered: str = "omit") -> dict[str, float | None]:
+    """Per record: the smallest intensity at which the block overturned (None if it never did),
+    among the runs that count under `unanswered` (overturns)."""
+    keep, over = overturns(oc, unanswered)
     out: dict[str, float | None] = {}
     for name in dict.fromkeys(oc.record):
         sel = np.array([r == name for r in oc.record])
-        fell = oc.x[sel & oc.overturned]
+        fell = oc.x[sel & keep & over]
         out[name] = float(fell.min()) if fell.size else None
     return out
 
 
-def resurrections(oc: Outcomes) -> list[str]:
+def resurrections(oc: Outcomes, unanswered: str = "omit") -> list[str]:
     """Records that overturn the block at some intensity but not at a higher one (rocking is not
-    monotonic in intensity), among the runs the model answered (a run it did not answer says
-    nothing about whether the block stood)."""
-    answered = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
+    monotonic in intensity), among the runs that count under `unanswered` (overturns; left out by
+    default: a run the model did not answer says nothing about whether the block stood)."""
+    keep, over = overturns(oc, unanswered)
     out = []
     for name in dict.fromkeys(oc.record):
-        sel = np.array([r == name for r in oc.record]) & answered
-        xs, fell = oc.x[sel], oc.overturned[sel]
+        sel = np.array([r == name for r in oc.record]) & keep
+        xs, fell = oc.x[sel], over[sel]
         order = np.argsort(xs)
         f = fell[order]
         if f.any() and not f[np.argmax(f):].all():
@@ -976,8 +1016,11 @@ def by_combination(cs: list[Curve]) -> list[list[Curve]]:
 
 
 def _header(oc: Outcomes) -> str:
+    """The first lines of a study's text: the sweep, its scene's name and the combination, the
+    blocks, and the parameters the runs used (a one-value --grid override included)."""
     at = f" at {oc.combination_text()}" if oc.combination else ""
-    return f"sweep {oc.sweep_id}: {oc.scene}{at}; {oc.block_text()}"
+    return (f"sweep {oc.sweep_id}: {oc.scene}{at}; {oc.block_text()}\n"
+            f"parameters       {oc.parameters_text()}")
 
 
 def _context(oc: Outcomes) -> list[str]:
@@ -1008,7 +1051,10 @@ def unanswered_line(c: Curve) -> str | None:
     oc, u = c.outcomes, c.outcomes.unit
     alt = "; ".join(f"{UNANSWERED[t]}: median {g.median:.4g} {u}, beta {g.beta:.3g}" if isinstance(g, Fragility)
                     else f"{UNANSWERED[t]}: no fit" for t, g in c.others.items())
-    return (f"{c.n_unanswered} of {len(oc.x)} runs the model did not answer ({oc.unanswered_words()}), "
+    falling = int(np.sum(oc.falling & ~c.answered))
+    lean = (f"; in {falling} of them a block was already past its stability limit, falling, when the model "
+            "stopped (it may still have come back)" if falling else "")
+    return (f"{c.n_unanswered} of {len(oc.x)} runs the model did not answer ({oc.unanswered_words()}{lean}), "
             f"{UNANSWERED[c.unanswered]}" + (f" (--unanswered); {alt}" if alt else ""))
 
 
@@ -1085,15 +1131,20 @@ def slip_text(oc: Outcomes) -> str | None:
     the largest peak |slip| of a standing block, and the motion classes (of each block of a stack)."""
     if oc.slip is None:
         return None
+    answered = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
+    n = int(np.sum(~answered))
+    tail = (f" (the classes count what the {n} runs the model did not answer did before it broke; the largest slips "
+            "are of the runs it answered)" if n else "")
     if oc.two and oc.slip2 is not None:
-        return "; ".join(_slip_words(f"block {i}{' on the ground' if i == 1 else ' on block 1'}", slips, gone, kinds)
+        return "; ".join(_slip_words(f"block {i}{' on the ground' if i == 1 else ' on block 1'}", slips, gone, kinds,
+                                     answered)
                          for i, slips, gone, kinds in ((1, oc.slip, oc.over1, oc.motion),
-                                                       (2, oc.slip2, oc.gone2, oc.motion2)))
-    return _slip_words("", oc.slip, oc.overturned, oc.motion)
+                                                       (2, oc.slip2, oc.gone2, oc.motion2))) + tail
+    return _slip_words("", oc.slip, oc.overturned, oc.motion, answered) + tail
 
 
-def _slip_words(who: str, slip, gone, motion: list[str]) -> str:
-    slips = np.asarray(slip, float)[~np.asarray(gone, bool)]
+def _slip_words(who: str, slip, gone, motion: list[str], answered: np.ndarray) -> str:
+    slips = np.asarray(slip, float)[~np.asarray(gone, bool) & answered]
     kinds = {m: motion.count(m) for m in dict.fromkeys(motion)}
     head = f"{who}: " if who else ""
     big = (f"largest peak |slip| of a standing block {slips.max():.4g} m" if slips.size else
@@ -1104,12 +1155,13 @@ def _slip_words(who: str, slip, gone, motion: list[str]) -> str:
 def format_ida(oc: Outcomes, unanswered: str = "omit") -> str:
     """The IDA of `oc` for people (runners ida): per record the first overturning intensity, each
     block's counts, the runs the model did not answer and how the median treats them."""
-    first = first_overturn(oc)
-    back = resurrections(oc)
+    first = first_overturn(oc, unanswered)
+    back = resurrections(oc, unanswered)
     fell = [v for v in first.values() if v is not None]
     at = f" at {oc.combination_text()}" if oc.combination else ""
     lines = [f"IDA of sweep {oc.sweep_id}: {oc.scene}{at}; {oc.block_text()}; {len(first)} records, "
              f"{len(oc.x)} runs",
+             f"parameters       {oc.parameters_text()}",
              f"overturned       {len(fell)} of {len(first)} records at some level"
              + (f"; the first overturning {oc.label} of those: median {np.median(fell):.4g} {oc.unit}, range "
                 f"{min(fell):.4g}-{max(fell):.4g}" if fell else "")]
@@ -1124,14 +1176,19 @@ def format_ida(oc: Outcomes, unanswered: str = "omit") -> str:
     open_ = _unanswered_records(oc)
     never = [name for name, v in first.items() if v is None]
     if never:
-        doubt = [n for n in never if n in open_]
+        doubt = [n for n in never if n in open_] if unanswered == "omit" else []
         lines.append(f"never overturned {', '.join(never)}" + ("" if not doubt else
                      f" (in the runs the model answered: it did not answer some runs of {', '.join(doubt)})"))
     if open_:
         n = int(np.sum(oc.broke)) if oc.broke is not None else 0
-        lines.append(f"unanswered       {n} of {len(oc.x)} runs the model did not answer ({oc.unanswered_words()}), "
+        falling = int(np.sum(oc.falling))
+        lean = (f"; in {falling} of them a block was already past its stability limit, falling, when the model "
+                "stopped" if falling else "")
+        lines.append(f"unanswered       {n} of {len(oc.x)} runs the model did not answer ({oc.unanswered_words()}{lean}), "
                      f"on {len(open_)} records: drawn as lower bounds (open markers, the record's line broken there), "
-                     f"{IDA_UNANSWERED[unanswered]} (--unanswered)")
+                     f"{IDA_UNANSWERED[unanswered]}; the overturns above count them "
+                     f"{ {'omit': 'out', 'reached': 'as overturned', 'not-reached': 'as standing', 'as-run': 'as run'}[unanswered]} "
+                     "(--unanswered)")
     if back:
         lines.append(f"not monotonic    {len(back)} records overturn the block at one level but not at a higher "
                      f"one (rocking is not monotonic in intensity): {', '.join(back)}")
