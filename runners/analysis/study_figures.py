@@ -142,7 +142,7 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
         f = c.fragility
         # the first curves wider, their markers larger: a curve close to a later one still shows around it
         later = len(lines) - 1 - i
-        wide = 1.0 + 0.5 * later
+        wide = 1.0 + 0.9 * later
         if f is not None:
             extrapolated |= _draw_fit(ax, c, grid, colour, 0.25 if single else 0.12, 2.0 * wide)
         ax.scatter(xs, k / n, s=(12 + 60 * n / max(n.max(), 1)) * (1 + 0.2 * later) ** 2, color=colour, zorder=3,
