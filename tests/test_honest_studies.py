@@ -329,3 +329,50 @@ def test_a_one_value_axis_of_a_coded_parameter_is_named_by_its_name():
 
     assert describe.overrides({"contact.model": 1.0, "contact.muGround": 0.3, "excitation.kind": 1.0}) == \
         "contact.model = rocking-sliding, contact.muGround = 0.3, excitation.kind = sine-pulse"
+
+
+def test_a_study_whose_model_answered_no_run_and_one_whose_runs_all_failed_say_so(template, fmu_path, fmu,  # noqa: F811
+                                                                                 tmp_path):
+    from runners.engine import records as records_lib
+    from runners.engine.grid import parse_intensity
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import create_sweep, record_refs, run_sweep
+
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    shutil.copy(template, tmp_path / "s.db")
+    scene = tmp_path / "slippery.toml"  # mu 0.05: every run slides before anything is decided
+    scene.write_text('name = "slippery"\n[block]\nhalf_width = 0.2\nhalf_height = 0.5\nmass = 100\n'
+                     "[contact]\nmu_ground = 0.05\n")
+    assert run_cli("sweep", str(scene), "--records", "1,2,3", "--im", "pga=0.3:1:3", "--quiet", db=db,
+                   fmu_path=fmu_path).returncode == 0
+    out = tmp_path / "f.png"
+    p = run_cli("fragility", "1", "--out", str(out), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "the model answered none of the 9 runs" in p.stderr and p.stderr.count("\n") == 1
+    assert "--unanswered" in p.stderr and "rocking-sliding" in p.stderr and out.stat().st_size > 10_000
+    # a sweep whose every point failed (made below the command line's checks): no "not run yet"
+    factory = open_database(db)
+    sc = load_scene(scene)
+    sc.parameters.update({"excitation.kind": 4, "block1.halfWidth": -1.0})
+    with factory() as session:
+        refs = record_refs(session, [r.id for r in records_lib.select_records(factory, "1,2")])
+    sid = create_sweep(factory, sc, [], fmu.defaults(), refs, parse_intensity("pga=0.3:0.6:2"))
+    run_sweep(factory, sid, fmu_path, workers=1, progress=False)
+    p = run_cli("fragility", str(sid), "--out", str(out), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and f"every one of the 4 runs of sweep {sid} failed" in p.stderr
+
+
+def test_ida_of_block_two_on_an_nblocks_axis_and_figure_names_say_what_to_do(template, fmu_path, tmp_path):  # noqa: F811
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    shutil.copy(template, tmp_path / "s.db")
+    scene = tmp_path / "plinth.toml"
+    scene.write_text('name = "statue on plinth"\n[block]\nhalf_width = 0.15\nhalf_height = 0.5\nmass = 300\n'
+                     "[block2]\nhalf_width = 0.15\nhalf_height = 0.4\nmass = 80\n")
+    assert run_cli("sweep", str(scene), "--records", "1,2", "--im", "pga=0.3:1.3:3", "--grid", "nBlocks=1:2:2",
+                   "--quiet", db=db, fmu_path=fmu_path).returncode == 0
+    p = run_cli("ida", "1", "--block", "2", "--out", str(tmp_path / "i.png"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "--select nBlocks=2" in p.stderr
+    # a figure's name sets its format: .png, .pdf or .svg, refused otherwise before any work
+    p = run_cli("ida", "1", "--select", "nBlocks=2", "--out", str(tmp_path / "figx"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 2 and "figx.png" in p.stderr and not list(tmp_path.glob("figx*"))
+    p = run_cli("ida", "1", "--select", "nBlocks=2", "--out", str(tmp_path / "i.pdf"), db=db, fmu_path=fmu_path)
+    assert p.returncode == 0 and (tmp_path / "i.pdf").read_bytes().startswith(b"%PDF")

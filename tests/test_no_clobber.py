@@ -34,7 +34,7 @@ def test_every_output_file_option_is_declared_and_every_declared_argument_exists
         for dest, _ in (*reads, *writes):
             assert dest in dests, f"runners {name} declares {dest}, which it does not have"
         declared = {d for d, _ in writes}
-        outputs = {a.dest for a in p._actions if a.type is cli_args.output_file}
+        outputs = {a.dest for a in p._actions if a.type in (cli_args.output_file, cli_args.figure_file)}
         assert outputs <= declared, f"runners {name}: {outputs - declared} write files but are not declared"
         if any(a.dest == "db" for a in p._actions) and outputs:
             assert declared, name
@@ -67,7 +67,7 @@ CASES = [
     (["simulate", "scene.toml", "--out", "scene.toml"], "--out scene.toml is the scene file"),
     (["simulate", "scene.toml", "--out", "r.db", "--db", "r.db"], "--out r.db is the database"),
     (["simulate", "scene.toml", "--out", "r.db", "--db", "sqlite:///r.db"], "--out r.db is the database"),
-    (["map", "latest", "--out", "r.db", "--db", "r.db"], "--out r.db is the database"),
+    (["map", "latest", "--out", "m.png", "--db", "m.png"], "--out m.png is the database"),
     (["fragility", "1", "--out", "x.png", "--db", "sqlite:///x.png"], "--out x.png is the database"),
     (["ida", "1", "--out", "x.png", "--db", "x.png"], "--out x.png is the database"),
     (["export", "1", "--out", "r.db", "--db", "r.db"], "--out r.db is the database"),

@@ -145,9 +145,9 @@ def _panel(ax, strip, cs: list[Curve]) -> None:
         wide = 1.0 + 0.9 * later
         if f is not None:
             extrapolated |= _draw_fit(ax, c, grid, colour, 0.25 if single else 0.12, 2.0 * wide)
-        ax.scatter(xs, k / n, s=(12 + 60 * n / max(n.max(), 1)) * (1 + 0.2 * later) ** 2, color=colour, zorder=3,
-                   marker=marker,
-                   edgecolor="k", lw=0.4)
+        if n.size:  # (none where the model answered no run)
+            ax.scatter(xs, k / n, s=(12 + 60 * n / max(n.max(), 1)) * (1 + 0.2 * later) ** 2, color=colour, zorder=3,
+                       marker=marker, edgecolor="k", lw=0.4)
         names = " = ".join(s.label for s in same)
         same_note = " (the same runs reach each)" if len(same) > 1 else ""
         fitted = (f"median {f.median:.3g} {oc.unit} (95 %: {f.median_interval[0]:.3g} to "

@@ -234,3 +234,19 @@ def files(p: argparse.ArgumentParser, reads: tuple = (), writes: tuple = ()) -> 
         return dest, given or "--" + dest.replace("_", "-")  # an option common() adds later (--fmu)
 
     p.set_defaults(_files=([entry(d) for d in reads], [entry(d) for d in writes]))
+
+
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")  # what a figure may be written as (matplotlib's formats for reports)
+
+
+def figure_file(text: str):
+    """A figure to write: an output file (output_file) named .png, .pdf or .svg, which sets its
+    format; any other name is refused before any work (matplotlib would add .png to a name without
+    one, or refuse the format after the work)."""
+    from pathlib import Path
+
+    path = output_file(text)
+    if Path(path).suffix.lower() not in FIGURE_SUFFIXES:
+        raise argparse.ArgumentTypeError(f"{text!r}: a figure is written as {', '.join(FIGURE_SUFFIXES)}: give a "
+                                         f"file name ending in one of them (e.g. {Path(text).stem or 'figure'}.png)")
+    return path

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from runners.cli import output
-from runners.cli.args import common, files, object_id, output_file, renamed
+from runners.cli.args import common, figure_file, files, object_id, output_file, renamed
 from runners.cli.output import emit_json
 
 if TYPE_CHECKING:
@@ -372,9 +372,9 @@ def add_parser(sub) -> None:
     cmp_.add_argument("run", type=object_id, metavar="RUN_ID", help="run id (or 'latest')")
     cmp_.add_argument("measurement", type=object_id, metavar="MEASUREMENT_ID", help="measurement id (or 'latest')")
     cmp_.add_argument("--block", type=int, choices=[1, 2], default=1, help="which block's theta (default 1)")
-    cmp_.add_argument("--out", type=output_file, metavar="PNG",
+    cmp_.add_argument("--out", type=figure_file, metavar="PNG",
                       help="draw both in this figure, with the measurement's uncertainty")
-    renamed(cmp_, "--plot", "--out", dest="out", type=output_file)
+    renamed(cmp_, "--plot", "--out", dest="out", type=figure_file)
     cmp_.add_argument("--recording", type=output_file, metavar="RRD",
                       help="also write the run's Rerun recording with the measurement overlaid to this file")
     renamed(cmp_, "--rrd", "--recording", dest="recording", type=output_file)

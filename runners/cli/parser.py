@@ -19,8 +19,8 @@ import sys
 from pathlib import Path
 
 from runners.cli import clobber, output
-from runners.cli.args import (Once, Parser, common, count, files, finite, folder, object_id, output_file,
-                              output_folders, positive, renamed, tolerance)
+from runners.cli.args import (Once, Parser, common, count, figure_file, files, finite, folder, object_id,
+                              output_file, output_folders, positive, renamed, tolerance)
 
 PYTHON_METHODS = ["scipy", "rk4", "rk4-located", "newmark", "euler"]
 
@@ -174,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--by", choices=("outcome", "mode", "slip"), default="outcome",
                     help="outcome: safe or overturns (default); mode: what the block does, rests, slides, rocks, "
                          "slide-rocks or overturns; slip: peak |slip| in m (mode and slip: rocking-sliding sweeps)")
-    mp.add_argument("--out", type=output_file, metavar="PNG",
+    mp.add_argument("--out", type=figure_file, metavar="PNG",
                     help="figure to write (default: overturning_map.png, mode_map.png or slip_map.png)")
     common(mp, db=True)
     files(mp, writes=["out"])

@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 
 from runners.cli import output
-from runners.cli.args import Once, common, files, object_id, output_file, renamed
+from runners.cli.args import Once, common, figure_file, files, object_id, output_file, renamed
 from runners.cli.output import emit_json, note
 
 
@@ -291,9 +291,9 @@ def add_parser(sub) -> None:
     ls.set_defaults(func=cmd_list)
     sh = rsub.add_parser("show", help="one record: provenance and intensity measures")
     sh.add_argument("record", metavar="RECORD", help="record name or id")
-    sh.add_argument("--out", type=output_file, metavar="PNG",
+    sh.add_argument("--out", type=figure_file, metavar="PNG",
                     help="also draw its acceleration, velocity and displacement in this figure")
-    renamed(sh, "--plot", "--out", dest="out", type=output_file)
+    renamed(sh, "--plot", "--out", dest="out", type=figure_file)
     files(sh, writes=["out"])
     sh.set_defaults(func=cmd_show)
     ex = rsub.add_parser("export", help="write a stored record as a record file the FMU reads")
@@ -311,7 +311,8 @@ def add_parser(sub) -> None:
         st.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
         st.add_argument("--im", default="pga", action=Once,
                         help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
-        st.add_argument("--out", type=output_file, metavar="PNG", help=f"figure (default {name}-SWEEP_ID.png)")
+        st.add_argument("--out", type=figure_file, metavar="PNG",
+                        help=f"figure, .png, .pdf or .svg (default {name}-SWEEP_ID.png)")
         st.add_argument("--select", action="append", metavar="NAME=VALUE",
                         help="only the runs with this value of a --grid axis of the sweep (repeat for several "
                              "axes); without it each combination of the axes' values gets its own curve")

@@ -372,6 +372,9 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
     combos = _choose(sw.id, axes, parse_select(select))
     expected = sw.total // math.prod(len(v) for _, v in axes)  # points per combination
     ok = [r for r in runs if r.status == "ok" and r.summary is not None]
+    if not ok and runs and len(runs) >= sw.total:  # every point ran, and failed
+        raise StudyError(f"every one of the {len(runs)} runs of sweep {sw.id} failed (their errors: runners db list "
+                         f"runs --sweep {sw.id})")
     if not ok:
         raise StudyError(f"sweep {sw.id} has no finished runs yet (runners sweep {sw.id})")
     factor = DISPLAY[measure][2]
@@ -636,7 +639,7 @@ def one_block(oc: Outcomes) -> str:
     one-block value of an nBlocks grid axis (then how to pick the stacks)."""
     if "nBlocks" in oc.combination:
         return (f"sweep {oc.sweep_id}'s runs at nBlocks = {oc.combination['nBlocks']:g} have one block: select the "
-                "stacks (--select nBlocks=2) for a block-2 state")
+                "stacks (--select nBlocks=2) for block 2")
     return "the scene has one block (block1 or no prefix)"
 
 
@@ -764,7 +767,10 @@ def _fit_treated(oc: Outcomes, ds: DamageState, reached: np.ndarray, answered: n
     """The fit of damage state `ds` with the unanswered runs treated as `unanswered`, or why there is none."""
     used, y = treated(reached, answered, unanswered)
     if not used.any():
-        return f"the model answered none of the {len(oc.x)} runs for {ds.spec} ({oc.unanswered_words()})"
+        other = ("" if oc.sliding else "; the rocking–sliding model (contact.model = rocking-sliding) answers the "
+                 "runs that slide")
+        return (f"the model answered none of the {len(oc.x)} runs for {ds.spec} ({oc.unanswered_words()}): "
+                f"--unanswered reached, not-reached or as-run counts them{other}")
     try:
         return fit(oc.x[used], y[used], np.array(oc.record)[used], oc.unit, Words.of(ds.spec))
     except FragilityError as exc:
@@ -965,7 +971,10 @@ def check_block(block: int | str | None, sets: list[Outcomes]) -> int | None:
         b = 0
     if b not in (1, 2):
         raise StudyError(f"--block {block!r}: expected 1 (the lower block, on the ground) or 2 (the upper block)")
-    if b == 2 and not sets[0].two:
+    one = [o for o in sets if not o.two]
+    if b == 2 and one:
+        if "nBlocks" in one[0].combination:
+            raise StudyError(f"--block 2: {one_block(one[0])}")
         raise StudyError(f"--block 2: sweep {sets[0].sweep_id} has one block (--block 1 or no --block)")
     return b
 
