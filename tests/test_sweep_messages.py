@@ -64,6 +64,51 @@ def sweep_ids(db: str) -> list[int]:
         return [i for (i,) in conn.execute("SELECT id FROM sweeps ORDER BY id")]
 
 
+# ------------------------------------------------ G: a record sweep's every corner refused
+
+@pytest.mark.parametrize("scene,axis", [("statue.toml", "block1.halfWidth=-1:-0.5:2"),
+                                        ("marble_statue_on_plinth.toml", "contact.muInterface=-1:-0.5:2")])
+def test_a_record_sweep_whose_every_corner_is_refused_stores_nothing(scene, axis, pulses, db, fmu_path):
+    p = run_cli("sweep", str(EX / scene), "--records", str(pulses), "--im", "pga=0.3:0.6:2", "--grid", axis,
+                "--stop-time", "0.5", db=db, fmu_path=fmu_path)
+    line = one_line_error(p)
+    name = axis.partition("=")[0]
+    assert line.startswith(f"error: every corner of the grid is refused, e.g. grid point 0 ({name} = -1): ")
+    assert "must be > 0" in line and sweep_ids(db) == []
+
+
+def test_a_record_sweep_with_some_corners_refused_is_noted_and_runs(pulses, db, fmu_path):
+    notes: list[str] = []
+    sw = runners.sweep(EX / "statue.toml", ["block1.halfWidth=-0.1:0.125:2"], records=pulses, im="pga=0.3:0.6:2",
+                       stop_time=0.5, workers=1, db=db, fmu=fmu_path, on_note=notes.append)
+    (refused,) = [n for n in notes if "corners are refused" in n]
+    # 2 records x 2 levels x 2 widths: the grid point named is the first record's at the first level
+    assert refused.startswith("1 of the grid's 2 corners are refused by the FMU (their points are stored as "
+                              "errors), e.g. grid point 0 (block1.halfWidth = -0.1)")
+    assert sw.stats["stored"] == 8 and sw.stats["errors"] == 4
+
+
+# ------------------------------------------------ M: a pulse sweep where nothing can move
+
+def test_a_pulse_sweep_below_the_threshold_of_motion_everywhere_is_noted(db, fmu_path):
+    one = runners.simulate(EX / "sine_pulse.toml", excitation__amplitude=0.5, stop_time=0.2, fmu=fmu_path)
+    (simulate_note,) = one.summary["notes"]
+    p = run_cli("sweep", str(EX / "sine_pulse.toml"), "--grid", "excitation.amplitude=0.1:0.5:5", "--stop-time",
+                "0.5", "--workers", "1", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    assert notes_of(p.stderr) == [f"no point of the grid can move, e.g. grid point 4 (its largest amplitude): "
+                                  f"{simulate_note}"]
+    # with a w axis too, and from the API; no note once the grid's largest amplitude can move the block
+    notes: list[str] = []
+    runners.sweep(EX / "sine_pulse.toml", ["w=2:4:2", "excitation.amplitude=-0.5:0.3:2"], stop_time=0.5,
+                  workers=1, db=db, fmu=fmu_path, on_note=notes.append)
+    assert notes == [f"no point of the grid can move, e.g. grid point 0 (its largest amplitude): {simulate_note}"]
+    notes.clear()
+    runners.sweep(EX / "sine_pulse.toml", ["excitation.amplitude=0.1:5:3"], stop_time=0.5, workers=1, db=db,
+                  fmu=fmu_path, on_note=notes.append)
+    assert notes == []
+
+
 # ------------------------------------------------ H: notes on levels beyond recorded motions
 
 def test_the_note_on_many_levels_beyond_recorded_motions_is_linear_in_them():
