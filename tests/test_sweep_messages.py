@@ -146,3 +146,15 @@ def test_the_pga_note_and_refusal_give_the_same_largest_pga_and_the_note_the_val
     assert "brings its PGA to 10 g, beyond 5 g" in refused and LARGEST_PGA in refused
     assert LARGEST_PGA.startswith("the largest horizontal PGA recorded is about 2.7 g") and "(NIED 2011)" in LARGEST_PGA
     assert "4 g" not in refused
+
+
+# ------------------------------------------------ J: a deleted sweep's id is not given again
+
+def test_a_deleted_sweep_id_is_not_given_again(db, fmu_path):
+    def sweep() -> int:
+        return runners.sweep(EX / "sine_pulse.toml", ["w=2:3:2"], stop_time=0.2, workers=1, db=db,
+                             fmu=fmu_path).sweep_id
+
+    assert [sweep(), sweep()] == [1, 2]
+    assert run_cli("db", "delete", "sweep", "latest", db=db, fmu_path=fmu_path).returncode == 0
+    assert sweep() == 3 and sweep_ids(db) == [1, 3]

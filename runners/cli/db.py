@@ -272,7 +272,11 @@ def add_parser(sub) -> None:
     show.add_argument("key", metavar="ID", help="the id (or 'latest'); a block's name or id")
     show.set_defaults(func=cmd_show)
     rm = dsub.add_parser("delete", help="delete a sweep, a run or a record with every row that belongs to it "
-                                        "(refused if other rows need it, unless --force)")
+                                        "(refused if other rows need it, unless --force)",
+                         description="Delete a sweep, a run or a record with every row that belongs to it, in one "
+                                     "transaction (refused if other rows need it, unless --force). A deleted sweep's "
+                                     "id is never given again; in an SQLite database a deleted run's or record's id "
+                                     "is, when it was the newest (docs/database.md#deleting).")
     rm.add_argument("what", choices=["sweep", "run", "record"])
     rm.add_argument("key", metavar="ID|NAME", help="a sweep's or run's id (or 'latest'); a record's name or id")
     rm.add_argument("--force", action="store_true",
