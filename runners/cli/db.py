@@ -218,11 +218,17 @@ def cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
+WHICH = {"sweep": "a sweep's id (a whole number) or 'latest'", "run": "a run's id (a whole number) or 'latest'",
+         "record": "a record's name or id"}  # what runners db delete KIND takes
+
+
 def cmd_delete(args: argparse.Namespace) -> int:
     """runners db delete sweep|run|record KEY [--force]: runners.engine.database.Database.delete."""
     from runners.cli import output
     from runners.engine.database import open_db
 
+    if not args.key.strip():
+        raise ValueError(f"the {args.what} to delete is empty: give {WHICH[args.what]}")
     db = open_db(args.db)
     with output.busy(f"deleting {args.what} {args.key}"):
         done = db.delete(args.what, args.key, force=args.force)
@@ -272,7 +278,11 @@ def add_parser(sub) -> None:
     show.add_argument("key", metavar="ID", help="the id (or 'latest'); a block's name or id")
     show.set_defaults(func=cmd_show)
     rm = dsub.add_parser("delete", help="delete a sweep, a run or a record with every row that belongs to it "
-                                        "(refused if other rows need it, unless --force)")
+                                        "(refused if other rows need it, unless --force)",
+                         description="Delete a sweep, a run or a record with every row that belongs to it, in one "
+                                     "transaction (refused if other rows need it, unless --force). A deleted sweep's "
+                                     "id is never given again; in an SQLite database a deleted run's or record's id "
+                                     "is, when it was the newest (docs/database.md#deleting).")
     rm.add_argument("what", choices=["sweep", "run", "record"])
     rm.add_argument("key", metavar="ID|NAME", help="a sweep's or run's id (or 'latest'); a record's name or id")
     rm.add_argument("--force", action="store_true",

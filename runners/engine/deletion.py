@@ -80,10 +80,7 @@ def delete_stored(factory: sessionmaker, kind: str, key: int | str, force: bool 
     where = display_url(factory.kw["bind"])
     with factory.begin() as session:
         if kind == "record":
-            from db.records import find_record
-
-            rec = find_record(session, key)
-            done = _delete_record(session, factory, rec, force)
+            done = _delete_record(session, factory, _record(session, key), force)
         else:
             model = Sweep if kind == "sweep" else Run
             ident = _newest(session, model, kind) if key == "latest" else int(key)
@@ -97,6 +94,20 @@ def delete_stored(factory: sessionmaker, kind: str, key: int | str, force: bool 
         for sweep_id in [done.id] if done.kind == "sweep" else done.with_it["sweeps"]:
             remove_leftover(factory, sweep_id)
     return done
+
+
+def _record(session, key: int | str) -> Record:
+    """The record named `key` (or of id `key`); ValueError, in one line, when there is none, saying
+    how to delete the records of a suite when `key` names one."""
+    from db.records import find_record, suite_records
+
+    if session.scalar(select(Record.id).where(Record.name == str(key))) is None and isinstance(key, str):
+        members = [r.name for r in suite_records(session, key)]
+        if members:
+            raise ValueError(f"{key} is a suite of {len(members)} record{'s' * (len(members) > 1)}, not a record: "
+                             "runners db delete deletes one record at a time, by its name or id (e.g. runners db "
+                             f"delete record {members[0]}; runners records list --suite {key} lists them all)")
+    return find_record(session, key)
 
 
 def _newest(session, model, kind: str) -> int:

@@ -40,6 +40,11 @@ PLAIN_TEXT_HINT = 1.0  # m/s^2: a record file (our text format) whose PGA is bel
 # (K-NET MYG004, Tohoku 2011; NIED). Scaling a record far changes more than its size: the response
 # to records scaled by large factors is biased (Luco & Bazzurro 2007).
 HIGH_PGA_G = 2.0  # g: a scaled PGA above this is beyond all but a handful of recorded motions
+# the strongest horizontal shaking recorded, as the notes and refusals of scaled records give it
+# (MAX_PGA_G, 5 g, leaves room above it). About 4 g was recorded only vertically, 3.9 g at KiK-net
+# IWTH25 in the 2008 Iwate-Miyagi earthquake (Aoi et al. 2008)
+LARGEST_PGA = ("the largest horizontal PGA recorded is about 2.7 g, at K-NET MYG004 in the 2011 Tohoku earthquake "
+               "(NIED 2011)")
 LARGE_SCALE = 4.0  # a record scaled by more than this (in absolute value)
 HIGH_PGV = 2.0  # m/s: or to a PGV above this
 
@@ -79,8 +84,8 @@ def check_scaled(label: str, ah: np.ndarray, av: np.ndarray | None, scale: float
     allowed: the run reports the flight, docs/contact.md.)"""
     pga = abs(scale) * float(np.max(np.abs(ah))) / G0
     if not pga <= MAX_PGA_G:
-        raise ValueError(f"{label}: scale {scale:g} brings its PGA to {pga:.3g} g, beyond {MAX_PGA_G:g} g (the largest "
-                         "recorded PGA is about 4 g): check the scale")
+        raise ValueError(f"{label}: scale {scale:g} brings its PGA to {pga:.3g} g, beyond {MAX_PGA_G:g} g: "
+                         f"{LARGEST_PGA}; check the scale")
     top = float(max(np.max(np.abs(ah)), 0.0 if av is None else np.max(np.abs(av))))
     if not abs(scale) * top <= 1000.0:
         raise ValueError(f"{label}: scale {scale:g} brings its peak acceleration to {abs(scale) * top:g} m/s2, beyond "
@@ -93,69 +98,109 @@ def scaling_notes(cases: Iterable[tuple[str, str, float, dict[str, Any]]]) -> li
     LARGE_SCALE or a PGV above HIGH_PGV. `cases`: (record name, level as text or "", scale, the
     unscaled record's measures in SI: pga in m/s2, pgv in m/s), one per scaled record the runs use."""
     cases = [(name, level, abs(scale), m) for name, level, scale, m in cases if m.get("pga")]
-    high = [c for c in cases if c[2] * c[3]["pga"] / G0 > HIGH_PGA_G]
-    large = [c for c in cases if c[2] > LARGE_SCALE or c[2] * (c[3].get("pgv") or 0.0) > HIGH_PGV]
+    place, seen = [], {}  # each case's position among its record's cases
+    for name, *_ in cases:
+        place.append(seen.get(name, 0))
+        seen[name] = place[-1] + 1
+    keep = [k for k, (_, _, scale, m) in enumerate(cases) if _high(scale, m) or _far(scale, m)]
+    return _notes([cases[k] for k in keep], [place[k] for k in keep], list(seen))
+
+
+def _high(scale, m: dict[str, Any]):
+    """Whether a record of measures `m` (SI) scaled by `scale` (>= 0; a float, or an array of them)
+    has a PGA above HIGH_PGA_G."""
+    return scale * m["pga"] / G0 > HIGH_PGA_G
+
+
+def _far(scale, m: dict[str, Any]):
+    """Whether a record of measures `m` (SI) scaled by `scale` (>= 0; a float, or an array of them)
+    is scaled by more than LARGE_SCALE or to a PGV above HIGH_PGV."""
+    return (scale > LARGE_SCALE) | (scale * (m.get("pgv") or 0.0) > HIGH_PGV)
+
+
+def _notes(cases: list[tuple[str, str, float, dict]], place: list[int], names: list[str]) -> list[str]:
+    """scaling_notes of the `cases` beyond recorded motions (_high or _far; scales >= 0), each at
+    `place` among its record's cases, of the records `names` the runs use. Linear in the cases."""
+    high = [k for k, (_, _, scale, m) in enumerate(cases) if _high(scale, m)]
+    large = [k for k, (_, _, scale, m) in enumerate(cases) if _far(scale, m)]
     notes = []
     if high:
-        notes.append(f"PGA above {HIGH_PGA_G:g} g: {_listing(high, cases)}. PGAs are in g (3.5 m/s2 is 0.357 g); "
-                     "the largest horizontal PGA recorded is about 2.7 g (K-NET MYG004, Tohoku 2011) and only 35 "
-                     "records up to 2007 exceed 1 g (Anderson 2010)")
+        top = max(cases[k][2] * cases[k][3]["pga"] / G0 for k in high)  # the largest PGA given, in g
+        notes.append(f"PGA above {HIGH_PGA_G:g} g: {_listing(high, cases, place, names)}. PGAs are in g ({top:.3g} "
+                     f"m/s2 is {top / G0:.3g} g); {LARGEST_PGA}, and only 35 records up to 2007 exceed 1 g "
+                     "(Anderson 2010)")
     if large:
-        notes.append(f"scaled by more than {LARGE_SCALE:g} or to a PGV above {HIGH_PGV:g} m/s: {_listing(large, cases)}. "
-                     "The largest PGV recorded is 3.18 m/s (Anderson 2010), and the response to a record scaled "
-                     "far from its own intensity is biased (Luco & Bazzurro 2007): prefer records nearer the level")
+        notes.append(f"scaled by more than {LARGE_SCALE:g} or to a PGV above {HIGH_PGV:g} m/s: "
+                     f"{_listing(large, cases, place, names)}. The largest PGV recorded is 3.18 m/s (Anderson 2010), "
+                     "and the response to a record scaled far from its own intensity is biased (Luco & Bazzurro "
+                     "2007): prefer records nearer the level")
     return notes
 
 
-def _listing(chosen: list[tuple[str, str, float, dict]], cases: list[tuple[str, str, float, dict]]) -> str:
-    """The records and levels of `chosen` (among `cases`) in one phrase: each record with its
-    levels (consecutive ones as a range), scale factors and largest scaled PGA (g) and PGV (m/s),
-    their common suite named once; or "all N records at LEVELS" when every record is concerned at
-    the same levels."""
-    by: dict[str, list[tuple[str, float, dict]]] = {}
-    for name, level, scale, m in chosen:
-        by.setdefault(name, []).append((level, scale, m))
-    every: dict[str, list[str]] = {}  # each record's levels, in the runs' order
-    for name, level, *_ in cases:
-        every.setdefault(name, []).append(level)
-    levels = {name: _levels_text([lv for lv, _, _ in rows if lv], every[name]) for name, rows in by.items()}
+def _listing(chosen: list[int], cases: list[tuple[str, str, float, dict]], place: list[int], names: list[str]) -> str:
+    """The records and levels of the cases numbered `chosen` (each at `place` among its record's
+    cases; `names`: every record of the runs) in one phrase: each record with its levels
+    (consecutive ones as a range), scale factors and largest scaled PGA (g) and PGV (m/s), their
+    common suite named once; or "all N records at LEVELS" when every record is concerned at the
+    same levels."""
+    by: dict[str, list[int]] = {}
+    for k in chosen:
+        by.setdefault(cases[k][0], []).append(k)
+    levels = {name: _levels_text([cases[k][1] for k in ks if cases[k][1]], [place[k] for k in ks if cases[k][1]])
+              for name, ks in by.items()}
     first = next(iter(levels.values()))
-    if len(every) > 1 and len(by) == len(every) and first and all(lv == first for lv in levels.values()):
-        return f"all {len(every)} records at {first}"
-    suite = os.path.commonprefix(list(every)).rpartition("/")[0] if len(every) > 1 else ""
+    if len(names) > 1 and len(by) == len(names) and first and all(lv == first for lv in levels.values()):
+        return f"all {len(names)} records at {first}"
+    suite = os.path.commonprefix(names).rpartition("/")[0] if len(names) > 1 else ""
     parts = []
-    for name, rows in by.items():
-        scales = [s for _, s, _ in rows]
-        pga = max(s * m["pga"] / G0 for _, s, m in rows)
-        pgv = max(s * (m.get("pgv") or 0.0) for _, s, m in rows)
+    for name, ks in by.items():
+        scales = [cases[k][2] for k in ks]
+        pga = max(cases[k][2] * cases[k][3]["pga"] / G0 for k in ks)
+        pgv = max(cases[k][2] * (cases[k][3].get("pgv") or 0.0) for k in ks)
         at = f" at {levels[name]}" if levels[name] else ""
         span = f"x{min(scales):.3g}" + (f" to x{max(scales):.3g}" if max(scales) > min(scales) else "")
         parts.append(f"{name.removeprefix(suite + '/') if suite else name}{at} ({span}, PGA "
-                     f"{'up to ' * (len(rows) > 1)}{pga:.3g} g, PGV {'up to ' * (len(rows) > 1)}{pgv:.3g} m/s)")
+                     f"{'up to ' * (len(ks) > 1)}{pga:.3g} g, PGV {'up to ' * (len(ks) > 1)}{pgv:.3g} m/s)")
     return (f"in {suite}, " if suite else "") + "; ".join(parts)
 
 
-def _levels_text(levels: list[str], every: list[str]) -> str:
-    """Levels as text: "0.8 g to 1.2 g" for more than two consecutive ones of `every` (a record's
-    levels in order), else each of them."""
-    at = [every.index(lv) for lv in levels]
-    if len(levels) > 2 and at == list(range(at[0], at[0] + len(at))):
+LISTED_LEVELS = 6  # levels named one by one at most; more are shortened to the first few and the last
+
+
+def _levels_text(levels: list[str], at: list[int]) -> str:
+    """Levels as text: "0.8 g to 1.2 g" for more than two consecutive ones (`at`: their positions
+    among the record's levels, increasing), else each of them (the first three, "...", and the
+    last when there are more than LISTED_LEVELS)."""
+    if len(levels) > 2 and at[-1] - at[0] == len(at) - 1:
         return f"{levels[0]} to {levels[-1]}"
+    if len(levels) > LISTED_LEVELS:
+        return f"{', '.join(levels[:3])}, ..., {levels[-1]} ({len(levels):,} levels)"
     return ", ".join(levels)
 
 
 def sweep_scaling_notes(refs: list, intensity, axes: list, parameters: dict[str, Any]) -> list[str]:
     """scaling_notes of a record sweep, once for the whole sweep: its records (RecordRefs) at each
     intensity level (runners.engine.grid.Intensity: its levels in g or m/s), at each value of a
-    --grid scale axis, or else at the scene's own excitation.scale (`parameters`)."""
-    if intensity is not None:
-        cases = [(r.name, f"{lv:g} {intensity.unit}", intensity.si(lv) / r.measures[intensity.measure], r.measures)
-                 for r in refs for lv in intensity.values if r.measures.get(intensity.measure)]
-    else:
+    --grid scale axis, or else at the scene's own excitation.scale (`parameters`). Levels are
+    weighed in arrays, a record at a time: only those beyond recorded motions become cases, so a
+    sweep of a million levels is noted in a fraction of a second."""
+    if intensity is None:
         axis = next((a for a in axes if a.name == "excitation.scale"), None)
         scales = [float(parameters.get("excitation.scale", 1.0))] if axis is None else axis.values.tolist()
-        cases = [(r.name, "" if axis is None else f"scale {s:g}", s, r.measures) for r in refs for s in scales]
-    return scaling_notes(cases)
+        return scaling_notes([(r.name, "" if axis is None else f"scale {s:g}", s, r.measures)
+                              for r in refs for s in scales])
+    levels = intensity.values
+    cases, place, names = [], [], []
+    for r in refs:
+        m = r.measures
+        if not (m.get(intensity.measure) and m.get("pga")):
+            continue
+        names.append(r.name)
+        scale = np.abs(intensity.si(levels) / m[intensity.measure])
+        beyond = np.flatnonzero(_high(scale, m) | _far(scale, m)).tolist()
+        cases += [(r.name, f"{levels[i]:g} {intensity.unit}", float(scale[i]), m) for i in beyond]
+        place += beyond
+    return _notes(cases, place, names)
 
 
 def fill_missing_measures(session) -> int:

@@ -37,7 +37,8 @@ METHODS = {"dormand-prince": 0, "taylor": 1, "auto": 2}
 # neither slide nor lift; rocking-sliding lets block 1 slide on the ground (Coulomb, one mu)
 CONTACT_MODELS = {"rigid-rocking": 0, "rocking-sliding": 1}
 CONTACT_MODEL_NAMES = {v: k for k, v in CONTACT_MODELS.items()}
-# g: a PGA beyond this is a mistake of units (the largest recorded PGA is about 4 g)
+# g: a PGA beyond this is a mistake of units (the largest horizontal PGA recorded is about 2.7 g:
+# runners.engine.records.LARGEST_PGA)
 MAX_PGA_G = 5.0
 # output samples one run may hold (a few hundred MB with its outputs): more is refused before
 # the run starts (docs/limits.md); 2e6 is 2000 s at a 1 ms step

@@ -49,7 +49,7 @@ from runners.engine.fmu import FMUError, RockingFMU
 from runners.engine.grid import IM_UNITS, Axis, Grid, Intensity, RecordRef, parse_intensity, scales  # noqa: F401
 from runners.engine import batch as batch_lib
 from runners.engine.motion import contact_model_value, rocking_sliding
-from runners.engine.scene import KINDS, unused_parameter
+from runners.engine.scene import KINDS, unused_parameter, weak_excitation
 from runners.engine.sweep_lock import running
 from runners.engine.sweep_store import INTEGRITY_ERRORS, RunConstants, series_row, store
 from runners.engine.sweep_worker import Chunk, Setup, check_outputs, run_chunk, run_points, start_worker
@@ -387,28 +387,68 @@ def estimate(fm: RockingFMU, scene, grid: Grid, defaults: dict[str, Any], worker
     return SweepEstimate(grid.total, (time.perf_counter() - t0) / (len(indices) - 1), len(indices) - 1, workers)
 
 
-def check_corners(fmu: RockingFMU, grid: Grid, base: dict[str, Any], limit: int = 64) -> list[str]:
-    """Initialise the FMU at the corners of the grid (the first and last value of every axis;
-    at most `limit` corners). ValueError naming a point when it refuses every corner (every
-    point would fail); notes when it refuses some (their points are stored as errors)."""
-    import itertools
+def _corners(counts: list[int], integers: list[bool], limit: int) -> list[tuple[int, ...]]:
+    """The corners of a grid of axes with `counts` points (each axis's first and last index; every
+    index of an axis where `integers` says so), at most `limit`."""
+    ends = [range(c) if whole else sorted({0, c - 1}) for c, whole in zip(counts, integers)]
+    return list(itertools.islice(itertools.product(*ends), limit))
 
-    counts = grid.counts
-    corners = list(itertools.islice(itertools.product(*[sorted({0, c - 1}) for c in counts]), limit))
+
+def _axis_points(grid: Grid, base: dict[str, Any], every_integer: bool = False,
+                 limit: int = 64) -> Iterator[tuple[int, dict, dict]]:
+    """(flat index in `grid`, values, FMU parameter overrides) of the corners of the grid's --grid
+    axes (_corners; with `every_integer`, every value of its Integer axes), at most `limit`. In a
+    sweep over records each is the point of the first record (at the first intensity level) there."""
+    axes = Grid(grid.axes)
+    lead = (0,) * (len(grid.counts) - len(axes.counts))  # the record and level indices come first
+    for corner in _corners(axes.counts, [every_integer and ax.integer for ax in grid.axes], limit):
+        values, over, _ = axes.point(int(np.ravel_multi_index(corner, axes.counts)), base) if corner else ({}, {}, None)
+        yield int(np.ravel_multi_index(lead + corner, grid.counts)), values, over
+
+
+def check_corners(fmu: RockingFMU, grid: Grid, base: dict[str, Any], limit: int = 64) -> list[str]:
+    """Initialise the FMU at the corners of the grid's --grid axes (the first and last value of
+    every axis; at most `limit` corners). ValueError naming a point when it refuses every corner
+    (every point would fail); notes when it refuses some (their points are stored as errors). In a
+    sweep over records the axes are checked with the scene's parameters and the excitation switched
+    off: what they set is checked, not the records (which its workers read)."""
+    if grid.records:
+        base = {**base, "excitation.kind": KINDS["none"]}
+    integer = {ax.name for ax in grid.axes if ax.integer}
     refused = []
-    for corner in corners:
-        index = int(np.ravel_multi_index(corner, counts))
-        values, over, _ = grid.point(index, base)
+    corners = list(_axis_points(grid, base, limit=limit))
+    for index, values, over in corners:
         try:
             fmu.validate({**base, **over})
         except FMUError as exc:
-            at = ", ".join(f"{k} = {v:.4g}" for k, v in values.items()
-                           if isinstance(v, float) or k in {ax.name for ax in grid.axes if ax.integer})
-            refused.append(f"grid point {index} ({at}): {exc}")
+            at = ", ".join(f"{k} = {v:.4g}" for k, v in values.items() if isinstance(v, float) or k in integer)
+            refused.append(f"grid point {index}" + (f" ({at})" if at else "") + f": {exc}")
     if refused and len(refused) == len(corners):
         raise ValueError(refused[0] if len(corners) == 1 else f"every corner of the grid is refused, e.g. {refused[0]}")
     return [f"{len(refused)} of the grid's {len(corners)} corners are refused by the FMU (their points are stored "
             f"as errors), e.g. {refused[0]}"] if refused else []
+
+
+def motionless_grid(grid: Grid, base: dict[str, Any], limit: int = 1024) -> list[str]:
+    """A note (not an error) when no point of a grid of pulses can move: runners simulate's note
+    (runners.engine.scene.weak_excitation: an amplitude below the threshold of motion, often meant
+    in g) at every corner of the grid's axes and every value of its Integer axes, given for the
+    corner of the largest amplitude. Along each Real axis, the others held, the amplitude's excess
+    over the threshold is largest at an end (the threshold, g tan(alpha) of the sizes, mu g or the
+    stack's, changes monotonically; |amplitude| and the a axis's a g tan(alpha) over it are convex),
+    so the corners hold the grid's largest. Nothing for a sweep over records, or for a grid of more
+    than `limit` such points (not all seen)."""
+    if grid.records:
+        return []
+    weak = []
+    for index, _values, over in _axis_points(grid, base, every_integer=True, limit=limit + 1):
+        p = {**base, **over}
+        note = weak_excitation(p)
+        if not note or len(weak) == limit:
+            return []
+        weak.append((abs(float(p["excitation.amplitude"])), -index, note[0]))
+    amplitude, index, note = max(weak)
+    return [f"no point of the grid can move, e.g. grid point {-index} (its largest amplitude): {note}"]
 
 
 def create_sweep(factory, scene, axes: list[Axis], defaults: dict, records: list[RecordRef] | None = None,
