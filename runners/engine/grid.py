@@ -69,8 +69,8 @@ def scales(p: dict[str, Any]) -> tuple[float, float]:
 
 
 IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0)}  # --im measure: unit of its levels, factor to SI
-# levels beyond these are a mistake of units, not an earthquake (the largest recorded PGA is
-# about 4 g, the largest PGV about 3 m/s)
+# levels beyond these are a mistake of units, not an earthquake (the largest horizontal PGA
+# recorded is about 2.7 g, the largest PGV about 3 m/s: runners.engine.records' notes)
 IM_LIMITS = {"pga": MAX_PGA_G, "pgv": 10.0}
 
 
