@@ -218,8 +218,6 @@ def cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
-WHICH = {"sweep": "a sweep's id (a whole number) or 'latest'", "run": "a run's id (a whole number) or 'latest'",
-         "record": "a record's name or id"}  # what runners db delete KIND takes
 
 
 def cmd_delete(args: argparse.Namespace) -> int:
@@ -228,7 +226,9 @@ def cmd_delete(args: argparse.Namespace) -> int:
     from runners.engine.database import open_db
 
     if not args.key.strip():
-        raise ValueError(f"the {args.what} to delete is empty: give {WHICH[args.what]}")
+        from runners.engine.deletion import KEY_WORDS
+
+        raise ValueError(f"the {args.what} to delete is empty: give {KEY_WORDS[args.what]}")
     db = open_db(args.db)
     with output.busy(f"deleting {args.what} {args.key}"):
         done = db.delete(args.what, args.key, force=args.force)

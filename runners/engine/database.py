@@ -161,13 +161,13 @@ class Database:
         deleted. Returns a runners.engine.deletion.Deleted: rows deleted per table (.rows), what
         went with it (.with_it), .text(), .as_dict(). The database is opened for writing for this
         (DatabaseError, in one line, if it cannot be written)."""
-        from runners.engine.deletion import KINDS, delete_stored
+        from runners.engine.deletion import KEY_WORDS, KINDS, delete_stored
 
         kind = arguments.text(kind, "kind", f"one of {', '.join(KINDS)}")
         if kind not in KINDS:
             raise ArgumentError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         if not (isinstance(key, str) and key.strip()) and not arguments.is_whole(key):
-            raise ArgumentError(f"key must be an id (int), 'latest' or a record's name, got {key!r}")
+            raise ArgumentError(f"key must be {KEY_WORDS[kind]}, got {key!r}")
         key = key.strip() if isinstance(key, str) else int(key)
         if kind != "record" and isinstance(key, str) and key != "latest":
             if not key.isdecimal():

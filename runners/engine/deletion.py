@@ -28,6 +28,9 @@ from db.schema import Excitation, Measurement, Record, Run, RunSeries, RunSummar
 from runners.errors import RockingError
 
 KINDS = ("sweep", "run", "record")
+# what a key of each kind is, in words (messages of runners db delete and Database.delete)
+KEY_WORDS = {"sweep": "a sweep's id (a whole number) or 'latest'", "run": "a run's id (a whole number) or 'latest'",
+             "record": "a record's name or id"}
 TABLES = {"runs": "run", "run_summaries": "run summary", "run_series": "run series", "excitations": "excitation",
           "sweeps": "sweep", "scenes": "scene", "measurements": "measurement", "records": "record"}  # table -> one row
 
