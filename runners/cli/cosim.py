@@ -117,9 +117,9 @@ def _load(args: argparse.Namespace) -> tuple[Any, list[str]]:
 
 
 def _refuse_clobbering(args: argparse.Namespace, reads: dict[str, str | None]) -> None:
-    """runners.cli.clobber.refuse for the command's outputs, the series files of --csv each (--compare
+    """runners.engine.files.refuse for the command's outputs, the series files of --csv each (--compare
     derives one per coupling), against ``reads`` and the database."""
-    from runners.cli.clobber import refuse
+    from runners.engine.files import refuse
 
     refuse({"--ssp": args.ssp, "--out": args.out, **{k: str(v) for k, v in _csv_files(args.csv, args.compare).items()}},
            reads, args.db)

@@ -1,9 +1,21 @@
-"""Files written atomically: a new file beside the destination, renamed onto it when complete."""
+"""The files a command or a run writes: never one it reads, its database or another of its
+outputs (``refuse``), and each written atomically (a new file beside the destination, renamed
+onto it when complete: ``create_beside``).
+
+Paths are compared as the file system resolves them (symbolic links followed, ``..`` resolved; an
+existing file also by inode, so a hard link is the same file). A refusal is one line
+(ArgumentError, a ValueError) and nothing has been written.
+"""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Mapping
+
+from runners.errors import ArgumentError
+
+DEFAULT_DB = "rocking.db"  # db.session.DEFAULT_URL's file, without importing SQLAlchemy
 
 
 def create_beside(path: str | Path) -> tuple[int, str]:
@@ -18,3 +30,51 @@ def create_beside(path: str | Path) -> tuple[int, str]:
         except FileExistsError:
             continue
     raise FileExistsError(f"cannot create a temporary file beside {path}")
+
+
+def sqlite_path(url: str | None) -> str | None:
+    """The SQLite file a --db value names (None: ROCKING_DB, else rocking.db), or None for a
+    database that is not a file (a server's URL, an in-memory SQLite)."""
+    url = url or os.environ.get("ROCKING_DB") or f"sqlite:///{DEFAULT_DB}"
+    if "://" not in url:
+        return url
+    scheme, _, rest = url.partition("://")
+    if not scheme.split("+")[0] == "sqlite":
+        return None
+    path = rest.split("?", 1)[0]
+    if not path.startswith("/") or path in ("/", "/:memory:"):
+        return None
+    return path[1:]  # sqlite:///rel.db -> rel.db, sqlite:////abs.db -> /abs.db
+
+
+def _same(a: str, b: str) -> bool:
+    """Whether paths `a` and `b` name one file: by inode when both exist, else resolved."""
+    pa, pb = Path(a), Path(b)
+    try:
+        if pa.exists() and pb.exists():
+            return os.path.samefile(pa, pb)
+    except OSError:
+        pass
+    return os.path.realpath(pa) == os.path.realpath(pb)
+
+
+def refuse(writes: Mapping[str, str | Path | None], reads: Mapping[str, str | Path | None] | None = None,
+           db: str | None = None, database: bool = True) -> None:
+    """ArgumentError, in one line, if a file in `writes` (label -> path) is one of `reads`, the
+    SQLite file of database `db` (a --db value; skipped when `database` is False: the command or
+    run uses none) or another entry of `writes`."""
+    outs = [(label, str(path)) for label, path in writes.items() if path]
+    ins = [(label, str(path)) for label, path in (reads or {}).items() if path]
+    db_file = sqlite_path(db) if database else None
+    for i, (label, path) in enumerate(outs):
+        for other, second in outs[:i]:
+            if _same(path, second):
+                raise ArgumentError(f"{other} and {label} both name {path}: the second would overwrite the first; "
+                                    "give each its own file")
+        for other, source in ins:
+            if _same(path, source):
+                raise ArgumentError(f"{label} {path} is the {other} this command reads: it would be overwritten; "
+                                    "give another file")
+        if db_file is not None and _same(path, db_file):
+            raise ArgumentError(f"{label} {path} is the database this command uses ({db_file}): it would be "
+                                "overwritten; give another file")
