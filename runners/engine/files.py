@@ -32,6 +32,12 @@ def create_beside(path: str | Path) -> tuple[int, str]:
     raise FileExistsError(f"cannot create a temporary file beside {path}")
 
 
+def default_fmu() -> str:
+    """The FMU a run uses when none is given: ROCKING_FMU, else build/RockingBlock.fmu of this
+    installation (runners.engine.fmu.fmu_path_from, without building it or importing fmpy)."""
+    return os.environ.get("ROCKING_FMU") or str(Path(__file__).resolve().parents[2] / "build" / "RockingBlock.fmu")
+
+
 def sqlite_path(url: str | None) -> str | None:
     """The SQLite file a --db value names (None: ROCKING_DB, else rocking.db), or None for a
     database that is not a file (a server's URL, an in-memory SQLite)."""
@@ -59,10 +65,10 @@ def _same(a: str, b: str) -> bool:
 
 
 def refuse(writes: Mapping[str, str | Path | None], reads: Mapping[str, str | Path | None] | None = None,
-           db: str | None = None, database: bool = True) -> None:
+           db: str | None = None, database: bool = True, reader: str = "this command") -> None:
     """ArgumentError, in one line, if a file in `writes` (label -> path) is one of `reads`, the
     SQLite file of database `db` (a --db value; skipped when `database` is False: the command or
-    run uses none) or another entry of `writes`."""
+    run uses none) or another entry of `writes`. `reader` names what reads them in the message."""
     outs = [(label, str(path)) for label, path in writes.items() if path]
     ins = [(label, str(path)) for label, path in (reads or {}).items() if path]
     db_file = sqlite_path(db) if database else None
@@ -73,8 +79,8 @@ def refuse(writes: Mapping[str, str | Path | None], reads: Mapping[str, str | Pa
                                     "give each its own file")
         for other, source in ins:
             if _same(path, source):
-                raise ArgumentError(f"{label} {path} is the {other} this command reads: it would be overwritten; "
+                raise ArgumentError(f"{label} {path} is the {other} {reader} reads: it would be overwritten; "
                                     "give another file")
         if db_file is not None and _same(path, db_file):
-            raise ArgumentError(f"{label} {path} is the database this command uses ({db_file}): it would be "
+            raise ArgumentError(f"{label} {path} is the database {reader} uses ({db_file}): it would be "
                                 "overwritten; give another file")

@@ -1,0 +1,98 @@
+"""No command, and no run of runners.simulate, loses data (issue 36): a recording never replaces the
+record file a scene names, the FMU (given or not), the scene, the measured file or the database; an
+output that cannot be written is one line, exit 2, with nothing half-written; a command that fails
+leaves its outputs, and the folders they would go to, as they were. Real files, the real FMU; every
+file of the working folder is hashed before and after."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+import runners
+from conftest import run_cli
+from runners.errors import ArgumentError
+
+ROOT = Path(__file__).resolve().parents[1]
+RECORD_SCENE = """name = "statue on a record"
+[block]
+half_width = 0.125
+half_height = 0.5
+[excitation]
+file = "{file}"
+[simulation]
+stop_time = 0.5
+"""
+
+
+def digests(folder: Path) -> dict[str, str]:
+    """sha256 of every file under `folder` (hidden ones too), by relative path."""
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def one_line_error(p: subprocess.CompletedProcess, *words: str) -> str:
+    assert p.returncode == 2, (p.returncode, p.stdout, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "unexpected" not in lines[0], p.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+@pytest.fixture
+def place(tmp_path, fmu_path, monkeypatch) -> Path:
+    """A working folder: examples/pulse_3hz.AT2, scenes naming it by a relative (rel.toml) and an
+    absolute path (abs.toml), examples/statue.toml, a measured file, a copy of the FMU (my.fmu)
+    and a database file (r.db)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "examples").mkdir()
+    for name in ("pulse_3hz.AT2", "statue.toml", "measured_peaks_block2.csv"):
+        shutil.copy(ROOT / "examples" / name, tmp_path / "examples" / name)
+    (tmp_path / "rel.toml").write_text(RECORD_SCENE.format(file="examples/pulse_3hz.AT2"))
+    (tmp_path / "abs.toml").write_text(RECORD_SCENE.format(file=tmp_path / "examples" / "pulse_3hz.AT2"))
+    shutil.copy(fmu_path, tmp_path / "my.fmu")
+    (tmp_path / "r.db").write_bytes(b"")
+    return tmp_path
+
+
+# --- A: the record file a scene names ---------------------------------------------------------------
+
+@pytest.mark.parametrize("scene", ["rel.toml", "abs.toml"])
+@pytest.mark.parametrize("store", [["--no-store"], ["--db", "r.db"]])
+@pytest.mark.parametrize("out", ["examples/pulse_3hz.AT2", "./examples/../examples/pulse_3hz.AT2"])
+def test_a_recording_never_replaces_the_record_file_a_scene_names(place, scene, store, out):
+    before = digests(place)
+    p = run_cli("simulate", scene, "--out", out, *store, db="r.db", fmu_path=place / "my.fmu")
+    one_line_error(p, f"--out {out} is the scene's record file")
+    assert digests(place) == before
+
+
+@pytest.mark.parametrize("recording,kw,what", [
+    ("rel.toml", {}, "scene file"),
+    ("examples/pulse_3hz.AT2", {}, "scene's record file"),
+    ("abs.toml", {"scene": "abs.toml"}, "scene file"),
+    ("examples/pulse_3hz.AT2", {"scene": "abs.toml"}, "scene's record file"),
+    ("examples/pulse_3hz.AT2", {"scene": "examples/statue.toml", "record": "examples/pulse_3hz.AT2"}, "record file"),
+    ("examples/pulse_3hz.AT2", {"scene": "examples/statue.toml", "record": Path("examples/pulse_3hz.AT2")},
+     "record file"),
+    ("examples/measured_peaks_block2.csv", {"measured": "examples/measured_peaks_block2.csv"}, "measured file"),
+    ("my.fmu", {"fmu": "my.fmu"}, "FMU"),
+    ("my.fmu", {"env": "my.fmu"}, "FMU"),
+    ("r.db", {"store": True, "db": "r.db"}, "database"),
+    ("r.db", {"store": True, "db": "sqlite:///r.db"}, "database"),
+])
+def test_the_python_api_refuses_a_recording_over_what_the_run_reads(place, monkeypatch, recording, kw, what):
+    """runners.simulate(..., recording=PATH) refuses before anything is opened or run."""
+    kw = dict(kw)
+    monkeypatch.setenv("ROCKING_FMU", kw.pop("env", str(place / "my.fmu")))
+    before = digests(place)
+    with pytest.raises(ArgumentError) as caught:
+        runners.simulate(kw.pop("scene", "rel.toml"), recording=recording, **kw)
+    message = str(caught.value)
+    assert f"recording {recording} is the {what}" in message and "\n" not in message
+    assert digests(place) == before
