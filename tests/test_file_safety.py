@@ -15,6 +15,8 @@ import pytest
 
 import runners
 from conftest import run_cli
+from runners.cli import clobber
+from runners.cli.parser import build_parser
 from runners.errors import ArgumentError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,3 +98,30 @@ def test_the_python_api_refuses_a_recording_over_what_the_run_reads(place, monke
     message = str(caught.value)
     assert f"recording {recording} is the {what}" in message and "\n" not in message
     assert digests(place) == before
+
+
+# --- B: the FMU the command runs, given or not --------------------------------------------------------
+
+def test_the_fmu_of_rocking_fmu_is_an_input(place):
+    before = digests(place)
+    p = run_cli("simulate", "examples/statue.toml", "--no-store", "--out", "my.fmu", db="r.db",
+                fmu_path=Path("my.fmu"))
+    one_line_error(p, "--out my.fmu is the FMU (ROCKING_FMU) this command reads")
+    assert digests(place) == before
+
+
+@pytest.mark.parametrize("line", [["simulate", "examples/statue.toml", "--out", "{fmu}"],
+                                  ["rrd", "1", "--out", "{fmu}"],
+                                  ["compare", "1", "1", "--recording", "{fmu}"],
+                                  ["screenshot", "1", "--out", "{fmu}"],
+                                  ["cosim", "examples/statue.toml", "--ssp", "{fmu}"]])
+def test_the_default_fmu_is_an_input_of_every_command_with_an_fmu_option(place, monkeypatch, line):
+    """Without --fmu and ROCKING_FMU, build/RockingBlock.fmu of the installation: refused as an
+    output, checked on the parsed command line (nothing runs, so the FMU is never at risk)."""
+    from fmu_build import build_fmu
+
+    monkeypatch.delenv("ROCKING_FMU", raising=False)
+    fmu = str(build_fmu())  # (up to date: not rebuilt)
+    args = build_parser().parse_args([part.format(fmu=fmu) for part in line])
+    with pytest.raises(ValueError, match=r"is the FMU this command reads: it would be overwritten"):
+        clobber.check(args)
