@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -17,7 +18,7 @@ import runners
 from conftest import run_cli
 from runners.cli import clobber
 from runners.cli.parser import build_parser
-from runners.errors import ArgumentError
+from runners.errors import ArgumentError, FileError
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORD_SCENE = """name = "statue on a record"
@@ -125,3 +126,57 @@ def test_the_default_fmu_is_an_input_of_every_command_with_an_fmu_option(place, 
     args = build_parser().parse_args([part.format(fmu=fmu) for part in line])
     with pytest.raises(ValueError, match=r"is the FMU this command reads: it would be overwritten"):
         clobber.check(args)
+
+
+# --- E: an output that cannot be written ----------------------------------------------------------------
+
+def test_a_recording_that_cannot_be_written_is_one_line_without_rerun_warnings(place):
+    """/proc/version exists and, for root, passes os.access: the recording itself fails, in one line
+    (no traceback, no Rerun WARN), before anything is written."""
+    exe = Path(sys.executable).parent / "runners"
+    p = subprocess.run([str(exe), "simulate", "examples/statue.toml", "--no-store", "--stop-time", "0.2",
+                        "--out", "/proc/version", "--fmu", "my.fmu"], capture_output=True, text=True, cwd=place,
+                       timeout=300)
+    line = one_line_error(p, "/proc/version")
+    assert "cannot write" in line or "may not be written" in line
+
+
+@pytest.mark.parametrize("line", [["simulate", "examples/statue.toml", "--no-store", "--out", "/proc/1/a/x.rrd"],
+                                  ["map", "1", "--out", "/proc/1/x.png"],
+                                  ["cosim", "examples/statue.toml", "--csv", "/proc/1/x.csv"],
+                                  ["figures", "--out", "/proc/1/figures", "--only", "x"]])
+def test_an_output_where_no_file_may_be_written_is_refused_up_front(place, line):
+    before = digests(place)
+    p = run_cli(*line, db="r.db", fmu_path=place / "my.fmu")
+    one_line_error(p, "its folder /proc/1 may not be written into")
+    assert digests(place) == before
+
+
+def test_a_recording_that_fails_half_way_leaves_the_file_as_it_was(place, fmu):
+    """The record file a recording shows is gone by the time it is written: an error after the
+    recording has begun, the earlier recording as it was, and no temporary file left."""
+    from runners.engine.recording import write_recording
+    from runners.engine.scene import load_scene
+
+    scene = load_scene(place / "examples" / "statue.toml")
+    r = fmu.run(scene.parameters, 0.2, 0.01)
+    old = place / "old.rrd"
+    old.write_bytes(b"an earlier recording")
+    before = digests(place)
+    p = {**fmu.defaults(), **scene.parameters, "excitation.file": str(place / "gone.txt")}
+    with pytest.raises(runners.RockingError, match="gone.txt"):
+        write_recording(old, scene.name, r.time, r.outputs, p, r.events, record={"name": "gone"})
+    assert digests(place) == before
+
+
+def test_a_recording_through_a_symbolic_link_replaces_the_file_it_points_to(place):
+    (place / "target.rrd").write_bytes(b"an earlier recording")
+    (place / "link.rrd").symlink_to("target.rrd")
+    runners.simulate("examples/statue.toml", stop_time=0.2, recording="link.rrd", fmu=place / "my.fmu")
+    assert (place / "link.rrd").is_symlink() and (place / "target.rrd").stat().st_size > 1000
+    assert sorted(p.name for p in place.iterdir() if p.name.startswith(".")) == []
+
+
+def test_the_api_says_in_one_line_that_a_recording_cannot_be_written(place):
+    with pytest.raises(FileError, match=r"^cannot write the recording /proc/version: [^\n]*$"):
+        runners.simulate("examples/statue.toml", stop_time=0.2, recording="/proc/version", fmu=place / "my.fmu")
