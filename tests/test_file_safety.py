@@ -180,3 +180,40 @@ def test_a_recording_through_a_symbolic_link_replaces_the_file_it_points_to(plac
 def test_the_api_says_in_one_line_that_a_recording_cannot_be_written(place):
     with pytest.raises(FileError, match=r"^cannot write the recording /proc/version: [^\n]*$"):
         runners.simulate("examples/statue.toml", stop_time=0.2, recording="/proc/version", fmu=place / "my.fmu")
+
+
+# --- K: a command that fails leaves its outputs as they were ---------------------------------------------
+
+@pytest.fixture
+def systems(place, building_fmu_path, monkeypatch) -> Path:
+    """The cabinet on its floor (ok.toml, 0.3 s) and the same on floors of 20 kg, whose two-way
+    coupling diverges at a 2 ms step (diverges.toml; tests/test_cosim_system.py)."""
+    monkeypatch.setenv("ROCKING_BUILDING_FMU", str(building_fmu_path))
+    shutil.copy(ROOT / "examples" / "pulse_3hz.AT2", place / "pulse_3hz.AT2")
+    text = (ROOT / "examples" / "cabinet_on_floor.toml").read_text()
+    (place / "ok.toml").write_text(text.replace("stop_time = 4.0", "stop_time = 0.3"))
+    (place / "diverges.toml").write_text(text.replace("mass = 2000.0", "mass = 20.0")
+                                         .replace("stop_time = 4.0", "stop_time = 1.0"))
+    (place / "old.ssp").write_bytes(b"an earlier SSP")
+    (place / "old.png").write_bytes(b"an earlier figure")
+    return place
+
+
+def test_a_cosim_that_fails_leaves_its_outputs_and_folders_as_they_were(systems):
+    before = digests(systems)
+    p = run_cli("cosim", "diverges.toml", "--step", "0.002", "--quiet", "--ssp", "old.ssp", "--out", "old.png",
+                "--csv", "new/series/s.csv", db="r.db", fmu_path=systems / "my.fmu")
+    one_line_error(p, "two-way coupling diverged")
+    assert digests(systems) == before  # old.ssp and old.png as they were, no temporary file left
+    assert not (systems / "new").exists()
+
+
+def test_a_cosim_that_succeeds_replaces_its_outputs_and_leaves_no_temporary_file(systems):
+    before = digests(systems)
+    p = run_cli("cosim", "ok.toml", "--quiet", "--ssp", "old.ssp", "--out", "old.png", "--csv", "new/s.csv",
+                "--compare", db="r.db", fmu_path=systems / "my.fmu")
+    assert p.returncode == 0, p.stderr
+    after = digests(systems)
+    assert {k for k in after if after[k] != before.get(k)} == {"old.ssp", "old.png", "new/s-one-way.csv",
+                                                                "new/s-two-way.csv"}
+    assert (systems / "old.ssp").read_bytes()[:2] == b"PK" and (systems / "old.png").read_bytes()[:4] == b"\x89PNG"

@@ -142,8 +142,9 @@ def output_folders(args: argparse.Namespace):
 
 
 def _remove_empty(folders: list) -> None:
-    """Remove the folders that are empty, deepest first (a folder written into stays)."""
-    for path in folders:  # each folder's own missing parents follow it
+    """Remove the folders that are empty, deepest first (a folder written into stays): a folder
+    made for one output may hold another's (--ssp new/a/x.ssp --csv new/b/x.csv: new holds both)."""
+    for path in sorted(folders, key=lambda p: len(os.path.abspath(p).split(os.sep)), reverse=True):
         with contextlib.suppress(OSError):
             path.rmdir()
 
