@@ -215,6 +215,7 @@ def simulate(
                                accuracy=accuracy, h=h, rtol=rtol, record=record, scale=scale, pga=pga, outputs=outputs,
                                recording=recording, measured=measured, store=store, db=db, fmu=fmu)
     sc = as_scene(scene)
+    _refuse_overwriting(opts, sc)
     supports = _Supports.opened(opts)
     sc, rec = _prepare_record(sc, opts, supports)
     check_times(sc.stop_time, sc.step, "the stop time", "the output step")
@@ -306,6 +307,24 @@ class _Supports:
             factory = open_database(opts.db)
             require_writable(factory, "or run with --no-store")
         return cls(factory, fmu_path_from(None if opts.fmu is None else str(opts.fmu)), series)
+
+
+def _refuse_overwriting(opts: _RunOptions, sc: Scene) -> None:
+    """prepare: ArgumentError, in one line and before anything is opened or run, if the recording
+    would overwrite a file the run reads (the scene file, the record file the scene or ``record``
+    names, the measured file, the FMU: given, else ROCKING_FMU's, else build/RockingBlock.fmu) or,
+    when the run is stored or its record is a stored one, the SQLite file of its database
+    (runners.engine.files.refuse)."""
+    if opts.recording is None:
+        return
+    from runners.engine.files import default_fmu, refuse
+
+    record = opts.record if isinstance(opts.record, (str, Path)) and Path(opts.record).is_file() else None
+    stored_record = (record is None) if opts.record is not None else (sc.record is not None)  # from the database
+    refuse({"recording": opts.recording},
+           {"scene file": sc.source if sc.source and Path(sc.source).is_file() else None, "record file": record,
+            "scene's record file": sc.file, "measured file": opts.measured, "FMU": opts.fmu or default_fmu()},
+           opts.db, database=opts.store or stored_record, reader="this run")
 
 
 def _prepare_record(sc: Scene, opts: _RunOptions, supports: _Supports) -> tuple[Scene, Any]:

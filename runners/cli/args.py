@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import os
 import sys
 
 class Parser(argparse.ArgumentParser):
@@ -79,11 +80,22 @@ def _unusable(text: str, exc: OSError) -> argparse.ArgumentTypeError:
     return argparse.ArgumentTypeError(f"{text[:60]!r}{'...' if len(text) > 60 else ''}: {exc.strerror}")
 
 
+def _writable(text: str, path) -> None:
+    """Refuse a file (or folder) that exists and may not be written, or whose folder (the nearest
+    that exists: the rest would be made) may not be written into: the command would fail after its
+    work. (For root, os.access allows nearly everything: runners.engine.files.staged and the
+    writers then fail in one line.)"""
+    where = path if path.exists() else next((p for p in path.parents if p.exists()), None)
+    if where is not None and not os.access(where, os.W_OK):
+        what = "it may not be written" if where == path else f"its folder {where} may not be written into"
+        raise argparse.ArgumentTypeError(f"{text!r}: {what} (permission denied)")
+
+
 def output_file(text: str):
     """A file to write (a figure, a recording, an export): not a folder, its folder not a file,
-    not a device or pipe; through a symbolic link, the file it points to. Its folder, if missing,
-    is created once the whole command line has been checked (make_folders), as a folder output
-    and a recording's folder are."""
+    not a device or pipe, and writable (the file, else its folder); through a symbolic link, the
+    file it points to. Its folder, if missing, is created once the whole command line has been
+    checked (make_folders), as a folder output and a recording's folder are."""
     from pathlib import Path
 
     path = Path(text)
@@ -93,6 +105,7 @@ def output_file(text: str):
         if path.exists() and not path.resolve().is_file():  # a device, a pipe, a socket: never replaced
             raise argparse.ArgumentTypeError(f"{text!r} exists and is not a regular file")
         _parents_are_folders(text, path)
+        _writable(text, path)
         return str(path.resolve()) if path.is_symlink() else text
     except OSError as exc:
         raise _unusable(text, exc) from None
@@ -129,14 +142,16 @@ def output_folders(args: argparse.Namespace):
 
 
 def _remove_empty(folders: list) -> None:
-    """Remove the folders that are empty, deepest first (a folder written into stays)."""
-    for path in folders:  # each folder's own missing parents follow it
+    """Remove the folders that are empty, deepest first (a folder written into stays): a folder
+    made for one output may hold another's (--ssp new/a/x.ssp --csv new/b/x.csv: new holds both)."""
+    for path in sorted(folders, key=lambda p: len(os.path.abspath(p).split(os.sep)), reverse=True):
         with contextlib.suppress(OSError):
             path.rmdir()
 
 
 def folder(text: str) -> str:
-    """A folder to write into (created if missing): not a file, nor inside one."""
+    """A folder to write into (created if missing): not a file, nor inside one, and writable
+    (itself, else the nearest folder that holds it)."""
     from pathlib import Path
 
     path = Path(text)
@@ -144,6 +159,7 @@ def folder(text: str) -> str:
         if not text or (path.exists() and not path.is_dir()):
             raise argparse.ArgumentTypeError(f"{text!r} is not a folder")
         _parents_are_folders(text, path)
+        _writable(text, path)
         return text
     except OSError as exc:
         raise _unusable(text, exc) from None

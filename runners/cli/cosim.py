@@ -11,6 +11,7 @@ from typing import Any
 
 from runners.cli import output
 from runners.cli.args import common, files, output_file, positive
+from runners.engine.files import staged
 
 ENGINES = ("fmpy", "libcosim")  # runners.engine.cosim.ENGINES (imported when the command runs)
 COUPLINGS = ("one-way", "two-way")
@@ -119,13 +120,18 @@ def _load(args: argparse.Namespace) -> tuple[Any, list[str]]:
     return system, list(COUPLINGS) if args.compare else [system.coupling]
 
 
-def _refuse_clobbering(args: argparse.Namespace, reads: dict[str, str | None]) -> None:
-    """runners.cli.clobber.refuse for the command's outputs, the series files of --csv each (--compare
-    derives one per coupling), against ``reads`` and the database."""
-    from runners.cli.clobber import refuse
+def _outputs(args: argparse.Namespace) -> dict[str, str | None]:
+    """The files the command writes, by the label messages name them with: --ssp, --out and the
+    series files of --csv each (--compare derives one per coupling)."""
+    return {"--ssp": args.ssp, "--out": args.out, **{k: str(v) for k, v in _csv_files(args.csv, args.compare).items()}}
 
-    refuse({"--ssp": args.ssp, "--out": args.out, **{k: str(v) for k, v in _csv_files(args.csv, args.compare).items()}},
-           reads, args.db)
+
+def _refuse_clobbering(args: argparse.Namespace, reads: dict[str, str | None]) -> None:
+    """runners.engine.files.refuse for the command's outputs (_outputs), against ``reads`` and the
+    database."""
+    from runners.engine.files import refuse
+
+    refuse(_outputs(args), reads, args.db)
 
 
 def _notes(system: Any, couplings: list[str]) -> list[str]:
@@ -137,7 +143,6 @@ def _notes(system: Any, couplings: list[str]) -> list[str]:
 
 def cmd_cosim(args: argparse.Namespace) -> int:
     from runners.analysis import cosim as checks
-    from runners.engine import cosim
 
     system, couplings = _load(args)
     if args.out:
@@ -145,47 +150,21 @@ def cmd_cosim(args: argparse.Namespace) -> int:
     if args.csv and not Path(args.csv).parent.is_dir():
         raise ValueError(f"--csv {args.csv}: the folder {Path(args.csv).parent} does not exist")
     csvs = _csv_files(args.csv, args.compare)
-    block_fmu = Path(args.fmu) if args.fmu else None
     if "two-way" in couplings and int(system.blocks.get("contact.model", 0)) != 1:
         output.note("no energy balance: it needs the blocks' friction and impact losses, which the rocking-sliding "
                     "model reports ([contact] model = \"rocking-sliding\")")
     notes = _notes(system, couplings)
     for text in notes:
         output.note(text)
-    results = []
-    for coupling in couplings:
-        sys_c = replace(system, coupling=coupling)
-        bar, tick = _progress_bar(f"{args.engine}, {coupling}")
-        t0 = time.perf_counter()
-        try:
-            r = cosim.run(sys_c, engine=args.engine, block_fmu=block_fmu,
-                          ssp=args.ssp if coupling == system.coupling else None, progress=tick)
-        finally:
-            if bar is not None:
-                bar.close()
-        results.append((r, time.perf_counter() - t0))
-    docs = []
-    for r, seconds in results:
-        balance = None
-        if r.system.coupling == "two-way" and int(r.system.blocks.get("contact.model", 0)) == 1 and \
-                not any(float(r.system.blocks.get(k, 0.0)) for k in ("block1.theta0", "block1.omega0")):
-            balance = checks.energy_balance(r)
-        doc = summary(r, balance)
-        doc["seconds"] = round(seconds, 3)
-        docs.append(doc)
-    out_files: list[str] = []
-    for (r, _), path in zip(results, csvs.values()):
-        try:
-            r.to_pandas().to_csv(path, index=False, float_format="%.17g")
-        except OSError as exc:
-            raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
-        out_files.append(str(path))
-    if args.out:
-        fig = checks.figure([r for r, _ in results], title=system.name)
-        try:
-            fig.savefig(args.out, dpi=120)
-        except OSError as exc:
-            raise ValueError(f"cannot write {args.out}: {exc.strerror or exc}") from None
+    with staged(_outputs(args)) as tmp:  # each written beside its file, moved onto it only if the command succeeds
+        results = _run(args, system, couplings, tmp.get("--ssp"))
+        docs = [_summary(r, seconds) for r, seconds in results]
+        for (r, _), (label, path) in zip(results, csvs.items()):
+            _write(path, r.to_pandas().to_csv, tmp[label], index=False, float_format="%.17g")
+        if args.out:
+            fig = checks.figure([r for r, _ in results], title=system.name)
+            _write(args.out, fig.savefig, tmp["--out"], dpi=120)
+    out_files = [str(path) for path in csvs.values()]
     if args.json:
         out = {"runs": docs, "notes": notes}
         if args.ssp:
@@ -204,6 +183,45 @@ def cmd_cosim(args: argparse.Namespace) -> int:
     for path in out_files:
         print(f"series written to {path}")
     return 0
+
+
+def _run(args: argparse.Namespace, system: Any, couplings: list[str], ssp: str | None) -> list[tuple[Any, float]]:
+    """Each coupling's run and its wall time (s); the system's own coupling writes its SSP to ``ssp``."""
+    from runners.engine import cosim
+
+    block_fmu = Path(args.fmu) if args.fmu else None
+    results = []
+    for coupling in couplings:
+        bar, tick = _progress_bar(f"{args.engine}, {coupling}")
+        t0 = time.perf_counter()
+        try:
+            r = cosim.run(replace(system, coupling=coupling), engine=args.engine, block_fmu=block_fmu,
+                          ssp=ssp if coupling == system.coupling else None, progress=tick)
+        finally:
+            if bar is not None:
+                bar.close()
+        results.append((r, time.perf_counter() - t0))
+    return results
+
+
+def _summary(r: Any, seconds: float) -> dict:
+    """summary() of one run, with its energy balance where the run allows one, and its wall time."""
+    from runners.analysis import cosim as checks
+
+    balance = None
+    if r.system.coupling == "two-way" and int(r.system.blocks.get("contact.model", 0)) == 1 and \
+            not any(float(r.system.blocks.get(k, 0.0)) for k in ("block1.theta0", "block1.omega0")):
+        balance = checks.energy_balance(r)
+    return {**summary(r, balance), "seconds": round(seconds, 3)}
+
+
+def _write(path: str | Path, write, *args: Any, **kw: Any) -> None:
+    """``write(*args, **kw)``, which writes the output ``path`` (to its temporary file): ValueError,
+    in one line naming ``path``, if it cannot."""
+    try:
+        write(*args, **kw)
+    except OSError as exc:
+        raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
 def _print_summaries(docs: list[dict]) -> None:

@@ -42,6 +42,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             raise ValueError(f"{option}, and the scene {args.scene} names none: give one with --record NAME|ID|FILE (runners "
                              "records list shows the stored ones), or use a scene whose [excitation] names one "
                              "(record = NAME or file = PATH)")
+    if args.rrd:  # besides the files of the command line (runners.cli.clobber.check): the scene's record file
+        from runners.api import as_scene
+        from runners.engine.files import refuse
+
+        refuse({"--out": args.rrd}, {"scene's record file": as_scene(args.scene).file}, database=False)
     if args.motion is not None:  # the record a stored ground or table motion amounts to
         from db.session import open_database
         from runners.cli.measured import motion_record

@@ -34,12 +34,16 @@ docs/conventions.md (theta > 0 clockwise about the right corner).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import uuid
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
+
+from runners.engine.files import staged
+from runners.errors import FileError
 
 MAX_FPS = 100.0  # animation frames per simulated second
 
@@ -318,9 +322,6 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     reach = max(np.abs(xg).max(initial=0.0), np.abs(yg).max(initial=0.0))
     bounds = (-width - reach, width + reach, -1.15 * height - reach, 0.25 * height + reach)  # y down
 
-    rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     blocks = ["block1", "block2"] if two else ["block1"]
     ranges = {var: axis_range(*[np.asarray(out[f"{b}.{var}"], float) for b in blocks if f"{b}.{var}" in out],
                               *[np.asarray(v[1], float) for k, v in measured.items() if k.endswith(f".{var}")])
@@ -335,70 +336,70 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
         ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate",
                                                                           "block2.slip", "block2.slipRate")
                                       if k in out])
-    rec.save(str(path), default_blueprint=_blueprint(two, measured_paths, bounds, record is not None, ranges,
-                                                     sliding))
-    rec.send_property("run", rr.AnyValues(name=name))
-    if record is not None:
-        from runners.engine.record_files import read_record_file
+    path = Path(path)
+    with _stream(path, _blueprint(two, measured_paths, bounds, record is not None, ranges, sliding)) as rec:
+        rec.send_property("run", rr.AnyValues(name=name))
+        if record is not None:
+            from runners.engine.record_files import read_record_file
 
-        scale, start = float(p.get("excitation.scale", 1.0)), float(p.get("excitation.startTime", 0.0))
-        rt, rah, rav = read_record_file(p["excitation.file"])
-        rec.send_property("record", rr.AnyValues(name=record["name"], scale=scale))
-        rec.log("/record/about", rr.TextDocument(record_text(record, scale), media_type="text/markdown"),
-                static=True)
-        for entity, values in (("/record/ah", rah), ("/record/av", rav)):
-            if values is not None:
-                rec.log(entity, rr.SeriesPoints(colors=[_colour("record")], marker_sizes=1.5,
-                                                names=[f"record samples {entity[-2:]} x {scale:g}"]), static=True)
-                rec.send_columns(entity, indexes=[rr.TimeColumn("sim_time", duration=_ns(start + rt))],
-                                 columns=rr.Scalars.columns(scalars=scale * values))
-    idx = [rr.TimeColumn("sim_time", duration=_ns(time))]
-    for entity, var in SERIES.items():
-        if var in out and (two or not entity.startswith("/block2")):
-            rec.log(entity, rr.SeriesLines(colors=[_colour(entity, SHADES.get(entity, 1.0))],
-                                           names=[entity.strip("/")]), static=True)
-            rec.send_columns(entity, indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(out[var], float)))
-    for block, piv in pivots(out, two).items():
-        rec.send_columns(f"/{block}/pivot", indexes=idx, columns=rr.Scalars.columns(scalars=piv))
-    for contact, (values, mu) in demand.items():
-        rec.log(f"/contact/{contact}/demand", rr.SeriesLines(colors=[_colour("demand")], names=[f"{contact} |T|/N"]),
-                static=True)
-        rec.send_columns(f"/contact/{contact}/demand", indexes=idx, columns=rr.Scalars.columns(scalars=values))
-        rec.log(f"/contact/{contact}/mu", rr.SeriesLines(colors=[_colour("mu")], names=[f"{contact} mu"]), static=True)
-        rec.send_columns(f"/contact/{contact}/mu",
-                         indexes=[rr.TimeColumn("sim_time", duration=_ns(time[[0, -1]]))],
-                         columns=rr.Scalars.columns(scalars=np.array([mu, mu])))
-    for entity, (mt, mv) in zip(measured_paths, measured.values()):
-        rec.log(f"/measured/{entity}", rr.SeriesPoints(colors=[_colour(entity, 0.6)], markers="circle",
-                                                        marker_sizes=3.0, names=[f"measured {entity}"]), static=True)
-        rec.send_columns(f"/measured/{entity}", indexes=[rr.TimeColumn("sim_time", duration=_ns(mt))],
-                         columns=rr.Scalars.columns(scalars=np.asarray(mv, float)))
-    frame_idx = [rr.TimeColumn("sim_time", duration=_ns(time[frames]))]
-    for i, pts in enumerate(shapes, start=1):
-        rec.log(f"/scene/block{i}", rr.LineStrips2D.from_fields(colors=[COLOURS[f"block{i}"]]), static=True)
-        rec.send_columns(f"/scene/block{i}", indexes=frame_idx,
-                         columns=rr.LineStrips2D.columns(strips=_to_view(pts)).partition([1] * len(frames)))
-    hatch = _ground_hatch(xg, yg, width)
-    rec.log("/scene/ground", rr.LineStrips2D.from_fields(colors=[[90, 90, 90]]), static=True)
-    rec.send_columns("/scene/ground", indexes=frame_idx,
-                     columns=rr.LineStrips2D.columns(strips=_to_view(hatch.reshape(-1, 2, 2)).reshape(-1, 2, 2))
-                     .partition([hatch.shape[1]] * len(frames)))
-    for (block, piv), where in zip(pivots(at_frames, two).items(), pivot_points):
-        rec.log(f"/scene/pivot/{block}", rr.Points2D.from_fields(colors=[(170, 40, 170)]), static=True)
-        rec.send_columns(f"/scene/pivot/{block}", indexes=frame_idx,
-                         columns=rr.Points2D.columns(positions=_to_view(where + offset[:, 0, :]),
-                                                     radii=np.where(piv == 0, 0.0, 0.12 * b1)))  # none when flat
-    # events at one instant (an impact and the settling it causes, say) share one entry, "; "-separated
-    by_time: dict[float, list[str]] = {}
-    for ev in events or []:
-        values = " ".join(f"{k}={v:.6g}" for k, v in ev.values.items())
-        labels = " ".join(f"{k}={v}" for k, v in ev.labels.items())
-        by_time.setdefault(float(ev.t), []).append(f"{ev.kind} {labels} {values}".strip())
-    for t_ev, texts in by_time.items():
-        rec.set_time("sim_time", duration=_ns(t_ev))
-        rec.log("/events", rr.TextLog("; ".join(texts), level="INFO"))
-    rec.flush()
-    rec.disconnect()
+            scale, start = float(p.get("excitation.scale", 1.0)), float(p.get("excitation.startTime", 0.0))
+            rt, rah, rav = read_record_file(p["excitation.file"])
+            rec.send_property("record", rr.AnyValues(name=record["name"], scale=scale))
+            rec.log("/record/about", rr.TextDocument(record_text(record, scale), media_type="text/markdown"),
+                    static=True)
+            for entity, values in (("/record/ah", rah), ("/record/av", rav)):
+                if values is not None:
+                    rec.log(entity, rr.SeriesPoints(colors=[_colour("record")], marker_sizes=1.5,
+                                                    names=[f"record samples {entity[-2:]} x {scale:g}"]), static=True)
+                    rec.send_columns(entity, indexes=[rr.TimeColumn("sim_time", duration=_ns(start + rt))],
+                                     columns=rr.Scalars.columns(scalars=scale * values))
+        idx = [rr.TimeColumn("sim_time", duration=_ns(time))]
+        for entity, var in SERIES.items():
+            if var in out and (two or not entity.startswith("/block2")):
+                rec.log(entity, rr.SeriesLines(colors=[_colour(entity, SHADES.get(entity, 1.0))],
+                                               names=[entity.strip("/")]), static=True)
+                rec.send_columns(entity, indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(out[var], float)))
+        for block, piv in pivots(out, two).items():
+            rec.send_columns(f"/{block}/pivot", indexes=idx, columns=rr.Scalars.columns(scalars=piv))
+        for contact, (values, mu) in demand.items():
+            rec.log(f"/contact/{contact}/demand",
+                    rr.SeriesLines(colors=[_colour("demand")], names=[f"{contact} |T|/N"]), static=True)
+            rec.send_columns(f"/contact/{contact}/demand", indexes=idx, columns=rr.Scalars.columns(scalars=values))
+            rec.log(f"/contact/{contact}/mu", rr.SeriesLines(colors=[_colour("mu")], names=[f"{contact} mu"]),
+                    static=True)
+            rec.send_columns(f"/contact/{contact}/mu",
+                             indexes=[rr.TimeColumn("sim_time", duration=_ns(time[[0, -1]]))],
+                             columns=rr.Scalars.columns(scalars=np.array([mu, mu])))
+        for entity, (mt, mv) in zip(measured_paths, measured.values()):
+            rec.log(f"/measured/{entity}", rr.SeriesPoints(colors=[_colour(entity, 0.6)], markers="circle",
+                                                            marker_sizes=3.0, names=[f"measured {entity}"]),
+                    static=True)
+            rec.send_columns(f"/measured/{entity}", indexes=[rr.TimeColumn("sim_time", duration=_ns(mt))],
+                             columns=rr.Scalars.columns(scalars=np.asarray(mv, float)))
+        frame_idx = [rr.TimeColumn("sim_time", duration=_ns(time[frames]))]
+        for i, pts in enumerate(shapes, start=1):
+            rec.log(f"/scene/block{i}", rr.LineStrips2D.from_fields(colors=[COLOURS[f"block{i}"]]), static=True)
+            rec.send_columns(f"/scene/block{i}", indexes=frame_idx,
+                             columns=rr.LineStrips2D.columns(strips=_to_view(pts)).partition([1] * len(frames)))
+        hatch = _ground_hatch(xg, yg, width)
+        rec.log("/scene/ground", rr.LineStrips2D.from_fields(colors=[[90, 90, 90]]), static=True)
+        rec.send_columns("/scene/ground", indexes=frame_idx,
+                         columns=rr.LineStrips2D.columns(strips=_to_view(hatch.reshape(-1, 2, 2)).reshape(-1, 2, 2))
+                         .partition([hatch.shape[1]] * len(frames)))
+        for (block, piv), where in zip(pivots(at_frames, two).items(), pivot_points):
+            rec.log(f"/scene/pivot/{block}", rr.Points2D.from_fields(colors=[(170, 40, 170)]), static=True)
+            rec.send_columns(f"/scene/pivot/{block}", indexes=frame_idx,
+                             columns=rr.Points2D.columns(positions=_to_view(where + offset[:, 0, :]),
+                                                         radii=np.where(piv == 0, 0.0, 0.12 * b1)))  # none when flat
+        # events at one instant (an impact and the settling it causes, say) share one entry, "; "-separated
+        by_time: dict[float, list[str]] = {}
+        for ev in events or []:
+            values = " ".join(f"{k}={v:.6g}" for k, v in ev.values.items())
+            labels = " ".join(f"{k}={v}" for k, v in ev.labels.items())
+            by_time.setdefault(float(ev.t), []).append(f"{ev.kind} {labels} {values}".strip())
+        for t_ev, texts in by_time.items():
+            rec.set_time("sim_time", duration=_ns(t_ev))
+            rec.log("/events", rr.TextLog("; ".join(texts), level="INFO"))
     return path
 
 
@@ -420,37 +421,69 @@ def write_sweep_recording(path: Path, factory, sweep_id: int, picture: bytes | N
 
     sw, scene, runs = load(factory, str(sweep_id))
     runs = sorted(runs, key=lambda r: r.grid_index)
-    rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    rec.save(str(path))
-    rec.send_property("sweep", rr.AnyValues(id=sw.id, scene=scene.name, total=sw.total))
-    on_records = bool(sw.grid.get("records"))
-    if picture is not None:
-        # The picture is logged once, at the first grid index, and not static: the viewer shows it at every
-        # later index (latest-at), while a dataframe query on grid_index carries it in one row only. Static
-        # data is joined to every row of such a query (a 10,000-point sweep would repeat it 10,000 times).
-        first = [rr.TimeColumn("grid_index", sequence=[min((r.grid_index for r in runs), default=0)])]
-        rec.send_columns("/ida" if on_records else "/map", indexes=first,
-                         columns=rr.EncodedImage.columns(blob=[picture], media_type=["image/png"]))
-    idx = [rr.TimeColumn("grid_index", sequence=np.array([r.grid_index for r in runs], dtype=np.int64))]
-    ok = [r.summary is not None for r in runs]
-    columns = {
-        "overturned": [float(r.summary.overturned) if r.summary else np.nan for r in runs],
-        "impacts": [float(r.summary.impacts) if r.summary and r.summary.impacts is not None else np.nan
-                    for r in runs],
-        "peak1_over_alpha": [r.summary.peak1_over_alpha if r.summary and r.summary.peak1_over_alpha is not None
-                             else np.nan for r in runs],
-        "failed": [0.0 if good else 1.0 for good in ok],
-        "recorded": [1.0 if r.recording else 0.0 for r in runs],  # simulated in full, with its own recording
-    }
-    for axis in (a[0] for a in sw.grid["axes"]):
-        columns[f"grid/{axis}"] = [r.point[axis] for r in runs]
-    if on_records:  # each point's record (its id), scale and the scaled record's measures
-        for key in ("record_id", "scale", "pga", "pgv", "pgd", "arias"):
-            columns[f"grid/{key}"] = [r.point.get(key, np.nan) for r in runs]
-    for name, values in columns.items():
-        rec.send_columns(f"/points/{name}", indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(values, float)))
-    rec.flush()
-    rec.disconnect()
+    with _stream(path) as rec:
+        rec.send_property("sweep", rr.AnyValues(id=sw.id, scene=scene.name, total=sw.total))
+        on_records = bool(sw.grid.get("records"))
+        if picture is not None:
+            # The picture is logged once, at the first grid index, and not static: the viewer shows it at every
+            # later index (latest-at), while a dataframe query on grid_index carries it in one row only. Static
+            # data is joined to every row of such a query (a 10,000-point sweep would repeat it 10,000 times).
+            first = [rr.TimeColumn("grid_index", sequence=[min((r.grid_index for r in runs), default=0)])]
+            rec.send_columns("/ida" if on_records else "/map", indexes=first,
+                             columns=rr.EncodedImage.columns(blob=[picture], media_type=["image/png"]))
+        idx = [rr.TimeColumn("grid_index", sequence=np.array([r.grid_index for r in runs], dtype=np.int64))]
+        ok = [r.summary is not None for r in runs]
+        columns = {
+            "overturned": [float(r.summary.overturned) if r.summary else np.nan for r in runs],
+            "impacts": [float(r.summary.impacts) if r.summary and r.summary.impacts is not None else np.nan
+                        for r in runs],
+            "peak1_over_alpha": [r.summary.peak1_over_alpha if r.summary and r.summary.peak1_over_alpha is not None
+                                 else np.nan for r in runs],
+            "failed": [0.0 if good else 1.0 for good in ok],
+            "recorded": [1.0 if r.recording else 0.0 for r in runs],  # simulated in full, with its own recording
+        }
+        for axis in (a[0] for a in sw.grid["axes"]):
+            columns[f"grid/{axis}"] = [r.point[axis] for r in runs]
+        if on_records:  # each point's record (its id), scale and the scaled record's measures
+            for key in ("record_id", "scale", "pga", "pgv", "pgd", "arias"):
+                columns[f"grid/{key}"] = [r.point.get(key, np.nan) for r in runs]
+        for name, values in columns.items():
+            rec.send_columns(f"/points/{name}", indexes=idx,
+                             columns=rr.Scalars.columns(scalars=np.asarray(values, float)))
     return path
+
+
+@contextlib.contextmanager
+def _stream(path: Path, blueprint=None) -> Iterator[Any]:
+    """A RecordingStream of its own, saved to a temporary file beside ``path`` (its folder made if
+    missing) that replaces ``path`` once the block has logged everything and the stream is flushed:
+    a recording that cannot be written is a FileError, in one line naming it, and leaves ``path``
+    as it was, with nothing half-written. ``blueprint``: the recording's default blueprint."""
+    import rerun as rr
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise FileError(f"cannot write the recording {path}: its folder cannot be made ({exc.strerror or exc})") \
+            from None
+    with staged({"the recording": path}) as tmp:
+        rec = rr.RecordingStream("rocking", recording_id=str(uuid.uuid4()))
+        try:
+            _rerun_writes(path, lambda: rec.save(tmp["the recording"]))
+            if blueprint is not None:  # sent once the file is open: a failed save leaves no blueprint behind
+                rec.send_blueprint(blueprint, make_active=False, make_default=True)
+            yield rec
+            _rerun_writes(path, rec.flush)
+        finally:
+            rec.disconnect()
+
+
+def _rerun_writes(path: Path, call) -> None:
+    """``call()``, a save or flush of a Rerun stream: its failure to write the file (a full disk, a
+    file system that refuses it) a FileError in one line naming ``path``."""
+    try:
+        call()
+    except RuntimeError as exc:
+        raise FileError(f"cannot write the recording {path}: {(str(exc).splitlines() or [type(exc).__name__])[0]}") \
+            from None
