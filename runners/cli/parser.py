@@ -35,7 +35,9 @@ def version_text() -> str:
         text = f"runners {version('rocking')}"
     except PackageNotFoundError:
         text = "runners (rocking not installed: pip install -e .)"
-    fmu = Path(os.environ.get("ROCKING_FMU") or Path(__file__).resolve().parents[2] / "build" / "RockingBlock.fmu")
+    from runners.engine.files import default_fmu
+
+    fmu = Path(default_fmu())
     try:
         with zipfile.ZipFile(fmu) as zf:
             head = zf.read("modelDescription.xml")[:2000].decode("utf-8", "replace")
