@@ -287,15 +287,23 @@ def test_a_slip_without_its_unit_from_one_metre_on_is_refused(marble, fmu_path, 
         assert study.damage_state(spec, oc).limit == pytest.approx(metres), spec
 
 
-def test_what_the_commands_say_of_rigid_sweeps_block_two_states_and_no_fits(template, fmu_path, tmp_path):  # noqa: F811
-    db = f"sqlite:///{tmp_path / 's.db'}"
-    shutil.copy(template, tmp_path / "s.db")
-    scene = tmp_path / "plinth.toml"
+@pytest.fixture(scope="module")
+def plinths(template, tmp_path_factory, fmu_path):  # noqa: F811
+    """A rigid statue on a plinth under three records at three levels, swept over nBlocks = 1 and 2."""
+    folder = tmp_path_factory.mktemp("plinths")
+    shutil.copy(template, folder / "s.db")
+    db = f"sqlite:///{folder / 's.db'}"
+    scene = folder / "plinth.toml"
     scene.write_text('name = "statue on plinth"\n[block]\nhalf_width = 0.15\nhalf_height = 0.5\nmass = 300\n'
                      "[block2]\nhalf_width = 0.15\nhalf_height = 0.4\nmass = 80\n")
     p = run_cli("sweep", str(scene), "--records", "1,2,3", "--im", "pga=0.3:1.3:3", "--grid", "nBlocks=1:2:2",
                 "--quiet", db=db, fmu_path=fmu_path)
     assert p.returncode == 0, p.stderr
+    return db
+
+
+def test_what_the_commands_say_of_rigid_sweeps_block_two_states_and_no_fits(plinths, fmu_path, tmp_path):
+    db = plinths
     out = str(tmp_path / "f.png")
     # a block-2 state on a sweep whose nBlocks axis has one-block runs: refused, not "0 reached"
     p = run_cli("fragility", "1", "--ds", "block2:overturn", "--out", out, db=db, fmu_path=fmu_path)
@@ -361,14 +369,8 @@ def test_a_study_whose_model_answered_no_run_and_one_whose_runs_all_failed_say_s
     assert p.returncode == 2 and f"every one of the 4 runs of sweep {sid} failed" in p.stderr
 
 
-def test_ida_of_block_two_on_an_nblocks_axis_and_figure_names_say_what_to_do(template, fmu_path, tmp_path):  # noqa: F811
-    db = f"sqlite:///{tmp_path / 's.db'}"
-    shutil.copy(template, tmp_path / "s.db")
-    scene = tmp_path / "plinth.toml"
-    scene.write_text('name = "statue on plinth"\n[block]\nhalf_width = 0.15\nhalf_height = 0.5\nmass = 300\n'
-                     "[block2]\nhalf_width = 0.15\nhalf_height = 0.4\nmass = 80\n")
-    assert run_cli("sweep", str(scene), "--records", "1,2", "--im", "pga=0.3:1.3:3", "--grid", "nBlocks=1:2:2",
-                   "--quiet", db=db, fmu_path=fmu_path).returncode == 0
+def test_ida_of_block_two_on_an_nblocks_axis_and_figure_names_say_what_to_do(plinths, fmu_path, tmp_path):
+    db = plinths
     p = run_cli("ida", "1", "--block", "2", "--out", str(tmp_path / "i.png"), db=db, fmu_path=fmu_path)
     assert p.returncode == 2 and "--select nBlocks=2" in p.stderr
     # a figure's name sets its format: .png, .pdf or .svg, refused otherwise before any work
