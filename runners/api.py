@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from runners import arguments as args
-from runners.engine.least_model import FIXED_STEP_METHODS, METHODS, PYTHON_METHODS
+from runners.engine.least_model import FIXED_STEP_METHODS, METHODS, PYTHON_METHODS  # noqa: F401 (runners.api's names)
 from runners.engine.results import RunResult, SweepResult
 from runners.engine.scene import (Scene, SceneError, check_times, contact_model_problem, implausible_sizes,
                                   load_scene, scene_from_dict, unused_parameter, weak_excitation, with_times)
@@ -603,9 +603,7 @@ def sweep(
     require_writable(factory)  # before any work: a sweep stores every point
     fmu_path = fmu_path_from(None if fmu is None else str(fmu))
     if resume is None:
-        sc = as_scene(scene)
-        if stop_time is not None:
-            sc.stop_time, sc.stop_time_given = _seconds(stop_time, "stop_time"), True
+        sc = with_times(as_scene(scene), stop_time)
         check_times(sc.stop_time, sc.step, "the stop time", "the output step")
         with RockingFMU(fmu_path) as fm:
             _check_fmu(fm, fmu_path)

@@ -99,11 +99,15 @@ class Outcomes:
     def n_broke(self) -> int:
         return 0 if self.broke is None else int(np.sum(self.broke))
 
-    def broke_words(self) -> str:
-        """What a run whose model broke first did, in a few words (figures' legends)."""
-        if self.sliding:
-            return f"{'a contact' if self.two else 'the block'} lifted off first (outside the model)"
-        return "rigid rocking broke first"
+    def answered(self, reached: np.ndarray | None = None) -> np.ndarray:
+        """Bool per run: the model answered it, its assumptions holding until the outcome was
+        decided; or, given `reached` (bool per run: a state or a loss the run reached), also where
+        a rocking–sliding stack's run, which ends where its model broke (ends_at_break), had
+        reached it before. True everywhere for runs that did not monitor their contacts."""
+        ok = np.ones(len(self.x), bool) if self.broke is None else ~np.asarray(self.broke, bool)
+        if reached is not None and self.ends_at_break:
+            ok |= np.asarray(reached, bool)
+        return ok
 
     def unanswered_words(self) -> str:
         """Why the model did not answer a run it broke in, in a few words (texts and legends)."""
@@ -536,11 +540,9 @@ class DamageState:
         did before the break: a rocking–sliding stack's run ends at the lift-off, so it answers the
         states it reached by its end; any run answers `slides` where it slid before any lift-off.
         What the block did after the break is outside the model: the run does not answer it."""
-        if oc.broke is None:
-            return np.ones(len(oc.x), bool)
-        ok = ~np.asarray(oc.broke, bool)
-        if oc.ends_at_break:
-            return ok | np.asarray(reached, bool)
+        if oc.broke is None or oc.ends_at_break:
+            return oc.answered(reached)
+        ok = oc.answered()
         if self.kind == "slides" and self.block == "either" and oc.slide_t is not None:
             with np.errstate(invalid="ignore"):
                 slid_first = np.isfinite(oc.slide_t) & ~(oc.lift_t < oc.slide_t)
@@ -912,10 +914,7 @@ def overturns(oc: Outcomes, unanswered: str = "omit") -> tuple[np.ndarray, np.nd
     model did not answer treated as `unanswered` says (treated; a run of a rocking–sliding stack
     that overturned before it ended in flight is answered)."""
     over = np.asarray(oc.overturned, bool)
-    answered = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
-    if oc.ends_at_break:
-        answered |= over
-    return treated(over, answered, check_unanswered(unanswered))
+    return treated(over, oc.answered(over), check_unanswered(unanswered))
 
 
 def first_overturn(oc: Outcomes, unanswered: str = "omit") -> dict[str, float | None]:
@@ -990,9 +989,7 @@ def ida_panels(oc: Outcomes, demand: str = "rotation", block: int | None = None)
     panels = [(1, np.asarray(oc.peak1 if demand == "rotation" else oc.slip, float), np.asarray(oc.over1, bool))]
     if oc.two and (demand == "rotation" or oc.slip2 is not None):
         panels.append((2, np.asarray(oc.peak2 if demand == "rotation" else oc.slip2, float), oc.gone2))
-    ok = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
-    return [(i, peak, gone, ok | gone if oc.ends_at_break else ok) for i, peak, gone in panels
-            if block is None or i == block]
+    return [(i, peak, gone, oc.answered(gone)) for i, peak, gone in panels if block is None or i == block]
 
 
 def ida_median(oc: Outcomes, peak: np.ndarray, gone: np.ndarray, answered: np.ndarray,
@@ -1140,7 +1137,7 @@ def slip_text(oc: Outcomes) -> str | None:
     the largest peak |slip| of a standing block, and the motion classes (of each block of a stack)."""
     if oc.slip is None:
         return None
-    answered = np.ones(len(oc.x), bool) if oc.broke is None else ~np.asarray(oc.broke, bool)
+    answered = oc.answered()
     n = int(np.sum(~answered))
     tail = (f" (the classes count what the {n} runs the model did not answer did before it broke; the largest slips "
             "are of the runs it answered)" if n else "")
