@@ -57,6 +57,16 @@ Derivation of the demand: rocking about the left corner (``a_h > 0``), the centr
 counter-clockwise angular acceleration ``psi'' = m (h a_h - b G) / I0``, ``I0 = 4/3 m R^2``. At
 ``omega = 0`` the centre accelerates by ``psi'' (-h, b)``, so ``T = m a_h - m h psi''`` and
 ``N = m G + m b psi''``; the ratio above follows with ``R^2 = b^2 + h^2``.
+
+Flight, and the mode after a landing (Shenton & Jones 1991; Taniguchi 2002)
+--------------------------------------------------------------------------
+With ``G <= 0`` the block flies (:func:`initiation_mode` answers ``Mode.FLIGHT``); no load with
+``G > 0`` makes it fly. Where ``G < 0`` and ``mu > mu_P = (4 beta^2 + 1) / (3 beta)`` friction can also
+jam a corner into the ground (:func:`initiation_modes`, :func:`jam_ratio`). A plastic landing with
+Coulomb friction is the same complementarity problem at the impulse level, with the landing velocity
+``(vx, vy)`` in place of ``(-a_h, -G)``: a flat landing has the separatrices above with
+``lambda -> r = |vx| / |vy|`` (:func:`flat_landing`); a landing on one corner sticks or slides by the
+thresholds of :func:`corner_landing_thresholds`. Derivations: docs/flight.md.
 """
 
 from __future__ import annotations
@@ -383,25 +393,43 @@ def _bracketed(phase: Phase, lo: float, hi: float) -> float | None:
 
 
 class Mode(IntEnum):
-    """The FMU's block1.mode (Enumeration ContactMode)."""
+    """The FMU's block1.mode (Enumeration ContactMode) for values 0 to 4, and ``FLIGHT`` (5): no
+    contact carries a force. The FMU's own output enumeration gives flight the value 6; here it is 5."""
 
     REST = 0
     SLIDE = 1
     ROCK = 2
     SLIDE_ROCK = 3
     OVERTURNED = 4
+    FLIGHT = 5
+
+
+def _check_block(mu: float, b_over_h: float) -> None:
+    """ValueError unless mu and b / h are finite numbers > 0."""
+    for name, x in (("mu", mu), ("b_over_h", b_over_h)):
+        if not (math.isfinite(x) and x > 0):
+            raise ValueError(f"{name} = {x} must be a finite number > 0")
+
+
+def _check_load(ah_over_g: float, av_over_g: float) -> None:
+    """ValueError unless a_h / g and a_v / g are finite."""
+    if not (math.isfinite(ah_over_g) and math.isfinite(av_over_g)):
+        raise ValueError(f"a_h / g = {ah_over_g} and a_v / g = {av_over_g} must be finite")
 
 
 def _check(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float) -> float:
     """lambda = |a_h| / (g + a_v); ValueError for a bad argument or flight (g + a_v <= 0)."""
-    for name, x in (("mu", mu), ("b_over_h", b_over_h)):
-        if not (math.isfinite(x) and x > 0):
-            raise ValueError(f"{name} = {x} must be a finite number > 0")
-    if not (math.isfinite(ah_over_g) and math.isfinite(av_over_g)):
-        raise ValueError(f"a_h / g = {ah_over_g} and a_v / g = {av_over_g} must be finite")
+    _check_block(mu, b_over_h)
+    _check_load(ah_over_g, av_over_g)
     if not 1.0 + av_over_g > 0:
         raise ValueError(f"a_v / g = {av_over_g}: the ground falls faster than gravity, the block would fly")
     return abs(ah_over_g) / (1.0 + av_over_g)
+
+
+def _demand(beta: float, lam: float) -> float:
+    """((4 beta^2 + 1) lam + 3 beta) / ((beta^2 + 4) + 3 beta lam): the friction ratio a corner needs
+    to stick as the block tips onto it (the same form at the acceleration and at the impulse level)."""
+    return ((4 * beta * beta + 1) * lam + 3 * beta) / ((beta * beta + 4) + 3 * beta * lam)
 
 
 def rocking_onset_demand(b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> float:
@@ -410,8 +438,7 @@ def rocking_onset_demand(b_over_h: float, ah_over_g: float, av_over_g: float = 0
     ((beta^2 + 4) + 3 beta lambda), beta = b / h, lambda = |a_h| / (g + a_v). Meaningful where
     lambda > beta (rocking starts)."""
     lam = _check(1.0, b_over_h, ah_over_g, av_over_g)
-    beta = b_over_h
-    return ((4 * beta * beta + 1) * lam + 3 * beta) / ((beta * beta + 4) + 3 * beta * lam)
+    return _demand(b_over_h, lam)
 
 
 def rock_friction_limit(b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> float:
@@ -427,26 +454,274 @@ def rest_limit(mu: float, b_over_h: float) -> float:
     return min(mu, b_over_h)
 
 
-def initiation_mode(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> Mode:
-    """The mode a block at rest takes under suddenly applied constant a_h, a_v (in units of g):
-    REST if |a_h| <= min(mu, b/h) (g + a_v); else SLIDE if mu <= b/h (Ishiyama 1982); else ROCK if
-    rocking's onset demand is <= mu, SLIDE_ROCK otherwise (Shenton 1996)."""
-    lam = _check(mu, b_over_h, ah_over_g, av_over_g)
-    if lam <= min(mu, b_over_h):
+def painleve_friction(b_over_h: float) -> float:
+    """mu_P = (4 beta^2 + 1) / (3 beta) (1), beta = b / h: the friction coefficient above which a corner
+    sliding outwards would need a negative normal force (the denominator 4 b^2 + h^2 - 3 mu b h of
+    slide-rock changes sign). It is the limit of the rocking demand as lambda -> inf, and at least 4/3
+    (at beta = 1/2). With mu > mu_P no block slide-rocks from rest under G > 0, and under G < 0 a
+    block may jam on a corner instead of flying (:func:`initiation_modes`)."""
+    _check_block(1.0, b_over_h)
+    return (4 * b_over_h * b_over_h + 1) / (3 * b_over_h)
+
+
+def slide_rock_ratio(mu: float, b_over_h: float) -> float:
+    """The ratio (1) above which a block with b / h < mu < mu_P slide-rocks rather than rocks:
+    r_sr = (mu (beta^2 + 4) - 3 beta) / (4 beta^2 + 1 - 3 mu beta), the inverse of the rocking demand
+    (lambda = |a_h| / G at initiation, r = |vx| / |vy| at a flat landing); inf for mu >= mu_P
+    (:func:`painleve_friction`). For mu <= b / h it is not a boundary (the block slides flat)."""
+    _check_block(mu, b_over_h)
+    beta = b_over_h
+    den = 4 * beta * beta + 1 - 3 * mu * beta
+    return (mu * (beta * beta + 4) - 3 * beta) / den if den > 0 else math.inf
+
+
+def _flat_contact_mode(mu: float, beta: float, lam: float) -> Mode:
+    """The one consistent mode of a flat block whose base is pressed (G > 0, or vy < 0 at a landing)
+    with the ratio lam of the tangential to the normal drive: rest, slide, rock or slide-rock."""
+    if lam <= min(mu, beta):
         return Mode.REST
-    if mu <= b_over_h:
+    if mu <= beta:
         return Mode.SLIDE
-    return Mode.ROCK if rocking_onset_demand(b_over_h, ah_over_g, av_over_g) <= mu else Mode.SLIDE_ROCK
+    return Mode.ROCK if _demand(beta, lam) <= mu else Mode.SLIDE_ROCK
+
+
+def _flat_contact_margin(mu: float, beta: float, lam: float) -> float:
+    """Distance of (mu, beta, lam) from the nearest boundary of :func:`_flat_contact_mode` that concerns it."""
+    margins = [abs(lam - min(mu, beta))]
+    if lam > min(mu, beta):
+        margins.append(abs(mu - beta))
+        if mu > beta:
+            margins.append(abs(mu - _demand(beta, lam)))
+    return min(margins)
+
+
+def initiation_mode(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> Mode:
+    """The mode a block at rest takes under suddenly applied constant a_h, a_v (in units of g).
+
+    With G = g + a_v > 0: REST if |a_h| <= min(mu, b/h) (g + a_v); else SLIDE if mu <= b/h (Ishiyama
+    1982); else ROCK if rocking's onset demand is <= mu, SLIDE_ROCK otherwise (Shenton 1996). No load
+    with G > 0 makes the block fly: every pressing mode has N > 0 at its first instant.
+
+    With G <= 0 (a_v <= -g, the ground falls at least as fast as gravity): FLIGHT (Shenton & Jones
+    1991; Taniguchi 2002). At G = 0 the flight carries no force and the block grazes the ground
+    (relative acceleration (-a_h, 0)). Where mu > mu_P the contact problem also admits a block jammed
+    on a corner (:func:`initiation_modes`); this function still answers FLIGHT there."""
+    _check_block(mu, b_over_h)
+    _check_load(ah_over_g, av_over_g)
+    if not 1.0 + av_over_g > 0:
+        return Mode.FLIGHT
+    return _flat_contact_mode(mu, b_over_h, abs(ah_over_g) / (1.0 + av_over_g))
+
+
+def jam_ratio(mu: float, b_over_h: float) -> float:
+    """For G < 0 and mu > mu_P: the ratio kappa = |a_h| / |G| (1) above which a block at rest may also
+    rock (pivot sticking, N > 0) or slide-rock (pivot sliding outwards) instead of flying,
+    K = (mu (beta^2 + 4) - 3 beta) / (3 mu beta - 4 beta^2 - 1); inf for mu <= mu_P."""
+    _check_block(mu, b_over_h)
+    beta = b_over_h
+    den = 3 * mu * beta - 4 * beta * beta - 1
+    return (mu * (beta * beta + 4) - 3 * beta) / den if den > 0 else math.inf
+
+
+def initiation_modes(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> frozenset[Mode]:
+    """Every mode consistent with Newton-Euler, unilateral contact and Coulomb's law at the first
+    instant from rest (the closed form of the acceleration-level complementarity problem).
+
+    - G > 0: the one mode of :func:`initiation_mode`.
+    - G < 0, kappa = |a_h| / |G|: FLIGHT; with mu > mu_P (:func:`painleve_friction`) and kappa > K
+      (:func:`jam_ratio`) also ROCK and SLIDE_ROCK on the corner the load pushes the block to
+      (Painleve-like non-uniqueness: friction jams the corner into the ground; ROCK holds already at
+      kappa = K).
+    - G = 0: FLIGHT (grazing, no force); with mu >= mu_P and a_h != 0 also ROCK (the G -> 0+ limit)."""
+    mode = initiation_mode(mu, b_over_h, ah_over_g, av_over_g)
+    big_g = 1.0 + av_over_g
+    if big_g > 0:
+        return frozenset({mode})
+    modes = {Mode.FLIGHT}
+    if big_g == 0:
+        if ah_over_g != 0 and mu >= painleve_friction(b_over_h):
+            modes.add(Mode.ROCK)
+        return frozenset(modes)
+    if mu > painleve_friction(b_over_h):
+        kappa, k = abs(ah_over_g) / -big_g, jam_ratio(mu, b_over_h)
+        if kappa >= k:
+            modes.add(Mode.ROCK)
+        if kappa > k:
+            modes.add(Mode.SLIDE_ROCK)
+    return frozenset(modes)
 
 
 def initiation_margin(mu: float, b_over_h: float, ah_over_g: float, av_over_g: float = 0.0) -> float:
     """Distance (1) of a point from the nearest boundary of :func:`initiation_mode` that concerns it,
-    in the ratios compared: lambda against min(mu, b/h), mu against b/h, mu against the demand.
-    Small values flag grid points that a tolerance could put on either side."""
-    lam = _check(mu, b_over_h, ah_over_g, av_over_g)
-    margins = [abs(lam - min(mu, b_over_h))]
-    if lam > min(mu, b_over_h):
-        margins.append(abs(mu - b_over_h))
-        if mu > b_over_h:
-            margins.append(abs(mu - rocking_onset_demand(b_over_h, ah_over_g, av_over_g)))
+    in the ratios compared: lambda against min(mu, b/h), mu against b/h, mu against the demand, and
+    1 + a_v / g (the flight boundary G = 0). For G < 0 also the boundaries of the non-unique region
+    of :func:`initiation_modes`: mu against mu_P and, above it, kappa against K. Small values flag
+    grid points that a tolerance could put on either side."""
+    _check_block(mu, b_over_h)
+    _check_load(ah_over_g, av_over_g)
+    big_g = 1.0 + av_over_g
+    if big_g > 0:
+        return min(big_g, _flat_contact_margin(mu, b_over_h, abs(ah_over_g) / big_g))
+    margins = [abs(big_g), abs(mu - painleve_friction(b_over_h))]
+    if big_g < 0 and mu > painleve_friction(b_over_h):
+        margins.append(abs(abs(ah_over_g) / -big_g - jam_ratio(mu, b_over_h)))
     return min(margins)
+
+
+# ----------------------------------------------------------------------------- landing from flight
+
+
+@dataclass(frozen=True)
+class Landing:
+    """What a plastic impact with Coulomb friction leaves of a block landing from flight. Velocities
+    are relative to the ground (m/s, ``+x`` right, ``+y`` up), impulses per unit mass (m/s).
+
+    ``side``: the corner the block turns about after the impact (+1 right, -1 left), 0 if it lies flat.
+    ``omega``: angular velocity after (rad/s, clockwise positive as ``theta``, docs/conventions.md).
+    ``slip_rate``: the contact's tangential velocity after (m/s; the base's or the pivot corner's).
+    ``p_t``: the ground's tangential impulse (``+x``), ``p_n`` its total normal impulse (>= 0)."""
+
+    mode: Mode
+    side: int
+    vx: float
+    vy: float
+    omega: float
+    slip_rate: float
+    p_t: float
+    p_n: float
+
+    def kinetic_energy(self, b: float, h: float) -> float:
+        """Kinetic energy per unit mass after the impact (J/kg): 1/2 |V|^2 + 1/2 Ic omega^2, Ic = R^2 / 3."""
+        return 0.5 * (self.vx ** 2 + self.vy ** 2) + 0.5 * (b * b + h * h) / 3.0 * self.omega ** 2
+
+
+def _check_landing(vx: float, vy: float) -> None:
+    """ValueError unless the landing velocity is finite and downwards (vy < 0)."""
+    if not (math.isfinite(vx) and math.isfinite(vy)):
+        raise ValueError(f"vx = {vx}, vy = {vy} must be finite")
+    if not vy < 0:
+        raise ValueError(f"vy = {vy} m/s: a landing needs the block to move down (vy < 0)")
+
+
+def flat_landing_mode(mu: float, b_over_h: float, vx: float, vy: float) -> Mode:
+    """The mode after a flat landing (theta = 0, omega = 0) with centre velocity (vx, vy < 0) relative
+    to the ground (m/s), plastic impact with Coulomb friction. With r = |vx| / |vy|, beta = b / h:
+    REST if r <= min(mu, beta); else SLIDE if mu <= beta; else ROCK if mu >= mu_rock(r) =
+    ((4 beta^2 + 1) r + 3 beta) / ((beta^2 + 4) + 3 beta r), else SLIDE_ROCK. The block tips onto the
+    corner it moves towards (sign(vx)). The same separatrices as initiation with lambda -> r."""
+    _check_block(mu, b_over_h)
+    _check_landing(vx, vy)
+    return _flat_contact_mode(mu, b_over_h, abs(vx) / -vy)
+
+
+def landing_margin(mu: float, b_over_h: float, vx: float, vy: float) -> float:
+    """Distance (1) of a flat landing from the nearest separatrix of :func:`flat_landing_mode` that
+    concerns it: r against min(mu, b/h), mu against b/h, mu against mu_rock(r)."""
+    _check_block(mu, b_over_h)
+    _check_landing(vx, vy)
+    return _flat_contact_margin(mu, b_over_h, abs(vx) / -vy)
+
+
+def flat_landing(mu: float, b: float, h: float, vx: float, vy: float) -> Landing:
+    """The flat landing of :func:`flat_landing_mode` with its post-impact motion, half width ``b`` and
+    half height ``h`` (m), centre velocity (vx, vy < 0) (m/s) relative to the ground before.
+    ``c = sign(vx)``, ``R^2 = b^2 + h^2``:
+
+    - REST: everything 0; p_t = -vx, p_n = |vy|.
+    - SLIDE: vx+ = vx - c mu |vy|, vy+ = omega+ = 0; p_t = -c mu |vy|, p_n = |vy|.
+    - ROCK (about corner c, angular momentum about it conserved):
+      omega+ = 3 c (h |vx| - b |vy|) / (4 R^2), vx+ = h omega+, vy+ = c b omega+,
+      p_n = (|vy| (b^2 + 4 h^2) + 3 b h |vx|) / (4 R^2).
+    - SLIDE_ROCK (corner c slides outwards, p_t = -c mu p_n):
+      p_n = |vy| R^2 / (4 b^2 + h^2 - 3 mu b h), omega+ = 3 c |vy| (mu h - b) / (4 b^2 + h^2 - 3 mu b h),
+      vx+ = vx - c mu p_n, vy+ = c b omega+, slip rate vx+ - h omega+ (sign c)."""
+    _check_block(mu, b / h if h > 0 else -1.0)
+    mode = flat_landing_mode(mu, b / h, vx, vy)
+    c = 1 if vx > 0 else -1
+    ax, ay, r2 = abs(vx), -vy, b * b + h * h
+    if mode == Mode.REST:
+        return Landing(mode, 0, 0.0, 0.0, 0.0, 0.0, -vx, ay)
+    if mode == Mode.SLIDE:
+        vxp = vx - c * mu * ay
+        return Landing(mode, 0, vxp, 0.0, 0.0, vxp, -c * mu * ay, ay)
+    if mode == Mode.ROCK:
+        w = 3.0 * c * (h * ax - b * ay) / (4.0 * r2)
+        pn = (ay * (b * b + 4 * h * h) + 3 * b * h * ax) / (4.0 * r2)
+        return Landing(mode, c, h * w, c * b * w, w, 0.0, h * w - vx, pn)
+    den = 4 * b * b + h * h - 3 * mu * b * h
+    pn = ay * r2 / den
+    w = 3.0 * c * ay * (mu * h - b) / den
+    vxp = vx - c * mu * pn
+    return Landing(mode, c, vxp, c * b * w, w, vxp - h * w, -c * mu * pn, pn)
+
+
+def _corner_geometry(b: float, h: float, theta: float) -> tuple[int, float, float]:
+    """The lower corner ``c = sign(theta)`` of a block turned by ``theta`` (clockwise) and its position
+    (rx, ry) from the centre (m)."""
+    c = 1 if theta > 0 else -1
+    ct, st = math.cos(theta), math.sin(theta)
+    return c, c * b * ct - h * st, -c * b * st - h * ct
+
+
+def corner_landing_thresholds(mu: float, b: float, h: float, theta: float) -> tuple[float, float]:
+    """The separatrices (t_minus, t_plus) (1) of a corner landing in rho = wt / |wn|, the landing corner's
+    tangential over normal velocity before the impact: it sticks (ROCK) for t_minus <= rho <= t_plus,
+    slides towards +x (SLIDE_ROCK) above t_plus and towards -x below t_minus.
+
+    With the corner at (rx, ry) from the centre and Ic = R^2 / 3, the Delassus matrix (velocity change of
+    the corner per unit impulse, unit mass) is W11 = 1 + ry^2 / Ic, W22 = 1 + rx^2 / Ic,
+    W12 = -rx ry / Ic (det W = 4), and
+    t_plus = (mu W11 - W12) / (W22 - mu W12), t_minus = -(mu W11 + W12) / (W22 + mu W12);
+    a denominator <= 0 (mu >= W22 / |W12|, the impulse analogue of mu_P) makes that threshold infinite.
+    At theta -> 0 with q = c rho: -(mu (beta^2 + 4) + 3 beta) / (4 beta^2 + 1 + 3 mu beta) <= q <=
+    (mu (beta^2 + 4) - 3 beta) / (4 beta^2 + 1 - 3 mu beta)."""
+    _, rx, ry = _corner_geometry(b, h, theta)
+    ic = (b * b + h * h) / 3.0
+    w11, w22, w12 = 1 + ry * ry / ic, 1 + rx * rx / ic, -rx * ry / ic
+    dp, dm = w22 - mu * w12, w22 + mu * w12
+    t_plus = (mu * w11 - w12) / dp if dp > 0 else math.inf
+    t_minus = -(mu * w11 + w12) / dm if dm > 0 else -math.inf
+    return t_minus, t_plus
+
+
+def corner_landing(mu: float, b: float, h: float, theta: float, omega: float, vx: float, vy: float) -> Landing:
+    """A block flying at angle ``theta`` (rad, clockwise positive, theta != 0, |theta| < pi/2) with angular
+    velocity ``omega`` (rad/s, clockwise) and centre velocity (vx, vy) (m/s, relative to the ground) lands
+    on its lower corner c = sign(theta), which must be moving down. Plastic impact, Coulomb friction on
+    the impulses. The corner's velocity before is (wt, wn) = (vx + omega ry, vy - omega rx); with
+    rho = wt / |wn| and (t_minus, t_plus) of :func:`corner_landing_thresholds`:
+
+    - ROCK (corner sticks, angular momentum about it conserved): (p_t, p_n) = -W^-1 (wt, wn);
+    - SLIDE_ROCK with s = sign(rho - t_plus) outside the interval: p_t = -s mu p_n,
+      p_n = |wn| / (W22 - s mu W12), and the corner's slip rate after wt + (W12 - s mu W11) p_n.
+
+    After it: V+ = V + (p_t, p_n), omega+ = omega - (rx p_n - ry p_t) / Ic. A rotation that lowers the
+    other corner (c omega+ < 0) brings the block flat soon after (the rocking impact of docs/sliding.md)."""
+    if not (math.isfinite(theta) and theta != 0 and abs(theta) < math.pi / 2):
+        raise ValueError(f"theta = {theta} must be nonzero with |theta| < pi/2 (a flat landing: flat_landing)")
+    _check_block(mu, b / h if h > 0 and b > 0 else -1.0)
+    c, rx, ry = _corner_geometry(b, h, theta)
+    ic = (b * b + h * h) / 3.0
+    wt, wn = vx + omega * ry, vy - omega * rx
+    if not (math.isfinite(wt) and wn < 0):
+        raise ValueError(f"the lower corner moves up or along the ground (wn = {wn} m/s): no impact")
+    w11, w22, w12 = 1 + ry * ry / ic, 1 + rx * rx / ic, -rx * ry / ic
+    t_minus, t_plus = corner_landing_thresholds(mu, b, h, theta)
+    rho = wt / -wn
+    if t_minus <= rho <= t_plus:
+        pt, pn = -(w22 * wt - w12 * wn) / 4.0, -(-w12 * wt + w11 * wn) / 4.0  # det W = 4
+        mode, slip = Mode.ROCK, 0.0
+    else:
+        s = 1 if rho > t_plus else -1
+        pn = -wn / (w22 - s * mu * w12)
+        pt = -s * mu * pn
+        mode, slip = Mode.SLIDE_ROCK, wt + (w12 - s * mu * w11) * pn
+    return Landing(mode, c, vx + pt, vy + pn, omega - (rx * pn - ry * pt) / ic, slip, pt, pn)
+
+
+def corner_landing_margin(mu: float, b: float, h: float, theta: float, omega: float, vx: float, vy: float) -> float:
+    """Distance (1) of a corner landing's rho from the nearer of its two separatrices."""
+    _, rx, ry = _corner_geometry(b, h, theta)
+    wt, wn = vx + omega * ry, vy - omega * rx
+    t_minus, t_plus = corner_landing_thresholds(mu, b, h, theta)
+    return min(abs(wt / -wn - t_minus), abs(wt / -wn - t_plus))
