@@ -100,8 +100,7 @@ def test_ishiyama_and_shenton_boundaries():
 
 
 @pytest.mark.parametrize("args, text", [((0.0, 0.4, 1.0), "mu"), ((float("nan"), 0.4, 1.0), "mu"),
-                                        ((0.5, -1.0, 1.0), "b_over_h"), ((0.5, 0.4, float("inf")), "finite"),
-                                        ((0.5, 0.4, 1.0, -1.2), "fly")])
+                                        ((0.5, -1.0, 1.0), "b_over_h"), ((0.5, 0.4, float("inf")), "finite")])
 def test_bad_arguments_are_refused(args, text):
     with pytest.raises(ValueError, match=text):
         initiation_mode(*args)
@@ -124,7 +123,7 @@ def test_the_fmu_starts_in_the_mode_the_criteria_give(fmu):
     points = [StartPoint(*p) for p in itertools.product(MU_GRID, B_OVER_H_GRID, AH_GRID, AV_GRID)]
     expected = [initiation_mode(p.mu, p.b_over_h, p.ah_over_g, p.av_over_g) for p in points]
     assert min(initiation_margin(p.mu, p.b_over_h, p.ah_over_g, p.av_over_g) for p in points) > 1e-3
-    assert {m: expected.count(m) for m in Mode if m != Mode.OVERTURNED} == \
+    assert {m: expected.count(m) for m in Mode if m not in (Mode.OVERTURNED, Mode.FLIGHT)} == \
         {Mode.REST: 272, Mode.SLIDE: 242, Mode.ROCK: 165, Mode.SLIDE_ROCK: 41}
     states = fmu_start_states(fmu, points)
     wrong = [(p, s.mode.name, e.name) for p, s, e in zip(points, states, expected) if s.mode != e]

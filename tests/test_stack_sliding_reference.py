@@ -325,7 +325,7 @@ def test_initiation_from_rest_follows_shenton():
         if g.slides:
             assert g.sigma == side
         seen.add(got)
-    assert seen == set(scf.Mode) - {scf.Mode.OVERTURNED}
+    assert seen == set(scf.Mode) - {scf.Mode.OVERTURNED, scf.Mode.FLIGHT}
 
 
 def test_single_block_limit_of_a_whole_run():
