@@ -25,7 +25,7 @@ Equations of motion: ``M q'' = F + sum_c Wn_c N_c + Wt T`` with ``M = diag(m, m,
 ``theta = 0``, both corners share ``Wt = (1, 0, -h)`` and ``T`` is the total friction force, which is
 all that acts on the rigid block).
 
-Modes (:class:`Mode`; the FMU's numbers 0-4 and ``FLIGHT = 5``):
+Modes (:class:`Mode`; the FMU's block1.mode values, ``FLIGHT = 6``):
 
 ===========  =============================  =========================================
 mode         active contact                 friction
@@ -101,12 +101,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from enum import IntEnum
 from itertools import combinations
 
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
+
+from model.sliding_closed_form import Mode  # the project's contact modes (values of the FMU's block1.mode)
 
 G_DEFAULT = 9.81  # m/s^2
 RTOL = 1e-12
@@ -117,16 +118,6 @@ FORCE_SLACK = 1e-14  # force indicators (over m g) trigger below -1e-14: a load 
 
 Ground = Callable[[float], tuple[float, float]]
 
-
-class Mode(IntEnum):
-    """Contact mode; 0-4 as the FMU's block1.mode, FLIGHT = 5."""
-
-    REST = 0
-    SLIDE = 1
-    ROCK = 2
-    SLIDE_ROCK = 3
-    OVERTURNED = 4
-    FLIGHT = 5
 
 
 # ----------------------------------------------------------------------------- ground motions

@@ -393,15 +393,15 @@ def _bracketed(phase: Phase, lo: float, hi: float) -> float | None:
 
 
 class Mode(IntEnum):
-    """The FMU's block1.mode (Enumeration ContactMode) for values 0 to 4, and ``FLIGHT`` (5): no
-    contact carries a force. The FMU's own output enumeration gives flight the value 6; here it is 5."""
+    """The FMU's block1.mode (Enumeration ContactMode): 0 to 4, and ``FLIGHT`` (6): no contact
+    carries a force (5 is the FMU's "fell off", a stack's block 2 only)."""
 
     REST = 0
     SLIDE = 1
     ROCK = 2
     SLIDE_ROCK = 3
     OVERTURNED = 4
-    FLIGHT = 5
+    FLIGHT = 6
 
 
 def _check_block(mu: float, b_over_h: float) -> None:
