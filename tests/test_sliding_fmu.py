@@ -54,7 +54,8 @@ RIGID_SCENES = {
 def test_with_friction_too_large_to_slide_the_events_are_the_rigid_models(fmu, name):
     """Events to 1e-12 s, up to where the rigid model's own monitors say it needs more friction
     (an overturning block's pivot slips just before it would lift off: rocking-sliding follows
-    that, rigid rocking cannot)."""
+    that, rigid rocking cannot). The contact engine integrates the same motion in other coordinates
+    (the centre and the rotation), so rotations agree to rounding, not bit for bit (measured: 9e-15 rad)."""
     params = {**RIGID_SCENES[name], "contact.muGround": 1e3}
     rigid = run(fmu, params)
     sliding = run(fmu, {**params, **SLIDING})
@@ -68,7 +69,7 @@ def test_with_friction_too_large_to_slide_the_events_are_the_rigid_models(fmu, n
         assert abs(slid[0] - broke) <= 1e-9, (slid, broke)
     else:
         assert not slid and sliding.outputs["block1.maxAbsSlip"][-1] == 0
-        assert np.array_equal(rigid.outputs["block1.theta"], sliding.outputs["block1.theta"])
+        assert np.abs(rigid.outputs["block1.theta"] - sliding.outputs["block1.theta"]).max() <= 1e-13
 
 
 def test_on_a_record_friction_too_large_to_slide_gives_the_rigid_events(fmu, near_field):  # noqa: F811
@@ -79,7 +80,9 @@ def test_on_a_record_friction_too_large_to_slide_gives_the_rigid_events(fmu, nea
     sliding = run(fmu, {**params, **SLIDING, "contact.muGround": 1e3}, stop=7.0)
     a, b = events(rigid), events(sliding)
     assert [k for k, _ in a] == [k for k, _ in b] and sum(k == "impact" for k, _ in a) >= 3
-    assert max(abs(x - y) for (_, x), (_, y) in zip(a, b)) <= 1e-12
+    # 7 s of rocking under the record: each solver's own error at relTol 1e-12 (against its run at 1e-14)
+    # is 2e-12 to 4e-12 s here (measured), so the two agree to that, not to rounding
+    assert max(abs(x - y) for (_, x), (_, y) in zip(a, b)) <= 1e-11
 
 
 def test_the_rigid_models_outputs_hold_no_sliding(fmu):
@@ -262,18 +265,20 @@ def test_a_block_that_settles_through_sliding_landings_comes_to_rest_above_the_g
 
 
 def test_without_compression_friction_does_no_work(fmu):
-    """A block sliding while the ground drops faster than g (a_v = -20 m/s2): no friction (the contact
-    carries none), so the friction loss stays put and never falls (it did: -6 J, friction pushing)."""
+    """A block sliding while the ground drops faster than g (a_v = -20 m/s2) flies: no friction (no
+    contact), so the friction loss stays put and never falls (it did: -6 J, friction pushing), and the
+    block moves relative to the ground under the ground's pull alone."""
     params = {**SQUAT, **SLIDING, "excitation.kind": 0}
 
     def inputs(t: float) -> tuple[float, float]:
         return 5.0, (-20.0 if 0.3 <= t < 0.5 else 0.0)
 
-    r = fmu.run(params, 0.8, 0.01, OUTPUTS, inputs=inputs)
+    r = fmu.run(params, 0.8, 0.01, [*OUTPUTS, "block1.flights", "block1.gap"], inputs=inputs)
     s, t = r.outputs, r.time
     flight = (t > 0.31) & (t < 0.5)
     assert np.all(np.diff(s["block1.frictionLoss"]) >= 0)
-    assert np.ptp(s["block1.frictionLoss"][flight]) == 0 and s["lifts"][-1] == 1
+    assert np.ptp(s["block1.frictionLoss"][flight]) == 0
+    assert np.all(s["block1.mode"][flight] == 6) and s["block1.flights"][-1] == 1 and s["block1.gap"][flight].min() > 0
     rate = np.diff(s["block1.slipRate"][flight]) / 0.01  # the ground's pull alone: -a_h
     assert np.allclose(rate, -5.0, atol=1e-9)
 

@@ -168,43 +168,45 @@ double first_crossing(const double *c, int slope) {
     return 2.0;
 }
 
-int find_uplift(const Model *M, double t, double tc, double *tu) {
+/* The rigid models' uplift indicator: positive once the ground tips the body over either corner. */
+static double uplift_indicator(const Model *M, double t, int piece) {
+    return fmax(model_uplift_indicator_piece(M, t, 1, piece), model_uplift_indicator_piece(M, t, -1, piece));
+}
+
+double find_exit(const Model *M, double t, double tc, RestExitFn ind) {
     double a = t;
     int piece = model_piece(M, a);
     for (int first = 1;; first = 0) {
-        for (int side = 1; side >= -1; side -= 2)
-            if (model_uplift_indicator_piece(M, a, side, piece) > 0) {
-                *tu = a;
-                return side;
-            }
+        if (ind(M, a, piece) > 0) return a;
         double b = next_cell_edge(M, a, piece);
-        if (!isfinite(b)) return 0; /* no waveform left: the indicator stays put */
-        if (!(b > a)) return UPLIFT_STUCK;
-        /* Bisect on the whole cell (where the indicator is still <= 0 at its
-         * start), not from a: the root then does not depend on where the
-         * previous call stopped, i.e. on the communication points. */
-        double best = INFINITY, c0 = first ? cell_start(M, a, piece) : a;
-        for (int side = 1; side >= -1; side -= 2) {
-            if (!(model_uplift_indicator_piece(M, b, side, piece) > 0)) continue;
-            double lo = (c0 < a && model_uplift_indicator_piece(M, c0, side, piece) <= 0) ? c0 : a;
-            double hi = b;
+        if (!isfinite(b)) return INFINITY; /* no waveform left: the indicator stays put */
+        if (!(b > a)) return NAN;
+        /* Bisect on the whole cell (where the indicator is still <= 0 at its start), not from a:
+         * the root then does not depend on where the previous call stopped, i.e. on the
+         * communication points. */
+        if (ind(M, b, piece) > 0) {
+            double c0 = first ? cell_start(M, a, piece) : a;
+            double lo = (c0 < a && ind(M, c0, piece) <= 0) ? c0 : a, hi = b;
             for (int it = 0; it < 200 && hi - lo > 2.0 * DBL_EPSILON * fabs(hi); it++) {
                 double mid = 0.5 * (lo + hi);
-                if (model_uplift_indicator_piece(M, mid, side, piece) > 0) hi = mid;
+                if (ind(M, mid, piece) > 0) hi = mid;
                 else lo = mid;
             }
-            if (hi < best) best = hi;
+            return hi > tc ? INFINITY : hi;
         }
-        if (isfinite(best)) {
-            if (best > tc) return 0;
-            *tu = best;
-            /* the side whose indicator is positive at the crossing */
-            return model_uplift_indicator_piece(M, best, 1, piece) > 0 ? 1 : -1;
-        }
-        if (b >= tc) return 0;
+        if (b >= tc) return INFINITY;
         piece = next_piece(M, piece, b);
         a = b;
     }
+}
+
+int find_uplift(const Model *M, double t, double tc, double *tu) {
+    double x = find_exit(M, t, tc, uplift_indicator);
+    if (isnan(x)) return UPLIFT_STUCK;
+    if (!(x <= tc)) return 0;
+    *tu = x;
+    /* the side whose indicator is positive at the crossing */
+    return model_uplift_indicator_piece(M, x, 1, model_piece(M, x)) > 0 ? 1 : -1;
 }
 
 /* Does the event just applied at S->t end the advance? */
@@ -249,8 +251,14 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops, Eve
             S->t = tc;
             S->denseValid = 0;
         } else if (S->mode == MODE_REST) {
-            double tu;
-            int side = find_uplift(M, S->t, tc, &tu);
+            double tu = 0.0;
+            int side;
+            if (ops->rest_exit) { /* the model's own indicator: side 1 once it turns positive */
+                tu = find_exit(M, S->t, tc, ops->rest_exit);
+                side = isnan(tu) ? UPLIFT_STUCK : tu <= tc ? 1 : 0;
+            } else {
+                side = find_uplift(M, S->t, tc, &tu);
+            }
             S->denseValid = 0;
             if (side == UPLIFT_STUCK) {
                 say(log, LOG_ERROR, "at rest at t=%.17g: the time is too large to resolve the excitation", S->t);

@@ -71,6 +71,14 @@ int may_have_root(const double *c);
 #define UPLIFT_STUCK 2
 int find_uplift(const Model *M, double t, double tc, double *tu);
 
+/* An indicator of leaving rest at time t (piece: model_piece's at the start of its cell): positive
+ * once the ground moves the bodies resting on it, and crossing zero at most once on each cell of
+ * the excitation (where it is monotone). */
+typedef double (*RestExitFn)(const Model *M, double t, int piece);
+/* The first time in [t, tc] at which ind turns positive, found cell by cell and by bisection as
+ * find_uplift does; +inf if none before tc, NaN if the next cell edge is not after t. */
+double find_exit(const Model *M, double t, double tc, RestExitFn ind);
+
 /* What a solver plugs into advance_to(). */
 typedef struct {
     /* apply the event pending at S->t; nonzero on failure */
@@ -83,6 +91,8 @@ typedef struct {
     void (*before_step)(Model *M, const Logger *log);
     /* contact reactions of the moving bodies (contact.h) */
     void (*reactions)(const Model *M, double t, int inStep, double T[2], double N[2]);
+    /* when the bodies at rest start to move (NULL: the rigid uplift threshold, find_uplift) */
+    RestExitFn rest_exit;
 } SolverOps;
 
 /* Advance M to tc: apply events once time reaches them, wait at rest for

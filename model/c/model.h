@@ -130,6 +130,14 @@ typedef struct {
     ContactKind i; /* block 2 on block 1 */
 } StackPattern;
 
+/* The contact engine (engine.h): which corners of each body touch its support (0 left, 1 right)
+ * and how its contact slides (0 sticks, +-1 the sign of the slip rate). */
+#define EN_MAX_BODIES 2
+typedef struct {
+    int closed[EN_MAX_BODIES][2];
+    int sigma[EN_MAX_BODIES];
+} EnMode;
+
 #define MAX_STEP_PEAKS 4
 #define TAYLOR_MAX 30 /* highest order of the Taylor-series integrator */
 /* The tightest tolerances the integrators can meet in double precision: a local error
@@ -185,7 +193,7 @@ typedef struct {
     double lastSwitchTime;
     int quickSwitches;    /* pattern changes without time advancing */
 
-    /* rocking-sliding (contact.model = 1, sliding.h) */
+    /* rocking-sliding (contact.model = 1, engine_solver.c and stack_sliding_solver.c) */
     double maxAbsSlip;    /* largest |slip| at steps and events, m */
     double slideSince;    /* start of the current sliding phase, s */
     double slideDur;      /* time spent sliding in finished phases, s */
@@ -200,6 +208,14 @@ typedef struct {
     int ssEndValid;             /* the reactions at the end of the last step (rigid pattern), while fValid */
     int zenoCount, zenoContact; /* impacts of one contact in a row, each within ZENO_DT of the one before */
     double ssEndT[2], ssEndN[2];
+
+    /* the contact engine (engine_solver.c): the contact set now and of the last step, the slip
+     * where each sticking contact stands, flights (count, start of the current one, time
+     * flown in finished ones) and largest gap of each body, Painleve points met */
+    EnMode en, enDense;
+    double enAnchor[EN_MAX_BODIES], enDenseAnchor[EN_MAX_BODIES];
+    double flightSince[EN_MAX_BODIES], flightDur[EN_MAX_BODIES], gapMax[EN_MAX_BODIES];
+    int flights[EN_MAX_BODIES], painleve;
 
     /* Model Exchange (me.c) */
     int omegaSign;        /* sign of omega after the last event (a peak is a change) */

@@ -9,16 +9,14 @@
 #include <string.h>
 
 #include "contact.h"
+#include "engine_solver.h"
 #include "events.h"
 #include "ground.h"
 #include "integrator.h"
-#include "sliding.h"
 #include "stack_solver.h"
 #include "stack_sliding.h"
 #include "taylor.h"
 
-/* The longest step of a sliding contact, in units of the block's time scale 1 / p. */
-#define SLIDE_STEP_MAX 1.0
 /* Samples per Taylor step when looking for events. */
 #define TAYLOR_SAMPLES 16
 /* The shortest Taylor step (before a break point cuts it), in units of the block's time
@@ -35,42 +33,17 @@ typedef struct {
     int side;
     int piece;
     RhsTerms k; /* of the last evaluation */
-    /* rocking-sliding (sliding.h): n = RS_N components in mode (mode, sigma); the
-     * ground's reaction of the last evaluation */
-    int rs, n, sigma;
-    Mode mode;
-    double T, N, D;
 } RhsCtx;
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     RhsCtx *c = (RhsCtx *)ctx; /* the integrator hands our own (non-const) context back */
-    if (c->rs) { /* a sticking pivot's reactions come from the step's end (stick_reactions) */
-        int stick = c->mode == MODE_ROCKING && c->sigma == 0;
-        double D = sliding_rhs(c->M, t, y, c->mode, c->side, c->sigma, c->piece, dy, &c->k, stick ? NULL : &c->T,
-                               &c->N);
-        if (D < c->D) c->D = D;
-        return;
-    }
     model_rhs_terms(c->M, t, y, c->side, c->piece, dy, &c->k);
 }
 
-/* The integrator's context for the state's current mode at time t. */
-static RhsCtx rhs_context(const Model *M, double t, int side, Mode mode, int sigma) {
-    int rs = sliding_on(M);
-    RhsCtx c = {.M = M, .side = side, .piece = model_piece(M, t), .rs = rs,
-                .n = rs ? sliding_components(mode, sigma) : 2, .sigma = sigma, .mode = mode, .D = 1.0};
+/* The integrator's context for pivot side at time t. */
+static RhsCtx rhs_context(const Model *M, double t, int side) {
+    RhsCtx c = {.M = M, .side = side, .piece = model_piece(M, t)};
     return c;
-}
-
-/* The ground's reaction of the last evaluation, at (y, dy) (a sticking pivot's from the terms
- * the evaluation left, as the rigid model's). */
-static void last_reactions(const RhsCtx *c, const double *y, const double *dy, double *T, double *N) {
-    if (c->rs && !(c->mode == MODE_ROCKING && c->sigma == 0)) {
-        *T = c->T;
-        *N = c->N;
-        return;
-    }
-    contact_one_block_terms(c->M, y[1], dy[1], &c->k, T, N);
 }
 
 /* Step length so that component comp of the step result equals target. */
@@ -79,77 +52,7 @@ static double refine(const RhsCtx *c, double t, const double *y, const double *f
                      double *f1, double cont[5][NMAX]) {
     double w[NMAX] = {0};
     w[comp] = 1.0;
-    return refine_step(rhs_cb, c, c->n, t, y, f0, h, hMax, w, target, y1, f1, cont);
-}
-
-/* Rocking-sliding: the stick margin mu N - |T| of a sticking pivot at the end of a real
- * step of length h from (t, y) (which it leaves in y1, f1, cont). */
-static double margin_after(RhsCtx *c, double t, const double *y, const double *f0, double h, double *y1,
-                           double *f1, double cont[5][NMAX]) {
-    double err[NMAX], T, N;
-    dopri5_step(rhs_cb, c, c->n, t, y, f0, h, y1, f1, err, cont);
-    last_reactions(c, y1, f1, &T, &N); /* the step's last evaluation is at its end */
-    return sliding_stick_margin(c->M, T, N);
-}
-
-/* The stick margin after a real step of length x (first_negative's function). */
-typedef struct {
-    RhsCtx *c;
-    double t;
-    const double *y, *f0;
-    double *y1, *f1;
-    double (*cont)[NMAX];
-} SlipSearch;
-
-static double margin_at(void *ctx, double x) {
-    SlipSearch *s = ctx;
-    return margin_after(s->c, s->t, s->y, s->f0, x, s->y1, s->f1, s->cont);
-}
-
-/* The stick margin along a step's dense output (first_negative_sampled's function). */
-typedef struct {
-    const RhsCtx *c;
-    double t, h;
-    const double *y;
-    const double (*cd)[NMAX];
-} DenseMargin;
-
-static double dense_margin(void *ctx, double s) {
-    const DenseMargin *d = ctx;
-    double yd[NMAX], dy[NMAX], T, N;
-    RhsTerms k;
-    memcpy(yd, d->y, sizeof(yd));
-    dense_eval(d->cd, d->c->n, s, yd);
-    sliding_rhs(d->c->M, d->t + s * d->h, yd, MODE_ROCKING, d->c->side, 0, d->c->piece, dy, &k, &T, &N);
-    return sliding_stick_margin(d->c->M, T, N);
-}
-
-/* Rocking-sliding: the first time in the step of length h (dense output cd) at which the
- * stick margin of the sticking pivot turns negative, given that it is >= 0 at the start
- * and < 0 at the end: bisection on the dense output, then regula falsi on real steps.
- * The step result for the returned length is left in y1, f1, cont. */
-static double locate_slip(RhsCtx *c, double t, const double *y, const double *f0, double h, double m0,
-                          const double cd[5][NMAX], double *y1, double *f1, double cont[5][NMAX]) {
-    DenseMargin dm = {c, t, h, y, cd};
-    double hi = first_negative_sampled(dense_margin, &dm, 1);
-    if (!(hi <= 1.0)) hi = 1.0;
-    double lo = fmax(0.0, hi - 8.0 * DBL_EPSILON);
-    /* real steps: the margin at the end of a step of length x is a smooth function of x */
-    double a = lo * h, b = hi * h;
-    double fa = a > 0 ? margin_after(c, t, y, f0, a, y1, f1, cont) : m0;
-    double fb = margin_after(c, t, y, f0, b, y1, f1, cont);
-    if (fb >= 0) { /* the dense output's crossing was not a real one at this end: step to the end */
-        b = h;
-        fb = margin_after(c, t, y, f0, b, y1, f1, cont);
-    }
-    if (fa < 0) { /* nor at this one: from the step's start (margin m0 >= 0 there) */
-        a = 0.0;
-        fa = m0;
-    }
-    SlipSearch search = {c, t, y, f0, y1, f1, cont};
-    b = first_negative(margin_at, &search, a, fa, b, fb, 4.0, fabs(t), 0.0, 100);
-    margin_after(c, t, y, f0, b, y1, f1, cont);
-    return b;
+    return refine_step(rhs_cb, c, 2, t, y, f0, h, hMax, w, target, y1, f1, cont);
 }
 
 static void commit_peaks(Model *M, const Logger *log) {
@@ -176,106 +79,8 @@ static void overturn(Model *M, const Logger *log) {
     say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, S->side);
 }
 
-/* Rocking-sliding: bookkeeping when the contact starts or stops sliding at S->t. */
-static void sliding_changed(Model *M, int was, int now, const Logger *log) {
-    State *S = &M->s;
-    if (!was && now) {
-        S->slideStarts++;
-        S->slideSince = S->t;
-        if (S->slideTime < 0) S->slideTime = S->t;
-        say(log, LOG_EVENTS, "slide t=%.17g sigma=%d mode=%s", S->t, S->sigma,
-            S->mode == MODE_SLIDE ? "slide" : "slide-rock");
-    } else if (was && !now) {
-        S->slideDur += S->t - S->slideSince;
-        if (S->mode != MODE_OVERTURNED)
-            say(log, LOG_EVENTS, "stick t=%.17g mode=%s", S->t, S->mode == MODE_REST ? "rest" : "rock");
-    }
-}
-
-/* Rocking-sliding: a block left rocking at theta = 0 that neither moves nor accelerates away from
- * the ground on its pivot's side cannot rock there: it lies flat, at rest or sliding. */
-static void flat_guard(Model *M, const Logger *log) {
-    State *S = &M->s;
-    if (S->mode != MODE_ROCKING || S->y[0] != 0.0 || S->side * S->y[1] > 0) return;
-    double dy[NMAX];
-    RhsTerms k;
-    sliding_rhs(M, S->t, S->y, S->mode, S->side, S->sigma, model_piece(M, S->t), dy, &k, NULL, NULL);
-    if (S->side * dy[1] > 0) return;
-    double v = S->y[RS_RATE];
-    S->y[1] = 0.0;
-    if (v == 0.0) {
-        S->mode = MODE_REST;
-        S->sigma = 0;
-        S->restTime = S->t;
-        S->h = 0.0;
-        say(log, LOG_EVENTS, "rest t=%.17g", S->t);
-        return;
-    }
-    S->mode = MODE_SLIDE;
-    S->sigma = S->side = v > 0 ? 1 : -1;
-}
-
-static int apply_event_sliding(Model *M, const Logger *log) {
-    State *S = &M->s;
-    commit_peaks(M, log);
-    if (fabs(S->y[RS_SLIP]) > S->maxAbsSlip) S->maxAbsSlip = fabs(S->y[RS_SLIP]);
-    int was = S->sigma != 0;
-    if (S->pending == EVENT_IMPACT) {
-        double wm = S->y[1], vm = S->y[RS_RATE], wp, vp, Pt, Pn;
-        double E0 = sliding_energy(M, S->y, S->mode, S->side);
-        Mode mode;
-        int side, sigma;
-        sliding_impact(M, S->t, wm, vm, S->side, &mode, &side, &sigma, &wp, &vp, &Pt, &Pn);
-        if (Pn > 0 && fabs(Pt) / Pn > S->impulseDemandMax) S->impulseDemandMax = fabs(Pt) / Pn;
-        S->impacts++;
-        S->lastImpactTime = S->t;
-        S->y[0] = 0.0;
-        S->y[1] = wp;
-        S->y[RS_RATE] = vp;
-        S->side = side;
-        S->sigma = sigma;
-        S->mode = mode;
-        if (mode == MODE_ROCKING && sigma == 0) S->sigma = sliding_settle(M, S->t, S->y, side); /* can it stick? */
-        S->impactLoss += E0 - sliding_energy(M, S->y, S->mode, S->side);
-        say(log, LOG_EVENTS, "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
-            S->t, wm, wp, vm, vp);
-        if (mode == MODE_REST) {
-            S->restTime = S->t;
-            S->h = 0.0;
-            say(log, LOG_EVENTS, "rest t=%.17g", S->t);
-        }
-    } else if (S->pending == EVENT_OVERTURN) {
-        S->y[RS_RATE] = 0.0;
-        S->sigma = 0;
-        overturn(M, log);
-    } else if (S->pending == EVENT_SLIP_STOP) {
-        Mode next;
-        int sigma;
-        S->y[RS_RATE] = 0.0;
-        sliding_stop(M, S->t, S->y, S->mode, S->side, &next, &sigma);
-        if (next == MODE_REST) {
-            S->y[0] = S->y[1] = 0.0;
-            S->restTime = S->t;
-            S->h = 0.0;
-        } else if (sigma != 0 && sigma != S->sigma) {
-            say(log, LOG_EVENTS, "reverse t=%.17g sigma=%d", S->t, sigma);
-        }
-        S->mode = next;
-        S->sigma = sigma;
-        if (next == MODE_SLIDE) S->side = sigma;
-    } else if (S->pending == EVENT_SLIP_START) {
-        S->sigma = sliding_slip_start(M, S->t, S->y, S->side);
-    }
-    flat_guard(M, log);
-    sliding_changed(M, was, S->sigma != 0, log);
-    S->fValid = 0;
-    S->pending = EVENT_NONE;
-    return 0;
-}
-
 static int apply_event(Model *M, const Logger *log) {
     State *S = &M->s;
-    if (sliding_on(M)) return apply_event_sliding(M, log);
     commit_peaks(M, log);
     if (S->pending == EVENT_IMPACT) {
         double wm = S->y[1], wp;
@@ -332,116 +137,52 @@ static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     if (taylor_on(M)) return take_step_taylor(M, log);
-    RhsCtx c = rhs_context(M, S->t, S->side, S->mode, S->sigma);
-    int n = c.n, rocking = S->mode == MODE_ROCKING;
-    /* rocking-sliding: the error control of a sticking pivot is the rigid model's */
-    int nErr = !c.rs ? 2 : (rocking && S->sigma == 0) ? RS_ERR_ROCK : RS_ERR_SLIDE;
+    RhsCtx c = rhs_context(M, S->t, S->side);
     double bp = next_breakpoint(M, S->t, c.piece);
     double hmax = bp - S->t;
-    /* rocking-sliding: a flat slide under a constant ground acceleration is a quadratic, which the
-     * integrator follows exactly with steps that grow without end; its dense output would then
-     * lose every digit at times a tiny fraction into the step. Sliding steps stay within 1/p. */
-    if (c.rs && S->sigma != 0) hmax = fmin(hmax, SLIDE_STEP_MAX / sqrt(M->d.p2));
-    /* zeroed: the step fills components 0 to n - 1 only, and the whole array goes
-     * into the state (no stray stack bytes in a saved state) */
+    /* zeroed: the step fills components 0 and 1 only, and the whole array goes into the state
+     * (no stray stack bytes in a saved state) */
     double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}};
     double h = S->h, hNext;
     int hitBp;
 
-    if (c.rs && fabs(S->y[RS_SLIP]) > S->maxAbsSlip) S->maxAbsSlip = fabs(S->y[RS_SLIP]); /* |slip| up to the step's start */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
         S->endValid = 0; /* the reactions stored are not this state's */
     }
-    /* rocking-sliding: the stick margin at the step's start (a negative one: held in flight) */
-    double startMargin = 0.0, startN = 0.0;
-    if (c.rs && rocking && S->sigma == 0) {
-        double T0 = S->endTr, N0 = S->endN;
-        if (!S->endValid) { /* (the terms of an evaluation at the step's start) */
-            double f0[NMAX];
-            rhs_cb(&c, S->t, S->y, f0);
-            last_reactions(&c, S->y, f0, &T0, &N0);
-        }
-        startMargin = sliding_stick_margin(M, T0, N0);
-        startN = N0;
-    }
-    /* a sliding contact's components in their own units: absTol (rad, rad/s) times the block's scales:
-     * work in m g R, slip in R, slip rate in R p */
-    double scale[NMAX];
-    int sliding = c.rs && nErr == RS_ERR_SLIDE;
-    if (sliding) { /* (theta and omega keep absTol as it is) */
-        scale[0] = scale[1] = 1.0;
-        double R = M->d.R, E = v->mass * v->g * R;
-        scale[RS_WORK] = scale[RS_LOSS] = E;
-        scale[RS_SLIP] = R;
-        scale[RS_RATE] = R * sqrt(M->d.p2);
-    }
-    if (adaptive_step_controlled(rhs_cb, &c, n, nErr, sliding ? scale : NULL, S->t, S->y, S->f, &h, hmax, v->relTol,
-                                 v->absTol, y1, f1, cont, &hNext, &hitBp, &S->rejected)) {
+    if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1, cont, &hNext, &hitBp,
+                      &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
-    if (hitBp && hmax < bp - S->t) hitBp = 0; /* the step met the sliding cap, not the break point */
     /* the accepted step's last evaluation was its first-same-as-last stage at its end */
     RhsTerms endTerms = c.k;
-    double endT = 0.0, endN = 0.0;
-    if (c.rs) last_reactions(&c, y1, f1, &endT, &endN);
 
     /* events on the dense output */
     int side = S->side;
-    double sImpact = 2.0, sOver = 2.0, sStop = 2.0;
-    if (rocking) {
-        double cth[5], P[5], Q[5];
-        dense_poly(cont, 0, cth);
-        for (int i = 0; i < 5; i++) {
-            P[i] = side * cth[i];
-            Q[i] = P[i];
-        }
-        Q[0] -= M_PI / 2;
-        sImpact = first_crossing(P, -1);
-        sOver = first_crossing(Q, +1);
+    double cth[5], P[5], Q[5];
+    dense_poly(cont, 0, cth);
+    for (int i = 0; i < 5; i++) {
+        P[i] = side * cth[i];
+        Q[i] = P[i];
     }
-    if (c.rs && S->sigma != 0) { /* the slip rate reaches zero */
-        double cv[5];
-        dense_poly(cont, RS_RATE, cv);
-        for (int i = 0; i < 5; i++) cv[i] *= S->sigma;
-        sStop = first_crossing(cv, -1);
-    }
+    Q[0] -= M_PI / 2;
+    double sImpact = first_crossing(P, -1), sOver = first_crossing(Q, +1);
     EventKind ev = EVENT_NONE;
     double hStep = h, tNew = hitBp ? bp : S->t + h;
-    double sFirst = fmin(fmin(sImpact, sOver), sStop);
+    double sFirst = fmin(sImpact, sOver);
     if (sFirst <= 1.0) {
-        int comp = 0;
-        double target;
-        if (sStop < sImpact && sStop < sOver) {
-            ev = EVENT_SLIP_STOP;
-            comp = RS_RATE;
-            target = 0.0;
-        } else if (sImpact <= sOver) {
+        double target = 0.0;
+        if (sImpact <= sOver) {
             ev = EVENT_IMPACT;
-            target = 0.0;
         } else {
             ev = EVENT_OVERTURN;
             target = side * M_PI / 2;
         }
-        hStep = refine(&c, S->t, S->y, S->f, sFirst * h, h, comp, target, y1, f1, cont);
-        y1[comp] = target;
-        tNew = S->t + hStep;
-        hitBp = 0;
-        if (c.rs) last_reactions(&c, y1, f1, &endT, &endN);
-    }
-    /* rocking-sliding: a sticking pivot whose margin mu N - |T| turned negative by the step's
-     * end (or its event: not at an overturn, the end of the motion) starts to slide there */
-    if (c.rs && rocking && S->sigma == 0 && ev != EVENT_OVERTURN && (startMargin >= 0 || startN > 0) &&
-        sliding_stick_margin(M, endT, endN) < 0) {
-        double yS[NMAX] = {0}, fS[NMAX] = {0}, cS[5][NMAX] = {{0}};
-        hStep = locate_slip(&c, S->t, S->y, S->f, hStep, fmax(startMargin, 0.0), cont, yS, fS, cS);
-        ev = EVENT_SLIP_START;
-        memcpy(y1, yS, sizeof(yS));
-        memcpy(f1, fS, sizeof(fS));
-        memcpy(cont, cS, sizeof(cS));
+        hStep = refine(&c, S->t, S->y, S->f, sFirst * h, h, 0, target, y1, f1, cont);
+        y1[0] = target;
         tNew = S->t + hStep;
         hitBp = 0;
     }
@@ -450,7 +191,7 @@ static int take_step(Model *M, const Logger *log) {
     double com[5], roots[4];
     dense_poly(cont, 1, com);
     S->nStepPeaks = 0;
-    if (rocking && may_have_root(com)) {
+    if (may_have_root(com)) {
         int nr = poly_roots(com, 4, 0.0, 1.0, roots);
         for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
             double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
@@ -469,13 +210,6 @@ static int take_step(Model *M, const Logger *log) {
             S->nStepPeaks++;
         }
     }
-    if (c.rs && !(c.D > 0)) {
-        say(log, LOG_ERROR,
-            "slide-rock has no unique motion at t=%.17g (Painleve paradox: contact.muGround = %g is too large for "
-            "this block to slide while rocking)",
-            S->t, v->muGround);
-        return -1;
-    }
 
     S->tOld = S->t;
     S->hDense = hStep;
@@ -483,26 +217,17 @@ static int take_step(Model *M, const Logger *log) {
     S->denseTaylor = 0;
     S->denseSide = side;
     S->denseValid = 1;
-    if (c.rs) {
-        S->denseSigma = S->sigma;
-        S->denseMode = S->mode;
-    }
     S->t = tNew;
-    for (int i = 0; i < n; i++) S->y[i] = y1[i];
-    for (int i = 0; i < (c.rs ? RS_N : n); i++) S->f[i] = f1[i]; /* 0 past n: what stays put */
+    for (int i = 0; i < 2; i++) {
+        S->y[i] = y1[i];
+        S->f[i] = f1[i];
+    }
     S->fValid = (ev == EVENT_NONE && !hitBp);
     S->h = hNext;
     S->pending = ev;
     /* the contact reactions at the step's end, from that evaluation: a few products */
     S->endValid = S->fValid;
-    if (S->endValid) {
-        if (c.rs) {
-            S->endTr = endT;
-            S->endN = endN;
-        } else {
-            contact_one_block_terms(M, S->y[1], S->f[1], &endTerms, &S->endTr, &S->endN);
-        }
-    }
+    if (S->endValid) contact_one_block_terms(M, S->y[1], S->f[1], &endTerms, &S->endTr, &S->endN);
     return finish_step(M, log, side, ev);
 }
 
@@ -585,12 +310,11 @@ static int take_step_taylor(Model *M, const Logger *log) {
     return finish_step(M, log, side, ev);
 }
 
-/* theta, omega (rocking-sliding: all RS_N components) at the fraction s of the last step,
- * from its dense output. */
+/* theta, omega at the fraction s of the last step, from its dense output. */
 static void dense_state(const Model *M, double s, double *y) {
     const State *S = &M->s;
     if (S->denseTaylor) taylor_eval(S->tay, S->tayN, s * S->hDense, &y[0], &y[1]);
-    else dense_eval(S->cont, sliding_on(M) ? sliding_components(S->denseMode, S->denseSigma) : 2, s, y);
+    else dense_eval(S->cont, 2, s, y);
 }
 
 /* The ground tips the block resting at time t over its corner on side. */
@@ -603,17 +327,6 @@ static void start_rocking(Model *M, double t, int side, const Logger *log) {
     S->y[1] = 0.0;
     S->fValid = 0;
     S->h = 0.0;
-    if (sliding_on(M)) { /* the mode that starts (Shenton 1996) */
-        Mode mode;
-        int sigma;
-        sliding_start(M, t, side, &mode, &sigma);
-        S->mode = mode;
-        S->sigma = sigma;
-        S->y[RS_RATE] = 0.0;
-        if (mode == MODE_ROCKING) say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
-        sliding_changed(M, 0, sigma != 0, log);
-        return;
-    }
     say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, side);
 }
 
@@ -628,22 +341,6 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
         N[0] = S->endN;
         return;
     }
-    if (sliding_on(M)) {
-        double ys[NMAX], dys[NMAX];
-        Mode mode = S->mode;
-        int sigma = S->sigma;
-        RhsTerms k;
-        memcpy(ys, S->y, sizeof(ys));
-        if (inStep && S->denseValid && S->hDense > 0) {
-            double s = (t - S->tOld) / S->hDense;
-            dense_state(M, s < 0 ? 0 : s > 1 ? 1 : s, ys);
-            side = S->denseSide;
-            mode = S->denseMode;
-            sigma = S->denseSigma;
-        }
-        sliding_rhs(M, t, ys, mode, side, sigma, model_piece(M, t), dys, &k, &T[0], &N[0]);
-        return;
-    }
     if (inStep && S->denseValid && S->hDense > 0) {
         double s = (t - S->tOld) / S->hDense;
         dense_state(M, s < 0 ? 0 : s > 1 ? 1 : s, y);
@@ -654,7 +351,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     contact_one_block_terms(M, y[1], dy[1], &k, &T[0], &N[0]);
 }
 
-static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions};
+static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions, NULL};
 
 void solver_sample_contacts(Model *M, const Logger *log) { contact_sample_state(M, reactions, log, 0); }
 
@@ -668,10 +365,12 @@ void solver_contact_now(const Model *M, double *T, double *N) {
 void solver_initialize(Model *M, double t0) {
     model_initialize(M, t0);
     if (M->v.nBlocks == 2) stack_initialize(M);
+    else if (engine_on(M)) engine_initialize(M);
 }
 
 int solver_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     if (M->v.nBlocks == 2) return stack_advance(M, tc, log, stop);
+    if (engine_on(M)) return engine_advance(M, tc, log, stop);
     return advance_to(M, tc, log, &ONE_BLOCK, stop);
 }
 
@@ -686,6 +385,12 @@ static void outputs_at(Model *M, double tc) {
     v->slip2 = v->slipRate2 = v->maxAbsSlip2 = v->slideDuration2 = v->frictionLoss2 = 0.0;
     v->slideStartTime2 = v->fellOffTime = -1.0;
     v->slideStarts2 = v->contactMode2 = v->fellOff = 0;
+    v->gap = v->maxGap = v->flightTime = 0.0;
+    v->flights = v->painleve = 0;
+    if (engine_on(M)) {
+        engine_outputs(M, tc);
+        return;
+    }
     if (ss_on(M)) {
         stack_outputs(M, tc);
         return;
@@ -700,7 +405,7 @@ static void outputs_at(Model *M, double tc) {
     }
     double y[NMAX];
     memcpy(y, S->y, sizeof(y));
-    int side = S->side, sigma = S->sigma;
+    int side = S->side;
     Mode mode = S->mode;
     if (S->t > tc && S->denseValid) {
         double s = (tc - S->tOld) / S->hDense;
@@ -708,10 +413,6 @@ static void outputs_at(Model *M, double tc) {
         if (s > 1) s = 1;
         dense_state(M, s, y);
         side = S->denseSide;
-        if (sliding_on(M)) {
-            mode = S->denseMode;
-            sigma = S->denseSigma;
-        }
     }
     v->theta = y[0];
     v->omega = y[1];
@@ -771,28 +472,7 @@ static void outputs_at(Model *M, double tc) {
     contact_momenta(M, S->mode, side, 0, y, p);
     v->momentum = p[0][0];
     v->interfaceT = v->interfaceN = 0.0;
-    v->contactMode = mode == MODE_REST ? 0 : mode == MODE_SLIDE ? 1 : mode == MODE_OVERTURNED ? 4 : 2;
-    if (sliding_on(M)) {
-        double dy[NMAX];
-        RhsTerms kk;
-        if (mode == MODE_ROCKING || mode == MODE_SLIDE) {
-            sliding_rhs(M, tc, y, mode, side, sigma, model_piece(M, tc), dy, &kk, &v->groundT, &v->groundN);
-            v->alphaDD = dy[1];
-        }
-        if (mode == MODE_ROCKING && sigma != 0) v->contactMode = 3;
-        v->slip = y[RS_SLIP];
-        v->slipRate = y[RS_RATE];
-        v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(y[RS_SLIP]));
-        v->slideDuration = S->slideDur + (sigma != 0 && tc > S->slideSince ? tc - S->slideSince : 0.0);
-        v->slideStartTime = S->slideTime;
-        v->frictionLoss = y[RS_LOSS];
-        v->impactLoss = S->impactLoss;
-        v->groundWork = y[RS_WORK];
-        v->slideStarts = S->slideStarts;
-        v->energy = sliding_energy(M, y, mode, side);
-        v->momentum = sliding_momentum(M, y, mode, side);
-        v->atRest = mode == MODE_REST;
-    }
+    v->contactMode = mode == MODE_REST ? 0 : mode == MODE_OVERTURNED ? 4 : 2;
     contact_outputs(M, v);
 }
 
@@ -822,17 +502,17 @@ void solver_rollback(Model *M, double tc) {
         stack_rollback(M, tc);
         return;
     }
-    if (!(S->mode == MODE_ROCKING || S->mode == MODE_SLIDE) || S->t <= tc || !S->denseValid) return;
+    if (engine_on(M)) {
+        engine_rollback(M, tc);
+        return;
+    }
+    if (S->mode != MODE_ROCKING || S->t <= tc || !S->denseValid) return;
     double s = (tc - S->tOld) / S->hDense, y[NMAX];
     if (s < 0) s = 0;
     if (s > 1) s = 1;
     memcpy(y, S->y, sizeof(y));
     dense_state(M, s, y);
     memcpy(S->y, y, sizeof(y));
-    if (sliding_on(M)) {
-        S->mode = S->denseMode;
-        S->sigma = S->denseSigma;
-    }
     S->t = tc;
     S->side = S->denseSide;
     S->pending = EVENT_NONE;
@@ -857,7 +537,7 @@ static void state_rhs(const Model *M, double f[NMAX]) {
         stack_state_rhs(M, f);
         return;
     }
-    RhsCtx c = rhs_context(M, S->t, S->side, S->mode, S->sigma);
+    RhsCtx c = rhs_context(M, S->t, S->side);
     rhs_cb(&c, S->t, S->y, f);
 }
 
@@ -877,12 +557,11 @@ static void replay_step(const Model *M, double y1[NMAX], double cont[5][NMAX], d
         taylor_eval(x, S->tayN, S->hDense, &y1[0], &y1[1]);
         return;
     }
-    RhsCtx c = rhs_context(M, S->tOld, S->denseSide, S->denseMode, S->denseSigma);
+    RhsCtx c = rhs_context(M, S->tOld, S->denseSide);
     double y0[NMAX] = {0}, f0[NMAX] = {0}, err[NMAX];
-    for (int i = 0; i < c.n; i++) y0[i] = S->cont[0][i];
+    for (int i = 0; i < 2; i++) y0[i] = S->cont[0][i];
     rhs_cb(&c, S->tOld, y0, f0);
-    dopri5_step(rhs_cb, &c, c.n, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
-    for (int i = c.n; c.rs && i < RS_N; i++) y1[i] = S->y[i]; /* what the step left where it was */
+    dopri5_step(rhs_cb, &c, 2, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
 }
 
 #define FAIL(...)                      \
@@ -918,42 +597,24 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
     const Variables *v = &M->v;
     int two = v->nBlocks == 2, taylor = taylor_on(M), mode = (int)S->mode, pending = (int)S->pending;
-    int rs = sliding_on(M) && !two, ss = ss_on(M);
+    int ss = ss_on(M);
     if (ss && ss_check_state(M, msg, n)) return 1;
     if (two ? !(mode == MODE_REST || mode == MODE_OVERTURNED || mode == MODE_UPPER || mode == MODE_LOCKED ||
                 mode == MODE_BOTH || (ss && mode == MODE_SLIDE))
-            : !(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED || (rs && mode == MODE_SLIDE)))
+            : !(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED))
         FAIL("pattern %d is not one of %s", mode,
              two ? "two blocks (1 rest, 2 overturned, 3 upper, 4 locked, 5 both)"
-             : rs ? "one block (0 rocking, 1 rest, 2 overturned, 6 slide)"
-                  : "one block (0 rocking, 1 rest, 2 overturned)");
+                 : "one block (0 rocking, 1 rest, 2 overturned)");
     int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH || (ss && mode == MODE_SLIDE)
-                     : mode == MODE_ROCKING || mode == MODE_SLIDE;
-    int lastEvent = ss ? EVENT_RECHOOSE : two ? EVENT_OPEN : rs ? EVENT_SLIP_STOP : EVENT_OVERTURN;
-    if (!(pending >= EVENT_NONE && pending <= lastEvent) || (rs && (pending > EVENT_OVERTURN && pending < EVENT_SLIP_START)))
+                     : mode == MODE_ROCKING;
+    int lastEvent = ss ? EVENT_RECHOOSE : two ? EVENT_OPEN : EVENT_OVERTURN;
+    if (!(pending >= EVENT_NONE && pending <= lastEvent))
         FAIL("pending event %d is not one of %s", pending,
-             two ? "0 to 5 (none, impact, overturn, interface, overturn2, open)"
-             : rs ? "0, 1, 2, 6, 7 (none, impact, overturn, slip start, slip stop)"
-                  : "0 to 2 (none, impact, overturn)");
+             two ? "0 to 5 (none, impact, overturn, interface, overturn2, open)" : "0 to 2 (none, impact, overturn)");
     /* rocking-sliding: slip direction and mode of the state and of the last step */
-    if (!rs && !ss && (S->sigma || S->denseSigma || S->denseMode || S->slideStarts))
+    if (!ss && (S->sigma || S->denseSigma || S->denseMode || S->slideStarts))
         FAIL("sigma = %d, denseSigma = %d, denseMode = %d, slideStarts = %d belong to contact.model = 1 (0 here)",
              S->sigma, S->denseSigma, (int)S->denseMode, S->slideStarts);
-    if (rs) {
-        int dm = (int)S->denseMode;
-        if (mode == MODE_SLIDE ? !sign(S->sigma) : mode == MODE_ROCKING ? !within(S->sigma, -1, 1) : S->sigma != 0)
-            FAIL("sigma = %d does not fit mode %d (slide: +1 or -1; rocking: -1, 0 or 1; else 0)", S->sigma, mode);
-        if (!(dm == MODE_ROCKING || dm == MODE_SLIDE) || !within(S->denseSigma, -1, 1) ||
-            (dm == MODE_SLIDE && !sign(S->denseSigma)))
-            FAIL("the last step's mode %d and slip direction %d are not a moving mode's", dm, S->denseSigma);
-        if (!within(S->slideStarts, 0, COUNT_MAX))
-            FAIL("slideStarts = %d must be in [0, %d]", S->slideStarts, COUNT_MAX);
-        if (pending == EVENT_SLIP_START && !(mode == MODE_ROCKING && S->sigma == 0))
-            FAIL("a slip start is pending, but the pivot does not stick");
-        if (pending == EVENT_SLIP_STOP && S->sigma == 0) FAIL("a slip stop is pending, but nothing slides");
-        if ((pending == EVENT_IMPACT || pending == EVENT_OVERTURN) && mode != MODE_ROCKING)
-            FAIL("event %d is pending, but the block does not rock", pending);
-    }
     if (pending != EVENT_NONE && !moving) FAIL("event %d is pending, but nothing moves (pattern %d)", pending, mode);
     if (!flag(S->fValid) || !flag(S->denseValid) || !flag(S->denseTaylor))
         FAIL("flags fValid = %d, denseValid = %d, denseTaylor = %d must be 0 or 1", S->fValid, S->denseValid,
@@ -1019,8 +680,8 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     if (v->impacts < 0 || v->peaks < 0 || v->impactsGround < 0 || v->impactsInterface < 0)
         FAIL("output counters impacts = %d, peaks = %d, impactsGround = %d, impactsInterface = %d must be >= 0",
              v->impacts, v->peaks, v->impactsGround, v->impactsInterface);
-    if (!within(v->pattern, MODE_ROCKING, sliding_on(M) ? MODE_SLIDE : MODE_BOTH))
-        FAIL("output pattern = %d is outside [0, %d]", v->pattern, sliding_on(M) ? MODE_SLIDE : MODE_BOTH);
+    if (!within(v->pattern, MODE_ROCKING, ss_on(M) ? MODE_SLIDE : MODE_BOTH))
+        FAIL("output pattern = %d is outside [0, %d]", v->pattern, ss_on(M) ? MODE_SLIDE : MODE_BOTH);
     if (!within(v->contactMode, 0, 4) || v->slideStarts < 0)
         FAIL("output block1.mode = %d, block1.slides = %d are outside [0, 4] and [0, ...)", v->contactMode,
              v->slideStarts);
@@ -1038,8 +699,8 @@ static int zero_bits(double x) { return x == 0 && !signbit(x); }
 /* Numbers of a state that steps (or is about to): finite, and where a run leaves them. */
 static int check_numbers(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
-    int rs = sliding_on(M), ss = ss_on(M);
-    int two = M->v.nBlocks == 2, mode = (int)S->mode, ny = two ? 4 : rs ? RS_N : 2;
+    int ss = ss_on(M), rs = ss; /* rocking-sliding reaches here as a stack only (one block: engine_check_state) */
+    int two = M->v.nBlocks == 2, mode = (int)S->mode, ny = two ? 4 : 2;
     int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH || (ss && mode == MODE_SLIDE)
                      : mode == MODE_ROCKING || mode == MODE_SLIDE;
     const struct {
@@ -1131,15 +792,10 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         double T[2], N[2];
         RhsTerms k;
         double dy[2];
-        if (two || !(mode == MODE_ROCKING || (rs && mode == MODE_SLIDE)) || !S->fValid)
+        if (two || mode != MODE_ROCKING || !S->fValid)
             FAIL("endValid = 1 belongs to a moving block at the end of a step");
-        if (rs) {
-            double dys[NMAX];
-            sliding_rhs(M, S->t, S->y, S->mode, S->side, S->sigma, model_piece(M, S->t), dys, &k, &T[0], &N[0]);
-        } else {
-            model_rhs_terms(M, S->t, S->y, S->side, model_piece(M, S->t), dy, &k);
-            contact_one_block_terms(M, S->y[1], S->f[1], &k, &T[0], &N[0]);
-        }
+        model_rhs_terms(M, S->t, S->y, S->side, model_piece(M, S->t), dy, &k);
+        contact_one_block_terms(M, S->y[1], S->f[1], &k, &T[0], &N[0]);
         if (T[0] != S->endTr || N[0] != S->endN)
             FAIL("the stored contact reactions (%g, %g) are not those of the state (%g, %g)", S->endTr, S->endN,
                  T[0], N[0]);
@@ -1180,7 +836,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
      * the energy finite) */
     const Derived *d = &M->d;
     double rateMax = 1e6 * sqrt(M->v.g / (two ? fmin(d->R, fmin(d->RI, d->RL)) : d->R));
-    for (int i = 1; i < (rs ? 4 : ny); i += 2) /* rocking-sliding: omega and the slip rate */
+    for (int i = 1; i < ny; i += 2)
         if (!(fabs(S->y[i]) <= rateMax)) FAIL("rate y[%d] = %g exceeds %g rad/s", i, S->y[i], rateMax);
 
     /* the derivative kept for the next step is the one at (t, y) (only a moving state steps) */
@@ -1200,9 +856,6 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
                  S->side, S->side2);
         if (ss && memcmp(&S->densePat, &S->pat, sizeof(StackPattern)) != 0)
             FAIL("the contact pattern of the last step is not the current one");
-        if (rs && !two && (S->denseMode != S->mode || S->denseSigma != S->sigma))
-            FAIL("the mode of the last step (%d, slip %d) is not the current one (%d, slip %d)", (int)S->denseMode,
-                 S->denseSigma, mode, S->sigma);
         replay_step(M, y1, cont, x);
         if (S->denseTaylor ? memcmp(x, S->tay, sizeof(x)) != 0 : memcmp(cont, S->cont, sizeof(cont)) != 0)
             FAIL("the last step's dense output is not the one its start (t = %.17g) gives", S->tOld);
@@ -1217,7 +870,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
     switch (mode) {
     case MODE_REST:
         for (int i = 0; i < ny; i++)
-            if (S->y[i] != 0 && !(rs && (i == RS_WORK || i == RS_SLIP || i == RS_LOSS)))
+            if (S->y[i] != 0)
                 FAIL("at rest every angle and rate is 0, not y[%d] = %g", i, S->y[i]);
         break;
     case MODE_SLIDE: /* one block flat; a stack: some contact slides (ss_check_state) */
@@ -1244,6 +897,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
 }
 
 int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
+    if (engine_on(M)) return engine_check_state(M, msg, n);
     if (check_discrete(M, use, msg, n)) return 1;
     if (use == STATE_INERT) return 0;
     if (check_numbers(M, t0, tc, use, msg, n)) return 1;

@@ -692,7 +692,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     T[0] = sol.F[0], N[0] = sol.F[1], T[1] = sol.F[3], N[1] = sol.F[4];
 }
 
-static const SolverOps SLIDING_STACK = {apply_event, take_step, start_moving, NULL, reactions};
+static const SolverOps SLIDING_STACK = {apply_event, take_step, start_moving, NULL, reactions, NULL};
 
 int ss_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     return advance_to(M, tc, log, &SLIDING_STACK, stop);

@@ -455,7 +455,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
 }
 
-static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL, reactions};
+static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL, reactions, NULL};
 
 int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     if (ss_on(M)) return ss_advance(M, tc, log, stop);

@@ -1,0 +1,609 @@
+/* The planar contact engine (engine.h). Derivation: docs/flight.md, "The contact engine". */
+#include "engine.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+#include "lcp.h"
+
+#define EN_CORNERS (2 * EN_MAX_BODIES)
+/* the most constraint rows of a mode: two corners and a friction row per body */
+#define EN_ROWS (3 * EN_MAX_BODIES)
+
+void engine_system(const Model *M, EnSystem *s) {
+    const Variables *v = &M->v;
+    memset(s, 0, sizeof(*s));
+    s->nb = v->nBlocks == 2 ? 2 : 1;
+    s->g = v->g;
+    double b[2] = {v->halfWidth, v->halfWidth2}, h[2] = {v->halfHeight, v->halfHeight2}, m[2] = {v->mass, v->mass2};
+    s->mu[0] = v->muGround;
+    s->mu[1] = v->muInterface;
+    for (int k = 0; k < s->nb; k++) {
+        s->body[k].b = b[k];
+        s->body[k].h = h[k];
+        s->body[k].m = m[k];
+        s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
+    }
+    for (int k = s->nb - 1; k >= 0; k--)
+        s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);
+}
+
+/* Clockwise rotation of (x, y) by theta with cos c and sin s. */
+static void rot(double c, double s, double x, double y, double out[2]) {
+    out[0] = x * c + y * s;
+    out[1] = -x * s + y * c;
+}
+static double dot(const double a[2], const double b[2]) { return a[0] * b[0] + a[1] * b[1]; }
+
+void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p) {
+    int nb = s->nb;
+    const EnBody *B = &s->body[k];
+    memset(p, 0, sizeof(*p));
+    double th = y[EN_TH(k)], ck = cos(th), sk = sin(th);
+    double w = y[EN_W(k)];
+    double Rd[2], JRd[2];
+    rot(ck, sk, c * B->b, -B->h, Rd);
+    JRd[0] = Rd[1]; /* d(rot d)/dtheta = J rot d, J (x, y) = (y, -x) */
+    JRd[1] = -Rd[0];
+    double P[2] = {y[EN_POS(nb, k, 0)] + Rd[0], y[EN_POS(nb, k, 1)] + Rd[1]};
+    double Pd[2] = {y[EN_VEL(nb, k, 0)] + w * JRd[0], y[EN_VEL(nb, k, 1)] + w * JRd[1]};
+    /* the support's frame: origin O, top normal n, tangent t, half height hs, rotation rate ws */
+    double n[2] = {0.0, 1.0}, t[2] = {1.0, 0.0}, D[2] = {P[0], P[1]}, Dd[2] = {Pd[0], Pd[1]}, hs = 0.0, ws = 0.0;
+    int j = k - 1;
+    if (j >= 0) {
+        double thj = y[EN_TH(j)], cj = cos(thj), sj = sin(thj);
+        ws = y[EN_W(j)];
+        n[0] = sj;
+        n[1] = cj;
+        t[0] = cj;
+        t[1] = -sj;
+        D[0] -= y[EN_POS(nb, j, 0)];
+        D[1] -= y[EN_POS(nb, j, 1)];
+        Dd[0] -= y[EN_VEL(nb, j, 0)];
+        Dd[1] -= y[EN_VEL(nb, j, 1)];
+        hs = s->body[j].h;
+    }
+    double nD = dot(n, D), tD = dot(t, D), nDd = dot(n, Dd), tDd = dot(t, Dd);
+    p->g = nD - hs;
+    p->gd = ws * tD + nDd;
+    p->xi = tD;
+    p->xid = -ws * nD + tDd;
+    p->wN[EN_Q(k, 0)] = n[0];
+    p->wN[EN_Q(k, 1)] = n[1];
+    p->wN[EN_Q(k, 2)] = dot(n, JRd);
+    p->wT[EN_Q(k, 0)] = t[0];
+    p->wT[EN_Q(k, 1)] = t[1];
+    p->wT[EN_Q(k, 2)] = dot(t, JRd);
+    p->bN = -w * w * dot(n, Rd);
+    p->bT = -w * w * dot(t, Rd);
+    if (j >= 0) {
+        p->wN[EN_Q(j, 0)] = -n[0];
+        p->wN[EN_Q(j, 1)] = -n[1];
+        p->wN[EN_Q(j, 2)] = tD;
+        p->wT[EN_Q(j, 0)] = -t[0];
+        p->wT[EN_Q(j, 1)] = -t[1];
+        p->wT[EN_Q(j, 2)] = -nD;
+        p->bN += -ws * ws * nD + 2.0 * ws * tDd;
+        p->bT += -ws * ws * tD - 2.0 * ws * nDd;
+    }
+}
+
+/* The inverse mass matrix (diagonal) and the generalised forces of gravity and of the ground's
+ * motion (the inertial force -m (ah, av)) of the free bodies. */
+static void free_terms(const EnSystem *s, double ah, double av, double *Minv, double *fext) {
+    for (int k = 0; k < s->nb; k++) {
+        const EnBody *B = &s->body[k];
+        Minv[EN_Q(k, 0)] = Minv[EN_Q(k, 1)] = 1.0 / B->m;
+        Minv[EN_Q(k, 2)] = 1.0 / B->Ic;
+        fext[EN_Q(k, 0)] = -B->m * ah;
+        fext[EN_Q(k, 1)] = -B->m * (s->g + av);
+        fext[EN_Q(k, 2)] = 0.0;
+    }
+}
+
+/* The state's positions (rates = 0) or rates (rates = 1) in q-space order. */
+static void gather(const EnSystem *s, const double *y, int rates, double *q) {
+    for (int k = 0; k < s->nb; k++)
+        for (int i = 0; i < 3; i++) q[EN_Q(k, i)] = y[rates ? EN_VEL(s->nb, k, i) : EN_POS(s->nb, k, i)];
+}
+/* y's positions or rates += d (q-space order). */
+static void scatter_add(const EnSystem *s, double *y, int rates, const double *d) {
+    for (int k = 0; k < s->nb; k++)
+        for (int i = 0; i < 3; i++) y[rates ? EN_VEL(s->nb, k, i) : EN_POS(s->nb, k, i)] += d[EN_Q(k, i)];
+}
+
+static double wdot(const double *a, const double *Minv, const double *b, int nq) {
+    double x = 0.0;
+    for (int i = 0; i < nq; i++) x += a[i] * Minv[i] * b[i];
+    return x;
+}
+
+/* Gaussian elimination with partial pivoting of the n x n system A x = r (A, r overwritten). */
+static int solve_dense(int n, double A[][EN_ROWS], double *r, double *x) {
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int i = c + 1; i < n; i++)
+            if (fabs(A[i][c]) > fabs(A[p][c])) p = i;
+        if (!(fabs(A[p][c]) > 1e-300)) return 0;
+        if (p != c) {
+            for (int j = 0; j < n; j++) {
+                double tmp = A[c][j];
+                A[c][j] = A[p][j];
+                A[p][j] = tmp;
+            }
+            double tmp = r[c];
+            r[c] = r[p];
+            r[p] = tmp;
+        }
+        for (int i = c + 1; i < n; i++) {
+            double f = A[i][c] / A[c][c];
+            if (f == 0.0) continue;
+            for (int j = c; j < n; j++) A[i][j] -= f * A[c][j];
+            r[i] -= f * r[c];
+        }
+    }
+    for (int i = n - 1; i >= 0; i--) {
+        double v = r[i];
+        for (int j = i + 1; j < n; j++) v -= A[i][j] * x[j];
+        x[i] = v / A[i][i];
+    }
+    return 1;
+}
+
+/* The first closed corner of body k in m (-1, +1), or 0. */
+static int first_closed(const EnMode *m, int k) { return m->closed[k][0] ? -1 : m->closed[k][1] ? 1 : 0; }
+
+/* The constraints of mode m at the state y on a = a0 + Minv (sum of force columns x unknowns):
+ * row . a + bias = 0 (bias: withBias; accelerations and forces), or row . a = 0 (a0 the rates before
+ * an impact: the rates after and the impulses). a goes to f->qdd, the forces (impulses) to f->N, f->T. */
+static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const double *a0, int withBias,
+                     EnForces *f) {
+    int nb = s->nb, nq = 3 * nb;
+    double Minv[EN_NQ], fext[EN_NQ];
+    free_terms(s, 0.0, 0.0, Minv, fext);
+    /* constraint rows and force columns: one per closed corner, one per sticking body */
+    double row[EN_ROWS][EN_NQ], col[EN_ROWS][EN_NQ], bias[EN_ROWS];
+    int who[EN_ROWS], corner[EN_ROWS], nr = 0;
+    for (int k = 0; k < nb; k++) {
+        EnPoint P[2];
+        int any = 0;
+        for (int i = 0; i < 2; i++) {
+            if (!m->closed[k][i]) continue;
+            engine_point(s, k, 2 * i - 1, y, &P[i]);
+            memcpy(row[nr], P[i].wN, sizeof(row[nr]));
+            for (int q = 0; q < EN_NQ; q++) col[nr][q] = P[i].wN[q] - m->sigma[k] * s->mu[k] * P[i].wT[q];
+            bias[nr] = P[i].bN;
+            who[nr] = k;
+            corner[nr] = i;
+            nr++;
+            any = 1;
+        }
+        if (any && m->sigma[k] == 0) {
+            const EnPoint *p = &P[m->closed[k][0] ? 0 : 1];
+            memcpy(row[nr], p->wT, sizeof(row[nr]));
+            memcpy(col[nr], p->wT, sizeof(col[nr]));
+            bias[nr] = p->bT;
+            who[nr] = k;
+            corner[nr] = -1;
+            nr++;
+        }
+    }
+    double A[EN_ROWS][EN_ROWS], r[EN_ROWS], lam[EN_ROWS];
+    for (int i = 0; i < nr; i++) {
+        r[i] = withBias ? -bias[i] : 0.0;
+        for (int q = 0; q < nq; q++) r[i] -= row[i][q] * a0[q];
+        for (int j = 0; j < nr; j++) A[i][j] = wdot(row[i], Minv, col[j], nq);
+    }
+    if (nr && !solve_dense(nr, A, r, lam)) return 0;
+    memset(f, 0, sizeof(*f));
+    for (int q = 0; q < nq; q++) {
+        double F = 0.0;
+        for (int j = 0; j < nr; j++) F += col[j][q] * lam[j];
+        f->qdd[q] = a0[q] + Minv[q] * F;
+    }
+    /* a body flat on its support turns with it: exactly (no rounding left in its relative rotation,
+     * nor, on the ground, in its height) */
+    for (int k = 0; k < nb; k++)
+        if (m->closed[k][0] && m->closed[k][1]) {
+            f->qdd[EN_Q(k, 2)] = k > 0 ? f->qdd[EN_Q(k - 1, 2)] : 0.0;
+            if (k == 0) f->qdd[EN_Q(0, 1)] = 0.0;
+        }
+    for (int j = 0; j < nr; j++) {
+        int k = who[j];
+        if (corner[j] >= 0) {
+            f->N[k][corner[j]] = lam[j];
+            if (m->sigma[k]) f->T[k] -= m->sigma[k] * s->mu[k] * lam[j];
+        } else {
+            f->T[k] = lam[j];
+        }
+    }
+    return 1;
+}
+
+int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f) {
+    double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
+    free_terms(s, ah, av, Minv, fext);
+    for (int q = 0; q < 3 * s->nb; q++) a0[q] = Minv[q] * fext[q];
+    return solve_set(s, m, y, a0, 1, f);
+}
+
+/* The slip rate of body k's contact (along its support's top) in mode m: its closed corner's. */
+static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double *y) {
+    int c = first_closed(m, k);
+    if (!c) return 0.0;
+    EnPoint p;
+    engine_point(s, k, c, y, &p);
+    return p.xid;
+}
+
+int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, double *dy,
+               EnForces *fo) {
+    int nb = s->nb, nq = 3 * nb;
+    EnForces f;
+    if (!engine_solve(s, m, y, ah, av, &f)) return 0;
+    for (int k = 0; k < nb; k++)
+        for (int i = 0; i < 3; i++) {
+            dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
+            dy[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
+        }
+    (void)nq;
+    double work = 0.0;
+    for (int k = 0; k < nb; k++) {
+        work -= s->body[k].m * (ah * y[EN_VEL(nb, k, 0)] + av * y[EN_VEL(nb, k, 1)]);
+        dy[EN_LOSS(nb, k)] = m->sigma[k] ? -f.T[k] * slip_rate(s, m, k, y) : 0.0;
+    }
+    dy[EN_WORK(nb)] = work;
+    if (fo) *fo = f;
+    return 1;
+}
+
+int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
+                      int *kind, int *body, int *corner) {
+    int n = 0, nb = s->nb;
+    for (int k = 0; k < nb; k++) {
+        const EnBody *B = &s->body[k];
+        double W = s->weight[k], R = sqrt(B->b * B->b + B->h * B->h);
+        int c = first_closed(m, k);
+        for (int i = 0; i < 2; i++) {
+            if (m->closed[k][i]) {
+                ind[n] = f->N[k][i] / W;
+                kind[n] = EN_IND_OPEN;
+            } else if (c) {
+                /* rocking on its other corner: this one lands when the rotation relative to the support
+                 * returns to zero (exact for a rectangle on a flat face, and free of the cancellation of
+                 * the gap, a difference of lengths of the body's size) */
+                double rel = y[EN_TH(k)] - (k > 0 ? y[EN_TH(k - 1)] : 0.0);
+                ind[n] = c * rel;
+                kind[n] = EN_IND_LAND;
+            } else {
+                EnPoint p;
+                engine_point(s, k, 2 * i - 1, y, &p);
+                ind[n] = p.g / R;
+                kind[n] = EN_IND_LAND;
+            }
+            body[n] = k;
+            corner[n++] = 2 * i - 1;
+        }
+        if (c && m->sigma[k] == 0) {
+            ind[n] = (s->mu[k] * (f->N[k][0] + f->N[k][1]) - fabs(f->T[k])) / W;
+            kind[n] = EN_IND_SLIP;
+            body[n] = k;
+            corner[n++] = c;
+        } else if (c) {
+            ind[n] = m->sigma[k] * slip_rate(s, m, k, y) / sqrt(s->g * R);
+            kind[n] = EN_IND_STOP;
+            body[n] = k;
+            corner[n++] = c;
+        }
+        double rel = y[EN_TH(k)] - (k > 0 ? y[EN_TH(k - 1)] : 0.0);
+        ind[n] = M_PI / 2 - fabs(rel);
+        kind[n] = EN_IND_OVERTURN;
+        body[n] = k;
+        corner[n++] = rel > 0 ? 1 : -1;
+    }
+    return n;
+}
+
+/* ------------------------------------------------------------------ complementarity */
+
+/* The candidate corners of a problem: body and corner index. */
+typedef struct {
+    int nc, ns;
+    int k[EN_CORNERS], i[EN_CORNERS]; /* corner j: body k[j], index i[j] */
+    int sk[EN_MAX_BODIES];            /* friction unknown s: body sk[s] */
+    int sOf[EN_MAX_BODIES];           /* body -> friction index, or -1 */
+    EnPoint P[EN_CORNERS];
+} Candidates;
+
+static void candidates(const EnSystem *s, const double *y, const int touching[][2], const int *withFriction,
+                       Candidates *c) {
+    memset(c, 0, sizeof(*c));
+    for (int k = 0; k < s->nb; k++) {
+        c->sOf[k] = -1;
+        int any = 0;
+        for (int i = 0; i < 2; i++)
+            if (touching[k][i]) {
+                c->k[c->nc] = k;
+                c->i[c->nc] = i;
+                engine_point(s, k, 2 * i - 1, y, &c->P[c->nc]);
+                c->nc++;
+                any = 1;
+            }
+        if (any && withFriction[k]) {
+            c->sOf[k] = c->ns;
+            c->sk[c->ns++] = k;
+        }
+    }
+}
+
+/* The tangential row of body k: its first candidate corner's. */
+static const EnPoint *friction_point(const Candidates *c, int k) {
+    for (int j = 0; j < c->nc; j++)
+        if (c->k[j] == k) return &c->P[j];
+    return NULL;
+}
+
+/* Assemble the Pfeiffer-Glocker problem: unknowns z = (normal forces (nc), lambda0+ (ns),
+ * tangential a- (ns)), w = (normal accelerations, tangential a+, lambda0-); forces in units
+ * of fu, accelerations (or rates) in units of au. base[q]: the free motion's generalised
+ * acceleration (or rate); sig[k] the given sigma of a sliding body (0 for friction unknowns). */
+static int assemble(const EnSystem *s, const Candidates *c, const double *Minv, const double *base,
+                    const int *sig, double fu, double au, double *A, double *q) {
+    int nc = c->nc, ns = c->ns, n = nc + 2 * ns, nq = 3 * s->nb;
+    double col[EN_CORNERS + EN_MAX_BODIES][EN_NQ];
+    double row[EN_CORNERS + EN_MAX_BODIES][EN_NQ];
+    /* force columns: normal forces carry the friction they imply */
+    for (int j = 0; j < nc; j++) {
+        int k = c->k[j];
+        const EnPoint *pt = friction_point(c, k);
+        double mu = s->mu[k], fr = c->sOf[k] >= 0 ? mu : sig[k] * mu;
+        for (int q2 = 0; q2 < EN_NQ; q2++) col[j][q2] = c->P[j].wN[q2] - fr * pt->wT[q2];
+        memcpy(row[j], c->P[j].wN, sizeof(row[j]));
+    }
+    for (int t = 0; t < ns; t++) {
+        const EnPoint *pt = friction_point(c, c->sk[t]);
+        memcpy(col[nc + t], pt->wT, sizeof(col[nc + t]));
+        memcpy(row[nc + t], pt->wT, sizeof(row[nc + t]));
+    }
+    for (int i = 0; i < n * n; i++) A[i] = 0.0;
+    for (int i = 0; i < nc + ns; i++) {
+        double b = 0.0;
+        for (int q2 = 0; q2 < nq; q2++) b += row[i][q2] * base[q2];
+        q[i] = b / au;
+        for (int j = 0; j < nc + ns; j++) A[i * n + j] = wdot(row[i], Minv, col[j], nq) * fu / au;
+    }
+    for (int t = 0; t < ns; t++) {
+        int r = nc + t, k = c->sk[t];
+        A[r * n + nc + ns + t] = 1.0; /* a+ = a + a- */
+        int r2 = nc + ns + t;
+        q[r2] = 0.0;
+        for (int j = 0; j < nc; j++)
+            if (c->k[j] == k) A[r2 * n + j] = 2.0 * s->mu[k];
+        A[r2 * n + nc + t] = -1.0;
+    }
+    (void)q;
+    return n;
+}
+
+/* The biases of the candidates' rows added to the free accelerations (their rows' values at a = base). */
+static void add_bias(const Candidates *c, double au, double *q) {
+    for (int j = 0; j < c->nc; j++) q[j] += c->P[j].bN / au;
+    for (int t = 0; t < c->ns; t++) {
+        const EnPoint *pt = NULL;
+        for (int j = 0; j < c->nc; j++)
+            if (c->k[j] == c->sk[t]) {
+                pt = &c->P[j];
+                break;
+            }
+        q[c->nc + t] += pt->bT / au;
+    }
+}
+
+int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
+                  const int stuck[], EnMode *out, EnForces *f) {
+    int nb = s->nb, nq = 3 * nb;
+    Candidates c;
+    candidates(s, y, touching, stuck, &c);
+    double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
+    free_terms(s, ah, av, Minv, fext);
+    for (int q = 0; q < nq; q++) a0[q] = Minv[q] * fext[q];
+    int sig[EN_MAX_BODIES] = {0};
+    for (int k = 0; k < nb; k++) {
+        if (c.sOf[k] >= 0) continue;
+        const EnPoint *p = friction_point(&c, k);
+        sig[k] = p ? (p->xid > 0 ? 1 : p->xid < 0 ? -1 : 0) : 0;
+    }
+    double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
+    double fu = s->weight[0], au = s->g;
+    int n = assemble(s, &c, Minv, a0, sig, fu, au, A, q);
+    add_bias(&c, au, q);
+    memset(out, 0, sizeof(*out));
+    int status = n ? lcp_solve(n, A, q, z, w, NULL) : LCP_SOLVED;
+    if (status != LCP_SOLVED) return 1;
+    for (int j = 0; j < c.nc; j++) out->closed[c.k[j]][c.i[j]] = z[j] > 0.0 || w[j] == 0.0;
+    for (int k = 0; k < nb; k++) out->sigma[k] = sig[k];
+    const double small = 1e-12; /* of g: a tangential acceleration below it is a stick */
+    for (int t = 0; t < c.ns; t++) {
+        int k = c.sk[t];
+        double aPlus = w[c.nc + t], aMinus = z[c.nc + c.ns + t];
+        out->sigma[k] = aPlus > small ? 1 : aMinus > small ? -1 : 0;
+    }
+    /* a body none of whose corners stays closed flies: no friction */
+    for (int k = 0; k < nb; k++)
+        if (!out->closed[k][0] && !out->closed[k][1]) out->sigma[k] = 0;
+    if (!engine_solve(s, out, y, ah, av, f)) return 1;
+    return 0;
+}
+
+int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]) {
+    int nb = s->nb, nq = 3 * nb;
+    int all[EN_MAX_BODIES];
+    for (int k = 0; k < EN_MAX_BODIES; k++) all[k] = 1;
+    Candidates c;
+    candidates(s, y, touching, all, &c);
+    double Minv[EN_NQ], fext[EN_NQ], v0[EN_NQ];
+    free_terms(s, 0.0, 0.0, Minv, fext);
+    gather(s, y, 1, v0);
+    double Rmax = 0.0, mtot = 0.0;
+    for (int k = 0; k < nb; k++) {
+        Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
+        mtot += s->body[k].m;
+    }
+    double vu = sqrt(s->g * Rmax), pu = mtot * vu;
+    int sig[EN_MAX_BODIES] = {0};
+    double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
+    int n = assemble(s, &c, Minv, v0, sig, pu, vu, A, q);
+    memset(PN, 0, sizeof(double) * 2 * (size_t)nb);
+    memset(PT, 0, sizeof(double) * (size_t)nb);
+    if (!n) return 0;
+    if (lcp_solve(n, A, q, z, w, NULL) != LCP_SOLVED) return 1;
+    /* the problem chose the contact set after the impact; its impulses come from that set's own
+     * equations (the problem's friction unknowns differ by mu times the normal ones, which would
+     * cost digits for a large mu) */
+    EnMode m;
+    memset(&m, 0, sizeof(m));
+    for (int j = 0; j < c.nc; j++) m.closed[c.k[j]][c.i[j]] = z[j] > 0.0;
+    const double small = 1e-14; /* of the velocity unit: a slip rate after below it is a stick */
+    for (int t = 0; t < c.ns; t++) {
+        int k = c.sk[t];
+        double vPlus = w[c.nc + t], vMinus = z[c.nc + c.ns + t];
+        m.sigma[k] = vPlus > small ? 1 : vMinus > small ? -1 : 0;
+    }
+    EnForces f;
+    if (!solve_set(s, &m, y, v0, 0, &f)) return 1;
+    for (int k = 0; k < nb; k++) {
+        PN[k][0] = f.N[k][0];
+        PN[k][1] = f.N[k][1];
+        PT[k] = f.T[k];
+        for (int i = 0; i < 3; i++) y[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
+        touching[k][0] = touching[k][1] = 0;
+        stuck[k] = 0;
+    }
+    for (int j = 0; j < c.nc; j++) touching[c.k[j]][c.i[j]] = w[j] == 0.0 || m.closed[c.k[j]][c.i[j]];
+    for (int t = 0; t < c.ns; t++) stuck[c.sk[t]] = m.sigma[c.sk[t]] == 0;
+    (void)nq;
+    return 0;
+}
+
+/* ----------------------------------------------------------------------- energy */
+
+double engine_kinetic(const EnSystem *s, const double *y) {
+    double E = 0.0;
+    int nb = s->nb;
+    for (int k = 0; k < s->nb; k++) {
+        const EnBody *B = &s->body[k];
+        double vx = y[EN_VEL(nb, k, 0)], vy = y[EN_VEL(nb, k, 1)], w = y[EN_W(k)];
+        E += 0.5 * B->m * (vx * vx + vy * vy) + 0.5 * B->Ic * w * w;
+    }
+    return E;
+}
+
+/* The height of body k's centre at rest (stacked, flat). */
+static double rest_height(const EnSystem *s, int k) {
+    double Y = 0.0;
+    for (int j = 0; j < k; j++) Y += 2.0 * s->body[j].h;
+    return Y + s->body[k].h;
+}
+
+double engine_energy(const EnSystem *s, const double *y) {
+    double E = engine_kinetic(s, y);
+    int nb = s->nb;
+    for (int k = 0; k < s->nb; k++) E += s->body[k].m * s->g * (y[EN_POS(nb, k, 1)] - rest_height(s, k));
+    return E;
+}
+
+void engine_rest_state(const EnSystem *s, double *y) {
+    int nb = s->nb;
+    for (int k = 0; k < nb; k++) {
+        y[EN_POS(nb, k, 1)] = rest_height(s, k);
+        y[EN_TH(k)] = 0.0;
+        for (int i = 0; i < 3; i++) y[EN_VEL(nb, k, i)] = 0.0;
+    }
+}
+
+/* ------------------------------------------------------------------- projection */
+
+/* Rows (and residuals) of the constraints of m: closed corners' gaps, sticking contacts' slips, in the
+ * centres' coordinates only (the rotations are not moved). A flat body's relative rotation is set exactly
+ * (flatten): one gap row then holds both corners. */
+static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, const double *xi0,
+                           double row[][EN_NQ], double *res, double *rate) {
+    int nr = 0;
+    for (int k = 0; k < s->nb; k++) {
+        int done = 0, flat = m->closed[k][0] && m->closed[k][1];
+        for (int i = 0; i < 2; i++) {
+            if (!m->closed[k][i]) continue;
+            EnPoint p;
+            engine_point(s, k, 2 * i - 1, y, &p);
+            /* the rotations stay as integrated (they carry the error control; the centres follow) */
+            for (int j = 0; j < s->nb; j++) p.wN[EN_Q(j, 2)] = p.wT[EN_Q(j, 2)] = 0.0;
+            if (flat && i == 1) { /* the right corner's gap is the left one's */
+                if (m->sigma[k] == 0 && !done) {
+                    memcpy(row[nr], p.wT, sizeof(row[nr]));
+                    res[nr] = xi0 ? p.xi - (xi0[k] + s->body[k].b) : 0.0;
+                    rate[nr++] = p.xid;
+                }
+                continue;
+            }
+            memcpy(row[nr], p.wN, sizeof(row[nr]));
+            res[nr] = p.g;
+            rate[nr++] = p.gd;
+            if (m->sigma[k] == 0 && !done) {
+                memcpy(row[nr], p.wT, sizeof(row[nr]));
+                res[nr] = xi0 ? p.xi - (xi0[k] + (2 * i - 1) * s->body[k].b) : 0.0;
+                rate[nr++] = p.xid;
+                done = 1;
+            }
+        }
+    }
+    return nr;
+}
+
+/* y -= Minv W^T (W Minv W^T)^-1 r on the positions (rates = 0) or the rates (rates = 1). */
+static void correct(const EnSystem *s, double row[][EN_NQ], int nr, const double *r, double *y, int rates) {
+    int nq = 3 * s->nb;
+    double Minv[EN_NQ], fext[EN_NQ], A[EN_ROWS][EN_ROWS], rr[EN_ROWS], x[EN_ROWS];
+    free_terms(s, 0.0, 0.0, Minv, fext);
+    for (int i = 0; i < nr; i++) {
+        rr[i] = r[i];
+        for (int j = 0; j < nr; j++) A[i][j] = wdot(row[i], Minv, row[j], nq);
+    }
+    if (!solve_dense(nr, A, rr, x)) return;
+    double d[EN_NQ];
+    for (int q = 0; q < nq; q++) {
+        d[q] = 0.0;
+        for (int i = 0; i < nr; i++) d[q] -= row[i][q] * x[i];
+        d[q] *= Minv[q];
+    }
+    scatter_add(s, y, rates, d);
+}
+
+/* Flat bodies turn exactly with their support (and on the ground stand at their rest height). */
+static void flatten(const EnSystem *s, const EnMode *m, double *y, int rates) {
+    int nb = s->nb;
+    for (int k = 0; k < nb; k++) {
+        if (!(m->closed[k][0] && m->closed[k][1])) continue;
+        y[EN_TH(k)] = k > 0 ? y[EN_TH(k - 1)] : 0.0;
+        if (k == 0) y[EN_POS(nb, 0, 1)] = s->body[0].h;
+        if (!rates) continue;
+        y[EN_W(k)] = k > 0 ? y[EN_W(k - 1)] : 0.0;
+        if (k == 0) y[EN_VEL(nb, 0, 1)] = 0.0;
+    }
+}
+
+void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates) {
+    double row[EN_ROWS][EN_NQ], res[EN_ROWS], rate[EN_ROWS];
+    flatten(s, m, y, rates);
+    for (int it = 0; it < 3; it++) {
+        int nr = constraint_rows(s, m, y, xi0, row, res, rate);
+        if (!nr) return;
+        double big = 0.0;
+        for (int i = 0; i < nr; i++) big = fmax(big, fabs(res[i]));
+        if (big == 0.0) break;
+        correct(s, row, nr, res, y, 0);
+    }
+    if (!rates) return;
+    int nr = constraint_rows(s, m, y, xi0, row, res, rate);
+    correct(s, row, nr, rate, y, 1);
+}

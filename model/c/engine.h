@@ -1,0 +1,124 @@
+/* The planar contact engine of the rocking-sliding model (contact.model = 1): rigid bodies on
+ * a moving support, each bottom corner a unilateral contact with Coulomb friction.
+ * Derivation and every rule: docs/flight.md, "The contact engine".
+ *
+ * Bodies k = 0 .. nb-1 are rectangles (half width b, half height h, mass m, inertia about the
+ * centre Ic = m (b^2 + h^2) / 3); body k stands on its support: the ground for k = 0, body
+ * k - 1 above that (a stack). Coordinates are relative to the ground's frame (which moves with
+ * a_h, a_v), origin at body 0's base centre at rest, signs of docs/conventions.md: x right, y up,
+ * theta clockwise. Body k: q = (X, Y, theta) of its centre.
+ *
+ * Contacts: body k's bottom corners c = -1 (left, index 0) and +1 (right, index 1) against
+ * its support's top face. Each corner is open or closed; the corners of one body share its
+ * friction: the contact sticks (sigma = 0) or slides (sigma = +-1, the sign of the slip rate),
+ * with |T| <= mu (N_left + N_right). Between events the accelerations and forces come from
+ * Newton-Euler with the closed corners' constraints; at an event the consistent contact set is
+ * the solution of a linear complementarity problem (Pfeiffer & Glocker 1996), and impacts are
+ * the same problem on velocities and impulses (plastic, Coulomb friction).
+ *
+ * State vector (EN_N(nb) components): each body's rotation and its rate, each body's centre and
+ * its velocity (EN_POS, EN_VEL), the ground's work (J), the friction loss at each body's support (J).
+ */
+#ifndef ROCKING_ENGINE_H
+#define ROCKING_ENGINE_H
+
+#include "model.h"
+
+#define EN_NQ (3 * EN_MAX_BODIES)
+
+/* index of generalised coordinate i (0 X, 1 Y, 2 theta) of body k in q-space (rows, forces, masses) */
+#define EN_Q(k, i) (3 * (k) + (i))
+/* indices into the state vector of a system of nb bodies: the rotations and their rates first,
+ * (theta_k, omega_k) pairs, then each body's (X, Y, X', Y'), so that the error control of bodies whose
+ * contacts all stick (their positions follow from the rotations) can cover the first 2 nb only */
+#define EN_TH(k) (2 * (k))
+#define EN_W(k) (2 * (k) + 1)
+#define EN_POS(nb, k, i) ((i) == 2 ? 2 * (k) : 2 * (nb) + 4 * (k) + (i))
+#define EN_VEL(nb, k, i) ((i) == 2 ? 2 * (k) + 1 : 2 * (nb) + 4 * (k) + 2 + (i))
+#define EN_WORK(nb) (6 * (nb))
+#define EN_LOSS(nb, k) (6 * (nb) + 1 + (k))
+#define EN_N(nb) (6 * (nb) + 1 + (nb))
+
+typedef struct {
+    double b, h, m, Ic;
+} EnBody;
+
+typedef struct {
+    int nb;
+    EnBody body[EN_MAX_BODIES];
+    double mu[EN_MAX_BODIES]; /* friction coefficient of body k on its support */
+    double g;
+    double weight[EN_MAX_BODIES]; /* weight carried by body k's contact (it and those above), N */
+} EnSystem;
+
+/* A corner against its support: gap (m, > 0 open), slip coordinate along the support's top
+ * (m, support's frame) and their rates; rows of the gap's and slip's accelerations,
+ * gdd = wN . qdd + bN, xidd = wT . qdd + bT (wN, wT also map the forces to generalised ones). */
+typedef struct {
+    double g, gd, xi, xid;
+    double wN[EN_NQ], wT[EN_NQ];
+    double bN, bT;
+} EnPoint;
+
+/* Forces and accelerations of a mode: qdd, the normal force at each corner (N, 0 if open) and
+ * the tangential force of the support on each body (N, along the support's top). */
+typedef struct {
+    double qdd[EN_NQ];
+    double N[EN_MAX_BODIES][2];
+    double T[EN_MAX_BODIES];
+} EnForces;
+
+/* The system of the model's parameters (one block, or a stack of two). */
+void engine_system(const Model *M, EnSystem *s);
+
+/* The corner c (-1, +1) of body k at the state y. */
+void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
+
+/* Solve mode m at the state y under (ah, av): returns 0 if its system is singular. */
+int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f);
+
+/* Derivatives of the state vector in mode m (forces written to f unless NULL). Returns 0 if singular. */
+int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, double *dy,
+               EnForces *f);
+
+/* Event indicators of mode m at (y, forces f): each >= 0 while the mode holds, normalised by weights
+ * (forces) or by the bodies' sizes (gaps). Writes up to EN_IND values; returns how many. kind[i]
+ * says what a crossing means (EnIndicator). */
+typedef enum {
+    EN_IND_OPEN = 1,      /* a closed corner's normal force reaches 0 */
+    EN_IND_SLIP = 2,      /* a sticking contact's friction margin reaches 0 */
+    EN_IND_STOP = 3,      /* a sliding contact's slip rate reaches 0 */
+    EN_IND_LAND = 4,      /* an open corner's gap reaches 0 */
+    EN_IND_OVERTURN = 5,  /* a body's rotation relative to its support reaches pi/2 */
+    EN_IND_FELL_OFF = 6   /* a closed corner passes its support's edge */
+} EnIndicator;
+#define EN_IND (6 * EN_MAX_BODIES)
+int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
+                      int *kind, int *body, int *corner);
+
+/* The contact set at an event: the solution of the complementarity problem over the corners
+ * that touch with zero normal rate (touching[k][i]) and the friction of bodies whose slip rate
+ * is zero (sticking candidates: stuck[k]). Bodies sliding keep their sigma. Returns 0 if solved,
+ * 1 if no solution exists (Painleve: a sliding contact with no consistent force). */
+int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
+                  const int stuck[], EnMode *out, EnForces *f);
+
+/* A plastic impact with Coulomb friction of the corners touching (touching[k][i], gap 0): rates
+ * in y become the rates after; P_N, P_T the impulses (N s). Writes which corners keep zero normal
+ * rate after (touching) and which contacts have zero slip rate (stuck). Returns 0, or 1 if no
+ * solution was found. */
+int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]);
+
+/* Kinetic energy relative to the ground, and kinetic plus g times the rise of the centres (J). */
+double engine_kinetic(const EnSystem *s, const double *y);
+double engine_energy(const EnSystem *s, const double *y);
+
+/* The state of the bodies at rest (flat, stacked, centred, at the given slips of each body). */
+void engine_rest_state(const EnSystem *s, double *y);
+
+/* Move the positions (and, with rates, the rates) onto the constraints of mode m: closed corners at
+ * zero gap and normal rate, sticking contacts at zero slip rate and at their anchors xi0[k] (the slip
+ * of the contact: its corner's slip coordinate less the corner's offset; NULL: keep the slip). */
+void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates);
+
+#endif

@@ -1,0 +1,977 @@
+/* Event-driven time stepping of the contact engine (engine_solver.h). Rules: docs/flight.md. */
+#include "engine_solver.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "contact.h"
+#include "engine.h"
+#include "events.h"
+#include "ground.h"
+#include "integrator.h"
+
+/* The longest step while a contact slides or a body flies, in units of the time scale 1 / p
+ * (a quadratic motion would otherwise be followed with ever longer steps, whose dense output
+ * loses its digits a tiny fraction into the step). */
+#define FREE_STEP_MAX 1.0
+/* Samples of the dense output per step at which the kinematic indicators are checked. */
+#define DENSE_SAMPLES 4
+/* The look-ahead at an event whose complementarity problem is degenerate at the event itself,
+ * in units of 1 / p: far above rounding (1e-16) and far below any time scale of the motion. */
+#define LOOK_AHEAD 1e-6
+/* A force indicator (normal force or friction margin over the weight carried) below -RECHOOSE_SLACK at
+ * a step's start says the contact set no longer holds there: far below a located event's rounding. */
+#define RECHOOSE_SLACK 1e-9
+
+int engine_on(const Model *M) { return M->v.contactModel == 1 && M->v.nBlocks != 2; }
+
+typedef struct {
+    const Model *M;
+    EnSystem sys;
+    EnMode mode;
+    int piece;
+    EnForces f; /* of the last evaluation */
+    int singular;
+} Ctx;
+
+static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
+    Ctx *c = (Ctx *)ctx; /* the integrator hands our own (non-const) context back */
+    double ah, av;
+    model_ground_piece(c->M, t, c->piece, &ah, &av);
+    if (!engine_rhs(&c->sys, &c->mode, y, ah, av, dy, &c->f)) c->singular = 1;
+}
+
+static Ctx context(const Model *M, const EnMode *m, double t) {
+    Ctx c;
+    memset(&c, 0, sizeof(c));
+    c.M = M;
+    engine_system(M, &c.sys);
+    c.mode = *m;
+    c.piece = model_piece(M, t);
+    return c;
+}
+
+static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1); }
+static double time_scale(const Model *M) { return 1.0 / sqrt(M->d.p2); }
+
+static int flying(const EnMode *m, int k) { return !m->closed[k][0] && !m->closed[k][1]; }
+
+/* ----------------------------------------------------------------- bookkeeping */
+
+/* The slip of body k's contact: the x (along the support) of its lowest corner less that
+ * corner's offset c b: the base centre's whenever the base is flat. Its rate in *rate. */
+static double slip_of(const EnSystem *s, int k, const double *y, double *rate, double *gap) {
+    EnPoint L, R;
+    engine_point(s, k, -1, y, &L);
+    engine_point(s, k, 1, y, &R);
+    const EnPoint *p = R.g < L.g ? &R : &L;
+    int c = p == &R ? 1 : -1;
+    if (rate) *rate = p->xid;
+    if (gap) *gap = fmax(0.0, fmin(L.g, R.g));
+    return p->xi - c * s->body[k].b;
+}
+
+/* Bookkeeping of a change of contact set at S->t: slides and flights that start or end. */
+static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger *log) {
+    State *S = &M->s;
+    int nb = M->v.nBlocks == 2 ? 2 : 1;
+    for (int k = 0; k < nb; k++) {
+        int fw = flying(was, k), fn = flying(now, k);
+        if (!fw && fn) {
+            S->flights[k]++;
+            S->flightSince[k] = S->t;
+            say(log, LOG_EVENTS, "flight t=%.17g body=%d", S->t, k + 1);
+        } else if (fw && !fn) {
+            S->flightDur[k] += S->t - S->flightSince[k];
+            say(log, LOG_EVENTS, "land t=%.17g body=%d", S->t, k + 1);
+        }
+        if (k > 0) continue;
+        int sw = was->sigma[0] != 0, sn = now->sigma[0] != 0;
+        if (!sw && sn) {
+            S->slideStarts++;
+            S->slideSince = S->t;
+            if (S->slideTime < 0) S->slideTime = S->t;
+            say(log, LOG_EVENTS, "slide t=%.17g sigma=%d mode=%s", S->t, now->sigma[0],
+                now->closed[0][0] && now->closed[0][1] ? "slide" : "slide-rock");
+        } else if (sw && !sn) {
+            S->slideDur += S->t - S->slideSince;
+            if (!fn) say(log, LOG_EVENTS, "stick t=%.17g", S->t);
+        } else if (sw && sn && was->sigma[0] != now->sigma[0]) {
+            say(log, LOG_EVENTS, "reverse t=%.17g sigma=%d", S->t, now->sigma[0]);
+        }
+    }
+}
+
+/* The side (+1 right, -1 left) body 0 rocks on, for the rigid model's fields. */
+static int side_of(const EnMode *m, const double *y) {
+    if (m->closed[0][1] && !m->closed[0][0]) return 1;
+    if (m->closed[0][0] && !m->closed[0][1]) return -1;
+    return y[EN_TH(0)] > 0 ? 1 : y[EN_TH(0)] < 0 ? -1 : 1;
+}
+
+/* Set the contact set m (at S->t, S->y) as the state's. */
+static void set_mode(Model *M, const EnMode *m, const Logger *log) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    for (int k = 0; k < sys.nb; k++) { /* a contact that sticks on through the event has not slipped */
+        int stuckBefore = !flying(&S->en, k) && S->en.sigma[k] == 0 && S->mode != MODE_OVERTURNED;
+        if (!flying(m, k) && !(stuckBefore && m->sigma[k] == 0)) S->enAnchor[k] = slip_of(&sys, k, S->y, NULL, NULL);
+    }
+    changed(M, &S->en, m, log);
+    S->en = *m;
+    engine_project(&sys, m, S->y, NULL, 1);
+    S->side = side_of(m, S->y);
+    S->sigma = m->sigma[0];
+    S->mode = MODE_ROCKING;
+    S->fValid = 0;
+}
+
+/* Every body flat and sticking on its support, at rest relative to it (announce: log "rest"; a slide that
+ * stops has logged its "stick"). */
+static void come_to_rest(Model *M, const Logger *log, int announce) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    EnMode m;
+    memset(&m, 0, sizeof(m));
+    for (int k = 0; k < sys.nb; k++) m.closed[k][0] = m.closed[k][1] = 1;
+    for (int k = 0; k < sys.nb; k++) S->enAnchor[k] = slip_of(&sys, k, S->y, NULL, NULL);
+    double E0 = engine_energy(&sys, S->y);
+    engine_rest_state(&sys, S->y);
+    for (int k = 0; k < sys.nb; k++) S->y[EN_POS(sys.nb, k, 0)] = S->enAnchor[k] + (k > 0 ? S->y[EN_POS(sys.nb, k - 1, 0)] : 0.0);
+    S->impactLoss += E0 - engine_energy(&sys, S->y); /* what the rest criterion stops */
+    changed(M, &S->en, &m, log);
+    S->en = m;
+    S->mode = MODE_REST;
+    S->side = 1;
+    S->sigma = 0;
+    S->restTime = S->t;
+    S->h = 0.0;
+    S->fValid = 0;
+    if (announce) say(log, LOG_EVENTS, "rest t=%.17g", S->t);
+}
+
+/* ----------------------------------------------------------------- choosing modes */
+
+/* The complementarity problem's choice at (t, y) over the corners `touching` and the sticking
+ * candidates `stuck`, its data taken LOOK_AHEAD / p after the event along the motion dy (the
+ * problem is degenerate at an event located where a force or margin vanishes). Returns 0, or 1 if
+ * it has no solution. */
+static int choose(const Model *M, double t, const double *y, const double *dy, int touching[][2], const int *stuck,
+                  EnMode *out) {
+    EnSystem sys;
+    engine_system(M, &sys);
+    double d = LOOK_AHEAD * time_scale(M), ya[NMAX], ah, av;
+    int n = nstate(M);
+    memcpy(ya, y, sizeof(ya));
+    if (dy)
+        for (int i = 0; i < n; i++) ya[i] += d * dy[i];
+    model_ground_piece(M, t + (dy ? d : 0.0), model_piece(M, t), &ah, &av);
+    EnForces f;
+    return engine_choose(&sys, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
+}
+
+/* The derivative of the state at S->t in the contact set m. */
+static void derivative(const Model *M, const EnMode *m, double *dy) {
+    Ctx c = context(M, m, M->s.t);
+    memset(dy, 0, sizeof(double) * NMAX);
+    rhs_cb(&c, M->s.t, M->s.y, dy);
+}
+
+/* The contact set that follows at S->t from the touching corners and sticking candidates, with a
+ * Painleve point (no consistent set) resolved by the impact without collision of Genot & Brogliato
+ * (1999): the sliding contact takes the plastic impact of the impact law; if that leaves no
+ * consistent set either, it sticks. */
+static void settle_mode(Model *M, int touching[][2], int *stuck, const double *dy, const Logger *log) {
+    State *S = &M->s;
+    EnMode m;
+    if (choose(M, S->t, S->y, dy, touching, stuck, &m) == 0) {
+        set_mode(M, &m, log);
+        return;
+    }
+    EnSystem sys;
+    engine_system(M, &sys);
+    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES], E0 = engine_kinetic(&sys, S->y);
+    S->painleve++;
+    engine_impact(&sys, S->y, touching, stuck, PN, PT);
+    S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+    say(log, LOG_EVENTS, "painleve t=%.17g", S->t);
+    if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
+        for (int k = 0; k < sys.nb; k++) stuck[k] = 1;
+        memset(&m, 0, sizeof(m));
+        EnMode st = S->en;
+        for (int k = 0; k < sys.nb; k++) st.sigma[k] = 0;
+        engine_project(&sys, &st, S->y, NULL, 1);
+        if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) m = st;
+    }
+    set_mode(M, &m, log);
+}
+
+/* The motion left is negligible (the rest criterion of an impact, in energy): the ground below the
+ * threshold that starts the bodies at rest, and a kinetic energy that would lift the centre of mass
+ * less than a rebound to restRatio * alpha does. */
+static int negligible(const Model *M, double t, const double *y) {
+    double ah, av;
+    model_ground(M, t, &ah, &av);
+    double geff = M->v.g + av, alpha = M->d.alpha, m = M->v.mass, R = M->d.R;
+    if (!(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope)) return 0;
+    EnSystem sys;
+    engine_system(M, &sys);
+    return engine_kinetic(&sys, y) < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha));
+}
+
+/* The restitution law on the plastic impact's rates: law 0 (Housner) with correction 1 is the plastic
+ * impact itself; otherwise the rates after (relative to the ground) are scaled by eta / eta_Housner, which
+ * gives a block landing on a sticking corner from rocking the rigid model's w+ = eta w-, and never past
+ * the kinetic energy before the impact (kineticBefore, J). */
+static void restitution(const Model *M, double *y, double kineticBefore) {
+    double sa = sin(M->d.alpha), etaH = 1.0 - 1.5 * sa * sa, factor = M->d.eta / etaH;
+    if (factor == 1.0) return;
+    EnSystem sys;
+    engine_system(M, &sys);
+    double after = engine_kinetic(&sys, y);
+    if (factor * factor * after > kineticBefore) factor = sqrt(kineticBefore / after);
+    for (int k = 0; k < sys.nb; k++)
+        for (int i = 0; i < 3; i++) y[EN_VEL(sys.nb, k, i)] *= factor;
+}
+
+/* -------------------------------------------------------------------- events */
+
+static void overturn(Model *M, int k, const Logger *log) {
+    State *S = &M->s;
+    int nb = M->v.nBlocks == 2 ? 2 : 1;
+    double th = S->y[EN_TH(k)];
+    int side = th > 0 ? 1 : -1;
+    if (k == 0) {
+        S->mode = MODE_OVERTURNED;
+        S->overturnTime = S->t;
+        S->maxAbsTheta = M_PI / 2;
+        S->side = side;
+        for (int j = 0; j < nb; j++)
+            for (int i = 0; i < 3; i++) S->y[EN_VEL(nb, j, i)] = 0.0;
+        if (S->en.sigma[0]) S->slideDur += S->t - S->slideSince;
+        for (int j = 0; j < nb; j++)
+            if (flying(&S->en, j)) S->flightDur[j] += S->t - S->flightSince[j];
+        memset(&S->en, 0, sizeof(S->en));
+        S->sigma = 0;
+    }
+    say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, side);
+}
+
+/* After an impact, a body left rocking on one corner with a rotation rate (relative to its support)
+ * whose rebound would stay below restRatio of its slenderness angle (the rest criterion on the
+ * rotation alone) lands flat: its rates are projected onto both corners' constraints (its slip goes
+ * on). Without this rule a sliding block's ever smaller rocking impacts would never end. */
+static void close_negligible(Model *M, int touching[][2], int *stuck, const Logger *log) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    double ah, av;
+    model_ground(M, S->t, &ah, &av);
+    double geff = sys.g + av;
+    if (!(geff > 0)) return;
+    for (int k = 0; k < sys.nb; k++) {
+        if (touching[k][0] == touching[k][1]) continue;
+        const EnBody *B = &sys.body[k];
+        double R = hypot(B->b, B->h), alpha = atan2(B->b, B->h), I0 = B->Ic + B->m * R * R;
+        double w = S->y[EN_W(k)] - (k > 0 ? S->y[EN_W(k - 1)] : 0.0);
+        double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
+        if (fabs(rel) > 1e-9 * alpha) continue;
+        if (!(0.5 * I0 * w * w < B->m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) continue;
+        EnMode flat = S->en;
+        double vs;
+        slip_of(&sys, k, S->y, &vs, NULL);
+        flat.closed[k][0] = flat.closed[k][1] = 1;
+        flat.sigma[k] = vs > 0 ? 1 : vs < 0 ? -1 : 0;
+        double E0 = engine_kinetic(&sys, S->y);
+        engine_project(&sys, &flat, S->y, NULL, 1);
+        S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+        touching[k][0] = touching[k][1] = 1;
+        stuck[k] = flat.sigma[k] == 0;
+        say(log, LOG_EVENTS, "flat t=%.17g body=%d", S->t, k + 1);
+    }
+}
+
+static void impact(Model *M, const Logger *log) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    int k = S->eventContact, i = S->eventEnd > 0 ? 1 : 0;
+    int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
+    EnMode land = S->en;
+    land.closed[k][i] = 1;
+    /* the other corners within the integrator's resolution of their support land with it (a body that
+     * flies flat lands flat): gaps below 100 max(relTol, absTol) R */
+    double tol = 100.0 * fmax(M->v.relTol, M->v.absTol) * M->d.R;
+    for (int j = 0; j < sys.nb; j++)
+        for (int c = 0; c < 2; c++) {
+            EnPoint p;
+            engine_point(&sys, j, 2 * c - 1, S->y, &p);
+            if (!land.closed[j][c] && p.g <= tol && p.gd <= 0) land.closed[j][c] = 1;
+        }
+    engine_project(&sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
+    for (int j = 0; j < sys.nb; j++) {
+        touching[j][0] = land.closed[j][0];
+        touching[j][1] = land.closed[j][1];
+    }
+    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES];
+    double E0 = engine_kinetic(&sys, S->y), wm = S->y[EN_W(0)];
+    double vm;
+    slip_of(&sys, 0, S->y, &vm, NULL);
+    if (engine_impact(&sys, S->y, touching, stuck, PN, PT)) {
+        say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
+    }
+    restitution(M, S->y, E0);
+    double Pn = PN[0][0] + PN[0][1];
+    if (Pn > 0 && fabs(PT[0]) / Pn > S->impulseDemandMax) S->impulseDemandMax = fabs(PT[0]) / Pn;
+    S->impacts++;
+    S->lastImpactTime = S->t;
+    S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+    double vp;
+    slip_of(&sys, 0, S->y, &vp, NULL);
+    say(log, LOG_EVENTS,
+        "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
+        S->t, wm, S->y[EN_W(0)], vm, vp);
+    if (negligible(M, S->t, S->y)) {
+        come_to_rest(M, log, 1);
+        return;
+    }
+    close_negligible(M, touching, stuck, log);
+    settle_mode(M, touching, stuck, NULL, log);
+}
+
+/* An event located at S->t where a force, friction margin or slip rate vanished. */
+static void reselect(Model *M, const Logger *log) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
+    EnMode m = S->en;
+    if (S->pending == EVENT_SLIP_STOP) { /* the slip rate exactly zero */
+        m.sigma[S->eventContact] = 0;
+        engine_project(&sys, &m, S->y, NULL, 1);
+    }
+    for (int k = 0; k < sys.nb; k++) {
+        touching[k][0] = S->en.closed[k][0];
+        touching[k][1] = S->en.closed[k][1];
+        stuck[k] = m.sigma[k] == 0;
+    }
+    double dy[NMAX];
+    derivative(M, &m, dy);
+    /* a flat contact whose slip stops with nothing else moving: at rest? */
+    settle_mode(M, touching, stuck, dy, log);
+    int still = 1;
+    for (int k = 0; k < sys.nb; k++) {
+        still &= S->en.closed[k][0] && S->en.closed[k][1] && S->en.sigma[k] == 0;
+        for (int q = 0; q < 3; q++) still &= fabs(S->y[EN_VEL(sys.nb, k, q)]) <= 1e-14 * sqrt(sys.g * M->d.R);
+    }
+    if (still) come_to_rest(M, log, 0);
+}
+
+static void commit_peaks(Model *M, const Logger *log);
+
+static int apply_event(Model *M, const Logger *log) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    commit_peaks(M, log);
+    double sl = fabs(!flying(&S->en, 0) && S->en.sigma[0] == 0 ? S->enAnchor[0] : slip_of(&sys, 0, S->y, NULL, NULL));
+    if (sl > S->maxAbsSlip) S->maxAbsSlip = sl;
+    if (fabs(S->y[EN_TH(0)]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[EN_TH(0)]);
+    switch (S->pending) {
+    case EVENT_IMPACT:
+        impact(M, log);
+        break;
+    case EVENT_OVERTURN:
+        overturn(M, S->eventContact, log);
+        break;
+    default:
+        reselect(M, log);
+        break;
+    }
+    S->pending = EVENT_NONE;
+    S->fValid = 0;
+    return 0;
+}
+
+/* The ground moves the bodies resting at time t (the rest's complementarity problem has another solution
+ * there): "uplift" when body 1 starts to rock, then the slide or flight that starts. */
+static void start_moving(Model *M, double t, int side, const Logger *log) {
+    State *S = &M->s;
+    (void)side;
+    S->t = t;
+    S->h = 0.0;
+    int nb = M->v.nBlocks == 2 ? 2 : 1;
+    int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
+    for (int k = 0; k < nb; k++) {
+        touching[k][0] = touching[k][1] = 1;
+        stuck[k] = 1;
+    }
+    double dy[NMAX];
+    derivative(M, &S->en, dy);
+    EnMode m;
+    if (choose(M, S->t, S->y, dy, touching, stuck, &m) != 0) {
+        settle_mode(M, touching, stuck, dy, log);
+        return;
+    }
+    if (m.closed[0][0] != m.closed[0][1]) say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, m.closed[0][1] ? 1 : -1);
+    set_mode(M, &m, log);
+}
+
+/* ------------------------------------------------------------------- stepping */
+
+/* The indicators of the contact set at (t, y) (forces: f, or solved here when NULL). */
+static int indicators(const Ctx *c, double t, const double *y, const EnForces *f, double *ind, int *kind, int *body,
+                      int *corner) {
+    EnForces g;
+    if (!f) {
+        double ah, av;
+        model_ground_piece(c->M, t, c->piece, &ah, &av);
+        engine_solve(&c->sys, &c->mode, y, ah, av, &g);
+        f = &g;
+    }
+    return engine_indicators(&c->sys, &c->mode, y, f, ind, kind, body, corner);
+}
+
+/* Indicator `which` after a real step of length x from the step's start (first_negative's function). */
+typedef struct {
+    Ctx *c;
+    int n, which;
+    double t;
+    const double *y, *f0;
+    double *y1, *f1;
+    double (*cont)[NMAX];
+} Search;
+
+static double indicator_after(void *ctx, double x) {
+    Search *s = ctx;
+    double err[NMAX], ind[EN_IND];
+    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
+    indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
+    return ind[s->which];
+}
+
+static int take_step(Model *M, const Logger *log) {
+    State *S = &M->s;
+    const Variables *v = &M->v;
+    Ctx c = context(M, &S->en, S->t);
+    int nb = c.sys.nb, n = nstate(M);
+    double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
+    int free_motion = 0;
+    for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
+    if (free_motion) hmax = fmin(hmax, FREE_STEP_MAX * time_scale(M));
+    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext;
+    int hitBp;
+    if (!S->fValid) {
+        rhs_cb(&c, S->t, S->y, S->f);
+        S->fValid = 1;
+    }
+    double ind0[EN_IND];
+    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    int ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
+
+    /* positions in units of R, rates of R p (angles and angular rates as they are); the integrals ride along */
+    double scale[NMAX], R = M->d.R, p = sqrt(M->d.p2);
+    for (int k = 0; k < nb; k++) {
+        scale[EN_POS(nb, k, 0)] = scale[EN_POS(nb, k, 1)] = R;
+        scale[EN_VEL(nb, k, 0)] = scale[EN_VEL(nb, k, 1)] = R * p;
+        scale[EN_TH(k)] = scale[EN_W(k)] = 1.0;
+    }
+    int nErr = 2 * nb; /* the rotations alone while every body's contact sticks: the positions follow */
+    for (int k = 0; k < nb; k++)
+        if (S->en.sigma[k] != 0 || flying(&S->en, k)) nErr = 6 * nb;
+    if (adaptive_step_controlled(rhs_cb, &c, n, nErr, scale, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1,
+                                 f1, cont, &hNext, &hitBp, &S->rejected)) {
+        say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
+        return -1;
+    }
+    if (c.singular) {
+        say(log, LOG_ERROR, "the contact forces have no unique solution at t=%.17g", S->t);
+        return -1;
+    }
+    S->steps++;
+    if (hitBp && hmax < bp - S->t) hitBp = 0;
+    /* the first indicator that falls below zero: at dense samples (kinematic ones) and the end */
+    double ind[EN_IND], sLo = 0.0, sHi = 2.0;
+    int first = -1;
+    for (int j = 1; j <= DENSE_SAMPLES && first < 0; j++) {
+        double s = (double)j / DENSE_SAMPLES, yd[NMAX];
+        if (j == DENSE_SAMPLES) {
+            indicators(&c, S->t + h, y1, &c.f, ind, kind, body, corner);
+        } else {
+            memcpy(yd, S->y, sizeof(yd));
+            dense_eval(cont, n, s, yd);
+            EnForces none;
+            memset(&none, 0, sizeof(none));
+            indicators(&c, S->t + s * h, yd, &none, ind, kind, body, corner);
+        }
+        for (int i = 0; i < ni; i++) {
+            int kinematic = kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN || kind[i] == EN_IND_STOP;
+            if (j < DENSE_SAMPLES && !kinematic) continue;
+            if (ind0[i] >= 0 && ind[i] < 0) {
+                first = 0;
+                sHi = s;
+                sLo = (double)(j - 1) / DENSE_SAMPLES;
+                break;
+            }
+        }
+    }
+    /* a body rocking on one corner lands its other corner exactly when its rotation relative to its
+     * support returns to zero: the first such root of the dense output, found exactly (the
+     * samples above could step over a short excursion) */
+    for (int k = 0; k < nb; k++) {
+        if (S->en.closed[k][0] == S->en.closed[k][1]) continue;
+        double ck[5], cj[5] = {0}, P[5];
+        dense_poly(cont, EN_TH(k), ck);
+        if (k > 0) dense_poly(cont, EN_TH(k - 1), cj);
+        int sgn = S->en.closed[k][1] ? 1 : -1; /* rocking on the right corner: relative rotation > 0 */
+        for (int i = 0; i < 5; i++) P[i] = sgn * (ck[i] - cj[i]);
+        double r = first_crossing(P, -1);
+        if (r <= 1.0 && r < sHi) {
+            sHi = r;
+            sLo = 0.0;
+            first = 0;
+        }
+    }
+    EventKind ev = EVENT_NONE;
+    double hStep = h, tNew = hitBp ? bp : S->t + h;
+    if (first >= 0) {
+        /* locate each crossing in [sLo, sHi] with real steps; the earliest wins */
+        double best = INFINITY, yb[NMAX] = {0}, fb[NMAX] = {0}, cb[5][NMAX] = {{0}};
+        double ya[NMAX] = {0}, fa[NMAX] = {0}, ca[5][NMAX] = {{0}};
+        int which = -1;
+        for (int i = 0; i < ni; i++) {
+            Search se = {&c, n, i, S->t, S->y, S->f, ya, fa, ca};
+            double a = sLo * h, b = sHi * h;
+            double va = a > 0 ? indicator_after(&se, a) : ind0[i];
+            double vb = indicator_after(&se, b);
+            if (ind0[i] >= 0 && !(vb < 0) && b < h) vb = indicator_after(&se, b = h);
+            if (!(ind0[i] >= 0 && vb < 0)) continue;
+            if (va < 0) {
+                a = 0.0;
+                va = ind0[i];
+            }
+            double x = first_negative(indicator_after, &se, a, va, b, vb, 4.0, fabs(S->t), 0.0, 100);
+            if (x < best) {
+                best = x;
+                which = i;
+                indicator_after(&se, x);
+                memcpy(yb, ya, sizeof(yb));
+                memcpy(fb, fa, sizeof(fb));
+                memcpy(cb, ca, sizeof(cb));
+            }
+        }
+        if (which >= 0) {
+            hStep = best;
+            memcpy(y1, yb, sizeof(y1));
+            memcpy(f1, fb, sizeof(f1));
+            memcpy(cont, cb, sizeof(cont));
+            /* a rotation reaching its target (a rocking corner's landing, an overturn): Newton on the step
+             * length puts the rotation on the target to rounding (the time alone cannot: near t = 2 s its
+             * resolution, 4e-16 s, moves a slow rotation by more than the rest criterion's angles) */
+            int k = body[which], rocking = S->en.closed[k][0] != S->en.closed[k][1];
+            if ((kind[which] == EN_IND_LAND && rocking) || kind[which] == EN_IND_OVERTURN) {
+                double w[NMAX] = {0}, rel = y1[EN_TH(k)] - (k > 0 ? y1[EN_TH(k - 1)] : 0.0);
+                w[EN_TH(k)] = 1.0;
+                if (k > 0) w[EN_TH(k - 1)] = -1.0;
+                double target = kind[which] == EN_IND_LAND ? 0.0 : (rel > 0 ? M_PI / 2 : -M_PI / 2);
+                hStep = refine_step(rhs_cb, &c, n, S->t, S->y, S->f, hStep, h, w, target, y1, f1, cont);
+            }
+            tNew = S->t + hStep;
+            hitBp = 0;
+            switch (kind[which]) {
+            case EN_IND_OPEN:
+                ev = EVENT_OPEN;
+                break;
+            case EN_IND_SLIP:
+                ev = EVENT_SLIP_START;
+                break;
+            case EN_IND_STOP:
+                ev = EVENT_SLIP_STOP;
+                break;
+            case EN_IND_LAND:
+                ev = EVENT_IMPACT;
+                break;
+            case EN_IND_OVERTURN:
+                ev = EVENT_OVERTURN;
+                break;
+            default:
+                ev = EVENT_FELL_OFF;
+                break;
+            }
+            S->eventContact = body[which];
+            S->eventEnd = corner[which];
+        }
+    }
+    /* peaks of body 0's rotation (its rate's zeros) inside the step */
+    double com[5], roots[4];
+    int iw = EN_W(0);
+    dense_poly(cont, iw, com);
+    S->nStepPeaks = 0;
+    if (may_have_root(com)) {
+        int nr = poly_roots(com, 4, 0.0, 1.0, roots);
+        for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
+            double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
+            if (r <= 0.0 || d == 0.0 || (ev != EVENT_NONE && r >= 1.0)) continue;
+            if (r < 1e-6 && fabs(S->y[EN_W(0)]) <= 1e-12 * p) continue; /* the start from rest, no reversal */
+            double yd[NMAX];
+            memcpy(yd, S->y, sizeof(yd));
+            dense_eval(cont, n, r, yd);
+            if (S->en.closed[0][0] == S->en.closed[0][1]) continue; /* flat, or in flight: no rocking */
+            S->stepPeakTime[S->nStepPeaks] = S->t + r * hStep;
+            S->stepPeakTheta[S->nStepPeaks] = yd[EN_TH(0)];
+            S->nStepPeaks++;
+        }
+    }
+    S->tOld = S->t;
+    S->hDense = hStep;
+    memcpy(S->cont, cont, sizeof(cont));
+    S->denseTaylor = 0;
+    S->denseSide = S->side;
+    S->denseValid = 1;
+    S->enDense = S->en;
+    memcpy(S->enDenseAnchor, S->enAnchor, sizeof(S->enAnchor));
+    S->denseSigma = S->sigma;
+    S->denseMode = S->mode;
+    S->t = tNew;
+    memcpy(S->y, y1, sizeof(double) * (size_t)n);
+    memcpy(S->f, f1, sizeof(double) * (size_t)n);
+    /* back onto the constraints of the contact set the step was taken in (at an event too: an impact's
+     * velocities before must be those of the motion the contacts allow) */
+    double before[NMAX];
+    memcpy(before, S->y, sizeof(before));
+    engine_project(&c.sys, &S->en, S->y, S->enAnchor, 1);
+    S->fValid = ev == EVENT_NONE && !hitBp && memcmp(before, S->y, sizeof(before)) == 0;
+    S->h = hNext;
+    S->pending = ev;
+    for (int k = 0; k < nb; k++) {
+        double gap;
+        slip_of(&c.sys, k, S->y, NULL, &gap);
+        if (gap > S->gapMax[k]) S->gapMax[k] = gap;
+    }
+    if (!isfinite(S->y[0]) || !isfinite(S->y[EN_TH(0)])) {
+        say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
+        return -1;
+    }
+    return 0;
+}
+
+static void commit_peaks(Model *M, const Logger *log) {
+    State *S = &M->s;
+    for (int i = 0; i < S->nStepPeaks; i++) {
+        S->peaks++;
+        S->lastPeakTime = S->stepPeakTime[i];
+        S->lastPeakTheta = S->stepPeakTheta[i];
+        if (fabs(S->lastPeakTheta) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->lastPeakTheta);
+        say(log, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
+    }
+    S->nStepPeaks = 0;
+    if (fabs(S->y[EN_TH(0)]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[EN_TH(0)]);
+}
+
+/* The state at time t: of the last step's dense output when t lies inside it. */
+static void state_at(const Model *M, double t, double *y, EnMode *m) {
+    const State *S = &M->s;
+    memcpy(y, S->y, sizeof(double) * NMAX);
+    *m = S->en;
+    if (S->t > t && S->denseValid && S->mode != MODE_OVERTURNED) {
+        double s = (t - S->tOld) / S->hDense;
+        if (s < 0) s = 0;
+        if (s > 1) s = 1;
+        dense_eval(S->cont, nstate(M), s, y);
+        *m = S->enDense;
+    }
+}
+
+/* Reactions of the moving bodies at t (contact monitors). */
+static void reactions(const Model *M, double t, int inStep, double T[2], double N[2]) {
+    double y[NMAX], ah, av;
+    EnMode m;
+    if (inStep) state_at(M, t, y, &m);
+    else {
+        memcpy(y, M->s.y, sizeof(y));
+        m = M->s.en;
+    }
+    EnSystem sys;
+    engine_system(M, &sys);
+    model_ground(M, t, &ah, &av);
+    EnForces f;
+    engine_solve(&sys, &m, y, ah, av, &f);
+    for (int k = 0; k < 2; k++) {
+        T[k] = k < sys.nb ? f.T[k] : 0.0;
+        N[k] = k < sys.nb ? f.N[k][0] + f.N[k][1] : 0.0;
+    }
+}
+
+/* Leaving rest: the least margin of the rest's forces (each corner's normal force, each contact's
+ * friction margin, over the weight it carries), negated: positive once the ground moves the bodies.
+ * Linear in the ground's accelerations (|T| aside, which keeps the friction margin concave), so it
+ * crosses zero at most once on a cell where they are monotone. */
+static double rest_exit(const Model *M, double t, int piece) {
+    EnSystem sys;
+    engine_system(M, &sys);
+    EnMode r;
+    memset(&r, 0, sizeof(r));
+    for (int k = 0; k < sys.nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
+    double ah, av, ind[EN_IND];
+    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    model_ground_piece(M, t, piece, &ah, &av);
+    EnForces f;
+    if (!engine_solve(&sys, &r, M->s.y, ah, av, &f)) return 1.0;
+    int n = engine_indicators(&sys, &r, M->s.y, &f, ind, kind, body, corner);
+    double least = INFINITY;
+    for (int i = 0; i < n; i++)
+        if (kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) least = fmin(least, ind[i]);
+    return -least;
+}
+
+/* Before each step: the peaks passed, and a contact set that no longer holds where the step starts (the
+ * inputs, or a break of the excitation, changed the ground's accelerations there) chosen again. */
+static void before_step(Model *M, const Logger *log) {
+    State *S = &M->s;
+    commit_peaks(M, log);
+    if (S->mode != MODE_ROCKING) return;
+    Ctx c = context(M, &S->en, S->t);
+    double ind[EN_IND];
+    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    int n = indicators(&c, S->t, S->y, NULL, ind, kind, body, corner);
+    for (int i = 0; i < n; i++)
+        if ((kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) && ind[i] < -RECHOOSE_SLACK) {
+            say(log, LOG_EVENTS, "rechoose t=%.17g body=%d", S->t, body[i] + 1);
+            S->pending = EVENT_RECHOOSE;
+            reselect(M, log);
+            S->pending = EVENT_NONE;
+            S->fValid = 0;
+            return;
+        }
+}
+
+static const SolverOps ENGINE = {apply_event, take_step, start_moving, before_step, reactions, rest_exit};
+
+/* ------------------------------------------------------------------ interface */
+
+void engine_initialize(Model *M) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    double y[NMAX] = {0};
+    engine_rest_state(&sys, y);
+    memset(&S->en, 0, sizeof(S->en));
+    S->slideTime = -1;
+    for (int k = 0; k < EN_MAX_BODIES; k++) S->flightSince[k] = -1;
+    double th = M->v.theta0, w = M->v.omega0;
+    if (S->mode == MODE_REST) {
+        memcpy(S->y, y, sizeof(y));
+        for (int k = 0; k < sys.nb; k++) S->en.closed[k][0] = S->en.closed[k][1] = 1;
+        return;
+    }
+    /* released rocking on its corner `side` (which stays where it stands at rest) */
+    int c = S->side, nb = sys.nb;
+    const EnBody *B = &sys.body[0];
+    double cs = cos(th), sn = sin(th), rx = -c * B->b * cs + B->h * sn, ry = c * B->b * sn + B->h * cs;
+    y[EN_POS(nb, 0, 0)] = c * B->b + rx;
+    y[EN_POS(nb, 0, 1)] = ry;
+    y[EN_TH(0)] = th;
+    y[EN_VEL(nb, 0, 0)] = w * ry;
+    y[EN_VEL(nb, 0, 1)] = -w * rx;
+    y[EN_W(0)] = w;
+    memcpy(S->y, y, sizeof(y));
+    int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES] = {1, 1};
+    touching[0][c > 0 ? 1 : 0] = 1;
+    if (th == 0.0) touching[0][0] = touching[0][1] = 1;
+    EnMode m;
+    if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
+        memset(&m, 0, sizeof(m));
+        m.closed[0][c > 0 ? 1 : 0] = 1;
+    }
+    S->en = m;
+    S->enAnchor[0] = 0.0;
+    if (flying(&m, 0)) {
+        S->flights[0] = 1;
+        S->flightSince[0] = S->t;
+    }
+    if (m.sigma[0]) {
+        S->slideStarts = 1;
+        S->slideSince = S->slideTime = S->t;
+    }
+    S->sigma = m.sigma[0];
+}
+
+int engine_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
+    return advance_to(M, tc, log, &ENGINE, stop);
+}
+
+void engine_rollback(Model *M, double tc) {
+    State *S = &M->s;
+    if (S->mode != MODE_ROCKING || S->t <= tc || !S->denseValid) return;
+    double y[NMAX];
+    EnMode m;
+    state_at(M, tc, y, &m);
+    memcpy(S->y, y, sizeof(y));
+    S->en = m;
+    S->sigma = m.sigma[0];
+    S->t = tc;
+    S->pending = EVENT_NONE;
+    S->fValid = 0;
+    S->denseValid = 0;
+    int k = 0;
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc) {
+            S->stepPeakTime[k] = S->stepPeakTime[i];
+            S->stepPeakTheta[k] = S->stepPeakTheta[i];
+            k++;
+        }
+    S->nStepPeaks = k;
+}
+
+void engine_outputs(Model *M, double tc) {
+    State *S = &M->s;
+    Variables *v = &M->v;
+    EnSystem sys;
+    engine_system(M, &sys);
+    double y[NMAX], ah, av;
+    EnMode m;
+    state_at(M, tc, y, &m);
+    model_ground(M, tc, &ah, &av);
+    v->ahTotal = ah;
+    v->avTotal = av;
+    int nb = sys.nb, over = S->mode == MODE_OVERTURNED;
+    EnForces f;
+    memset(&f, 0, sizeof(f));
+    if (S->mode == MODE_REST) {
+        EnMode r;
+        memset(&r, 0, sizeof(r));
+        for (int k = 0; k < nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
+        engine_solve(&sys, &r, y, ah, av, &f);
+    } else if (!over) {
+        engine_solve(&sys, &m, y, ah, av, &f);
+    }
+    v->theta = over ? S->side * M_PI / 2 : y[EN_TH(0)];
+    v->omega = over ? 0.0 : y[EN_W(0)];
+    v->alphaDD = f.qdd[EN_Q(0, 2)];
+    double rate, gap;
+    v->slip = slip_of(&sys, 0, y, &rate, &gap);
+    v->slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
+    if (!over && !flying(&m, 0) && m.sigma[0] == 0) { /* a sticking contact stays where it stuck */
+        int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
+        v->slip = inStep ? S->enDenseAnchor[0] : S->enAnchor[0];
+        v->slipRate = 0.0;
+    }
+    v->gap = over ? 0.0 : gap;
+    v->maxGap = S->gapMax[0];
+    v->flights = S->flights[0];
+    v->flightTime = S->flightDur[0] + (flying(&m, 0) && !over && tc > S->flightSince[0] ? tc - S->flightSince[0] : 0.0);
+    int peaks = S->peaks;
+    double lastT = S->lastPeakTime, lastTh = S->lastPeakTheta, mx = S->maxAbsTheta;
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc) {
+            peaks++;
+            lastT = S->stepPeakTime[i];
+            lastTh = S->stepPeakTheta[i];
+            if (fabs(lastTh) > mx) mx = fabs(lastTh);
+        }
+    if (fabs(v->theta) > mx) mx = fabs(v->theta);
+    v->peaks = peaks;
+    v->lastPeakTime = lastT;
+    v->lastPeakTheta = lastTh;
+    v->maxAbsTheta = mx;
+    v->impacts = v->impactsGround = S->impacts;
+    v->lastImpactTime = S->lastImpactTime;
+    v->overturned = v->overturned1 = over;
+    v->atRest = S->mode == MODE_REST;
+    v->overturnTime = S->overturnTime;
+    v->restTime = S->restTime;
+    int both = m.closed[0][0] && m.closed[0][1];
+    v->contactMode = over                     ? 4
+                     : S->mode == MODE_REST   ? 0
+                     : flying(&m, 0)          ? 6
+                     : both                   ? (m.sigma[0] ? 1 : 0)
+                                              : (m.sigma[0] ? 3 : 2);
+    v->pattern = over ? MODE_OVERTURNED : S->mode == MODE_REST ? MODE_REST : v->contactMode == 1 ? MODE_SLIDE : 0;
+    v->theta2 = v->omega2 = v->alphaDD2 = v->maxAbsTheta2 = 0.0;
+    v->impactsInterface = 0;
+    v->locked = v->overturned2 = 0;
+    v->groundT = f.T[0];
+    v->groundN = f.N[0][0] + f.N[0][1];
+    if (S->mode == MODE_REST) { /* bodies moving with the ground: their inertia and weight, exactly */
+        double mass = 0.0;
+        for (int k = 0; k < nb; k++) mass += sys.body[k].m;
+        v->groundT = mass * ah;
+        v->groundN = mass * (sys.g + av);
+    }
+    v->interfaceT = v->interfaceN = 0.0;
+    v->momentum = over ? 0.0 : sys.body[0].m * y[EN_VEL(nb, 0, 0)];
+    v->energy = over ? engine_energy(&sys, S->y) : engine_energy(&sys, y);
+    v->groundWork = y[EN_WORK(nb)];
+    v->frictionLoss = y[EN_LOSS(nb, 0)];
+    v->impactLoss = S->impactLoss;
+    v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(v->slip));
+    v->slideDuration = S->slideDur + (m.sigma[0] && !over && tc > S->slideSince ? tc - S->slideSince : 0.0);
+    v->slideStartTime = S->slideTime;
+    v->slideStarts = S->slideStarts;
+    v->painleve = S->painleve;
+    contact_outputs(M, v);
+}
+
+static int finite_all(const double *x, int count) {
+    for (int i = 0; i < count; i++)
+        if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+int engine_check_state(const Model *M, char *msg, size_t n) {
+    const State *S = &M->s;
+    int nb = M->v.nBlocks == 2 ? 2 : 1, ny = nstate(M), mode = (int)S->mode, pending = (int)S->pending;
+#define BAD(...)                       \
+    do {                               \
+        snprintf(msg, n, __VA_ARGS__); \
+        return 1;                      \
+    } while (0)
+    if (!(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED))
+        BAD("pattern %d is not one of 0 (moving), 1 (rest), 2 (overturned)", mode);
+    if (!(pending == EVENT_NONE || pending == EVENT_IMPACT || pending == EVENT_OVERTURN || pending == EVENT_OPEN ||
+          pending == EVENT_SLIP_START || pending == EVENT_SLIP_STOP))
+        BAD("pending event %d is not one of 0, 1, 2, 5, 6, 7", pending);
+    if (pending != EVENT_NONE && (mode != MODE_ROCKING || S->eventContact < 0 || S->eventContact >= nb ||
+                                  !(S->eventEnd == 1 || S->eventEnd == -1)))
+        BAD("event %d is pending at contact %d, end %d of a state that does not move or has no such contact", pending,
+            S->eventContact, S->eventEnd);
+    if (S->nStepPeaks < 0 || S->nStepPeaks > MAX_STEP_PEAKS) BAD("nStepPeaks = %d is outside [0, %d]", S->nStepPeaks, MAX_STEP_PEAKS);
+    if (S->fValid < 0 || S->fValid > 1 || S->denseValid < 0 || S->denseValid > 1 || S->denseTaylor != 0)
+        BAD("flags fValid = %d, denseValid = %d must be 0 or 1 and denseTaylor = %d 0", S->fValid, S->denseValid,
+            S->denseTaylor);
+    if (S->impacts < 0 || S->peaks < 0 || S->slideStarts < 0 || S->steps < 0 || S->rejected < 0)
+        BAD("negative counters");
+    if (!finite_all(S->y, ny) || !finite_all(S->f, ny) || !isfinite(S->t) || !isfinite(S->h) || !isfinite(S->tOld) ||
+        !(S->hDense >= 0 && isfinite(S->hDense)) || !finite_all(S->stepPeakTime, MAX_STEP_PEAKS))
+        BAD("the integrator's state holds a number that is not finite");
+    for (int k = 0; k < 5; k++)
+        if (!finite_all(S->cont[k], ny)) BAD("the last step's dense output holds a number that is not finite");
+#undef BAD
+    for (int k = 0; k < EN_MAX_BODIES; k++) {
+        for (int i = 0; i < 2; i++)
+            if (!(S->en.closed[k][i] == 0 || S->en.closed[k][i] == 1) ||
+                !(S->enDense.closed[k][i] == 0 || S->enDense.closed[k][i] == 1)) {
+                snprintf(msg, n, "contact %d of body %d is neither open nor closed", i, k + 1);
+                return 1;
+            }
+        if (S->en.sigma[k] < -1 || S->en.sigma[k] > 1 || S->enDense.sigma[k] < -1 || S->enDense.sigma[k] > 1) {
+            snprintf(msg, n, "the slip direction of body %d is not -1, 0 or 1", k + 1);
+            return 1;
+        }
+        if (S->flights[k] < 0 || !isfinite(S->flightDur[k]) || !isfinite(S->gapMax[k]) ||
+            !isfinite(S->enAnchor[k]) || !isfinite(S->flightSince[k])) {
+            snprintf(msg, n, "the flight record of body %d is not finite", k + 1);
+            return 1;
+        }
+    }
+    if (S->painleve < 0) {
+        snprintf(msg, n, "painleve = %d is negative", S->painleve);
+        return 1;
+    }
+    return 0;
+}
