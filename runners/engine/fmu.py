@@ -69,8 +69,10 @@ MAX_EVENTS = 1_000_000
 
 # the event kinds of logEvents; rocking-sliding adds slide (stick to slip), stick (slip to stick),
 # reverse (the slip turns) and slide-rock (uplift onto a sliding corner); the rocking-sliding stack
-# adds fell-off (block 2 left block 1) and flight (a contact would have to pull: the run ends)
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift|fell-off|flight) (.*)$")
+# adds fell-off (block 2 left block 1) and flight (a contact would have to pull: the run ends); the contact
+# engine of one block (docs/flight.md) adds flight (it leaves the ground), land, flat (a negligible rebound
+# lands flat), painleve (an impact without collision) and rechoose (a set chosen again at a step's start)
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift|fell-off|flight|land|flat|painleve|rechoose) (.*)$")
 
 
 def fmu_path_from(arg: str | None) -> Path:

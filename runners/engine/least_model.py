@@ -40,7 +40,9 @@ naming the contact whose slide decided it:
    interface (block 2 on block 1: friction.demandMaxInterface above contact.muInterface), the
    first slide's contact (slideTime and its event) deciding.
 
-Flight is outside every model: a run that lifts off first stays NOT SUFFICIENT.
+One block's rocking-sliding also follows flight (its contact engine, docs/flight.md): a one-block
+scene whose block lifted off first is run with it too. A stack whose contact lifts off first stays
+NOT SUFFICIENT: the stack's rocking-sliding model has no flight yet.
 """
 
 from __future__ import annotations
@@ -107,12 +109,15 @@ def sliding_contact(s: dict[str, Any], p: dict[str, Any]) -> str | None:
     after the rigid-rocking answer `s` (a summary with the rigid model's ``assumptions``, of the
     rigid stack's monitors for a stack) of a scene of merged parameters `p`; None when auto keeps
     it: rigid rocking's outcome held (nothing slid or lifted off, or only during the overturning
-    fall, after fallTime), or what broke it first was flight (outside every model here)."""
+    fall, after fallTime), or what broke a stack first was flight (outside the stack's models).
+    One block's lift-off names the ground: its rocking-sliding follows the flight."""
     a = s.get("assumptions")
     if a is None or a.get("sliding_modelled") or a["outcome_held"]:
         return None
     slide, lift = a["slides"], a["lifts"]
-    if slide is None or (lift is not None and lift["t_s"] <= slide["t_s"]):
+    if lift is not None and (slide is None or lift["t_s"] <= slide["t_s"]):
+        return "ground" if int(p.get("nBlocks", 1)) != 2 else None
+    if slide is None:
         return None
     contact = slide["contact"]
     if contact not in CONTACT_WORDS or (contact == "interface" and int(p.get("nBlocks", 1)) != 2):
@@ -128,7 +133,13 @@ def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
     if contact is None:
         return None
     a, stack = s["assumptions"], int(p.get("nBlocks", 1)) == 2
-    slide = a["slides"]
+    slide, lift = a["slides"], a["lifts"]
+    if not stack and lift is not None and (slide is None or lift["t_s"] <= slide["t_s"]):
+        why = (f"the block lifts off the ground at t = {lift['t_s']:.6g} s (its normal force would have to pull): "
+               "rocking-sliding, which follows flight and the landing, used")
+        if int(p.get("solver.method", 0)) == 1:
+            why += " (integrated by dormand-prince: taylor integrates rigid rocking only)"
+        return why
     where, what = CONTACT_WORDS[contact]
     if stack:
         mu = f"mu {a[f'mu_{contact}']:g} {where}"

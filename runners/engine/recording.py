@@ -7,15 +7,17 @@ A recording holds, on the ``sim_time`` timeline (s):
 - ``/ground/ah``, ``/ground/av`` (m/s^2), ``/energy`` (J), ``/block1/pivot``
   (+1 right corner, -1 left, 0 flat; ``/block2/pivot`` likewise);
 - for a rocking-sliding run (contact.model = 1): ``/block1/slip`` (m, +x), ``/block1/slip_rate``
-  (m/s) and ``/block1/mode`` (0 rest, 1 slide, 2 rock, 3 slide-rock, 4 overturned), with a plot
-  of the slip and its rate; for a stack also ``/block2/slip``, ``/block2/slip_rate`` (along block
+  (m/s), ``/block1/gap`` (m: its lowest corner above the ground, 0 touching) and ``/block1/mode``
+  (0 rest, 1 slide, 2 rock, 3 slide-rock, 4 overturned, 6 flight), with a plot of the slip, its rate
+  and the gap; for a stack also ``/block2/slip``, ``/block2/slip_rate`` (along block
   1's top, relative to it) and ``/block2/mode`` (5: fell off);
 - ``/events``: impacts, uplift, rest, settling (lock), opening (unlock) and
   overturn as text entries with their values, at their times (events at
   one instant share an entry, separated by "; ");
 - ``/scene``: the blocks drawn to scale (outlines and each block's pivot in use)
   on the moving base, animated at up to 100 frames per simulated second; a block that slides
-  is drawn where it has slid (its pivot corner at x = slip + s b on the base);
+  is drawn where it has slid (its pivot corner at x = slip + s b on the base), a block that flies
+  where it flies (raised by its gap);
 - for a run driven by a record: ``/record/ah`` (and ``/record/av``), the
   record's own samples times its scale (m/s^2), and ``/record/about``, a text
   with its name, provenance, scale and intensity measures;
@@ -70,7 +72,8 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
     bottom centre at rest, and each block's pivot (n, 2): block 1's corner on the ground, block 2's
     end of the contact on block 1. Block 1 stands where it has slid: its pivot corner at
     x = slip + s b (s = +1 right, -1 left; ``block1.slip`` in m, +x, 0 when `out` has none), the
-    outline rotated by theta about it, so the base's centre is at x = slip + s b (1 - cos theta).
+    outline rotated by theta about it, so the base's centre is at x = slip + s b (1 - cos theta), and
+    raised by ``block1.gap`` (m) while it flies (its lowest corner at that height).
     Block 2 stands on block 1 where it has slid along its top: its pivot at s2 c + ``block2.slip``
     in block 1's frame (c = min(b1, b2); the slip 0 when `out` has none)."""
     b1, h1 = p["block1.halfWidth"], p["block1.halfHeight"]
@@ -87,6 +90,9 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
             P = np.array([side * b1, 0.0])
             pts[m] = P + _rot(th1[m], rect1 - P)
     pts[:, :, 0] += slip[:, None]
+    gap = np.asarray(out.get("block1.gap", np.zeros(len(time))), float)  # in flight: its lowest corner's height
+    pts[:, :, 1] += gap[:, None]
+    pivot_points[0][:, 1] = gap
     shapes.append(pts)
     if int(p.get("nBlocks", 1)) == 2:
         b2, h2 = p["block2.halfWidth"], p["block2.halfHeight"]
@@ -107,6 +113,7 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
                 cth, sth = np.cos(th1[m])[:, None], np.sin(th1[m])[:, None]
                 K = P1 + np.hstack([cth * arm[:, :1] + sth * arm[:, 1:], -sth * arm[:, :1] + cth * arm[:, 1:]])
                 K[:, 0] += slip[m]
+                K[:, 1] += gap[m]
                 body = rect2 - np.array([side2 * c, 0.0])  # block 2's outline about its pivot
                 pts2[m] = K[:, None, :] + _rot(th2[m], body)
                 K2[m] = K
@@ -215,8 +222,8 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
                                    axis_y=y_axis("ground")),
                 rrb.TimeSeriesView(name="friction demand |T|/N against mu", contents=["/contact/**"],
                                    axis_y=y_axis("demand")),
-                *([rrb.TimeSeriesView(name="slip (m), slip rate (m/s)",
-                                      contents=["/block1/slip", "/block1/slip_rate", "/block2/slip",
+                *([rrb.TimeSeriesView(name="slip and gap (m), slip rate (m/s)",
+                                      contents=["/block1/slip", "/block1/slip_rate", "/block1/gap", "/block2/slip",
                                                 "/block2/slip_rate"], axis_y=y_axis("slip"))]
                   if sliding else []),
             ),
@@ -261,8 +268,9 @@ SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/bl
           "/ground/ah": "ground.ahTotal", "/ground/av": "ground.avTotal", "/energy": "energy",
           # rocking-sliding (contact.model = 1): m, m/s, and the mode (0 rest ... 4 overturned)
           "/block1/slip": "block1.slip", "/block1/slip_rate": "block1.slipRate", "/block1/mode": "block1.mode",
+          "/block1/gap": "block1.gap",
           "/block2/slip": "block2.slip", "/block2/slip_rate": "block2.slipRate", "/block2/mode": "block2.mode"}
-SHADES = {"/block1/slip_rate": 0.6, "/block1/mode": 0.4, "/block2/slip_rate": 0.6, "/block2/mode": 0.4}  # lighter than the block's colour, in the same plot
+SHADES = {"/block1/slip_rate": 0.6, "/block1/mode": 0.4, "/block1/gap": 0.8, "/block2/slip_rate": 0.6, "/block2/mode": 0.4}  # lighter than the block's colour, in the same plot
 
 
 def record_text(info: dict[str, Any], scale: float) -> str:
@@ -333,7 +341,7 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
         ranges["demand"] = (0.0, 2.0 * max(mu for _, mu in demand.values()))
     sliding = "block1.slip" in out
     if sliding:
-        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate",
+        ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate", "block1.gap",
                                                                           "block2.slip", "block2.slipRate")
                                       if k in out])
     path = Path(path)

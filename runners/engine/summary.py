@@ -51,6 +51,11 @@ SLIDING_OUTPUTS = (
     "impactLoss",  # J
     "groundWork",  # J
     "block1.slides",  # stick-to-slip transitions
+    "block1.gap",  # m, the lowest corner above the ground (0 touching)
+    "block1.maxGap",  # m
+    "block1.flightTime",  # s in flight
+    "block1.flights",  # take-offs
+    "contact.painleve",  # Painleve points resolved (docs/flight.md)
 )
 # and those of a rocking-sliding stack (nBlocks = 2, docs/stack_sliding.md): block 2 on block 1
 # (slips along block 1's top, relative to it) and its falling off
@@ -76,9 +81,10 @@ def sliding_outputs(p: dict[str, Any]) -> tuple[str, ...]:
     return STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS
 
 # block1.mode (the FMU's Enumeration ContactMode) -> its name
-MODES = {0: "rest", 1: "slide", 2: "rock", 3: "slide-rock", 4: "overturned", 5: "fell off"}
+MODES = {0: "rest", 1: "slide", 2: "rock", 3: "slide-rock", 4: "overturned", 5: "fell off", 6: "flight"}
 # the run's state at its end, by block1.mode
-MODE_STATES = {0: "at rest", 1: "sliding", 2: "rocking", 3: "slide-rocking", 4: "overturned", 5: "fell off"}
+MODE_STATES = {0: "at rest", 1: "sliding", 2: "rocking", 3: "slide-rocking", 4: "overturned", 5: "fell off",
+               6: "in flight"}
 
 # the monitors of the rigid-rocking assumptions (docs/contact.md): final values are enough
 MONITOR_OUTPUTS = (
@@ -289,7 +295,21 @@ def sliding_summary(result: RunResult, p: dict[str, Any], alpha: float, two: boo
         + (float(out["block2.frictionLoss"][-1]) if two and "block2.frictionLoss" in out else 0.0),
         "impact_loss_J": float(out["impactLoss"][-1]),
         "ground_work_J": float(out["groundWork"][-1]),
+        "flights": int(out["block1.flights"][-1]),
+        "flight_time_s": float(out["block1.flightTime"][-1]),
+        "max_gap_m": float(out["block1.maxGap"][-1]),
+        "painleve_points": int(out["contact.painleve"][-1]),
     }
+
+
+def flight_story(s: dict[str, Any]) -> str:
+    """The flights of a rocking-sliding run's summary in plain words ("" if it never left the
+    ground), e.g. "flew once: 0.29 s in the air, highest gap 55.3 mm" (times in s, gaps in m)."""
+    n = s.get("flights") or 0
+    if not n:
+        return ""
+    times = "once" if n == 1 else f"{n} times"
+    return f"flew {times}: {s['flight_time_s']:.3g} s in the air, highest gap {1000 * s['max_gap_m']:.3g} mm"
 
 
 def sliding_story(s: dict[str, Any]) -> str:
@@ -390,7 +410,11 @@ def format_assumptions(a: dict[str, Any]) -> str:
 
 
 def _rocking_sliding_assumptions(a: dict[str, Any]) -> str:
-    """format_assumptions of a rocking-sliding run: sliding is modelled, flight is not."""
+    """format_assumptions of a rocking-sliding run: sliding is modelled, and one block's flight too (the
+    stack's flight is not)."""
+    if "mu_interface" not in a:
+        return (f"held: sliding and flight are part of the model (rocking-sliding, {mu_text(a)}; least normal "
+                f"force {a['normal_min_ground']:.3g} of the weight)")
     if a["held"]:
         return (f"held: no flight (normal force at least {a['normal_min_ground']:.3g} of the weight); sliding is "
                 f"part of the model (rocking-sliding, {mu_text(a)})")
@@ -414,6 +438,8 @@ def model_check_line(s: dict[str, Any]) -> str:
     rigid rocking's monitors said the block slid) answers for the scene."""
     a = s["assumptions"]
     if a.get("sliding_modelled"):
+        if s["model_sufficient"] and "mu_interface" not in a:
+            return "model check      sufficient: rocking-sliding follows sliding and flight (docs/flight.md)"
         if s["model_sufficient"]:
             return "model check      sufficient: rocking-sliding held (no flight) until the outcome was decided"
         return ("model check      NOT SUFFICIENT: no model here answers for this scene: the block "
@@ -513,6 +539,7 @@ def format_summary(s: dict[str, Any]) -> str:
         f"impacts          {s['impacts']}",
         peak_line(s),
         *([f"sliding          {sliding_story(s)}"] if "contact_model" in s else []),
+        *([f"flight           {flight_story(s)}"] if flight_story(s) else []),
     ]
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
 
