@@ -739,7 +739,7 @@ static void before_step(Model *M, const Logger *log) {
     double ind[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     int n = indicators(&c, S->t, S->y, NULL, ind, kind, body, corner);
-    for (int i = 0; i < n; i++)
+    for (int i = 0; i < n; i++) {
         if ((kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) && ind[i] < -RECHOOSE_SLACK) {
             say(log, LOG_EVENTS, "rechoose t=%.17g body=%d", S->t, body[i] + 1);
             S->pending = EVENT_RECHOOSE;
@@ -748,6 +748,16 @@ static void before_step(Model *M, const Logger *log) {
             S->fValid = 0;
             return;
         }
+        /* a sliding contact whose slip rate is not (or no longer) of its sign stops here: its friction
+         * would push the slip on instead of opposing it */
+        if (kind[i] == EN_IND_STOP && !(ind[i] > 0)) {
+            S->pending = EVENT_SLIP_STOP;
+            S->eventContact = body[i];
+            S->eventEnd = corner[i];
+            apply_event(M, log);
+            return;
+        }
+    }
 }
 
 static const SolverOps ENGINE = {apply_event, take_step, start_moving, before_step, reactions, rest_exit};
