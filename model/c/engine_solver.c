@@ -455,6 +455,14 @@ static double indicator_after(void *ctx, double x) {
     return ind[s->which];
 }
 
+/* Every indicator after a real step of length x from the step's start (one step for all). */
+static void step_indicators(Search *s, double x, double *ind) {
+    double err[NMAX];
+    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
+    indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
+}
+
 static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
@@ -472,7 +480,8 @@ static int take_step(Model *M, const Logger *log) {
     }
     double ind0[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
-    int ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
+    int ni = indicators(&c, S->t, S->y, S->fValid && S->enIndValid ? &c.f : NULL, ind0, kind, body, corner);
+    if (S->fValid && S->enIndValid) memcpy(ind0, S->enInd, sizeof(double) * (size_t)ni); /* the last step's end */
 
     /* positions in units of R, rates of R p (angles and angular rates as they are); the integrals ride along */
     double scale[NMAX], R = M->d.R, p = sqrt(M->d.p2);
@@ -497,11 +506,12 @@ static int take_step(Model *M, const Logger *log) {
     if (hitBp && hmax < bp - S->t) hitBp = 0;
     /* the first indicator that falls below zero: at dense samples (kinematic ones) and the end */
     double ind[EN_IND], sLo = 0.0, sHi = 2.0;
-    int first = -1;
-    for (int j = 1; j <= DENSE_SAMPLES && first < 0; j++) {
+    int first = -1, haveEnd = 0;
+    for (int j = free_motion ? 1 : DENSE_SAMPLES; j <= DENSE_SAMPLES && first < 0; j++) {
         double s = (double)j / DENSE_SAMPLES, yd[NMAX];
         if (j == DENSE_SAMPLES) {
             indicators(&c, S->t + h, y1, &c.f, ind, kind, body, corner);
+            haveEnd = 1;
         } else {
             memcpy(yd, S->y, sizeof(yd));
             dense_eval(cont, n, s, yd);
@@ -523,14 +533,18 @@ static int take_step(Model *M, const Logger *log) {
     /* a body rocking on one corner lands its other corner exactly when its rotation relative to its
      * support returns to zero: the first such root of the dense output, found exactly (the
      * samples above could step over a short excursion) */
+    double rootAt[EN_MAX_BODIES] = {2.0, 2.0}, overAt[EN_MAX_BODIES] = {2.0, 2.0};
     for (int k = 0; k < nb; k++) {
         if (S->en.closed[k][0] == S->en.closed[k][1]) continue;
-        double ck[5], cj[5] = {0}, P[5];
+        double ck[5], cj[5] = {0}, P[5], Q[5];
         dense_poly(cont, EN_TH(k), ck);
         if (k > 0) dense_poly(cont, EN_TH(k - 1), cj);
         int sgn = S->en.closed[k][1] ? 1 : -1; /* rocking on the right corner: relative rotation > 0 */
-        for (int i = 0; i < 5; i++) P[i] = sgn * (ck[i] - cj[i]);
-        double r = first_crossing(P, -1);
+        for (int i = 0; i < 5; i++) P[i] = Q[i] = sgn * (ck[i] - cj[i]);
+        Q[0] -= M_PI / 2;
+        rootAt[k] = first_crossing(P, -1);
+        overAt[k] = first_crossing(Q, +1);
+        double r = fmin(rootAt[k], overAt[k]);
         if (r <= 1.0 && r < sHi) {
             sHi = r;
             sLo = 0.0;
@@ -540,26 +554,44 @@ static int take_step(Model *M, const Logger *log) {
     EventKind ev = EVENT_NONE;
     double hStep = h, tNew = hitBp ? bp : S->t + h;
     if (first >= 0) {
-        /* locate each crossing in [sLo, sHi] with real steps; the earliest wins */
+        /* locate each crossing in [sLo, sHi] with real steps; the earliest wins. The indicators at the
+         * bracket's ends come from one real step each; a rocking body's landing or overturn (a rotation
+         * reaching its target) by Newton on the step length from the dense output's root. */
         double best = INFINITY, yb[NMAX] = {0}, fb[NMAX] = {0}, cb[5][NMAX] = {{0}};
         double ya[NMAX] = {0}, fa[NMAX] = {0}, ca[5][NMAX] = {{0}};
-        int which = -1;
+        double indA[EN_IND], indB[EN_IND], a = sLo * h, b = sHi * h;
+        int which = -1, any = 0;
+        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, ca};
+        step_indicators(&se, b, indB);
+        for (int i = 0; i < ni; i++) any |= ind0[i] >= 0 && indB[i] < 0;
+        if (!any && b < h) step_indicators(&se, b = h, indB);
+        if (a > 0) step_indicators(&se, a, indA);
+        else memcpy(indA, ind0, sizeof(indA));
         for (int i = 0; i < ni; i++) {
-            Search se = {&c, n, i, S->t, S->y, S->f, ya, fa, ca};
-            double a = sLo * h, b = sHi * h;
-            double va = a > 0 ? indicator_after(&se, a) : ind0[i];
-            double vb = indicator_after(&se, b);
-            if (ind0[i] >= 0 && !(vb < 0) && b < h) vb = indicator_after(&se, b = h);
-            if (!(ind0[i] >= 0 && vb < 0)) continue;
-            if (va < 0) {
-                a = 0.0;
-                va = ind0[i];
+            if (!(ind0[i] >= 0 && indB[i] < 0)) continue;
+            int k = body[i], rocking = S->en.closed[k][0] != S->en.closed[k][1], x0 = 0;
+            double x;
+            if (rocking && (kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN)) {
+                double w[NMAX] = {0}, r = kind[i] == EN_IND_LAND ? rootAt[k] : overAt[k];
+                w[EN_TH(k)] = 1.0;
+                if (k > 0) w[EN_TH(k - 1)] = -1.0;
+                int sgn = S->en.closed[k][1] ? 1 : -1;
+                double target = kind[i] == EN_IND_LAND ? 0.0 : sgn * M_PI / 2;
+                x = refine_step(rhs_cb, &c, n, S->t, S->y, S->f, (r <= 1.0 ? r : 1.0) * h, h, w, target, ya, fa, ca);
+                x0 = 1;
+            } else {
+                se.which = i;
+                double va = indA[i], lo = a;
+                if (va < 0) {
+                    lo = 0.0;
+                    va = ind0[i];
+                }
+                x = first_negative(indicator_after, &se, lo, va, b, indB[i], 4.0, fabs(S->t), 0.0, 100);
             }
-            double x = first_negative(indicator_after, &se, a, va, b, vb, 4.0, fabs(S->t), 0.0, 100);
             if (x < best) {
                 best = x;
                 which = i;
-                indicator_after(&se, x);
+                if (!x0) indicator_after(&se, x);
                 memcpy(yb, ya, sizeof(yb));
                 memcpy(fb, fa, sizeof(fb));
                 memcpy(cb, ca, sizeof(cb));
@@ -570,17 +602,6 @@ static int take_step(Model *M, const Logger *log) {
             memcpy(y1, yb, sizeof(y1));
             memcpy(f1, fb, sizeof(f1));
             memcpy(cont, cb, sizeof(cont));
-            /* a rotation reaching its target (a rocking corner's landing, an overturn): Newton on the step
-             * length puts the rotation on the target to rounding (the time alone cannot: near t = 2 s its
-             * resolution, 4e-16 s, moves a slow rotation by more than the rest criterion's angles) */
-            int k = body[which], rocking = S->en.closed[k][0] != S->en.closed[k][1];
-            if ((kind[which] == EN_IND_LAND && rocking) || kind[which] == EN_IND_OVERTURN) {
-                double w[NMAX] = {0}, rel = y1[EN_TH(k)] - (k > 0 ? y1[EN_TH(k - 1)] : 0.0);
-                w[EN_TH(k)] = 1.0;
-                if (k > 0) w[EN_TH(k - 1)] = -1.0;
-                double target = kind[which] == EN_IND_LAND ? 0.0 : (rel > 0 ? M_PI / 2 : -M_PI / 2);
-                hStep = refine_step(rhs_cb, &c, n, S->t, S->y, S->f, hStep, h, w, target, y1, f1, cont);
-            }
             tNew = S->t + hStep;
             hitBp = 0;
             switch (kind[which]) {
@@ -642,10 +663,12 @@ static int take_step(Model *M, const Logger *log) {
     memcpy(S->f, f1, sizeof(double) * (size_t)n);
     /* back onto the constraints of the contact set the step was taken in (at an event too: an impact's
      * velocities before must be those of the motion the contacts allow) */
-    double before[NMAX];
-    memcpy(before, S->y, sizeof(before));
     engine_project(&c.sys, &S->en, S->y, S->enAnchor, 1);
-    S->fValid = ev == EVENT_NONE && !hitBp && memcmp(before, S->y, sizeof(before)) == 0;
+    /* (the projection moves the centres by rounding: the derivative and indicators at the step's end
+     * stay the next step's start) */
+    S->fValid = ev == EVENT_NONE && !hitBp;
+    S->enIndValid = S->fValid && haveEnd && first < 0;
+    if (S->enIndValid) memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
     S->h = hNext;
     S->pending = ev;
     for (int k = 0; k < nb; k++) {

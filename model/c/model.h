@@ -216,6 +216,8 @@ typedef struct {
     double enAnchor[EN_MAX_BODIES], enDenseAnchor[EN_MAX_BODIES];
     double flightSince[EN_MAX_BODIES], flightDur[EN_MAX_BODIES], gapMax[EN_MAX_BODIES];
     int flights[EN_MAX_BODIES], painleve;
+    double enInd[6 * EN_MAX_BODIES]; /* the indicators at the end of the last step, while fValid and enIndValid */
+    int enIndValid;
 
     /* Model Exchange (me.c) */
     int omegaSign;        /* sign of omega after the last event (a peak is a change) */
