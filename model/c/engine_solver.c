@@ -371,8 +371,6 @@ static void reselect(Model *M, const Logger *log) {
     if (still) come_to_rest(M, log, 0);
 }
 
-static void commit_peaks(Model *M, const Logger *log);
-
 static int apply_event(Model *M, const Logger *log) {
     State *S = &M->s;
     EnSystem sys;
@@ -683,19 +681,6 @@ static int take_step(Model *M, const Logger *log) {
     return 0;
 }
 
-static void commit_peaks(Model *M, const Logger *log) {
-    State *S = &M->s;
-    for (int i = 0; i < S->nStepPeaks; i++) {
-        S->peaks++;
-        S->lastPeakTime = S->stepPeakTime[i];
-        S->lastPeakTheta = S->stepPeakTheta[i];
-        if (fabs(S->lastPeakTheta) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->lastPeakTheta);
-        say(log, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
-    }
-    S->nStepPeaks = 0;
-    if (fabs(S->y[EN_TH(0)]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[EN_TH(0)]);
-}
-
 /* The state at time t: of the last step's dense output when t lies inside it. */
 static void state_at(const Model *M, double t, double *y, EnMode *m) {
     const State *S = &M->s;
@@ -851,14 +836,7 @@ void engine_rollback(Model *M, double tc) {
     S->pending = EVENT_NONE;
     S->fValid = 0;
     S->denseValid = 0;
-    int k = 0;
-    for (int i = 0; i < S->nStepPeaks; i++)
-        if (S->stepPeakTime[i] <= tc) {
-            S->stepPeakTime[k] = S->stepPeakTime[i];
-            S->stepPeakTheta[k] = S->stepPeakTheta[i];
-            k++;
-        }
-    S->nStepPeaks = k;
+    keep_peaks_until(S, tc);
 }
 
 void engine_outputs(Model *M, double tc) {
@@ -898,20 +876,7 @@ void engine_outputs(Model *M, double tc) {
     v->maxGap = S->gapMax[0];
     v->flights = S->flights[0];
     v->flightTime = S->flightDur[0] + (flying(&m, 0) && !over && tc > S->flightSince[0] ? tc - S->flightSince[0] : 0.0);
-    int peaks = S->peaks;
-    double lastT = S->lastPeakTime, lastTh = S->lastPeakTheta, mx = S->maxAbsTheta;
-    for (int i = 0; i < S->nStepPeaks; i++)
-        if (S->stepPeakTime[i] <= tc) {
-            peaks++;
-            lastT = S->stepPeakTime[i];
-            lastTh = S->stepPeakTheta[i];
-            if (fabs(lastTh) > mx) mx = fabs(lastTh);
-        }
-    if (fabs(v->theta) > mx) mx = fabs(v->theta);
-    v->peaks = peaks;
-    v->lastPeakTime = lastT;
-    v->lastPeakTheta = lastTh;
-    v->maxAbsTheta = mx;
+    peak_outputs(S, tc, v->theta, v);
     v->impacts = v->impactsGround = S->impacts;
     v->lastImpactTime = S->lastImpactTime;
     v->overturned = v->overturned1 = over;

@@ -209,6 +209,47 @@ int find_uplift(const Model *M, double t, double tc, double *tu) {
     return model_uplift_indicator_piece(M, x, 1, model_piece(M, x)) > 0 ? 1 : -1;
 }
 
+void commit_peaks(Model *M, const Logger *log) {
+    State *S = &M->s;
+    for (int i = 0; i < S->nStepPeaks; i++) {
+        S->peaks++;
+        S->lastPeakTime = S->stepPeakTime[i];
+        S->lastPeakTheta = S->stepPeakTheta[i];
+        if (fabs(S->lastPeakTheta) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->lastPeakTheta);
+        say(log, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
+    }
+    S->nStepPeaks = 0;
+    if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
+}
+
+void peak_outputs(const State *S, double tc, double theta, Variables *v) {
+    int peaks = S->peaks;
+    double lastT = S->lastPeakTime, lastTh = S->lastPeakTheta, mx = S->maxAbsTheta;
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc) {
+            peaks++;
+            lastT = S->stepPeakTime[i];
+            lastTh = S->stepPeakTheta[i];
+            if (fabs(lastTh) > mx) mx = fabs(lastTh);
+        }
+    if (fabs(theta) > mx) mx = fabs(theta);
+    v->peaks = peaks;
+    v->lastPeakTime = lastT;
+    v->lastPeakTheta = lastTh;
+    v->maxAbsTheta = mx;
+}
+
+void keep_peaks_until(State *S, double tc) {
+    int k = 0;
+    for (int i = 0; i < S->nStepPeaks; i++)
+        if (S->stepPeakTime[i] <= tc) {
+            S->stepPeakTime[k] = S->stepPeakTime[i];
+            S->stepPeakTheta[k] = S->stepPeakTheta[i];
+            k++;
+        }
+    S->nStepPeaks = k;
+}
+
 /* Does the event just applied at S->t end the advance? */
 static int stops_here(const Model *M, EventStop *stop) {
     const State *S = &M->s;

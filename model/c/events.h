@@ -79,6 +79,15 @@ typedef double (*RestExitFn)(const Model *M, double t, int piece);
  * find_uplift does; +inf if none before tc, NaN if the next cell edge is not after t. */
 double find_exit(const Model *M, double t, double tc, RestExitFn ind);
 
+/* Peaks of block 1 (its rate's zeros) located in the last step: count and log those passed, and the
+ * largest |theta| so far (block 1's rotation is y[0] in every one-block state vector). */
+void commit_peaks(Model *M, const Logger *log);
+/* The peak outputs at the output time tc (peaks, lastPeakTime, lastPeakTheta, maxAbsTheta): the committed
+ * ones and those of the last step up to tc; theta is block 1's rotation at tc. */
+void peak_outputs(const State *S, double tc, double theta, Variables *v);
+/* Keep only the located peaks at or before tc (a rollback to tc). */
+void keep_peaks_until(State *S, double tc);
+
 /* What a solver plugs into advance_to(). */
 typedef struct {
     /* apply the event pending at S->t; nonzero on failure */

@@ -55,19 +55,6 @@ static double refine(const RhsCtx *c, double t, const double *y, const double *f
     return refine_step(rhs_cb, c, 2, t, y, f0, h, hMax, w, target, y1, f1, cont);
 }
 
-static void commit_peaks(Model *M, const Logger *log) {
-    State *S = &M->s;
-    for (int i = 0; i < S->nStepPeaks; i++) {
-        S->peaks++;
-        S->lastPeakTime = S->stepPeakTime[i];
-        S->lastPeakTheta = S->stepPeakTheta[i];
-        if (fabs(S->lastPeakTheta) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->lastPeakTheta);
-        say(log, LOG_EVENTS, "peak t=%.17g theta=%.17g", S->lastPeakTime, S->lastPeakTheta);
-    }
-    S->nStepPeaks = 0;
-    if (fabs(S->y[0]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[0]);
-}
-
 /* Block 1 has fallen over at S->t: it lies on its side. */
 static void overturn(Model *M, const Logger *log) {
     State *S = &M->s;
@@ -429,20 +416,7 @@ static void outputs_at(Model *M, double tc) {
         k.cphi = 1.0;
         v->alphaDD = 0.0;
     }
-    int peaks = S->peaks;
-    double lastT = S->lastPeakTime, lastTh = S->lastPeakTheta, mx = S->maxAbsTheta;
-    for (int i = 0; i < S->nStepPeaks; i++)
-        if (S->stepPeakTime[i] <= tc) {
-            peaks++;
-            lastT = S->stepPeakTime[i];
-            lastTh = S->stepPeakTheta[i];
-            if (fabs(lastTh) > mx) mx = fabs(lastTh);
-        }
-    if (fabs(y[0]) > mx) mx = fabs(y[0]);
-    v->peaks = peaks;
-    v->lastPeakTime = lastT;
-    v->lastPeakTheta = lastTh;
-    v->maxAbsTheta = mx;
+    peak_outputs(S, tc, y[0], v);
     v->impacts = S->impacts;
     v->lastImpactTime = S->lastImpactTime;
     v->overturned = S->mode == MODE_OVERTURNED;
@@ -518,14 +492,7 @@ void solver_rollback(Model *M, double tc) {
     S->pending = EVENT_NONE;
     S->fValid = 0;
     S->denseValid = 0;
-    int k = 0;
-    for (int i = 0; i < S->nStepPeaks; i++)
-        if (S->stepPeakTime[i] <= tc) {
-            S->stepPeakTime[k] = S->stepPeakTime[i];
-            S->stepPeakTheta[k] = S->stepPeakTheta[i];
-            k++;
-        }
-    S->nStepPeaks = k;
+    keep_peaks_until(S, tc);
 }
 
 /* ------------------------------------------------------------ restored states */
