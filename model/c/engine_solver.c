@@ -799,8 +799,10 @@ void engine_initialize(Model *M) {
     y[EN_W(0)] = w;
     memcpy(S->y, y, sizeof(y));
     int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES] = {1, 1};
+    /* only the pivot touches with zero normal rate: released flat (th = 0) with a rate (the rate of a
+     * release that would not lift it to restRatio alpha was zeroed, and it rests), the other corner
+     * rises at 2 b |w| */
     touching[0][c > 0 ? 1 : 0] = 1;
-    if (th == 0.0) touching[0][0] = touching[0][1] = 1;
     EnMode m;
     if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
         memset(&m, 0, sizeof(m));
