@@ -1,6 +1,9 @@
 """A hostile pass on the contact engine (contact.model = 1, one block; docs/flight.md, "The contact
 engine") through the built FMU: what broke, and stays fixed.
 
+- A squat block sliding on one corner with mu just above 4/3 reached Painleve's singularity (the normal
+  force its sliding needs grew without bound) and the run failed with "no acceptable step size"; the
+  engine now takes the impulse that stops the slip there (a Painleve point, contact.painleve).
 - A block released flat (theta0 = 0) with a rate omega0 lost that rate (it rested at once with its kinetic
   energy unaccounted) or flew: both corners were taken as touching with zero normal rate.
 """
@@ -26,6 +29,33 @@ def balance(r):
     keep = o["overturned"] < 0.5
     b = (o["energy"] + o["block1.frictionLoss"] + o["impactLoss"] - o["groundWork"])[keep]
     return np.abs(b - b[0]).max()
+
+
+@pytest.mark.parametrize("step", [0.001, 0.1])
+def test_sliding_into_painleve_singularity_stops_the_slip_instead_of_failing(fmu, step):
+    r = fmu.run(JAM, 1.0, step, outputs=OUT)
+    o = r.outputs
+    (pain,) = [e for e in r.events if e.kind == "painleve"]
+    assert pain.t == pytest.approx(0.2205943, abs=2e-6)
+    assert pain.values.get("jam") == 1
+    kinds = [e.kind for e in r.events if abs(e.t - pain.t) < 1e-12]
+    assert "stick" in kinds  # the slip stops at the singularity: the block rocks on, sticking
+    assert o["contact.painleve"][-1] == 1
+    after = r.time > pain.t + 1e-9
+    assert o["block1.mode"][after][0] == 2  # rocking on the corner it stopped on
+    assert np.all(np.isfinite(np.column_stack(list(o.values()))))
+    m_g_h = 1.0 * 9.81 * 0.5
+    assert balance(r) < 1e-6 * m_g_h
+    assert np.all(np.diff(o["impactLoss"]) >= -1e-12)
+    assert np.all(o["block1.frictionLoss"] >= 0)
+
+
+def test_painleve_singularity_results_do_not_depend_on_the_communication_step(fmu):
+    fine = fmu.run(JAM, 1.0, 0.001, outputs=OUT)
+    coarse = fmu.run(JAM, 1.0, 0.1, outputs=OUT)
+    idx = np.searchsorted(fine.time, coarse.time - 1e-12)
+    for k in ("block1.theta", "block1.slip", "energy"):
+        np.testing.assert_allclose(fine.outputs[k][idx], coarse.outputs[k], atol=1e-9, rtol=1e-9)
 
 
 @pytest.mark.parametrize("omega0", [-3.0, 2.0])
@@ -64,3 +94,31 @@ def test_model_exchange_refuses_the_contact_engine_in_one_line(fmu):
         m.freeInstance()
     errors = [msg for status, msg in messages if status >= 3]
     assert errors and "contact.model" in errors[-1] and "\n" not in errors[-1]
+
+
+def test_a_restored_state_at_a_painleve_point_steps_on_identically(fmu):
+    """FMU state taken on the step that meets the singularity (its event pending), restored, stepped on."""
+    messages = []
+    s, _cb = fmu.instantiate(lambda status, cat, msg: messages.append(msg))
+    try:
+        s.setupExperiment(startTime=0.0)
+        fmu.set_parameters(s, JAM)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        vr = [fmu.variable(n).valueReference for n in ("block1.theta", "block1.slip", "energy")]
+        t = 0.0
+        while t < 0.22 - 1e-12:
+            s.doStep(t, 0.01)
+            t += 0.01
+        blob = s.serializeFMUstate(s.getFMUstate())
+        s.doStep(t, 0.01)
+        s.doStep(t + 0.01, 0.1)
+        first = s.getReal(vr)
+        st = s.deSerializeFMUstate(blob)
+        s.setFMUstate(st)
+        s.freeFMUstate(st)
+        s.doStep(t, 0.01)
+        s.doStep(t + 0.01, 0.1)
+        assert s.getReal(vr) == first
+    finally:
+        s.freeInstance()

@@ -258,6 +258,17 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, d
     return 1;
 }
 
+double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double *y) {
+    int c = first_closed(m, k), nq = 3 * s->nb;
+    if (!c || (m->closed[k][0] && m->closed[k][1]) || !m->sigma[k]) return 1.0;
+    double Minv[EN_NQ], fext[EN_NQ], col[EN_NQ];
+    free_terms(s, 0.0, 0.0, Minv, fext);
+    EnPoint p;
+    engine_point(s, k, c, y, &p);
+    for (int q = 0; q < EN_NQ; q++) col[q] = p.wN[q] - m->sigma[k] * s->mu[k] * p.wT[q];
+    return wdot(p.wN, Minv, col, nq) / wdot(p.wN, Minv, p.wN, nq);
+}
+
 int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
                       int *kind, int *body, int *corner) {
     int n = 0, nb = s->nb;
@@ -295,6 +306,12 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
             kind[n] = EN_IND_STOP;
             body[n] = k;
             corner[n++] = c;
+            if (m->closed[k][0] != m->closed[k][1]) {
+                ind[n] = engine_jam_margin(s, m, k, y) - EN_JAM_MARGIN;
+                kind[n] = EN_IND_JAM;
+                body[n] = k;
+                corner[n++] = c;
+            }
         }
         double rel = y[EN_TH(k)] - (k > 0 ? y[EN_TH(k - 1)] : 0.0);
         ind[n] = M_PI / 2 - fabs(rel);

@@ -90,8 +90,16 @@ typedef enum {
     EN_IND_STOP = 3,      /* a sliding contact's slip rate reaches 0 */
     EN_IND_LAND = 4,      /* an open corner's gap reaches 0 */
     EN_IND_OVERTURN = 5,  /* a body's rotation relative to its support reaches pi/2 */
-    EN_IND_FELL_OFF = 6   /* a closed corner passes its support's edge */
+    EN_IND_FELL_OFF = 6,  /* a closed corner passes its support's edge */
+    EN_IND_JAM = 7        /* a contact sliding on one corner nears Painleve's singularity (engine_jam_margin) */
 } EnIndicator;
+/* The margin of a contact sliding on one corner (body k in mode m) from Painleve's singularity: the normal
+ * acceleration a unit normal force gives its corner with the sliding friction it carries, over that of the
+ * normal force alone (1 without friction; at 0 the normal force needed grows without bound). */
+double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double *y);
+/* The jam indicator fires at this margin (the motion after it converges as the margin falls: 1e-5, 1e-7 and
+ * 1e-9 give slips within 4e-5 m, 4e-7 m of one another on the case of tests/test_engine_hostile.py). */
+#define EN_JAM_MARGIN 1e-8
 #define EN_IND (6 * EN_MAX_BODIES)
 int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
                       int *kind, int *body, int *corner);

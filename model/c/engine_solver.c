@@ -343,6 +343,35 @@ static void impact(Model *M, const Logger *log) {
     settle_mode(M, touching, stuck, NULL, log);
 }
 
+/* A contact sliding on one corner reached Painleve's singularity (its jam margin, engine_jam_margin, fell to
+ * EN_JAM_MARGIN): the normal force its sliding needs grows without bound, and the impulse it delivers stops
+ * the slip (Genot & Brogliato 1999). Taken as a plastic sticking impact of that corner (the rates projected
+ * onto its zero normal and slip rates, which never adds kinetic energy); then the set is chosen again, and
+ * where that would slide on into the singularity, the contact sticks. Counted as a Painleve point. */
+static void jam(Model *M, const Logger *log) {
+    State *S = &M->s;
+    EnSystem sys;
+    engine_system(M, &sys);
+    int k = S->eventContact, touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
+    EnMode st = S->en;
+    st.sigma[k] = 0;
+    double E0 = engine_kinetic(&sys, S->y);
+    engine_project(&sys, &st, S->y, NULL, 1);
+    S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+    S->painleve++;
+    say(log, LOG_EVENTS, "painleve t=%.17g body=%d jam=1", S->t, k + 1);
+    for (int j = 0; j < sys.nb; j++) {
+        touching[j][0] = S->en.closed[j][0];
+        touching[j][1] = S->en.closed[j][1];
+        stuck[j] = st.sigma[j] == 0;
+    }
+    EnMode m;
+    if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0 ||
+        (m.sigma[k] && m.closed[k][0] != m.closed[k][1] && engine_jam_margin(&sys, &m, k, S->y) <= EN_JAM_MARGIN))
+        m = st;
+    set_mode(M, &m, log);
+}
+
 /* An event located at S->t where a force, friction margin or slip rate vanished. */
 static void reselect(Model *M, const Logger *log) {
     State *S = &M->s;
@@ -385,6 +414,9 @@ static int apply_event(Model *M, const Logger *log) {
         break;
     case EVENT_OVERTURN:
         overturn(M, S->eventContact, log);
+        break;
+    case EVENT_JAM:
+        jam(M, log);
         break;
     default:
         reselect(M, log);
@@ -518,7 +550,8 @@ static int take_step(Model *M, const Logger *log) {
             indicators(&c, S->t + s * h, yd, &none, ind, kind, body, corner);
         }
         for (int i = 0; i < ni; i++) {
-            int kinematic = kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN || kind[i] == EN_IND_STOP;
+            int kinematic = kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN || kind[i] == EN_IND_STOP ||
+                            kind[i] == EN_IND_JAM;
             if (j < DENSE_SAMPLES && !kinematic) continue;
             if (ind0[i] >= 0 && ind[i] < 0) {
                 first = 0;
@@ -617,6 +650,9 @@ static int take_step(Model *M, const Logger *log) {
                 break;
             case EN_IND_OVERTURN:
                 ev = EVENT_OVERTURN;
+                break;
+            case EN_IND_JAM:
+                ev = EVENT_JAM;
                 break;
             default:
                 ev = EVENT_FELL_OFF;
@@ -758,8 +794,8 @@ static void before_step(Model *M, const Logger *log) {
         }
         /* a sliding contact whose slip rate is not (or no longer) of its sign stops here: its friction
          * would push the slip on instead of opposing it */
-        if (kind[i] == EN_IND_STOP && !(ind[i] > 0)) {
-            S->pending = EVENT_SLIP_STOP;
+        if ((kind[i] == EN_IND_STOP || kind[i] == EN_IND_JAM) && !(ind[i] > 0)) {
+            S->pending = kind[i] == EN_IND_STOP ? EVENT_SLIP_STOP : EVENT_JAM;
             S->eventContact = body[i];
             S->eventEnd = corner[i];
             apply_event(M, log);
@@ -934,8 +970,8 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
     if (!(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED))
         BAD("pattern %d is not one of 0 (moving), 1 (rest), 2 (overturned)", mode);
     if (!(pending == EVENT_NONE || pending == EVENT_IMPACT || pending == EVENT_OVERTURN || pending == EVENT_OPEN ||
-          pending == EVENT_SLIP_START || pending == EVENT_SLIP_STOP))
-        BAD("pending event %d is not one of 0, 1, 2, 5, 6, 7", pending);
+          pending == EVENT_SLIP_START || pending == EVENT_SLIP_STOP || pending == EVENT_JAM))
+        BAD("pending event %d is not one of 0, 1, 2, 5, 6, 7, 11", pending);
     if (pending != EVENT_NONE && (mode != MODE_ROCKING || S->eventContact < 0 || S->eventContact >= nb ||
                                   !(S->eventEnd == 1 || S->eventEnd == -1)))
         BAD("event %d is pending at contact %d, end %d of a state that does not move or has no such contact", pending,

@@ -116,7 +116,8 @@ typedef enum {
     EVENT_SLIP_STOP = 7, /* rocking-sliding: the slip rate reaches zero */
     EVENT_FELL_OFF = 8,  /* rocking-sliding stack: block 2 leaves block 1's top */
     EVENT_FLIGHT = 9,    /* rocking-sliding stack: no consistent pattern, a contact would pull */
-    EVENT_RECHOOSE = 10  /* rocking-sliding stack: the pattern no longer holds at an excitation break */
+    EVENT_RECHOOSE = 10, /* rocking-sliding stack: the pattern no longer holds at an excitation break */
+    EVENT_JAM = 11       /* contact engine: a contact sliding on one corner reaches Painleve's singularity */
 } EventKind;
 
 /* Rocking-sliding stack (stack_sliding.h): one contact's mode and the pattern of both. */
