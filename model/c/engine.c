@@ -239,7 +239,7 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
 
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, double *dy,
                EnForces *fo) {
-    int nb = s->nb, nq = 3 * nb;
+    int nb = s->nb;
     EnForces f;
     if (!engine_solve(s, m, y, ah, av, &f)) return 0;
     for (int k = 0; k < nb; k++)
@@ -247,7 +247,6 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, d
             dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
             dy[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
         }
-    (void)nq;
     double work = 0.0;
     for (int k = 0; k < nb; k++) {
         work -= s->body[k].m * (ah * y[EN_VEL(nb, k, 0)] + av * y[EN_VEL(nb, k, 1)]);
@@ -399,22 +398,13 @@ static int assemble(const EnSystem *s, const Candidates *c, const double *Minv, 
             if (c->k[j] == k) A[r2 * n + j] = 2.0 * s->mu[k];
         A[r2 * n + nc + t] = -1.0;
     }
-    (void)q;
     return n;
 }
 
 /* The biases of the candidates' rows added to the free accelerations (their rows' values at a = base). */
 static void add_bias(const Candidates *c, double au, double *q) {
     for (int j = 0; j < c->nc; j++) q[j] += c->P[j].bN / au;
-    for (int t = 0; t < c->ns; t++) {
-        const EnPoint *pt = NULL;
-        for (int j = 0; j < c->nc; j++)
-            if (c->k[j] == c->sk[t]) {
-                pt = &c->P[j];
-                break;
-            }
-        q[c->nc + t] += pt->bT / au;
-    }
+    for (int t = 0; t < c->ns; t++) q[c->nc + t] += friction_point(c, c->sk[t])->bT / au;
 }
 
 int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
@@ -454,7 +444,7 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
 }
 
 int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]) {
-    int nb = s->nb, nq = 3 * nb;
+    int nb = s->nb;
     int all[EN_MAX_BODIES];
     for (int k = 0; k < EN_MAX_BODIES; k++) all[k] = 1;
     Candidates c;
@@ -499,7 +489,6 @@ int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], 
     }
     for (int j = 0; j < c.nc; j++) touching[c.k[j]][c.i[j]] = w[j] == 0.0 || m.closed[c.k[j]][c.i[j]];
     for (int t = 0; t < c.ns; t++) stuck[c.sk[t]] = m.sigma[c.sk[t]] == 0;
-    (void)nq;
     return 0;
 }
 

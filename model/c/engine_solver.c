@@ -476,12 +476,12 @@ typedef struct {
     double (*cont)[NMAX];
 } Search;
 
+static void step_indicators(Search *s, double x, double *ind);
+
 static double indicator_after(void *ctx, double x) {
     Search *s = ctx;
-    double err[NMAX], ind[EN_IND];
-    int kind[EN_IND], body[EN_IND], corner[EN_IND];
-    dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
-    indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
+    double ind[EN_IND];
+    step_indicators(s, x, ind);
     return ind[s->which];
 }
 
