@@ -13,7 +13,6 @@
 #include "ground.h"
 #include "stack.h"
 #include "stack_solver.h"
-#include "stack_sliding.h"
 #include "taylor.h"
 
 /* Acceleration relative to the ground of the point rot(theta) (ux, uy). */
@@ -121,16 +120,6 @@ void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]
      * starts from theta = omega = 0 (a stack in the pattern it starts in), not those of a body
      * moving with the ground. At a smooth uplift both are equal. */
     if (side) {
-        if (ss_on(M)) { /* the rocking-sliding stack: the pattern that starts there */
-            double q[4] = {0, 0, 0, 0};
-            StackPattern p;
-            SsSolution sol;
-            model_ground(M, t, &ah, &av);
-            if (ss_select(M, t, q, q, NULL, 0, 0, &p) && ss_solve(M, &p, q, q, ah, av, &sol)) {
-                T[0] = sol.F[0], N[0] = sol.F[1], T[1] = sol.F[3], N[1] = sol.F[4];
-                return;
-            }
-        }
         if (two) {
             double y[4] = {0.0, 0.0, 0.0, 0.0}, acc[2] = {0.0, 0.0};
             Mode mode = stack_start_pattern(M, t, side);

@@ -290,10 +290,19 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
                 EnPoint p;
                 engine_point(s, k, 2 * i - 1, y, &p);
                 ind[n] = p.g / R;
-                kind[n] = EN_IND_LAND;
+                /* beyond its support's edge a corner that comes down falls past it */
+                kind[n] = k > 0 && fabs(p.xi) > s->body[k - 1].b ? EN_IND_FELL_OFF : EN_IND_LAND;
             }
             body[n] = k;
             corner[n++] = 2 * i - 1;
+            if (k > 0 && m->closed[k][i]) { /* a closed corner leaves its support's top at its edge */
+                EnPoint p;
+                engine_point(s, k, 2 * i - 1, y, &p);
+                ind[n] = (s->body[k - 1].b - fabs(p.xi)) / s->body[k - 1].b;
+                kind[n] = EN_IND_FELL_OFF;
+                body[n] = k;
+                corner[n++] = 2 * i - 1;
+            }
         }
         if (c && m->sigma[k] == 0) {
             ind[n] = (s->mu[k] * (f->N[k][0] + f->N[k][1]) - fabs(f->T[k])) / W;

@@ -25,7 +25,7 @@
  * a step's start says the contact set no longer holds there: far below a located event's rounding. */
 #define RECHOOSE_SLACK 1e-9
 
-int engine_on(const Model *M) { return M->v.contactModel == 1 && M->v.nBlocks != 2; }
+int engine_on(const Model *M) { return M->v.contactModel == 1; }
 
 typedef struct {
     const Model *M;
@@ -87,19 +87,24 @@ static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger
             S->flightDur[k] += S->t - S->flightSince[k];
             say(log, LOG_EVENTS, "land t=%.17g body=%d", S->t, k + 1);
         }
-        if (k > 0) continue;
-        int sw = was->sigma[0] != 0, sn = now->sigma[0] != 0;
+        /* block 1's slides in the one-block fields, block 2's in their stack counterparts */
+        int *starts = k ? &S->slideStarts2 : &S->slideStarts;
+        double *since = k ? &S->slideSince2 : &S->slideSince, *dur = k ? &S->slideDur2 : &S->slideDur;
+        double *first = k ? &S->slideStartTime2 : &S->slideStartTime1;
+        int sw = was->sigma[k] != 0, sn = now->sigma[k] != 0;
+        const char *who = nb == 2 ? (k ? " contact=interface" : " contact=ground") : "";
         if (!sw && sn) {
-            S->slideStarts++;
-            S->slideSince = S->t;
+            (*starts)++;
+            *since = S->t;
+            if (*first < 0) *first = S->t;
             if (S->slideTime < 0) S->slideTime = S->t;
-            say(log, LOG_EVENTS, "slide t=%.17g sigma=%d mode=%s", S->t, now->sigma[0],
-                now->closed[0][0] && now->closed[0][1] ? "slide" : "slide-rock");
+            say(log, LOG_EVENTS, "slide t=%.17g sigma=%d mode=%s%s", S->t, now->sigma[k],
+                now->closed[k][0] && now->closed[k][1] ? "slide" : "slide-rock", who);
         } else if (sw && !sn) {
-            S->slideDur += S->t - S->slideSince;
-            if (!fn) say(log, LOG_EVENTS, "stick t=%.17g", S->t);
-        } else if (sw && sn && was->sigma[0] != now->sigma[0]) {
-            say(log, LOG_EVENTS, "reverse t=%.17g sigma=%d", S->t, now->sigma[0]);
+            *dur += S->t - *since;
+            if (!fn) say(log, LOG_EVENTS, "stick t=%.17g%s", S->t, who);
+        } else if (sw && sn && was->sigma[k] != now->sigma[k]) {
+            say(log, LOG_EVENTS, "reverse t=%.17g sigma=%d%s", S->t, now->sigma[k], who);
         }
     }
 }
@@ -213,52 +218,97 @@ static void settle_mode(Model *M, int touching[][2], int *stuck, const double *d
 /* The motion left is negligible (the rest criterion of an impact, in energy): the ground below the
  * threshold that starts the bodies at rest, and a kinetic energy that would lift the centre of mass
  * less than a rebound to restRatio * alpha does. */
+static double rest_exit(const Model *M, double t, int piece);
+static void fell_off(Model *M, const Logger *log);
+
 static int negligible(const Model *M, double t, const double *y) {
     double ah, av;
     model_ground(M, t, &ah, &av);
-    double geff = M->v.g + av, alpha = M->d.alpha, m = M->v.mass, R = M->d.R;
-    if (!(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope)) return 0;
+    double geff = M->v.g + av;
+    int two = M->v.nBlocks == 2;
+    if (two ? !(rest_exit(M, t, model_piece(M, t)) <= 0.0) : !(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope))
+        return 0;
+    /* one block; a stack: the pair as one body about block 1's corner */
+    double alpha = two ? M->d.alphaL : M->d.alpha, R = two ? M->d.RL : M->d.R;
+    double m = M->v.mass + (two ? M->v.mass2 : 0.0);
     EnSystem sys;
     engine_system(M, &sys);
     return engine_kinetic(&sys, y) < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha));
 }
 
-/* The restitution law on the plastic impact's rates: law 0 (Housner) with correction 1 is the plastic
- * impact itself; otherwise the rates after (relative to the ground) are scaled by eta / eta_Housner, which
- * gives a block landing on a sticking corner from rocking the rigid model's w+ = eta w-, and never past
- * the kinetic energy before the impact (kineticBefore, J). */
-static void restitution(const Model *M, double *y, double kineticBefore) {
-    double sa = sin(M->d.alpha), etaH = 1.0 - 1.5 * sa * sa, factor = M->d.eta / etaH;
-    if (factor == 1.0) return;
+/* The restitution law on the plastic impact's rates (kineticBefore: the kinetic energy before the impact,
+ * J; contact: the landing contact, 0 the ground, 1 between the blocks). One block: law 0 (Housner) with
+ * correction 1 is the plastic impact itself; otherwise the rates after (relative to the ground) are scaled
+ * by eta / eta_Housner, which gives a block landing on a sticking corner from rocking the rigid model's
+ * w+ = eta w-, and never past the kinetic energy before. A stack: the momentum law (0) is the plastic
+ * impact; the constant law (2) scales the plastic impact's rates so that it keeps etaGround^2 (or
+ * etaInterface^2) of the kinetic energy, the rigid stack's definition (docs/two_blocks.md). */
+static void restitution(const Model *M, double *y, double kineticBefore, int contact) {
     EnSystem sys;
     engine_system(M, &sys);
-    double after = engine_kinetic(&sys, y);
-    if (factor * factor * after > kineticBefore) factor = sqrt(kineticBefore / after);
+    double after = engine_kinetic(&sys, y), factor;
+    if (sys.nb == 2) {
+        if (M->v.law != 2 || !(after > 0)) return;
+        double eta = contact ? M->v.etaInterface : M->v.etaGround;
+        factor = eta * sqrt(kineticBefore / after);
+    } else {
+        double sa = sin(M->d.alpha), etaH = 1.0 - 1.5 * sa * sa;
+        factor = M->d.eta / etaH;
+        if (factor == 1.0) return;
+        if (factor * factor * after > kineticBefore) factor = sqrt(kineticBefore / after);
+    }
     for (int k = 0; k < sys.nb; k++)
         for (int i = 0; i < 3; i++) y[EN_VEL(sys.nb, k, i)] *= factor;
 }
 
 /* -------------------------------------------------------------------- events */
 
-static void overturn(Model *M, int k, const Logger *log) {
+/* The run ends at S->t (an overturn, or block 2 falling off block 1): the bodies stay where they are,
+ * still; the slides and flights under way end. */
+static void finish(Model *M) {
     State *S = &M->s;
     int nb = M->v.nBlocks == 2 ? 2 : 1;
-    double th = S->y[EN_TH(k)];
-    int side = th > 0 ? 1 : -1;
+    S->mode = MODE_OVERTURNED;
+    for (int j = 0; j < nb; j++)
+        for (int i = 0; i < 3; i++) S->y[EN_VEL(nb, j, i)] = 0.0;
+    if (S->en.sigma[0]) S->slideDur += S->t - S->slideSince;
+    if (nb == 2 && S->en.sigma[1]) S->slideDur2 += S->t - S->slideSince2;
+    for (int j = 0; j < nb; j++)
+        if (flying(&S->en, j)) S->flightDur[j] += S->t - S->flightSince[j];
+    S->enFinal = S->en; /* each contact as it was at the end */
+    memset(&S->en, 0, sizeof(S->en));
+    S->sigma = 0;
+}
+
+/* Body k's rotation relative to its support reached pi/2: block 1 falls (and takes block 2 with it),
+ * or block 2 falls off block 1 on its side; the run ends. */
+static void overturn(Model *M, int k, const Logger *log) {
+    State *S = &M->s;
+    double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
+    int side = rel > 0 ? 1 : -1;
+    S->overturnTime = S->t;
+    S->overturned2 = M->v.nBlocks == 2;
     if (k == 0) {
-        S->mode = MODE_OVERTURNED;
-        S->overturnTime = S->t;
+        S->overturned1 = 1;
         S->maxAbsTheta = M_PI / 2;
         S->side = side;
-        for (int j = 0; j < nb; j++)
-            for (int i = 0; i < 3; i++) S->y[EN_VEL(nb, j, i)] = 0.0;
-        if (S->en.sigma[0]) S->slideDur += S->t - S->slideSince;
-        for (int j = 0; j < nb; j++)
-            if (flying(&S->en, j)) S->flightDur[j] += S->t - S->flightSince[j];
-        memset(&S->en, 0, sizeof(S->en));
-        S->sigma = 0;
     }
-    say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, side);
+    finish(M);
+    if (M->v.nBlocks == 2) say(log, LOG_EVENTS, "overturn t=%.17g blocks=%s", S->t, k == 0 ? "1+2" : "2");
+    else say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, side);
+}
+
+/* Block 2 has left block 1's top (a corner it stood on passed the edge, or a corner came down beyond
+ * it): it falls off; the run ends. */
+static void fell_off(Model *M, const Logger *log) {
+    State *S = &M->s;
+    S->fellOff = 1;
+    S->fellOffTime = S->t;
+    EnSystem sys;
+    engine_system(M, &sys);
+    double u2 = slip_of(&sys, 1, S->y, NULL, NULL);
+    finish(M);
+    say(log, LOG_EVENTS, "fell-off t=%.17g u2=%.17g", S->t, u2);
 }
 
 /* After an impact, a body left rocking on one corner with a rotation rate (relative to its support)
@@ -301,6 +351,14 @@ static void impact(Model *M, const Logger *log) {
     engine_system(M, &sys);
     int k = S->eventContact, i = S->eventEnd > 0 ? 1 : 0;
     int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
+    if (k > 0) {
+        EnPoint p;
+        engine_point(&sys, k, 2 * i - 1, S->y, &p);
+        if (fabs(p.xi) > sys.body[k - 1].b) { /* it comes down beyond block 1's edge */
+            fell_off(M, log);
+            return;
+        }
+    }
     EnMode land = S->en;
     land.closed[k][i] = 1;
     /* the other corners within the integrator's resolution of their support land with it (a body that
@@ -324,10 +382,12 @@ static void impact(Model *M, const Logger *log) {
     if (engine_impact(&sys, S->y, touching, stuck, PN, PT)) {
         say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
     }
-    restitution(M, S->y, E0);
+    restitution(M, S->y, E0, k);
     double Pn = PN[0][0] + PN[0][1];
     if (Pn > 0 && fabs(PT[0]) / Pn > S->impulseDemandMax) S->impulseDemandMax = fabs(PT[0]) / Pn;
     S->impacts++;
+    if (k == 0) S->impactsGround++;
+    else S->impactsInterface++;
     S->lastImpactTime = S->t;
     S->impactLoss += E0 - engine_kinetic(&sys, S->y);
     double vp;
@@ -405,8 +465,12 @@ static int apply_event(Model *M, const Logger *log) {
     EnSystem sys;
     engine_system(M, &sys);
     commit_peaks(M, log);
-    double sl = fabs(!flying(&S->en, 0) && S->en.sigma[0] == 0 ? S->enAnchor[0] : slip_of(&sys, 0, S->y, NULL, NULL));
-    if (sl > S->maxAbsSlip) S->maxAbsSlip = sl;
+    for (int k = 0; k < sys.nb; k++) {
+        double sl = fabs(!flying(&S->en, k) && S->en.sigma[k] == 0 ? S->enAnchor[k] : slip_of(&sys, k, S->y, NULL, NULL));
+        double *mx = k ? &S->maxAbsSlip2 : &S->maxAbsSlip;
+        if (sl > *mx) *mx = sl;
+    }
+    if (sys.nb == 2 && fabs(S->y[EN_TH(1)]) > S->maxAbsTheta2) S->maxAbsTheta2 = fabs(S->y[EN_TH(1)]);
     if (fabs(S->y[EN_TH(0)]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[EN_TH(0)]);
     switch (S->pending) {
     case EVENT_IMPACT:
@@ -417,6 +481,9 @@ static int apply_event(Model *M, const Logger *log) {
         break;
     case EVENT_JAM:
         jam(M, log);
+        break;
+    case EVENT_FELL_OFF:
+        fell_off(M, log);
         break;
     default:
         reselect(M, log);
@@ -551,7 +618,7 @@ static int take_step(Model *M, const Logger *log) {
         }
         for (int i = 0; i < ni; i++) {
             int kinematic = kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN || kind[i] == EN_IND_STOP ||
-                            kind[i] == EN_IND_JAM;
+                            kind[i] == EN_IND_JAM || kind[i] == EN_IND_FELL_OFF;
             if (j < DENSE_SAMPLES && !kinematic) continue;
             if (ind0[i] >= 0 && ind[i] < 0) {
                 first = 0;
@@ -710,6 +777,10 @@ static int take_step(Model *M, const Logger *log) {
         slip_of(&c.sys, k, S->y, NULL, &gap);
         if (gap > S->gapMax[k]) S->gapMax[k] = gap;
     }
+    if (nb == 2) {
+        S->maxAbsTheta = fmax(S->maxAbsTheta, dense_abs_max(cont, EN_TH(0), 1.0));
+        S->maxAbsTheta2 = fmax(S->maxAbsTheta2, dense_abs_max(cont, EN_TH(1), 1.0));
+    }
     if (!isfinite(S->y[0]) || !isfinite(S->y[EN_TH(0)])) {
         say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
         return -1;
@@ -808,53 +879,84 @@ static const SolverOps ENGINE = {apply_event, take_step, start_moving, before_st
 
 /* ------------------------------------------------------------------ interface */
 
+/* The side of a rotation (rate w) from rest: its sign, or the rate's where it is zero. */
+static int side_from(double th, double w) { return th > 0 ? 1 : th < 0 ? -1 : (w > 0 ? 1 : -1); }
+
 void engine_initialize(Model *M) {
     State *S = &M->s;
+    const Variables *v = &M->v;
     EnSystem sys;
     engine_system(M, &sys);
+    int nb = sys.nb;
     double y[NMAX] = {0};
     engine_rest_state(&sys, y);
     memset(&S->en, 0, sizeof(S->en));
-    S->slideTime = -1;
+    S->slideTime = S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1;
     for (int k = 0; k < EN_MAX_BODIES; k++) S->flightSince[k] = -1;
-    double th = M->v.theta0, w = M->v.omega0;
-    if (S->mode == MODE_REST) {
+    double th[2] = {v->theta0, nb == 2 ? v->theta02 : 0.0}, w[2] = {v->omega0, nb == 2 ? v->omega02 : 0.0};
+    int still = S->mode == MODE_REST && (nb == 1 || (th[1] == 0.0 && w[1] == 0.0));
+    if (still) {
         memcpy(S->y, y, sizeof(y));
-        for (int k = 0; k < sys.nb; k++) S->en.closed[k][0] = S->en.closed[k][1] = 1;
+        for (int k = 0; k < nb; k++) S->en.closed[k][0] = S->en.closed[k][1] = 1;
+        S->mode = MODE_REST;
         return;
     }
-    /* released rocking on its corner `side` (which stays where it stands at rest) */
-    int c = S->side, nb = sys.nb;
-    const EnBody *B = &sys.body[0];
-    double cs = cos(th), sn = sin(th), rx = -c * B->b * cs + B->h * sn, ry = c * B->b * sn + B->h * cs;
-    y[EN_POS(nb, 0, 0)] = c * B->b + rx;
-    y[EN_POS(nb, 0, 1)] = ry;
-    y[EN_TH(0)] = th;
-    y[EN_VEL(nb, 0, 0)] = w * ry;
-    y[EN_VEL(nb, 0, 1)] = -w * rx;
-    y[EN_W(0)] = w;
-    memcpy(S->y, y, sizeof(y));
+    S->mode = MODE_ROCKING;
+    /* released rocking on the corners the rotations give (block 1 on the ground, block 2 on block 1's
+     * top, centred), each pivot where it stands at rest */
     int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES] = {1, 1};
-    /* only the pivot touches with zero normal rate: released flat (th = 0) with a rate (the rate of a
-     * release that would not lift it to restRatio alpha was zeroed, and it rests), the other corner
-     * rises at 2 b |w| */
-    touching[0][c > 0 ? 1 : 0] = 1;
+    double O[2] = {0.0, 0.0}, V[2] = {0.0, 0.0}, thS = 0.0, wS = 0.0, hS = 0.0; /* the support's frame */
+    for (int k = 0; k < nb; k++) {
+        const EnBody *B = &sys.body[k];
+        double rel = th[k] - thS, wrel = w[k] - wS;
+        int c = side_from(rel, wrel);
+        /* the pivot: (c b, 0) on the ground, (c b2, h1) in block 1's frame */
+        double cs = cos(thS), sn = sin(thS), px = c * B->b, py = hS;
+        double P[2] = {O[0] + px * cs + py * sn, O[1] - px * sn + py * cs};
+        double Pv[2] = {V[0] + wS * (-px * sn + py * cs), V[1] + wS * (-px * cs - py * sn)};
+        double ck = cos(th[k]), sk = sin(th[k]);
+        double rx = -c * B->b * ck + B->h * sk, ry = c * B->b * sk + B->h * ck; /* pivot -> centre */
+        y[EN_POS(nb, k, 0)] = P[0] + rx;
+        y[EN_POS(nb, k, 1)] = P[1] + ry;
+        y[EN_TH(k)] = th[k];
+        y[EN_VEL(nb, k, 0)] = Pv[0] + w[k] * ry;
+        y[EN_VEL(nb, k, 1)] = Pv[1] - w[k] * rx;
+        y[EN_W(k)] = w[k];
+        touching[k][c > 0 ? 1 : 0] = 1;
+        /* released flat with no rate relative to its support: both corners touch; with one, only the
+         * pivot (the other corner rises at 2 b |w|) */
+        if (rel == 0.0 && wrel == 0.0) touching[k][0] = touching[k][1] = 1;
+        O[0] = y[EN_POS(nb, k, 0)], O[1] = y[EN_POS(nb, k, 1)];
+        V[0] = y[EN_VEL(nb, k, 0)], V[1] = y[EN_VEL(nb, k, 1)];
+        thS = th[k], wS = w[k], hS = B->h;
+    }
+    memcpy(S->y, y, sizeof(y));
     EnMode m;
     if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
         memset(&m, 0, sizeof(m));
-        m.closed[0][c > 0 ? 1 : 0] = 1;
+        for (int k = 0; k < nb; k++) memcpy(m.closed[k], touching[k], sizeof(m.closed[k]));
     }
     S->en = m;
-    S->enAnchor[0] = 0.0;
-    if (flying(&m, 0)) {
-        S->flights[0] = 1;
-        S->flightSince[0] = S->t;
+    S->side = side_of(&m, S->y);
+    for (int k = 0; k < nb; k++) {
+        S->enAnchor[k] = 0.0;
+        if (flying(&m, k)) {
+            S->flights[k] = 1;
+            S->flightSince[k] = S->t;
+        }
     }
     if (m.sigma[0]) {
         S->slideStarts = 1;
-        S->slideSince = S->slideTime = S->t;
+        S->slideSince = S->slideTime = S->slideStartTime1 = S->t;
+    }
+    if (nb == 2 && m.sigma[1]) {
+        S->slideStarts2 = 1;
+        S->slideSince2 = S->slideStartTime2 = S->t;
+        if (S->slideTime < 0) S->slideTime = S->t;
     }
     S->sigma = m.sigma[0];
+    S->maxAbsTheta = fabs(th[0]);
+    S->maxAbsTheta2 = fabs(th[1]);
 }
 
 int engine_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
@@ -877,6 +979,36 @@ void engine_rollback(Model *M, double tc) {
     keep_peaks_until(S, tc);
 }
 
+/* A contact set's mode of body k as block1.mode / block2.mode: 0 rest, 1 slide, 2 rock, 3 slide-rock,
+ * 6 flight. */
+static int contact_mode(const EnMode *m, int k) {
+    if (flying(m, k)) return 6;
+    if (m->closed[k][0] && m->closed[k][1]) return m->sigma[k] ? 1 : 0;
+    return m->sigma[k] ? 3 : 2;
+}
+
+typedef struct {
+    double slip, slipRate, gap, flightTime;
+} BodyOut;
+
+/* Body k's slip (its contact's), slip rate, gap and time in flight at tc (state y in contact set m). */
+static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const double *y, const EnMode *m, double tc,
+                            int over) {
+    const State *S = &M->s;
+    BodyOut o;
+    double rate, gap;
+    o.slip = slip_of(sys, k, y, &rate, &gap);
+    o.slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
+    if (!over && !flying(m, k) && m->sigma[k] == 0) { /* a sticking contact stays where it stuck */
+        int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
+        o.slip = inStep ? S->enDenseAnchor[k] : S->enAnchor[k];
+        o.slipRate = 0.0;
+    }
+    o.gap = over ? 0.0 : gap;
+    o.flightTime = S->flightDur[k] + (flying(m, k) && !over && tc > S->flightSince[k] ? tc - S->flightSince[k] : 0.0);
+    return o;
+}
+
 void engine_outputs(Model *M, double tc) {
     State *S = &M->s;
     Variables *v = &M->v;
@@ -888,7 +1020,7 @@ void engine_outputs(Model *M, double tc) {
     model_ground(M, tc, &ah, &av);
     v->ahTotal = ah;
     v->avTotal = av;
-    int nb = sys.nb, over = S->mode == MODE_OVERTURNED;
+    int nb = sys.nb, over = S->mode == MODE_OVERTURNED, two = nb == 2;
     EnForces f;
     memset(&f, 0, sizeof(f));
     if (S->mode == MODE_REST) {
@@ -899,55 +1031,94 @@ void engine_outputs(Model *M, double tc) {
     } else if (!over) {
         engine_solve(&sys, &m, y, ah, av, &f);
     }
-    v->theta = over ? S->side * M_PI / 2 : y[EN_TH(0)];
+    /* one block overturned lies on its side; a stack's run that ended keeps its last state */
+    v->theta = over && !two ? S->side * M_PI / 2 : y[EN_TH(0)];
     v->omega = over ? 0.0 : y[EN_W(0)];
     v->alphaDD = f.qdd[EN_Q(0, 2)];
-    double rate, gap;
-    v->slip = slip_of(&sys, 0, y, &rate, &gap);
-    v->slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
-    if (!over && !flying(&m, 0) && m.sigma[0] == 0) { /* a sticking contact stays where it stuck */
-        int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
-        v->slip = inStep ? S->enDenseAnchor[0] : S->enAnchor[0];
-        v->slipRate = 0.0;
-    }
-    v->gap = over ? 0.0 : gap;
+    BodyOut b1 = body_outputs(M, &sys, 0, y, &m, tc, over);
+    v->slip = b1.slip;
+    v->slipRate = b1.slipRate;
+    v->gap = b1.gap;
     v->maxGap = S->gapMax[0];
     v->flights = S->flights[0];
-    v->flightTime = S->flightDur[0] + (flying(&m, 0) && !over && tc > S->flightSince[0] ? tc - S->flightSince[0] : 0.0);
+    v->flightTime = b1.flightTime;
     peak_outputs(S, tc, v->theta, v);
-    v->impacts = v->impactsGround = S->impacts;
+    v->impacts = S->impacts;
+    v->impactsGround = two ? S->impactsGround : S->impacts;
     v->lastImpactTime = S->lastImpactTime;
-    v->overturned = v->overturned1 = over;
+    v->overturned = two ? S->overturned2 : over;
+    v->overturned1 = two ? S->overturned1 : over;
     v->atRest = S->mode == MODE_REST;
     v->overturnTime = S->overturnTime;
     v->restTime = S->restTime;
-    int both = m.closed[0][0] && m.closed[0][1];
-    v->contactMode = over                     ? 4
-                     : S->mode == MODE_REST   ? 0
-                     : flying(&m, 0)          ? 6
-                     : both                   ? (m.sigma[0] ? 1 : 0)
-                                              : (m.sigma[0] ? 3 : 2);
-    v->pattern = over ? MODE_OVERTURNED : S->mode == MODE_REST ? MODE_REST : v->contactMode == 1 ? MODE_SLIDE : 0;
-    v->theta2 = v->omega2 = v->alphaDD2 = v->maxAbsTheta2 = 0.0;
-    v->impactsInterface = 0;
-    v->locked = v->overturned2 = 0;
+    const EnMode *end = over ? &S->enFinal : &m;
+    v->contactMode = S->mode == MODE_REST ? 0 : (over && (!two || S->overturned1)) ? 4 : contact_mode(end, 0);
+    if (two) {
+        v->theta2 = y[EN_TH(1)];
+        v->omega2 = over ? 0.0 : y[EN_W(1)];
+        v->alphaDD2 = f.qdd[EN_Q(1, 2)];
+        v->maxAbsTheta2 = fmax(S->maxAbsTheta2, fabs(v->theta2));
+        BodyOut b2 = body_outputs(M, &sys, 1, y, &m, tc, over);
+        v->slip2 = b2.slip;
+        v->slipRate2 = b2.slipRate;
+        v->gap2 = b2.gap;
+        v->maxGap2 = S->gapMax[1];
+        v->flights2 = S->flights[1];
+        v->flightTime2 = b2.flightTime;
+        v->impactsInterface = S->impactsInterface;
+        v->overturned2 = S->overturned2;
+        v->contactMode2 = S->mode == MODE_REST ? 0 : S->fellOff ? 5 : S->overturned2 ? 4 : contact_mode(end, 1);
+        v->maxAbsSlip2 = fmax(S->maxAbsSlip2, fabs(v->slip2));
+        v->slideDuration2 =
+            S->slideDur2 + (m.sigma[1] && !over && tc > S->slideSince2 ? tc - S->slideSince2 : 0.0);
+        v->slideStartTime2 = S->slideStartTime2;
+        v->slideStarts2 = S->slideStarts2;
+        v->frictionLoss2 = y[EN_LOSS(nb, 1)];
+        v->fellOff = S->fellOff;
+        v->fellOffTime = S->fellOffTime;
+        v->peaks = 0; /* a stack counts no peaks */
+        v->lastPeakTime = -1.0;
+        v->lastPeakTheta = 0.0;
+        v->maxAbsTheta = fmax(v->maxAbsTheta, fabs(v->theta));
+    } else {
+        v->theta2 = v->omega2 = v->alphaDD2 = v->maxAbsTheta2 = 0.0;
+        v->impactsInterface = 0;
+    }
+    int rocking0 = !(m.closed[0][0] && m.closed[0][1]), rocking1 = two && !(m.closed[1][0] && m.closed[1][1]);
+    int slides = m.sigma[0] || (two && m.sigma[1]);
+    v->locked = two && !over && S->mode != MODE_REST && rocking0 && !rocking1 && !slides;
+    v->pattern = over                      ? MODE_OVERTURNED
+                 : S->mode == MODE_REST    ? MODE_REST
+                 : slides                  ? MODE_SLIDE
+                 : !two                    ? (v->contactMode == 1 ? MODE_SLIDE : 0)
+                 : rocking0 && rocking1    ? MODE_BOTH
+                 : rocking0                ? MODE_LOCKED
+                 : rocking1                ? MODE_UPPER
+                                           : MODE_REST;
     v->groundT = f.T[0];
     v->groundN = f.N[0][0] + f.N[0][1];
+    v->interfaceT = two ? f.T[1] : 0.0;
+    v->interfaceN = two ? f.N[1][0] + f.N[1][1] : 0.0;
     if (S->mode == MODE_REST) { /* bodies moving with the ground: their inertia and weight, exactly */
         double mass = 0.0;
         for (int k = 0; k < nb; k++) mass += sys.body[k].m;
         v->groundT = mass * ah;
         v->groundN = mass * (sys.g + av);
+        if (two) {
+            v->interfaceT = sys.body[1].m * ah;
+            v->interfaceN = sys.body[1].m * (sys.g + av);
+        }
     }
-    v->interfaceT = v->interfaceN = 0.0;
-    v->momentum = over ? 0.0 : sys.body[0].m * y[EN_VEL(nb, 0, 0)];
+    double p = 0.0;
+    for (int k = 0; k < nb && !over; k++) p += sys.body[k].m * y[EN_VEL(nb, k, 0)];
+    v->momentum = p;
     v->energy = over ? engine_energy(&sys, S->y) : engine_energy(&sys, y);
     v->groundWork = y[EN_WORK(nb)];
     v->frictionLoss = y[EN_LOSS(nb, 0)];
     v->impactLoss = S->impactLoss;
     v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(v->slip));
     v->slideDuration = S->slideDur + (m.sigma[0] && !over && tc > S->slideSince ? tc - S->slideSince : 0.0);
-    v->slideStartTime = S->slideTime;
+    v->slideStartTime = two ? S->slideStartTime1 : S->slideTime;
     v->slideStarts = S->slideStarts;
     v->painleve = S->painleve;
     contact_outputs(M, v);

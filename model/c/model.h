@@ -213,7 +213,7 @@ typedef struct {
     /* the contact engine (engine_solver.c): the contact set now and of the last step, the slip
      * where each sticking contact stands, flights (count, start of the current one, time
      * flown in finished ones) and largest gap of each body, Painleve points met */
-    EnMode en, enDense;
+    EnMode en, enDense, enFinal; /* enFinal: the contacts as the run left them at its end */
     double enAnchor[EN_MAX_BODIES], enDenseAnchor[EN_MAX_BODIES];
     double flightSince[EN_MAX_BODIES], flightDur[EN_MAX_BODIES], gapMax[EN_MAX_BODIES];
     int flights[EN_MAX_BODIES], painleve;

@@ -14,7 +14,6 @@
 #include "ground.h"
 #include "integrator.h"
 #include "stack_solver.h"
-#include "stack_sliding.h"
 #include "taylor.h"
 
 /* Samples per Taylor step when looking for events. */
@@ -351,13 +350,13 @@ void solver_contact_now(const Model *M, double *T, double *N) {
 
 void solver_initialize(Model *M, double t0) {
     model_initialize(M, t0);
-    if (M->v.nBlocks == 2) stack_initialize(M);
-    else if (engine_on(M)) engine_initialize(M);
+    if (engine_on(M)) engine_initialize(M);
+    else if (M->v.nBlocks == 2) stack_initialize(M);
 }
 
 int solver_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
-    if (M->v.nBlocks == 2) return stack_advance(M, tc, log, stop);
     if (engine_on(M)) return engine_advance(M, tc, log, stop);
+    if (M->v.nBlocks == 2) return stack_advance(M, tc, log, stop);
     return advance_to(M, tc, log, &ONE_BLOCK, stop);
 }
 
@@ -376,10 +375,6 @@ static void outputs_at(Model *M, double tc) {
     v->flights = v->painleve = 0;
     if (engine_on(M)) {
         engine_outputs(M, tc);
-        return;
-    }
-    if (ss_on(M)) {
-        stack_outputs(M, tc);
         return;
     }
     if (v->nBlocks == 2) {
@@ -472,12 +467,12 @@ void solver_log_pending(const Model *M, double tc, const Logger *log) {
 void solver_rollback(Model *M, double tc) {
     State *S = &M->s;
     S->fValid = 0; /* the derivative at (t, y) was for the old inputs */
-    if (M->v.nBlocks == 2) {
-        stack_rollback(M, tc);
-        return;
-    }
     if (engine_on(M)) {
         engine_rollback(M, tc);
+        return;
+    }
+    if (M->v.nBlocks == 2) {
+        stack_rollback(M, tc);
         return;
     }
     if (S->mode != MODE_ROCKING || S->t <= tc || !S->denseValid) return;
@@ -564,8 +559,7 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
     const Variables *v = &M->v;
     int two = v->nBlocks == 2, taylor = taylor_on(M), mode = (int)S->mode, pending = (int)S->pending;
-    int ss = ss_on(M);
-    if (ss && ss_check_state(M, msg, n)) return 1;
+    int ss = 0; /* (rocking-sliding, one block or a stack, is the engine's: engine_check_state) */
     if (two ? !(mode == MODE_REST || mode == MODE_OVERTURNED || mode == MODE_UPPER || mode == MODE_LOCKED ||
                 mode == MODE_BOTH || (ss && mode == MODE_SLIDE))
             : !(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED))
@@ -647,8 +641,8 @@ static int check_discrete(const Model *M, StateUse use, char *msg, size_t n) {
     if (v->impacts < 0 || v->peaks < 0 || v->impactsGround < 0 || v->impactsInterface < 0)
         FAIL("output counters impacts = %d, peaks = %d, impactsGround = %d, impactsInterface = %d must be >= 0",
              v->impacts, v->peaks, v->impactsGround, v->impactsInterface);
-    if (!within(v->pattern, MODE_ROCKING, ss_on(M) ? MODE_SLIDE : MODE_BOTH))
-        FAIL("output pattern = %d is outside [0, %d]", v->pattern, ss_on(M) ? MODE_SLIDE : MODE_BOTH);
+    if (!within(v->pattern, MODE_ROCKING, MODE_BOTH))
+        FAIL("output pattern = %d is outside [0, %d]", v->pattern, MODE_BOTH);
     if (!within(v->contactMode, 0, 4) || v->slideStarts < 0)
         FAIL("output block1.mode = %d, block1.slides = %d are outside [0, 4] and [0, ...)", v->contactMode,
              v->slideStarts);
@@ -666,7 +660,7 @@ static int zero_bits(double x) { return x == 0 && !signbit(x); }
 /* Numbers of a state that steps (or is about to): finite, and where a run leaves them. */
 static int check_numbers(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
     const State *S = &M->s;
-    int ss = ss_on(M), rs = ss; /* rocking-sliding reaches here as a stack only (one block: engine_check_state) */
+    int ss = 0, rs = 0; /* (rocking-sliding is the engine's: engine_check_state) */
     int two = M->v.nBlocks == 2, mode = (int)S->mode, ny = two ? 4 : 2;
     int moving = two ? mode == MODE_UPPER || mode == MODE_LOCKED || mode == MODE_BOTH || (ss && mode == MODE_SLIDE)
                      : mode == MODE_ROCKING || mode == MODE_SLIDE;
@@ -844,7 +838,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         if (!two && (S->y[0] != 0 || S->y[1] != 0)) FAIL("a sliding block lies flat (y = %g, %g)", S->y[0], S->y[1]);
         break;
     case MODE_OVERTURNED: /* (a rocking-sliding stack's run ended by a fall-off or flight keeps its last state) */
-        if (ss_on(M) && !S->overturned2) break;
+
         if (two ? S->y[1] != 0 || S->y[3] != 0 : S->y[1] != 0 || S->y[0] != S->side * M_PI / 2)
             FAIL("an overturned block lies still on its side (y = %g, %g)", S->y[0], S->y[1]);
         break;

@@ -11,7 +11,6 @@
 #include "ground.h"
 #include "integrator.h"
 #include "stack.h"
-#include "stack_sliding.h"
 
 /* A closed contact opens once its margin (stack_margins) falls below
  * -TOL_OPEN: a reaction moment 1e-9 of weight times contact half width. */
@@ -110,10 +109,6 @@ static double settle_rate(const Model *M, int interface, double av) {
 }
 
 void stack_initialize(Model *M) {
-    if (ss_on(M)) {
-        ss_initialize(M);
-        return;
-    }
     State *S = &M->s;
     const Variables *v = &M->v;
     double *y = S->y, ah, av;
@@ -458,7 +453,6 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
 static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL, reactions, NULL};
 
 int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
-    if (ss_on(M)) return ss_advance(M, tc, log, stop);
     return advance_to(M, tc, log, &TWO_BLOCKS, stop);
 }
 
@@ -505,10 +499,6 @@ void stack_counter_outputs(const Model *M, Variables *v, double ah, double av) {
 }
 
 void stack_outputs(Model *M, double tc) {
-    if (ss_on(M)) {
-        ss_outputs(M, tc);
-        return;
-    }
     State *S = &M->s;
     Variables *v = &M->v;
     double y[4], s = 1.0, ah, av, acc[2] = {0.0, 0.0};
@@ -546,10 +536,6 @@ void stack_outputs(Model *M, double tc) {
 }
 
 void stack_rollback(Model *M, double tc) {
-    if (ss_on(M)) {
-        ss_rollback(M, tc);
-        return;
-    }
     State *S = &M->s;
     double y[4], s = 1.0;
     int s1, s2;
@@ -567,20 +553,12 @@ void stack_rollback(Model *M, double tc) {
 }
 
 void stack_state_rhs(const Model *M, double f[NMAX]) {
-    if (ss_on(M)) {
-        ss_state_rhs(M, f);
-        return;
-    }
     const State *S = &M->s;
     Ctx c = {M, S->mode, S->side, S->side2, model_piece(M, S->t)};
     rhs_cb(&c, S->t, S->y, f);
 }
 
 void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]) {
-    if (ss_on(M)) {
-        ss_replay_step(M, y1, f1, cont);
-        return;
-    }
     const State *S = &M->s;
     Ctx c = {M, S->mode, S->denseSide, S->denseSide2, model_piece(M, S->tOld)};
     double y0[NMAX], f0[NMAX], err[NMAX];
