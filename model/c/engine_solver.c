@@ -87,6 +87,9 @@ static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger
             S->flightDur[k] += S->t - S->flightSince[k];
             say(log, LOG_EVENTS, "land t=%.17g body=%d", S->t, k + 1);
         }
+        /* a stack's flat contact that opens onto one corner (the rigid stack's "open") */
+        if (nb == 2 && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
+            say(log, LOG_EVENTS, "open t=%.17g contact=%s", S->t, k ? "interface" : "ground");
         /* block 1's slides in the one-block fields, block 2's in their stack counterparts */
         int *starts = k ? &S->slideStarts2 : &S->slideStarts;
         double *since = k ? &S->slideSince2 : &S->slideSince, *dur = k ? &S->slideDur2 : &S->slideDur;
@@ -376,6 +379,8 @@ static void impact(Model *M, const Logger *log) {
         touching[j][1] = land.closed[j][1];
     }
     double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES];
+    double before[NMAX];
+    memcpy(before, S->y, sizeof(before));
     double E0 = engine_kinetic(&sys, S->y), wm = S->y[EN_W(0)];
     double vm;
     slip_of(&sys, 0, S->y, &vm, NULL);
@@ -392,9 +397,20 @@ static void impact(Model *M, const Logger *log) {
     S->impactLoss += E0 - engine_kinetic(&sys, S->y);
     double vp;
     slip_of(&sys, 0, S->y, &vp, NULL);
-    say(log, LOG_EVENTS,
-        "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
-        S->t, wm, S->y[EN_W(0)], vm, vp);
+    if (sys.nb == 2) {
+        double v2m = 0.0, v2p;
+        slip_of(&sys, 1, before, &v2m, NULL);
+        slip_of(&sys, 1, S->y, &v2p, NULL);
+        say(log, LOG_EVENTS,
+            "impact t=%.17g contact=%s theta1=%.17g theta2=%.17g w1m=%.17g w2m=%.17g w1p=%.17g w2p=%.17g "
+            "slip_rate_minus=%.17g,%.17g slip_rate_plus=%.17g,%.17g",
+            S->t, k ? "interface" : "ground", S->y[EN_TH(0)], S->y[EN_TH(1)], wm, before[EN_W(1)], S->y[EN_W(0)],
+            S->y[EN_W(1)], vm, v2m, vp, v2p);
+    } else {
+        say(log, LOG_EVENTS,
+            "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
+            S->t, wm, S->y[EN_W(0)], vm, vp);
+    }
     if (negligible(M, S->t, S->y)) {
         come_to_rest(M, log, 1);
         return;
