@@ -88,7 +88,7 @@ static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger
             say(log, LOG_EVENTS, "land t=%.17g body=%d", S->t, k + 1);
         }
         /* a stack's flat contact that opens onto one corner (the rigid stack's "open") */
-        if (nb == 2 && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
+        if (nb == 2 && S->mode != MODE_REST && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
             say(log, LOG_EVENTS, "open t=%.17g contact=%s", S->t, k ? "interface" : "ground");
         /* block 1's slides in the one-block fields, block 2's in their stack counterparts */
         int *starts = k ? &S->slideStarts2 : &S->slideStarts;
@@ -329,11 +329,15 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
     for (int k = 0; k < sys.nb; k++) {
         if (touching[k][0] == touching[k][1]) continue;
         const EnBody *B = &sys.body[k];
-        double R = hypot(B->b, B->h), alpha = atan2(B->b, B->h), I0 = B->Ic + B->m * R * R;
+        /* what the rebound lifts: the body about its corner; in a stack the rigid stack's (docs/two_blocks.md),
+         * the pair about block 1's corner for the ground, block 2 about its corner for the interface */
+        double R = hypot(B->b, B->h), alpha = atan2(B->b, B->h), I0 = B->Ic + B->m * R * R, m = B->m;
+        if (sys.nb == 2 && k == 0) R = M->d.RL, alpha = M->d.alphaL, I0 = M->d.IL, m = M->d.mTot;
+        if (sys.nb == 2 && k == 1) R = M->d.RI, alpha = M->d.alphaI, I0 = M->d.II;
         double w = S->y[EN_W(k)] - (k > 0 ? S->y[EN_W(k - 1)] : 0.0);
         double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
         if (fabs(rel) > 1e-9 * alpha) continue;
-        if (!(0.5 * I0 * w * w < B->m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) continue;
+        if (!(0.5 * I0 * w * w < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) continue;
         EnMode flat = S->en;
         double vs;
         slip_of(&sys, k, S->y, &vs, NULL);
