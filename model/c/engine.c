@@ -228,6 +228,16 @@ int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah,
     return solve_set(s, m, y, a0, 1, f);
 }
 
+int engine_plastic(const EnSystem *s, const EnMode *m, double *y) {
+    double v0[EN_NQ];
+    EnForces f;
+    gather(s, y, 1, v0);
+    if (!solve_set(s, m, y, v0, 0, &f)) return 0;
+    for (int k = 0; k < s->nb; k++)
+        for (int i = 0; i < 3; i++) y[EN_VEL(s->nb, k, i)] = f.qdd[EN_Q(k, i)];
+    return 1;
+}
+
 /* The slip rate of body k's contact (along its support's top) in mode m: its closed corner's. */
 static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double *y) {
     int c = first_closed(m, k);

@@ -117,6 +117,12 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
  * solution was found. */
 int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]);
 
+/* The plastic impact onto the constraints of m (closed corners' normal rates and sticking contacts' slip
+ * rates zero, sliding contacts' friction impulses at mu of their normal ones): the rates in y become the
+ * rates after. The mass-orthogonal projection where nothing slides: it never adds kinetic energy. Returns 0
+ * if singular. */
+int engine_plastic(const EnSystem *s, const EnMode *m, double *y);
+
 /* Kinetic energy relative to the ground, and kinetic plus g times the rise of the centres (J). */
 double engine_kinetic(const EnSystem *s, const double *y);
 double engine_energy(const EnSystem *s, const double *y);

@@ -343,8 +343,13 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
         slip_of(&sys, k, S->y, &vs, NULL);
         flat.closed[k][0] = flat.closed[k][1] = 1;
         flat.sigma[k] = vs > 0 ? 1 : vs < 0 ? -1 : 0;
-        double E0 = engine_kinetic(&sys, S->y);
-        engine_project(&sys, &flat, S->y, NULL, 1);
+        double E0 = engine_kinetic(&sys, S->y), keep[NMAX];
+        memcpy(keep, S->y, sizeof(keep));
+        engine_project(&sys, &flat, S->y, NULL, 0); /* the positions exactly flat */
+        if (!engine_plastic(&sys, &flat, S->y) || engine_kinetic(&sys, S->y) > E0) { /* (the rigid stack's test) */
+            memcpy(S->y, keep, sizeof(keep));
+            continue;
+        }
         S->impactLoss += E0 - engine_kinetic(&sys, S->y);
         touching[k][0] = touching[k][1] = 1;
         stuck[k] = flat.sigma[k] == 0;
