@@ -1024,7 +1024,8 @@ static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const do
     double rate, gap;
     o.slip = slip_of(sys, k, y, &rate, &gap);
     o.slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
-    if (!over && !flying(m, k) && m->sigma[k] == 0) { /* a sticking contact stays where it stuck */
+    if (over) m = &S->enFinal; /* the contacts as the run left them */
+    if (!flying(m, k) && m->sigma[k] == 0) { /* a sticking contact stays where it stuck */
         int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
         o.slip = inStep ? S->enDenseAnchor[k] : S->enAnchor[k];
         o.slipRate = 0.0;
