@@ -342,7 +342,7 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
         double vs;
         slip_of(&sys, k, S->y, &vs, NULL);
         flat.closed[k][0] = flat.closed[k][1] = 1;
-        flat.sigma[k] = vs > 0 ? 1 : vs < 0 ? -1 : 0;
+        flat.sigma[k] = stuck[k] ? 0 : vs > 0 ? 1 : vs < 0 ? -1 : 0; /* (a contact the impact left sticking sticks) */
         double E0 = engine_kinetic(&sys, S->y), keep[NMAX];
         memcpy(keep, S->y, sizeof(keep));
         engine_project(&sys, &flat, S->y, NULL, 0); /* the positions exactly flat */
