@@ -88,7 +88,7 @@ static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger
             say(log, LOG_EVENTS, "land t=%.17g body=%d", S->t, k + 1);
         }
         /* a stack's flat contact that opens onto one corner (the rigid stack's "open") */
-        if (nb == 2 && S->mode != MODE_REST && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
+        if (nb == 2 && S->pending == EVENT_OPEN && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
             say(log, LOG_EVENTS, "open t=%.17g contact=%s", S->t, k ? "interface" : "ground");
         /* block 1's slides in the one-block fields, block 2's in their stack counterparts */
         int *starts = k ? &S->slideStarts2 : &S->slideStarts;
