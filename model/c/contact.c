@@ -114,7 +114,8 @@ void contact_rest(const Model *M, double t, int inStep, double T[2], double N[2]
     const Variables *v = &M->v;
     double ah, av;
     (void)inStep;
-    int two = contacts(M) == 2, side = contact_tipping_side(M, t);
+    /* the contact engine samples the motion it starts itself (its exit is a slip or an opening) */
+    int two = contacts(M) == 2, side = v->contactModel == 1 ? 0 : contact_tipping_side(M, t);
     /* The ground tips the body at this very instant (a step of the excitation, or one at the
      * start): it does not stay at rest, so the contacts carry the reactions of the motion that
      * starts from theta = omega = 0 (a stack in the pattern it starts in), not those of a body

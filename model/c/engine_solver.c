@@ -338,11 +338,15 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
         double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
         if (fabs(rel) > 1e-9 * alpha) continue;
         if (!(0.5 * I0 * w * w < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) continue;
+        /* the contacts as the impact left them (touching, sticking where it stuck), body k's closed flat */
         EnMode flat = S->en;
-        double vs;
-        slip_of(&sys, k, S->y, &vs, NULL);
-        flat.closed[k][0] = flat.closed[k][1] = 1;
-        flat.sigma[k] = stuck[k] ? 0 : vs > 0 ? 1 : vs < 0 ? -1 : 0; /* (a contact the impact left sticking sticks) */
+        for (int j = 0; j < sys.nb; j++) {
+            double vs;
+            slip_of(&sys, j, S->y, &vs, NULL);
+            flat.closed[j][0] = touching[j][0] || j == k;
+            flat.closed[j][1] = touching[j][1] || j == k;
+            flat.sigma[j] = stuck[j] ? 0 : vs > 0 ? 1 : vs < 0 ? -1 : 0;
+        }
         double E0 = engine_kinetic(&sys, S->y), keep[NMAX];
         memcpy(keep, S->y, sizeof(keep));
         engine_project(&sys, &flat, S->y, NULL, 0); /* the positions exactly flat */
