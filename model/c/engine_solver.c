@@ -236,7 +236,11 @@ static int negligible(const Model *M, double t, const double *y) {
     double m = M->v.mass + (two ? M->v.mass2 : 0.0);
     EnSystem sys;
     engine_system(M, &sys);
-    return engine_kinetic(&sys, y) < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha));
+    if (!(engine_kinetic(&sys, y) < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) return 0;
+    if (!two) return 1;
+    /* and block 2's rocking on block 1 as the rigid stack settles it: about its corner, to restRatio of alphaI */
+    double w = y[EN_W(1)] - y[EN_W(0)], aI = M->d.alphaI;
+    return 0.5 * M->d.II * w * w < M->v.mass2 * geff * M->d.RI * (cos(aI - M->v.restRatio * aI) - cos(aI));
 }
 
 /* The restitution law on the plastic impact's rates (kineticBefore: the kinetic energy before the impact,
