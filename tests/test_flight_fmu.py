@@ -55,6 +55,24 @@ def test_the_squat_block_slides_flies_and_lands_as_the_reference_at_any_communic
         assert got == pytest.approx(when, abs=1e-9), (kind, kinds)
 
 
+def test_a_squat_stack_slides_flies_and_lands_as_one_body(fmu, squat_reference):
+    """The same pulse under a squat stack (a low box on the squat block, friction enough at the interface):
+    the pair slides, flies and lands flat as one body, so block 1's slip and gap are the one-block
+    solution's to 1e-9 m, and block 2 never moves on block 1 (slip, gap and relative rotation 0)."""
+    stack = {**SQUAT, "nBlocks": 2, "block2.halfWidth": 0.25, "block2.halfHeight": 0.1, "block2.mass": 0.5,
+             "block2.theta0": 0.0, "contact.muInterface": 1.0, "contact.muGround": 0.3}
+    outputs = ["block1.slip", "block1.gap", "block1.flights", "block2.slip", "block2.gap", "block1.theta",
+               "block2.theta", "block2.maxAbsSlip", "block2.maxGap", "overturned", "block2.fellOff"]
+    r = fmu.run({**stack, **PULSE}, 1.0, 0.01, outputs)
+    s, ref = r.outputs, squat_reference
+    assert np.abs(s["block1.slip"] - np.interp(r.time, ref.t, ref.slip)).max() <= 1e-9
+    assert np.abs(s["block1.gap"] - np.interp(r.time, ref.t, ref.gap)).max() <= 1e-9
+    assert s["block1.flights"][-1] == 1 and ref.gap.max() > 1e-3
+    assert s["block2.maxAbsSlip"][-1] <= 1e-12 and s["block2.maxGap"][-1] <= 1e-12
+    assert np.abs(s["block1.theta"]).max() == 0.0 and np.abs(s["block2.theta"]).max() == 0.0
+    assert s["overturned"][-1] == 0 and s["block2.fellOff"][-1] == 0
+
+
 def test_flight_is_the_ballistic_closed_form(fmu):
     """From rest under a_v = -20 m/s2 (an input) plus a sine pulse, the block flies at once, flat:
     X'' = -a_h, Y'' = -(g + a_v), integrated twice in closed form, to 1e-12 m."""
