@@ -123,7 +123,7 @@ SQUAT_BOX = {**SLIDING, "block2.halfWidth": 0.25, "block2.halfHeight": 0.3, "blo
 
 @pytest.mark.parametrize("stack, amplitude, frequency, case", [
     (SQUAT_BOX, 6.0, 0.5, "falls-off"), (SLIDING, 6.0, 2.0, "overturns"), (SLIDING, 6.0, 1.0, "rocks"),
-    (SLIDING, 6.0, 0.5, "slide-rocks")])
+    ({**SLIDING, "contact.muInterface": 0.22}, 3.5, 1.5, "slide-rocks")])
 def test_a_sliding_stack_run_summarises_and_stores_each_contact_as_the_fmu_does(tmp_path, fmu_path, stack, amplitude,
                                                                                  frequency, case):
     names = FINAL + SLIP + ["block1.theta", "block2.theta", "liftTime"]
@@ -164,13 +164,8 @@ def test_a_sliding_stack_run_summarises_and_stores_each_contact_as_the_fmu_does(
     lines = r.report.splitlines()
     upper = next(line for line in lines if line.startswith("block 2 (")).split()
     assert upper[2] == f"({motions[1]})"
-    theta1 = np.asarray(res["block1.theta"])
-    moving = np.flatnonzero(np.diff(theta1) != 0)  # the run ends (state frozen) at an overturn, fall-off or flight
-    assert (r.summary["final_state"] == "flight") == (case == "slide-rocks")  # this scene's run ends in flight
-    if case == "slide-rocks":  # a contact would have had to pull: the run ended there, the state frozen
-        assert out["liftTime"] >= 0 and not fell and not out["block1.overturned"] and not out["block2.overturned"]
-        assert res["time"][moving[-1]] <= r.summary["flight_time_s"] <= res["time"][moving[-1] + 1] + 1e-12
-        assert res["time"][moving[-1]] < STOP - 1.0
+    # the contact engine follows flight: no run ends outside the model
+    assert r.summary["final_state"] != "flight" and out["liftTime"] < 0
     if fell:
         assert f"fell off block 1 at t = {out['block2.fellOffTime']:.4f} s" in " ".join(upper)
         outcome = next(line for line in lines if line.startswith("outcome"))
@@ -233,6 +228,7 @@ def test_fragility_and_ida_of_a_sliding_stack_count_each_block_and_damage_state_
     doc = json.loads(p.stdout)
     assert doc["damage_states"] == ["block2:overturn", "block2:falloff", "block1:slide>0.05m", "block1:overturn"]
     flights = sum(o["liftTime"] >= 0 for o in fmu.values())
+    assert flights == 0  # the contact engine follows flight: every run of the study is answered
     for state, curve in zip(STATES, doc["curves"]):
         assert curve["reached"] == counts[state], state
         for pt in curve["points"]:

@@ -189,11 +189,20 @@ def test_block_two_falls_off_and_that_is_not_an_overturn(fmu):
     t_off = o["block2.fellOffTime"][-1]
     assert 0 < t_off < 3 and [e.t for e in res.events if e.kind == "fell-off"] == [t_off]
     assert o["block2.mode"][-1] == 5
-    # it left when its centre was mu_i h2 short of block 1's edge while sliding with deceleration mu_i g
-    # (docs/stack_sliding.md, "Falling off"): |u2| = b1 - mu_i h2, to the located event
-    b1, h2 = SQUAT_TOP[0], SQUAT_TOP[4]
-    i = np.searchsorted(res.time, t_off) - 1
-    assert abs(o["block2.slip"][i]) <= b1 - 0.1 * h2 + 1e-9
+
+
+def test_a_sliding_block_two_falls_off_where_its_normal_forces_resultant_reaches_the_edge(fmu):
+    """Block 2 sliding flat on a plinth that does not move (wide and heavy) leaves it when the resultant of
+    its normal forces reaches the plinth's edge, not when its corner passes the edge: sliding, its
+    friction mu_i N at depth h2 puts the resultant mu_i h2 ahead of its centre (docs/stack_sliding.md,
+    "Falling off"), so it falls off at |u2| = b1 - mu_i h2, to the located event."""
+    b1, h2, mu_i = 0.6, 0.3, 0.1
+    geom = (b1, 0.2, 5000.0, 0.25, h2, 100.0)
+    res = run(fmu, {**stack_params(geom, 5.0, mu_i), **pulse(6.0, 0.5)}, 3.0)
+    (off,) = [e for e in res.events if e.kind == "fell-off"]
+    assert abs(off.values["u2"]) == pytest.approx(b1 - mu_i * h2, abs=1e-9)
+    assert abs(off.values["u2"]) > b1 - 0.25 + 0.1  # well past the instant its corner left the top
+    assert np.all(res.outputs["block1.theta"] == 0.0)
 
 
 # ---------------------------------------------------------------- the independent solver

@@ -123,7 +123,7 @@ STACK = {"nBlocks": 2, "block1.theta0": 0.05, "block2.theta0": -0.08, "block2.ha
          "block2.halfHeight": 0.2, "block1.mass": 10.0, "block2.mass": 5.0}
 SLIDING = {"contact.model": 1, "contact.muGround": 0.35, "block1.halfWidth": 0.15, "block1.halfHeight": 0.45,
            "excitation.kind": 1, "excitation.amplitude": 6.0, "excitation.frequency": 1.5}
-STACK_SLIDING = {**STACK, "contact.model": 1, "contact.muGround": 0.5, "contact.muInterface": 0.5}
+STACK_SLIDING = {**STACK, "block2.halfWidth": 0.08, "contact.model": 1, "contact.muGround": 0.5, "contact.muInterface": 0.5}
 
 
 @pytest.mark.parametrize("scene", ["stack", "rocking-sliding", "rocking-sliding stack", "record"])

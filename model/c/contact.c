@@ -223,8 +223,8 @@ static void contact_sample(Model *M, double t, const double T[2], const double N
             int rigid = M->v.contactModel != 1;
             if (rigid && S->slideTime < 0 && Nc > 0) first_violation(M, 0, c, t, T, N, path, log);
             if (rigid && S->slideTime < 0 && Nc <= 0) slide_before_lift(M, c, t, path, log);
-            /* the contact engine (rocking-sliding, one block) follows flight: no lift-off to flag */
-            int flies = M->v.contactModel == 1 && M->v.nBlocks != 2;
+            /* the contact engine (rocking-sliding) follows flight: no lift-off to flag */
+            int flies = M->v.contactModel == 1;
             if (!flies && S->liftTime < 0 && Nc < 0) first_violation(M, 1, c, t, T, N, path, log);
         }
         S->monTr[c] = T[c];

@@ -278,6 +278,39 @@ double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double
     return wdot(p.wN, Minv, col, nq) / wdot(p.wN, Minv, p.wN, nq);
 }
 
+int engine_beyond_edge(const EnSystem *s, int k, double xi) {
+    return fabs(xi) > s->body[k - 1].b * (1.0 + EN_EDGE_MARGIN);
+}
+
+/* Block k (k > 0) leaving its support's top: on one corner, where that corner slides past the support's
+ * edge; flat with a corner beyond the edge (its base overhangs), where the resultant of its normal forces
+ * reaches the edge (it would tip about the edge: the pressure under it lies on the support's top, the
+ * corner forces stand for it while their resultant lies there). Always one indicator (1 where there is
+ * nothing to watch), so that each keeps its place along a step. */
+static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const double *y, const EnForces *f,
+                          double *ind, int *kind, int *body, int *corner) {
+    double b = s->body[k - 1].b;
+    EnPoint p[2];
+    for (int i = 0; i < 2; i++) engine_point(s, k, 2 * i - 1, y, &p[i]);
+    int closed = m->closed[k][0] + m->closed[k][1];
+    if (closed == 1 && m->sigma[k]) {
+        int i = m->closed[k][1];
+        *ind = (b * (1.0 + EN_EDGE_MARGIN) - fabs(p[i].xi)) / b;
+        *corner = 2 * i - 1;
+    } else if (closed == 2 && (engine_beyond_edge(s, k, p[0].xi) || engine_beyond_edge(s, k, p[1].xi))) {
+        double N = f->N[k][0] + f->N[k][1];
+        double xr = N > 0 ? (f->N[k][0] * p[0].xi + f->N[k][1] * p[1].xi) / N : 0.0;
+        *ind = (b - fabs(xr)) / b;
+        *corner = xr > 0 ? 1 : -1;
+    } else { /* nothing to watch: a value that never crosses (the indicators keep their places in a step) */
+        *ind = 1.0;
+        *corner = 1;
+    }
+    *kind = EN_IND_FELL_OFF;
+    *body = k;
+    return 1;
+}
+
 int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
                       int *kind, int *body, int *corner) {
     int n = 0, nb = s->nb;
@@ -301,19 +334,12 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
                 engine_point(s, k, 2 * i - 1, y, &p);
                 ind[n] = p.g / R;
                 /* beyond its support's edge a corner that comes down falls past it */
-                kind[n] = k > 0 && fabs(p.xi) > s->body[k - 1].b ? EN_IND_FELL_OFF : EN_IND_LAND;
+                kind[n] = k > 0 && engine_beyond_edge(s, k, p.xi) ? EN_IND_FELL_OFF : EN_IND_LAND;
             }
             body[n] = k;
             corner[n++] = 2 * i - 1;
-            if (k > 0 && m->closed[k][i]) { /* a closed corner leaves its support's top at its edge */
-                EnPoint p;
-                engine_point(s, k, 2 * i - 1, y, &p);
-                ind[n] = (s->body[k - 1].b - fabs(p.xi)) / s->body[k - 1].b;
-                kind[n] = EN_IND_FELL_OFF;
-                body[n] = k;
-                corner[n++] = 2 * i - 1;
-            }
         }
+        if (k > 0) n += edge_indicator(s, m, k, y, f, ind + n, kind + n, body + n, corner + n);
         if (c && m->sigma[k] == 0) {
             ind[n] = (s->mu[k] * (f->N[k][0] + f->N[k][1]) - fabs(f->T[k])) / W;
             kind[n] = EN_IND_SLIP;
@@ -380,11 +406,12 @@ static const EnPoint *friction_point(const Candidates *c, int k) {
 }
 
 /* Assemble the Pfeiffer-Glocker problem: unknowns z = (normal forces (nc), lambda0+ (ns),
- * tangential a- (ns)), w = (normal accelerations, tangential a+, lambda0-); forces in units
- * of fu, accelerations (or rates) in units of au. base[q]: the free motion's generalised
+ * tangential a- (ns)), w = (normal accelerations, tangential a+, lambda0-); the forces of
+ * body k's contact in units of fu[k] (each contact's own scale: a light block 2 on a heavy block 1
+ * keeps its digits), accelerations (or rates) in units of au. base[q]: the free motion's generalised
  * acceleration (or rate); sig[k] the given sigma of a sliding body (0 for friction unknowns). */
 static int assemble(const EnSystem *s, const Candidates *c, const double *Minv, const double *base,
-                    const int *sig, double fu, double au, double *A, double *q) {
+                    const int *sig, const double *fu, double au, double *A, double *q) {
     int nc = c->nc, ns = c->ns, n = nc + 2 * ns, nq = 3 * s->nb;
     double col[EN_CORNERS + EN_MAX_BODIES][EN_NQ];
     double row[EN_CORNERS + EN_MAX_BODIES][EN_NQ];
@@ -406,7 +433,8 @@ static int assemble(const EnSystem *s, const Candidates *c, const double *Minv, 
         double b = 0.0;
         for (int q2 = 0; q2 < nq; q2++) b += row[i][q2] * base[q2];
         q[i] = b / au;
-        for (int j = 0; j < nc + ns; j++) A[i * n + j] = wdot(row[i], Minv, col[j], nq) * fu / au;
+        for (int j = 0; j < nc + ns; j++)
+            A[i * n + j] = wdot(row[i], Minv, col[j], nq) * fu[j < nc ? c->k[j] : c->sk[j - nc]] / au;
     }
     for (int t = 0; t < ns; t++) {
         int r = nc + t, k = c->sk[t];
@@ -441,8 +469,8 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
         sig[k] = p ? (p->xid > 0 ? 1 : p->xid < 0 ? -1 : 0) : 0;
     }
     double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
-    double fu = s->weight[0], au = s->g;
-    int n = assemble(s, &c, Minv, a0, sig, fu, au, A, q);
+    double au = s->g;
+    int n = assemble(s, &c, Minv, a0, sig, s->weight, au, A, q);
     add_bias(&c, au, q);
     memset(out, 0, sizeof(*out));
     int status = n ? lcp_solve(n, A, q, z, w, NULL) : LCP_SOLVED;
@@ -471,12 +499,10 @@ int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], 
     double Minv[EN_NQ], fext[EN_NQ], v0[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     gather(s, y, 1, v0);
-    double Rmax = 0.0, mtot = 0.0;
-    for (int k = 0; k < nb; k++) {
-        Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
-        mtot += s->body[k].m;
-    }
-    double vu = sqrt(s->g * Rmax), pu = mtot * vu;
+    double Rmax = 0.0;
+    for (int k = 0; k < nb; k++) Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
+    double vu = sqrt(s->g * Rmax), pu[EN_MAX_BODIES];
+    for (int k = 0; k < nb; k++) pu[k] = s->weight[k] / s->g * vu; /* the momentum of what contact k carries */
     int sig[EN_MAX_BODIES] = {0};
     double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
     int n = assemble(s, &c, Minv, v0, sig, pu, vu, A, q);

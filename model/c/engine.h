@@ -68,6 +68,14 @@ typedef struct {
     double T[EN_MAX_BODIES];
 } EnForces;
 
+/* A corner of body k (k > 0) at xi along its support's top lies beyond the support's edge: by more than
+ * EN_EDGE_MARGIN of the support's half width (far above the rounding of positions, far below any size of
+ * the bodies), so that a block 2 as wide as block 1, whose corners sit on block 1's edges, is not pushed
+ * off by rounding. A sticking corner keeps its place exactly (its slip is anchored); a sliding one is
+ * watched by an indicator that turns negative there. */
+#define EN_EDGE_MARGIN 1e-9
+int engine_beyond_edge(const EnSystem *s, int k, double xi);
+
 /* The system of the model's parameters (one block, or a stack of two). */
 void engine_system(const Model *M, EnSystem *s);
 

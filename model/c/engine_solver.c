@@ -374,7 +374,7 @@ static void impact(Model *M, const Logger *log) {
     if (k > 0) {
         EnPoint p;
         engine_point(&sys, k, 2 * i - 1, S->y, &p);
-        if (fabs(p.xi) > sys.body[k - 1].b) { /* it comes down beyond block 1's edge */
+        if (engine_beyond_edge(&sys, k, p.xi)) { /* it comes down beyond block 1's edge */
             fell_off(M, log);
             return;
         }
