@@ -110,16 +110,25 @@ def test_the_rigid_stacks_monitors_name_the_contact_that_slid_first(fmu_path, pa
         f"t = {rigid['slideTime']:.6g} s): the {contact} contact decides, rocking-sliding stack used")
 
 
-def test_a_stack_that_lifts_off_first_is_no_case_for_sliding(fmu_path):
-    """Flight is outside every model: a stack whose contact lifts off before any slide keeps its
-    rigid answer, NOT SUFFICIENT (a vertical pulse beyond g)."""
+def test_a_stack_that_lifts_off_first_runs_the_rocking_sliding_stack_which_follows_the_flight(fmu_path):
+    """A stack whose contact lifts off before any slide (a vertical pulse beyond g): the rocking-sliding
+    stack follows the flight and the landing, so auto runs it, naming the contact that lifted, and calls it
+    sufficient; the pair flies and lands and nothing is left to a lift-off flag."""
     fly = {**FREE_PAIR, "block1.theta0": 0.0, "block2.theta0": 0.0, "excitation.kind": 1,
            "excitation.amplitude": 0.0, "excitation.verticalAmplitude": -15.0, "excitation.frequency": 2.0,
            "excitation.cycles": 1.0}
     rigid = rigid_monitors(fmu_path, fly, 1.0)
     assert rigid["liftTime"] >= 0 and (rigid["slideTime"] < 0 or rigid["liftTime"] <= rigid["slideTime"])
-    s = simulate(fly, fmu_path, stop_time=1.0).summary
-    assert s["model"] == "two blocks" and s["model_sufficient"] is False and "sliding_contact" not in s
+    r = simulate(fly, fmu_path, stop_time=1.0)
+    s = r.summary
+    assert s["model"] == "rocking-sliding stack" and s["model_sufficient"] is True
+    contact = s["sliding_contact"]
+    assert contact in ("ground", "interface")
+    assert s["model_reason"].startswith(f"the {contact} contact lifts off")
+    assert f"at t = {rigid['liftTime']:.6g} s" in s["model_reason"]
+    assert s["model_reason"].endswith("rocking-sliding stack, which follows flight and the landing, used")
+    assert s["assumptions"]["lifts"] is None and r.parameters["contact.model"] == 1
+    assert sum(b.get("flights", 0) for b in s["per_block"]) >= 1  # it flew, and the run went on
 
 
 @pytest.mark.parametrize("params, contact", [(PLINTH, "ground"), (SQUAT_STATUE, "interface")])
@@ -134,7 +143,7 @@ def test_auto_on_a_sliding_stack_runs_the_rocking_sliding_stack_and_says_which_c
     assert s["rigid_rocking_assumptions"]["slides"]["t_s"] == pytest.approx(rigid["slideTime"], abs=1e-12)
     assert r.parameters["contact.model"] == 1 and r.parameters["nBlocks"] == 2
     assert s["assumptions"].get("sliding_modelled") is True and s["model_sufficient"] is True
-    assert "model check      sufficient: rocking-sliding held" in r.report
+    assert "model check      sufficient: rocking-sliding follows sliding and flight" in r.report
     # the contact that decided is the one that slides in the rocking-sliding stack's run, from the same instant
     block = "block1" if contact == "ground" else "block2"
     assert r.series[f"{block}.maxAbsSlip"].to_numpy()[-1] > 1e-4

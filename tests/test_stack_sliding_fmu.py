@@ -379,3 +379,19 @@ def test_serialized_states_in_every_mode_continue_as_the_run_did(fmu_path):
     s.terminate()
     s.freeInstance()
     assert {(0, 0), (2, 0), (2, 2), (0, 2), (0, 3), (0, 4)} <= seen, seen  # rest, rocking, the statue slide-rocks, overturned
+
+
+def test_the_marble_pulse_overturns_block_two_at_the_same_time_at_every_tolerance(fmu):
+    """The marble statue on its plinth under a 6 m/s2, 1.5 Hz one-sine pulse: block 2 overturns (and
+    nothing else happens to the stack) at every solver.relTol from 1e-4 to 1e-12, at the time of the
+    tightest run to 1e-2 s from 1e-4 to 1e-6 and to 1e-5 s below."""
+    params = {**stack_params(STATUE, 0.5, 0.5), **pulse(6.0, 1.5)}
+    outs = ["block2.overturned", "block1.overturned", "block2.fellOff", "overturnTime"]
+    runs = {tol: fmu.run({**params, "solver.relTol": tol, "solver.absTol": 1e-14}, 4.0, 0.01, outs).outputs
+            for tol in (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)}
+    ref = runs[1e-12]["overturnTime"][-1]
+    assert 1.9 < ref < 2.1
+    for tol, o in runs.items():
+        final = {k: o[k][-1] for k in outs}
+        assert (final["block2.overturned"], final["block1.overturned"], final["block2.fellOff"]) == (1, 0, 0), tol
+        assert abs(final["overturnTime"] - ref) <= (1e-2 if tol >= 1e-6 else 1e-5), tol

@@ -82,7 +82,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 def _model_of(assumptions: dict) -> str:
     """The contact model whose assumptions a summary's ``assumptions`` checked."""
-    return "rocking-sliding (flight is outside it)" if assumptions.get("sliding_modelled") else "rigid rocking"
+    return "rocking-sliding" if assumptions.get("sliding_modelled") else "rigid rocking"
 
 
 STRICT_EXIT = 4  # runners simulate --strict or --method auto: the run finished, but its assumptions did not hold

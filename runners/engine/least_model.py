@@ -40,9 +40,8 @@ naming the contact whose slide decided it:
    interface (block 2 on block 1: friction.demandMaxInterface above contact.muInterface), the
    first slide's contact (slideTime and its event) deciding.
 
-One block's rocking-sliding also follows flight (its contact engine, docs/flight.md): a one-block
-scene whose block lifted off first is run with it too. A stack whose contact lifts off first stays
-NOT SUFFICIENT: the stack's rocking-sliding model has no flight yet.
+Rocking-sliding also follows flight (its contact engine, docs/flight.md): a scene whose block, or
+either contact of a stack, lifted off first is run with it too, the contact that lifted naming it.
 """
 
 from __future__ import annotations
@@ -109,14 +108,15 @@ def sliding_contact(s: dict[str, Any], p: dict[str, Any]) -> str | None:
     after the rigid-rocking answer `s` (a summary with the rigid model's ``assumptions``, of the
     rigid stack's monitors for a stack) of a scene of merged parameters `p`; None when auto keeps
     it: rigid rocking's outcome held (nothing slid or lifted off, or only during the overturning
-    fall, after fallTime), or what broke a stack first was flight (outside the stack's models).
-    One block's lift-off names the ground: its rocking-sliding follows the flight."""
+    fall, after fallTime). A lift-off first names its contact (one block's: the ground): rocking-sliding
+    follows the flight."""
     a = s.get("assumptions")
     if a is None or a.get("sliding_modelled") or a["outcome_held"]:
         return None
     slide, lift = a["slides"], a["lifts"]
     if lift is not None and (slide is None or lift["t_s"] <= slide["t_s"]):
-        return "ground" if int(p.get("nBlocks", 1)) != 2 else None
+        contact = lift.get("contact", "ground") if int(p.get("nBlocks", 1)) == 2 else "ground"
+        return contact if contact in CONTACT_WORDS else None
     if slide is None:
         return None
     contact = slide["contact"]
@@ -134,9 +134,11 @@ def rocking_sliding_reason(s: dict[str, Any], p: dict[str, Any]) -> str | None:
         return None
     a, stack = s["assumptions"], int(p.get("nBlocks", 1)) == 2
     slide, lift = a["slides"], a["lifts"]
-    if not stack and lift is not None and (slide is None or lift["t_s"] <= slide["t_s"]):
-        why = (f"the block lifts off the ground at t = {lift['t_s']:.6g} s (its normal force would have to pull): "
-               "rocking-sliding, which follows flight and the landing, used")
+    if lift is not None and (slide is None or lift["t_s"] <= slide["t_s"]):
+        who = (f"the {contact} contact lifts off" + (" (block 2 leaves block 1's top)" if contact == "interface" else "")
+               if stack else "the block lifts off the ground")
+        why = (f"{who} at t = {lift['t_s']:.6g} s (its normal force would have to pull): "
+               f"rocking-sliding{' stack' if stack else ''}, which follows flight and the landing, used")
         if int(p.get("solver.method", 0)) == 1:
             why += " (integrated by dormand-prince: taylor integrates rigid rocking only)"
         return why

@@ -124,8 +124,10 @@ class Outcomes:
         overturning: the text says how many."""
         if self.broke is None or self.fall_t is None or self.lift_t is None:
             return np.zeros(len(self.x), bool)
+        # where the model stopped: rigid rocking at the first slide or lift-off, rocking–sliding at a lift-off
+        stop = self.lift_t if self.sliding or self.slide_t is None else np.fmin(self.slide_t, self.lift_t)
         with np.errstate(invalid="ignore"):
-            return np.asarray(self.broke, bool) & (self.fall_t < self.lift_t)
+            return np.asarray(self.broke, bool) & (self.fall_t < stop)
 
     def parameters_text(self) -> str:
         """The contact model, its mu, the restitution and any one-value --grid override, from
@@ -153,8 +155,8 @@ class Outcomes:
             return None
         if self.sliding:
             if not self.n_broke:
-                return (f"held in all {len(self.x)} runs: {'no contact' if self.two else 'the block never'} lifted off "
-                        "before the outcome was decided")
+                return (f"held in all {len(self.x)} runs: rocking–sliding follows sliding, rocking and flight "
+                        "(docs/flight.md)")
             return (f"did not hold in {self.n_broke} of {len(self.x)} runs: {'a contact' if self.two else 'the block'} "
                     "lifted off (flight, outside the rocking–sliding model) before the outcome was decided "
                     "(docs/contact.md)")

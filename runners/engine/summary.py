@@ -70,6 +70,10 @@ STACK_SLIDING_OUTPUTS = SLIDING_OUTPUTS + (
     "block2.slides",  # stick-to-slip transitions
     "block2.fellOff",  # block 2 left block 1's top
     "block2.fellOffTime",  # s, -1 if it never fell off
+    "block2.gap",  # m, block 2's lowest corner above block 1's top (0 touching)
+    "block2.maxGap",  # m
+    "block2.flightTime",  # s in flight
+    "block2.flights",  # take-offs from block 1
 )
 
 
@@ -202,10 +206,6 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         summary["per_block"] = block_outcomes({name: values[-1] for name, values in out.items()}, p, sliding)
         if sliding and summary["per_block"][1]["fell_off"] and not overturned:
             summary["final_state"] = "block 2 fell off"
-        flight = next((e for e in result.events if e.kind == "flight"), None)
-        if sliding and flight is not None and not overturned and not summary["per_block"][1]["fell_off"]:
-            # a normal force would have had to pull: the rocking-sliding stack's run ends there
-            summary["final_state"], summary["flight_time_s"] = "flight", float(flight.t)
     ended = run_end(summary, excitation_end(p) if int(p["excitation.kind"]) else 0.0)  # (a record's end: run_summary)
     if ended is not None:
         summary["run_end"] = ended
@@ -239,6 +239,9 @@ def block_outcomes(final: dict[str, Any], p: dict[str, Any], sliding: bool) -> l
                      residual_slip_m=cols["residual_slip"], slide_start_time_s=cols["slide_time"],
                      slide_duration_s=cols["slide_duration"], slide_count=int(final[f"block{i}.slides"]),
                      final_mode=MODES.get(mode, str(mode)), friction_loss_J=float(final[f"block{i}.frictionLoss"]))
+            if f"block{i}.flights" in final:  # (its flights: block 1 off the ground, block 2 off block 1)
+                b.update(flights=int(final[f"block{i}.flights"]), flight_time_s=float(final[f"block{i}.flightTime"]),
+                         max_gap_m=float(final[f"block{i}.maxGap"]))
             if i == 2:
                 fell = bool(final["block2.fellOff"])
                 t = float(final["block2.fellOffTime"])
@@ -410,14 +413,15 @@ def format_assumptions(a: dict[str, Any]) -> str:
 
 
 def _rocking_sliding_assumptions(a: dict[str, Any]) -> str:
-    """format_assumptions of a rocking-sliding run: sliding is modelled, and one block's flight too (the
-    stack's flight is not)."""
-    if "mu_interface" not in a:
-        return (f"held: sliding and flight are part of the model (rocking-sliding, {mu_text(a)}; least normal "
-                f"force {a['normal_min_ground']:.3g} of the weight)")
-    if a["held"]:
-        return (f"held: no flight (normal force at least {a['normal_min_ground']:.3g} of the weight); sliding is "
-                f"part of the model (rocking-sliding, {mu_text(a)})")
+    """format_assumptions of a rocking-sliding run: sliding and flight are part of its model (the contact
+    engine, docs/flight.md), one block or a stack; a run the FMU flagged with a lift-off (a build before
+    the engine followed a stack's flight) did not hold from there."""
+    if a["lifts"] is None:
+        text = (f"held: sliding and flight are part of the model (rocking-sliding, {mu_text(a)}; least normal "
+                f"force {a['normal_min_ground']:.3g} of the weight")
+        if "mu_interface" in a:
+            text += f", between the blocks {a['normal_min_interface']:.3g} of block 2's weight"
+        return text + ")"
     if a.get("outcome_held"):
         return (f"held until the overturning fall (from t = {a['fall_time_s']:.6g} s), which then {violations(a)}: "
                 "the block fell either way")
@@ -438,10 +442,8 @@ def model_check_line(s: dict[str, Any]) -> str:
     rigid rocking's monitors said the block slid) answers for the scene."""
     a = s["assumptions"]
     if a.get("sliding_modelled"):
-        if s["model_sufficient"] and "mu_interface" not in a:
-            return "model check      sufficient: rocking-sliding follows sliding and flight (docs/flight.md)"
         if s["model_sufficient"]:
-            return "model check      sufficient: rocking-sliding held (no flight) until the outcome was decided"
+            return "model check      sufficient: rocking-sliding follows sliding and flight (docs/flight.md)"
         return ("model check      NOT SUFFICIENT: no model here answers for this scene: the block "
                 f"{violations(a)}, and flight is outside both rigid rocking and rocking-sliding (docs/contact.md)")
     if s["model_sufficient"]:
@@ -519,9 +521,6 @@ def format_summary(s: dict[str, Any]) -> str:
             which = ("block 1 (taking block 2 with it)" if fell == [1, 2] and _with_block1(s) else
                      " and ".join(f"block {i}" for i in fell))
             outcome = f"{which} overturned at t = {s['overturn_time_s']:.4f} s"
-        elif s["final_state"] == "flight":
-            outcome = (f"flight at t = {s['flight_time_s']:.4f} s: a contact would have had to pull, which is outside "
-                       "the model; the run ended there")
         elif s["final_state"] == "block 2 fell off":
             t = s["per_block"][1]["fell_off_time_s"]
             outcome = "block 2 fell off block 1" + ("" if t is None else f" at t = {t:.4f} s")
@@ -573,8 +572,7 @@ def simulated_line(s: dict[str, Any]) -> str:
 def run_end(s: dict[str, Any], excitation_end: float | None) -> dict[str, Any] | None:
     """When (``t_s``, s) and why (``why``) the run of summary `s` stopped following the motion
     (``run_ended``: a block overturned and lies on its side, block 2 fell off block 1, for which
-    the model has no contact, or flight ended a rocking-sliding stack's run; the outputs keep their
-    values after), or the motion ended at rest after the excitation ended (`excitation_end`, s;
+    the model has no contact; the outputs keep their values after), or the motion ended at rest after the excitation ended (`excitation_end`, s;
     None while it goes on, 0 for none). None otherwise."""
     if s.get("overturned") and s.get("overturn_time_s") is not None:
         fell = s.get("overturned_blocks") or [1]
@@ -584,9 +582,6 @@ def run_end(s: dict[str, Any], excitation_end: float | None) -> dict[str, Any] |
     upper = (s.get("per_block") or [{}, {}])[1]
     if upper.get("fell_off") and upper.get("fell_off_time_s") is not None:
         return {"t_s": upper["fell_off_time_s"], "why": "block 2 fell off block 1 (the model has no contact for it)",
-                "run_ended": True}
-    if s.get("final_state") == "flight":
-        return {"t_s": s["flight_time_s"], "why": "in flight (a contact would have had to pull: outside the model)",
                 "run_ended": True}
     rest = s.get("rest_time_s")
     if rest is not None and excitation_end is not None and excitation_end <= rest:
@@ -645,7 +640,8 @@ def block_lines(s: dict[str, Any]) -> list[str]:
     """A rocking-sliding stack's summary: one line per block, what it did on what it stands on
     (block 1 on the ground, block 2 on block 1: its slips relative to block 1); none for a rigid stack."""
     return [f"block {b['block']} ({b['motion']}) {'on the ground' if b['block'] == 1 else 'on block 1'}: "
-            f"{sliding_story(b)}" for b in s.get("per_block") or () if "motion" in b]
+            f"{sliding_story(b)}" + (f"; {flight_story(b)}" if flight_story(b) else "")
+            for b in s.get("per_block") or () if "motion" in b]
 
 
 def peak_line(s: dict[str, Any]) -> str:

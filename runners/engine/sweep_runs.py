@@ -2,7 +2,8 @@
 
 A run's model answered it when the model's own assumptions held until the run's outcome was
 decided (runners.engine.summary.outcome_held): for rigid rocking, no contact slid or lifted off
-first; for rocking–sliding, no contact lifted off first (flight is outside that model). Maps and
+first; rocking–sliding follows sliding and flight, and holds (a lift-off flag there comes only from
+an FMU built before its stack followed flight). Maps and
 studies mark the runs it did not answer (docs/contact.md).
 """
 
