@@ -382,13 +382,16 @@ static void impact(Model *M, const Logger *log) {
     EnMode land = S->en;
     land.closed[k][i] = 1;
     /* the other corners within the integrator's resolution of their support land with it (a body that
-     * flies flat lands flat): gaps below 100 max(relTol, absTol) R */
-    double tol = 100.0 * fmax(M->v.relTol, M->v.absTol) * M->d.R;
+     * flies flat lands flat): approaching corners with gaps below 100 max(relTol, absTol) R; and every
+     * corner at zero gap to rounding, approaching or not (one that opened at this instant, in a cascade of
+     * impacts: the impact's complementarity problem keeps it open if it separates, and does not leave it
+     * to land again at once) */
+    double tol = 100.0 * fmax(M->v.relTol, M->v.absTol) * M->d.R, zero = 64.0 * DBL_EPSILON * M->d.R;
     for (int j = 0; j < sys.nb; j++)
         for (int c = 0; c < 2; c++) {
             EnPoint p;
             engine_point(&sys, j, 2 * c - 1, S->y, &p);
-            if (!land.closed[j][c] && p.g <= tol && p.gd <= 0) land.closed[j][c] = 1;
+            if (!land.closed[j][c] && ((p.g <= tol && p.gd <= 0) || p.g <= zero)) land.closed[j][c] = 1;
         }
     engine_project(&sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
     for (int j = 0; j < sys.nb; j++) {
