@@ -475,7 +475,9 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
     memset(out, 0, sizeof(*out));
     int status = n ? lcp_solve(n, A, q, z, w, NULL) : LCP_SOLVED;
     if (status != LCP_SOLVED) return 1;
-    for (int j = 0; j < c.nc; j++) out->closed[c.k[j]][c.i[j]] = z[j] > 0.0 || w[j] == 0.0;
+    /* a corner that carries nothing and does not separate (to rounding) stays closed: a statue in free fall
+     * with its plinth keeps with it, rather than leave it by rounding */
+    for (int j = 0; j < c.nc; j++) out->closed[c.k[j]][c.i[j]] = z[j] > 0.0 || fabs(w[j]) <= EN_ROUNDING;
     for (int k = 0; k < nb; k++) out->sigma[k] = sig[k];
     const double small = 1e-12; /* of g: a tangential acceleration below it is a stick */
     for (int t = 0; t < c.ns; t++) {

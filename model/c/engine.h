@@ -22,6 +22,7 @@
 #ifndef ROCKING_ENGINE_H
 #define ROCKING_ENGINE_H
 
+#include <float.h>
 #include "model.h"
 
 #define EN_NQ (3 * EN_MAX_BODIES)
@@ -74,6 +75,8 @@ typedef struct {
  * off by rounding. A sticking corner keeps its place exactly (its slip is anchored); a sliding one is
  * watched by an indicator that turns negative there. */
 #define EN_EDGE_MARGIN 1e-9
+/* Rounding, relative (of a corner's normal acceleration over g at an event): a value within it is zero. */
+#define EN_ROUNDING (64.0 * DBL_EPSILON)
 int engine_beyond_edge(const EnSystem *s, int k, double xi);
 
 /* The system of the model's parameters (one block, or a stack of two). */

@@ -183,6 +183,7 @@ typedef struct {
     /* committed counters */
     int impacts, peaks;
     double lastImpactTime, lastPeakTime, lastPeakTheta, maxAbsTheta;
+    int impactRun;                /* contact engine: impacts in a row, each within CHATTER_INTERVAL of the last */
     double overturnTime, restTime;
     long long steps, rejected;
 

@@ -737,6 +737,8 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
     if (S->pending != EVENT_NONE && !(S->t > tc))
         FAIL("an event is pending at t = %.17g, not after the communication point %.17g", S->t, tc);
     double lo = t0 - slack(t0), hi = S->t + slack(S->t);
+    if (S->impactRun < 0 || S->impactRun > S->impacts)
+        FAIL("impactRun = %d must lie in [0, impacts = %d]", S->impactRun, S->impacts);
     if (S->impacts == 0 ? S->lastImpactTime != -1 : !within(S->lastImpactTime, lo, hi))
         FAIL("lastImpactTime = %.17g does not fit %d impacts (-1 before the first, else a time in [start, t])",
              S->lastImpactTime, S->impacts);
