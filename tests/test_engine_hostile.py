@@ -13,7 +13,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from runners.engine.fmu import FMUError
 
 OUT = ["block1.theta", "block1.omega", "block1.slip", "block1.slipRate", "block1.gap", "block1.mode", "energy",
        "block1.frictionLoss", "impactLoss", "groundWork", "contact.painleve", "overturned"]

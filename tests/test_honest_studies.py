@@ -227,6 +227,7 @@ def test_the_multi_state_figure_of_a_rigid_study_draws_its_unanswered_runs_in_a_
     strip = [a for a in fig.axes if a is not ax and a.get_visible()]
     n = curves[1].outcomes.n_broke
     assert n > 0 and len(strip) == 1 and sum(p.get_height() for p in strip[0].patches) == n
+    matplotlib.pyplot.close(fig)
 
 
 def test_a_one_value_grid_override_is_in_every_title_and_not_the_scene_name(template, fmu_path, tmp_path):  # noqa: F811

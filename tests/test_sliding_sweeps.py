@@ -6,7 +6,6 @@ independent maximum-likelihood fit of the stored peak slips."""
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest

@@ -14,7 +14,6 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 import runners
 from conftest import run_cli
