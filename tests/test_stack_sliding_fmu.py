@@ -395,3 +395,21 @@ def test_the_marble_pulse_overturns_block_two_at_the_same_time_at_every_toleranc
         final = {k: o[k][-1] for k in outs}
         assert (final["block2.overturned"], final["block1.overturned"], final["block2.fellOff"]) == (1, 0, 0), tol
         assert abs(final["overturnTime"] - ref) <= (1e-2 if tol >= 1e-6 else 1e-5), tol
+
+
+@pytest.mark.parametrize("m2", [80.0, 300.0 * 3000, 300.0 / 3000])
+@pytest.mark.parametrize("b2", [0.15, 0.149, 0.1499999])
+def test_a_mirrored_pulse_mirrors_the_stack_at_any_mass_ratio(fmu, m2, b2):
+    """A statue on a plinth of its own width (or a hair narrower) under a +9 m/s2 and a -9 m/s2 pulse, block 2
+    from 1/3000 to 3000 times block 1's mass: the mirrored run (angles and slips negated, to 1e-9 of their
+    scale) and the same outcome, whatever it is (fell off, overturned, flights)."""
+    outs = ["block1.theta", "block2.theta", "block1.slip", "block2.slip", "block2.fellOff", "block1.overturned",
+            "block2.overturned", "block1.flights", "block2.flights"]
+    geom = (0.15, 0.5, 300.0, b2, 0.4, m2)
+    a, b = (fmu.run({**stack_params(geom, 0.5, 0.5), **pulse(sign * 9.0, 2.0)}, 3.0, 0.01, outs).outputs
+            for sign in (1, -1))
+    for k in ("block1.theta", "block2.theta", "block1.slip", "block2.slip"):
+        scale = max(1e-3, float(np.max(np.abs(a[k]))))
+        assert np.max(np.abs(a[k] + b[k])) <= 1e-9 * scale, k
+    for k in outs[4:]:
+        assert a[k][-1] == b[k][-1], k
