@@ -114,22 +114,11 @@ typedef enum {
     EVENT_OPEN = 5,      /* a closed contact starts to open (no velocity jump) */
     EVENT_SLIP_START = 6, /* rocking-sliding: the pivot starts to slide (|T| reaches mu N) */
     EVENT_SLIP_STOP = 7, /* rocking-sliding: the slip rate reaches zero */
-    EVENT_FELL_OFF = 8,  /* rocking-sliding stack: block 2 leaves block 1's top */
-    EVENT_FLIGHT = 9,    /* rocking-sliding stack: no consistent pattern, a contact would pull */
-    EVENT_RECHOOSE = 10, /* rocking-sliding stack: the pattern no longer holds at an excitation break */
+    EVENT_FELL_OFF = 8,  /* contact engine, a stack: block 2 leaves block 1's top */
+    EVENT_FLIGHT = 9,    /* (unused: kept so that the codes after it keep their values) */
+    EVENT_RECHOOSE = 10, /* contact engine: the contact set no longer holds where a step starts */
     EVENT_JAM = 11       /* contact engine: a contact sliding on one corner reaches Painleve's singularity */
 } EventKind;
-
-/* Rocking-sliding stack (stack_sliding.h): one contact's mode and the pattern of both. */
-typedef struct {
-    int flat;  /* 1: faces together; 0: rocking on corner s */
-    int s;     /* corner: +1 right, -1 left (a flat contact's force reference point) */
-    int sigma; /* 0 sticking; +-1 sliding with that sign of the slip rate */
-} ContactKind;
-typedef struct {
-    ContactKind g; /* block 1 on the ground */
-    ContactKind i; /* block 2 on block 1 */
-} StackPattern;
 
 /* The contact engine (engine.h): which corners of each body touch its support (0 left, 1 right)
  * and how its contact slides (0 sticks, +-1 the sign of the slip rate). */
@@ -195,21 +184,16 @@ typedef struct {
     double lastSwitchTime;
     int quickSwitches;    /* pattern changes without time advancing */
 
-    /* rocking-sliding (contact.model = 1, engine_solver.c and stack_sliding_solver.c) */
+    /* rocking-sliding (contact.model = 1, engine_solver.c) */
     double maxAbsSlip;    /* largest |slip| at steps and events, m */
     double slideSince;    /* start of the current sliding phase, s */
     double slideDur;      /* time spent sliding in finished phases, s */
     double impactLoss;    /* kinetic energy lost at impacts, J */
     int slideStarts;      /* stick-to-slip transitions */
-    /* rocking-sliding stack (stack_sliding.h): the pattern now and of the last step, and the
-     * interface's counterparts of the above (the ground's are the fields above) */
-    StackPattern pat, densePat;
+    /* rocking-sliding stack: the interface's counterparts of the above (the ground's are the fields above) */
     double maxAbsSlip2, slideSince2, slideDur2, slideStartTime1, slideStartTime2, fellOffTime;
     int slideStarts2, fellOff;
     int eventContact, eventEnd; /* the pending event's contact (0 ground, 1 interface) and end (+1, -1) */
-    int ssEndValid;             /* the reactions at the end of the last step (rigid pattern), while fValid */
-    int zenoCount, zenoContact; /* impacts of one contact in a row, each within ZENO_DT of the one before */
-    double ssEndT[2], ssEndN[2];
 
     /* the contact engine (engine_solver.c): the contact set now and of the last step, the slip
      * where each sticking contact stands, flights (count, start of the current one, time
