@@ -3,7 +3,8 @@ here. The contact engine (engine.c and its complementarity solver lcp.c) include
 headers and the model's data types; the three solvers (solver.c for one rigid block, which also dispatches
 to the other two; stack_solver.c for the rigid stack; engine_solver.c, the engine's event loop) never call
 one another in a loop, and only the dispatcher calls another; the rigid models include nothing of the
-engine, and the engine's event loop nothing of the rigid models."""
+engine, and the engine's event loop nothing of the rigid models; the layers they share include no
+solver."""
 from __future__ import annotations
 
 import re
@@ -55,3 +56,10 @@ def test_the_rigid_models_include_nothing_of_the_engine_and_the_engine_nothing_o
     for rigid in ("stack", "stack_solver", "taylor"):
         assert not (headers(rigid) & ENGINE), (rigid, headers(rigid) & ENGINE)
     assert not (headers("engine_solver") & RIGID), headers("engine_solver") & RIGID
+
+
+def test_the_shared_layers_include_no_solver():
+    """Contact monitors, event location, the integrators, the ground and records, the rigid stack's
+    equations: what the solvers share calls none of them."""
+    for shared in ("contact", "events", "integrator", "ground", "record", "taylor", "stack", "model"):
+        assert not (headers(shared) & SOLVERS), (shared, headers(shared) & SOLVERS)

@@ -12,7 +12,6 @@
 #include "events.h"
 #include "ground.h"
 #include "stack.h"
-#include "stack_solver.h"
 #include "taylor.h"
 
 /* Acceleration relative to the ground of the point rot(theta) (ux, uy). */

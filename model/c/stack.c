@@ -289,3 +289,51 @@ double stack_energy(const Model *M, int s1, int s2, const double y[4]) {
                  (2.0 * v->halfHeight + v->halfHeight2);
     return stack_kinetic(M, s1, s2, y, w) + v->g * (v->mass * dy1 + v->mass2 * dy2);
 }
+
+/* ------------------------------------------------- patterns from the margins */
+
+double stack_weakest(const Model *M, Mode mode, int s1, int s2, const double y[4],
+                     double ah, double av, int *contact, int *end) {
+    double g[2], in[2], m = INFINITY;
+    stack_margins(M, mode, s1, s2, y, ah, av, g, in);
+    for (int k = 0; k < 2; k++) {
+        if (g[k] < m) {
+            m = g[k];
+            *contact = 0;
+            *end = k == 0 ? 1 : -1;
+        }
+        if (in[k] < m) {
+            m = in[k];
+            *contact = 1;
+            *end = k == 0 ? 1 : -1;
+        }
+    }
+    return m;
+}
+
+int stack_admissible(const Model *M, Mode mode, int s1, int s2, const double y[4], double ah, double av) {
+    int contact, end;
+    double acc[2], tol = 1e-12 * M->v.g / M->d.RL;
+    if (stack_weakest(M, mode, s1, s2, y, ah, av, &contact, &end) < -STACK_TOL_OPEN) return 0;
+    if (mode == MODE_LOCKED) s2 = s1;
+    if (mode == MODE_UPPER) s1 = s2;
+    stack_accel(M, mode, s1, s2, y, ah, av, acc);
+    if ((mode == MODE_LOCKED || mode == MODE_BOTH) && y[0] == 0.0 && y[1] == 0.0 &&
+        s1 * acc[0] < -tol)
+        return 0;
+    if ((mode == MODE_UPPER || mode == MODE_BOTH) && y[2] == y[0] && y[3] == y[1] &&
+        s2 * (acc[1] - acc[0]) < -tol)
+        return 0;
+    return 1;
+}
+
+/* the static check of each candidate pattern, least motion first */
+Mode stack_start_pattern(const Model *M, double t, int side) {
+    static const Mode order[3] = {MODE_LOCKED, MODE_UPPER, MODE_BOTH};
+    double ah, av, y[4] = {0.0, 0.0, 0.0, 0.0};
+    model_ground(M, t, &ah, &av);
+    for (int i = 0; i < 3; i++)
+        if (stack_admissible(M, order[i], side, side, y, ah, av)) return order[i];
+    return MODE_BOTH;
+}
+

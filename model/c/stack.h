@@ -59,6 +59,23 @@ void stack_margins(const Model *M, Mode mode, int s1, int s2, const double y[4],
 int stack_impact(const Model *M, Mode mode, int n1, int n2, int o1, int o2,
                  const double y[4], const double wMinus[2], double wPlus[2]);
 
+/* A closed contact opens once its margin (stack_margins) falls below -STACK_TOL_OPEN: a reaction
+ * moment 1e-9 of weight times contact half width. */
+#define STACK_TOL_OPEN 1e-9
+
+/* Smallest reaction margin of the pattern's closed contacts at (y, ah, av), and which contact (0 ground,
+ * 1 interface) and end (+1, -1) it belongs to. */
+double stack_weakest(const Model *M, Mode mode, int s1, int s2, const double y[4], double ah, double av,
+                     int *contact, int *end);
+
+/* Whether the pattern is admissible at (y, ah, av): its closed contacts hold and every open contact with
+ * zero gap and zero gap rate accelerates open. */
+int stack_admissible(const Model *M, Mode mode, int s1, int s2, const double y[4], double ah, double av);
+
+/* The pattern a stack resting at time t starts in when the ground tips it towards side:
+ * the most settled admissible one (locked, upper, both), from theta = omega = 0. */
+Mode stack_start_pattern(const Model *M, double t, int side);
+
 /* Kinetic energy (J) of rates w with pivots s1, s2. */
 double stack_kinetic(const Model *M, int s1, int s2, const double y[4], const double w[2]);
 

@@ -12,9 +12,6 @@
 #include "integrator.h"
 #include "stack.h"
 
-/* A closed contact opens once its margin (stack_margins) falls below
- * -TOL_OPEN: a reaction moment 1e-9 of weight times contact half width. */
-#define TOL_OPEN 1e-9
 /* Samples per step when looking for a contact that opens. */
 #define OPEN_SAMPLES 8
 
@@ -51,46 +48,6 @@ static void set_mode(State *S, Mode mode, int s1, int s2) {
     S->side = s1;
     S->side2 = s2;
     S->fValid = 0;
-}
-
-/* Smallest reaction margin of the pattern's closed contacts at (t, y), and
- * which contact (0 ground, 1 interface) and end (+1, -1) it belongs to. */
-static double weakest(const Model *M, Mode mode, int s1, int s2, const double y[4],
-                      double ah, double av, int *contact, int *end) {
-    double g[2], in[2], m = INFINITY;
-    stack_margins(M, mode, s1, s2, y, ah, av, g, in);
-    for (int k = 0; k < 2; k++) {
-        if (g[k] < m) {
-            m = g[k];
-            *contact = 0;
-            *end = k == 0 ? 1 : -1;
-        }
-        if (in[k] < m) {
-            m = in[k];
-            *contact = 1;
-            *end = k == 0 ? 1 : -1;
-        }
-    }
-    return m;
-}
-
-/* A pattern is admissible at (y, ah, av) if its closed contacts hold and
- * every open contact with zero gap and zero gap rate accelerates open. */
-static int admissible(const Model *M, Mode mode, int s1, int s2, const double y[4],
-                      double ah, double av) {
-    int contact, end;
-    double acc[2], tol = 1e-12 * M->v.g / M->d.RL;
-    if (weakest(M, mode, s1, s2, y, ah, av, &contact, &end) < -TOL_OPEN) return 0;
-    if (mode == MODE_LOCKED) s2 = s1;
-    if (mode == MODE_UPPER) s1 = s2;
-    stack_accel(M, mode, s1, s2, y, ah, av, acc);
-    if ((mode == MODE_LOCKED || mode == MODE_BOTH) && y[0] == 0.0 && y[1] == 0.0 &&
-        s1 * acc[0] < -tol)
-        return 0;
-    if ((mode == MODE_UPPER || mode == MODE_BOTH) && y[2] == y[0] && y[3] == y[1] &&
-        s2 * (acc[1] - acc[0]) < -tol)
-        return 0;
-    return 1;
 }
 
 /* Angular velocity below which an impact settles a contact: the rate that
@@ -139,23 +96,12 @@ void stack_initialize(Model *M) {
     /* a closed contact that cannot hold opens at its weak end (at rest the
      * first step decides, see rest_advance) */
     if ((mode == MODE_UPPER || mode == MODE_LOCKED) &&
-        weakest(M, mode, s1, s2, y, ah, av, &contact, &end) < -TOL_OPEN) {
+        stack_weakest(M, mode, s1, s2, y, ah, av, &contact, &end) < -STACK_TOL_OPEN) {
         if (mode == MODE_UPPER) s1 = end;
         else s2 = end;
         mode = MODE_BOTH;
     }
     set_mode(S, mode, s1, s2);
-}
-
-/* From rest at the time t the ground starts to tip the stack towards side:
- * the static check of each candidate pattern, least motion first. */
-Mode stack_start_pattern(const Model *M, double t, int side) {
-    static const Mode order[3] = {MODE_LOCKED, MODE_UPPER, MODE_BOTH};
-    double ah, av, y[4] = {0.0, 0.0, 0.0, 0.0};
-    model_ground(M, t, &ah, &av);
-    for (int i = 0; i < 3; i++)
-        if (admissible(M, order[i], side, side, y, ah, av)) return order[i];
-    return MODE_BOTH;
 }
 
 static void start_from_rest(Model *M, double t, int side, const Logger *log) {
@@ -244,7 +190,7 @@ static void apply_impact(Model *M, const Logger *log) {
         Mode sm = cand[i];
         stack_impact(M, sm, n1, n2, n1, n2, y, wp, wq);
         double ys[4] = {y[0], wq[0], y[2], wq[1]};
-        if (admissible(M, sm, n1, n2, ys, ah, av)) {
+        if (stack_admissible(M, sm, n1, n2, ys, ah, av)) {
             nm = sm, wp[0] = wq[0], wp[1] = wq[1];
             if (sm == MODE_REST) S->restTime = S->t;
             say(log, LOG_EVENTS, "settle t=%.17g pattern=%s w1=%.17g w2=%.17g", S->t,
@@ -284,7 +230,7 @@ static int apply_event(Model *M, const Logger *log) {
         double ah, av;
         int contact = 0, end = 1;
         model_ground(M, S->t, &ah, &av);
-        weakest(M, S->mode, S->side, S->side2, S->y, ah, av, &contact, &end);
+        stack_weakest(M, S->mode, S->side, S->side2, S->y, ah, av, &contact, &end);
         int s1 = contact == 0 ? end : S->side, s2 = contact == 1 ? end : S->side2;
         say(log, LOG_EVENTS, "open t=%.17g contact=%s end=%d pattern=both", S->t,
             contact ? "interface" : "ground", end);
@@ -308,14 +254,14 @@ static int apply_event(Model *M, const Logger *log) {
 }
 
 
-/* Weakest margin (shifted by TOL_OPEN) on the dense output at s. */
+/* Weakest margin (shifted by STACK_TOL_OPEN) on the dense output at s. */
 static double open_margin(const Model *M, const Ctx *c, double t0, double h,
                           const double cont[5][NMAX], double s) {
     double y[NMAX], ah, av;
     int contact, end;
     dense_eval(cont, 4, s, y);
     model_ground_piece(M, t0 + s * h, c->piece, &ah, &av);
-    return weakest(M, c->mode, c->s1, c->s2, y, ah, av, &contact, &end) + TOL_OPEN;
+    return stack_weakest(M, c->mode, c->s1, c->s2, y, ah, av, &contact, &end) + STACK_TOL_OPEN;
 }
 
 /* open_margin along one step (first_negative_sampled's function). */
@@ -348,7 +294,7 @@ static int take_step(Model *M, const Logger *log) {
 
     if (S->mode == MODE_LOCKED || S->mode == MODE_UPPER) {
         model_ground_piece(M, S->t, c.piece, &ah, &av);
-        if (weakest(M, S->mode, S->side, S->side2, S->y, ah, av, &contact, &end) < -TOL_OPEN) {
+        if (stack_weakest(M, S->mode, S->side, S->side2, S->y, ah, av, &contact, &end) < -STACK_TOL_OPEN) {
             S->pending = EVENT_OPEN; /* e.g. an input changed at the communication point */
             S->denseValid = 0;
             return 0;

@@ -22,9 +22,6 @@ void stack_initialize(Model *M);
 
 int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop);
 
-/* The pattern a stack resting at time t starts in when the ground tips it towards side:
- * the most settled admissible one (locked, upper, both), from theta = omega = 0. */
-Mode stack_start_pattern(const Model *M, double t, int side);
 void stack_outputs(Model *M, double tc);
 /* After a step with dense output cont ending at y1: the largest |theta1|, |theta2| so far, and
  * those before the step (for outputs inside it). Both stack models. */
