@@ -291,20 +291,23 @@ static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const doubl
                           double *ind, int *kind, int *body, int *corner) {
     double b = s->body[k - 1].b;
     EnPoint p[2];
-    for (int i = 0; i < 2; i++) engine_point(s, k, 2 * i - 1, y, &p[i]);
     int closed = m->closed[k][0] + m->closed[k][1];
+    /* nothing to watch: a value that never crosses (the indicators keep their places in a step) */
+    *ind = 1.0;
+    *corner = 1;
     if (closed == 1 && m->sigma[k]) {
         int i = m->closed[k][1];
+        engine_point(s, k, 2 * i - 1, y, &p[i]);
         *ind = (b * (1.0 + EN_EDGE_MARGIN) - fabs(p[i].xi)) / b;
         *corner = 2 * i - 1;
-    } else if (closed == 2 && (engine_beyond_edge(s, k, p[0].xi) || engine_beyond_edge(s, k, p[1].xi))) {
-        double N = f->N[k][0] + f->N[k][1];
-        double xr = N > 0 ? (f->N[k][0] * p[0].xi + f->N[k][1] * p[1].xi) / N : 0.0;
-        *ind = (b - fabs(xr)) / b;
-        *corner = xr > 0 ? 1 : -1;
-    } else { /* nothing to watch: a value that never crosses (the indicators keep their places in a step) */
-        *ind = 1.0;
-        *corner = 1;
+    } else if (closed == 2) {
+        for (int i = 0; i < 2; i++) engine_point(s, k, 2 * i - 1, y, &p[i]);
+        if (engine_beyond_edge(s, k, p[0].xi) || engine_beyond_edge(s, k, p[1].xi)) {
+            double N = f->N[k][0] + f->N[k][1];
+            double xr = N > 0 ? (f->N[k][0] * p[0].xi + f->N[k][1] * p[1].xi) / N : 0.0;
+            *ind = (b - fabs(xr)) / b;
+            *corner = xr > 0 ? 1 : -1;
+        }
     }
     *kind = EN_IND_FELL_OFF;
     *body = k;

@@ -229,6 +229,12 @@ static void settle_mode(Model *M, int touching[][2], int *stuck, const double *d
 static double rest_exit(const Model *M, double t, int piece);
 static void fell_off(Model *M, const Logger *log);
 
+/* A rebound of kinetic energy `energy` (J) lifts a body of mass m (kg), turning about a corner at R (m)
+ * from its centre, under the gravity geff (m/s2), less than to restRatio of its slenderness angle alpha. */
+static int below_rest(const Model *M, double energy, double m, double R, double alpha, double geff) {
+    return energy < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha));
+}
+
 static int negligible(const Model *M, double t, const double *y) {
     double ah, av;
     model_ground(M, t, &ah, &av);
@@ -241,11 +247,11 @@ static int negligible(const Model *M, double t, const double *y) {
     double m = M->v.mass + (two ? M->v.mass2 : 0.0);
     EnSystem sys;
     engine_system(M, &sys);
-    if (!(engine_kinetic(&sys, y) < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) return 0;
+    if (!below_rest(M, engine_kinetic(&sys, y), m, R, alpha, geff)) return 0;
     if (!two) return 1;
     /* and block 2's rocking on block 1 as the rigid stack settles it: about its corner, to restRatio of alphaI */
-    double w = y[EN_W(1)] - y[EN_W(0)], aI = M->d.alphaI;
-    return 0.5 * M->d.II * w * w < M->v.mass2 * geff * M->d.RI * (cos(aI - M->v.restRatio * aI) - cos(aI));
+    double w = y[EN_W(1)] - y[EN_W(0)];
+    return below_rest(M, 0.5 * M->d.II * w * w, M->v.mass2, M->d.RI, M->d.alphaI, geff);
 }
 
 /* The restitution law on the plastic impact's rates (kineticBefore: the kinetic energy before the impact,
@@ -346,7 +352,7 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
         double w = S->y[EN_W(k)] - (k > 0 ? S->y[EN_W(k - 1)] : 0.0);
         double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
         if (fabs(rel) > 1e-9 * alpha) continue;
-        if (!(0.5 * I0 * w * w < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha)))) continue;
+        if (!below_rest(M, 0.5 * I0 * w * w, m, R, alpha, geff)) continue;
         /* the contacts as the impact left them (touching, sticking where it stuck), body k's closed flat */
         EnMode flat = S->en;
         for (int j = 0; j < sys.nb; j++) {
@@ -366,19 +372,17 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
          * it a plinth chattered at 1e-8 s per impact under its sliding statue) */
         double projected[NMAX];
         memcpy(projected, S->y, sizeof(projected));
-        if (!engine_plastic(&sys, &flat, S->y) || engine_kinetic(&sys, S->y) > E0) {
-            if (S->impactRun < CHATTER_RUN) { /* (the rigid stack's test: no settling) */
-                memcpy(S->y, keep, sizeof(keep));
-                continue;
-            }
+        int ok = engine_plastic(&sys, &flat, S->y) && engine_kinetic(&sys, S->y) <= E0;
+        if (!ok && S->impactRun >= CHATTER_RUN) {
             EnSystem smooth = sys;
             for (int j = 0; j < sys.nb; j++)
                 if (flat.sigma[j]) smooth.mu[j] = 0.0;
             memcpy(S->y, projected, sizeof(projected));
-            if (!engine_plastic(&smooth, &flat, S->y) || engine_kinetic(&sys, S->y) > E0 * (1.0 + 64.0 * DBL_EPSILON)) {
-                memcpy(S->y, keep, sizeof(keep));
-                continue;
-            }
+            ok = engine_plastic(&smooth, &flat, S->y) && engine_kinetic(&sys, S->y) <= E0 * (1.0 + 64.0 * DBL_EPSILON);
+        }
+        if (!ok) { /* (the rigid stack's test: no settling) */
+            memcpy(S->y, keep, sizeof(keep));
+            continue;
         }
         S->impactLoss += E0 - engine_kinetic(&sys, S->y);
         touching[k][0] = touching[k][1] = 1;
