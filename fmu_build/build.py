@@ -28,7 +28,7 @@ C_HEADERS = ["instance.h", "me.h", "model.h", "ground.h", "record.h", "solver.h"
              "integrator.h", "contact.h", "engine.h", "engine_solver.h", "lcp.h", "codes.h", "variables.def"]
 VERSION = "0.1.0"
 
-CFLAGS = ["-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra"]
+CFLAGS = ["-std=c99", "-O3", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra"]
 SANITIZE_FLAGS = [
     "-std=c99", "-O1", "-g", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra",
     "-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined",
@@ -37,7 +37,7 @@ SANITIZE_FLAGS = [
 # linked in, so that the DLL needs only Windows' own DLLs (KERNEL32, msvcrt); -s: without the
 # debugging sections of mingw-w64's static libraries (two thirds of the DLL)
 WIN64_CC = "x86_64-w64-mingw32-gcc"
-WIN64_CFLAGS = ["-std=c99", "-O2", "-shared", "-Wall", "-Wextra", "-static-libgcc", "-s"]
+WIN64_CFLAGS = ["-std=c99", "-O3", "-shared", "-Wall", "-Wextra", "-static-libgcc", "-s"]
 PLATFORMS = ("linux64", "win64")
 BINARY_SUFFIX = {"linux64": ".so", "win64": ".dll"}
 

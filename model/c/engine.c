@@ -221,7 +221,212 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
     return 1;
 }
 
+/* ------------------------------------------------------------ sticking chains */
+
+int engine_is_chain(const EnSystem *s, const EnMode *m) {
+    for (int k = 0; k < s->nb; k++)
+        if (!(m->closed[k][0] || m->closed[k][1]) || m->sigma[k]) return 0;
+    return 1;
+}
+
+/* J (x, y) = (y, -x): the velocity of a point at offset r on a body turning at rate w is w J r */
+static void perp(const double r[2], double out[2]) {
+    out[0] = r[1];
+    out[1] = -r[0];
+}
+
+/* The sticking chain (engine_chain): reduced coordinates z, the rotations of the bodies that rock (a flat
+ * body turns with its support). Body k's rotation is s_k . z, its centre's acceleration G_k z'' + kappa_k;
+ * its closed corner is a material point of its support too (a corner sticks: the two points share
+ * position, velocity and acceleration), so
+ *     X_k = X_j + D - Rd,  X_k'' = X_j'' + alpha_j J D - w_j^2 D - alpha_k J Rd + w_k^2 Rd,
+ * with D the corner's offset from the support's centre, Rd from body k's. Virtual work (the constraint
+ * forces do none): sum_k G_k^T (m_k X_k'' - f_k) + s_k Ic_k alpha_k = 0, an ndof x ndof system. The
+ * forces follow body by body from the top: the contact force on body k, F_k = m_k X_k'' - f_k + F_(k+1),
+ * split between a flat body's corners by its moment balance. */
+/* chain for one body on the ground, written out (the right-hand side of most runs): flat, or rocking on
+ * its corner c (X = D - r, with D the corner's place on the ground and r its offset from the centre). */
+static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
+                     double ah, double av, EnForces *f) {
+    const EnBody *B = &s->body[0];
+    const double *y = yout ? yout : yin;
+    double gv = s->g + av;
+    for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+    for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
+    if (m->closed[0][0] && m->closed[0][1]) { /* flat: at rest on the ground */
+        if (yout) {
+            yout[EN_TH(0)] = yout[EN_W(0)] = 0.0;
+            yout[EN_POS(1, 0, 0)] = xi0[0];
+            yout[EN_POS(1, 0, 1)] = B->h;
+            yout[EN_VEL(1, 0, 0)] = yout[EN_VEL(1, 0, 1)] = 0.0;
+        }
+        f->qdd[0] = f->qdd[1] = f->qdd[2] = 0.0;
+        double N = B->m * gv, T = B->m * ah;
+        f->T[0] = T;
+        f->N[0][1] = (N * B->b - T * B->h) / (2.0 * B->b); /* the moment balance about the centre */
+        f->N[0][0] = N - f->N[0][1];
+        return 1;
+    }
+    int c = m->closed[0][1] ? 1 : -1;
+    double th = y[EN_TH(0)], w = y[EN_W(0)], ck = cos(th), sk = sin(th);
+    double r[2] = {c * B->b * ck - B->h * sk, -c * B->b * sk - B->h * ck}; /* the corner from the centre */
+    double G[2] = {-r[1], r[0]};                                            /* -J r */
+    if (yout) {
+        yout[EN_POS(1, 0, 0)] = xi0[0] + c * B->b - r[0];
+        yout[EN_POS(1, 0, 1)] = -r[1];
+        yout[EN_VEL(1, 0, 0)] = w * G[0];
+        yout[EN_VEL(1, 0, 1)] = w * G[1];
+    }
+    double kap[2] = {w * w * r[0], w * w * r[1]};
+    double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic;
+    double al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) / A;
+    double acc[2] = {G[0] * al + kap[0], G[1] * al + kap[1]};
+    f->qdd[0] = acc[0];
+    f->qdd[1] = acc[1];
+    f->qdd[2] = al;
+    f->T[0] = B->m * (acc[0] + ah);
+    f->N[0][c > 0] = B->m * (acc[1] + gv);
+    f->N[0][c < 0] = 0.0;
+    return 1;
+}
+
+static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
+                 double ah, double av, EnForces *f) {
+    enum { NB = EN_MAX_BODIES };
+    if (s->nb == 1) return chain_one(s, m, xi0, yin, yout, ah, av, f);
+    int nb = s->nb, nd = 0;
+    double G[NB][2][NB], kap[NB][2], sel[NB][NB], w[NB], cs[NB][2];
+    double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
+    double Rd[NB][2][2], D[NB][2];
+    int cor[NB], flat[NB];
+    const double *y = yout ? yout : yin;
+    for (int k = 0; k < nb; k++) {
+        const EnBody *B = &s->body[k];
+        int j = k - 1;
+        flat[k] = m->closed[k][0] && m->closed[k][1];
+        cor[k] = first_closed(m, k);
+        for (int d = 0; d < NB; d++) sel[k][d] = flat[k] && j >= 0 ? sel[j][d] : 0.0;
+        if (flat[k]) { /* turning with its support */
+            w[k] = j >= 0 ? w[j] : 0.0;
+            cs[k][0] = j >= 0 ? cs[j][0] : 1.0;
+            cs[k][1] = j >= 0 ? cs[j][1] : 0.0;
+            if (yout) {
+                yout[EN_TH(k)] = j >= 0 ? y[EN_TH(j)] : 0.0;
+                yout[EN_W(k)] = w[k];
+            }
+        } else {
+            w[k] = y[EN_W(k)];
+            cs[k][0] = cos(y[EN_TH(k)]);
+            cs[k][1] = sin(y[EN_TH(k)]);
+            sel[k][nd++] = 1.0;
+        }
+        for (int i = 0; i < 2; i++) rot(cs[k][0], cs[k][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
+        const double *r = Rd[k][cor[k] > 0];
+        double cj = j >= 0 ? cs[j][0] : 1.0, sj = j >= 0 ? cs[j][1] : 0.0;
+        n[k][0] = sj, n[k][1] = cj, t[k][0] = cj, t[k][1] = -sj;
+        double Xj[2] = {j >= 0 ? y[EN_POS(nb, j, 0)] : 0.0, j >= 0 ? y[EN_POS(nb, j, 1)] : 0.0}, JD[2], Jr[2];
+        perp(r, Jr);
+        if (xi0) { /* the corner at its anchor on the support's top: the centre and its velocity follow */
+            double xi = xi0[k] + cor[k] * B->b, hs = j >= 0 ? s->body[j].h : 0.0;
+            for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs * n[k][i];
+            perp(D[k], JD);
+            for (int i = 0; i < 2; i++) {
+                yout[EN_POS(nb, k, i)] = Xj[i] + D[k][i] - r[i];
+                yout[EN_VEL(nb, k, i)] = (j >= 0 ? yout[EN_VEL(nb, j, i)] + w[j] * JD[i] : 0.0) - w[k] * Jr[i];
+            }
+        } else {
+            for (int i = 0; i < 2; i++) D[k][i] = y[EN_POS(nb, k, i)] + r[i] - Xj[i];
+            perp(D[k], JD);
+        }
+        for (int i = 0; i < 2; i++) {
+            kap[k][i] = (j >= 0 ? kap[j][i] - w[j] * w[j] * D[k][i] : 0.0) + w[k] * w[k] * r[i];
+            for (int d = 0; d < NB; d++)
+                G[k][i][d] = (j >= 0 ? G[j][i][d] + JD[i] * sel[j][d] : 0.0) - Jr[i] * sel[k][d];
+        }
+    }
+    /* the reduced system (symmetric positive definite: elimination without pivoting) */
+    double A[NB][NB], r[NB], zdd[NB] = {0};
+    for (int a = 0; a < nd; a++) {
+        r[a] = 0.0;
+        for (int b = 0; b < nd; b++) A[a][b] = 0.0;
+    }
+    for (int k = 0; k < nb; k++) {
+        const EnBody *B = &s->body[k];
+        double fk[2] = {-B->m * (ah + kap[k][0]), -B->m * (s->g + av + kap[k][1])};
+        for (int a = 0; a < nd; a++) {
+            r[a] += G[k][0][a] * fk[0] + G[k][1][a] * fk[1];
+            for (int b = 0; b < nd; b++)
+                A[a][b] += B->m * (G[k][0][a] * G[k][0][b] + G[k][1][a] * G[k][1][b]) + B->Ic * sel[k][a] * sel[k][b];
+        }
+    }
+    for (int c = 0; c < nd; c++) {
+        if (!(A[c][c] > 0.0)) return 0;
+        for (int i = c + 1; i < nd; i++) {
+            double q = A[i][c] / A[c][c];
+            for (int j = c; j < nd; j++) A[i][j] -= q * A[c][j];
+            r[i] -= q * r[c];
+        }
+    }
+    for (int i = nd - 1; i >= 0; i--) {
+        double v = r[i];
+        for (int j = i + 1; j < nd; j++) v -= A[i][j] * zdd[j];
+        zdd[i] = v / A[i][i];
+    }
+    double al[NB], acc[NB][2];
+    for (int k = 0; k < nb; k++) {
+        al[k] = 0.0;
+        for (int d = 0; d < nd; d++) al[k] += sel[k][d] * zdd[d];
+        for (int i = 0; i < 2; i++) {
+            acc[k][i] = kap[k][i];
+            for (int d = 0; d < nd; d++) acc[k][i] += G[k][i][d] * zdd[d];
+        }
+        f->qdd[EN_Q(k, 0)] = acc[k][0];
+        f->qdd[EN_Q(k, 1)] = acc[k][1];
+        f->qdd[EN_Q(k, 2)] = al[k];
+    }
+    /* the forces, from the top: F the contact force on the body (world frame), tau the torque of the
+     * reaction of the contact above on it */
+    double F[2] = {0.0, 0.0}, tau = 0.0;
+    for (int k = nb - 1; k >= 0; k--) {
+        const EnBody *B = &s->body[k];
+        F[0] += B->m * (acc[k][0] + ah);
+        F[1] += B->m * (acc[k][1] + s->g + av);
+        double N = dot(F, n[k]), T = dot(F, t[k]);
+        f->T[k] = T;
+        const double *rf = Rd[k][cor[k] > 0];
+        if (flat[k]) {
+            double JL[2], JR[2];
+            perp(Rd[k][0], JL);
+            perp(Rd[k][1], JR);
+            double aL = dot(n[k], JL), aR = dot(n[k], JR), bT = dot(t[k], JL);
+            double NR = (B->Ic * al[k] - T * bT - tau - N * aL) / (aR - aL);
+            f->N[k][1] = NR;
+            f->N[k][0] = N - NR;
+        } else {
+            f->N[k][cor[k] > 0] = N;
+            f->N[k][cor[k] < 0] = 0.0;
+        }
+        if (k > 0) { /* the torque of this contact's reaction on the support (its force at each closed corner) */
+            tau = -T * dot(n[k], D[k]);
+            for (int i = 0; i < 2; i++) {
+                if (!m->closed[k][i]) continue;
+                double Di[2] = {D[k][0] - rf[0] + Rd[k][i][0], D[k][1] - rf[1] + Rd[k][i][1]};
+                tau += f->N[k][i] * dot(t[k], Di);
+            }
+        }
+    }
+    for (int k = nb; k < NB; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+    for (int q = 3 * nb; q < EN_NQ; q++) f->qdd[q] = 0.0;
+    return 1;
+}
+
+int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *y, double ah, double av,
+                 EnForces *f) {
+    return chain(s, m, xi0, y, y, ah, av, f);
+}
+
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f) {
+    if (engine_is_chain(s, m)) return chain(s, m, NULL, y, NULL, ah, av, f);
     double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
     free_terms(s, ah, av, Minv, fext);
     for (int q = 0; q < 3 * s->nb; q++) a0[q] = Minv[q] * fext[q];
@@ -229,7 +434,7 @@ int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah,
 }
 
 int engine_plastic(const EnSystem *s, const EnMode *m, double *y) {
-    double v0[EN_NQ];
+    double v0[EN_NQ] = {0};
     EnForces f;
     gather(s, y, 1, v0);
     if (!solve_set(s, m, y, v0, 0, &f)) return 0;
@@ -247,10 +452,29 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
     return p.xid;
 }
 
-int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, double *dy,
-               EnForces *fo) {
+int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
+               double *dy, EnForces *fo) {
     int nb = s->nb;
     EnForces f;
+    double yc[NMAX];
+    if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations; no friction works */
+        for (int i = 0; i < EN_CHAIN_N(nb); i++) yc[i] = y[i];
+        if (!chain(s, m, xi0, yc, yc, ah, av, &f)) return 0;
+        double work = 0.0;
+        for (int k = 0; k < nb; k++) {
+            dy[EN_TH(k)] = yc[EN_W(k)];
+            dy[EN_W(k)] = f.qdd[EN_Q(k, 2)];
+            dy[EN_LOSS(nb, k)] = 0.0;
+            for (int i = 0; i < 2; i++) {
+                dy[EN_POS(nb, k, i)] = yc[EN_VEL(nb, k, i)];
+                dy[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
+            }
+            work -= s->body[k].m * (ah * yc[EN_VEL(nb, k, 0)] + av * yc[EN_VEL(nb, k, 1)]);
+        }
+        dy[EN_WORK(nb)] = work;
+        if (fo) *fo = f;
+        return 1;
+    }
     if (!engine_solve(s, m, y, ah, av, &f)) return 0;
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 3; i++) {

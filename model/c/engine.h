@@ -16,8 +16,8 @@
  * the solution of a linear complementarity problem (Pfeiffer & Glocker 1996), and impacts are
  * the same problem on velocities and impulses (plastic, Coulomb friction).
  *
- * State vector (EN_N(nb) components): each body's rotation and its rate, each body's centre and
- * its velocity (EN_POS, EN_VEL), the ground's work (J), the friction loss at each body's support (J).
+ * State vector (EN_N(nb) components): each body's rotation and its rate, the ground's work (J), the
+ * friction loss at each body's support (J), each body's centre and its velocity (EN_POS, EN_VEL).
  */
 #ifndef ROCKING_ENGINE_H
 #define ROCKING_ENGINE_H
@@ -30,15 +30,18 @@
 /* index of generalised coordinate i (0 X, 1 Y, 2 theta) of body k in q-space (rows, forces, masses) */
 #define EN_Q(k, i) (3 * (k) + (i))
 /* indices into the state vector of a system of nb bodies: the rotations and their rates first,
- * (theta_k, omega_k) pairs, then each body's (X, Y, X', Y'), so that the error control of bodies whose
- * contacts all stick (their positions follow from the rotations) can cover the first 2 nb only */
+ * (theta_k, omega_k) pairs, then the ground's work and each body's friction loss, then each body's
+ * (X, Y, X', Y'). A sticking chain (engine_is_chain) integrates the first EN_CHAIN_N(nb) alone (its
+ * centres follow from the rotations and anchors, and no friction works); its error control covers the
+ * first 2 nb (the rotations), and other contact sets' the rotations and the centres. */
 #define EN_TH(k) (2 * (k))
 #define EN_W(k) (2 * (k) + 1)
-#define EN_POS(nb, k, i) ((i) == 2 ? 2 * (k) : 2 * (nb) + 4 * (k) + (i))
-#define EN_VEL(nb, k, i) ((i) == 2 ? 2 * (k) + 1 : 2 * (nb) + 4 * (k) + 2 + (i))
-#define EN_WORK(nb) (6 * (nb))
-#define EN_LOSS(nb, k) (6 * (nb) + 1 + (k))
-#define EN_N(nb) (6 * (nb) + 1 + (nb))
+#define EN_WORK(nb) (2 * (nb))
+#define EN_LOSS(nb, k) (2 * (nb) + 1 + (k))
+#define EN_POS(nb, k, i) ((i) == 2 ? 2 * (k) : 3 * (nb) + 1 + 4 * (k) + (i))
+#define EN_VEL(nb, k, i) ((i) == 2 ? 2 * (k) + 1 : 3 * (nb) + 3 + 4 * (k) + (i))
+#define EN_N(nb) (7 * (nb) + 1)
+#define EN_CHAIN_N(nb) (2 * (nb) + 1)
 
 typedef struct {
     double b, h, m, Ic;
@@ -88,9 +91,22 @@ void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
 /* Solve mode m at the state y under (ah, av): returns 0 if its system is singular. */
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f);
 
-/* Derivatives of the state vector in mode m (forces written to f unless NULL). Returns 0 if singular. */
-int engine_rhs(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, double *dy,
-               EnForces *f);
+/* A sticking chain: every body on a closed corner (or flat), every contact sticking. Its motion has one
+ * coordinate per body that rocks (its rotation; a flat body turns with its support), solved in those
+ * coordinates (engine_solve does so for such a mode: the same accelerations and forces as Newton-Euler
+ * with the constraints, to rounding). */
+int engine_is_chain(const EnSystem *s, const EnMode *m);
+/* The sticking chain m at the rotations and rates in y: with anchors xi0 (each contact's slip, as in
+ * engine_project), the centres and their velocities (and a flat body's rotation and rate) are first placed
+ * in y exactly; the accelerations and forces go to f. Returns 0 if singular. */
+int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *y, double ah, double av,
+                 EnForces *f);
+
+/* Derivatives of the state vector in mode m (forces written to f unless NULL). Returns 0 if singular. With
+ * anchors xi0 and a sticking chain, y's first EN_CHAIN_N(nb) components alone are read (the centres are
+ * placed from them, engine_chain). */
+int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
+               double *dy, EnForces *f);
 
 /* Event indicators of mode m at (y, forces f): each >= 0 while the mode holds, normalised by weights
  * (forces) or by the bodies' sizes (gaps). Writes up to EN_IND values; returns how many. kind[i]

@@ -39,13 +39,15 @@ typedef struct {
     int piece;
     EnForces f; /* of the last evaluation */
     int singular;
+    int chain;                  /* a sticking chain: the first EN_CHAIN_N components integrated alone */
+    double xi0[EN_MAX_BODIES]; /* its anchors */
 } Ctx;
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     Ctx *c = (Ctx *)ctx; /* the integrator hands our own (non-const) context back */
     double ah, av;
     model_ground_piece(c->M, t, c->piece, &ah, &av);
-    if (!engine_rhs(&c->sys, &c->mode, y, ah, av, dy, &c->f)) c->singular = 1;
+    if (!engine_rhs(&c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f)) c->singular = 1;
 }
 
 static Ctx context(const Model *M, const EnMode *m, double t) {
@@ -55,7 +57,22 @@ static Ctx context(const Model *M, const EnMode *m, double t) {
     engine_system(M, &c.sys);
     c.mode = *m;
     c.piece = model_piece(M, t);
+    c.chain = engine_is_chain(&c.sys, m);
+    memcpy(c.xi0, M->s.enAnchor, sizeof(c.xi0));
     return c;
+}
+
+/* The components a step integrates: a sticking chain's first EN_CHAIN_N, or all. */
+static int nstep(const Ctx *c) { return c->chain ? EN_CHAIN_N(c->sys.nb) : EN_N(c->sys.nb); }
+
+/* A step's result y (its first nstep components) completed: a sticking chain's other components from
+ * rest (the friction losses, unchanged) and its centres placed exactly from the rotations and anchors. */
+static void complete(Ctx *c, const double *rest, double *y) {
+    if (!c->chain) return;
+    int n0 = EN_CHAIN_N(c->sys.nb), n = EN_N(c->sys.nb);
+    memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
+    EnForces f;
+    engine_chain(&c->sys, &c->mode, c->xi0, y, 0.0, 0.0, &f);
 }
 
 static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1); }
@@ -190,6 +207,7 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
 /* The derivative of the state at S->t in the contact set m. */
 static void derivative(const Model *M, const EnMode *m, double *dy) {
     Ctx c = context(M, m, M->s.t);
+    c.chain = 0; /* m may not be the state's contact set: its anchors are not known */
     memset(dy, 0, sizeof(double) * NMAX);
     rhs_cb(&c, M->s.t, M->s.y, dy);
 }
@@ -621,6 +639,7 @@ static void step_indicators(Search *s, double x, double *ind) {
     double err[NMAX];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
+    complete(s->c, s->y, s->y1);
     indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
 }
 
@@ -628,7 +647,7 @@ static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     Ctx c = context(M, &S->en, S->t);
-    int nb = c.sys.nb, n = nstate(M);
+    int nb = c.sys.nb, n = nstep(&c);
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     int free_motion = 0;
     for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
@@ -650,15 +669,17 @@ static int take_step(Model *M, const Logger *log) {
         scale[EN_POS(nb, k, 0)] = scale[EN_POS(nb, k, 1)] = R;
         scale[EN_VEL(nb, k, 0)] = scale[EN_VEL(nb, k, 1)] = R * p;
         scale[EN_TH(k)] = scale[EN_W(k)] = 1.0;
+        scale[EN_LOSS(nb, k)] = 0.0;
     }
-    int nErr = 2 * nb; /* the rotations alone while every body's contact sticks: the positions follow */
-    for (int k = 0; k < nb; k++)
-        if (S->en.sigma[k] != 0 || flying(&S->en, k)) nErr = 6 * nb;
+    scale[EN_WORK(nb)] = 0.0;
+    /* the rotations alone while every body's contact sticks (the centres follow), else all but the integrals */
+    int nErr = c.chain ? 2 * nb : n;
     if (adaptive_step_controlled(rhs_cb, &c, n, nErr, scale, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1,
                                  f1, cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
+    complete(&c, S->y, y1);
     if (c.singular) {
         say(log, LOG_ERROR, "the contact forces have no unique solution at t=%.17g", S->t);
         return -1;
@@ -762,6 +783,7 @@ static int take_step(Model *M, const Logger *log) {
         if (which >= 0) {
             hStep = best;
             memcpy(y1, yb, sizeof(y1));
+            complete(&c, S->y, y1);
             memcpy(f1, fb, sizeof(f1));
             memcpy(cont, cb, sizeof(cont));
             tNew = S->t + hStep;
@@ -824,19 +846,22 @@ static int take_step(Model *M, const Logger *log) {
     S->denseSigma = S->sigma;
     S->denseMode = S->mode;
     S->t = tNew;
-    memcpy(S->y, y1, sizeof(double) * (size_t)n);
-    memcpy(S->f, f1, sizeof(double) * (size_t)n);
+    memcpy(S->y, y1, sizeof(double) * (size_t)EN_N(nb));
+    memcpy(S->f, f1, sizeof(double) * (size_t)EN_N(nb));
     /* back onto the constraints of the contact set the step was taken in (at an event too: an impact's
      * velocities before must be those of the motion the contacts allow) */
-    engine_project(&c.sys, &S->en, S->y, S->enAnchor, 1);
+    if (!c.chain) engine_project(&c.sys, &S->en, S->y, S->enAnchor, 1); /* (a chain's are placed) */
     /* (the projection moves the centres by rounding: the derivative and indicators at the step's end
      * stay the next step's start) */
     S->fValid = ev == EVENT_NONE && !hitBp;
     S->enIndValid = S->fValid && haveEnd && first < 0;
-    if (S->enIndValid) memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
+    if (S->enIndValid) {
+        memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
+        for (int i = ni; i < EN_IND; i++) S->enInd[i] = 1.0; /* (none: before_step reads them all) */
+    }
     S->h = hNext;
     S->pending = ev;
-    for (int k = 0; k < nb; k++) {
+    for (int k = 0; k < nb && !c.chain; k++) { /* (a chain's bodies all touch) */
         double gap;
         slip_of(&c.sys, k, S->y, NULL, &gap);
         if (gap > S->gapMax[k]) S->gapMax[k] = gap;
@@ -861,7 +886,10 @@ static void state_at(const Model *M, double t, double *y, EnMode *m) {
         double s = (t - S->tOld) / S->hDense;
         if (s < 0) s = 0;
         if (s > 1) s = 1;
-        dense_eval(S->cont, nstate(M), s, y);
+        Ctx c = context(M, &S->enDense, S->tOld);
+        memcpy(c.xi0, S->enDenseAnchor, sizeof(c.xi0));
+        dense_eval(S->cont, nstep(&c), s, y);
+        complete(&c, S->y, y);
         *m = S->enDense;
     }
 }
@@ -914,6 +942,13 @@ static void before_step(Model *M, const Logger *log) {
     State *S = &M->s;
     commit_peaks(M, log);
     if (S->mode != MODE_ROCKING) return;
+    /* the last step's end, in the same contact set under the same inputs: every indicator positive there
+     * leaves nothing to do */
+    if (S->fValid && S->enIndValid) {
+        int clear = 1;
+        for (int i = 0; i < EN_IND; i++) clear &= S->enInd[i] > 0;
+        if (clear) return;
+    }
     Ctx c = context(M, &S->en, S->t);
     double ind[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];

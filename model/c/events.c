@@ -27,16 +27,19 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                                     rejected);
 }
 
-/* dopri5_error_norm with the absolute tolerance of component i scaled by scale[i]. */
+/* dopri5_error_norm with the absolute tolerance of component i scaled by scale[i] (0: not controlled). */
 static double scaled_error_norm(int n, const double *scale, const double *y0, const double *y1, const double *err,
                                 double rtol, double atol) {
     double sum = 0.0;
+    int counted = 0;
     for (int i = 0; i < n; i++) {
+        if (scale[i] == 0.0) continue; /* a component that rides along */
         double sc = atol * scale[i] + rtol * fmax(fabs(y0[i]), fabs(y1[i]));
         double e = err[i] / sc;
         sum += e * e;
+        counted++;
     }
-    return sqrt(sum / n);
+    return counted ? sqrt(sum / counted) : 0.0;
 }
 
 int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,

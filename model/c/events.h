@@ -28,7 +28,7 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
 
 /* adaptive_step whose error control covers the first nErr of the n components only (the
  * others are integrals that ride along, such as work done), with the absolute tolerance of
- * component i scaled by scale[i] (components of other units than the angles; NULL: all 1). */
+ * component i scaled by scale[i] (components of other units than the angles; 0: a component not controlled; NULL: all 1). */
 int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,
                              const double *y, const double *f0, double *h, double hmax, double rtol, double atol,
                              double *y1, double *f1, double cont[5][NMAX], double *hNext,
