@@ -27,6 +27,7 @@ def test_the_same_build_costs_the_same_instructions(fmu_path, tmp_path):
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in table.splitlines()
             if line.startswith("| ") and not line.startswith("| case")]
     assert len(rows) > 5
+    assert any(r[0].startswith("two blocks, rocking-sliding") for r in rows)  # the stack's cases too
     for r in rows:
         assert float(r[1]) > 0 and float(r[2]) > 0
         assert float(r[6]) == pytest.approx(1.0, abs=1e-3), r  # instructions: the same code does the same work

@@ -1,8 +1,10 @@
-"""The contact engine's sticking chain (rest, rocking, a stack that rocks: every contact sticks) solves the
-motion in the rotations of the bodies that rock (docs/flight.md, "A sticking chain"). Checked here against
-the constrained Newton-Euler system the engine solves for every other contact set, at 20,000 random states
-of every sticking set of one block and of a stack: the same accelerations and forces to rounding, and the
-centres it places exactly on the constraints. A white-box check compiled from model/c with the system's gcc."""
+"""The contact engine's chain (every body on a corner of its support: rest, rocking, sliding, slide-rocking,
+a stack doing any of these) solves the motion in reduced coordinates, the rotations of the bodies that rock
+and the slips of the contacts that slide (docs/flight.md, "A chain"). Checked here against the constrained
+Newton-Euler system the engine solves where a body flies, at 20,000 random states of every such set of one
+block and of a stack (half of them with contacts sliding either way): the same accelerations and forces to
+rounding, and, where every contact sticks, the centres it places exactly on the constraints. A white-box
+check compiled from model/c with the system's gcc."""
 import shutil
 import subprocess
 from pathlib import Path
@@ -19,7 +21,21 @@ def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
     subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{C}", "-o", str(exe),
                     str(ROOT / "tests" / "c" / "engine_chain.c"), str(C / "lcp.c"), "-lm"], check=True)
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
-    dynamics, placement = float(out[0]), float(out[1])
+    dynamics, placement, sliding = float(out[0]), float(out[1]), int(out[2])
+    assert sliding > 5000, sliding  # the states with a sliding contact were drawn
     assert dynamics <= 1e-12, dynamics   # accelerations over g, forces over the weight carried (or their size)
     assert placement <= 1e-14, placement  # gaps over R, rates over sqrt(g R)
     assert dynamics > 0.0 or placement > 0.0  # both computed (rounding differs between the two solvers)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("valgrind") is None,
+                    reason="gcc or valgrind is not installed (Debian: valgrind)")
+def test_the_chain_reads_no_uninitialised_memory(tmp_path):
+    """valgrind's memcheck over 2,000 states: the reduced system sums every body's columns of every
+    coordinate, so a column left unset would be read (it once was, and passed the comparison by luck)."""
+    exe = tmp_path / "engine_chain"
+    subprocess.run(["gcc", "-std=c99", "-O1", "-g", f"-I{C}", "-o", str(exe), str(ROOT / "tests" / "c" / "engine_chain.c"),
+                    str(C / "lcp.c"), "-lm"], check=True)
+    p = subprocess.run(["valgrind", "--error-exitcode=9", "--track-origins=yes", str(exe), "2000"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr[-2000:]

@@ -151,6 +151,23 @@ static int solve_dense(int n, double A[][EN_ROWS], double *r, double *x) {
     return 1;
 }
 
+/* A x = r for n <= 2 in closed form (Cramer), else by solve_dense. Returns 0 if singular. */
+static int solve_small(int n, double A[][EN_ROWS], double *r, double *x) {
+    if (n == 1) {
+        if (!(fabs(A[0][0]) > 1e-300)) return 0;
+        x[0] = r[0] / A[0][0];
+        return 1;
+    }
+    if (n == 2) {
+        double det = A[0][0] * A[1][1] - A[0][1] * A[1][0];
+        if (!(fabs(det) > 1e-300)) return 0;
+        x[0] = (r[0] * A[1][1] - A[0][1] * r[1]) / det;
+        x[1] = (A[0][0] * r[1] - A[1][0] * r[0]) / det;
+        return 1;
+    }
+    return solve_dense(n, A, r, x);
+}
+
 /* The first closed corner of body k in m (-1, +1), or 0. */
 static int first_closed(const EnMode *m, int k) { return m->closed[k][0] ? -1 : m->closed[k][1] ? 1 : 0; }
 
@@ -290,22 +307,22 @@ static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, cons
     return 1;
 }
 
-static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
-                 double ah, double av, EnForces *f) {
-    enum { NB = EN_MAX_BODIES };
-    if (s->nb == 1) return chain_one(s, m, xi0, yin, yout, ah, av, f);
-    int nb = s->nb, nd = 0;
-    double G[NB][2][NB], kap[NB][2], sel[NB][NB], w[NB], cs[NB][2];
+static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
+                         double ah, double av, EnForces *f, double *slipRate) {
+    enum { NB = EN_MAX_BODIES, ND = 2 * EN_MAX_BODIES };
+    int nb = s->nb, nd = 0, sliding = 0, ndMax = 2 * nb;
+    for (int k = 0; k < nb; k++) sliding |= m->sigma[k] != 0;
+    double G[NB][2][ND], kap[NB][2], sel[NB][ND], w[NB], cs[NB][2], fk[NB][2];
     double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
-    double Rd[NB][2][2], D[NB][2];
-    int cor[NB], flat[NB];
+    double Rd[NB][2][2], D[NB][2], V[NB][2];
+    int cor[NB], flat[NB], slip[NB];
     const double *y = yout ? yout : yin;
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
         int j = k - 1;
         flat[k] = m->closed[k][0] && m->closed[k][1];
         cor[k] = first_closed(m, k);
-        for (int d = 0; d < NB; d++) sel[k][d] = flat[k] && j >= 0 ? sel[j][d] : 0.0;
+        for (int d = 0; d < ndMax; d++) sel[k][d] = flat[k] && j >= 0 ? sel[j][d] : 0.0;
         if (flat[k]) { /* turning with its support */
             w[k] = j >= 0 ? w[j] : 0.0;
             cs[k][0] = j >= 0 ? cs[j][0] : 1.0;
@@ -320,6 +337,7 @@ static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const do
             cs[k][1] = sin(y[EN_TH(k)]);
             sel[k][nd++] = 1.0;
         }
+        slip[k] = m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
         for (int i = 0; i < 2; i++) rot(cs[k][0], cs[k][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
         const double *r = Rd[k][cor[k] > 0];
         double cj = j >= 0 ? cs[j][0] : 1.0, sj = j >= 0 ? cs[j][1] : 0.0;
@@ -338,39 +356,77 @@ static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const do
             for (int i = 0; i < 2; i++) D[k][i] = y[EN_POS(nb, k, i)] + r[i] - Xj[i];
             perp(D[k], JD);
         }
-        for (int i = 0; i < 2; i++) {
-            kap[k][i] = (j >= 0 ? kap[j][i] - w[j] * w[j] * D[k][i] : 0.0) + w[k] * w[k] * r[i];
-            for (int d = 0; d < NB; d++)
-                G[k][i][d] = (j >= 0 ? G[j][i][d] + JD[i] * sel[j][d] : 0.0) - Jr[i] * sel[k][d];
+        V[k][0] = y[EN_VEL(nb, k, 0)];
+        V[k][1] = y[EN_VEL(nb, k, 1)];
+        /* a sliding contact's slip rate xi' (along the support's top, relative to it); on a turning support
+         * its Coriolis term 2 xi' w_j J t */
+        double cor2[2] = {0.0, 0.0};
+        if (slip[k] >= 0) {
+            double Pd[2] = {V[k][0] + w[k] * Jr[0], V[k][1] + w[k] * Jr[1]}, xid = 0.0;
+            if (j >= 0) {
+                double Jt[2];
+                Pd[0] -= V[j][0];
+                Pd[1] -= V[j][1];
+                xid = dot(t[k], Pd) - w[j] * dot(n[k], D[k]);
+                perp(t[k], Jt);
+                cor2[0] = 2.0 * xid * w[j] * Jt[0];
+                cor2[1] = 2.0 * xid * w[j] * Jt[1];
+            } else {
+                xid = Pd[0];
+            }
+            if (slipRate) slipRate[k] = xid;
         }
+        for (int i = 0; i < 2; i++) {
+            kap[k][i] = (j >= 0 ? kap[j][i] - w[j] * w[j] * D[k][i] : 0.0) + w[k] * w[k] * r[i] + cor2[i];
+            for (int d = 0; d < ndMax; d++)
+                G[k][i][d] = (j >= 0 ? G[j][i][d] + JD[i] * sel[j][d] : 0.0) - Jr[i] * sel[k][d] +
+                             (d == slip[k] ? t[k][i] : 0.0);
+        }
+        fk[k][0] = -B->m * (ah + kap[k][0]);
+        fk[k][1] = -B->m * (s->g + av + kap[k][1]);
     }
-    /* the reduced system (symmetric positive definite: elimination without pivoting) */
-    double A[NB][NB], r[NB], zdd[NB] = {0};
+    /* the reduced system: symmetric positive definite while every contact sticks; a sliding contact's
+     * friction -sigma mu N, N linear in the accelerations (N_k = n . sum over i >= k of m_i X_i'' - f_i),
+     * works on its slip */
+    double A[EN_ROWS][EN_ROWS], r[EN_ROWS], zdd[EN_ROWS] = {0};
     for (int a = 0; a < nd; a++) {
         r[a] = 0.0;
         for (int b = 0; b < nd; b++) A[a][b] = 0.0;
     }
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
-        double fk[2] = {-B->m * (ah + kap[k][0]), -B->m * (s->g + av + kap[k][1])};
         for (int a = 0; a < nd; a++) {
-            r[a] += G[k][0][a] * fk[0] + G[k][1][a] * fk[1];
+            r[a] += G[k][0][a] * fk[k][0] + G[k][1][a] * fk[k][1];
             for (int b = 0; b < nd; b++)
                 A[a][b] += B->m * (G[k][0][a] * G[k][0][b] + G[k][1][a] * G[k][1][b]) + B->Ic * sel[k][a] * sel[k][b];
         }
     }
-    for (int c = 0; c < nd; c++) {
-        if (!(A[c][c] > 0.0)) return 0;
-        for (int i = c + 1; i < nd; i++) {
-            double q = A[i][c] / A[c][c];
-            for (int j = c; j < nd; j++) A[i][j] -= q * A[c][j];
-            r[i] -= q * r[c];
+    for (int k = 0; k < nb; k++) {
+        if (slip[k] < 0) continue;
+        double smu = m->sigma[k] * s->mu[k], c = 0.0;
+        for (int i = k; i < nb; i++) {
+            c -= dot(n[k], fk[i]);
+            for (int b = 0; b < nd; b++)
+                A[slip[k]][b] += smu * s->body[i].m * (n[k][0] * G[i][0][b] + n[k][1] * G[i][1][b]);
         }
+        r[slip[k]] -= smu * c;
     }
-    for (int i = nd - 1; i >= 0; i--) {
-        double v = r[i];
-        for (int j = i + 1; j < nd; j++) v -= A[i][j] * zdd[j];
-        zdd[i] = v / A[i][i];
+    if (sliding) {
+        if (!solve_small(nd, A, r, zdd)) return 0;
+    } else {
+        for (int c = 0; c < nd; c++) {
+            if (!(A[c][c] > 0.0)) return 0;
+            for (int i = c + 1; i < nd; i++) {
+                double q = A[i][c] / A[c][c];
+                for (int j = c; j < nd; j++) A[i][j] -= q * A[c][j];
+                r[i] -= q * r[c];
+            }
+        }
+        for (int i = nd - 1; i >= 0; i--) {
+            double v = r[i];
+            for (int j = i + 1; j < nd; j++) v -= A[i][j] * zdd[j];
+            zdd[i] = v / A[i][i];
+        }
     }
     double al[NB], acc[NB][2];
     for (int k = 0; k < nb; k++) {
@@ -391,7 +447,7 @@ static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const do
         const EnBody *B = &s->body[k];
         F[0] += B->m * (acc[k][0] + ah);
         F[1] += B->m * (acc[k][1] + s->g + av);
-        double N = dot(F, n[k]), T = dot(F, t[k]);
+        double N = dot(F, n[k]), T = m->sigma[k] ? -m->sigma[k] * s->mu[k] * N : dot(F, t[k]);
         f->T[k] = T;
         const double *rf = Rd[k][cor[k] > 0];
         if (flat[k]) {
@@ -420,13 +476,22 @@ static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const do
     return 1;
 }
 
+/* The chain: one body that sticks written out (chain_one), else chain_general. */
+static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
+                 double ah, double av, EnForces *f, double *slipRate) {
+    if (s->nb == 1 && !m->sigma[0]) return chain_one(s, m, xi0, yin, yout, ah, av, f);
+    return chain_general(s, m, xi0, yin, yout, ah, av, f, slipRate);
+}
+
 int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *y, double ah, double av,
                  EnForces *f) {
-    return chain(s, m, xi0, y, y, ah, av, f);
+    return chain(s, m, xi0, y, y, ah, av, f, NULL);
 }
 
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f) {
-    if (engine_is_chain(s, m)) return chain(s, m, NULL, y, NULL, ah, av, f);
+    int touching = 1; /* every body on a corner: the chain, sliding contacts' slips among its coordinates */
+    for (int k = 0; k < s->nb; k++) touching &= m->closed[k][0] || m->closed[k][1];
+    if (touching) return chain(s, m, NULL, y, NULL, ah, av, f, NULL);
     double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
     free_terms(s, ah, av, Minv, fext);
     for (int q = 0; q < 3 * s->nb; q++) a0[q] = Minv[q] * fext[q];
@@ -459,7 +524,7 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const doub
     double yc[NMAX];
     if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations; no friction works */
         for (int i = 0; i < EN_CHAIN_N(nb); i++) yc[i] = y[i];
-        if (!chain(s, m, xi0, yc, yc, ah, av, &f)) return 0;
+        if (!chain(s, m, xi0, yc, yc, ah, av, &f, NULL)) return 0;
         double work = 0.0;
         for (int k = 0; k < nb; k++) {
             dy[EN_TH(k)] = yc[EN_W(k)];
@@ -475,7 +540,15 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const doub
         if (fo) *fo = f;
         return 1;
     }
-    if (!engine_solve(s, m, y, ah, av, &f)) return 0;
+    double xid[EN_MAX_BODIES] = {0}; /* the sliding contacts' slip rates */
+    int touching = 1, known = 0;
+    for (int k = 0; k < nb; k++) touching &= m->closed[k][0] || m->closed[k][1];
+    if (touching) { /* the chain, which gives the slip rates too */
+        if (!chain(s, m, NULL, y, NULL, ah, av, &f, xid)) return 0;
+        known = 1;
+    } else if (!engine_solve(s, m, y, ah, av, &f)) {
+        return 0;
+    }
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 3; i++) {
             dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
@@ -484,7 +557,7 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const doub
     double work = 0.0;
     for (int k = 0; k < nb; k++) {
         work -= s->body[k].m * (ah * y[EN_VEL(nb, k, 0)] + av * y[EN_VEL(nb, k, 1)]);
-        dy[EN_LOSS(nb, k)] = m->sigma[k] ? -f.T[k] * slip_rate(s, m, k, y) : 0.0;
+        dy[EN_LOSS(nb, k)] = m->sigma[k] ? -f.T[k] * (known ? xid[k] : slip_rate(s, m, k, y)) : 0.0;
     }
     dy[EN_WORK(nb)] = work;
     if (fo) *fo = f;

@@ -304,29 +304,60 @@ def _instructions(exe: Path, lib: Path, guid: str, case: int | list[str], repeat
     return (count(repeats) - count(0)) / repeats
 
 
+def _stack_cases_of_both(paths: tuple[Path, Path]) -> list[tuple[str, dict, float]]:
+    """The rocking-sliding stack's cases (STACK_SLIDING_CASES: name, parameters, stop time in s) that
+    every FMU of `paths` runs (a build refuses what it has no model for)."""
+    from runners.engine.fmu import FMUError
+
+    cases = []
+    for rigid, params, stop, what in STACK_SLIDING_CASES:
+        p = _stack_sliding_parameters(params, what)
+        try:
+            for path in paths:
+                with RockingFMU(path) as fmu:
+                    fmu.validate(p)
+        except FMUError:
+            continue
+        cases.append((_stack_sliding_name(rigid, what), p, stop))
+    return cases
+
+
 def run_native_against(fmu_path: Path, other: Path, repeats: int = 2000, rounds: int = 5,
                        count_repeats: int = 5) -> str:
     """The native benchmark of two FMUs (this one and `other`, say a build before a change),
     interleaved round by round, as a Markdown table of the smallest time per case and the
-    ratio this / other: the cost of the change. Where valgrind is installed, also the ratio of
-    instructions per simulation (exact: on a shared machine times vary by tens of percent)."""
+    ratio this / other: the cost of the change. The harness's rows, then the rocking-sliding stack's
+    cases both builds run (through the harness's custom form). Where valgrind is installed, also the
+    ratio of instructions per simulation (exact: on a shared machine times vary by tens of percent)."""
     if repeats < 1 or rounds < 1:
         raise ValueError("--repeats must be >= 1")
     for path in (fmu_path, other):  # one clear line for a missing or foreign file
         RockingFMU(path).close()
     valgrind = shutil.which("valgrind") is not None
     with tempfile.TemporaryDirectory() as tmp:
-        natives = [_compile_native(Path(p), Path(tmp) / name) for p, name in ((fmu_path, "this"), (other, "other"))]
+        paths = (Path(fmu_path), Path(other))
+        natives = [_compile_native(p, Path(tmp) / name) for p, name in zip(paths, ("this", "other"))]
+        customs = [_Custom(n, p) for n, p in zip(natives, paths)]
+        stack = _stack_cases_of_both(paths)
         best: list[dict[str, float]] = [{}, {}]
         impacts: dict[str, str] = {}
         for _ in range(rounds):
             for k, native in enumerate(natives):
-                for row in _native_rows(*native, repeats):
-                    best[k][row[0]] = min(best[k].get(row[0], float("inf")), float(row[1]))
+                timed = [(row[0], float(row[1]), row[2]) for row in _native_rows(*native, repeats)]
+                for name, p, stop in stack:
+                    us, n_impacts = customs[k].time(p, stop, repeats)
+                    timed.append((name, us, str(n_impacts)))
+                for name, us, n_impacts in timed:
+                    best[k][name] = min(best[k].get(name, float("inf")), us)
                     if k == 0:
-                        impacts[row[0]] = row[2]
-        counts = {case: [_instructions(*n, index, count_repeats) for n in natives]
-                  for index, case in enumerate(best[0])} if valgrind else {}
+                        impacts[name] = n_impacts
+        counts = {}
+        if valgrind:
+            rows = list(best[0])
+            for index, case in enumerate(rows[:len(rows) - len(stack)]):
+                counts[case] = [_instructions(*n, index, count_repeats) for n in natives]
+            for name, p, stop in stack:
+                counts[name] = [c.instructions(p, stop, count_repeats) for c in customs]
     head = (f"Native cost per simulation of {fmu_path.name} against {other}: smallest of {rounds} interleaved "
             f"rounds of {repeats} runs each")
     if valgrind:

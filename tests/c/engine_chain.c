@@ -1,8 +1,10 @@
-/* The sticking chain (engine.c: chain, chain_one) against the constrained Newton-Euler system (solve_set)
- * at random states of every sticking contact set of one body and of a stack of two: accelerations over g,
- * forces over the weight carried (or their own size where larger); and the placed centres on the constraints (closed corners at zero gap
- * and normal rate, sticking corners at zero slip rate). Prints the largest of each; tests/test_engine_chain.py
- * runs it. White-box: it includes engine.c for its static solvers. */
+/* The chain (engine.c: chain, chain_one) against the constrained Newton-Euler system (solve_set) at random
+ * states of every contact set of one body and of a stack of two in which every body touches (each contact
+ * sticking, and in the second half each sliding either way or sticking, at random): accelerations over g
+ * and forces over the weight carried (each over its own size where larger); and the placed centres on the
+ * constraints (closed corners at zero gap and normal rate, sticking corners at zero slip rate) where every
+ * contact sticks. Prints the largest of each and the number of states with a sliding contact;
+ * tests/test_engine_chain.py runs it. White-box: it includes engine.c for its static solvers. */
 #include "engine.c"
 
 #include <stdio.h>
@@ -10,11 +12,13 @@
 
 static double rnd(void) { return 2.0 * rand() / RAND_MAX - 1.0; }
 
-int main(void) {
+int main(int argc, char **argv) {
+    int trials = argc > 1 ? atoi(argv[1]) : 20000;
     double worstDyn = 0.0, worstPlace = 0.0;
+    int nSliding = 0;
     const double b[2] = {0.3, 0.2}, h[2] = {0.5, 0.8}, m[2] = {450.0, 690.0}, g = 9.81;
     srand(12345);
-    for (int trial = 0; trial < 20000; trial++) {
+    for (int trial = 0; trial < trials; trial++) {
         EnSystem s;
         memset(&s, 0, sizeof(s));
         s.nb = 1 + trial % 2;
@@ -25,16 +29,21 @@ int main(void) {
             s.body[k].h = h[k] / f;
             s.body[k].m = m[k] * f * f;
             s.body[k].Ic = s.body[k].m * (s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h) / 3.0;
-            s.mu[k] = 0.5;
+            s.mu[k] = 0.3;
         }
         for (int k = s.nb - 1; k >= 0; k--) s.weight[k] = s.body[k].m * g + (k + 1 < s.nb ? s.weight[k + 1] : 0.0);
         EnMode mode;
         memset(&mode, 0, sizeof(mode));
         for (int k = 0; k < s.nb; k++) {
-            int c = (trial / 2 + k) % 3; /* left, right or both corners closed; every contact sticks */
+            int c = (trial / 2 + k) % 3; /* left, right or both corners closed */
             mode.closed[k][0] = c != 1;
             mode.closed[k][1] = c != 0;
         }
+        /* the second half: each contact slides (sigma +-1) or sticks, at random */
+        int slides = trial >= trials / 2;
+        int sigma[EN_MAX_BODIES] = {0, 0};
+        if (slides)
+            for (int k = 0; k < s.nb; k++) sigma[k] = rand() % 3 - 1;
         double y[NMAX] = {0}, xi0[EN_MAX_BODIES] = {0.05 * rnd(), 0.05 * rnd()};
         for (int k = 0; k < s.nb; k++) {
             y[EN_TH(k)] = 0.4 * rnd();
@@ -42,22 +51,38 @@ int main(void) {
         }
         EnForces reduced, full;
         if (!engine_chain(&s, &mode, xi0, y, 0.0, 0.0, &reduced)) return 2; /* places the centres */
+        /* a slip rate v_k along its support's top for each sliding contact: body k and the bodies above it
+         * move with it (their own contacts unchanged) */
+        for (int k = 0; k < s.nb; k++) {
+            mode.sigma[k] = sigma[k];
+            if (!sigma[k]) continue;
+            double v = 0.5 * rnd(), th = k > 0 ? y[EN_TH(k - 1)] : 0.0;
+            for (int i = k; i < s.nb; i++) {
+                y[EN_VEL(s.nb, i, 0)] += v * cos(th);
+                y[EN_VEL(s.nb, i, 1)] -= v * sin(th);
+            }
+        }
         double ah = 8.0 * rnd(), av = 8.0 * rnd();
         if (!engine_solve(&s, &mode, y, ah, av, &reduced)) return 2; /* the chain (engine_solve's dispatch) */
         double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
         free_terms(&s, ah, av, Minv, fext);
         for (int q = 0; q < 3 * s.nb; q++) a0[q] = Minv[q] * fext[q];
         if (!solve_set(&s, &mode, y, a0, 1, &full)) return 2;
+        if (slides) nSliding += mode.sigma[0] != 0 || mode.sigma[1] != 0;
         for (int k = 0; k < s.nb; k++) {
             double R = sqrt(s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h);
-            for (int i = 0; i < 2; i++) worstDyn = fmax(worstDyn, fabs(full.qdd[EN_Q(k, i)] - reduced.qdd[EN_Q(k, i)]) / g);
-            worstDyn = fmax(worstDyn, fabs(full.qdd[EN_Q(k, 2)] - reduced.qdd[EN_Q(k, 2)]) * R / g);
+            /* accelerations over g, or their own size where larger (a stack sliding on two corners can be
+             * near a singular set, with accelerations of hundreds of g) */
+            double a = fmax(g, fmax(fmax(fabs(full.qdd[EN_Q(k, 0)]), fabs(full.qdd[EN_Q(k, 1)])),
+                                    fabs(full.qdd[EN_Q(k, 2)]) * R));
+            for (int i = 0; i < 2; i++) worstDyn = fmax(worstDyn, fabs(full.qdd[EN_Q(k, i)] - reduced.qdd[EN_Q(k, i)]) / a);
+            worstDyn = fmax(worstDyn, fabs(full.qdd[EN_Q(k, 2)] - reduced.qdd[EN_Q(k, 2)]) * R / a);
             /* forces over the weight carried, or the forces themselves where larger (a flat body's split of
              * several weights between its corners rounds at their size) */
             double F = fmax(s.weight[k], fabs(full.N[k][0]) + fabs(full.N[k][1]) + fabs(full.T[k]));
             for (int i = 0; i < 2; i++) worstDyn = fmax(worstDyn, fabs(full.N[k][i] - reduced.N[k][i]) / F);
             worstDyn = fmax(worstDyn, fabs(full.T[k] - reduced.T[k]) / F);
-            for (int i = 0; i < 2; i++) {
+            for (int i = 0; i < 2 && !slides; i++) {
                 if (!mode.closed[k][i]) continue;
                 EnPoint p;
                 engine_point(&s, k, 2 * i - 1, y, &p);
@@ -67,6 +92,6 @@ int main(void) {
             }
         }
     }
-    printf("%.3e %.3e\n", worstDyn, worstPlace);
+    printf("%.3e %.3e %d\n", worstDyn, worstPlace, nSliding);
     return 0;
 }
