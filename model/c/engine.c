@@ -266,7 +266,6 @@ static void perp(const double r[2], double out[2]) {
 static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
                      double ah, double av, EnForces *f) {
     const EnBody *B = &s->body[0];
-    const double *y = yout ? yout : yin;
     double gv = s->g + av;
     for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
     for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
@@ -285,7 +284,7 @@ static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, cons
         return 1;
     }
     int c = m->closed[0][1] ? 1 : -1;
-    double th = y[EN_TH(0)], w = y[EN_W(0)], ck = cos(th), sk = sin(th);
+    double th = yin[EN_TH(0)], w = yin[EN_W(0)], ck = cos(th), sk = sin(th); /* (yout: the centres) */
     double r[2] = {c * B->b * ck - B->h * sk, -c * B->b * sk - B->h * ck}; /* the corner from the centre */
     double G[2] = {-r[1], r[0]};                                            /* -J r */
     if (yout) {
@@ -309,81 +308,80 @@ static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, cons
 
 static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
                          double ah, double av, EnForces *f, double *slipRate) {
-    enum { NB = EN_MAX_BODIES, ND = 2 * EN_MAX_BODIES };
-    int nb = s->nb, nd = 0, sliding = 0, ndMax = 2 * nb;
-    for (int k = 0; k < nb; k++) sliding |= m->sigma[k] != 0;
-    double G[NB][2][ND], kap[NB][2], sel[NB][ND], w[NB], cs[NB][2], fk[NB][2];
+    enum { NB = EN_MAX_BODIES, ND = 2 * EN_MAX_BODIES, NS = EN_MAX_BODIES + 1 };
+    int nb = s->nb, nd = 0, sliding = 0;
+    /* index 0 the ground (fixed: its accelerations are in the forces), body k at k + 1; so every body has
+     * a support, and the loops over the coordinates have fixed lengths */
+    double G[NS][2][ND] = {{{0}}}, kap[NS][2] = {{0}}, sel[NS][ND] = {{0}}, w[NS] = {0}, th[NS] = {0};
+    double cs[NS][2] = {{1.0, 0.0}}, X[NS][2] = {{0}}, V[NS][2] = {{0}}, hs[NS] = {0};
     double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
-    double Rd[NB][2][2], D[NB][2], V[NB][2];
+    double Rd[NB][2][2], D[NB][2], fk[NB][2];
     int cor[NB], flat[NB], slip[NB];
     const double *y = yout ? yout : yin;
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
-        int j = k - 1;
+        int b = k + 1, a = k; /* the body's and its support's index */
+        hs[b] = B->h;
         flat[k] = m->closed[k][0] && m->closed[k][1];
         cor[k] = first_closed(m, k);
-        for (int d = 0; d < ndMax; d++) sel[k][d] = flat[k] && j >= 0 ? sel[j][d] : 0.0;
+        sliding |= m->sigma[k] != 0;
         if (flat[k]) { /* turning with its support */
-            w[k] = j >= 0 ? w[j] : 0.0;
-            cs[k][0] = j >= 0 ? cs[j][0] : 1.0;
-            cs[k][1] = j >= 0 ? cs[j][1] : 0.0;
+            th[b] = th[a];
+            w[b] = w[a];
+            cs[b][0] = cs[a][0];
+            cs[b][1] = cs[a][1];
+            for (int d = 0; d < ND; d++) sel[b][d] = sel[a][d];
             if (yout) {
-                yout[EN_TH(k)] = j >= 0 ? y[EN_TH(j)] : 0.0;
-                yout[EN_W(k)] = w[k];
+                yout[EN_TH(k)] = th[b];
+                yout[EN_W(k)] = w[b];
             }
         } else {
-            w[k] = y[EN_W(k)];
-            cs[k][0] = cos(y[EN_TH(k)]);
-            cs[k][1] = sin(y[EN_TH(k)]);
-            sel[k][nd++] = 1.0;
+            th[b] = y[EN_TH(k)];
+            w[b] = y[EN_W(k)];
+            cs[b][0] = cos(th[b]);
+            cs[b][1] = sin(th[b]);
+            sel[b][nd++] = 1.0;
         }
         slip[k] = m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
-        for (int i = 0; i < 2; i++) rot(cs[k][0], cs[k][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
+        for (int i = 0; i < 2; i++) rot(cs[b][0], cs[b][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
         const double *r = Rd[k][cor[k] > 0];
-        double cj = j >= 0 ? cs[j][0] : 1.0, sj = j >= 0 ? cs[j][1] : 0.0;
-        n[k][0] = sj, n[k][1] = cj, t[k][0] = cj, t[k][1] = -sj;
-        double Xj[2] = {j >= 0 ? y[EN_POS(nb, j, 0)] : 0.0, j >= 0 ? y[EN_POS(nb, j, 1)] : 0.0}, JD[2], Jr[2];
+        n[k][0] = cs[a][1], n[k][1] = cs[a][0], t[k][0] = cs[a][0], t[k][1] = -cs[a][1];
+        double JD[2], Jr[2];
         perp(r, Jr);
         if (xi0) { /* the corner at its anchor on the support's top: the centre and its velocity follow */
-            double xi = xi0[k] + cor[k] * B->b, hs = j >= 0 ? s->body[j].h : 0.0;
-            for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs * n[k][i];
+            double xi = xi0[k] + cor[k] * B->b;
+            for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs[a] * n[k][i];
             perp(D[k], JD);
             for (int i = 0; i < 2; i++) {
-                yout[EN_POS(nb, k, i)] = Xj[i] + D[k][i] - r[i];
-                yout[EN_VEL(nb, k, i)] = (j >= 0 ? yout[EN_VEL(nb, j, i)] + w[j] * JD[i] : 0.0) - w[k] * Jr[i];
+                X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
+                V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i];
             }
         } else {
-            for (int i = 0; i < 2; i++) D[k][i] = y[EN_POS(nb, k, i)] + r[i] - Xj[i];
+            for (int i = 0; i < 2; i++) {
+                X[b][i] = y[EN_POS(nb, k, i)];
+                V[b][i] = y[EN_VEL(nb, k, i)];
+                D[k][i] = X[b][i] + r[i] - X[a][i];
+            }
             perp(D[k], JD);
         }
-        V[k][0] = y[EN_VEL(nb, k, 0)];
-        V[k][1] = y[EN_VEL(nb, k, 1)];
         /* a sliding contact's slip rate xi' (along the support's top, relative to it); on a turning support
          * its Coriolis term 2 xi' w_j J t */
         double cor2[2] = {0.0, 0.0};
         if (slip[k] >= 0) {
-            double Pd[2] = {V[k][0] + w[k] * Jr[0], V[k][1] + w[k] * Jr[1]}, xid = 0.0;
-            if (j >= 0) {
-                double Jt[2];
-                Pd[0] -= V[j][0];
-                Pd[1] -= V[j][1];
-                xid = dot(t[k], Pd) - w[j] * dot(n[k], D[k]);
-                perp(t[k], Jt);
-                cor2[0] = 2.0 * xid * w[j] * Jt[0];
-                cor2[1] = 2.0 * xid * w[j] * Jt[1];
-            } else {
-                xid = Pd[0];
-            }
+            double Pd[2] = {V[b][0] + w[b] * Jr[0] - V[a][0], V[b][1] + w[b] * Jr[1] - V[a][1]}, Jt[2];
+            double xid = dot(t[k], Pd) - w[a] * dot(n[k], D[k]);
+            perp(t[k], Jt);
+            cor2[0] = 2.0 * xid * w[a] * Jt[0];
+            cor2[1] = 2.0 * xid * w[a] * Jt[1];
             if (slipRate) slipRate[k] = xid;
         }
         for (int i = 0; i < 2; i++) {
-            kap[k][i] = (j >= 0 ? kap[j][i] - w[j] * w[j] * D[k][i] : 0.0) + w[k] * w[k] * r[i] + cor2[i];
-            for (int d = 0; d < ndMax; d++)
-                G[k][i][d] = (j >= 0 ? G[j][i][d] + JD[i] * sel[j][d] : 0.0) - Jr[i] * sel[k][d] +
-                             (d == slip[k] ? t[k][i] : 0.0);
+            kap[b][i] = kap[a][i] - w[a] * w[a] * D[k][i] + w[b] * w[b] * r[i] + cor2[i];
+            for (int d = 0; d < ND; d++) G[b][i][d] = G[a][i][d] + JD[i] * sel[a][d] - Jr[i] * sel[b][d];
+            if (slip[k] >= 0) G[b][i][slip[k]] += t[k][i];
         }
-        fk[k][0] = -B->m * (ah + kap[k][0]);
-        fk[k][1] = -B->m * (s->g + av + kap[k][1]);
+        fk[k][0] = -B->m * (ah + kap[b][0]);
+        fk[k][1] = -B->m * (s->g + av + kap[b][1]);
     }
     /* the reduced system: symmetric positive definite while every contact sticks; a sliding contact's
      * friction -sigma mu N, N linear in the accelerations (N_k = n . sum over i >= k of m_i X_i'' - f_i),
@@ -391,14 +389,15 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
     double A[EN_ROWS][EN_ROWS], r[EN_ROWS], zdd[EN_ROWS] = {0};
     for (int a = 0; a < nd; a++) {
         r[a] = 0.0;
-        for (int b = 0; b < nd; b++) A[a][b] = 0.0;
+        for (int c = 0; c < nd; c++) A[a][c] = 0.0;
     }
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
+        const double(*g)[ND] = G[k + 1];
         for (int a = 0; a < nd; a++) {
-            r[a] += G[k][0][a] * fk[k][0] + G[k][1][a] * fk[k][1];
-            for (int b = 0; b < nd; b++)
-                A[a][b] += B->m * (G[k][0][a] * G[k][0][b] + G[k][1][a] * G[k][1][b]) + B->Ic * sel[k][a] * sel[k][b];
+            r[a] += g[0][a] * fk[k][0] + g[1][a] * fk[k][1];
+            for (int c = 0; c < nd; c++)
+                A[a][c] += B->m * (g[0][a] * g[0][c] + g[1][a] * g[1][c]) + B->Ic * sel[k + 1][a] * sel[k + 1][c];
         }
     }
     for (int k = 0; k < nb; k++) {
@@ -407,7 +406,7 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
         for (int i = k; i < nb; i++) {
             c -= dot(n[k], fk[i]);
             for (int b = 0; b < nd; b++)
-                A[slip[k]][b] += smu * s->body[i].m * (n[k][0] * G[i][0][b] + n[k][1] * G[i][1][b]);
+                A[slip[k]][b] += smu * s->body[i].m * (n[k][0] * G[i + 1][0][b] + n[k][1] * G[i + 1][1][b]);
         }
         r[slip[k]] -= smu * c;
     }
@@ -431,10 +430,12 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
     double al[NB], acc[NB][2];
     for (int k = 0; k < nb; k++) {
         al[k] = 0.0;
-        for (int d = 0; d < nd; d++) al[k] += sel[k][d] * zdd[d];
-        for (int i = 0; i < 2; i++) {
-            acc[k][i] = kap[k][i];
-            for (int d = 0; d < nd; d++) acc[k][i] += G[k][i][d] * zdd[d];
+        acc[k][0] = kap[k + 1][0];
+        acc[k][1] = kap[k + 1][1];
+        for (int d = 0; d < nd; d++) {
+            al[k] += sel[k + 1][d] * zdd[d];
+            acc[k][0] += G[k + 1][0][d] * zdd[d];
+            acc[k][1] += G[k + 1][1][d] * zdd[d];
         }
         f->qdd[EN_Q(k, 0)] = acc[k][0];
         f->qdd[EN_Q(k, 1)] = acc[k][1];
@@ -520,24 +521,29 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
                double *dy, EnForces *fo) {
     int nb = s->nb;
-    EnForces f;
+    EnForces f, *fp = fo ? fo : &f;
     double yc[NMAX];
     if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations; no friction works */
-        for (int i = 0; i < EN_CHAIN_N(nb); i++) yc[i] = y[i];
-        if (!chain(s, m, xi0, yc, yc, ah, av, &f, NULL)) return 0;
+        if (nb == 1) {
+            if (!chain_one(s, m, xi0, y, yc, ah, av, fp)) return 0;
+            if (m->closed[0][0] && m->closed[0][1]) yc[EN_W(0)] = 0.0;
+            else yc[EN_W(0)] = y[EN_W(0)];
+        } else {
+            for (int i = 0; i < EN_CHAIN_N(nb); i++) yc[i] = y[i];
+            if (!chain(s, m, xi0, yc, yc, ah, av, fp, NULL)) return 0;
+        }
         double work = 0.0;
         for (int k = 0; k < nb; k++) {
             dy[EN_TH(k)] = yc[EN_W(k)];
-            dy[EN_W(k)] = f.qdd[EN_Q(k, 2)];
+            dy[EN_W(k)] = fp->qdd[EN_Q(k, 2)];
             dy[EN_LOSS(nb, k)] = 0.0;
             for (int i = 0; i < 2; i++) {
                 dy[EN_POS(nb, k, i)] = yc[EN_VEL(nb, k, i)];
-                dy[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
+                dy[EN_VEL(nb, k, i)] = fp->qdd[EN_Q(k, i)];
             }
             work -= s->body[k].m * (ah * yc[EN_VEL(nb, k, 0)] + av * yc[EN_VEL(nb, k, 1)]);
         }
         dy[EN_WORK(nb)] = work;
-        if (fo) *fo = f;
         return 1;
     }
     double xid[EN_MAX_BODIES] = {0}; /* the sliding contacts' slip rates */
