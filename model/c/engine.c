@@ -306,14 +306,20 @@ static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, cons
     return 1;
 }
 
-static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
-                         double ah, double av, EnForces *f, double *slipRate) {
-    enum { NB = EN_MAX_BODIES, ND = 2 * EN_MAX_BODIES, NS = EN_MAX_BODIES + 1 };
+/* chain_general with ND coordinates at most (a constant where it is inlined, so that its loops unroll):
+ * a rotation per body, and a slip per body where contacts slide. */
+static inline __attribute__((always_inline)) int chain_nd(const int ND, const EnSystem *s, const EnMode *m,
+                                                          const double *xi0, const double *yin, double *yout,
+                                                          double ah, double av, EnForces *f, double *slipRate) {
+    enum { NB = EN_MAX_BODIES, NDMAX = 2 * EN_MAX_BODIES, NS = EN_MAX_BODIES + 1 };
+    const int SLIDES = ND > NB; /* (the instance with slips; the other has no sliding contact) */
     int nb = s->nb, nd = 0, sliding = 0;
     /* index 0 the ground (fixed: its accelerations are in the forces), body k at k + 1; so every body has
      * a support, and the loops over the coordinates have fixed lengths */
-    double G[NS][2][ND] = {{{0}}}, kap[NS][2] = {{0}}, sel[NS][ND] = {{0}}, w[NS] = {0}, th[NS] = {0};
-    double cs[NS][2] = {{1.0, 0.0}}, X[NS][2] = {{0}}, V[NS][2] = {{0}}, hs[NS] = {0};
+    double G[NS][2][NDMAX], kap[NS][2], sel[NS][NDMAX], w[NS], th[NS], cs[NS][2], X[NS][2], V[NS][2], hs[NS];
+    for (int d = 0; d < ND; d++) G[0][0][d] = G[0][1][d] = sel[0][d] = 0.0;
+    kap[0][0] = kap[0][1] = X[0][0] = X[0][1] = V[0][0] = V[0][1] = w[0] = th[0] = hs[0] = cs[0][1] = 0.0;
+    cs[0][0] = 1.0;
     double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
     double Rd[NB][2][2], D[NB][2], fk[NB][2];
     int cor[NB], flat[NB], slip[NB];
@@ -340,9 +346,10 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
             w[b] = y[EN_W(k)];
             cs[b][0] = cos(th[b]);
             cs[b][1] = sin(th[b]);
+            for (int d = 0; d < ND; d++) sel[b][d] = 0.0;
             sel[b][nd++] = 1.0;
         }
-        slip[k] = m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
+        slip[k] = SLIDES && m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
         for (int i = 0; i < 2; i++) rot(cs[b][0], cs[b][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
         const double *r = Rd[k][cor[k] > 0];
         n[k][0] = cs[a][1], n[k][1] = cs[a][0], t[k][0] = cs[a][0], t[k][1] = -cs[a][1];
@@ -367,7 +374,7 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
         /* a sliding contact's slip rate xi' (along the support's top, relative to it); on a turning support
          * its Coriolis term 2 xi' w_j J t */
         double cor2[2] = {0.0, 0.0};
-        if (slip[k] >= 0) {
+        if (SLIDES && slip[k] >= 0) {
             double Pd[2] = {V[b][0] + w[b] * Jr[0] - V[a][0], V[b][1] + w[b] * Jr[1] - V[a][1]}, Jt[2];
             double xid = dot(t[k], Pd) - w[a] * dot(n[k], D[k]);
             perp(t[k], Jt);
@@ -378,7 +385,7 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
         for (int i = 0; i < 2; i++) {
             kap[b][i] = kap[a][i] - w[a] * w[a] * D[k][i] + w[b] * w[b] * r[i] + cor2[i];
             for (int d = 0; d < ND; d++) G[b][i][d] = G[a][i][d] + JD[i] * sel[a][d] - Jr[i] * sel[b][d];
-            if (slip[k] >= 0) G[b][i][slip[k]] += t[k][i];
+            if (SLIDES && slip[k] >= 0) G[b][i][slip[k]] += t[k][i];
         }
         fk[k][0] = -B->m * (ah + kap[b][0]);
         fk[k][1] = -B->m * (s->g + av + kap[b][1]);
@@ -393,14 +400,14 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
     }
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
-        const double(*g)[ND] = G[k + 1];
+        const double(*g)[NDMAX] = G[k + 1];
         for (int a = 0; a < nd; a++) {
             r[a] += g[0][a] * fk[k][0] + g[1][a] * fk[k][1];
             for (int c = 0; c < nd; c++)
                 A[a][c] += B->m * (g[0][a] * g[0][c] + g[1][a] * g[1][c]) + B->Ic * sel[k + 1][a] * sel[k + 1][c];
         }
     }
-    for (int k = 0; k < nb; k++) {
+    for (int k = 0; k < nb && SLIDES; k++) {
         if (slip[k] < 0) continue;
         double smu = m->sigma[k] * s->mu[k], c = 0.0;
         for (int i = k; i < nb; i++) {
@@ -410,7 +417,7 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
         }
         r[slip[k]] -= smu * c;
     }
-    if (sliding) {
+    if (SLIDES && sliding) {
         if (!solve_small(nd, A, r, zdd)) return 0;
     } else {
         for (int c = 0; c < nd; c++) {
@@ -448,7 +455,7 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
         const EnBody *B = &s->body[k];
         F[0] += B->m * (acc[k][0] + ah);
         F[1] += B->m * (acc[k][1] + s->g + av);
-        double N = dot(F, n[k]), T = m->sigma[k] ? -m->sigma[k] * s->mu[k] * N : dot(F, t[k]);
+        double N = dot(F, n[k]), T = SLIDES && m->sigma[k] ? -m->sigma[k] * s->mu[k] * N : dot(F, t[k]);
         f->T[k] = T;
         const double *rf = Rd[k][cor[k] > 0];
         if (flat[k]) {
@@ -475,6 +482,13 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
     for (int k = nb; k < NB; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
     for (int q = 3 * nb; q < EN_NQ; q++) f->qdd[q] = 0.0;
     return 1;
+}
+
+static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
+                         double ah, double av, EnForces *f, double *slipRate) {
+    for (int k = 0; k < s->nb; k++)
+        if (m->sigma[k]) return chain_nd(2 * EN_MAX_BODIES, s, m, xi0, yin, yout, ah, av, f, slipRate);
+    return chain_nd(EN_MAX_BODIES, s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
 
 /* The chain: one body that sticks written out (chain_one), else chain_general. */
