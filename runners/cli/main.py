@@ -210,7 +210,13 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
     if args.cosim:
         return [("co-simulation", _cosim_bench(fmu))]
     if args.against:
-        return [("native, against another build", lambda: b.run_native_against(fmu, Path(args.against), args.repeats))]
+        tasks = [("native, against another build", lambda: b.run_native_against(fmu, Path(args.against), args.repeats))]
+        if args.study:
+            from runners.analysis.bench_records import run_study_against
+
+            tasks.append(("near-field marble study, against another build",
+                          lambda: run_study_against(fmu, Path(args.against))))
+        return tasks
     if args.dask:
         return [("sweep executors (Dask)", lambda: b.run_dask_bench(fmu))]
     if args.sweep_size:
@@ -256,6 +262,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
                       args.startup, args.throughput, args.cosim))) > 1:
         raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against, "
                          "--startup, --throughput and --cosim (or none: every benchmark)")
+    if args.study and not args.against:
+        raise ValueError("--study is a part of --against FMU: give the other build")
     if args.baseline and not (args.startup or args.throughput):
         raise ValueError("--baseline is the other installation of --startup or --throughput")
     if args.workers is not None and not args.throughput:

@@ -207,6 +207,9 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--against", metavar="FMU",
                        help="only the native benchmark of the FMU against another build of it (say one from "
                             "before a change), interleaved in one run, with the ratios")
+    bench.add_argument("--study", action="store_true",
+                       help="with --against: also the near-field marble study of docs/records.md (420 runs of the "
+                            "rocking-sliding stack), the instructions of every 10th run under each build")
     bench.add_argument("--startup", action="store_true",
                        help="only the start-up: CPU time of runners simulate --no-store and runners db list, each "
                             "in a fresh process")
