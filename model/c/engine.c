@@ -966,6 +966,30 @@ static void flatten(const EnSystem *s, const EnMode *m, double *y, int rates) {
 }
 
 void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates) {
+    if (engine_is_chain(s, m)) { /* placed exactly from the rotations (and rates) and the anchors */
+        double a[EN_MAX_BODIES] = {0}, yp[NMAX];
+        for (int k = 0; k < s->nb; k++) {
+            int c = first_closed(m, k);
+            EnPoint p;
+            if (xi0) {
+                a[k] = xi0[k];
+                continue;
+            }
+            engine_point(s, k, c, y, &p);
+            a[k] = p.xi - c * s->body[k].b;
+        }
+        memcpy(yp, y, sizeof(yp));
+        EnForces f;
+        chain(s, m, a, yp, yp, 0.0, 0.0, &f, NULL);
+        for (int k = 0; k < s->nb; k++) {
+            y[EN_TH(k)] = yp[EN_TH(k)];
+            for (int i = 0; i < 2; i++) y[EN_POS(s->nb, k, i)] = yp[EN_POS(s->nb, k, i)];
+            if (!rates) continue;
+            y[EN_W(k)] = yp[EN_W(k)];
+            for (int i = 0; i < 2; i++) y[EN_VEL(s->nb, k, i)] = yp[EN_VEL(s->nb, k, i)];
+        }
+        return;
+    }
     double row[EN_ROWS][EN_NQ], res[EN_ROWS], rate[EN_ROWS];
     flatten(s, m, y, rates);
     for (int it = 0; it < 3; it++) {
