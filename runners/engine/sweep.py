@@ -566,10 +566,54 @@ class SweepError(RockingError, RuntimeError):
     """A sweep cannot go on (e.g. a worker process died); str() is a one-line message."""
 
 
+class _Stops:
+    """Ctrl-C and SIGTERM while local workers run: their handlers (KeyboardInterrupt, for Ctrl-C
+    and for the command line's SIGTERM) run where the sweep looks for them (check(): whenever it
+    waits for its workers, at least every POLL_SECONDS) and when it ends (done()), not wherever
+    the signal happens to find the main thread.
+
+    There a handler may run inside a finalizer or a weakref callback of the garbage collector,
+    whose exceptions Python prints and drops ("Exception ignored in ..."): the stop was lost, and
+    the sweep waited for ever for its worker, which the same SIGTERM (sent to the process group)
+    had killed in the middle of sending a chunk. Main thread only (where Python runs signal
+    handlers); a signal left to SIG_DFL or SIG_IGN stays so."""
+
+    def __init__(self) -> None:
+        import signal
+
+        self.previous: dict[int, Any] = {}
+        self.caught: list[int] = []
+        if threading.current_thread() is threading.main_thread():
+            for s in (signal.SIGINT, signal.SIGTERM):
+                if callable(handler := signal.getsignal(s)):
+                    self.previous[s] = handler
+                    signal.signal(s, lambda signum, _frame: self.caught.append(signum))
+
+    def check(self) -> None:
+        """Run the handler of a signal noted (KeyboardInterrupt, for Ctrl-C and the command line's SIGTERM)."""
+        if self.caught:
+            signum = self.caught[0]
+            self.caught.clear()
+            self.previous[signum](signum, None)
+
+    def done(self) -> None:
+        """Put the handlers back, and run that of a signal noted since the last check."""
+        import signal
+
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
+        self.check()
+
+
+POLL_SECONDS = 0.25  # s: the longest a local sweep waiting for its workers takes to see a stop or a dead worker
+
+
 class _LocalExecutor:
     """Worker processes on this machine (forked where possible), sharing one extraction of the
     FMU. A worker that dies (killed, out of memory) stops the sweep with SweepError instead of
-    hanging it; on an interruption the workers are stopped at once."""
+    hanging it, even if it died in the middle of sending a chunk (the pool's reading thread then
+    waits for the rest for ever, and never says that the pool broke); on an interruption (_Stops)
+    the workers are stopped at once."""
 
     def __init__(self, plan: _Plan, fmu_path: Path, workers: int, batch: str | None = None):
         from concurrent.futures import ProcessPoolExecutor
@@ -585,7 +629,6 @@ class _LocalExecutor:
     def stream(self, tasks: Iterator[tuple]) -> Iterator[Chunk]:
         """run_chunk of each task (flat indices, points to record), as they finish; a few tasks
         at a time are handed out, so that `tasks` can plan the grid as the sweep goes."""
-        from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
         inflight: set = set()
@@ -595,11 +638,28 @@ class _LocalExecutor:
                     inflight.add(self.pool.submit(run_chunk, task))
                 if not inflight:
                     return
-                done, inflight = wait(inflight, return_when=FIRST_COMPLETED)
+                done, inflight = self._wait(inflight)
                 for future in done:
                     yield future.result()
         except BrokenProcessPool:
             raise SweepError("a worker process died (killed, or out of memory)") from None
+
+    def _wait(self, futures: set) -> tuple[set, set]:
+        """(done, not done) of `futures` once one is done, as concurrent.futures.wait(FIRST_COMPLETED);
+        every POLL_SECONDS meanwhile it runs the handler of a stop that arrived (_Stops.check:
+        KeyboardInterrupt), and raises SweepError once a worker process has died: the pool does not
+        say so when the worker died half-way through sending a chunk."""
+        from concurrent.futures import FIRST_COMPLETED, wait
+        from multiprocessing.connection import wait as ready
+
+        while True:
+            self.stops.check()
+            done, pending = wait(futures, timeout=POLL_SECONDS, return_when=FIRST_COMPLETED)
+            if done:
+                return done, pending
+            sentinels = [p.sentinel for p in list((getattr(self.pool, "_processes", None) or {}).values())]
+            if sentinels and ready(sentinels, timeout=0):
+                raise SweepError("a worker process died (killed, or out of memory)")
 
     def results(self, tasks: list, size: int | None = None):
         """run_point of each task (one point each, through fmpy), in lists of `size`, as they finish."""
@@ -609,35 +669,41 @@ class _LocalExecutor:
             yield from done
 
     def _finished(self, submitted):
-        from concurrent.futures import as_completed
         from concurrent.futures.process import BrokenProcessPool
 
+        pending = set(submitted)
         try:
-            for future in as_completed(list(submitted)):
-                yield future.result()
+            while pending:
+                done, pending = self._wait(pending)
+                for future in done:
+                    yield future.result()
         except BrokenProcessPool:
             raise SweepError("a worker process died (killed, or out of memory)") from None
 
     def __enter__(self) -> "_LocalExecutor":
+        self.stops = _Stops()
         return self
 
     def __exit__(self, exc_type, *_exc) -> None:
-        processes = list((getattr(self.pool, "_processes", None) or {}).values())
-        writer = getattr(getattr(self.pool, "_result_queue", None), "_writer", None)  # (shutdown forgets it)
-        self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
-        if exc_type is not None:  # interrupted or failed: stop the workers now, not after their chunks
-            for proc in processes:
-                if proc.is_alive():
-                    proc.kill()
-            for proc in processes:
-                proc.join(timeout=5)
-            # A worker killed half-way through sending a chunk leaves a message cut short, and the pool's
-            # thread that reads them would wait for its rest for ever (and the interpreter's exit with it):
-            # with this process's end of the pipe closed too, that read ends.
-            if writer is not None:
-                with contextlib.suppress(OSError):
-                    writer.close()
-        shutil.rmtree(self.unzipdir, ignore_errors=True)
+        try:
+            processes = list((getattr(self.pool, "_processes", None) or {}).values())
+            writer = getattr(getattr(self.pool, "_result_queue", None), "_writer", None)  # (shutdown forgets it)
+            self.pool.shutdown(wait=exc_type is None, cancel_futures=True)
+            if exc_type is not None:  # interrupted or failed: stop the workers now, not after their chunks
+                for proc in processes:
+                    if proc.is_alive():
+                        proc.kill()
+                for proc in processes:
+                    proc.join(timeout=5)
+                # A worker killed half-way through sending a chunk leaves a message cut short, and the pool's
+                # thread that reads them would wait for its rest for ever (and the interpreter's exit with it):
+                # with this process's end of the pipe closed too, that read ends.
+                if writer is not None:
+                    with contextlib.suppress(OSError):
+                        writer.close()
+            shutil.rmtree(self.unzipdir, ignore_errors=True)
+        finally:  # the workers stopped, a stop noted and not acted on yet takes effect (KeyboardInterrupt)
+            self.stops.done()
 
 
 def _recording_task(plan: _Plan, index: int, record_dir: Path, rec: RecordRef | None) -> tuple:
