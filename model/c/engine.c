@@ -313,7 +313,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
                                                           double ah, double av, EnForces *f, double *slipRate) {
     enum { NB = EN_MAX_BODIES, NDMAX = 2 * EN_MAX_BODIES, NS = EN_MAX_BODIES + 1 };
     const int SLIDES = ND > NB; /* (the instance with slips; the other has no sliding contact) */
-    int nb = s->nb, nd = 0, sliding = 0;
+    int nb = s->nb, nd = 0;
     /* index 0 the ground (fixed: its accelerations are in the forces), body k at k + 1; so every body has
      * a support, and the loops over the coordinates have fixed lengths */
     double G[NS][2][NDMAX], kap[NS][2], sel[NS][NDMAX], w[NS], th[NS], cs[NS][2], X[NS][2], V[NS][2], hs[NS];
@@ -330,7 +330,6 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
         hs[b] = B->h;
         flat[k] = m->closed[k][0] && m->closed[k][1];
         cor[k] = first_closed(m, k);
-        sliding |= m->sigma[k] != 0;
         if (flat[k]) { /* turning with its support */
             th[b] = th[a];
             w[b] = w[a];
@@ -390,7 +389,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
         fk[k][0] = -B->m * (ah + kap[b][0]);
         fk[k][1] = -B->m * (s->g + av + kap[b][1]);
     }
-    /* the reduced system: symmetric positive definite while every contact sticks; a sliding contact's
+    /* the reduced system (symmetric positive definite while every contact sticks); a sliding contact's
      * friction -sigma mu N, N linear in the accelerations (N_k = n . sum over i >= k of m_i X_i'' - f_i),
      * works on its slip */
     double A[EN_ROWS][EN_ROWS], r[EN_ROWS], zdd[EN_ROWS] = {0};
@@ -417,23 +416,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
         }
         r[slip[k]] -= smu * c;
     }
-    if (SLIDES && sliding) {
-        if (!solve_small(nd, A, r, zdd)) return 0;
-    } else {
-        for (int c = 0; c < nd; c++) {
-            if (!(A[c][c] > 0.0)) return 0;
-            for (int i = c + 1; i < nd; i++) {
-                double q = A[i][c] / A[c][c];
-                for (int j = c; j < nd; j++) A[i][j] -= q * A[c][j];
-                r[i] -= q * r[c];
-            }
-        }
-        for (int i = nd - 1; i >= 0; i--) {
-            double v = r[i];
-            for (int j = i + 1; j < nd; j++) v -= A[i][j] * zdd[j];
-            zdd[i] = v / A[i][i];
-        }
-    }
+    if (nd && !solve_small(nd, A, r, zdd)) return 0;
     double al[NB], acc[NB][2];
     for (int k = 0; k < nb; k++) {
         al[k] = 0.0;

