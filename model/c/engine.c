@@ -238,7 +238,7 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
     return 1;
 }
 
-/* ------------------------------------------------------------ sticking chains */
+/* ---------------------------------------------------------------------- chains */
 
 int engine_is_chain(const EnSystem *s, const EnMode *m) {
     for (int k = 0; k < s->nb; k++)
@@ -252,19 +252,11 @@ static void perp(const double r[2], double out[2]) {
     out[1] = -r[0];
 }
 
-/* The sticking chain (engine_chain): reduced coordinates z, the rotations of the bodies that rock (a flat
- * body turns with its support). Body k's rotation is s_k . z, its centre's acceleration G_k z'' + kappa_k;
- * its closed corner is a material point of its support too (a corner sticks: the two points share
- * position, velocity and acceleration), so
- *     X_k = X_j + D - Rd,  X_k'' = X_j'' + alpha_j J D - w_j^2 D - alpha_k J Rd + w_k^2 Rd,
- * with D the corner's offset from the support's centre, Rd from body k's. Virtual work (the constraint
- * forces do none): sum_k G_k^T (m_k X_k'' - f_k) + s_k Ic_k alpha_k = 0, an ndof x ndof system. The
- * forces follow body by body from the top: the contact force on body k, F_k = m_k X_k'' - f_k + F_(k+1),
- * split between a flat body's corners by its moment balance. */
-/* chain for one body on the ground, written out (the right-hand side of most runs): flat, or rocking on
- * its corner c (X = D - r, with D the corner's place on the ground and r its offset from the centre). */
-static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
-                     double ah, double av, EnForces *f) {
+/* The chain of one body sticking on the ground, written out (the right-hand side of most runs): flat, or
+ * rocking on its corner c (X = D - r, with D the corner's place on the ground and r its offset from the
+ * centre). As chain_nd. */
+static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin,
+                            double *yout, double ah, double av, EnForces *f) {
     const EnBody *B = &s->body[0];
     double gv = s->g + av;
     for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
@@ -284,10 +276,12 @@ static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, cons
         return 1;
     }
     int c = m->closed[0][1] ? 1 : -1;
-    double th = yin[EN_TH(0)], w = yin[EN_W(0)], ck = cos(th), sk = sin(th); /* (yout: the centres) */
+    double th = yin[EN_TH(0)], w = yin[EN_W(0)], ck = cos(th), sk = sin(th);
     double r[2] = {c * B->b * ck - B->h * sk, -c * B->b * sk - B->h * ck}; /* the corner from the centre */
     double G[2] = {-r[1], r[0]};                                            /* -J r */
     if (yout) {
+        yout[EN_TH(0)] = th;
+        yout[EN_W(0)] = w;
         yout[EN_POS(1, 0, 0)] = xi0[0] + c * B->b - r[0];
         yout[EN_POS(1, 0, 1)] = -r[1];
         yout[EN_VEL(1, 0, 0)] = w * G[0];
@@ -306,8 +300,19 @@ static int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, cons
     return 1;
 }
 
-/* chain_general with ND coordinates at most (a constant where it is inlined, so that its loops unroll):
- * a rotation per body, and a slip per body where contacts slide. */
+/* The chain (every body on a closed corner of its support, or flat on it; docs/flight.md, "A chain"):
+ * reduced coordinates z, the rotations of the bodies that rock (a flat body turns with its support) and the
+ * slips of the contacts that slide. Body k's rotation is s_k . z, its centre's acceleration G_k z'' + kappa_k;
+ * its closed corner lies on its support's top (a sticking corner is a material point of the support too),
+ *     X_k = X_j + D - Rd,
+ *     X_k'' = X_j'' + alpha_j J D - w_j^2 D - alpha_k J Rd + w_k^2 Rd (+ xi'' t + 2 xi' w_j J t, sliding),
+ * with D the corner's offset from the support's centre, Rd from body k's. Virtual work:
+ * sum_k G_k^T (m_k X_k'' - f_k) + s_k Ic_k alpha_k = the sliding contacts' friction on their slips, an
+ * nd x nd system. The forces follow body by body from the top: the contact force on body k,
+ * F_k = m_k X_k'' - f_k + F_(k+1), split between a flat body's corners by its moment balance. The rotations
+ * and rates are read from yin; with anchors xi0 (every contact sticking) the centres and their velocities
+ * are placed in yout, with the rotations and rates. ND: the most coordinates (a constant where this is
+ * inlined, so that its loops unroll). */
 static inline __attribute__((always_inline)) int chain_nd(const int ND, const EnSystem *s, const EnMode *m,
                                                           const double *xi0, const double *yin, double *yout,
                                                           double ah, double av, EnForces *f, double *slipRate) {
@@ -323,7 +328,6 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
     double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
     double Rd[NB][2][2], D[NB][2], fk[NB][2];
     int cor[NB], flat[NB], slip[NB];
-    const double *y = yout ? yout : yin;
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
         int b = k + 1, a = k; /* the body's and its support's index */
@@ -336,17 +340,17 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
             cs[b][0] = cs[a][0];
             cs[b][1] = cs[a][1];
             for (int d = 0; d < ND; d++) sel[b][d] = sel[a][d];
-            if (yout) {
-                yout[EN_TH(k)] = th[b];
-                yout[EN_W(k)] = w[b];
-            }
         } else {
-            th[b] = y[EN_TH(k)];
-            w[b] = y[EN_W(k)];
+            th[b] = yin[EN_TH(k)];
+            w[b] = yin[EN_W(k)];
             cs[b][0] = cos(th[b]);
             cs[b][1] = sin(th[b]);
             for (int d = 0; d < ND; d++) sel[b][d] = 0.0;
             sel[b][nd++] = 1.0;
+        }
+        if (yout) {
+            yout[EN_TH(k)] = th[b];
+            yout[EN_W(k)] = w[b];
         }
         slip[k] = SLIDES && m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
         for (int i = 0; i < 2; i++) rot(cs[b][0], cs[b][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
@@ -364,8 +368,8 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
             }
         } else {
             for (int i = 0; i < 2; i++) {
-                X[b][i] = y[EN_POS(nb, k, i)];
-                V[b][i] = y[EN_VEL(nb, k, i)];
+                X[b][i] = yin[EN_POS(nb, k, i)];
+                V[b][i] = yin[EN_VEL(nb, k, i)];
                 D[k][i] = X[b][i] + r[i] - X[a][i];
             }
             perp(D[k], JD);
@@ -474,9 +478,9 @@ static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, 
     return chain_nd(EN_MAX_BODIES, s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
 
-/* The chain: one body that sticks written out (chain_one), else chain_general. */
-static int chain(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
-                 double ah, double av, EnForces *f, double *slipRate) {
+/* The chain (chain_nd): one body that sticks written out (chain_one), else chain_general. */
+static inline int chain(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
+                        double ah, double av, EnForces *f, double *slipRate) {
     if (s->nb == 1 && !m->sigma[0]) return chain_one(s, m, xi0, yin, yout, ah, av, f);
     return chain_general(s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
@@ -486,10 +490,15 @@ int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *
     return chain(s, m, xi0, y, y, ah, av, f, NULL);
 }
 
+/* Every body on a corner of its support (none flies): the mode is a chain. */
+static int all_touch(const EnSystem *s, const EnMode *m) {
+    for (int k = 0; k < s->nb; k++)
+        if (!(m->closed[k][0] || m->closed[k][1])) return 0;
+    return 1;
+}
+
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f) {
-    int touching = 1; /* every body on a corner: the chain, sliding contacts' slips among its coordinates */
-    for (int k = 0; k < s->nb; k++) touching &= m->closed[k][0] || m->closed[k][1];
-    if (touching) return chain(s, m, NULL, y, NULL, ah, av, f, NULL);
+    if (all_touch(s, m)) return chain(s, m, NULL, y, NULL, ah, av, f, NULL);
     double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
     free_terms(s, ah, av, Minv, fext);
     for (int q = 0; q < 3 * s->nb; q++) a0[q] = Minv[q] * fext[q];
@@ -517,53 +526,29 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
 
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
                double *dy, EnForces *fo) {
-    int nb = s->nb;
+    int nb = s->nb, known = 0;
     EnForces f, *fp = fo ? fo : &f;
-    double yc[NMAX];
-    if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations; no friction works */
-        if (nb == 1) {
-            if (!chain_one(s, m, xi0, y, yc, ah, av, fp)) return 0;
-            if (m->closed[0][0] && m->closed[0][1]) yc[EN_W(0)] = 0.0;
-            else yc[EN_W(0)] = y[EN_W(0)];
-        } else {
-            for (int i = 0; i < EN_CHAIN_N(nb); i++) yc[i] = y[i];
-            if (!chain(s, m, xi0, yc, yc, ah, av, fp, NULL)) return 0;
-        }
-        double work = 0.0;
-        for (int k = 0; k < nb; k++) {
-            dy[EN_TH(k)] = yc[EN_W(k)];
-            dy[EN_W(k)] = fp->qdd[EN_Q(k, 2)];
-            dy[EN_LOSS(nb, k)] = 0.0;
-            for (int i = 0; i < 2; i++) {
-                dy[EN_POS(nb, k, i)] = yc[EN_VEL(nb, k, i)];
-                dy[EN_VEL(nb, k, i)] = fp->qdd[EN_Q(k, i)];
-            }
-            work -= s->body[k].m * (ah * yc[EN_VEL(nb, k, 0)] + av * yc[EN_VEL(nb, k, 1)]);
-        }
-        dy[EN_WORK(nb)] = work;
-        return 1;
-    }
-    double xid[EN_MAX_BODIES] = {0}; /* the sliding contacts' slip rates */
-    int touching = 1, known = 0;
-    for (int k = 0; k < nb; k++) touching &= m->closed[k][0] || m->closed[k][1];
-    if (touching) { /* the chain, which gives the slip rates too */
-        if (!chain(s, m, NULL, y, NULL, ah, av, &f, xid)) return 0;
+    double yc[NMAX], xid[EN_MAX_BODIES] = {0}; /* the sliding contacts' slip rates, where known */
+    if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations (no friction works) */
+        if (!chain(s, m, xi0, y, yc, ah, av, fp, NULL)) return 0;
+        y = yc;
+    } else if (all_touch(s, m)) { /* the chain, which gives the slip rates too */
+        if (!chain(s, m, NULL, y, NULL, ah, av, fp, xid)) return 0;
         known = 1;
-    } else if (!engine_solve(s, m, y, ah, av, &f)) {
+    } else if (!engine_solve(s, m, y, ah, av, fp)) {
         return 0;
     }
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 3; i++) {
             dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
-            dy[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
+            dy[EN_VEL(nb, k, i)] = fp->qdd[EN_Q(k, i)];
         }
     double work = 0.0;
     for (int k = 0; k < nb; k++) {
         work -= s->body[k].m * (ah * y[EN_VEL(nb, k, 0)] + av * y[EN_VEL(nb, k, 1)]);
-        dy[EN_LOSS(nb, k)] = m->sigma[k] ? -f.T[k] * (known ? xid[k] : slip_rate(s, m, k, y)) : 0.0;
+        dy[EN_LOSS(nb, k)] = m->sigma[k] ? -fp->T[k] * (known ? xid[k] : slip_rate(s, m, k, y)) : 0.0;
     }
     dy[EN_WORK(nb)] = work;
-    if (fo) *fo = f;
     return 1;
 }
 
@@ -951,15 +936,11 @@ static void flatten(const EnSystem *s, const EnMode *m, double *y, int rates) {
 void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates) {
     if (engine_is_chain(s, m)) { /* placed exactly from the rotations (and rates) and the anchors */
         double a[EN_MAX_BODIES] = {0}, yp[NMAX];
-        for (int k = 0; k < s->nb; k++) {
+        for (int k = 0; k < s->nb; k++) { /* the anchors given, or the current slips */
             int c = first_closed(m, k);
             EnPoint p;
-            if (xi0) {
-                a[k] = xi0[k];
-                continue;
-            }
-            engine_point(s, k, c, y, &p);
-            a[k] = p.xi - c * s->body[k].b;
+            if (!xi0) engine_point(s, k, c, y, &p);
+            a[k] = xi0 ? xi0[k] : p.xi - c * s->body[k].b;
         }
         memcpy(yp, y, sizeof(yp));
         EnForces f;

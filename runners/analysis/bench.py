@@ -353,8 +353,8 @@ def run_native_against(fmu_path: Path, other: Path, repeats: int = 2000, rounds:
                         impacts[name] = n_impacts
         counts = {}
         if valgrind:
-            rows = list(best[0])
-            for index, case in enumerate(rows[:len(rows) - len(stack)]):
+            harness = [name for name in best[0] if name not in {case for case, _, _ in stack}]  # its row order
+            for index, case in enumerate(harness):
                 counts[case] = [_instructions(*n, index, count_repeats) for n in natives]
             for name, p, stop in stack:
                 counts[name] = [c.instructions(p, stop, count_repeats) for c in customs]
