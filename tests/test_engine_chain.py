@@ -3,7 +3,8 @@ a stack doing any of these) solves the motion in reduced coordinates, the rotati
 and the slips of the contacts that slide (docs/flight.md, "A chain"). Checked here against the constrained
 Newton-Euler system the engine solves where a body flies, at 20,000 random states of every such set of one
 block and of a stack (half of them with contacts sliding either way): the same accelerations and forces to
-rounding, and, where every contact sticks, the centres it places exactly on the constraints. A white-box
+rounding, and, where every contact sticks, the centres it places exactly on the constraints; and its
+plastic impact onto each such set (the rates before in place of the forces) the same rates after and impulses. A white-box
 check compiled from model/c with the system's gcc."""
 import shutil
 import subprocess
@@ -21,10 +22,11 @@ def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
     subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{C}", "-o", str(exe),
                     str(ROOT / "tests" / "c" / "engine_chain.c"), str(C / "lcp.c"), "-lm"], check=True)
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
-    dynamics, placement, sliding = float(out[0]), float(out[1]), int(out[2])
+    dynamics, placement, sliding, impulses = float(out[0]), float(out[1]), int(out[2]), float(out[3])
     assert sliding > 5000, sliding  # the states with a sliding contact were drawn
     assert dynamics <= 1e-12, dynamics   # accelerations over g, forces over the weight carried (or their size)
     assert placement <= 1e-14, placement  # gaps over R, rates over sqrt(g R)
+    assert 0.0 < impulses <= 1e-12, impulses  # plastic impacts: rates over sqrt(g R), impulses over the momentum
     assert dynamics > 0.0 or placement > 0.0  # both computed (rounding differs between the two solvers)
 
 

@@ -11,24 +11,6 @@
 /* the most constraint rows of a mode: two corners and a friction row per body */
 #define EN_ROWS (3 * EN_MAX_BODIES)
 
-void engine_system(const Model *M, EnSystem *s) {
-    const Variables *v = &M->v;
-    memset(s, 0, sizeof(*s));
-    s->nb = v->nBlocks == 2 ? 2 : 1;
-    s->g = v->g;
-    double b[2] = {v->halfWidth, v->halfWidth2}, h[2] = {v->halfHeight, v->halfHeight2}, m[2] = {v->mass, v->mass2};
-    s->mu[0] = v->muGround;
-    s->mu[1] = v->muInterface;
-    for (int k = 0; k < s->nb; k++) {
-        s->body[k].b = b[k];
-        s->body[k].h = h[k];
-        s->body[k].m = m[k];
-        s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
-    }
-    for (int k = s->nb - 1; k >= 0; k--)
-        s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);
-}
-
 /* Clockwise rotation of (x, y) by theta with cos c and sin s. */
 static void rot(double c, double s, double x, double y, double out[2]) {
     out[0] = x * c + y * s;
@@ -311,13 +293,15 @@ static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi
  * nd x nd system. The forces follow body by body from the top: the contact force on body k,
  * F_k = m_k X_k'' - f_k + F_(k+1), split between a flat body's corners by its moment balance. The rotations
  * and rates are read from yin; with anchors xi0 (every contact sticking) the centres and their velocities
- * are placed in yout, with the rotations and rates. ND: the most coordinates (a constant where this is
- * inlined, so that its loops unroll). */
-static inline __attribute__((always_inline)) int chain_nd(const int ND, const EnSystem *s, const EnMode *m,
-                                                          const double *xi0, const double *yin, double *yout,
-                                                          double ah, double av, EnForces *f, double *slipRate) {
+ * are placed in yout, with the rotations and rates. ND: the most coordinates; SLIDES: whether a contact
+ * may slide; IMP: the plastic impact onto the chain instead (the rates before in yin take the forces' place,
+ * without the terms of the rates: the rates after go to f->qdd, the impulses to f->N, f->T). All three are
+ * constants where this is inlined, so that its loops unroll and the other form's terms drop out. */
+static inline __attribute__((always_inline)) int chain_nd(const int ND, const int SLIDES, const int IMP,
+                                                          const EnSystem *s, const EnMode *m, const double *xi0,
+                                                          const double *yin, double *yout, double ah, double av,
+                                                          EnForces *f, double *slipRate) {
     enum { NB = EN_MAX_BODIES, NDMAX = 2 * EN_MAX_BODIES, NS = EN_MAX_BODIES + 1 };
-    const int SLIDES = ND > NB; /* (the instance with slips; the other has no sliding contact) */
     int nb = s->nb, nd = 0;
     /* index 0 the ground (fixed: its accelerations are in the forces), body k at k + 1; so every body has
      * a support, and the loops over the coordinates have fixed lengths */
@@ -377,7 +361,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
         /* a sliding contact's slip rate xi' (along the support's top, relative to it); on a turning support
          * its Coriolis term 2 xi' w_j J t */
         double cor2[2] = {0.0, 0.0};
-        if (SLIDES && slip[k] >= 0) {
+        if (!IMP && SLIDES && slip[k] >= 0) {
             double Pd[2] = {V[b][0] + w[b] * Jr[0] - V[a][0], V[b][1] + w[b] * Jr[1] - V[a][1]}, Jt[2];
             double xid = dot(t[k], Pd) - w[a] * dot(n[k], D[k]);
             perp(t[k], Jt);
@@ -386,12 +370,12 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
             if (slipRate) slipRate[k] = xid;
         }
         for (int i = 0; i < 2; i++) {
-            kap[b][i] = kap[a][i] - w[a] * w[a] * D[k][i] + w[b] * w[b] * r[i] + cor2[i];
+            kap[b][i] = IMP ? 0.0 : kap[a][i] - w[a] * w[a] * D[k][i] + w[b] * w[b] * r[i] + cor2[i];
             for (int d = 0; d < ND; d++) G[b][i][d] = G[a][i][d] + JD[i] * sel[a][d] - Jr[i] * sel[b][d];
             if (SLIDES && slip[k] >= 0) G[b][i][slip[k]] += t[k][i];
         }
-        fk[k][0] = -B->m * (ah + kap[b][0]);
-        fk[k][1] = -B->m * (s->g + av + kap[b][1]);
+        fk[k][0] = IMP ? B->m * V[b][0] : -B->m * (ah + kap[b][0]);
+        fk[k][1] = IMP ? B->m * V[b][1] : -B->m * (s->g + av + kap[b][1]);
     }
     /* the reduced system (symmetric positive definite while every contact sticks); a sliding contact's
      * friction -sigma mu N, N linear in the accelerations (N_k = n . sum over i >= k of m_i X_i'' - f_i),
@@ -405,7 +389,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
         const EnBody *B = &s->body[k];
         const double(*g)[NDMAX] = G[k + 1];
         for (int a = 0; a < nd; a++) {
-            r[a] += g[0][a] * fk[k][0] + g[1][a] * fk[k][1];
+            r[a] += g[0][a] * fk[k][0] + g[1][a] * fk[k][1] + (IMP ? B->Ic * sel[k + 1][a] * yin[EN_W(k)] : 0.0);
             for (int c = 0; c < nd; c++)
                 A[a][c] += B->m * (g[0][a] * g[0][c] + g[1][a] * g[1][c]) + B->Ic * sel[k + 1][a] * sel[k + 1][c];
         }
@@ -440,8 +424,8 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
     double F[2] = {0.0, 0.0}, tau = 0.0;
     for (int k = nb - 1; k >= 0; k--) {
         const EnBody *B = &s->body[k];
-        F[0] += B->m * (acc[k][0] + ah);
-        F[1] += B->m * (acc[k][1] + s->g + av);
+        F[0] += IMP ? B->m * acc[k][0] - fk[k][0] : B->m * (acc[k][0] + ah);
+        F[1] += IMP ? B->m * acc[k][1] - fk[k][1] : B->m * (acc[k][1] + s->g + av);
         double N = dot(F, n[k]), T = SLIDES && m->sigma[k] ? -m->sigma[k] * s->mu[k] * N : dot(F, t[k]);
         f->T[k] = T;
         const double *rf = Rd[k][cor[k] > 0];
@@ -450,7 +434,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
             perp(Rd[k][0], JL);
             perp(Rd[k][1], JR);
             double aL = dot(n[k], JL), aR = dot(n[k], JR), bT = dot(t[k], JL);
-            double NR = (B->Ic * al[k] - T * bT - tau - N * aL) / (aR - aL);
+            double NR = (B->Ic * (IMP ? al[k] - yin[EN_W(k)] : al[k]) - T * bT - tau - N * aL) / (aR - aL);
             f->N[k][1] = NR;
             f->N[k][0] = N - NR;
         } else {
@@ -471,11 +455,24 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const En
     return 1;
 }
 
+static int sliding(const EnSystem *s, const EnMode *m) {
+    for (int k = 0; k < s->nb; k++)
+        if (m->sigma[k]) return 1;
+    return 0;
+}
+
 static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
                          double ah, double av, EnForces *f, double *slipRate) {
-    for (int k = 0; k < s->nb; k++)
-        if (m->sigma[k]) return chain_nd(2 * EN_MAX_BODIES, s, m, xi0, yin, yout, ah, av, f, slipRate);
-    return chain_nd(EN_MAX_BODIES, s, m, xi0, yin, yout, ah, av, f, slipRate);
+    if (!sliding(s, m)) return chain_nd(EN_MAX_BODIES, 0, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
+    if (s->nb == 1) return chain_nd(2, 1, 0, s, m, xi0, yin, yout, ah, av, f, slipRate); /* (one body) */
+    return chain_nd(2 * EN_MAX_BODIES, 1, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
+}
+
+/* The plastic impact onto the chain m at the state y (chain_nd's IMP form): the rates after to f->qdd, the
+ * impulses (N s) to f->N, f->T. */
+static int chain_impulse(const EnSystem *s, const EnMode *m, const double *y, EnForces *f) {
+    if (!sliding(s, m)) return chain_nd(EN_MAX_BODIES, 0, 1, s, m, NULL, y, NULL, 0.0, 0.0, f, NULL);
+    return chain_nd(2 * EN_MAX_BODIES, 1, 1, s, m, NULL, y, NULL, 0.0, 0.0, f, NULL);
 }
 
 /* The chain (chain_nd): one body that sticks written out (chain_one), else chain_general. */
@@ -509,7 +506,7 @@ int engine_plastic(const EnSystem *s, const EnMode *m, double *y) {
     double v0[EN_NQ] = {0};
     EnForces f;
     gather(s, y, 1, v0);
-    if (!solve_set(s, m, y, v0, 0, &f)) return 0;
+    if (all_touch(s, m) ? !chain_impulse(s, m, y, &f) : !solve_set(s, m, y, v0, 0, &f)) return 0;
     for (int k = 0; k < s->nb; k++)
         for (int i = 0; i < 3; i++) y[EN_VEL(s->nb, k, i)] = f.qdd[EN_Q(k, i)];
     return 1;
@@ -526,26 +523,29 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
 
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
                double *dy, EnForces *fo) {
-    int nb = s->nb, known = 0;
+    int nb = s->nb, known = 0, placed = 0;
     EnForces f, *fp = fo ? fo : &f;
     double yc[NMAX], xid[EN_MAX_BODIES] = {0}; /* the sliding contacts' slip rates, where known */
     if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations (no friction works) */
         if (!chain(s, m, xi0, y, yc, ah, av, fp, NULL)) return 0;
         y = yc;
+        placed = 1;
     } else if (all_touch(s, m)) { /* the chain, which gives the slip rates too */
         if (!chain(s, m, NULL, y, NULL, ah, av, fp, xid)) return 0;
         known = 1;
     } else if (!engine_solve(s, m, y, ah, av, fp)) {
         return 0;
     }
-    for (int k = 0; k < nb; k++)
-        for (int i = 0; i < 3; i++) {
-            dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
-            dy[EN_VEL(nb, k, i)] = fp->qdd[EN_Q(k, i)];
-        }
     double work = 0.0;
     for (int k = 0; k < nb; k++) {
         work -= s->body[k].m * (ah * y[EN_VEL(nb, k, 0)] + av * y[EN_VEL(nb, k, 1)]);
+        dy[EN_TH(k)] = y[EN_W(k)];
+        dy[EN_W(k)] = fp->qdd[EN_Q(k, 2)];
+        if (placed) continue; /* (a sticking chain integrates its rotations and the work alone) */
+        for (int i = 0; i < 2; i++) {
+            dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
+            dy[EN_VEL(nb, k, i)] = fp->qdd[EN_Q(k, i)];
+        }
         dy[EN_LOSS(nb, k)] = m->sigma[k] ? -fp->T[k] * (known ? xid[k] : slip_rate(s, m, k, y)) : 0.0;
     }
     dy[EN_WORK(nb)] = work;
@@ -756,6 +756,27 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
         const EnPoint *p = friction_point(&c, k);
         sig[k] = p ? (p->xid > 0 ? 1 : p->xid < 0 ? -1 : 0) : 0;
     }
+    /* the likely set first: every touching corner closed, every candidate sticking. Where every closed corner
+     * carries a positive normal force and every sticking contact's friction lies strictly inside its cone, it
+     * solves the problem (its other solutions, if any, need a force or margin at zero) */
+    EnMode guess;
+    memset(&guess, 0, sizeof(guess));
+    for (int k = 0; k < nb; k++) {
+        guess.closed[k][0] = touching[k][0];
+        guess.closed[k][1] = touching[k][1];
+        guess.sigma[k] = c.sOf[k] >= 0 ? 0 : sig[k];
+    }
+    if (all_touch(s, &guess) && chain(s, &guess, NULL, y, NULL, ah, av, f, NULL)) {
+        int holds = 1;
+        for (int k = 0; k < nb; k++) {
+            for (int i = 0; i < 2; i++) holds &= !guess.closed[k][i] || f->N[k][i] > 0.0;
+            holds &= guess.sigma[k] != 0 || fabs(f->T[k]) < s->mu[k] * (f->N[k][0] + f->N[k][1]);
+        }
+        if (holds) {
+            *out = guess;
+            return 0;
+        }
+    }
     double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
     double au = s->g;
     int n = assemble(s, &c, Minv, a0, sig, s->weight, au, A, q);
@@ -780,12 +801,63 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
     return 0;
 }
 
+/* The impact's likely outcome, tried before its complementarity problem: each corner that approaches its
+ * support closes, a body's other touching corners open (it rocks onto the corner it lands on; a body none of
+ * whose corners approaches keeps its touching ones closed), every contact sticks, and every body touches (a
+ * chain: chain_impulse). Where every closed corner takes a positive normal impulse, every friction impulse lies
+ * strictly inside its cone and every touching corner left open separates, it solves the problem: then the
+ * rates in y become the rates after, with the impulses and the sets after as engine_impact's, and it returns
+ * 1; else 0 with nothing changed. */
+static int impact_guess(const EnSystem *s, double *y, const Candidates *c, int touching[][2], int stuck[],
+                        double PN[][2], double PT[]) {
+    int nb = s->nb, approach[EN_MAX_BODIES] = {0};
+    EnMode m;
+    memset(&m, 0, sizeof(m));
+    double Rmax = 0.0;
+    for (int k = 0; k < nb; k++) Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
+    double slow = -1e-9 * sqrt(s->g * Rmax); /* (a corner on the constraint has a normal rate of rounding) */
+    for (int j = 0; j < c->nc; j++) approach[c->k[j]] |= c->P[j].gd < slow;
+    for (int j = 0; j < c->nc; j++) m.closed[c->k[j]][c->i[j]] = !approach[c->k[j]] || c->P[j].gd < slow;
+    EnForces f;
+    if (!all_touch(s, &m) || !chain_impulse(s, &m, y, &f)) return 0;
+    int holds = 1;
+    for (int k = 0; k < nb; k++) {
+        for (int i = 0; i < 2; i++) holds &= !m.closed[k][i] || f.N[k][i] > 0.0;
+        holds &= fabs(f.T[k]) < s->mu[k] * (f.N[k][0] + f.N[k][1]);
+    }
+    if (!holds) return 0;
+    double ya[NMAX];
+    memcpy(ya, y, sizeof(ya));
+    for (int k = 0; k < nb; k++)
+        for (int i = 0; i < 3; i++) ya[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
+    int sep[EN_MAX_BODIES][2] = {{0}};
+    for (int j = 0; j < c->nc; j++) {
+        if (m.closed[c->k[j]][c->i[j]]) continue;
+        EnPoint p;
+        engine_point(s, c->k[j], 2 * c->i[j] - 1, ya, &p);
+        if (p.gd < 0.0) return 0;
+        sep[c->k[j]][c->i[j]] = p.gd > 0.0;
+    }
+    memcpy(y, ya, sizeof(ya));
+    for (int k = 0; k < nb; k++) {
+        PN[k][0] = f.N[k][0];
+        PN[k][1] = f.N[k][1];
+        PT[k] = f.T[k];
+        stuck[k] = 1;
+        for (int i = 0; i < 2; i++) touching[k][i] = touching[k][i] && !sep[k][i];
+    }
+    return 1;
+}
+
 int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]) {
     int nb = s->nb;
     int all[EN_MAX_BODIES];
     for (int k = 0; k < EN_MAX_BODIES; k++) all[k] = 1;
     Candidates c;
     candidates(s, y, touching, all, &c);
+    memset(PN, 0, sizeof(double) * 2 * (size_t)nb);
+    memset(PT, 0, sizeof(double) * (size_t)nb);
+    if (impact_guess(s, y, &c, touching, stuck, PN, PT)) return 0;
     double Minv[EN_NQ], fext[EN_NQ], v0[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     gather(s, y, 1, v0);
@@ -796,8 +868,6 @@ int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], 
     int sig[EN_MAX_BODIES] = {0};
     double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
     int n = assemble(s, &c, Minv, v0, sig, pu, vu, A, q);
-    memset(PN, 0, sizeof(double) * 2 * (size_t)nb);
-    memset(PT, 0, sizeof(double) * (size_t)nb);
     if (!n) return 0;
     if (lcp_solve(n, A, q, z, w, NULL) != LCP_SOLVED) return 1;
     /* the problem chose the contact set after the impact; its impulses come from that set's own
@@ -934,23 +1004,34 @@ static void flatten(const EnSystem *s, const EnMode *m, double *y, int rates) {
 }
 
 void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates) {
-    if (engine_is_chain(s, m)) { /* placed exactly from the rotations (and rates) and the anchors */
-        double a[EN_MAX_BODIES] = {0}, yp[NMAX];
-        for (int k = 0; k < s->nb; k++) { /* the anchors given, or the current slips */
+    if (all_touch(s, m)) { /* a chain: placed exactly from the rotations (and rates), anchors and slip rates */
+        int nb = s->nb;
+        double a[EN_MAX_BODIES] = {0}, v[EN_MAX_BODIES] = {0}, yp[NMAX];
+        EnMode st = *m;
+        for (int k = 0; k < nb; k++) { /* the anchors given (a contact that sticks), or the current slips */
             int c = first_closed(m, k);
             EnPoint p;
-            if (!xi0) engine_point(s, k, c, y, &p);
-            a[k] = xi0 ? xi0[k] : p.xi - c * s->body[k].b;
+            if (!xi0 || m->sigma[k]) engine_point(s, k, c, y, &p);
+            a[k] = xi0 && !m->sigma[k] ? xi0[k] : p.xi - c * s->body[k].b;
+            v[k] = m->sigma[k] ? p.xid : 0.0; /* a sliding contact's slip rate, as it is */
+            st.sigma[k] = 0;
         }
         memcpy(yp, y, sizeof(yp));
         EnForces f;
-        chain(s, m, a, yp, yp, 0.0, 0.0, &f, NULL);
-        for (int k = 0; k < s->nb; k++) {
+        chain(s, &st, a, yp, yp, 0.0, 0.0, &f, NULL);
+        for (int k = 0; k < nb; k++) {
             y[EN_TH(k)] = yp[EN_TH(k)];
-            for (int i = 0; i < 2; i++) y[EN_POS(s->nb, k, i)] = yp[EN_POS(s->nb, k, i)];
+            for (int i = 0; i < 2; i++) y[EN_POS(nb, k, i)] = yp[EN_POS(nb, k, i)];
             if (!rates) continue;
             y[EN_W(k)] = yp[EN_W(k)];
-            for (int i = 0; i < 2; i++) y[EN_VEL(s->nb, k, i)] = yp[EN_VEL(s->nb, k, i)];
+            for (int i = 0; i < 2; i++) y[EN_VEL(nb, k, i)] = yp[EN_VEL(nb, k, i)];
+        }
+        /* a contact that slides at xi' along its support's top t carries the bodies above it along */
+        for (int k = 0; k < nb && rates; k++) {
+            if (!v[k]) continue;
+            double th = k > 0 ? y[EN_TH(k - 1)] : 0.0, t[2] = {cos(th), -sin(th)};
+            for (int j = k; j < nb; j++)
+                for (int i = 0; i < 2; i++) y[EN_VEL(nb, j, i)] += v[k] * t[i];
         }
         return;
     }

@@ -43,17 +43,7 @@
 #define EN_N(nb) (7 * (nb) + 1)
 #define EN_CHAIN_N(nb) (2 * (nb) + 1)
 
-typedef struct {
-    double b, h, m, Ic;
-} EnBody;
-
-typedef struct {
-    int nb;
-    EnBody body[EN_MAX_BODIES];
-    double mu[EN_MAX_BODIES]; /* friction coefficient of body k on its support */
-    double g;
-    double weight[EN_MAX_BODIES]; /* weight carried by body k's contact (it and those above), N */
-} EnSystem;
+/* EnBody, EnSystem: model.h (the system is derived from the parameters once, M->d.en). */
 
 /* A corner against its support: gap (m, > 0 open), slip coordinate along the support's top
  * (m, support's frame) and their rates; rows of the gap's and slip's accelerations,
@@ -82,9 +72,6 @@ typedef struct {
 #define EN_ROUNDING (64.0 * DBL_EPSILON)
 int engine_beyond_edge(const EnSystem *s, int k, double xi);
 
-/* The system of the model's parameters (one block, or a stack of two). */
-void engine_system(const Model *M, EnSystem *s);
-
 /* The corner c (-1, +1) of body k at the state y. */
 void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
 
@@ -104,7 +91,7 @@ int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *
 
 /* Derivatives of the state vector in mode m (forces written to f unless NULL). Returns 0 if singular. With
  * anchors xi0 and a sticking chain, y's first EN_CHAIN_N(nb) components alone are read (the centres are
- * placed from them, engine_chain). */
+ * placed from them, engine_chain) and dy's first EN_CHAIN_N(nb) alone written. */
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
                double *dy, EnForces *f);
 

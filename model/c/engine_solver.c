@@ -34,7 +34,7 @@ int engine_on(const Model *M) { return M->v.contactModel == 1; }
 
 typedef struct {
     const Model *M;
-    EnSystem sys;
+    const EnSystem *sys;
     EnMode mode;
     int piece;
     EnForces f; /* of the last evaluation */
@@ -47,33 +47,37 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     Ctx *c = (Ctx *)ctx; /* the integrator hands our own (non-const) context back */
     double ah, av;
     model_ground_piece(c->M, t, c->piece, &ah, &av);
-    if (!engine_rhs(&c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f)) c->singular = 1;
+    if (!engine_rhs(c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f)) c->singular = 1;
 }
 
 static Ctx context(const Model *M, const EnMode *m, double t) {
     Ctx c;
     memset(&c, 0, sizeof(c));
     c.M = M;
-    engine_system(M, &c.sys);
+    c.sys = &M->d.en;
     c.mode = *m;
     c.piece = model_piece(M, t);
-    c.chain = engine_is_chain(&c.sys, m);
+    c.chain = engine_is_chain(c.sys, m);
     memcpy(c.xi0, M->s.enAnchor, sizeof(c.xi0));
     return c;
 }
 
 /* The components a step integrates: a sticking chain's first EN_CHAIN_N, or all. */
-static int nstep(const Ctx *c) { return c->chain ? EN_CHAIN_N(c->sys.nb) : EN_N(c->sys.nb); }
+static int nstep(const Ctx *c) { return c->chain ? EN_CHAIN_N(c->sys->nb) : EN_N(c->sys->nb); }
 
 /* A step's result y (its first nstep components) completed: a sticking chain's other components from
- * rest (the friction losses, unchanged) and its centres placed exactly from the rotations and anchors. */
-static void complete(Ctx *c, const double *rest, double *y) {
-    if (!c->chain) return;
-    int n0 = EN_CHAIN_N(c->sys.nb), n = EN_N(c->sys.nb);
+ * rest (the friction losses, unchanged) and its centres placed exactly from the rotations and anchors.
+ * With f, a chain's forces under the ground's (ah, av) in the same evaluation; returns 1 if it gave them. */
+static int complete_forces(Ctx *c, const double *rest, double *y, double ah, double av, EnForces *f) {
+    if (!c->chain) return 0;
+    int n0 = EN_CHAIN_N(c->sys->nb), n = EN_N(c->sys->nb);
     memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
-    EnForces f;
-    engine_chain(&c->sys, &c->mode, c->xi0, y, 0.0, 0.0, &f);
+    EnForces none;
+    engine_chain(c->sys, &c->mode, c->xi0, y, ah, av, f ? f : &none);
+    return f != NULL;
 }
+
+static void complete(Ctx *c, const double *rest, double *y) { complete_forces(c, rest, y, 0.0, 0.0, NULL); }
 
 static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1); }
 static double time_scale(const Model *M) { return 1.0 / sqrt(M->d.p2); }
@@ -144,15 +148,14 @@ static int side_of(const EnMode *m, const double *y) {
 /* Set the contact set m (at S->t, S->y) as the state's. */
 static void set_mode(Model *M, const EnMode *m, const Logger *log) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
-    for (int k = 0; k < sys.nb; k++) { /* a contact that sticks on through the event has not slipped */
+    const EnSystem *sys = &M->d.en;
+    for (int k = 0; k < sys->nb; k++) { /* a contact that sticks on through the event has not slipped */
         int stuckBefore = !flying(&S->en, k) && S->en.sigma[k] == 0 && S->mode != MODE_OVERTURNED;
-        if (!flying(m, k) && !(stuckBefore && m->sigma[k] == 0)) S->enAnchor[k] = slip_of(&sys, k, S->y, NULL, NULL);
+        if (!flying(m, k) && !(stuckBefore && m->sigma[k] == 0)) S->enAnchor[k] = slip_of(sys, k, S->y, NULL, NULL);
     }
     changed(M, &S->en, m, log);
     S->en = *m;
-    engine_project(&sys, m, S->y, NULL, 1);
+    engine_project(sys, m, S->y, NULL, 1);
     S->side = side_of(m, S->y);
     S->sigma = m->sigma[0];
     S->mode = MODE_ROCKING;
@@ -163,16 +166,15 @@ static void set_mode(Model *M, const EnMode *m, const Logger *log) {
  * stops has logged its "stick"). */
 static void come_to_rest(Model *M, const Logger *log, int announce) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     EnMode m;
     memset(&m, 0, sizeof(m));
-    for (int k = 0; k < sys.nb; k++) m.closed[k][0] = m.closed[k][1] = 1;
-    for (int k = 0; k < sys.nb; k++) S->enAnchor[k] = slip_of(&sys, k, S->y, NULL, NULL);
-    double E0 = engine_energy(&sys, S->y);
-    engine_rest_state(&sys, S->y);
-    for (int k = 0; k < sys.nb; k++) S->y[EN_POS(sys.nb, k, 0)] = S->enAnchor[k] + (k > 0 ? S->y[EN_POS(sys.nb, k - 1, 0)] : 0.0);
-    S->impactLoss += E0 - engine_energy(&sys, S->y); /* what the rest criterion stops */
+    for (int k = 0; k < sys->nb; k++) m.closed[k][0] = m.closed[k][1] = 1;
+    for (int k = 0; k < sys->nb; k++) S->enAnchor[k] = slip_of(sys, k, S->y, NULL, NULL);
+    double E0 = engine_energy(sys, S->y);
+    engine_rest_state(sys, S->y);
+    for (int k = 0; k < sys->nb; k++) S->y[EN_POS(sys->nb, k, 0)] = S->enAnchor[k] + (k > 0 ? S->y[EN_POS(sys->nb, k - 1, 0)] : 0.0);
+    S->impactLoss += E0 - engine_energy(sys, S->y); /* what the rest criterion stops */
     changed(M, &S->en, &m, log);
     S->en = m;
     S->mode = MODE_REST;
@@ -192,8 +194,7 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
  * it has no solution. */
 static int choose(const Model *M, double t, const double *y, const double *dy, int touching[][2], const int *stuck,
                   EnMode *out) {
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     double d = LOOK_AHEAD * time_scale(M), ya[NMAX], ah, av;
     int n = nstate(M);
     memcpy(ya, y, sizeof(ya));
@@ -201,7 +202,7 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
         for (int i = 0; i < n; i++) ya[i] += d * dy[i];
     model_ground_piece(M, t + (dy ? d : 0.0), model_piece(M, t), &ah, &av);
     EnForces f;
-    return engine_choose(&sys, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
+    return engine_choose(sys, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
 }
 
 /* The derivative of the state at S->t in the contact set m. */
@@ -223,19 +224,18 @@ static void settle_mode(Model *M, int touching[][2], int *stuck, const double *d
         set_mode(M, &m, log);
         return;
     }
-    EnSystem sys;
-    engine_system(M, &sys);
-    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES], E0 = engine_kinetic(&sys, S->y);
+    const EnSystem *sys = &M->d.en;
+    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES], E0 = engine_kinetic(sys, S->y);
     S->painleve++;
-    engine_impact(&sys, S->y, touching, stuck, PN, PT);
-    S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+    engine_impact(sys, S->y, touching, stuck, PN, PT);
+    S->impactLoss += E0 - engine_kinetic(sys, S->y);
     say(log, LOG_EVENTS, "painleve t=%.17g", S->t);
     if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
-        for (int k = 0; k < sys.nb; k++) stuck[k] = 1;
+        for (int k = 0; k < sys->nb; k++) stuck[k] = 1;
         memset(&m, 0, sizeof(m));
         EnMode st = S->en;
-        for (int k = 0; k < sys.nb; k++) st.sigma[k] = 0;
-        engine_project(&sys, &st, S->y, NULL, 1);
+        for (int k = 0; k < sys->nb; k++) st.sigma[k] = 0;
+        engine_project(sys, &st, S->y, NULL, 1);
         if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) m = st;
     }
     set_mode(M, &m, log);
@@ -263,9 +263,8 @@ static int negligible(const Model *M, double t, const double *y) {
     /* one block; a stack: the pair as one body about block 1's corner */
     double alpha = two ? M->d.alphaL : M->d.alpha, R = two ? M->d.RL : M->d.R;
     double m = M->v.mass + (two ? M->v.mass2 : 0.0);
-    EnSystem sys;
-    engine_system(M, &sys);
-    if (!below_rest(M, engine_kinetic(&sys, y), m, R, alpha, geff)) return 0;
+    const EnSystem *sys = &M->d.en;
+    if (!below_rest(M, engine_kinetic(sys, y), m, R, alpha, geff)) return 0;
     if (!two) return 1;
     /* and block 2's rocking on block 1 as the rigid stack settles it: about its corner, to restRatio of alphaI */
     double w = y[EN_W(1)] - y[EN_W(0)];
@@ -280,10 +279,9 @@ static int negligible(const Model *M, double t, const double *y) {
  * impact; the constant law (2) scales the plastic impact's rates so that it keeps etaGround^2 (or
  * etaInterface^2) of the kinetic energy, the rigid stack's definition (docs/two_blocks.md). */
 static void restitution(const Model *M, double *y, double kineticBefore, int contact) {
-    EnSystem sys;
-    engine_system(M, &sys);
-    double after = engine_kinetic(&sys, y), factor;
-    if (sys.nb == 2) {
+    const EnSystem *sys = &M->d.en;
+    double after = engine_kinetic(sys, y), factor;
+    if (sys->nb == 2) {
         if (M->v.law != 2 || !(after > 0)) return;
         double eta = contact ? M->v.etaInterface : M->v.etaGround;
         factor = eta * sqrt(kineticBefore / after);
@@ -293,8 +291,8 @@ static void restitution(const Model *M, double *y, double kineticBefore, int con
         if (factor == 1.0) return;
         if (factor * factor * after > kineticBefore) factor = sqrt(kineticBefore / after);
     }
-    for (int k = 0; k < sys.nb; k++)
-        for (int i = 0; i < 3; i++) y[EN_VEL(sys.nb, k, i)] *= factor;
+    for (int k = 0; k < sys->nb; k++)
+        for (int i = 0; i < 3; i++) y[EN_VEL(sys->nb, k, i)] *= factor;
 }
 
 /* -------------------------------------------------------------------- events */
@@ -340,9 +338,8 @@ static void fell_off(Model *M, const Logger *log) {
     State *S = &M->s;
     S->fellOff = 1;
     S->fellOffTime = S->t;
-    EnSystem sys;
-    engine_system(M, &sys);
-    double u2 = slip_of(&sys, 1, S->y, NULL, NULL);
+    const EnSystem *sys = &M->d.en;
+    double u2 = slip_of(sys, 1, S->y, NULL, NULL);
     finish(M);
     say(log, LOG_EVENTS, "fell-off t=%.17g u2=%.17g", S->t, u2);
 }
@@ -353,36 +350,35 @@ static void fell_off(Model *M, const Logger *log) {
  * on). Without this rule a sliding block's ever smaller rocking impacts would never end. */
 static void close_negligible(Model *M, int touching[][2], int *stuck, const Logger *log) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     double ah, av;
     model_ground(M, S->t, &ah, &av);
-    double geff = sys.g + av;
+    double geff = sys->g + av;
     if (!(geff > 0)) return;
-    for (int k = 0; k < sys.nb; k++) {
+    for (int k = 0; k < sys->nb; k++) {
         if (touching[k][0] == touching[k][1]) continue;
-        const EnBody *B = &sys.body[k];
+        const EnBody *B = &sys->body[k];
         /* what the rebound lifts: the body about its corner; in a stack the rigid stack's (docs/two_blocks.md),
          * the pair about block 1's corner for the ground, block 2 about its corner for the interface */
         double R = hypot(B->b, B->h), alpha = atan2(B->b, B->h), I0 = B->Ic + B->m * R * R, m = B->m;
-        if (sys.nb == 2 && k == 0) R = M->d.RL, alpha = M->d.alphaL, I0 = M->d.IL, m = M->d.mTot;
-        if (sys.nb == 2 && k == 1) R = M->d.RI, alpha = M->d.alphaI, I0 = M->d.II;
+        if (sys->nb == 2 && k == 0) R = M->d.RL, alpha = M->d.alphaL, I0 = M->d.IL, m = M->d.mTot;
+        if (sys->nb == 2 && k == 1) R = M->d.RI, alpha = M->d.alphaI, I0 = M->d.II;
         double w = S->y[EN_W(k)] - (k > 0 ? S->y[EN_W(k - 1)] : 0.0);
         double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
         if (fabs(rel) > 1e-9 * alpha) continue;
         if (!below_rest(M, 0.5 * I0 * w * w, m, R, alpha, geff)) continue;
         /* the contacts as the impact left them (touching, sticking where it stuck), body k's closed flat */
         EnMode flat = S->en;
-        for (int j = 0; j < sys.nb; j++) {
+        for (int j = 0; j < sys->nb; j++) {
             double vs;
-            slip_of(&sys, j, S->y, &vs, NULL);
+            slip_of(sys, j, S->y, &vs, NULL);
             flat.closed[j][0] = touching[j][0] || j == k;
             flat.closed[j][1] = touching[j][1] || j == k;
             flat.sigma[j] = stuck[j] ? 0 : vs > 0 ? 1 : vs < 0 ? -1 : 0;
         }
-        double E0 = engine_kinetic(&sys, S->y), keep[NMAX];
+        double E0 = engine_kinetic(sys, S->y), keep[NMAX];
         memcpy(keep, S->y, sizeof(keep));
-        engine_project(&sys, &flat, S->y, NULL, 0); /* the positions exactly flat */
+        engine_project(sys, &flat, S->y, NULL, 0); /* the positions exactly flat */
         /* the plastic impact onto the set (each contact keeping its friction: the rigid stack's rule); where
          * its friction would add kinetic energy (a normal impulse that pulls while block 2 slides) there is no
          * settling, unless impacts accumulate (CHATTER_RUN): then the rates are projected mass-orthogonally
@@ -390,19 +386,19 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
          * it a plinth chattered at 1e-8 s per impact under its sliding statue) */
         double projected[NMAX];
         memcpy(projected, S->y, sizeof(projected));
-        int ok = engine_plastic(&sys, &flat, S->y) && engine_kinetic(&sys, S->y) <= E0;
+        int ok = engine_plastic(sys, &flat, S->y) && engine_kinetic(sys, S->y) <= E0;
         if (!ok && S->impactRun >= CHATTER_RUN) {
-            EnSystem smooth = sys;
-            for (int j = 0; j < sys.nb; j++)
+            EnSystem smooth = *sys;
+            for (int j = 0; j < sys->nb; j++)
                 if (flat.sigma[j]) smooth.mu[j] = 0.0;
             memcpy(S->y, projected, sizeof(projected));
-            ok = engine_plastic(&smooth, &flat, S->y) && engine_kinetic(&sys, S->y) <= E0 * (1.0 + 64.0 * DBL_EPSILON);
+            ok = engine_plastic(&smooth, &flat, S->y) && engine_kinetic(sys, S->y) <= E0 * (1.0 + 64.0 * DBL_EPSILON);
         }
         if (!ok) { /* (the rigid stack's test: no settling) */
             memcpy(S->y, keep, sizeof(keep));
             continue;
         }
-        S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+        S->impactLoss += E0 - engine_kinetic(sys, S->y);
         touching[k][0] = touching[k][1] = 1;
         stuck[k] = flat.sigma[k] == 0;
         say(log, LOG_EVENTS, "flat t=%.17g body=%d", S->t, k + 1);
@@ -411,14 +407,13 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
 
 static void impact(Model *M, const Logger *log) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     int k = S->eventContact, i = S->eventEnd > 0 ? 1 : 0;
     int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
     if (k > 0) {
         EnPoint p;
-        engine_point(&sys, k, 2 * i - 1, S->y, &p);
-        if (engine_beyond_edge(&sys, k, p.xi)) { /* it comes down beyond block 1's edge */
+        engine_point(sys, k, 2 * i - 1, S->y, &p);
+        if (engine_beyond_edge(sys, k, p.xi)) { /* it comes down beyond block 1's edge */
             fell_off(M, log);
             return;
         }
@@ -431,24 +426,24 @@ static void impact(Model *M, const Logger *log) {
      * impacts: the impact's complementarity problem keeps it open if it separates, and does not leave it
      * to land again at once) */
     double tol = 100.0 * fmax(M->v.relTol, M->v.absTol) * M->d.R, zero = 64.0 * DBL_EPSILON * M->d.R;
-    for (int j = 0; j < sys.nb; j++)
+    for (int j = 0; j < sys->nb; j++)
         for (int c = 0; c < 2; c++) {
             EnPoint p;
-            engine_point(&sys, j, 2 * c - 1, S->y, &p);
+            engine_point(sys, j, 2 * c - 1, S->y, &p);
             if (!land.closed[j][c] && ((p.g <= tol && p.gd <= 0) || p.g <= zero)) land.closed[j][c] = 1;
         }
-    engine_project(&sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
-    for (int j = 0; j < sys.nb; j++) {
+    engine_project(sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
+    for (int j = 0; j < sys->nb; j++) {
         touching[j][0] = land.closed[j][0];
         touching[j][1] = land.closed[j][1];
     }
     double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES];
     double before[NMAX];
     memcpy(before, S->y, sizeof(before));
-    double E0 = engine_kinetic(&sys, S->y), wm = S->y[EN_W(0)];
+    double E0 = engine_kinetic(sys, S->y), wm = S->y[EN_W(0)];
     double vm;
-    slip_of(&sys, 0, S->y, &vm, NULL);
-    if (engine_impact(&sys, S->y, touching, stuck, PN, PT)) {
+    slip_of(sys, 0, S->y, &vm, NULL);
+    if (engine_impact(sys, S->y, touching, stuck, PN, PT)) {
         say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
     }
     restitution(M, S->y, E0, k);
@@ -460,13 +455,13 @@ static void impact(Model *M, const Logger *log) {
     S->impactRun = S->lastImpactTime >= 0 && S->t - S->lastImpactTime < CHATTER_INTERVAL * time_scale(M)
                        ? S->impactRun + 1 : 0;
     S->lastImpactTime = S->t;
-    S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+    S->impactLoss += E0 - engine_kinetic(sys, S->y);
     double vp;
-    slip_of(&sys, 0, S->y, &vp, NULL);
-    if (sys.nb == 2) {
+    slip_of(sys, 0, S->y, &vp, NULL);
+    if (sys->nb == 2) {
         double v2m = 0.0, v2p;
-        slip_of(&sys, 1, before, &v2m, NULL);
-        slip_of(&sys, 1, S->y, &v2p, NULL);
+        slip_of(sys, 1, before, &v2m, NULL);
+        slip_of(sys, 1, S->y, &v2p, NULL);
         say(log, LOG_EVENTS,
             "impact t=%.17g contact=%s theta1=%.17g theta2=%.17g w1m=%.17g w2m=%.17g w1p=%.17g w2p=%.17g "
             "slip_rate_minus=%.17g,%.17g slip_rate_plus=%.17g,%.17g",
@@ -492,24 +487,23 @@ static void impact(Model *M, const Logger *log) {
  * where that would slide on into the singularity, the contact sticks. Counted as a Painleve point. */
 static void jam(Model *M, const Logger *log) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     int k = S->eventContact, touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
     EnMode st = S->en;
     st.sigma[k] = 0;
-    double E0 = engine_kinetic(&sys, S->y);
-    engine_project(&sys, &st, S->y, NULL, 1);
-    S->impactLoss += E0 - engine_kinetic(&sys, S->y);
+    double E0 = engine_kinetic(sys, S->y);
+    engine_project(sys, &st, S->y, NULL, 1);
+    S->impactLoss += E0 - engine_kinetic(sys, S->y);
     S->painleve++;
     say(log, LOG_EVENTS, "painleve t=%.17g body=%d jam=1", S->t, k + 1);
-    for (int j = 0; j < sys.nb; j++) {
+    for (int j = 0; j < sys->nb; j++) {
         touching[j][0] = S->en.closed[j][0];
         touching[j][1] = S->en.closed[j][1];
         stuck[j] = st.sigma[j] == 0;
     }
     EnMode m;
     if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0 ||
-        (m.sigma[k] && m.closed[k][0] != m.closed[k][1] && engine_jam_margin(&sys, &m, k, S->y) <= EN_JAM_MARGIN))
+        (m.sigma[k] && m.closed[k][0] != m.closed[k][1] && engine_jam_margin(sys, &m, k, S->y) <= EN_JAM_MARGIN))
         m = st;
     set_mode(M, &m, log);
 }
@@ -517,15 +511,14 @@ static void jam(Model *M, const Logger *log) {
 /* An event located at S->t where a force, friction margin or slip rate vanished. */
 static void reselect(Model *M, const Logger *log) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
     EnMode m = S->en;
     if (S->pending == EVENT_SLIP_STOP) { /* the slip rate exactly zero */
         m.sigma[S->eventContact] = 0;
-        engine_project(&sys, &m, S->y, NULL, 1);
+        engine_project(sys, &m, S->y, NULL, 1);
     }
-    for (int k = 0; k < sys.nb; k++) {
+    for (int k = 0; k < sys->nb; k++) {
         touching[k][0] = S->en.closed[k][0];
         touching[k][1] = S->en.closed[k][1];
         stuck[k] = m.sigma[k] == 0;
@@ -535,24 +528,23 @@ static void reselect(Model *M, const Logger *log) {
     /* a flat contact whose slip stops with nothing else moving: at rest? */
     settle_mode(M, touching, stuck, dy, log);
     int still = 1;
-    for (int k = 0; k < sys.nb; k++) {
+    for (int k = 0; k < sys->nb; k++) {
         still &= S->en.closed[k][0] && S->en.closed[k][1] && S->en.sigma[k] == 0;
-        for (int q = 0; q < 3; q++) still &= fabs(S->y[EN_VEL(sys.nb, k, q)]) <= 1e-14 * sqrt(sys.g * M->d.R);
+        for (int q = 0; q < 3; q++) still &= fabs(S->y[EN_VEL(sys->nb, k, q)]) <= 1e-14 * sqrt(sys->g * M->d.R);
     }
     if (still) come_to_rest(M, log, 0);
 }
 
 static int apply_event(Model *M, const Logger *log) {
     State *S = &M->s;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     commit_peaks(M, log);
-    for (int k = 0; k < sys.nb; k++) {
-        double sl = fabs(!flying(&S->en, k) && S->en.sigma[k] == 0 ? S->enAnchor[k] : slip_of(&sys, k, S->y, NULL, NULL));
+    for (int k = 0; k < sys->nb; k++) {
+        double sl = fabs(!flying(&S->en, k) && S->en.sigma[k] == 0 ? S->enAnchor[k] : slip_of(sys, k, S->y, NULL, NULL));
         double *mx = k ? &S->maxAbsSlip2 : &S->maxAbsSlip;
         if (sl > *mx) *mx = sl;
     }
-    if (sys.nb == 2 && fabs(S->y[EN_TH(1)]) > S->maxAbsTheta2) S->maxAbsTheta2 = fabs(S->y[EN_TH(1)]);
+    if (sys->nb == 2 && fabs(S->y[EN_TH(1)]) > S->maxAbsTheta2) S->maxAbsTheta2 = fabs(S->y[EN_TH(1)]);
     if (fabs(S->y[EN_TH(0)]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[EN_TH(0)]);
     switch (S->pending) {
     case EVENT_IMPACT:
@@ -609,10 +601,10 @@ static int indicators(const Ctx *c, double t, const double *y, const EnForces *f
     if (!f) {
         double ah, av;
         model_ground_piece(c->M, t, c->piece, &ah, &av);
-        engine_solve(&c->sys, &c->mode, y, ah, av, &g);
+        engine_solve(c->sys, &c->mode, y, ah, av, &g);
         f = &g;
     }
-    return engine_indicators(&c->sys, &c->mode, y, f, ind, kind, body, corner);
+    return engine_indicators(c->sys, &c->mode, y, f, ind, kind, body, corner);
 }
 
 /* Indicator `which` after a real step of length x from the step's start (first_negative's function). */
@@ -647,7 +639,7 @@ static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
     Ctx c = context(M, &S->en, S->t);
-    int nb = c.sys.nb, n = nstep(&c);
+    int nb = c.sys->nb, n = nstep(&c);
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     int free_motion = 0;
     for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
@@ -850,7 +842,7 @@ static int take_step(Model *M, const Logger *log) {
     memcpy(S->f, f1, sizeof(double) * (size_t)EN_N(nb));
     /* back onto the constraints of the contact set the step was taken in (at an event too: an impact's
      * velocities before must be those of the motion the contacts allow) */
-    if (!c.chain) engine_project(&c.sys, &S->en, S->y, S->enAnchor, 1); /* (a chain's are placed) */
+    if (!c.chain) engine_project(c.sys, &S->en, S->y, S->enAnchor, 1); /* (a chain's are placed) */
     /* (the projection moves the centres by rounding: the derivative and indicators at the step's end
      * stay the next step's start) */
     S->fValid = ev == EVENT_NONE && !hitBp;
@@ -861,9 +853,10 @@ static int take_step(Model *M, const Logger *log) {
     }
     S->h = hNext;
     S->pending = ev;
-    for (int k = 0; k < nb && !c.chain; k++) { /* (a chain's bodies all touch) */
+    for (int k = 0; k < nb; k++) { /* (a body that touches has no gap) */
+        if (!flying(&S->en, k)) continue;
         double gap;
-        slip_of(&c.sys, k, S->y, NULL, &gap);
+        slip_of(c.sys, k, S->y, NULL, &gap);
         if (gap > S->gapMax[k]) S->gapMax[k] = gap;
     }
     if (nb == 2) {
@@ -877,11 +870,13 @@ static int take_step(Model *M, const Logger *log) {
     return 0;
 }
 
-/* The state at time t: of the last step's dense output when t lies inside it. */
-static void state_at(const Model *M, double t, double *y, EnMode *m) {
+/* The state at time t: of the last step's dense output when t lies inside it. With f, also the contact
+ * forces there under the ground's (ah, av) (a sticking chain's from the evaluation that places it). */
+static void state_forces_at(const Model *M, double t, double *y, EnMode *m, double ah, double av, EnForces *f) {
     const State *S = &M->s;
     memcpy(y, S->y, sizeof(double) * NMAX);
     *m = S->en;
+    int have = 0;
     if (S->t > t && S->denseValid && S->mode != MODE_OVERTURNED) {
         double s = (t - S->tOld) / S->hDense;
         if (s < 0) s = 0;
@@ -889,28 +884,26 @@ static void state_at(const Model *M, double t, double *y, EnMode *m) {
         Ctx c = context(M, &S->enDense, S->tOld);
         memcpy(c.xi0, S->enDenseAnchor, sizeof(c.xi0));
         dense_eval(S->cont, nstep(&c), s, y);
-        complete(&c, S->y, y);
+        have = complete_forces(&c, S->y, y, ah, av, f);
         *m = S->enDense;
     }
+    if (f && !have) engine_solve(&M->d.en, m, y, ah, av, f);
 }
+
+static void state_at(const Model *M, double t, double *y, EnMode *m) { state_forces_at(M, t, y, m, 0.0, 0.0, NULL); }
 
 /* Reactions of the moving bodies at t (contact monitors). */
 static void reactions(const Model *M, double t, int inStep, double T[2], double N[2]) {
     double y[NMAX], ah, av;
     EnMode m;
-    if (inStep) state_at(M, t, y, &m);
-    else {
-        memcpy(y, M->s.y, sizeof(y));
-        m = M->s.en;
-    }
-    EnSystem sys;
-    engine_system(M, &sys);
-    model_ground(M, t, &ah, &av);
     EnForces f;
-    engine_solve(&sys, &m, y, ah, av, &f);
+    const EnSystem *sys = &M->d.en;
+    model_ground(M, t, &ah, &av);
+    if (inStep) state_forces_at(M, t, y, &m, ah, av, &f);
+    else engine_solve(sys, &M->s.en, M->s.y, ah, av, &f);
     for (int k = 0; k < 2; k++) {
-        T[k] = k < sys.nb ? f.T[k] : 0.0;
-        N[k] = k < sys.nb ? f.N[k][0] + f.N[k][1] : 0.0;
+        T[k] = k < sys->nb ? f.T[k] : 0.0;
+        N[k] = k < sys->nb ? f.N[k][0] + f.N[k][1] : 0.0;
     }
 }
 
@@ -919,17 +912,16 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
  * Linear in the ground's accelerations (|T| aside, which keeps the friction margin concave), so it
  * crosses zero at most once on a cell where they are monotone. */
 static double rest_exit(const Model *M, double t, int piece) {
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     EnMode r;
     memset(&r, 0, sizeof(r));
-    for (int k = 0; k < sys.nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
+    for (int k = 0; k < sys->nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
     double ah, av, ind[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     model_ground_piece(M, t, piece, &ah, &av);
     EnForces f;
-    if (!engine_solve(&sys, &r, M->s.y, ah, av, &f)) return 1.0;
-    int n = engine_indicators(&sys, &r, M->s.y, &f, ind, kind, body, corner);
+    if (!engine_solve(sys, &r, M->s.y, ah, av, &f)) return 1.0;
+    int n = engine_indicators(sys, &r, M->s.y, &f, ind, kind, body, corner);
     double least = INFINITY;
     for (int i = 0; i < n; i++)
         if (kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) least = fmin(least, ind[i]);
@@ -984,11 +976,10 @@ static int side_from(double th, double w) { return th > 0 ? 1 : th < 0 ? -1 : (w
 void engine_initialize(Model *M) {
     State *S = &M->s;
     const Variables *v = &M->v;
-    EnSystem sys;
-    engine_system(M, &sys);
-    int nb = sys.nb;
+    const EnSystem *sys = &M->d.en;
+    int nb = sys->nb;
     double y[NMAX] = {0};
-    engine_rest_state(&sys, y);
+    engine_rest_state(sys, y);
     memset(&S->en, 0, sizeof(S->en));
     S->slideTime = S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1;
     for (int k = 0; k < EN_MAX_BODIES; k++) S->flightSince[k] = -1;
@@ -1006,7 +997,7 @@ void engine_initialize(Model *M) {
     int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES] = {1, 1};
     double O[2] = {0.0, 0.0}, V[2] = {0.0, 0.0}, thS = 0.0, wS = 0.0, hS = 0.0; /* the support's frame */
     for (int k = 0; k < nb; k++) {
-        const EnBody *B = &sys.body[k];
+        const EnBody *B = &sys->body[k];
         double rel = th[k] - thS, wrel = w[k] - wS;
         int c = side_from(rel, wrel);
         /* the pivot: (c b, 0) on the ground, (c b2, h1) in block 1's frame */
@@ -1112,30 +1103,29 @@ static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const do
 void engine_outputs(Model *M, double tc) {
     State *S = &M->s;
     Variables *v = &M->v;
-    EnSystem sys;
-    engine_system(M, &sys);
+    const EnSystem *sys = &M->d.en;
     double y[NMAX], ah, av;
     EnMode m;
     state_at(M, tc, y, &m);
     model_ground(M, tc, &ah, &av);
     v->ahTotal = ah;
     v->avTotal = av;
-    int nb = sys.nb, over = S->mode == MODE_OVERTURNED, two = nb == 2;
+    int nb = sys->nb, over = S->mode == MODE_OVERTURNED, two = nb == 2;
     EnForces f;
     memset(&f, 0, sizeof(f));
     if (S->mode == MODE_REST) {
         EnMode r;
         memset(&r, 0, sizeof(r));
         for (int k = 0; k < nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
-        engine_solve(&sys, &r, y, ah, av, &f);
+        engine_solve(sys, &r, y, ah, av, &f);
     } else if (!over) {
-        engine_solve(&sys, &m, y, ah, av, &f);
+        engine_solve(sys, &m, y, ah, av, &f);
     }
     /* one block overturned lies on its side; a stack's run that ended keeps its last state */
     v->theta = over && !two ? S->side * M_PI / 2 : y[EN_TH(0)];
     v->omega = over ? 0.0 : y[EN_W(0)];
     v->alphaDD = f.qdd[EN_Q(0, 2)];
-    BodyOut b1 = body_outputs(M, &sys, 0, y, &m, tc, over);
+    BodyOut b1 = body_outputs(M, sys, 0, y, &m, tc, over);
     v->slip = b1.slip;
     v->slipRate = b1.slipRate;
     v->gap = b1.gap;
@@ -1158,7 +1148,7 @@ void engine_outputs(Model *M, double tc) {
         v->omega2 = over ? 0.0 : y[EN_W(1)];
         v->alphaDD2 = f.qdd[EN_Q(1, 2)];
         v->maxAbsTheta2 = fmax(S->maxAbsTheta2, fabs(v->theta2));
-        BodyOut b2 = body_outputs(M, &sys, 1, y, &m, tc, over);
+        BodyOut b2 = body_outputs(M, sys, 1, y, &m, tc, over);
         v->slip2 = b2.slip;
         v->slipRate2 = b2.slipRate;
         v->gap2 = b2.gap;
@@ -1201,18 +1191,18 @@ void engine_outputs(Model *M, double tc) {
     v->interfaceN = two ? f.N[1][0] + f.N[1][1] : 0.0;
     if (S->mode == MODE_REST) { /* bodies moving with the ground: their inertia and weight, exactly */
         double mass = 0.0;
-        for (int k = 0; k < nb; k++) mass += sys.body[k].m;
+        for (int k = 0; k < nb; k++) mass += sys->body[k].m;
         v->groundT = mass * ah;
-        v->groundN = mass * (sys.g + av);
+        v->groundN = mass * (sys->g + av);
         if (two) {
-            v->interfaceT = sys.body[1].m * ah;
-            v->interfaceN = sys.body[1].m * (sys.g + av);
+            v->interfaceT = sys->body[1].m * ah;
+            v->interfaceN = sys->body[1].m * (sys->g + av);
         }
     }
     double p = 0.0;
-    for (int k = 0; k < nb && !over; k++) p += sys.body[k].m * y[EN_VEL(nb, k, 0)];
+    for (int k = 0; k < nb && !over; k++) p += sys->body[k].m * y[EN_VEL(nb, k, 0)];
     v->momentum = p;
-    v->energy = over ? engine_energy(&sys, S->y) : engine_energy(&sys, y);
+    v->energy = over ? engine_energy(sys, S->y) : engine_energy(sys, y);
     v->groundWork = y[EN_WORK(nb)];
     v->frictionLoss = y[EN_LOSS(nb, 0)];
     v->impactLoss = S->impactLoss;

@@ -158,6 +158,23 @@ double model_law_restitution(const Variables *v, double alpha) {
     }
 }
 
+/* The contact engine's bodies (the memset of model_derive leaves the rest 0). */
+static void engine_bodies(const Variables *v, EnSystem *s) {
+    s->nb = v->nBlocks == 2 ? 2 : 1;
+    s->g = v->g;
+    double b[2] = {v->halfWidth, v->halfWidth2}, h[2] = {v->halfHeight, v->halfHeight2}, m[2] = {v->mass, v->mass2};
+    s->mu[0] = v->muGround;
+    s->mu[1] = v->muInterface;
+    for (int k = 0; k < s->nb; k++) {
+        s->body[k].b = b[k];
+        s->body[k].h = h[k];
+        s->body[k].m = m[k];
+        s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
+    }
+    for (int k = s->nb - 1; k >= 0; k--)
+        s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);
+}
+
 void model_derive(Model *M) {
     const Variables *v = &M->v;
     Derived *d = &M->d;
@@ -179,6 +196,7 @@ void model_derive(Model *M) {
         d->upliftSlope = fmin(d->upliftSlope, fmin(v->muGround, v->muInterface));
     d->weight[0] = (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
     d->weight[1] = v->mass2 * v->g;
+    engine_bodies(v, &d->en);
 }
 
 void model_rhs_terms(const Model *M, double t, const double y[2], int side, int piece, double dy[2],

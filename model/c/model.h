@@ -56,6 +56,27 @@ typedef struct {
 #undef VAR
 } Variables;
 
+/* The contact engine (engine.h): which corners of each body touch its support (0 left, 1 right)
+ * and how its contact slides (0 sticks, +-1 the sign of the slip rate). */
+#define EN_MAX_BODIES 2
+typedef struct {
+    int closed[EN_MAX_BODIES][2];
+    int sigma[EN_MAX_BODIES];
+} EnMode;
+/* The engine's bodies (engine.h): rectangles of half width b, half height h (m), mass m (kg) and inertia
+ * about the centre Ic = m (b^2 + h^2) / 3 (kg m^2); body k stands on body k - 1 (the ground for k = 0). */
+typedef struct {
+    double b, h, m, Ic;
+} EnBody;
+
+typedef struct {
+    int nb;
+    EnBody body[EN_MAX_BODIES];
+    double mu[EN_MAX_BODIES]; /* friction coefficient of body k on its support */
+    double g;
+    double weight[EN_MAX_BODIES]; /* weight carried by body k's contact (it and those above), N */
+} EnSystem;
+
 /* Quantities derived from the parameters at initialisation. */
 typedef struct {
     double R;          /* half diagonal, m */
@@ -83,6 +104,8 @@ typedef struct {
     unsigned long long recHash;
     double upliftSlope; /* at rest the ground tips the body once |ah| > upliftSlope (g + av) */
     double weight[2];   /* weight carried by the ground (both blocks) and by block 1 (block 2), N */
+
+    EnSystem en; /* the contact engine's bodies (one block, or a stack of two) */
 
     /* two stacked blocks (nBlocks = 2), see stack.h */
     double c;          /* half width of the contact between the blocks, m */
@@ -120,13 +143,6 @@ typedef enum {
     EVENT_JAM = 11       /* contact engine: a contact sliding on one corner reaches Painleve's singularity */
 } EventKind;
 
-/* The contact engine (engine.h): which corners of each body touch its support (0 left, 1 right)
- * and how its contact slides (0 sticks, +-1 the sign of the slip rate). */
-#define EN_MAX_BODIES 2
-typedef struct {
-    int closed[EN_MAX_BODIES][2];
-    int sigma[EN_MAX_BODIES];
-} EnMode;
 
 #define MAX_STEP_PEAKS 4
 #define TAYLOR_MAX 30 /* highest order of the Taylor-series integrator */

@@ -3,7 +3,8 @@
  * sticking, and in the second half each sliding either way or sticking, at random): accelerations over g
  * and forces over the weight carried (each over its own size where larger); and the placed centres on the
  * constraints (closed corners at zero gap and normal rate, sticking corners at zero slip rate) where every
- * contact sticks. Prints the largest of each and the number of states with a sliding contact;
+ * contact sticks; and the plastic impact onto each set (chain_impulse) against solve_set on the rates before.
+ * Prints the largest of each and the number of states with a sliding contact, then the impacts';
  * tests/test_engine_chain.py runs it. White-box: it includes engine.c for its static solvers. */
 #include "engine.c"
 
@@ -14,7 +15,7 @@ static double rnd(void) { return 2.0 * rand() / RAND_MAX - 1.0; }
 
 int main(int argc, char **argv) {
     int trials = argc > 1 ? atoi(argv[1]) : 20000;
-    double worstDyn = 0.0, worstPlace = 0.0;
+    double worstDyn = 0.0, worstPlace = 0.0, worstImp = 0.0;
     int nSliding = 0;
     const double b[2] = {0.3, 0.2}, h[2] = {0.5, 0.8}, m[2] = {450.0, 690.0}, g = 9.81;
     srand(12345);
@@ -69,6 +70,23 @@ int main(int argc, char **argv) {
         for (int q = 0; q < 3 * s.nb; q++) a0[q] = Minv[q] * fext[q];
         if (!solve_set(&s, &mode, y, a0, 1, &full)) return 2;
         if (slides) nSliding += mode.sigma[0] != 0 || mode.sigma[1] != 0;
+        /* the plastic impact onto the set from rates that break its constraints (chain_impulse against
+         * solve_set on the rates before): rates after over sqrt(g R), impulses over the momentum carried */
+        double yi[NMAX], v0[EN_NQ] = {0};
+        memcpy(yi, y, sizeof(yi));
+        for (int k = 0; k < s.nb; k++)
+            for (int i = 0; i < 3; i++) yi[EN_VEL(s.nb, k, i)] += (i == 2 ? 2.0 : 0.5) * rnd();
+        gather(&s, yi, 1, v0);
+        EnForces ri, fi;
+        if (!chain_impulse(&s, &mode, yi, &ri) || !solve_set(&s, &mode, yi, v0, 0, &fi)) return 2;
+        for (int k = 0; k < s.nb; k++) {
+            double R = sqrt(s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h), v = sqrt(g * R);
+            for (int i = 0; i < 3; i++)
+                worstImp = fmax(worstImp, fabs(fi.qdd[EN_Q(k, i)] - ri.qdd[EN_Q(k, i)]) * (i == 2 ? R : 1.0) / v);
+            double P = fmax(s.weight[k] / g * v, fabs(fi.N[k][0]) + fabs(fi.N[k][1]) + fabs(fi.T[k]));
+            for (int i = 0; i < 2; i++) worstImp = fmax(worstImp, fabs(fi.N[k][i] - ri.N[k][i]) / P);
+            worstImp = fmax(worstImp, fabs(fi.T[k] - ri.T[k]) / P);
+        }
         for (int k = 0; k < s.nb; k++) {
             double R = sqrt(s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h);
             /* accelerations over g, or their own size where larger (a stack sliding on two corners can be
@@ -92,6 +110,6 @@ int main(int argc, char **argv) {
             }
         }
     }
-    printf("%.3e %.3e %d\n", worstDyn, worstPlace, nSliding);
+    printf("%.3e %.3e %d %.3e\n", worstDyn, worstPlace, nSliding, worstImp);
     return 0;
 }
