@@ -18,10 +18,12 @@ static void rot(double c, double s, double x, double y, double out[2]) {
 }
 static double dot(const double a[2], const double b[2]) { return a[0] * b[0] + a[1] * b[1]; }
 
-void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p) {
+/* engine_point, and with ROWS = 0 engine_corner (a constant where this is inlined) */
+static inline __attribute__((always_inline)) void point(const EnSystem *s, int k, int c, const double *y, EnPoint *p,
+                                                        const int ROWS) {
     int nb = s->nb;
     const EnBody *B = &s->body[k];
-    memset(p, 0, sizeof(*p));
+    if (ROWS) memset(p, 0, sizeof(*p));
     double th = y[EN_TH(k)], ck = cos(th), sk = sin(th);
     double w = y[EN_W(k)];
     double Rd[2], JRd[2];
@@ -51,6 +53,7 @@ void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p) 
     p->gd = ws * tD + nDd;
     p->xi = tD;
     p->xid = -ws * nD + tDd;
+    if (!ROWS) return;
     p->wN[EN_Q(k, 0)] = n[0];
     p->wN[EN_Q(k, 1)] = n[1];
     p->wN[EN_Q(k, 2)] = dot(n, JRd);
@@ -70,6 +73,9 @@ void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p) 
         p->bT += -ws * ws * tD - 2.0 * ws * nDd;
     }
 }
+
+void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p) { point(s, k, c, y, p, 1); }
+void engine_corner(const EnSystem *s, int k, int c, const double *y, EnPoint *p) { point(s, k, c, y, p, 0); }
 
 /* The inverse mass matrix (diagonal) and the generalised forces of gravity and of the ground's
  * motion (the inertial force -m (ah, av)) of the free bodies. */
@@ -517,7 +523,7 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
     int c = first_closed(m, k);
     if (!c) return 0.0;
     EnPoint p;
-    engine_point(s, k, c, y, &p);
+    engine_corner(s, k, c, y, &p);
     return p.xid;
 }
 
@@ -582,11 +588,11 @@ static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const doubl
     *corner = 1;
     if (closed == 1 && m->sigma[k]) {
         int i = m->closed[k][1];
-        engine_point(s, k, 2 * i - 1, y, &p[i]);
+        engine_corner(s, k, 2 * i - 1, y, &p[i]);
         *ind = (b * (1.0 + EN_EDGE_MARGIN) - fabs(p[i].xi)) / b;
         *corner = 2 * i - 1;
     } else if (closed == 2) {
-        for (int i = 0; i < 2; i++) engine_point(s, k, 2 * i - 1, y, &p[i]);
+        for (int i = 0; i < 2; i++) engine_corner(s, k, 2 * i - 1, y, &p[i]);
         if (engine_beyond_edge(s, k, p[0].xi) || engine_beyond_edge(s, k, p[1].xi)) {
             double N = f->N[k][0] + f->N[k][1];
             double xr = N > 0 ? (f->N[k][0] * p[0].xi + f->N[k][1] * p[1].xi) / N : 0.0;
@@ -619,7 +625,7 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
                 kind[n] = EN_IND_LAND;
             } else {
                 EnPoint p;
-                engine_point(s, k, 2 * i - 1, y, &p);
+                engine_corner(s, k, 2 * i - 1, y, &p);
                 ind[n] = p.g / R;
                 /* beyond its support's edge a corner that comes down falls past it */
                 kind[n] = k > 0 && engine_beyond_edge(s, k, p.xi) ? EN_IND_FELL_OFF : EN_IND_LAND;
@@ -745,16 +751,14 @@ static void add_bias(const Candidates *c, double au, double *q) {
 int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
                   const int stuck[], EnMode *out, EnForces *f) {
     int nb = s->nb, nq = 3 * nb;
-    Candidates c;
-    candidates(s, y, touching, stuck, &c);
-    double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
-    free_terms(s, ah, av, Minv, fext);
-    for (int q = 0; q < nq; q++) a0[q] = Minv[q] * fext[q];
+    /* a body that slides keeps the sign of its slip rate (at its first touching corner) */
     int sig[EN_MAX_BODIES] = {0};
     for (int k = 0; k < nb; k++) {
-        if (c.sOf[k] >= 0) continue;
-        const EnPoint *p = friction_point(&c, k);
-        sig[k] = p ? (p->xid > 0 ? 1 : p->xid < 0 ? -1 : 0) : 0;
+        int i = touching[k][0] ? 0 : touching[k][1] ? 1 : -1;
+        if (i < 0 || stuck[k]) continue;
+        EnPoint p;
+        engine_corner(s, k, 2 * i - 1, y, &p);
+        sig[k] = p.xid > 0 ? 1 : p.xid < 0 ? -1 : 0;
     }
     /* the likely set first: every touching corner closed, every candidate sticking. Where every closed corner
      * carries a positive normal force and every sticking contact's friction lies strictly inside its cone, it
@@ -764,7 +768,7 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
     for (int k = 0; k < nb; k++) {
         guess.closed[k][0] = touching[k][0];
         guess.closed[k][1] = touching[k][1];
-        guess.sigma[k] = c.sOf[k] >= 0 ? 0 : sig[k];
+        guess.sigma[k] = sig[k];
     }
     if (all_touch(s, &guess) && chain(s, &guess, NULL, y, NULL, ah, av, f, NULL)) {
         int holds = 1;
@@ -777,6 +781,11 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
             return 0;
         }
     }
+    Candidates c;
+    candidates(s, y, touching, stuck, &c);
+    double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
+    free_terms(s, ah, av, Minv, fext);
+    for (int q = 0; q < nq; q++) a0[q] = Minv[q] * fext[q];
     double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];
     double au = s->g;
     int n = assemble(s, &c, Minv, a0, sig, s->weight, au, A, q);
@@ -808,16 +817,24 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
  * strictly inside its cone and every touching corner left open separates, it solves the problem: then the
  * rates in y become the rates after, with the impulses and the sets after as engine_impact's, and it returns
  * 1; else 0 with nothing changed. */
-static int impact_guess(const EnSystem *s, double *y, const Candidates *c, int touching[][2], int stuck[],
-                        double PN[][2], double PT[]) {
+static int impact_guess(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2],
+                        double PT[]) {
     int nb = s->nb, approach[EN_MAX_BODIES] = {0};
     EnMode m;
     memset(&m, 0, sizeof(m));
-    double Rmax = 0.0;
+    double Rmax = 0.0, gd[EN_MAX_BODIES][2] = {{0}};
     for (int k = 0; k < nb; k++) Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
     double slow = -1e-9 * sqrt(s->g * Rmax); /* (a corner on the constraint has a normal rate of rounding) */
-    for (int j = 0; j < c->nc; j++) approach[c->k[j]] |= c->P[j].gd < slow;
-    for (int j = 0; j < c->nc; j++) m.closed[c->k[j]][c->i[j]] = !approach[c->k[j]] || c->P[j].gd < slow;
+    for (int k = 0; k < nb; k++)
+        for (int i = 0; i < 2; i++) {
+            if (!touching[k][i]) continue;
+            EnPoint p;
+            engine_corner(s, k, 2 * i - 1, y, &p);
+            gd[k][i] = p.gd;
+            approach[k] |= p.gd < slow;
+        }
+    for (int k = 0; k < nb; k++)
+        for (int i = 0; i < 2; i++) m.closed[k][i] = touching[k][i] && (!approach[k] || gd[k][i] < slow);
     EnForces f;
     if (!all_touch(s, &m) || !chain_impulse(s, &m, y, &f)) return 0;
     int holds = 1;
@@ -831,13 +848,14 @@ static int impact_guess(const EnSystem *s, double *y, const Candidates *c, int t
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 3; i++) ya[EN_VEL(nb, k, i)] = f.qdd[EN_Q(k, i)];
     int sep[EN_MAX_BODIES][2] = {{0}};
-    for (int j = 0; j < c->nc; j++) {
-        if (m.closed[c->k[j]][c->i[j]]) continue;
-        EnPoint p;
-        engine_point(s, c->k[j], 2 * c->i[j] - 1, ya, &p);
-        if (p.gd < 0.0) return 0;
-        sep[c->k[j]][c->i[j]] = p.gd > 0.0;
-    }
+    for (int k = 0; k < nb; k++)
+        for (int i = 0; i < 2; i++) {
+            if (!touching[k][i] || m.closed[k][i]) continue;
+            EnPoint p;
+            engine_corner(s, k, 2 * i - 1, ya, &p);
+            if (p.gd < 0.0) return 0;
+            sep[k][i] = p.gd > 0.0;
+        }
     memcpy(y, ya, sizeof(ya));
     for (int k = 0; k < nb; k++) {
         PN[k][0] = f.N[k][0];
@@ -853,11 +871,11 @@ int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], 
     int nb = s->nb;
     int all[EN_MAX_BODIES];
     for (int k = 0; k < EN_MAX_BODIES; k++) all[k] = 1;
-    Candidates c;
-    candidates(s, y, touching, all, &c);
     memset(PN, 0, sizeof(double) * 2 * (size_t)nb);
     memset(PT, 0, sizeof(double) * (size_t)nb);
-    if (impact_guess(s, y, &c, touching, stuck, PN, PT)) return 0;
+    if (impact_guess(s, y, touching, stuck, PN, PT)) return 0;
+    Candidates c;
+    candidates(s, y, touching, all, &c);
     double Minv[EN_NQ], fext[EN_NQ], v0[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     gather(s, y, 1, v0);
@@ -1011,7 +1029,7 @@ void engine_project(const EnSystem *s, const EnMode *m, double *y, const double 
         for (int k = 0; k < nb; k++) { /* the anchors given (a contact that sticks), or the current slips */
             int c = first_closed(m, k);
             EnPoint p;
-            if (!xi0 || m->sigma[k]) engine_point(s, k, c, y, &p);
+            if (!xi0 || m->sigma[k]) engine_corner(s, k, c, y, &p);
             a[k] = xi0 && !m->sigma[k] ? xi0[k] : p.xi - c * s->body[k].b;
             v[k] = m->sigma[k] ? p.xid : 0.0; /* a sliding contact's slip rate, as it is */
             st.sigma[k] = 0;

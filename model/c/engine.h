@@ -74,6 +74,8 @@ int engine_beyond_edge(const EnSystem *s, int k, double xi);
 
 /* The corner c (-1, +1) of body k at the state y. */
 void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
+/* Its gap, slip and their rates alone (p's rows and biases left unset). */
+void engine_corner(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
 
 /* Solve mode m at the state y under (ah, av): returns 0 if its system is singular. */
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f);

@@ -90,8 +90,8 @@ static int flying(const EnMode *m, int k) { return !m->closed[k][0] && !m->close
  * corner's offset c b: the base centre's whenever the base is flat. Its rate in *rate. */
 static double slip_of(const EnSystem *s, int k, const double *y, double *rate, double *gap) {
     EnPoint L, R;
-    engine_point(s, k, -1, y, &L);
-    engine_point(s, k, 1, y, &R);
+    engine_corner(s, k, -1, y, &L);
+    engine_corner(s, k, 1, y, &R);
     const EnPoint *p = R.g < L.g ? &R : &L;
     int c = p == &R ? 1 : -1;
     if (rate) *rate = p->xid;
@@ -412,7 +412,7 @@ static void impact(Model *M, const Logger *log) {
     int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
     if (k > 0) {
         EnPoint p;
-        engine_point(sys, k, 2 * i - 1, S->y, &p);
+        engine_corner(sys, k, 2 * i - 1, S->y, &p);
         if (engine_beyond_edge(sys, k, p.xi)) { /* it comes down beyond block 1's edge */
             fell_off(M, log);
             return;
@@ -429,7 +429,7 @@ static void impact(Model *M, const Logger *log) {
     for (int j = 0; j < sys->nb; j++)
         for (int c = 0; c < 2; c++) {
             EnPoint p;
-            engine_point(sys, j, 2 * c - 1, S->y, &p);
+            engine_corner(sys, j, 2 * c - 1, S->y, &p);
             if (!land.closed[j][c] && ((p.g <= tol && p.gd <= 0) || p.g <= zero)) land.closed[j][c] = 1;
         }
     engine_project(sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
@@ -441,8 +441,9 @@ static void impact(Model *M, const Logger *log) {
     double before[NMAX];
     memcpy(before, S->y, sizeof(before));
     double E0 = engine_kinetic(sys, S->y), wm = S->y[EN_W(0)];
-    double vm;
-    slip_of(sys, 0, S->y, &vm, NULL);
+    double vm = 0.0;
+    int logs = says(log, LOG_EVENTS);
+    if (logs) slip_of(sys, 0, S->y, &vm, NULL);
     if (engine_impact(sys, S->y, touching, stuck, PN, PT)) {
         say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
     }
@@ -456,21 +457,23 @@ static void impact(Model *M, const Logger *log) {
                        ? S->impactRun + 1 : 0;
     S->lastImpactTime = S->t;
     S->impactLoss += E0 - engine_kinetic(sys, S->y);
-    double vp;
-    slip_of(sys, 0, S->y, &vp, NULL);
-    if (sys->nb == 2) {
-        double v2m = 0.0, v2p;
-        slip_of(sys, 1, before, &v2m, NULL);
-        slip_of(sys, 1, S->y, &v2p, NULL);
-        say(log, LOG_EVENTS,
-            "impact t=%.17g contact=%s theta1=%.17g theta2=%.17g w1m=%.17g w2m=%.17g w1p=%.17g w2p=%.17g "
-            "slip_rate_minus=%.17g,%.17g slip_rate_plus=%.17g,%.17g",
-            S->t, k ? "interface" : "ground", S->y[EN_TH(0)], S->y[EN_TH(1)], wm, before[EN_W(1)], S->y[EN_W(0)],
-            S->y[EN_W(1)], vm, v2m, vp, v2p);
-    } else {
-        say(log, LOG_EVENTS,
-            "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
-            S->t, wm, S->y[EN_W(0)], vm, vp);
+    if (logs) { /* (slip rates for the message alone) */
+        double vp;
+        slip_of(sys, 0, S->y, &vp, NULL);
+        if (sys->nb == 2) {
+            double v2m = 0.0, v2p;
+            slip_of(sys, 1, before, &v2m, NULL);
+            slip_of(sys, 1, S->y, &v2p, NULL);
+            say(log, LOG_EVENTS,
+                "impact t=%.17g contact=%s theta1=%.17g theta2=%.17g w1m=%.17g w2m=%.17g w1p=%.17g w2p=%.17g "
+                "slip_rate_minus=%.17g,%.17g slip_rate_plus=%.17g,%.17g",
+                S->t, k ? "interface" : "ground", S->y[EN_TH(0)], S->y[EN_TH(1)], wm, before[EN_W(1)],
+                S->y[EN_W(0)], S->y[EN_W(1)], vm, v2m, vp, v2p);
+        } else {
+            say(log, LOG_EVENTS,
+                "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
+                S->t, wm, S->y[EN_W(0)], vm, vp);
+        }
     }
     if (negligible(M, S->t, S->y)) {
         come_to_rest(M, log, 1);
@@ -645,15 +648,23 @@ static int take_step(Model *M, const Logger *log) {
     for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
     if (free_motion) hmax = fmin(hmax, FREE_STEP_MAX * time_scale(M));
     double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext;
-    int hitBp;
+    int hitBp, reuse = S->fValid && S->enIndValid; /* the last step's end, in the same contact set */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
     }
     double ind0[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
-    int ni = indicators(&c, S->t, S->y, S->fValid && S->enIndValid ? &c.f : NULL, ind0, kind, body, corner);
-    if (S->fValid && S->enIndValid) memcpy(ind0, S->enInd, sizeof(double) * (size_t)ni); /* the last step's end */
+    int ni;
+    if (reuse) {
+        ni = S->enIndN;
+        memcpy(ind0, S->enInd, sizeof(ind0));
+        memcpy(kind, S->enIndKind, sizeof(kind));
+        memcpy(body, S->enIndBody, sizeof(body));
+        memcpy(corner, S->enIndCorner, sizeof(corner));
+    } else {
+        ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
+    }
 
     /* positions in units of R, rates of R p (angles and angular rates as they are); the integrals ride along */
     double scale[NMAX], R = M->d.R, p = sqrt(M->d.p2);
@@ -850,6 +861,10 @@ static int take_step(Model *M, const Logger *log) {
     if (S->enIndValid) {
         memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
         for (int i = ni; i < EN_IND; i++) S->enInd[i] = 1.0; /* (none: before_step reads them all) */
+        S->enIndN = ni;
+        memcpy(S->enIndKind, kind, sizeof(kind));
+        memcpy(S->enIndBody, body, sizeof(body));
+        memcpy(S->enIndCorner, corner, sizeof(corner));
     }
     S->h = hNext;
     S->pending = ev;
@@ -1086,15 +1101,16 @@ static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const do
                             int over) {
     const State *S = &M->s;
     BodyOut o;
-    double rate, gap;
-    o.slip = slip_of(sys, k, y, &rate, &gap);
-    o.slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
-    if (over) m = &S->enFinal; /* the contacts as the run left them */
-    if (!flying(m, k) && m->sigma[k] == 0) { /* a sticking contact stays where it stuck */
+    double rate = 0.0, gap = 0.0;
+    const EnMode *now = over ? &S->enFinal : m; /* the contacts as the run left them */
+    if (!flying(now, k) && now->sigma[k] == 0) { /* a sticking contact stays where it stuck (and touches) */
         int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
         o.slip = inStep ? S->enDenseAnchor[k] : S->enAnchor[k];
-        o.slipRate = 0.0;
+    } else {
+        o.slip = slip_of(sys, k, y, &rate, &gap);
     }
+    o.slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
+    m = now;
     o.gap = over ? 0.0 : gap;
     o.flightTime = S->flightDur[k] + (flying(m, k) && !over && tc > S->flightSince[k] ? tc - S->flightSince[k] : 0.0);
     return o;
@@ -1106,20 +1122,22 @@ void engine_outputs(Model *M, double tc) {
     const EnSystem *sys = &M->d.en;
     double y[NMAX], ah, av;
     EnMode m;
-    state_at(M, tc, y, &m);
     model_ground(M, tc, &ah, &av);
     v->ahTotal = ah;
     v->avTotal = av;
     int nb = sys->nb, over = S->mode == MODE_OVERTURNED, two = nb == 2;
     EnForces f;
     memset(&f, 0, sizeof(f));
+    if (S->mode == MODE_REST || over) {
+        state_at(M, tc, y, &m);
+    } else {
+        state_forces_at(M, tc, y, &m, ah, av, &f);
+    }
     if (S->mode == MODE_REST) {
         EnMode r;
         memset(&r, 0, sizeof(r));
         for (int k = 0; k < nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
         engine_solve(sys, &r, y, ah, av, &f);
-    } else if (!over) {
-        engine_solve(sys, &m, y, ah, av, &f);
     }
     /* one block overturned lies on its side; a stack's run that ended keeps its last state */
     v->theta = over && !two ? S->side * M_PI / 2 : y[EN_TH(0)];

@@ -9,10 +9,12 @@
 #include <stdarg.h>
 #include <stdio.h>
 
+int says(const Logger *log, int category) { return log && log->fn && (category != LOG_EVENTS || log->events); }
+
 void say(const Logger *log, int category, const char *fmt, ...) {
     char buf[512];
     va_list ap;
-    if (!log || !log->fn || (category == LOG_EVENTS && !log->events)) return;
+    if (!says(log, category)) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof(buf), fmt, ap);
     va_end(ap);

@@ -12,6 +12,8 @@
 #define LOG_ERROR 1
 
 /* printf-style message to the solver's logger (events only if enabled). */
+/* Whether say() writes messages of this category (to skip work done only for a message). */
+int says(const Logger *log, int category);
 void say(const Logger *log, int category, const char *fmt, ...);
 
 /* One accepted adaptive step from (t, y) with f0 = f(t, y): tries *h

@@ -219,6 +219,7 @@ typedef struct {
     double flightSince[EN_MAX_BODIES], flightDur[EN_MAX_BODIES], gapMax[EN_MAX_BODIES];
     int flights[EN_MAX_BODIES], painleve;
     double enInd[6 * EN_MAX_BODIES]; /* the indicators at the end of the last step, while fValid and enIndValid */
+    int enIndN, enIndKind[6 * EN_MAX_BODIES], enIndBody[6 * EN_MAX_BODIES], enIndCorner[6 * EN_MAX_BODIES]; /* theirs */
     int enIndValid;
 
     /* Model Exchange (me.c) */
