@@ -247,8 +247,6 @@ static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi
                             double *yout, double ah, double av, EnForces *f) {
     const EnBody *B = &s->body[0];
     double gv = s->g + av;
-    for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
-    for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
     if (m->closed[0][0] && m->closed[0][1]) { /* flat: at rest on the ground */
         if (yout) {
             yout[EN_TH(0)] = yout[EN_W(0)] = 0.0;
@@ -256,6 +254,9 @@ static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi
             yout[EN_POS(1, 0, 1)] = B->h;
             yout[EN_VEL(1, 0, 0)] = yout[EN_VEL(1, 0, 1)] = 0.0;
         }
+        if (!f) return 1;
+        for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+        for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
         f->qdd[0] = f->qdd[1] = f->qdd[2] = 0.0;
         double N = B->m * gv, T = B->m * ah;
         f->T[0] = T;
@@ -275,6 +276,9 @@ static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi
         yout[EN_VEL(1, 0, 0)] = w * G[0];
         yout[EN_VEL(1, 0, 1)] = w * G[1];
     }
+    if (!f) return 1;
+    for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+    for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
     double kap[2] = {w * w * r[0], w * w * r[1]};
     double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic;
     double al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) / A;
@@ -383,6 +387,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
         fk[k][0] = IMP ? B->m * V[b][0] : -B->m * (ah + kap[b][0]);
         fk[k][1] = IMP ? B->m * V[b][1] : -B->m * (s->g + av + kap[b][1]);
     }
+    if (!f) return 1; /* (the placement alone) */
     /* the reduced system (symmetric positive definite while every contact sticks); a sliding contact's
      * friction -sigma mu N, N linear in the accelerations (N_k = n . sum over i >= k of m_i X_i'' - f_i),
      * works on its slip */
@@ -1035,8 +1040,7 @@ void engine_project(const EnSystem *s, const EnMode *m, double *y, const double 
             st.sigma[k] = 0;
         }
         memcpy(yp, y, sizeof(yp));
-        EnForces f;
-        chain(s, &st, a, yp, yp, 0.0, 0.0, &f, NULL);
+        chain(s, &st, a, yp, yp, 0.0, 0.0, NULL, NULL);
         for (int k = 0; k < nb; k++) {
             y[EN_TH(k)] = yp[EN_TH(k)];
             for (int i = 0; i < 2; i++) y[EN_POS(nb, k, i)] = yp[EN_POS(nb, k, i)];

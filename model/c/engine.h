@@ -87,7 +87,7 @@ int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah,
 int engine_is_chain(const EnSystem *s, const EnMode *m);
 /* The sticking chain m at the rotations and rates in y: with anchors xi0 (each contact's slip, as in
  * engine_project), the centres and their velocities (and a flat body's rotation and rate) are first placed
- * in y exactly; the accelerations and forces go to f. Returns 0 if singular. */
+ * in y exactly; the accelerations and forces go to f (NULL: the placement alone). Returns 0 if singular. */
 int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *y, double ah, double av,
                  EnForces *f);
 

@@ -72,8 +72,7 @@ static int complete_forces(Ctx *c, const double *rest, double *y, double ah, dou
     if (!c->chain) return 0;
     int n0 = EN_CHAIN_N(c->sys->nb), n = EN_N(c->sys->nb);
     memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
-    EnForces none;
-    engine_chain(c->sys, &c->mode, c->xi0, y, ah, av, f ? f : &none);
+    engine_chain(c->sys, &c->mode, c->xi0, y, ah, av, f);
     return f != NULL;
 }
 
@@ -862,6 +861,11 @@ static int take_step(Model *M, const Logger *log) {
         memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
         for (int i = ni; i < EN_IND; i++) S->enInd[i] = 1.0; /* (none: before_step reads them all) */
         S->enIndN = ni;
+        S->enFValid = c.chain;
+        for (int k = 0; k < EN_MAX_BODIES; k++) { /* (the step's last evaluation was at its end) */
+            S->enT[k] = k < nb ? c.f.T[k] : 0.0;
+            S->enN[k] = k < nb ? c.f.N[k][0] + c.f.N[k][1] : 0.0;
+        }
         memcpy(S->enIndKind, kind, sizeof(kind));
         memcpy(S->enIndBody, body, sizeof(body));
         memcpy(S->enIndCorner, corner, sizeof(corner));
@@ -913,6 +917,13 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     EnMode m;
     EnForces f;
     const EnSystem *sys = &M->d.en;
+    if (!inStep && M->s.fValid && M->s.enIndValid && M->s.enFValid && t == M->s.t) { /* the last step's end */
+        for (int k = 0; k < 2; k++) {
+            T[k] = M->s.enT[k];
+            N[k] = M->s.enN[k];
+        }
+        return;
+    }
     model_ground(M, t, &ah, &av);
     if (inStep) state_forces_at(M, t, y, &m, ah, av, &f);
     else engine_solve(sys, &M->s.en, M->s.y, ah, av, &f);
