@@ -771,7 +771,7 @@ static int take_step(Model *M, const Logger *log) {
                     lo = 0.0;
                     va = ind0[i];
                 }
-                x = first_negative(indicator_after, &se, lo, va, b, indB[i], 4.0, fabs(S->t), 0.0, 100);
+                x = first_negative_costly(indicator_after, &se, lo, va, b, indB[i], 4.0, fabs(S->t), 0.0, 100);
             }
             if (x < best) {
                 best = x;

@@ -134,6 +134,37 @@ double first_negative(double (*f)(void *ctx, double x), void *ctx, double a, dou
     return b;
 }
 
+double first_negative_costly(double (*f)(void *ctx, double x), void *ctx, double a, double fa, double b, double fb,
+                             double epsFactor, double offset, double floor, int maxIter) {
+    int side = 0;
+    for (int it = 0; it < maxIter; it++) {
+        double tol = epsFactor * DBL_EPSILON * fmax(floor, fabs(offset + b));
+        if (!(b - a > tol)) break;
+        double x = fa - fb > 0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+        if (!(x > a && x < b)) x = 0.5 * (a + b);
+        double step = fmin(0.5 * tol, 0.25 * (b - a)); /* (at least this far inside the bracket) */
+        if (x - a < step) x = a + step;
+        else if (b - x < step) x = b - step;
+        double fx = f(ctx, x);
+        if (fx < 0) {
+            if (side == -1) {
+                double m = 1.0 - fx / fb;
+                fa *= m > 0 ? m : 0.5;
+            }
+            b = x, fb = fx;
+            side = -1;
+        } else {
+            if (side == 1) {
+                double m = 1.0 - fx / fa;
+                fb *= m > 0 ? m : 0.5;
+            }
+            a = x, fa = fx;
+            side = 1;
+        }
+    }
+    return b;
+}
+
 double first_negative_sampled(double (*g)(void *ctx, double s), void *ctx, int samples) {
     double lo = 0.0;
     for (int k = 1; k <= samples; k++) {
