@@ -617,6 +617,7 @@ typedef struct {
     const double *y, *f0;
     double *y1, *f1;
     double (*cont)[NMAX];
+    double x; /* the length of the step whose result y1, f1, cont hold (-1: none) */
 } Search;
 
 static void step_indicators(Search *s, double x, double *ind);
@@ -633,6 +634,7 @@ static void step_indicators(Search *s, double x, double *ind) {
     double err[NMAX];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
+    s->x = x;
     complete(s->c, s->y, s->y1);
     indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
 }
@@ -746,14 +748,21 @@ static int take_step(Model *M, const Logger *log) {
         double ya[NMAX] = {0}, fa[NMAX] = {0}, ca[5][NMAX] = {{0}};
         double indA[EN_IND], indB[EN_IND], a = sLo * h, b = sHi * h;
         int which = -1, any = 0;
-        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, ca};
+        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, ca, -1.0};
         step_indicators(&se, b, indB);
-        for (int i = 0; i < ni; i++) any |= ind0[i] >= 0 && indB[i] < 0;
+        /* a rocking body's landing or overturn whose dense root lies in the bracket crosses there, whatever the
+         * sign its indicator takes by rounding after the real step (its root is found exactly below) */
+        double atRoot[EN_IND];
+        for (int i = 0; i < ni; i++) {
+            double r = kind[i] == EN_IND_LAND ? rootAt[body[i]] : kind[i] == EN_IND_OVERTURN ? overAt[body[i]] : 2.0;
+            atRoot[i] = r <= sHi ? -1.0 : indB[i];
+            any |= ind0[i] >= 0 && atRoot[i] < 0;
+        }
         if (!any && b < h) step_indicators(&se, b = h, indB);
         if (a > 0) step_indicators(&se, a, indA);
         else memcpy(indA, ind0, sizeof(indA));
         for (int i = 0; i < ni; i++) {
-            if (!(ind0[i] >= 0 && indB[i] < 0)) continue;
+            if (!(ind0[i] >= 0 && (indB[i] < 0 || atRoot[i] < 0))) continue;
             int k = body[i], rocking = S->en.closed[k][0] != S->en.closed[k][1], x0 = 0;
             double x;
             if (rocking && (kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN)) {
@@ -762,7 +771,10 @@ static int take_step(Model *M, const Logger *log) {
                 if (k > 0) w[EN_TH(k - 1)] = -1.0;
                 int sgn = S->en.closed[k][1] ? 1 : -1;
                 double target = kind[i] == EN_IND_LAND ? 0.0 : sgn * M_PI / 2;
-                x = refine_step(rhs_cb, &c, n, S->t, S->y, S->f, (r <= 1.0 ? r : 1.0) * h, h, w, target, ya, fa, ca);
+                double x1 = (r <= 1.0 ? r : 1.0) * h; /* (the step to it may have been taken above) */
+                x = se.x == x1 ? refine_step_from(rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, ca)
+                               : refine_step(rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, ca);
+                se.x = x;
                 x0 = 1;
             } else {
                 se.which = i;

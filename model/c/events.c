@@ -99,6 +99,12 @@ double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                    double target, double *y1, double *f1, double cont[5][NMAX]) {
     double err[NMAX];
     dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
+    return refine_step_from(f, ctx, n, t, y, f0, h, hMax, w, target, y1, f1, cont);
+}
+
+double refine_step_from(RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
+                        double hMax, const double *w, double target, double *y1, double *f1, double cont[5][NMAX]) {
+    double err[NMAX];
     for (int it = 0; it < 8; it++) {
         double g = weighted(n, w, y1) - target, dg = weighted(n, w, f1);
         if (g == 0.0 || dg == 0.0 || !isfinite(dg)) break;

@@ -42,6 +42,9 @@ int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const do
 double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                    const double *f0, double h, double hMax, const double *w,
                    double target, double *y1, double *f1, double cont[5][NMAX]);
+/* refine_step from a step of length h already taken (its result in y1, f1, cont). */
+double refine_step_from(RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
+                        double hMax, const double *w, double target, double *y1, double *f1, double cont[5][NMAX]);
 
 /* The first x in (a, b] at which f turns negative, given f(a) = fa >= 0 > f(b) = fb: regula
  * falsi with the Illinois change (a few evaluations for a smooth f), falling back to halving
