@@ -648,7 +648,8 @@ static int take_step(Model *M, const Logger *log) {
     int free_motion = 0;
     for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
     if (free_motion) hmax = fmin(hmax, FREE_STEP_MAX * time_scale(M));
-    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext;
+    /* (the step writes the first n components; those after are completed, or never read) */
+    double y1[NMAX], f1[NMAX], cont[5][NMAX], h = S->h, hNext;
     int hitBp, reuse = S->fValid && S->enIndValid; /* the last step's end, in the same contact set */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
@@ -851,7 +852,7 @@ static int take_step(Model *M, const Logger *log) {
     }
     S->tOld = S->t;
     S->hDense = hStep;
-    memcpy(S->cont, cont, sizeof(cont));
+    for (int j = 0; j < 5; j++) memcpy(S->cont[j], cont[j], sizeof(double) * (size_t)n);
     S->denseTaylor = 0;
     S->denseSide = S->side;
     S->denseValid = 1;
@@ -861,7 +862,7 @@ static int take_step(Model *M, const Logger *log) {
     S->denseMode = S->mode;
     S->t = tNew;
     memcpy(S->y, y1, sizeof(double) * (size_t)EN_N(nb));
-    memcpy(S->f, f1, sizeof(double) * (size_t)EN_N(nb));
+    memcpy(S->f, f1, sizeof(double) * (size_t)n);
     /* back onto the constraints of the contact set the step was taken in (at an event too: an impact's
      * velocities before must be those of the motion the contacts allow) */
     if (!c.chain) engine_project(c.sys, &S->en, S->y, S->enAnchor, 1); /* (a chain's are placed) */
