@@ -753,6 +753,24 @@ static void add_bias(const Candidates *c, double au, double *q) {
     for (int t = 0; t < c->ns; t++) q[c->nc + t] += friction_point(c, c->sk[t])->bT / au;
 }
 
+/* Whether the forces (or impulses) f of the set m satisfy the complementarity conditions strictly: every closed
+ * corner carries a positive normal force, every sticking contact's friction lies strictly inside its cone. */
+static int strictly_consistent(const EnSystem *s, const EnMode *m, const EnForces *f) {
+    for (int k = 0; k < s->nb; k++) {
+        for (int i = 0; i < 2; i++)
+            if (m->closed[k][i] && !(f->N[k][i] > 0.0)) return 0;
+        if (m->sigma[k] == 0 && !(fabs(f->T[k]) < s->mu[k] * (f->N[k][0] + f->N[k][1]))) return 0;
+    }
+    return 1;
+}
+
+/* The impacts' unit of velocity, sqrt(g R) of the largest body (m/s). */
+static double velocity_unit(const EnSystem *s) {
+    double Rmax = 0.0;
+    for (int k = 0; k < s->nb; k++) Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
+    return sqrt(s->g * Rmax);
+}
+
 int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
                   const int stuck[], EnMode *out, EnForces *f) {
     int nb = s->nb, nq = 3 * nb;
@@ -775,16 +793,9 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
         guess.closed[k][1] = touching[k][1];
         guess.sigma[k] = sig[k];
     }
-    if (all_touch(s, &guess) && chain(s, &guess, NULL, y, NULL, ah, av, f, NULL)) {
-        int holds = 1;
-        for (int k = 0; k < nb; k++) {
-            for (int i = 0; i < 2; i++) holds &= !guess.closed[k][i] || f->N[k][i] > 0.0;
-            holds &= guess.sigma[k] != 0 || fabs(f->T[k]) < s->mu[k] * (f->N[k][0] + f->N[k][1]);
-        }
-        if (holds) {
-            *out = guess;
-            return 0;
-        }
+    if (all_touch(s, &guess) && chain(s, &guess, NULL, y, NULL, ah, av, f, NULL) && strictly_consistent(s, &guess, f)) {
+        *out = guess;
+        return 0;
     }
     Candidates c;
     candidates(s, y, touching, stuck, &c);
@@ -827,9 +838,8 @@ static int impact_guess(const EnSystem *s, double *y, int touching[][2], int stu
     int nb = s->nb, approach[EN_MAX_BODIES] = {0};
     EnMode m;
     memset(&m, 0, sizeof(m));
-    double Rmax = 0.0, gd[EN_MAX_BODIES][2] = {{0}};
-    for (int k = 0; k < nb; k++) Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
-    double slow = -1e-9 * sqrt(s->g * Rmax); /* (a corner on the constraint has a normal rate of rounding) */
+    double gd[EN_MAX_BODIES][2] = {{0}};
+    double slow = -1e-9 * velocity_unit(s); /* (a corner on the constraint has a normal rate of rounding) */
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 2; i++) {
             if (!touching[k][i]) continue;
@@ -841,13 +851,7 @@ static int impact_guess(const EnSystem *s, double *y, int touching[][2], int stu
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 2; i++) m.closed[k][i] = touching[k][i] && (!approach[k] || gd[k][i] < slow);
     EnForces f;
-    if (!all_touch(s, &m) || !chain_impulse(s, &m, y, &f)) return 0;
-    int holds = 1;
-    for (int k = 0; k < nb; k++) {
-        for (int i = 0; i < 2; i++) holds &= !m.closed[k][i] || f.N[k][i] > 0.0;
-        holds &= fabs(f.T[k]) < s->mu[k] * (f.N[k][0] + f.N[k][1]);
-    }
-    if (!holds) return 0;
+    if (!all_touch(s, &m) || !chain_impulse(s, &m, y, &f) || !strictly_consistent(s, &m, &f)) return 0;
     double ya[NMAX];
     memcpy(ya, y, sizeof(ya));
     for (int k = 0; k < nb; k++)
@@ -884,9 +888,7 @@ int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], 
     double Minv[EN_NQ], fext[EN_NQ], v0[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     gather(s, y, 1, v0);
-    double Rmax = 0.0;
-    for (int k = 0; k < nb; k++) Rmax = fmax(Rmax, hypot(s->body[k].b, s->body[k].h));
-    double vu = sqrt(s->g * Rmax), pu[EN_MAX_BODIES];
+    double vu = velocity_unit(s), pu[EN_MAX_BODIES];
     for (int k = 0; k < nb; k++) pu[k] = s->weight[k] / s->g * vu; /* the momentum of what contact k carries */
     int sig[EN_MAX_BODIES] = {0};
     double A[LCP_MAX * LCP_MAX], q[LCP_MAX], z[LCP_MAX], w[LCP_MAX];

@@ -437,12 +437,12 @@ static void impact(Model *M, const Logger *log) {
         touching[j][1] = land.closed[j][1];
     }
     double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES];
-    double before[NMAX];
-    memcpy(before, S->y, sizeof(before));
-    double E0 = engine_kinetic(sys, S->y), wm = S->y[EN_W(0)];
-    double vm = 0.0;
+    double before[NMAX], E0 = engine_kinetic(sys, S->y), wm = S->y[EN_W(0)], vm = 0.0;
     int logs = says(log, LOG_EVENTS);
-    if (logs) slip_of(sys, 0, S->y, &vm, NULL);
+    if (logs) { /* (the rates before, for the message alone) */
+        memcpy(before, S->y, sizeof(before));
+        slip_of(sys, 0, S->y, &vm, NULL);
+    }
     if (engine_impact(sys, S->y, touching, stuck, PN, PT)) {
         say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
     }
@@ -874,7 +874,6 @@ static int take_step(Model *M, const Logger *log) {
         memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
         for (int i = ni; i < EN_IND; i++) S->enInd[i] = 1.0; /* (none: before_step reads them all) */
         S->enIndN = ni;
-        S->enFValid = c.chain;
         for (int k = 0; k < EN_MAX_BODIES; k++) { /* (the step's last evaluation was at its end) */
             S->enT[k] = k < nb ? c.f.T[k] : 0.0;
             S->enN[k] = k < nb ? c.f.N[k][0] + c.f.N[k][1] : 0.0;
@@ -930,7 +929,8 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     EnMode m;
     EnForces f;
     const EnSystem *sys = &M->d.en;
-    if (!inStep && M->s.fValid && M->s.enIndValid && M->s.enFValid && t == M->s.t) { /* the last step's end */
+    /* a sticking chain at the last step's end, in the same contact set: the forces of its last evaluation */
+    if (!inStep && M->s.fValid && M->s.enIndValid && t == M->s.t && engine_is_chain(sys, &M->s.en)) {
         for (int k = 0; k < 2; k++) {
             T[k] = M->s.enT[k];
             N[k] = M->s.enN[k];
@@ -1126,15 +1126,14 @@ static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const do
     const State *S = &M->s;
     BodyOut o;
     double rate = 0.0, gap = 0.0;
-    const EnMode *now = over ? &S->enFinal : m; /* the contacts as the run left them */
-    if (!flying(now, k) && now->sigma[k] == 0) { /* a sticking contact stays where it stuck (and touches) */
+    if (over) m = &S->enFinal; /* the contacts as the run left them */
+    if (!flying(m, k) && m->sigma[k] == 0) { /* a sticking contact stays where it stuck (and touches) */
         int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
         o.slip = inStep ? S->enDenseAnchor[k] : S->enAnchor[k];
     } else {
         o.slip = slip_of(sys, k, y, &rate, &gap);
     }
     o.slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
-    m = now;
     o.gap = over ? 0.0 : gap;
     o.flightTime = S->flightDur[k] + (flying(m, k) && !over && tc > S->flightSince[k] ? tc - S->flightSince[k] : 0.0);
     return o;

@@ -221,7 +221,6 @@ typedef struct {
     double enInd[6 * EN_MAX_BODIES]; /* the indicators at the end of the last step, while fValid and enIndValid */
     int enIndN, enIndKind[6 * EN_MAX_BODIES], enIndBody[6 * EN_MAX_BODIES], enIndCorner[6 * EN_MAX_BODIES]; /* theirs */
     double enT[EN_MAX_BODIES], enN[EN_MAX_BODIES]; /* and each contact's forces there (N), while enIndValid */
-    int enFValid; /* and the step was a sticking chain's (its end placed exactly where they were found) */
     int enIndValid;
 
     /* Model Exchange (me.c) */
