@@ -227,6 +227,42 @@ def test_restored_state_with_out_of_range_peak_count_is_refused(fmu, fields):
         r.close()
 
 
+def _indicator_record(blob: bytes, corner: int) -> int | None:
+    """Offset of the contact engine's stored end-of-step indicators of one block rocking on `corner`
+    (+1 right, -1 left), found by their values (never from the C layout): their count 4, then their
+    kinds (the closed corner's opening 1, the other corner's landing 4, slip 2, overturn 5, in the
+    corners' order), the 8 unused kinds 0, the 12 bodies 0, then the corners (-1, +1, the pivot, +-1)."""
+    kinds = [4, 1, 2, 5] if corner > 0 else [1, 4, 2, 5]
+    v = ints(blob)
+    for j in range(len(v) - 40):
+        if (v[j] == 4 and list(v[j + 1:j + 5]) == kinds and not v[j + 5:j + 25].any()
+                and list(v[j + 25:j + 28]) == [-1, 1, corner]):
+            return int(j) * 4
+    return None
+
+
+def test_restored_state_with_corrupt_end_of_step_indicators_is_refused(fmu):
+    """The contact engine stores the indicators of the last step's end (their count, kinds, bodies and
+    corners), which the next step starts from: a count beyond the array or a body the stack does not
+    have is refused with a one-line reason, not read out of bounds."""
+    run = Run(fmu, {**SINE, "contact.model": 1, "contact.muGround": 100.0})
+    offset = None
+    for t in np.arange(0.05, 1.0, 0.01):
+        run.run_to(float(t))
+        blob = run.blob()
+        theta = run.real("block1.theta")[0]
+        offset = _indicator_record(blob, 1 if theta > 0 else -1) if theta else None
+        if offset is not None:
+            break
+    assert offset is not None, "no state with stored end-of-step indicators found"
+    assert run.restore(blob)  # the state as it is is accepted
+    for count in (13, 1000, -1):
+        assert_refused_and_unchanged(run, put_int(blob, offset, count), "indicators")
+    assert_refused_and_unchanged(run, put_int(blob, offset + 4 * 13, 1), "indicator 0")  # body 2 of one block
+    assert_refused_and_unchanged(run, put_int(blob, offset + 4, 9), "indicator 0")  # no such kind
+    run.close()
+
+
 def test_restored_state_with_wrong_block_count_is_refused(fmu, fields):
     stack = Run(fmu, STACK).run_to(1.0)
     blob = stack.blob()

@@ -878,9 +878,11 @@ static int take_step(Model *M, const Logger *log) {
             S->enT[k] = k < nb ? c.f.T[k] : 0.0;
             S->enN[k] = k < nb ? c.f.N[k][0] + c.f.N[k][1] : 0.0;
         }
-        memcpy(S->enIndKind, kind, sizeof(kind));
-        memcpy(S->enIndBody, body, sizeof(body));
-        memcpy(S->enIndCorner, corner, sizeof(corner));
+        for (int i = 0; i < EN_IND; i++) { /* (the unused ones 0: a state holds no undefined bytes) */
+            S->enIndKind[i] = i < ni ? kind[i] : 0;
+            S->enIndBody[i] = i < ni ? body[i] : 0;
+            S->enIndCorner[i] = i < ni ? corner[i] : 0;
+        }
     }
     S->h = hNext;
     S->pending = ev;
@@ -1310,6 +1312,25 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
     if (S->painleve < 0) {
         snprintf(msg, n, "painleve = %d is negative", S->painleve);
         return 1;
+    }
+    /* the last step's end indicators, which the next step starts from */
+    if (S->enIndValid != 0 && S->enIndValid != 1) {
+        snprintf(msg, n, "the flag enIndValid = %d must be 0 or 1", S->enIndValid);
+        return 1;
+    }
+    if (S->enIndValid) {
+        if (S->enIndN < 0 || S->enIndN > EN_IND || !finite_all(S->enInd, EN_IND) || !finite_all(S->enT, EN_MAX_BODIES) ||
+            !finite_all(S->enN, EN_MAX_BODIES)) {
+            snprintf(msg, n, "the last step's %d indicators (at most %d) or its forces are not a step's", S->enIndN, EN_IND);
+            return 1;
+        }
+        for (int i = 0; i < S->enIndN; i++)
+            if (S->enIndKind[i] < EN_IND_OPEN || S->enIndKind[i] > EN_IND_JAM || S->enIndBody[i] < 0 ||
+                S->enIndBody[i] >= nb || !(S->enIndCorner[i] == 1 || S->enIndCorner[i] == -1)) {
+                snprintf(msg, n, "the last step's indicator %d (kind %d, body %d, corner %d) is no indicator of these bodies",
+                         i, S->enIndKind[i], S->enIndBody[i], S->enIndCorner[i]);
+                return 1;
+            }
     }
     return 0;
 }
