@@ -147,8 +147,10 @@ double first_negative_costly(double (*f)(void *ctx, double x), void *ctx, double
         double tol = epsFactor * DBL_EPSILON * fmax(floor, fabs(offset + b));
         if (!(b - a > tol)) break;
         double x = fa - fb > 0 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-        if (!(x > a && x < b)) x = 0.5 * (a + b);
-        double step = fmin(0.5 * tol, 0.25 * (b - a)); /* (at least this far inside the bracket) */
+        if (x != x) x = 0.5 * (a + b);
+        /* at least this far inside the bracket: an estimate on or past an end (rounding, or fa exactly 0,
+         * where the root is a itself) moves just inside it, so the next evaluation closes the bracket */
+        double step = fmin(0.5 * tol, 0.25 * (b - a));
         if (x - a < step) x = a + step;
         else if (b - x < step) x = b - step;
         double fx = f(ctx, x);

@@ -57,7 +57,7 @@ double first_negative(double (*f)(void *ctx, double x), void *ctx, double a, dou
  * falsi with the Anderson-Bjorck change (Anderson & Bjorck 1973: the end that stays put has its value scaled by
  * 1 - f(x) / f(the other end), superlinear without halving), and each estimate kept at least the final width
  * inside the bracket, so that once the estimate has converged the next one closes the bracket from its other
- * side (as in Brent's method). About 5 evaluations where first_negative takes 16. */
+ * side (as in Brent's method); an estimate on an end (an f exactly 0 there) moves just inside it too. About 5 evaluations where first_negative takes 16. */
 double first_negative_costly(double (*f)(void *ctx, double x), void *ctx, double a, double fa, double b, double fb,
                              double epsFactor, double offset, double floor, int maxIter);
 
