@@ -167,13 +167,18 @@ Status instance_initialize(Instance *I) {
 
 /* ------------------------------------------------------------- life cycle */
 
-void instance_reset(Instance *I) {
-    memset(&I->s, 0, sizeof(I->s));
+/* The snapshot's defaults, on a zeroed snapshot. */
+static void snapshot_defaults(Instance *I) {
     I->s.magic = SNAPSHOT_MAGIC;
     I->s.size = (unsigned)sizeof(Snapshot);
     model_set_defaults(&I->s.model);
     I->s.phase = PHASE_INSTANTIATED;
     I->s.dirty = 1;
+}
+
+void instance_reset(Instance *I) {
+    memset(&I->s, 0, sizeof(I->s));
+    snapshot_defaults(I);
 }
 
 static char *copy_string(const char *s, RecordAlloc alloc) {
@@ -208,7 +213,7 @@ Instance *instance_new(const char *name, InterfaceType type, const char *resourc
     }
     I->loggingOn = loggingOn;
     I->logEvents = 1;
-    instance_reset(I);
+    snapshot_defaults(I); /* (zeroed with the instance above) */
     I->s.type = type;
     return I;
 }

@@ -9,7 +9,6 @@
 #include <string.h>
 
 void model_set_defaults(Model *M) {
-    memset(M, 0, sizeof(*M));
 #define VAR(T, vr, field, name, caus, var, start, unit, desc) DEFAULT_##T(field, start)
 #define DEFAULT_REAL(field, start) M->v.field = start;
 #define DEFAULT_INTEGER(field, start) M->v.field = start;

@@ -276,7 +276,7 @@ typedef struct {
     double time;
 } EventStop;
 
-/* Set every variable to its start value. */
+/* Set every variable of a zeroed Model to its start value (the rest stays 0). */
 void model_set_defaults(Model *M);
 
 /* Validate the parameters; on failure write a one-line reason to msg and
