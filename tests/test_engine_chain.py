@@ -4,8 +4,11 @@ and the slips of the contacts that slide (docs/flight.md, "A chain"). Checked he
 Newton-Euler system the engine solves where a body flies, at 20,000 random states of every such set of one
 block and of a stack (half of them with contacts sliding either way): the same accelerations and forces to
 rounding, and, where every contact sticks, the centres it places exactly on the constraints; and its
-plastic impact onto each such set (the rates before in place of the forces) the same rates after and impulses. A white-box
-check compiled from model/c with the system's gcc."""
+plastic impact onto each such set (the rates before in place of the forces) the same rates after and impulses;
+where a contact slides, the chain as a step integrates it, from the slips and slip rates it holds, places the
+same state and gives the same derivatives; and Painleve's margin of one block sliding on one corner, written out,
+equals the general one and never falls below 1 - 3 mu / 4. A white-box check compiled from model/c with the
+system's gcc."""
 import shutil
 import subprocess
 from pathlib import Path
@@ -23,11 +26,18 @@ def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
                     str(ROOT / "tests" / "c" / "engine_chain.c"), str(C / "lcp.c"), "-lm"], check=True)
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
     dynamics, placement, sliding, impulses = float(out[0]), float(out[1]), int(out[2]), float(out[3])
+    reduced, jam, jam_slack = float(out[4]), float(out[5]), float(out[6])
     assert sliding > 5000, sliding  # the states with a sliding contact were drawn
     assert dynamics <= 1e-12, dynamics   # accelerations over g, forces over the weight carried (or their size)
     assert placement <= 1e-14, placement  # gaps over R, rates over sqrt(g R)
     assert 0.0 < impulses <= 1e-12, impulses  # plastic impacts: rates over sqrt(g R), impulses over the momentum
     assert dynamics > 0.0 or placement > 0.0  # both computed (rounding differs between the two solvers)
+    # a sliding chain from its reduced coordinates (rotations, slips and slip rates): the centres it places over R
+    # and their velocities over sqrt(g R), its derivatives against the full state's
+    assert 0.0 < reduced <= 1e-11, reduced
+    # Painleve's margin on the ground written out, against the rows; and never below 1 - 3 mu / 4
+    assert jam <= 1e-14, jam
+    assert 0.0 <= jam_slack < 1e-2, jam_slack  # the bound holds, and is nearly reached (it is the least)
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("valgrind") is None,

@@ -240,25 +240,34 @@ static void perp(const double r[2], double out[2]) {
     out[1] = -r[0];
 }
 
-/* The chain of one body sticking on the ground, written out (the right-hand side of most runs): flat, or
- * rocking on its corner c (X = D - r, with D the corner's place on the ground and r its offset from the
- * centre). As chain_nd. */
-static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin,
-                            double *yout, double ah, double av, EnForces *f) {
+/* The chain of one body on the ground, written out (the right-hand side of most runs): flat, or on its
+ * corner c (X = D - r, with D the corner's place on the ground and r its offset from the centre), the contact
+ * sticking or sliding (sigma: the slip xi then a second coordinate, X'' gains xi'' along the ground, and the
+ * friction -sigma mu N works on it). As chain_nd for one body, its terms of the support dropped (the ground
+ * does not turn); tests/c/engine_chain.c checks both against the constrained system. */
+static inline __attribute__((always_inline)) int chain_one(const int SLIDES, const EnSystem *s, const EnMode *m,
+                                                           const double *xi0, const double *yin, double *yout,
+                                                           double ah, double av, EnForces *f, double *slipRate) {
     const EnBody *B = &s->body[0];
-    double gv = s->g + av;
-    if (m->closed[0][0] && m->closed[0][1]) { /* flat: at rest on the ground */
+    double gv = s->g + av, smu = SLIDES ? m->sigma[0] * s->mu[0] : 0.0;
+    /* placed: a sliding contact's slip and slip rate from yin, a sticking one's anchor and no slip rate */
+    double xi = xi0 ? (SLIDES ? yin[EN_XI(1, 0)] : xi0[0]) : 0.0, xid = SLIDES && xi0 ? yin[EN_XID(1, 0)] : 0.0;
+    if (m->closed[0][0] && m->closed[0][1]) { /* flat: at rest on the ground, or sliding on it */
         if (yout) {
             yout[EN_TH(0)] = yout[EN_W(0)] = 0.0;
-            yout[EN_POS(1, 0, 0)] = xi0[0];
+            yout[EN_POS(1, 0, 0)] = xi;
             yout[EN_POS(1, 0, 1)] = B->h;
-            yout[EN_VEL(1, 0, 0)] = yout[EN_VEL(1, 0, 1)] = 0.0;
+            yout[EN_VEL(1, 0, 0)] = xid;
+            yout[EN_VEL(1, 0, 1)] = 0.0;
         }
+        if (slipRate && SLIDES) slipRate[0] = xi0 ? xid : yin[EN_VEL(1, 0, 0)];
         if (!f) return 1;
         for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
         for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
-        f->qdd[0] = f->qdd[1] = f->qdd[2] = 0.0;
-        double N = B->m * gv, T = B->m * ah;
+        double N = B->m * gv, T = SLIDES ? -smu * N : B->m * ah;
+        f->qdd[0] = SLIDES ? -ah - smu * gv : 0.0;
+        f->qdd[1] = f->qdd[2] = 0.0;
+        if (SLIDES) f->xidd[0] = f->qdd[0], f->xidd[1] = 0.0;
         f->T[0] = T;
         f->N[0][1] = (N * B->b - T * B->h) / (2.0 * B->b); /* the moment balance about the centre */
         f->N[0][0] = N - f->N[0][1];
@@ -271,23 +280,36 @@ static inline int chain_one(const EnSystem *s, const EnMode *m, const double *xi
     if (yout) {
         yout[EN_TH(0)] = th;
         yout[EN_W(0)] = w;
-        yout[EN_POS(1, 0, 0)] = xi0[0] + c * B->b - r[0];
+        yout[EN_POS(1, 0, 0)] = xi + c * B->b - r[0];
         yout[EN_POS(1, 0, 1)] = -r[1];
-        yout[EN_VEL(1, 0, 0)] = w * G[0];
+        yout[EN_VEL(1, 0, 0)] = w * G[0] + xid;
         yout[EN_VEL(1, 0, 1)] = w * G[1];
     }
+    /* the corner's slip rate along the ground: the centre's velocity plus w J r */
+    if (slipRate && SLIDES) slipRate[0] = xi0 ? xid : yin[EN_VEL(1, 0, 0)] + w * r[1];
     if (!f) return 1;
     for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
     for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
-    double kap[2] = {w * w * r[0], w * w * r[1]};
+    double kap[2] = {w * w * r[0], w * w * r[1]}, al, xdd = 0.0;
     double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic;
-    double al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) / A;
-    double acc[2] = {G[0] * al + kap[0], G[1] * al + kap[1]};
+    if (!SLIDES) {
+        al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) / A;
+    } else { /* coordinates (theta, xi): the reduced system of chain_nd, its friction row N = m (Y'' + g + av) */
+        double fk0 = -B->m * (ah + kap[0]), fk1 = -B->m * (gv + kap[1]);
+        double A01 = B->m * G[0], A10 = B->m * (G[0] + smu * G[1]), A11 = B->m;
+        double r0 = G[0] * fk0 + G[1] * fk1, r1 = fk0 + smu * fk1, det = A * A11 - A01 * A10;
+        if (!(fabs(det) > 1e-300)) return 0;
+        al = (r0 * A11 - A01 * r1) / det;
+        xdd = (A * r1 - A10 * r0) / det;
+    }
+    double acc[2] = {G[0] * al + kap[0] + xdd, G[1] * al + kap[1]};
     f->qdd[0] = acc[0];
     f->qdd[1] = acc[1];
     f->qdd[2] = al;
-    f->T[0] = B->m * (acc[0] + ah);
-    f->N[0][c > 0] = B->m * (acc[1] + gv);
+    if (SLIDES) f->xidd[0] = xdd, f->xidd[1] = 0.0;
+    double N = B->m * (acc[1] + gv);
+    f->T[0] = SLIDES ? -smu * N : B->m * (acc[0] + ah);
+    f->N[0][c > 0] = N;
     f->N[0][c < 0] = 0.0;
     return 1;
 }
@@ -352,13 +374,16 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
         n[k][0] = cs[a][1], n[k][1] = cs[a][0], t[k][0] = cs[a][0], t[k][1] = -cs[a][1];
         double JD[2], Jr[2];
         perp(r, Jr);
-        if (xi0) { /* the corner at its anchor on the support's top: the centre and its velocity follow */
-            double xi = xi0[k] + cor[k] * B->b;
+        double xid = 0.0; /* a sliding contact's slip rate xi' (along the support's top, relative to it) */
+        if (xi0) { /* the corner at its anchor (or, sliding, its slip) on the support's top: the centre follows */
+            int sl = SLIDES && slip[k] >= 0;
+            double xi = (sl ? yin[EN_XI(nb, k)] : xi0[k]) + cor[k] * B->b;
+            if (sl) xid = yin[EN_XID(nb, k)];
             for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs[a] * n[k][i];
             perp(D[k], JD);
             for (int i = 0; i < 2; i++) {
                 X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
-                V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i];
+                V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i] + xid * t[k][i];
             }
         } else {
             for (int i = 0; i < 2; i++) {
@@ -368,12 +393,14 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
             }
             perp(D[k], JD);
         }
-        /* a sliding contact's slip rate xi' (along the support's top, relative to it); on a turning support
-         * its Coriolis term 2 xi' w_j J t */
+        /* a sliding contact's slip rate (placed: as given); on a turning support its Coriolis term 2 xi' w_j J t */
         double cor2[2] = {0.0, 0.0};
         if (!IMP && SLIDES && slip[k] >= 0) {
-            double Pd[2] = {V[b][0] + w[b] * Jr[0] - V[a][0], V[b][1] + w[b] * Jr[1] - V[a][1]}, Jt[2];
-            double xid = dot(t[k], Pd) - w[a] * dot(n[k], D[k]);
+            if (!xi0) {
+                double Pd[2] = {V[b][0] + w[b] * Jr[0] - V[a][0], V[b][1] + w[b] * Jr[1] - V[a][1]};
+                xid = dot(t[k], Pd) - w[a] * dot(n[k], D[k]);
+            }
+            double Jt[2];
             perp(t[k], Jt);
             cor2[0] = 2.0 * xid * w[a] * Jt[0];
             cor2[1] = 2.0 * xid * w[a] * Jt[1];
@@ -429,6 +456,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
         f->qdd[EN_Q(k, 0)] = acc[k][0];
         f->qdd[EN_Q(k, 1)] = acc[k][1];
         f->qdd[EN_Q(k, 2)] = al[k];
+        f->xidd[k] = SLIDES && slip[k] >= 0 ? zdd[slip[k]] : 0.0;
     }
     /* the forces, from the top: F the contact force on the body (world frame), tau the torque of the
      * reaction of the contact above on it */
@@ -461,7 +489,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
             }
         }
     }
-    for (int k = nb; k < NB; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+    for (int k = nb; k < NB; k++) f->N[k][0] = f->N[k][1] = f->T[k] = f->xidd[k] = 0.0;
     for (int q = 3 * nb; q < EN_NQ; q++) f->qdd[q] = 0.0;
     return 1;
 }
@@ -475,7 +503,6 @@ static int sliding(const EnSystem *s, const EnMode *m) {
 static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
                          double ah, double av, EnForces *f, double *slipRate) {
     if (!sliding(s, m)) return chain_nd(EN_MAX_BODIES, 0, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
-    if (s->nb == 1) return chain_nd(2, 1, 0, s, m, xi0, yin, yout, ah, av, f, slipRate); /* (one body) */
     return chain_nd(2 * EN_MAX_BODIES, 1, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
 
@@ -486,10 +513,13 @@ static int chain_impulse(const EnSystem *s, const EnMode *m, const double *y, En
     return chain_nd(2 * EN_MAX_BODIES, 1, 1, s, m, NULL, y, NULL, 0.0, 0.0, f, NULL);
 }
 
-/* The chain (chain_nd): one body that sticks written out (chain_one), else chain_general. */
-static inline int chain(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
-                        double ah, double av, EnForces *f, double *slipRate) {
-    if (s->nb == 1 && !m->sigma[0]) return chain_one(s, m, xi0, yin, yout, ah, av, f);
+/* The chain (chain_nd): one body written out (chain_one), else chain_general. */
+static inline __attribute__((always_inline)) int chain(const EnSystem *s, const EnMode *m, const double *xi0,
+                                                       const double *yin, double *yout, double ah, double av,
+                                                       EnForces *f, double *slipRate) {
+    if (s->nb == 1)
+        return m->sigma[0] ? chain_one(1, s, m, xi0, yin, yout, ah, av, f, slipRate)
+                           : chain_one(0, s, m, xi0, yin, yout, ah, av, f, slipRate);
     return chain_general(s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
 
@@ -504,6 +534,8 @@ static int all_touch(const EnSystem *s, const EnMode *m) {
         if (!(m->closed[k][0] || m->closed[k][1])) return 0;
     return 1;
 }
+
+int engine_touches(const EnSystem *s, const EnMode *m) { return all_touch(s, m); }
 
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f) {
     if (all_touch(s, m)) return chain(s, m, NULL, y, NULL, ah, av, f, NULL);
@@ -533,15 +565,29 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
 }
 
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
-               double *dy, EnForces *fo) {
-    int nb = s->nb, known = 0, placed = 0;
+               double *dy, EnForces *fo, double *placed) {
+    int nb = s->nb, known = 0;
     EnForces f, *fp = fo ? fo : &f;
-    double yc[NMAX], xid[EN_MAX_BODIES] = {0}; /* the sliding contacts' slip rates, where known */
-    if (xi0 && engine_is_chain(s, m)) { /* the centres placed from the rotations (no friction works) */
+    double ycl[NMAX], *yc = placed ? placed : ycl, xid[EN_MAX_BODIES] = {0}; /* (slip rates, where known) */
+    if (xi0 && all_touch(s, m)) { /* a chain: its centres placed from its reduced coordinates, which it integrates */
         if (!chain(s, m, xi0, y, yc, ah, av, fp, NULL)) return 0;
-        y = yc;
-        placed = 1;
-    } else if (all_touch(s, m)) { /* the chain, which gives the slip rates too */
+        double work = 0.0;
+        for (int k = 0; k < nb; k++) {
+            work -= s->body[k].m * (ah * yc[EN_VEL(nb, k, 0)] + av * yc[EN_VEL(nb, k, 1)]);
+            dy[EN_TH(k)] = yc[EN_W(k)];
+            dy[EN_W(k)] = fp->qdd[EN_Q(k, 2)];
+        }
+        dy[EN_WORK(nb)] = work;
+        if (sliding(s, m)) /* the losses and the slips (no friction works where every contact sticks) */
+            for (int k = 0; k < nb; k++) {
+                double v = m->sigma[k] ? y[EN_XID(nb, k)] : 0.0;
+                dy[EN_LOSS(nb, k)] = -fp->T[k] * v;
+                dy[EN_XI(nb, k)] = v;
+                dy[EN_XID(nb, k)] = m->sigma[k] ? fp->xidd[k] : 0.0;
+            }
+        return 1;
+    }
+    if (all_touch(s, m)) { /* the chain, which gives the slip rates too */
         if (!chain(s, m, NULL, y, NULL, ah, av, fp, xid)) return 0;
         known = 1;
     } else if (!engine_solve(s, m, y, ah, av, fp)) {
@@ -552,26 +598,37 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const doub
         work -= s->body[k].m * (ah * y[EN_VEL(nb, k, 0)] + av * y[EN_VEL(nb, k, 1)]);
         dy[EN_TH(k)] = y[EN_W(k)];
         dy[EN_W(k)] = fp->qdd[EN_Q(k, 2)];
-        if (placed) continue; /* (a sticking chain integrates its rotations and the work alone) */
         for (int i = 0; i < 2; i++) {
             dy[EN_POS(nb, k, i)] = y[EN_VEL(nb, k, i)];
             dy[EN_VEL(nb, k, i)] = fp->qdd[EN_Q(k, i)];
         }
         dy[EN_LOSS(nb, k)] = m->sigma[k] ? -fp->T[k] * (known ? xid[k] : slip_rate(s, m, k, y)) : 0.0;
+        dy[EN_XI(nb, k)] = dy[EN_XID(nb, k)] = 0.0; /* (held by a sliding chain alone) */
     }
     dy[EN_WORK(nb)] = work;
     return 1;
 }
 
-double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double *y) {
-    int c = first_closed(m, k), nq = 3 * s->nb;
-    if (!c || (m->closed[k][0] && m->closed[k][1]) || !m->sigma[k]) return 1.0;
+/* engine_jam_margin from the corner's rows (any body). */
+static double jam_margin_rows(const EnSystem *s, const EnMode *m, int k, int c, const double *y) {
+    int nq = 3 * s->nb;
     double Minv[EN_NQ], fext[EN_NQ], col[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     EnPoint p;
     engine_point(s, k, c, y, &p);
     for (int q = 0; q < EN_NQ; q++) col[q] = p.wN[q] - m->sigma[k] * s->mu[k] * p.wT[q];
     return wdot(p.wN, Minv, col, nq) / wdot(p.wN, Minv, p.wN, nq);
+}
+
+double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double *y) {
+    int c = first_closed(m, k);
+    if (!c || (m->closed[k][0] && m->closed[k][1]) || !m->sigma[k]) return 1.0;
+    if (k > 0) return jam_margin_rows(s, m, k, c, y);
+    /* on the ground (its rows (0, 1, -r_x) and (1, 0, r_y), r the corner from the centre): the same, written out */
+    const EnBody *B = &s->body[0];
+    double th = y[EN_TH(0)], ck = cos(th), sk = sin(th);
+    double rx = c * B->b * ck - B->h * sk, ry = -c * B->b * sk - B->h * ck;
+    return 1.0 + m->sigma[0] * s->mu[0] * B->m * rx * ry / (B->Ic + B->m * rx * rx);
 }
 
 int engine_beyond_edge(const EnSystem *s, int k, double xi) {
@@ -644,12 +701,14 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
             kind[n] = EN_IND_SLIP;
             body[n] = k;
             corner[n++] = c;
-        } else if (c) {
-            ind[n] = m->sigma[k] * slip_rate(s, m, k, y) / sqrt(s->g * R);
+        } else if (c) { /* (a chain holds its slip rates: EN_XID) */
+            ind[n] = m->sigma[k] * (all_touch(s, m) ? y[EN_XID(nb, k)] : slip_rate(s, m, k, y)) / sqrt(s->g * R);
             kind[n] = EN_IND_STOP;
             body[n] = k;
             corner[n++] = c;
-            if (m->closed[k][0] != m->closed[k][1]) {
+            /* on one corner; on the ground the margin is at least 1 - 3 mu / 4 at every rotation (docs/flight.md,
+             * "Painleve"), so below mu = 4/3 there is nothing to watch */
+            if (m->closed[k][0] != m->closed[k][1] && !(k == 0 && 1.0 - 0.75 * s->mu[0] > EN_JAM_MARGIN)) {
                 ind[n] = engine_jam_margin(s, m, k, y) - EN_JAM_MARGIN;
                 kind[n] = EN_IND_JAM;
                 body[n] = k;
@@ -1028,6 +1087,17 @@ static void flatten(const EnSystem *s, const EnMode *m, double *y, int rates) {
     }
 }
 
+void engine_hold_slips(const EnSystem *s, const EnMode *m, double *y) {
+    for (int k = 0; k < s->nb; k++) {
+        int c = first_closed(m, k);
+        EnPoint p;
+        if (!c) continue;
+        engine_corner(s, k, c, y, &p);
+        y[EN_XI(s->nb, k)] = p.xi - c * s->body[k].b;
+        y[EN_XID(s->nb, k)] = m->sigma[k] ? p.xid : 0.0;
+    }
+}
+
 void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates) {
     if (all_touch(s, m)) { /* a chain: placed exactly from the rotations (and rates), anchors and slip rates */
         int nb = s->nb;
@@ -1041,6 +1111,11 @@ void engine_project(const EnSystem *s, const EnMode *m, double *y, const double 
             v[k] = m->sigma[k] ? p.xid : 0.0; /* a sliding contact's slip rate, as it is */
             st.sigma[k] = 0;
         }
+        if (rates) /* the slips and slip rates a sliding chain holds */
+            for (int k = 0; k < nb; k++) {
+                y[EN_XI(nb, k)] = a[k];
+                y[EN_XID(nb, k)] = v[k];
+            }
         memcpy(yp, y, sizeof(yp));
         chain(s, &st, a, yp, yp, 0.0, 0.0, NULL, NULL);
         for (int k = 0; k < nb; k++) {

@@ -17,7 +17,8 @@
  * the same problem on velocities and impulses (plastic, Coulomb friction).
  *
  * State vector (EN_N(nb) components): each body's rotation and its rate, the ground's work (J), the
- * friction loss at each body's support (J), each body's centre and its velocity (EN_POS, EN_VEL).
+ * friction loss at each body's support (J), each contact's slip and slip rate (EN_XI, EN_XID: held where
+ * every body touches and a contact slides), each body's centre and its velocity (EN_POS, EN_VEL).
  */
 #ifndef ROCKING_ENGINE_H
 #define ROCKING_ENGINE_H
@@ -30,18 +31,24 @@
 /* index of generalised coordinate i (0 X, 1 Y, 2 theta) of body k in q-space (rows, forces, masses) */
 #define EN_Q(k, i) (3 * (k) + (i))
 /* indices into the state vector of a system of nb bodies: the rotations and their rates first,
- * (theta_k, omega_k) pairs, then the ground's work and each body's friction loss, then each body's
- * (X, Y, X', Y'). A sticking chain (engine_is_chain) integrates the first EN_CHAIN_N(nb) alone (its
- * centres follow from the rotations and anchors, and no friction works); its error control covers the
- * first 2 nb (the rotations), and other contact sets' the rotations and the centres. */
+ * (theta_k, omega_k) pairs, then the ground's work and each body's friction loss, then each contact's
+ * (xi, xi'), then each body's (X, Y, X', Y'). A chain (every body touching its support, engine_touches)
+ * integrates its reduced coordinates alone, a prefix of the vector: while every contact sticks the first
+ * EN_CHAIN_N(nb) (the rotations and the work: no friction works), while one slides the first EN_SLIDE_N(nb)
+ * (the losses and the slips too); its centres follow from them and the anchors of the contacts that stick.
+ * The error control covers the rotations of a sticking chain, and the rotations, slips and centres of the
+ * other contact sets. Outside a sliding chain the slips are not held (their derivatives are 0). */
 #define EN_TH(k) (2 * (k))
 #define EN_W(k) (2 * (k) + 1)
 #define EN_WORK(nb) (2 * (nb))
 #define EN_LOSS(nb, k) (2 * (nb) + 1 + (k))
-#define EN_POS(nb, k, i) ((i) == 2 ? 2 * (k) : 3 * (nb) + 1 + 4 * (k) + (i))
-#define EN_VEL(nb, k, i) ((i) == 2 ? 2 * (k) + 1 : 3 * (nb) + 3 + 4 * (k) + (i))
-#define EN_N(nb) (7 * (nb) + 1)
+#define EN_XI(nb, k) (3 * (nb) + 1 + 2 * (k))
+#define EN_XID(nb, k) (3 * (nb) + 2 + 2 * (k))
+#define EN_POS(nb, k, i) ((i) == 2 ? 2 * (k) : 5 * (nb) + 1 + 4 * (k) + (i))
+#define EN_VEL(nb, k, i) ((i) == 2 ? 2 * (k) + 1 : 5 * (nb) + 3 + 4 * (k) + (i))
+#define EN_N(nb) (9 * (nb) + 1)
 #define EN_CHAIN_N(nb) (2 * (nb) + 1)
+#define EN_SLIDE_N(nb) (5 * (nb) + 1)
 
 /* EnBody, EnSystem: model.h (the system is derived from the parameters once, M->d.en). */
 
@@ -55,11 +62,14 @@ typedef struct {
 } EnPoint;
 
 /* Forces and accelerations of a mode: qdd, the normal force at each corner (N, 0 if open) and
- * the tangential force of the support on each body (N, along the support's top). */
+ * the tangential force of the support on each body (N, along the support's top); from a chain (engine_solve,
+ * engine_chain, engine_rhs where every body touches and a contact slides) also each contact's slip acceleration
+ * (m/s2, along its support's top; 0 where it sticks; not set by the other contact sets). */
 typedef struct {
     double qdd[EN_NQ];
     double N[EN_MAX_BODIES][2];
     double T[EN_MAX_BODIES];
+    double xidd[EN_MAX_BODIES];
 } EnForces;
 
 /* A corner of body k (k > 0) at xi along its support's top lies beyond the support's edge: by more than
@@ -80,22 +90,26 @@ void engine_corner(const EnSystem *s, int k, int c, const double *y, EnPoint *p)
 /* Solve mode m at the state y under (ah, av): returns 0 if its system is singular. */
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f);
 
-/* A sticking chain: every body on a closed corner (or flat), every contact sticking. Its motion has one
- * coordinate per body that rocks (its rotation; a flat body turns with its support), solved in those
- * coordinates (engine_solve does so for such a mode: the same accelerations and forces as Newton-Euler
- * with the constraints, to rounding). */
+/* A chain: every body on a closed corner of its support (or flat on it), each contact sticking or sliding.
+ * Its motion has one coordinate per body that rocks (its rotation; a flat body turns with its support) and
+ * one per contact that slides (its slip), solved in those coordinates (engine_solve does so for such a mode:
+ * the same accelerations and forces as Newton-Euler with the constraints, to rounding). engine_is_chain: a
+ * chain in which every contact sticks. */
+int engine_touches(const EnSystem *s, const EnMode *m);
 int engine_is_chain(const EnSystem *s, const EnMode *m);
-/* The sticking chain m at the rotations and rates in y: with anchors xi0 (each contact's slip, as in
- * engine_project), the centres and their velocities (and a flat body's rotation and rate) are first placed
- * in y exactly; the accelerations and forces go to f (NULL: the placement alone). Returns 0 if singular. */
+/* The chain m at the rotations and rates in y (and, of each contact that slides, its slip and slip rate at
+ * EN_XI, EN_XID): with anchors xi0 (each sticking contact's slip, as in engine_project), the centres and their
+ * velocities (and a flat body's rotation and rate) are first placed in y exactly; the accelerations and forces
+ * go to f (NULL: the placement alone). Returns 0 if singular. */
 int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *y, double ah, double av,
                  EnForces *f);
 
 /* Derivatives of the state vector in mode m (forces written to f unless NULL). Returns 0 if singular. With
- * anchors xi0 and a sticking chain, y's first EN_CHAIN_N(nb) components alone are read (the centres are
- * placed from them, engine_chain) and dy's first EN_CHAIN_N(nb) alone written. */
+ * anchors xi0 and a chain, y's first EN_CHAIN_N(nb) components (EN_SLIDE_N(nb) where a contact slides) alone
+ * are read (the centres are placed from them, engine_chain) and dy's first that many alone written; the state
+ * placed goes to `placed` unless NULL (each body's EN_TH, EN_W, EN_POS and EN_VEL: as engine_chain places y). */
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
-               double *dy, EnForces *f);
+               double *dy, EnForces *f, double *placed);
 
 /* Event indicators of mode m at (y, forces f): each >= 0 while the mode holds, normalised by weights
  * (forces) or by the bodies' sizes (gaps). Writes up to EN_IND values; returns how many. kind[i]
@@ -117,6 +131,7 @@ double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double
  * 1e-9 give slips within 4e-5 m, 4e-7 m of one another on the case of tests/test_engine_hostile.py). */
 #define EN_JAM_MARGIN 1e-8
 #define EN_IND (6 * EN_MAX_BODIES)
+/* (a chain's sliding contacts' slip rates are read from y's EN_XID: it holds them, engine_project) */
 int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
                       int *kind, int *body, int *corner);
 
@@ -148,7 +163,11 @@ void engine_rest_state(const EnSystem *s, double *y);
 
 /* Move the positions (and, with rates, the rates) onto the constraints of mode m: closed corners at
  * zero gap and normal rate, sticking contacts at zero slip rate and at their anchors xi0[k] (the slip
- * of the contact: its corner's slip coordinate less the corner's offset; NULL: keep the slip). */
+ * of the contact: its corner's slip coordinate less the corner's offset; NULL: keep the slip). On a chain
+ * with rates, each contact's slip and slip rate are written to EN_XI, EN_XID too (a sticking one's rate 0). */
 void engine_project(const EnSystem *s, const EnMode *m, double *y, const double *xi0, int rates);
+/* Write each touching contact's slip and slip rate (its closed corner's, as they are; a sticking one's rate 0) to
+ * EN_XI, EN_XID: the reduced coordinates a sliding chain integrates, where the state enters one otherwise. */
+void engine_hold_slips(const EnSystem *s, const EnMode *m, double *y);
 
 #endif

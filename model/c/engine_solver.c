@@ -39,44 +39,65 @@ typedef struct {
     int piece;
     EnForces f; /* of the last evaluation */
     int singular;
-    int chain;                  /* a sticking chain: the first EN_CHAIN_N components integrated alone */
-    double xi0[EN_MAX_BODIES]; /* its anchors */
+    int chain;                 /* a chain (every body touches): its reduced coordinates integrated alone */
+    int slides;                /* one of its contacts slides (its slips integrated too) */
+    double xi0[EN_MAX_BODIES]; /* the anchors of its sticking contacts */
+    double placed[NMAX];       /* a chain's state as the last evaluation placed it (engine_rhs) */
 } Ctx;
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     Ctx *c = (Ctx *)ctx; /* the integrator hands our own (non-const) context back */
     double ah, av;
     model_ground_piece(c->M, t, c->piece, &ah, &av);
-    if (!engine_rhs(c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f)) c->singular = 1;
+    if (!engine_rhs(c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f, c->chain ? c->placed : NULL))
+        c->singular = 1;
 }
 
-static Ctx context(const Model *M, const EnMode *m, double t) {
-    Ctx c;
-    memset(&c, 0, sizeof(c));
-    c.M = M;
-    c.sys = &M->d.en;
-    c.mode = *m;
-    c.piece = model_piece(M, t);
-    c.chain = engine_is_chain(c.sys, m);
-    memcpy(c.xi0, M->s.enAnchor, sizeof(c.xi0));
-    return c;
+/* The context of the contact set m from t (its forces and placed state are written by each evaluation). */
+static void context(Ctx *c, const Model *M, const EnMode *m, double t) {
+    c->M = M;
+    c->sys = &M->d.en;
+    c->mode = *m;
+    c->piece = model_piece(M, t);
+    memset(&c->f, 0, sizeof(c->f));
+    c->singular = 0;
+    c->chain = engine_touches(c->sys, m);
+    c->slides = c->chain && !engine_is_chain(c->sys, m);
+    memcpy(c->xi0, M->s.enAnchor, sizeof(c->xi0));
 }
 
-/* The components a step integrates: a sticking chain's first EN_CHAIN_N, or all. */
-static int nstep(const Ctx *c) { return c->chain ? EN_CHAIN_N(c->sys->nb) : EN_N(c->sys->nb); }
+/* The components a step integrates: a chain's first EN_CHAIN_N (EN_SLIDE_N where a contact slides), or all. */
+static int nstep(const Ctx *c) {
+    return c->chain ? (c->slides ? EN_SLIDE_N(c->sys->nb) : EN_CHAIN_N(c->sys->nb)) : EN_N(c->sys->nb);
+}
 
-/* A step's result y (its first nstep components) completed: a sticking chain's other components from
- * rest (the friction losses, unchanged) and its centres placed exactly from the rotations and anchors.
+/* A step's result y (its first nstep components) completed: a chain's other components from rest (a sticking
+ * chain's friction losses, unchanged) and its centres placed exactly from its reduced coordinates and anchors.
  * With f, a chain's forces under the ground's (ah, av) in the same evaluation; returns 1 if it gave them. */
 static int complete_forces(Ctx *c, const double *rest, double *y, double ah, double av, EnForces *f) {
     if (!c->chain) return 0;
-    int n0 = EN_CHAIN_N(c->sys->nb), n = EN_N(c->sys->nb);
+    int n0 = nstep(c), n = EN_N(c->sys->nb);
     memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
     engine_chain(c->sys, &c->mode, c->xi0, y, ah, av, f);
     return f != NULL;
 }
 
 static void complete(Ctx *c, const double *rest, double *y) { complete_forces(c, rest, y, 0.0, 0.0, NULL); }
+
+/* complete for a y the last evaluation was at (a step's result): a chain's placement taken from it. */
+static void complete_last(Ctx *c, const double *rest, double *y) {
+    if (!c->chain) return;
+    int n0 = nstep(c), nb = c->sys->nb, n = EN_N(nb);
+    memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
+    for (int k = 0; k < nb; k++) {
+        y[EN_TH(k)] = c->placed[EN_TH(k)];
+        y[EN_W(k)] = c->placed[EN_W(k)];
+        for (int i = 0; i < 2; i++) {
+            y[EN_POS(nb, k, i)] = c->placed[EN_POS(nb, k, i)];
+            y[EN_VEL(nb, k, i)] = c->placed[EN_VEL(nb, k, i)];
+        }
+    }
+}
 
 static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1); }
 static double time_scale(const Model *M) { return 1.0 / sqrt(M->d.p2); }
@@ -206,8 +227,9 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
 
 /* The derivative of the state at S->t in the contact set m. */
 static void derivative(const Model *M, const EnMode *m, double *dy) {
-    Ctx c = context(M, m, M->s.t);
-    c.chain = 0; /* m may not be the state's contact set: its anchors are not known */
+    Ctx c;
+    context(&c, M, m, M->s.t);
+    c.chain = c.slides = 0; /* m may not be the state's contact set: its anchors are not known */
     memset(dy, 0, sizeof(double) * NMAX);
     rhs_cb(&c, M->s.t, M->s.y, dy);
 }
@@ -635,14 +657,34 @@ static void step_indicators(Search *s, double x, double *ind) {
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
     s->x = x;
-    complete(s->c, s->y, s->y1);
+    complete_last(s->c, s->y, s->y1); /* (the step's last evaluation was at its end) */
     indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
+}
+
+/* Whether an indicator of kind `kind` of body k is watched at a step's dense samples: the kinematic ones (each
+ * a function of the state alone), except those the dense output gives exactly: a rotation's of a body that
+ * touches (its landing or overturn on one corner a root below, flat it turns with its support) and a chain's
+ * slip rate (a component). The forces' indicators are watched at the step's end. */
+static int sampled(const Ctx *c, int kind, int k) {
+    switch (kind) {
+    case EN_IND_LAND:
+    case EN_IND_OVERTURN:
+        return flying(&c->mode, k);
+    case EN_IND_STOP:
+        return !c->chain;
+    case EN_IND_JAM:
+    case EN_IND_FELL_OFF:
+        return 1;
+    default:
+        return 0;
+    }
 }
 
 static int take_step(Model *M, const Logger *log) {
     State *S = &M->s;
     const Variables *v = &M->v;
-    Ctx c = context(M, &S->en, S->t);
+    Ctx c;
+    context(&c, M, &S->en, S->t);
     int nb = c.sys->nb, n = nstep(&c);
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     int free_motion = 0;
@@ -673,28 +715,33 @@ static int take_step(Model *M, const Logger *log) {
     for (int k = 0; k < nb; k++) {
         scale[EN_POS(nb, k, 0)] = scale[EN_POS(nb, k, 1)] = R;
         scale[EN_VEL(nb, k, 0)] = scale[EN_VEL(nb, k, 1)] = R * p;
+        scale[EN_XI(nb, k)] = R;
+        scale[EN_XID(nb, k)] = R * p;
         scale[EN_TH(k)] = scale[EN_W(k)] = 1.0;
         scale[EN_LOSS(nb, k)] = 0.0;
     }
     scale[EN_WORK(nb)] = 0.0;
-    /* the rotations alone while every body's contact sticks (the centres follow), else all but the integrals */
-    int nErr = c.chain ? 2 * nb : n;
+    /* the rotations alone while every contact of a chain sticks (the centres follow), else all but the
+     * integrals (a sliding chain's rotations and slips) */
+    int nErr = c.chain && !c.slides ? 2 * nb : n;
     if (adaptive_step_controlled(rhs_cb, &c, n, nErr, scale, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1,
                                  f1, cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
-    complete(&c, S->y, y1);
+    complete_last(&c, S->y, y1); /* (the accepted step's last evaluation was at its end) */
     if (c.singular) {
         say(log, LOG_ERROR, "the contact forces have no unique solution at t=%.17g", S->t);
         return -1;
     }
     S->steps++;
     if (hitBp && hmax < bp - S->t) hitBp = 0;
-    /* the first indicator that falls below zero: at dense samples (kinematic ones) and the end */
+    /* the first indicator that falls below zero: at dense samples (the kinematic ones the dense output does not
+     * give exactly, sampled) and the end */
     double ind[EN_IND], sLo = 0.0, sHi = 2.0;
-    int first = -1, haveEnd = 0;
-    for (int j = free_motion ? 1 : DENSE_SAMPLES; j <= DENSE_SAMPLES && first < 0; j++) {
+    int first = -1, haveEnd = 0, anySampled = 0;
+    for (int i = 0; i < ni; i++) anySampled |= sampled(&c, kind[i], body[i]);
+    for (int j = free_motion && anySampled ? 1 : DENSE_SAMPLES; j <= DENSE_SAMPLES && first < 0; j++) {
         double s = (double)j / DENSE_SAMPLES, yd[NMAX];
         if (j == DENSE_SAMPLES) {
             indicators(&c, S->t + h, y1, &c.f, ind, kind, body, corner);
@@ -702,14 +749,13 @@ static int take_step(Model *M, const Logger *log) {
         } else {
             memcpy(yd, S->y, sizeof(yd));
             dense_eval(cont, n, s, yd);
+            complete(&c, S->y, yd);
             EnForces none;
             memset(&none, 0, sizeof(none));
             indicators(&c, S->t + s * h, yd, &none, ind, kind, body, corner);
         }
         for (int i = 0; i < ni; i++) {
-            int kinematic = kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN || kind[i] == EN_IND_STOP ||
-                            kind[i] == EN_IND_JAM || kind[i] == EN_IND_FELL_OFF;
-            if (j < DENSE_SAMPLES && !kinematic) continue;
+            if (j < DENSE_SAMPLES && !sampled(&c, kind[i], body[i])) continue;
             if (ind0[i] >= 0 && ind[i] < 0) {
                 first = 0;
                 sHi = s;
@@ -721,8 +767,20 @@ static int take_step(Model *M, const Logger *log) {
     /* a body rocking on one corner lands its other corner exactly when its rotation relative to its
      * support returns to zero: the first such root of the dense output, found exactly (the
      * samples above could step over a short excursion) */
-    double rootAt[EN_MAX_BODIES] = {2.0, 2.0}, overAt[EN_MAX_BODIES] = {2.0, 2.0};
+    double rootAt[EN_MAX_BODIES] = {2.0, 2.0}, overAt[EN_MAX_BODIES] = {2.0, 2.0}, stopAt[EN_MAX_BODIES] = {2.0, 2.0};
     for (int k = 0; k < nb; k++) {
+        /* a chain's sliding contact stops exactly when its slip rate (a component) reaches zero */
+        if (c.slides && S->en.sigma[k]) {
+            double P[5];
+            dense_poly(cont, EN_XID(nb, k), P);
+            for (int i = 0; i < 5; i++) P[i] *= S->en.sigma[k];
+            stopAt[k] = first_crossing(P, -1);
+            if (stopAt[k] <= 1.0 && stopAt[k] < sHi) {
+                sHi = stopAt[k];
+                sLo = 0.0;
+                first = 0;
+            }
+        }
         if (S->en.closed[k][0] == S->en.closed[k][1]) continue;
         double ck[5], cj[5] = {0}, P[5], Q[5];
         dense_poly(cont, EN_TH(k), ck);
@@ -755,7 +813,8 @@ static int take_step(Model *M, const Logger *log) {
          * sign its indicator takes by rounding after the real step (its root is found exactly below) */
         double atRoot[EN_IND];
         for (int i = 0; i < ni; i++) {
-            double r = kind[i] == EN_IND_LAND ? rootAt[body[i]] : kind[i] == EN_IND_OVERTURN ? overAt[body[i]] : 2.0;
+            double r = kind[i] == EN_IND_LAND ? rootAt[body[i]] : kind[i] == EN_IND_OVERTURN ? overAt[body[i]]
+                     : kind[i] == EN_IND_STOP ? stopAt[body[i]] : 2.0;
             atRoot[i] = r <= sHi ? -1.0 : indB[i];
             any |= ind0[i] >= 0 && atRoot[i] < 0;
         }
@@ -766,12 +825,18 @@ static int take_step(Model *M, const Logger *log) {
             if (!(ind0[i] >= 0 && (indB[i] < 0 || atRoot[i] < 0))) continue;
             int k = body[i], rocking = S->en.closed[k][0] != S->en.closed[k][1], x0 = 0;
             double x;
-            if (rocking && (kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN)) {
-                double w[NMAX] = {0}, r = kind[i] == EN_IND_LAND ? rootAt[k] : overAt[k];
-                w[EN_TH(k)] = 1.0;
-                if (k > 0) w[EN_TH(k - 1)] = -1.0;
+            int stop = c.slides && kind[i] == EN_IND_STOP;
+            if ((rocking && (kind[i] == EN_IND_LAND || kind[i] == EN_IND_OVERTURN)) || stop) {
+                /* a linear function of the components reaching its target: the relative rotation, or the slip rate */
+                double w[NMAX] = {0}, r = stop ? stopAt[k] : kind[i] == EN_IND_LAND ? rootAt[k] : overAt[k];
                 int sgn = S->en.closed[k][1] ? 1 : -1;
-                double target = kind[i] == EN_IND_LAND ? 0.0 : sgn * M_PI / 2;
+                double target = stop || kind[i] == EN_IND_LAND ? 0.0 : sgn * M_PI / 2;
+                if (stop) {
+                    w[EN_XID(nb, k)] = 1.0;
+                } else {
+                    w[EN_TH(k)] = 1.0;
+                    if (k > 0) w[EN_TH(k - 1)] = -1.0;
+                }
                 double x1 = (r <= 1.0 ? r : 1.0) * h; /* (the step to it may have been taken above) */
                 x = se.x == x1 ? refine_step_from(rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, ca)
                                : refine_step(rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, ca);
@@ -830,12 +895,13 @@ static int take_step(Model *M, const Logger *log) {
             S->eventEnd = corner[which];
         }
     }
-    /* peaks of body 0's rotation (its rate's zeros) inside the step */
+    /* peaks of body 0's rotation (its rate's zeros) inside the step, while it rocks on one corner (flat, or in
+     * flight, it has none to report) */
     double com[5], roots[4];
     int iw = EN_W(0);
-    dense_poly(cont, iw, com);
     S->nStepPeaks = 0;
-    if (may_have_root(com)) {
+    if (S->en.closed[0][0] != S->en.closed[0][1]) dense_poly(cont, iw, com);
+    if (S->en.closed[0][0] != S->en.closed[0][1] && may_have_root(com)) {
         int nr = poly_roots(com, 4, 0.0, 1.0, roots);
         for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
             double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
@@ -844,7 +910,6 @@ static int take_step(Model *M, const Logger *log) {
             double yd[NMAX];
             memcpy(yd, S->y, sizeof(yd));
             dense_eval(cont, n, r, yd);
-            if (S->en.closed[0][0] == S->en.closed[0][1]) continue; /* flat, or in flight: no rocking */
             S->stepPeakTime[S->nStepPeaks] = S->t + r * hStep;
             S->stepPeakTheta[S->nStepPeaks] = yd[EN_TH(0)];
             S->nStepPeaks++;
@@ -914,7 +979,8 @@ static void state_forces_at(const Model *M, double t, double *y, EnMode *m, doub
         double s = (t - S->tOld) / S->hDense;
         if (s < 0) s = 0;
         if (s > 1) s = 1;
-        Ctx c = context(M, &S->enDense, S->tOld);
+        Ctx c;
+        context(&c, M, &S->enDense, S->tOld);
         memcpy(c.xi0, S->enDenseAnchor, sizeof(c.xi0));
         dense_eval(S->cont, nstep(&c), s, y);
         have = complete_forces(&c, S->y, y, ah, av, f);
@@ -932,7 +998,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     EnForces f;
     const EnSystem *sys = &M->d.en;
     /* a sticking chain at the last step's end, in the same contact set: the forces of its last evaluation */
-    if (!inStep && M->s.fValid && M->s.enIndValid && t == M->s.t && engine_is_chain(sys, &M->s.en)) {
+    if (!inStep && M->s.fValid && M->s.enIndValid && t == M->s.t && engine_touches(sys, &M->s.en)) {
         for (int k = 0; k < 2; k++) {
             T[k] = M->s.enT[k];
             N[k] = M->s.enN[k];
@@ -957,15 +1023,15 @@ static double rest_exit(const Model *M, double t, int piece) {
     EnMode r;
     memset(&r, 0, sizeof(r));
     for (int k = 0; k < sys->nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
-    double ah, av, ind[EN_IND];
-    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
     EnForces f;
     if (!engine_solve(sys, &r, M->s.y, ah, av, &f)) return 1.0;
-    int n = engine_indicators(sys, &r, M->s.y, &f, ind, kind, body, corner);
-    double least = INFINITY;
-    for (int i = 0; i < n; i++)
-        if (kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) least = fmin(least, ind[i]);
+    double least = INFINITY; /* (engine_indicators' of kinds EN_IND_OPEN and EN_IND_SLIP) */
+    for (int k = 0; k < sys->nb; k++) {
+        double W = sys->weight[k], N = f.N[k][0] + f.N[k][1];
+        least = fmin(least, fmin(fmin(f.N[k][0], f.N[k][1]), sys->mu[k] * N - fabs(f.T[k])) / W);
+    }
     return -least;
 }
 
@@ -982,7 +1048,8 @@ static void before_step(Model *M, const Logger *log) {
         for (int i = 0; i < EN_IND; i++) clear &= S->enInd[i] > 0;
         if (clear) return;
     }
-    Ctx c = context(M, &S->en, S->t);
+    Ctx c;
+    context(&c, M, &S->en, S->t);
     double ind[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     int n = indicators(&c, S->t, S->y, NULL, ind, kind, body, corner);
@@ -1068,6 +1135,7 @@ void engine_initialize(Model *M) {
         for (int k = 0; k < nb; k++) memcpy(m.closed[k], touching[k], sizeof(m.closed[k]));
     }
     S->en = m;
+    engine_hold_slips(sys, &m, S->y);
     S->side = side_of(&m, S->y);
     for (int k = 0; k < nb; k++) {
         S->enAnchor[k] = 0.0;

@@ -9,11 +9,11 @@
 #ifndef ROCKING_INTEGRATOR_H
 #define ROCKING_INTEGRATOR_H
 
-/* Largest number of components. RockingBlock's: 15, the contact engine's two bodies (three coordinates
- * each and their rates, the ground's work and two friction losses). A model with more defines NMAX before including
+/* Largest number of components. RockingBlock's: 19, the contact engine's two bodies (three coordinates
+ * each and their rates, the ground's work, two friction losses, and two slips and their rates). A model with more defines NMAX before including
  * this header, in every file that does (ShearBuilding: model/c/building/building_integrator.c). */
 #ifndef NMAX
-#define NMAX 16
+#define NMAX 20
 #endif
 
 typedef void (*RhsFn)(const void *ctx, double t, const double *y, double *dy);

@@ -4,7 +4,12 @@
  * and forces over the weight carried (each over its own size where larger); and the placed centres on the
  * constraints (closed corners at zero gap and normal rate, sticking corners at zero slip rate) where every
  * contact sticks; and the plastic impact onto each set (chain_impulse) against solve_set on the rates before.
- * Prints the largest of each and the number of states with a sliding contact, then the impacts';
+ * Where a contact slides, the chain as a step integrates it (engine_rhs from its reduced coordinates, the
+ * slips and slip rates engine_hold_slips writes) against the full state: the centres it places and the
+ * derivatives. And Painleve's margin of one body sliding on one corner of the ground, written out, against the
+ * rows, with its bound 1 - 3 mu / 4.
+ * Prints the largest of each and the number of states with a sliding contact, then the impacts', the reduced
+ * sliding chain's, the margin's and the least slack of its bound;
  * tests/test_engine_chain.py runs it. White-box: it includes engine.c for its static solvers. */
 #include "engine.c"
 
@@ -15,7 +20,7 @@ static double rnd(void) { return 2.0 * rand() / RAND_MAX - 1.0; }
 
 int main(int argc, char **argv) {
     int trials = argc > 1 ? atoi(argv[1]) : 20000;
-    double worstDyn = 0.0, worstPlace = 0.0, worstImp = 0.0;
+    double worstDyn = 0.0, worstPlace = 0.0, worstImp = 0.0, worstSlide = 0.0, worstJam = 0.0, jamSlack = INFINITY;
     int nSliding = 0;
     const double b[2] = {0.3, 0.2}, h[2] = {0.5, 0.8}, m[2] = {450.0, 690.0}, g = 9.81;
     srand(12345);
@@ -65,6 +70,49 @@ int main(int argc, char **argv) {
         }
         double ah = 8.0 * rnd(), av = 8.0 * rnd();
         if (!engine_solve(&s, &mode, y, ah, av, &reduced)) return 2; /* the chain (engine_solve's dispatch) */
+        /* the chain as a step integrates it, from its reduced coordinates (rotations, and each sliding contact's
+         * slip and slip rate, engine_hold_slips) and the anchors: the state it places is y's, its derivatives
+         * those of the full state (rotations' rates over 1/s, slip rates and their rates over sqrt(g R)) */
+        if (slides) {
+            double yr[NMAX], placed[NMAX], dyr[NMAX], dyf[NMAX];
+            EnForces fr, ff;
+            memcpy(yr, y, sizeof(yr));
+            engine_hold_slips(&s, &mode, yr);
+            if (!engine_rhs(&s, &mode, xi0, yr, ah, av, dyr, &fr, placed) || !engine_rhs(&s, &mode, NULL, yr, ah, av, dyf, &ff, NULL))
+                return 2;
+            for (int k = 0; k < s.nb; k++) {
+                double R = sqrt(s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h), v = sqrt(g * R), a = g;
+                for (int i = 0; i < 2; i++) {
+                    worstSlide = fmax(worstSlide, fabs(placed[EN_POS(s.nb, k, i)] - y[EN_POS(s.nb, k, i)]) / R);
+                    worstSlide = fmax(worstSlide, fabs(placed[EN_VEL(s.nb, k, i)] - y[EN_VEL(s.nb, k, i)]) / v);
+                    a = fmax(a, fabs(ff.qdd[EN_Q(k, i)]));
+                }
+                a = fmax(a, fabs(ff.qdd[EN_Q(k, 2)]) * R);
+                worstSlide = fmax(worstSlide, fabs(dyr[EN_W(k)] - dyf[EN_W(k)]) * R / a);
+                if (!mode.sigma[k]) continue; /* (a chain in which every contact sticks integrates no loss) */
+                worstSlide = fmax(worstSlide, fabs(dyr[EN_LOSS(s.nb, k)] - dyf[EN_LOSS(s.nb, k)]) / (s.weight[k] * v));
+                EnPoint p; /* the slip acceleration: the closed corner's along its support's top (Newton-Euler) */
+                int c = mode.closed[k][0] ? -1 : 1;
+                engine_point(&s, k, c, yr, &p);
+                double xidd = p.bT;
+                for (int q = 0; q < 3 * s.nb; q++) xidd += p.wT[q] * ff.qdd[q];
+                worstSlide = fmax(worstSlide, fabs(dyr[EN_XI(s.nb, k)] - p.xid) / v);
+                worstSlide = fmax(worstSlide, fabs(dyr[EN_XID(s.nb, k)] - xidd) / a);
+            }
+        }
+        /* Painleve's margin of a body sliding on one corner of the ground: written out against the rows, and at
+         * least 1 - 3 mu / 4 (the bound below which the engine does not watch it) */
+        if (s.nb == 1 && mode.sigma[0] && mode.closed[0][0] != mode.closed[0][1]) {
+            int c = mode.closed[0][0] ? -1 : 1;
+            const double mus[4] = {0.1, 0.7, 4.0 / 3.0, 2.0}; /* (no draw: the states drawn stay those above) */
+            for (int j = 0; j < 4; j++) {
+                EnSystem sj = s;
+                sj.mu[0] = mus[j];
+                double a = engine_jam_margin(&sj, &mode, 0, y), b = jam_margin_rows(&sj, &mode, 0, c, y);
+                worstJam = fmax(worstJam, fabs(a - b));
+                jamSlack = fmin(jamSlack, a - (1.0 - 0.75 * sj.mu[0]));
+            }
+        }
         double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
         free_terms(&s, ah, av, Minv, fext);
         for (int q = 0; q < 3 * s.nb; q++) a0[q] = Minv[q] * fext[q];
@@ -110,6 +158,6 @@ int main(int argc, char **argv) {
             }
         }
     }
-    printf("%.3e %.3e %d %.3e\n", worstDyn, worstPlace, nSliding, worstImp);
+    printf("%.3e %.3e %d %.3e %.3e %.3e %.3e\n", worstDyn, worstPlace, nSliding, worstImp, worstSlide, worstJam, jamSlack);
     return 0;
 }
