@@ -1062,9 +1062,10 @@ static void before_step(Model *M, const Logger *log) {
             S->fValid = 0;
             return;
         }
-        /* a sliding contact whose slip rate is not (or no longer) of its sign stops here: its friction
-         * would push the slip on instead of opposing it */
-        if ((kind[i] == EN_IND_STOP || kind[i] == EN_IND_JAM) && !(ind[i] > 0)) {
+        /* a sliding contact whose slip rate is of the other sign stops here: its friction would push the slip
+         * on instead of opposing it (a slip rate exactly 0 is a slide that starts here: the set was chosen with
+         * its slip accelerating its way; a chain holds that 0 exactly) */
+        if ((kind[i] == EN_IND_STOP && ind[i] < 0) || (kind[i] == EN_IND_JAM && !(ind[i] > 0))) {
             S->pending = kind[i] == EN_IND_STOP ? EVENT_SLIP_STOP : EVENT_JAM;
             S->eventContact = body[i];
             S->eventEnd = corner[i];
