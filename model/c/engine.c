@@ -291,10 +291,10 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
     for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
     for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
     double kap[2] = {w * w * r[0], w * w * r[1]}, al, xdd = 0.0;
-    double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic;
-    if (!SLIDES) {
-        al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) / A;
-    } else { /* coordinates (theta, xi): the reduced system of chain_nd, its friction row N = m (Y'' + g + av) */
+    if (!SLIDES) { /* the moment about the corner over the inertia about it (|G| = |r|: the corner's distance) */
+        al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) * B->iIo;
+    } else {
+        double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic; /* coordinates (theta, xi): the reduced system of chain_nd, its friction row N = m (Y'' + g + av) */
         double fk0 = -B->m * (ah + kap[0]), fk1 = -B->m * (gv + kap[1]);
         double A01 = B->m * G[0], A10 = B->m * (G[0] + smu * G[1]), A11 = B->m;
         double r0 = G[0] * fk0 + G[1] * fk1, r1 = fk0 + smu * fk1, det = A * A11 - A01 * A10;

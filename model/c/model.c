@@ -169,6 +169,7 @@ static void engine_bodies(const Variables *v, EnSystem *s) {
         s->body[k].h = h[k];
         s->body[k].m = m[k];
         s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
+        s->body[k].iIo = 1.0 / (m[k] * (b[k] * b[k] + h[k] * h[k]) + s->body[k].Ic);
     }
     for (int k = s->nb - 1; k >= 0; k--)
         s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);

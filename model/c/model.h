@@ -64,9 +64,10 @@ typedef struct {
     int sigma[EN_MAX_BODIES];
 } EnMode;
 /* The engine's bodies (engine.h): rectangles of half width b, half height h (m), mass m (kg) and inertia
- * about the centre Ic = m (b^2 + h^2) / 3 (kg m^2); body k stands on body k - 1 (the ground for k = 0). */
+ * about the centre Ic = m (b^2 + h^2) / 3 (kg m^2), iIo = 1 / (m (b^2 + h^2) + Ic) the inverse of the inertia
+ * about a corner (1/(kg m^2)); body k stands on body k - 1 (the ground for k = 0). */
 typedef struct {
-    double b, h, m, Ic;
+    double b, h, m, Ic, iIo;
 } EnBody;
 
 typedef struct {

@@ -35,6 +35,7 @@ int main(int argc, char **argv) {
             s.body[k].h = h[k] / f;
             s.body[k].m = m[k] * f * f;
             s.body[k].Ic = s.body[k].m * (s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h) / 3.0;
+            s.body[k].iIo = 1.0 / (4.0 * s.body[k].Ic);
             s.mu[k] = 0.3;
         }
         for (int k = s.nb - 1; k >= 0; k--) s.weight[k] = s.body[k].m * g + (k + 1 < s.nb ? s.weight[k + 1] : 0.0);
