@@ -97,6 +97,7 @@ def test_the_package_loads_its_api_on_first_use():
     assert p.returncode == 1 and "AttributeError: module 'runners' has no attribute 'no_such_name'" in p.stderr
 
 
+@pytest.mark.slow  # (a benchmark: each command timed by both installations, with and without bytecode: 11 s)
 def test_bench_startup_times_both_commands_of_both_installations():
     """runners bench --startup --baseline PYTHON: each command's CPU time by both installations,
     with and without cached bytecode, and the ratio (here both are this one: the values are the
