@@ -667,16 +667,33 @@ static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const doubl
     return 1;
 }
 
+/* The indicators of the forces, over the weight the contact carries: a closed corner's normal force, a sticking
+ * contact's friction margin. */
+static double open_margin(const EnSystem *s, const EnForces *f, int k, int i) { return f->N[k][i] / s->weight[k]; }
+static double slip_margin(const EnSystem *s, const EnForces *f, int k) {
+    return (s->mu[k] * (f->N[k][0] + f->N[k][1]) - fabs(f->T[k])) / s->weight[k];
+}
+
+double engine_force_margin(const EnSystem *s, const EnMode *m, const EnForces *f) {
+    double least = INFINITY;
+    for (int k = 0; k < s->nb; k++) {
+        for (int i = 0; i < 2; i++)
+            if (m->closed[k][i]) least = fmin(least, open_margin(s, f, k, i));
+        if ((m->closed[k][0] || m->closed[k][1]) && m->sigma[k] == 0) least = fmin(least, slip_margin(s, f, k));
+    }
+    return least;
+}
+
 int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
                       int *kind, int *body, int *corner) {
     int n = 0, nb = s->nb;
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
-        double W = s->weight[k], R = sqrt(B->b * B->b + B->h * B->h);
+        double R = sqrt(B->b * B->b + B->h * B->h);
         int c = first_closed(m, k);
         for (int i = 0; i < 2; i++) {
             if (m->closed[k][i]) {
-                ind[n] = f->N[k][i] / W;
+                ind[n] = open_margin(s, f, k, i);
                 kind[n] = EN_IND_OPEN;
             } else if (c) {
                 /* rocking on its other corner: this one lands when the rotation relative to the support
@@ -697,7 +714,7 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
         }
         if (k > 0) n += edge_indicator(s, m, k, y, f, ind + n, kind + n, body + n, corner + n);
         if (c && m->sigma[k] == 0) {
-            ind[n] = (s->mu[k] * (f->N[k][0] + f->N[k][1]) - fabs(f->T[k])) / W;
+            ind[n] = slip_margin(s, f, k);
             kind[n] = EN_IND_SLIP;
             body[n] = k;
             corner[n++] = c;

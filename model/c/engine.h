@@ -131,6 +131,8 @@ double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double
  * 1e-9 give slips within 4e-5 m, 4e-7 m of one another on the case of tests/test_engine_hostile.py). */
 #define EN_JAM_MARGIN 1e-8
 #define EN_IND (6 * EN_MAX_BODIES)
+/* The least of mode m's force indicators (those of kinds EN_IND_OPEN and EN_IND_SLIP) under the forces f. */
+double engine_force_margin(const EnSystem *s, const EnMode *m, const EnForces *f);
 /* (a chain's sliding contacts' slip rates are read from y's EN_XID: it holds them, engine_project) */
 int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const EnForces *f, double *ind,
                       int *kind, int *body, int *corner);

@@ -74,10 +74,14 @@ static int nstep(const Ctx *c) {
 /* A step's result y (its first nstep components) completed: a chain's other components from rest (a sticking
  * chain's friction losses, unchanged) and its centres placed exactly from its reduced coordinates and anchors.
  * With f, a chain's forces under the ground's (ah, av) in the same evaluation; returns 1 if it gave them. */
-static int complete_forces(Ctx *c, const double *rest, double *y, double ah, double av, EnForces *f) {
-    if (!c->chain) return 0;
+static void keep_rest(const Ctx *c, const double *rest, double *y) {
     int n0 = nstep(c), n = EN_N(c->sys->nb);
     memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
+}
+
+static int complete_forces(Ctx *c, const double *rest, double *y, double ah, double av, EnForces *f) {
+    if (!c->chain) return 0;
+    keep_rest(c, rest, y);
     engine_chain(c->sys, &c->mode, c->xi0, y, ah, av, f);
     return f != NULL;
 }
@@ -87,8 +91,8 @@ static void complete(Ctx *c, const double *rest, double *y) { complete_forces(c,
 /* complete for a y the last evaluation was at (a step's result): a chain's placement taken from it. */
 static void complete_last(Ctx *c, const double *rest, double *y) {
     if (!c->chain) return;
-    int n0 = nstep(c), nb = c->sys->nb, n = EN_N(nb);
-    memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
+    int nb = c->sys->nb;
+    keep_rest(c, rest, y);
     for (int k = 0; k < nb; k++) {
         y[EN_TH(k)] = c->placed[EN_TH(k)];
         y[EN_W(k)] = c->placed[EN_W(k)];
@@ -898,10 +902,10 @@ static int take_step(Model *M, const Logger *log) {
     /* peaks of body 0's rotation (its rate's zeros) inside the step, while it rocks on one corner (flat, or in
      * flight, it has none to report) */
     double com[5], roots[4];
-    int iw = EN_W(0);
+    int iw = EN_W(0), rocks = S->en.closed[0][0] != S->en.closed[0][1];
     S->nStepPeaks = 0;
-    if (S->en.closed[0][0] != S->en.closed[0][1]) dense_poly(cont, iw, com);
-    if (S->en.closed[0][0] != S->en.closed[0][1] && may_have_root(com)) {
+    if (rocks) dense_poly(cont, iw, com);
+    if (rocks && may_have_root(com)) {
         int nr = poly_roots(com, 4, 0.0, 1.0, roots);
         for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
             double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
@@ -1027,12 +1031,7 @@ static double rest_exit(const Model *M, double t, int piece) {
     model_ground_piece(M, t, piece, &ah, &av);
     EnForces f;
     if (!engine_solve(sys, &r, M->s.y, ah, av, &f)) return 1.0;
-    double least = INFINITY; /* (engine_indicators' of kinds EN_IND_OPEN and EN_IND_SLIP) */
-    for (int k = 0; k < sys->nb; k++) {
-        double W = sys->weight[k], N = f.N[k][0] + f.N[k][1];
-        least = fmin(least, fmin(fmin(f.N[k][0], f.N[k][1]), sys->mu[k] * N - fabs(f.T[k])) / W);
-    }
-    return -least;
+    return -engine_force_margin(sys, &r, &f);
 }
 
 /* Before each step: the peaks passed, and a contact set that no longer holds where the step starts (the
