@@ -120,6 +120,15 @@ RANGE_CONTEXT: dict[str, dict] = {
     "block2.mass": {"nBlocks": 2},
     "restitution.etaGround": {"nBlocks": 2},
     "restitution.etaInterface": {"nBlocks": 2},
+    # a support's parameters are checked where it is chosen (a building's floors up to its storeys)
+    "building.storeys": {"support.kind": 1},
+    "building.floor": {"support.kind": 1, "building.storeys": 10},
+    "building.dampingRatio": {"support.kind": 1},
+    **{f"building.storey[{i}].{q}": {"support.kind": 1, "building.storeys": 10}
+       for i in range(1, 11) for q in ("mass", "stiffness")},
+    "platform.mass": {"support.kind": 2},
+    "platform.stiffness": {"support.kind": 2},
+    "platform.damping": {"support.kind": 2},
 }
 
 
@@ -228,7 +237,7 @@ def test_every_range_line_names_a_parameter_and_a_code_spans_its_enumeration():
     variables, enumerations, ranges, codes = _tables()
     check_tables(variables, enumerations, ranges, codes)  # what the build checks
     assert set(codes) <= set(ranges)
-    assert set(codes.values()) == {"excitation.kind", "restitution.law", "solver.method", "contact.model"}
+    assert set(codes.values()) == {"excitation.kind", "restitution.law", "solver.method", "contact.model", "support.kind"}
 
 
 # ------------------------------------------------------------------ make release

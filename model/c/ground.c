@@ -1,5 +1,6 @@
 /* Ground motion: built-in waveforms, pulses and records (see ground.h). */
 #include "ground.h"
+#include "support.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -234,6 +235,7 @@ static double record_time(const Model *M, int i) { return M->v.startTime + M->re
 static int record_piece_ok(const Model *M, int piece) { return piece >= 1 && piece <= M->rec->n - 1; }
 
 int model_piece(const Model *M, double tStart) {
+    if (tStart >= M->d.excEnd && tStart >= M->d.excStart && support_moves(M)) return M->rec->n; /* free vibration */
     if (tStart < M->d.excStart || tStart >= M->d.excEnd) return 0;
     if (M->v.kind != KIND_RECORD) return 1;
     int lo = 0, hi = M->rec->n - 1; /* record_time(lo) <= tStart < record_time(hi) */
@@ -245,7 +247,8 @@ int model_piece(const Model *M, double tStart) {
     return lo + 1;
 }
 
-void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
+/* The excitation alone (the base's motion, no support, no inputs) of the piece at t. */
+static void excitation_piece(const Model *M, double t, int piece, double *ah, double *av) {
     double h = 0.0, vert = 0.0;
     if (M->v.kind == KIND_RECORD) {
         if (record_piece_ok(M, piece)) {
@@ -261,8 +264,24 @@ void model_ground_piece(const Model *M, double t, int piece, double *ah, double 
         h = M->d.accAmp * w;
         vert = M->v.verticalAmplitude * w;
     }
+    *ah = h;
+    *av = vert;
+}
+
+void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
+    double h, vert;
+    excitation_piece(M, t, piece, &h, &vert);
+    /* a support moves under it: its floor's acceleration relative to the base (0 without one; the
+     * support is rigid vertically) */
+    if (M->v.kind == KIND_RECORD) h += support_relative_acceleration(M, t, piece);
     *ah = h + M->v.ahIn;
     *av = vert + M->v.avIn;
+}
+
+double ground_base_ah(const Model *M, double t) {
+    double h, vert;
+    excitation_piece(M, t, model_piece(M, t), &h, &vert);
+    return h;
 }
 
 void model_ground(const Model *M, double t, double *ah, double *av) {
@@ -357,13 +376,17 @@ void ground_series(const Model *M, double t, int piece, int n, double *ah, doubl
             av[k] = M->v.verticalAmplitude * w[k];
         }
     }
+    if (M->v.kind == KIND_RECORD) support_series(M, t, piece, n, ah);
     ah[0] += M->v.ahIn;
     av[0] += M->v.avIn;
 }
 
 /* ------------------------------------------------------------ break points and cells */
 
-int excitation_over(const Model *M, double t) { return M->v.kind == KIND_NONE || t >= M->d.excEnd; }
+/* (a moving support vibrates on after its base's record: never over) */
+int excitation_over(const Model *M, double t) {
+    return M->v.kind == KIND_NONE || (t >= M->d.excEnd && !support_moves(M));
+}
 
 double next_breakpoint(const Model *M, double t, int piece) {
     if (M->v.kind == KIND_NONE) return INFINITY;
@@ -376,10 +399,33 @@ double next_breakpoint(const Model *M, double t, int piece) {
 /* The built-in sine waveforms are monotone on quarter periods from their start. */
 static int quarter_cells(const Model *M) { return M->v.kind >= KIND_SINE_PULSE && M->v.kind <= KIND_HARMONIC; }
 
+/* A moving support: its cells are the record's segments (after the end, the free vibration's stretches)
+ * cut at the floor acceleration's extrema. Its piece's span [t0, t1] and base slope (m/s3). */
+static void support_span(const Model *M, double a, int piece, double *t0, double *t1, double *slope) {
+    const Record *r = M->rec;
+    if (piece >= r->n) {
+        support_free_cell(M, a, M->d.excEnd, t0, t1);
+        *slope = 0.0;
+        return;
+    }
+    *t0 = record_time(M, piece - 1);
+    *t1 = record_time(M, piece);
+    *slope = M->d.accAmp * (r->ah[piece] - r->ah[piece - 1]) / (r->t[piece] - r->t[piece - 1]);
+}
+
+static int support_piece(const Model *M, double a, int piece) {
+    return support_moves(M) && a >= M->d.excStart && piece >= 1 && piece <= M->rec->n;
+}
+
 double next_cell_edge(const Model *M, double a, int piece) {
     const Derived *d = &M->d;
     if (M->v.kind == KIND_NONE) return INFINITY;
     if (a < d->excStart) return d->excStart;
+    if (support_piece(M, a, piece)) {
+        double t0, t1, slope;
+        support_span(M, a, piece, &t0, &t1, &slope);
+        return support_next_edge(M, a, piece, t0, t1, slope);
+    }
     if (a >= d->excEnd) return INFINITY;
     if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece) : d->excEnd;
     if (quarter_cells(M)) {
@@ -396,6 +442,11 @@ double next_cell_edge(const Model *M, double a, int piece) {
 
 double cell_start(const Model *M, double a, int piece) {
     const Derived *d = &M->d;
+    if (support_piece(M, a, piece)) {
+        double t0, t1, slope;
+        support_span(M, a, piece, &t0, &t1, &slope);
+        return support_cell_start(M, a, piece, t0, t1, slope);
+    }
     if (M->v.kind == KIND_NONE || a < d->excStart || a >= d->excEnd) return a;
     if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece - 1) : a;
     if (quarter_cells(M)) {
@@ -411,6 +462,9 @@ double cell_start(const Model *M, double a, int piece) {
 
 int next_piece(const Model *M, int piece, double b) {
     if (M->v.kind != KIND_RECORD) return model_piece(M, b);
+    /* a moving support's cells end inside a segment too: the piece goes on there */
+    if (support_piece(M, b, piece) && (piece == M->rec->n || b < record_time(M, piece))) return piece;
+    if (b >= M->d.excEnd && support_moves(M)) return M->rec->n;
     if (b < M->d.excStart || b >= M->d.excEnd) return 0;
     int next = piece == 0 ? 1 : piece + 1; /* the segment after the edge b */
     return record_piece_ok(M, next) ? next : 0;

@@ -37,8 +37,13 @@ void ground_derive(Model *M);
 /* Piece active on a step starting at tStart. */
 int model_piece(const Model *M, double tStart);
 
-/* Total ground accelerations (excitation plus inputs), m/s^2, of the piece at t. */
+/* Total ground accelerations (excitation plus inputs), m/s^2, of the piece at t: with a moving support
+ * (support.h) the horizontal one is its floor's absolute acceleration plus the input. */
 void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av);
+
+/* The base's horizontal acceleration at t (m/s2): the excitation alone, without a support's motion or
+ * the input ground.ah. */
+double ground_base_ah(const Model *M, double t);
 
 /* Total ground accelerations at t (the piece that starts at t). */
 void model_ground(const Model *M, double t, double *ah, double *av);

@@ -5,6 +5,7 @@
 #define _POSIX_C_SOURCE 200809L /* struct stat's st_mtim */
 #endif
 #include "instance.h"
+#include "support.h"
 
 #include <ctype.h>
 #include <locale.h>
@@ -157,6 +158,12 @@ Status instance_initialize(Instance *I) {
         }
     }
     model_derive(M);
+    M->sup = NULL;
+    if (support_attach(M, &I->sup, I->alloc, I->release, msg, sizeof(msg))) {
+        INSTANCE_ERROR(I, "support: %s", msg);
+        return STATUS_ERROR;
+    }
+    if (I->sup.data) M->sup = &I->sup;
     solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
     solver_outputs(M, I->s.tc);
@@ -222,6 +229,7 @@ void instance_free(Instance *I) {
     if (!I) return;
     RecordFree release = I->release;
     record_free(&I->rec, release);
+    support_free(&I->sup, release);
     if (I->resourceDir) release(I->resourceDir);
     release(I->name);
     release(I);
@@ -465,8 +473,8 @@ static int snapshot_check(const Snapshot *snap, char *msg, size_t n) {
                  snap->startTime);
         return 1;
     }
-    if (snap->model.rec) {
-        snprintf(msg, n, "a record address where a saved state has none");
+    if (snap->model.rec || snap->model.sup) {
+        snprintf(msg, n, "a record or support address where a saved state has none");
         return 1;
     }
     return 0;
@@ -500,6 +508,7 @@ Status instance_get_state(Instance *I, void **state, const char *fn) {
     }
     *snap = I->s;
     snap->model.rec = NULL; /* the instance's, re-attached by set_state; no address in saved bytes */
+    snap->model.sup = NULL;
     *state = snap;
     return STATUS_OK;
 }
@@ -522,6 +531,8 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
     }
     const Model *sm = &snap->model;
     StagedRecord staged = {0};
+    SupportTable fresh = {0};
+    int moves = 0;
     if (!snap->dirty) {
         /* the state's parameters must be valid, its derived values exactly those they give
          * (with its record, which must have the same samples), and its integrator and
@@ -543,8 +554,22 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
         Model check = *sm;
         check.rec = sm->v.kind == KIND_RECORD ? staged_record(I, &staged) : NULL;
         model_derive(&check);
+        /* the support's table of these parameters and record: the instance's own when it was built for
+         * them, else a new one, adopted with the state */
+        if (memcmp(&check.d, &sm->d, sizeof(Derived)) == 0 && support_needed(&check)) {
+            if (support_matches(&check, &I->sup)) {
+                check.sup = &I->sup;
+            } else if (support_attach(&check, &fresh, I->alloc, I->release, msg, sizeof(msg))) {
+                drop_record(I, &staged);
+                INSTANCE_ERROR(I, "%s: support: %s", fn, msg);
+                return STATUS_ERROR;
+            } else {
+                check.sup = &fresh;
+            }
+        }
         if (memcmp(&check.d, &sm->d, sizeof(Derived)) != 0) {
             drop_record(I, &staged);
+            support_free(&fresh, I->release);
             INSTANCE_ERROR(I, "%s: the state does not match its own parameters (a corrupted state?)", fn);
             return STATUS_ERROR;
         }
@@ -553,13 +578,20 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
                                                                                                  : STATE_INERT;
         if (state_validate(&check, snap->startTime, snap->tc, use, msg, sizeof(msg))) {
             drop_record(I, &staged);
+            support_free(&fresh, I->release);
             INSTANCE_ERROR(I, "%s: invalid state (corrupted?): %s", fn, msg);
             return STATUS_ERROR;
         }
         adopt_record(I, &staged);
+        if (fresh.data) {
+            support_free(&I->sup, I->release);
+            I->sup = fresh;
+        }
+        moves = check.sup != NULL;
     }
     I->s = *snap;
     I->s.model.rec = (!snap->dirty && sm->v.kind == KIND_RECORD) ? &I->rec : NULL;
+    I->s.model.sup = moves ? &I->sup : NULL;
     return STATUS_OK;
 }
 

@@ -87,6 +87,7 @@ typedef struct Instance {
     int logEvents;
     Record rec; /* the record of excitation.kind = 4, read once per file */
     FileStamp recFile;
+    SupportTable sup; /* a moving support's table of the record's segments (support.h), built once per parameters */
     double meTimeFloor; /* Model Exchange: the last event's or completed step's time, which
                            fmi2SetTime may not go back past (no FMU states to restore) */
 } Instance;

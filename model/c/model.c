@@ -3,6 +3,7 @@
 #include "model.h"
 #include "ground.h"
 #include "stack.h"
+#include "support.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -127,6 +128,7 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     }
     if (!(v->muInterface > 0)) FAIL("contact.muInterface = %g must be > 0", v->muInterface);
     if (ground_validate(v, msg, n)) return 1;
+    if (support_validate(v, msg, n)) return 1;
     if (v->method < 0 || v->method > 2)
         FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)), 1 (Taylor series) or 2 (auto: the Taylor series "
              "for one block in rigid rocking, else Dormand-Prince)", v->method);
@@ -197,6 +199,7 @@ void model_derive(Model *M) {
     d->weight[0] = (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
     d->weight[1] = v->mass2 * v->g;
     engine_bodies(v, &d->en);
+    support_derive(v, &d->sup);
 }
 
 void model_rhs_terms(const Model *M, double t, const double y[2], int side, int piece, double dy[2],

@@ -18,6 +18,7 @@
 
 #include "integrator.h" /* NMAX */
 #include "record.h"
+#include "support.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -50,7 +51,7 @@ typedef enum {
 #define MAX_CELLS 64
 
 /* All FMI variables: parameters, inputs and outputs, generated from the table. */
-typedef struct {
+typedef struct Variables {
 #define VAR(T, vr, field, name, caus, var, start, unit, desc) T##_TYPE field;
 #include "variables.def"
 #undef VAR
@@ -107,6 +108,7 @@ typedef struct {
     double weight[2];   /* weight carried by the ground (both blocks) and by block 1 (block 2), N */
 
     EnSystem en; /* the contact engine's bodies (one block, or a stack of two) */
+    SupportModes sup; /* the support's modes (support.h; nm = 0 on the ground) */
 
     /* two stacked blocks (nBlocks = 2), see stack.h */
     double c;          /* half width of the contact between the blocks, m */
@@ -247,7 +249,7 @@ typedef struct {
     double loadMean;
 } State;
 
-typedef struct {
+typedef struct Model {
     Variables v;
     Derived d;
     State s;
@@ -255,6 +257,9 @@ typedef struct {
      * read once per file, not part of the FMU state (a restored state is
      * re-attached to its instance's record, checked by recN and recHash). */
     const Record *rec;
+    /* A moving support's table of the record's segments (support.h): owned by the instance like the
+     * record, re-attached to a restored state (NULL on the ground). */
+    const SupportTable *sup;
 } Model;
 
 /* Logging callback used by the solver; ctx is opaque. category: 0 events,

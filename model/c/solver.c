@@ -1,5 +1,6 @@
 /* Event-driven time stepping: steps, events, rest and uplift. */
 #include "solver.h"
+#include "support.h"
 
 #include <float.h>
 #include <limits.h>
@@ -448,6 +449,8 @@ static void outputs_at(Model *M, double tc) {
 void solver_outputs(Model *M, double tc) {
     Variables *v = &M->v;
     outputs_at(M, tc);
+    support_motion(M, tc, model_piece(M, tc), &v->supportU, &v->supportV);
+    v->baseAh = ground_base_ah(M, tc);
     /* the last communication step's mean load, else the load on the ground at tc: -(rate of
      * change of the momentum relative to the ground) */
     double mass = v->mass + (v->nBlocks == 2 ? v->mass2 : 0.0);

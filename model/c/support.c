@@ -1,0 +1,487 @@
+/* Supports under one-way coupling: the exact motion of a linear shear building's floor or of an
+ * isolation platform under a piecewise-linear base acceleration (support.h, docs/supports.md). */
+#include "support.h"
+#include "model.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define FAIL(...)                      \
+    do {                               \
+        snprintf(msg, n, __VA_ARGS__); \
+        return 1;                      \
+    } while (0)
+
+/* After the record the free vibration's cells are this many periods of the fastest mode long. */
+#define SUPPORT_FREE_CELL 0.125
+/* Dyadic levels of the search for the floor acceleration's extrema in one cell (2^-60 of a cell is
+ * below the rounding of any time): deeper, a double root of the slope (an inflexion with zero slope,
+ * not an extremum) is left uncut. */
+#define SUPPORT_MAX_DEPTH 60
+
+static void masses(const Variables *v, double *m) {
+    const double a[SUPPORT_MAX_STOREYS] = {v->storeyMass1, v->storeyMass2, v->storeyMass3, v->storeyMass4,
+                                           v->storeyMass5, v->storeyMass6, v->storeyMass7, v->storeyMass8,
+                                           v->storeyMass9, v->storeyMass10};
+    memcpy(m, a, sizeof(a));
+}
+
+static void stiffnesses(const Variables *v, double *k) {
+    const double a[SUPPORT_MAX_STOREYS] = {v->storeyStiffness1, v->storeyStiffness2, v->storeyStiffness3,
+                                           v->storeyStiffness4, v->storeyStiffness5, v->storeyStiffness6,
+                                           v->storeyStiffness7, v->storeyStiffness8, v->storeyStiffness9,
+                                           v->storeyStiffness10};
+    memcpy(k, a, sizeof(a));
+}
+
+int support_validate(const Variables *v, char *msg, size_t n) {
+    if (v->supportKind < 0 || v->supportKind > 2)
+        FAIL("support.kind = %d must be 0 (the ground), 1 (a shear building) or 2 (an isolation platform)",
+             v->supportKind);
+    if (v->supportKind == SUPPORT_GROUND) return 0;
+    if (v->kind != KIND_RECORD && v->kind != KIND_NONE)
+        FAIL("support.kind = %d moves with a record at its base: excitation.kind must be 4 (a record file) or 0, "
+             "not %d (give the pulse as a record file)", v->supportKind, v->kind);
+    if (v->supportKind == SUPPORT_BUILDING) {
+        if (v->storeys < 1 || v->storeys > SUPPORT_MAX_STOREYS)
+            FAIL("building.storeys = %d must be 1 to %d", v->storeys, SUPPORT_MAX_STOREYS);
+        if (v->buildingFloor < 0 || v->buildingFloor > v->storeys)
+            FAIL("building.floor = %d must be 1 to building.storeys = %d (0: the top floor)", v->buildingFloor,
+                 v->storeys);
+        if (!(v->dampingRatio >= 0 && v->dampingRatio < 1))
+            FAIL("building.dampingRatio = %g must be in [0, 1)", v->dampingRatio);
+        double m[SUPPORT_MAX_STOREYS], k[SUPPORT_MAX_STOREYS];
+        masses(v, m);
+        stiffnesses(v, k);
+        for (int i = 0; i < v->storeys; i++) {
+            if (!(m[i] > 0)) FAIL("building.storey[%d].mass = %g must be > 0 kg", i + 1, m[i]);
+            if (!(k[i] > 0)) FAIL("building.storey[%d].stiffness = %g must be > 0 N/m", i + 1, k[i]);
+        }
+    } else {
+        if (!(v->platformMass > 0)) FAIL("platform.mass = %g must be > 0 kg", v->platformMass);
+        if (!(v->platformStiffness >= 0)) FAIL("platform.stiffness = %g must be >= 0 N/m", v->platformStiffness);
+        if (!(v->platformDamping >= 0)) FAIL("platform.damping = %g must be >= 0 N s/m", v->platformDamping);
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ modes */
+
+/* Eigenvalues w and orthonormal eigenvectors (columns of V, row-major n x n) of the symmetric A (destroyed):
+ * cyclic Jacobi rotations (Golub & Van Loan 2013, section 8.5), to rounding. */
+static void jacobi(int n, double *A, double *w, double *V) {
+    for (int i = 0; i < n * n; i++) V[i] = 0.0;
+    for (int i = 0; i < n; i++) V[i * n + i] = 1.0;
+    for (int sweep = 0; sweep < 100; sweep++) {
+        double off = 0.0, diag = 0.0;
+        for (int i = 0; i < n; i++)
+            for (int j = 0; j < n; j++) *(i == j ? &diag : &off) += A[i * n + j] * A[i * n + j];
+        if (off <= 1e-34 * diag) break;
+        for (int p = 0; p < n - 1; p++)
+            for (int q = p + 1; q < n; q++) {
+                double apq = A[p * n + q];
+                if (apq == 0.0) continue;
+                double theta = (A[q * n + q] - A[p * n + p]) / (2.0 * apq);
+                double t = (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+                double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
+                for (int k = 0; k < n; k++) { /* A <- A J */
+                    double akp = A[k * n + p], akq = A[k * n + q];
+                    A[k * n + p] = c * akp - s * akq;
+                    A[k * n + q] = s * akp + c * akq;
+                }
+                for (int k = 0; k < n; k++) { /* A <- J^T A */
+                    double apk = A[p * n + k], aqk = A[q * n + k];
+                    A[p * n + k] = c * apk - s * aqk;
+                    A[q * n + k] = s * apk + c * aqk;
+                }
+                for (int k = 0; k < n; k++) { /* V <- V J */
+                    double vkp = V[k * n + p], vkq = V[k * n + q];
+                    V[k * n + p] = c * vkp - s * vkq;
+                    V[k * n + q] = s * vkp + c * vkq;
+                }
+            }
+    }
+    for (int i = 0; i < n; i++) w[i] = A[i * n + i];
+}
+
+/* The exponential terms of mode r (k1, k2) appended to sm. */
+static void mode_terms(SupportModes *sm, double k1, double k2) {
+    if (k2 > 0) {
+        double disc = k1 * k1 - 4.0 * k2;
+        if (disc < 0) { /* underdamped: one complex pair, taken as Re */
+            sm->lre[sm->nt] = -0.5 * k1;
+            sm->lim[sm->nt++] = 0.5 * sqrt(-disc);
+        } else if (disc == 0) { /* critically damped: one double root */
+            sm->lre[sm->nt] = -0.5 * k1;
+            sm->lim[sm->nt++] = 0.0;
+        } else { /* overdamped: two real roots, the small one without cancellation */
+            double sq = sqrt(disc);
+            sm->lre[sm->nt] = -2.0 * k2 / (k1 + sq);
+            sm->lim[sm->nt++] = 0.0;
+            sm->lre[sm->nt] = -0.5 * (k1 + sq);
+            sm->lim[sm->nt++] = 0.0;
+        }
+    } else if (k1 > 0) { /* a damper without spring */
+        sm->lre[sm->nt] = -k1;
+        sm->lim[sm->nt++] = 0.0;
+    }
+}
+
+void support_derive(const Variables *v, SupportModes *sm) {
+    memset(sm, 0, sizeof(*sm));
+    if (v->supportKind == SUPPORT_PLATFORM) {
+        sm->nm = 1;
+        sm->k2[0] = v->platformStiffness / v->platformMass;
+        sm->k1[0] = v->platformDamping / v->platformMass;
+        sm->c[0] = 1.0;
+        sm->freq[0] = sqrt(sm->k2[0]) / (2.0 * M_PI);
+    } else if (v->supportKind == SUPPORT_BUILDING) {
+        int N = v->storeys, j = (v->buildingFloor == 0 ? N : v->buildingFloor) - 1;
+        double m[SUPPORT_MAX_STOREYS], k[SUPPORT_MAX_STOREYS + 1] = {0};
+        double A[SUPPORT_MAX_STOREYS * SUPPORT_MAX_STOREYS] = {0}, V[SUPPORT_MAX_STOREYS * SUPPORT_MAX_STOREYS];
+        double w2[SUPPORT_MAX_STOREYS];
+        masses(v, m);
+        stiffnesses(v, k);
+        k[N] = 0.0;
+        /* A = M^-1/2 K M^-1/2, tridiagonal */
+        for (int i = 0; i < N; i++) {
+            A[i * N + i] = (k[i] + (i + 1 < N ? k[i + 1] : 0.0)) / m[i];
+            if (i + 1 < N) A[i * N + i + 1] = A[(i + 1) * N + i] = -k[i + 1] / sqrt(m[i] * m[i + 1]);
+        }
+        jacobi(N, A, w2, V);
+        /* modes in increasing frequency */
+        int order[SUPPORT_MAX_STOREYS];
+        for (int i = 0; i < N; i++) order[i] = i;
+        for (int i = 1; i < N; i++)
+            for (int p = i; p > 0 && w2[order[p]] < w2[order[p - 1]]; p--) {
+                int t = order[p];
+                order[p] = order[p - 1];
+                order[p - 1] = t;
+            }
+        double w1 = sqrt(w2[order[0]]), wB = N > 1 ? sqrt(w2[order[1]]) : w1, zeta = v->dampingRatio;
+        /* Rayleigh C = a0 M + a1 K with zeta at modes 1 and 2 (Chopra 2012, section 11.4); one storey:
+         * stiffness-proportional */
+        double a0 = N > 1 ? 2.0 * zeta * w1 * wB / (w1 + wB) : 0.0, a1 = N > 1 ? 2.0 * zeta / (w1 + wB) : 2.0 * zeta / w1;
+        sm->nm = N;
+        for (int r = 0; r < N; r++) {
+            int c = order[r];
+            double om2 = w2[c], gamma = 0.0;
+            /* phi_r = M^-1/2 psi_r: u_j = sum_r phi_jr Gamma_r x_r, Gamma_r = phi_r^T M 1 */
+            for (int i = 0; i < N; i++) gamma += sqrt(m[i]) * V[i * N + c];
+            sm->k2[r] = om2;
+            sm->k1[r] = a0 + a1 * om2;
+            sm->c[r] = V[j * N + c] / sqrt(m[j]) * gamma;
+            sm->freq[r] = sqrt(om2) / (2.0 * M_PI);
+        }
+    }
+    for (int r = 0; r < sm->nm; r++) mode_terms(sm, sm->k1[r], sm->k2[r]);
+    for (int t = 0; t < sm->nt; t++) sm->fastest = fmax(sm->fastest, hypot(sm->lre[t], sm->lim[t]));
+}
+
+/* ------------------------------------------------------------------ one segment */
+
+typedef struct {
+    double re, im;
+} Cx;
+
+static Cx cx(double re, double im) {
+    Cx z = {re, im};
+    return z;
+}
+static Cx cmul(Cx a, Cx b) { return cx(a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re); }
+static Cx cadd(Cx a, Cx b) { return cx(a.re + b.re, a.im + b.im); }
+static Cx cscale(Cx a, double s) { return cx(a.re * s, a.im * s); }
+static double cabs2(Cx a) { return hypot(a.re, a.im); }
+
+/* Mode r's displacement on a segment from (x0, v0) under a_g = a0 + a1 s: its polynomial q[4] and, for
+ * each of its terms (starting at term index t), (Z, Y), all times scale. Returns its number of terms. */
+static int mode_segment(const SupportModes *sm, int r, int t, double x0, double v0, double a0, double a1,
+                        double scale, double *q, Cx *Z, Cx *Y) {
+    double k1 = sm->k1[r], k2 = sm->k2[r];
+    if (k2 > 0) {
+        /* particular solution p0 + p1 s */
+        double p1 = -a1 / k2, p0 = -(a0 - k1 * a1 / k2) / k2, H0 = x0 - p0, H1 = v0 - p1;
+        q[0] += scale * p0;
+        q[1] += scale * p1;
+        double lr = sm->lre[t], li = sm->lim[t];
+        if (li > 0) { /* Re(Z e^(lambda s)) with Re Z = H0, Re(Z lambda) = H1 */
+            Z[t] = cx(scale * H0, scale * (H0 * lr - H1) / li);
+            Y[t] = cx(0.0, 0.0);
+            return 1;
+        }
+        if (k1 * k1 == 4.0 * k2) { /* (Z + Y s) e^(lambda s) */
+            Z[t] = cx(scale * H0, 0.0);
+            Y[t] = cx(scale * (H1 - lr * H0), 0.0);
+            return 1;
+        }
+        double l1 = sm->lre[t], l2 = sm->lre[t + 1], z1 = (H1 - l2 * H0) / (l1 - l2);
+        Z[t] = cx(scale * z1, 0.0);
+        Z[t + 1] = cx(scale * (H0 - z1), 0.0);
+        Y[t] = Y[t + 1] = cx(0.0, 0.0);
+        return 2;
+    }
+    if (k1 > 0) { /* v' + k1 v = -a_g: v = r0 + r1 s + Zv e^(-k1 s) */
+        double r1 = -a1 / k1, r0 = -(a0 - a1 / k1) / k1, Zv = v0 - r0;
+        q[0] += scale * (x0 + Zv / k1);
+        q[1] += scale * r0;
+        q[2] += scale * 0.5 * r1;
+        Z[t] = cx(-scale * Zv / k1, 0.0);
+        Y[t] = cx(0.0, 0.0);
+        return 1;
+    }
+    /* a free mass: x'' = -a_g */
+    q[0] += scale * x0;
+    q[1] += scale * v0;
+    q[2] -= scale * 0.5 * a0;
+    q[3] -= scale * a1 / 6.0;
+    return 0;
+}
+
+/* The k-th derivative of Re((Z + Y s) e^(lambda s)) at s: (lambda^k Z + k lambda^(k-1) Y + lambda^k Y s) e^(lambda s). */
+static double term_derivative(double lr, double li, Cx Z, Cx Y, int k, double s) {
+    Cx lam = cx(lr, li), pk = cx(1.0, 0.0), pk1 = cx(0.0, 0.0);
+    for (int i = 0; i < k; i++) {
+        pk1 = pk;
+        pk = cmul(pk, lam);
+    }
+    Cx c = cadd(cmul(pk, cadd(Z, cscale(Y, s))), cscale(cmul(pk1, Y), (double)k));
+    double e = exp(lr * s);
+    return e * (c.re * cos(li * s) - c.im * sin(li * s));
+}
+
+static double poly_derivative(const double *q, int k, double s) {
+    switch (k) {
+    case 0: return q[0] + s * (q[1] + s * (q[2] + s * q[3]));
+    case 1: return q[1] + s * (2.0 * q[2] + 3.0 * s * q[3]);
+    case 2: return 2.0 * q[2] + 6.0 * s * q[3];
+    case 3: return 6.0 * q[3];
+    default: return 0.0;
+    }
+}
+
+/* u^(k)(s) of table entry e. */
+static double entry_derivative(const SupportModes *sm, const double *e, int k, double s) {
+    double sum = poly_derivative(e, k, s);
+    const double *z = e + 4;
+    for (int t = 0; t < sm->nt; t++, z += 4)
+        if (z[0] != 0.0 || z[1] != 0.0 || z[2] != 0.0 || z[3] != 0.0)
+            sum += term_derivative(sm->lre[t], sm->lim[t], cx(z[0], z[1]), cx(z[2], z[3]), k, s);
+    return sum;
+}
+
+/* A bound on |u^(k)| over [s0, s1] (0 <= s0 <= s1) of entry e. */
+static double entry_bound(const SupportModes *sm, const double *e, int k, double s0, double s1) {
+    /* the polynomial's: sum over p >= k of |q_p| p! / (p - k)! s1^(p - k) */
+    static const double fall[4][4] = {{1, 1, 1, 1}, {0, 1, 2, 3}, {0, 0, 2, 6}, {0, 0, 0, 6}};
+    double b = 0.0;
+    for (int p = k; p < 4; p++) b += fabs(e[p]) * fall[k][p] * pow(s1, p - k);
+    const double *z = e + 4;
+    for (int t = 0; t < sm->nt; t++, z += 4) {
+        double L = hypot(sm->lre[t], sm->lim[t]), Lk = pow(L, k), Lk1 = k > 0 ? pow(L, k - 1) : 0.0;
+        double zz = cabs2(cx(z[0], z[1])), yy = cabs2(cx(z[2], z[3]));
+        b += (Lk * zz + k * Lk1 * yy + Lk * yy * s1) * exp(sm->lre[t] * s0);
+    }
+    return b;
+}
+
+/* ------------------------------------------------------------------ the table */
+
+int support_needed(const Model *M) {
+    return M->v.supportKind != SUPPORT_GROUND && M->v.kind == KIND_RECORD && M->rec && M->d.sup.nm > 0;
+}
+
+int support_moves(const Model *M) { return support_needed(M) && M->sup && M->sup->data; }
+
+/* What a table is built from: the modes, the record's samples (count and hash), their scale and placement. */
+int support_matches(const Model *M, const SupportTable *T) {
+    return T->data && T->n == M->rec->n && T->recHash == M->rec->hash && T->accAmp == M->d.accAmp &&
+           T->startTime == M->v.startTime && memcmp(&T->modes, &M->d.sup, sizeof(SupportModes)) == 0;
+}
+
+void support_free(SupportTable *T, RecordFree release) {
+    if (T->data) release(T->data);
+    memset(T, 0, sizeof(*T));
+}
+
+/* Mode m's displacement and velocity at the end (s = L) of a segment that starts at (*x, *v) under
+ * a_g = a0 + a1 s: they become the next segment's start. */
+static void propagate(const SupportModes *sm, int m, int t, double a0, double a1, double L, double *x, double *v) {
+    double q[4] = {0};
+    Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
+    int nt = mode_segment(sm, m, t, *x, *v, a0, a1, 1.0, q, Z, Y);
+    double xe = poly_derivative(q, 0, L), ve = poly_derivative(q, 1, L);
+    for (int j = t; j < t + nt; j++) {
+        xe += term_derivative(sm->lre[j], sm->lim[j], Z[j], Y[j], 0, L);
+        ve += term_derivative(sm->lre[j], sm->lim[j], Z[j], Y[j], 1, L);
+    }
+    *x = xe;
+    *v = ve;
+}
+
+int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
+    if (!support_needed(M)) {
+        support_free(T, release);
+        return 0;
+    }
+    if (support_matches(M, T)) return 0;
+    support_free(T, release);
+    const SupportModes *sm = &M->d.sup;
+    const Record *r = M->rec;
+    int stride = 4 + 4 * sm->nt;
+    T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
+    if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
+    T->n = r->n;
+    T->nt = sm->nt;
+    T->stride = stride;
+    T->recHash = r->hash;
+    T->accAmp = M->d.accAmp;
+    T->startTime = M->v.startTime;
+    T->modes = *sm;
+    /* every mode starts at rest at the first sample and is carried exactly from sample to sample; entry
+     * n - 1 is the free vibration after the last one (a_g = 0) */
+    double x[SUPPORT_MAX_STOREYS] = {0}, v[SUPPORT_MAX_STOREYS] = {0};
+    for (int i = 0; i < r->n; i++) {
+        int last = i == r->n - 1;
+        double L = last ? 0.0 : r->t[i + 1] - r->t[i];
+        double a0 = last ? 0.0 : M->d.accAmp * r->ah[i], a1 = last ? 0.0 : M->d.accAmp * (r->ah[i + 1] - r->ah[i]) / L;
+        double *e = T->data + (size_t)i * stride;
+        Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
+        for (int m = 0, t = 0; m < sm->nm; m++) {
+            int nt = mode_segment(sm, m, t, x[m], v[m], a0, a1, sm->c[m], e, Z, Y);
+            if (!last) propagate(sm, m, t, a0, a1, L, &x[m], &v[m]);
+            t += nt;
+        }
+        for (int j = 0; j < sm->nt; j++) {
+            double *z = e + 4 + 4 * j;
+            z[0] = Z[j].re;
+            z[1] = Z[j].im;
+            z[2] = Y[j].re;
+            z[3] = Y[j].im;
+        }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ evaluation */
+
+static double record_time(const Model *M, int i) { return M->v.startTime + M->rec->t[i]; }
+
+/* The entry of piece (NULL before the record: the support rests) and its start time. */
+static const double *entry_of(const Model *M, int piece, double *t0) {
+    if (!support_moves(M) || piece < 1 || piece > M->rec->n) return NULL;
+    *t0 = record_time(M, piece - 1);
+    return M->sup->data + (size_t)(piece - 1) * M->sup->stride;
+}
+
+double support_relative_acceleration(const Model *M, double t, int piece) {
+    double t0;
+    const double *e = entry_of(M, piece, &t0);
+    return e ? entry_derivative(&M->d.sup, e, 2, t - t0) : 0.0;
+}
+
+void support_motion(const Model *M, double t, int piece, double *u, double *v) {
+    double t0;
+    const double *e = entry_of(M, piece, &t0);
+    *u = e ? entry_derivative(&M->d.sup, e, 0, t - t0) : 0.0;
+    *v = e ? entry_derivative(&M->d.sup, e, 1, t - t0) : 0.0;
+}
+
+void support_series(const Model *M, double t, int piece, int nc, double *c) {
+    double t0;
+    const double *e = entry_of(M, piece, &t0);
+    if (!e) return;
+    double f = 1.0;
+    for (int k = 0; k <= nc; k++) {
+        c[k] += entry_derivative(&M->d.sup, e, k + 2, t - t0) / f;
+        f *= k + 1;
+    }
+}
+
+/* ------------------------------------------------------------------ cells */
+
+/* The floor's absolute acceleration's slope on entry e: aBase1 + u'''(s); its extrema are its roots. */
+typedef struct {
+    const SupportModes *sm;
+    const double *e;
+    double a1;
+} Slope;
+
+static double slope_at(const Slope *S, double s) { return S->a1 + entry_derivative(S->sm, S->e, 3, s); }
+
+/* The root of the slope in [lo, hi], where it is monotone and changes sign: bisection. */
+static double slope_root(const Slope *S, double lo, double hi) {
+    double flo = slope_at(S, lo);
+    for (int it = 0; it < 200; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (!(mid > lo && mid < hi)) break;
+        double fm = slope_at(S, mid);
+        if ((fm > 0) == (flo > 0)) {
+            lo = mid;
+            flo = fm;
+        } else {
+            hi = mid;
+        }
+    }
+    return 0.5 * (lo + hi);
+}
+
+/* Search the dyadic interval [s0, s1] of a cell for the slope's roots: the first one above x (forward) or
+ * the last one at or below x (backward), written to *root; returns 1 if found. Each dyadic interval is
+ * judged by itself alone, so a root found does not depend on x (results do not depend on the
+ * communication points). */
+static int search(const Slope *S, double s0, double s1, double x, int forward, int depth, double *root) {
+    if (forward ? s1 <= x : s0 > x) return 0;
+    double c = 0.5 * (s0 + s1), rad = 0.5 * (s1 - s0), f = slope_at(S, c), b4 = entry_bound(S->sm, S->e, 4, s0, s1);
+    if (b4 == 0.0 || fabs(f) > b4 * rad) return 0; /* no root (or a constant slope: no extremum) */
+    double d = entry_derivative(S->sm, S->e, 4, c);
+    if (fabs(d) > entry_bound(S->sm, S->e, 5, s0, s1) * rad) { /* monotone: one root at most */
+        double f0 = slope_at(S, s0), f1 = slope_at(S, s1);
+        double r;
+        if (f0 == 0.0) r = s0;
+        else if (f1 == 0.0) r = s1;
+        else if ((f0 > 0) == (f1 > 0)) return 0;
+        else r = slope_root(S, s0, s1);
+        if (forward ? r > x : r <= x) {
+            *root = r;
+            return 1;
+        }
+        return 0;
+    }
+    if (depth >= SUPPORT_MAX_DEPTH) return 0; /* a double root: an inflexion, not an extremum */
+    if (forward) return search(S, s0, c, x, 1, depth + 1, root) || search(S, c, s1, x, 1, depth + 1, root);
+    return search(S, c, s1, x, 0, depth + 1, root) || search(S, s0, c, x, 0, depth + 1, root);
+}
+
+void support_free_cell(const Model *M, double a, double tEnd, double *t0, double *t1) {
+    double L = SUPPORT_FREE_CELL * 2.0 * M_PI / M->d.sup.fastest, k = floor((a - tEnd) / L);
+    if (k < 0) k = 0;
+    if (tEnd + (k + 1.0) * L <= a) k += 1.0;
+    *t0 = tEnd + k * L;
+    *t1 = tEnd + (k + 1.0) * L;
+}
+
+static int cell_search(const Model *M, double a, int piece, double t0, double t1, double aBase1, int forward,
+                       double *edge) {
+    double te;
+    const double *e = entry_of(M, piece, &te);
+    if (!e || !(M->d.sup.fastest > 0)) return 0;
+    Slope S = {&M->d.sup, e, aBase1};
+    double r;
+    if (!search(&S, t0 - te, t1 - te, a - te, forward, 0, &r)) return 0;
+    *edge = te + r;
+    return 1;
+}
+
+double support_next_edge(const Model *M, double a, int piece, double t0, double t1, double aBase1) {
+    double edge;
+    if (cell_search(M, a, piece, t0, t1, aBase1, 1, &edge) && edge > a && edge < t1) return edge;
+    return t1;
+}
+
+double support_cell_start(const Model *M, double a, int piece, double t0, double t1, double aBase1) {
+    double edge;
+    if (cell_search(M, a, piece, t0, t1, aBase1, 0, &edge) && edge <= a && edge > t0) return edge;
+    return t0;
+}

@@ -1,0 +1,92 @@
+/* Supports: what the blocks stand on, between the base's ground motion and the blocks
+ * (docs/supports.md).
+ *
+ *   support.kind 0  the ground itself (the default): the blocks feel the excitation;
+ *                1  a linear shear building: the base moves with the record, the blocks stand on
+ *                   floor j (building.floor, 0 = the top);
+ *                2  an isolation platform: a mass on a linear spring and a viscous damper to the base.
+ *
+ * One-way coupling: the support moves with its base and does not feel the blocks. Its motion is
+ * then exact in closed form: the record is a straight line on each segment between samples and the
+ * support linear, so each mode's displacement x_r (x_r'' + k1_r x_r' + k2_r x_r = -a_g) is a
+ * polynomial plus exponentials on each segment, and so is the floor's displacement relative to the
+ * base, u = sum_r c_r x_r. The support's table holds, for each segment, u's coefficients there
+ * (computed once at initialisation by propagating every mode exactly from sample to sample); the
+ * blocks feel the floor's absolute acceleration a_f = a_g + u''. After the record's last sample the
+ * support vibrates freely, forever (piece n of a record of n samples).
+ *
+ * Units SI; u > 0 towards +x (docs/conventions.md).
+ */
+#ifndef ROCKING_SUPPORT_H
+#define ROCKING_SUPPORT_H
+
+#include <stddef.h>
+
+#include "record.h"
+
+#define SUPPORT_GROUND 0
+#define SUPPORT_BUILDING 1
+#define SUPPORT_PLATFORM 2
+#define SUPPORT_MAX_STOREYS 10
+#define SUPPORT_MAX_TERMS (2 * SUPPORT_MAX_STOREYS)
+
+/* The support's modes (derived from the parameters, part of Derived: no pointers). Mode r:
+ * x_r'' + k1[r] x_r' + k2[r] x_r = -a_g, and the floor's displacement u = sum_r c[r] x_r. Its
+ * exponential terms (one per underdamped or critically damped mode, two per overdamped one, one
+ * for a damper without spring, none for a free mass): e^(lambda s) with lambda = lre + i lim. */
+typedef struct {
+    int nm, nt;
+    double k1[SUPPORT_MAX_STOREYS], k2[SUPPORT_MAX_STOREYS], c[SUPPORT_MAX_STOREYS];
+    double lre[SUPPORT_MAX_TERMS], lim[SUPPORT_MAX_TERMS];
+    double freq[SUPPORT_MAX_STOREYS]; /* natural frequencies, Hz (0: a platform without spring) */
+    double fastest;                   /* largest |lambda|, 1/s */
+} SupportModes;
+
+/* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
+ * after the last sample) holds u(s) = q0 + q1 s + q2 s^2 + q3 s^3 + sum_j Re((Z_j + Y_j s) e^(lambda_j s)),
+ * s the time since sample i: q[4], then (Re Z, Im Z, Re Y, Im Y) for each term. */
+typedef struct {
+    int n, nt, stride;
+    double *data;
+    /* what it was built from */
+    unsigned long long recHash;
+    double accAmp, startTime;
+    SupportModes modes;
+} SupportTable;
+
+struct Model;
+struct Variables;
+
+/* Checks of the support's parameters (with the excitation's kind, which a support needs a record of). */
+int support_validate(const struct Variables *v, char *msg, size_t n);
+/* The modes of the support's parameters. */
+void support_derive(const struct Variables *v, SupportModes *sm);
+
+/* Build (or keep, when its key matches) the table of M's support under M's record. Returns 0, or
+ * nonzero with a one-line reason (out of memory). A model without a moving support needs none:
+ * the table is then emptied. */
+int support_attach(const struct Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n);
+void support_free(SupportTable *T, RecordFree release);
+
+/* The model needs a table: a building or a platform under a record (with its record attached). */
+int support_needed(const struct Model *M);
+/* T was built for M's support and record. */
+int support_matches(const struct Model *M, const SupportTable *T);
+/* The support moves: it needs a table and has it. */
+int support_moves(const struct Model *M);
+/* The floor's acceleration relative to the base (m/s2) at t on piece `piece` (record pieces 1..n-1,
+ * n after the end; 0 before the start: at rest). */
+double support_relative_acceleration(const struct Model *M, double t, int piece);
+/* Its Taylor coefficients c[0..nc] about t (added to c). */
+void support_series(const struct Model *M, double t, int piece, int nc, double *c);
+/* The floor's displacement (m) and velocity (m/s) relative to the base. */
+void support_motion(const struct Model *M, double t, int piece, double *u, double *v);
+/* Cells on which the floor's absolute acceleration is monotone (ground.h's next_cell_edge and cell_start):
+ * each record segment (after the end, each stretch of SUPPORT_FREE_CELL periods of the fastest mode) cut where
+ * the floor's acceleration has an extremum. aBase1 is the base's acceleration slope on the piece (m/s3). */
+double support_next_edge(const struct Model *M, double a, int piece, double t0, double t1, double aBase1);
+double support_cell_start(const struct Model *M, double a, int piece, double t0, double t1, double aBase1);
+/* The cell [t0, t1] of the free vibration that holds a (t0 = the last sample's time, then cells of fixed length). */
+void support_free_cell(const struct Model *M, double a, double tEnd, double *t0, double *t1);
+
+#endif
