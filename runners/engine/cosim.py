@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import functools
 import math
-import numbers
 import os
 import shutil
 import tempfile
@@ -43,19 +42,16 @@ import numpy as np
 from runners.engine.fmu import SCENE_DEFAULTS
 from runners.engine.scene import SCHEMA, SceneError, check_times, implausible_sizes, scene_from_dict
 from runners.engine.ssp import Component, Connection, write_ssp
-from runners.errors import RockingError
+from runners.engine.supports import (COUPLING_KEYS, COUPLINGS, MAX_STOREYS, Building, SupportError, building_from_dict,
+                                     check_coupling, check_damping, check_floor, check_number, positive)
 
 BUILDING = "building"  # the SSP components' instance names
 BLOCK = "block"
-MAX_STOREYS = 10  # ShearBuilding.fmu's storeys
-COUPLINGS = ("one-way", "two-way")
 ENGINES = ("fmpy", "libcosim")
 DEFAULT_STEP = 1e-3  # s
 
-BUILDING_KEYS = {"storeys", "mass", "stiffness", "damping_ratio"}
 # the base motion's FMU parameters a system file may set ([excitation] record, file and pga besides)
 BASE_KEYS = {"excitation.kind", "excitation.scale", "excitation.startTime", "excitation.file"}
-COUPLING_KEYS = {"floor", "mode", "step"}
 
 # the blocks' outputs a result keeps (block 2's only for a stack)
 BLOCK_OUTPUTS = ["block1.theta", "block1.omega", "impacts", "overturned", "lifts", "slides", "energy", "momentum",
@@ -66,23 +62,8 @@ BUILDING_OUTPUTS = ["base.aTotal", "energy", "baseWork", "forceWork", "dampingLo
 STOREY_OUTPUTS = ["u", "v", "a"]
 
 
-class CosimError(RockingError, ValueError):
+class CosimError(SupportError):
     """A system file or a co-simulation request is invalid, or an engine failed; one line."""
-
-
-@dataclass
-class Building:
-    """A linear shear building: floor masses (kg, the structure's own), storey stiffnesses
-    (N/m, storey i joins floor i - 1 to floor i; floor 0 is the base) and the Rayleigh damping
-    ratio at its first two modes."""
-
-    mass: list[float]
-    stiffness: list[float]
-    damping_ratio: float = 0.05
-
-    @property
-    def storeys(self) -> int:
-        return len(self.mass)
 
 
 @dataclass
@@ -152,74 +133,19 @@ FILE_NAMES = {"floor": "[coupling] floor", "coupling": "[coupling] mode", "step"
               "base_start": "[excitation] start_time"}
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def _positive(where: str, values: list[Any], given: Any = None) -> list[float]:
-    """``values`` as floats; CosimError unless each is a finite number > 0."""
-    for v in values:
-        if not _is_number(v) or v <= 0:
-            raise CosimError(f"{where}: expected positive numbers (one, or one per storey), got "
-                             f"{values if given is None else given!r}")
-    return [float(v) for v in values]
-
-
-def _floats(where: str, value: Any, n: int) -> list[float]:
-    values = value if isinstance(value, list) else [value] * n
-    if len(values) != n:
-        raise CosimError(f"{where}: {len(values)} values for {n} storeys")
-    return _positive(where, values, value)
-
-
-def _check_damping(where: str, zeta: Any) -> float:
-    if not _is_number(zeta) or not 0 <= zeta < 1:
-        raise CosimError(f"{where} must be in [0, 1), got {zeta!r}")
-    return float(zeta)
-
-
-def _check_floor(where: str, floor: Any, storeys: int) -> int:
-    if isinstance(floor, bool) or not isinstance(floor, numbers.Integral) or not 1 <= floor <= storeys:
-        raise CosimError(f"{where} must be a floor of the building, 1 to {storeys}, got {floor!r}")
-    return int(floor)
-
-
-def _check_coupling(where: str, mode: Any) -> str:
-    if mode not in COUPLINGS:
-        raise CosimError(f"{where} must be one of {', '.join(COUPLINGS)}, got {mode!r}")
-    return mode
-
-
-def _check_number(where: str, value: Any, what: str = "a number of seconds") -> float:
-    if not _is_number(value):
-        raise CosimError(f"{where} must be {what}, got {value!r}")
-    return float(value)
-
-
-def building_from_dict(d: dict[str, Any], where: str) -> Building:
-    unknown = sorted(set(d) - BUILDING_KEYS)
-    if unknown:
-        raise CosimError(f"{where}: [building] unknown key '{unknown[0]}' (expected {', '.join(sorted(BUILDING_KEYS))})")
-    n = d.get("storeys")
-    if n is None and isinstance(d.get("mass"), list):
-        n = len(d["mass"])
-    if n is None:
-        raise CosimError(f"{where}: [building] needs storeys (1 to {MAX_STOREYS}), or mass as a list of one value per floor")
-    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_STOREYS:
-        raise CosimError(f"{where}: [building] storeys must be a whole number from 1 to {MAX_STOREYS}, got {n!r}")
-    for key, what in (("mass", "kg per floor"), ("stiffness", "N/m per storey")):
-        if key not in d:
-            raise CosimError(f"{where}: [building] needs {key} ({what}: one value, or a list bottom to top)")
-    return Building(_floats(f"{where}: [building] mass", d["mass"], n),
-                    _floats(f"{where}: [building] stiffness", d["stiffness"], n),
-                    _check_damping(f"{where}: [building] damping_ratio", d.get("damping_ratio", 0.05)))
-
-
 def system_tables(data: dict[str, Any], source: str = "<system>") -> tuple[Building, int, str, float, dict[str, Any]]:
     """Validate a system document's [building] and [coupling] tables: the building, the blocks'
     floor, the coupling mode and the communication step (s), and the rest of the document (the
     blocks' scene)."""
-    data = dict(data)
+    try:
+        return _system_tables(dict(data), source)
+    except CosimError:
+        raise
+    except SupportError as exc:
+        raise CosimError(str(exc)) from None
+
+
+def _system_tables(data: dict[str, Any], source: str) -> tuple[Building, int, str, float, dict[str, Any]]:
     if "building" not in data:
         raise CosimError(f"{source}: no [building] table (storeys, mass, stiffness, damping_ratio)")
     building = data.pop("building")
@@ -233,9 +159,9 @@ def system_tables(data: dict[str, Any], source: str = "<system>") -> tuple[Build
     unknown = sorted(set(coupling) - COUPLING_KEYS)
     if unknown:
         raise CosimError(f"{source}: [coupling] unknown key '{unknown[0]}' (expected floor, mode, step)")
-    floor = _check_floor(f"{source}: {FILE_NAMES['floor']}", coupling.get("floor", b.storeys), b.storeys)
-    mode = _check_coupling(f"{source}: {FILE_NAMES['coupling']}", coupling.get("mode", "two-way"))
-    step = _check_number(f"{source}: {FILE_NAMES['step']}", coupling.get("step", DEFAULT_STEP))
+    floor = check_floor(f"{source}: {FILE_NAMES['floor']}", coupling.get("floor", b.storeys), b.storeys)
+    mode = check_coupling(f"{source}: {FILE_NAMES['coupling']}", coupling.get("mode", "two-way"))
+    step = check_number(f"{source}: {FILE_NAMES['step']}", coupling.get("step", DEFAULT_STEP))
     return b, floor, mode, step, data
 
 
@@ -341,11 +267,11 @@ def check_system(system: System, names: dict[str, str] | None = None, where: str
     name = {**{k: k for k in FILE_NAMES}, **(names or {})}
     try:
         _check_building(system.building, name)
-        _check_floor(name["floor"], system.floor, system.building.storeys)
-        _check_coupling(name["coupling"], system.coupling)
+        check_floor(name["floor"], system.floor, system.building.storeys)
+        check_coupling(name["coupling"], system.coupling)
         _check_times(system, name)
         _check_inputs(system, name)
-    except CosimError as exc:
+    except SupportError as exc:
         raise InvalidSystem(f"{where}: {exc}" if where else str(exc)) from None
 
 
@@ -356,18 +282,18 @@ def _check_building(b: Any, name: dict[str, str]) -> None:
         values = getattr(b, key)
         if not isinstance(values, (list, tuple)) or not 1 <= len(values) <= MAX_STOREYS:
             raise CosimError(f"{name[key]} must be a list of 1 to {MAX_STOREYS} values, one per storey, got {values!r}")
-        _positive(name[key], list(values))
+        positive(name[key], list(values))
     if len(b.stiffness) != len(b.mass):
         raise CosimError(f"{name['stiffness']}: {len(b.stiffness)} values for {len(b.mass)} storeys")
-    _check_damping(name["damping_ratio"], b.damping_ratio)
+    check_damping(name["damping_ratio"], b.damping_ratio)
 
 
 def _check_times(system: System, name: dict[str, str]) -> None:
-    _check_number(name["step"], system.step)
+    check_number(name["step"], system.step)
     if not system.step > 0:
         raise CosimError(f"{name['step']} must be > 0 s, got {system.step!r}")
     if system.stop_time is not None:
-        _check_number(name["stop_time"], system.stop_time)
+        check_number(name["stop_time"], system.stop_time)
         check_step(system.stop_time, system.step, name["step"])
     else:
         n_steps(system)
@@ -383,8 +309,8 @@ def _check_inputs(system: System, name: dict[str, str]) -> None:
                          "the building's record)")
     if not Path(system.base_file).is_file():
         raise CosimError(f"{name['base_file']} {system.base_file}: no such record file")
-    _check_number(name["base_scale"], system.base_scale, "a finite number")
-    _check_number(name["base_start"], system.base_start)
+    check_number(name["base_scale"], system.base_scale, "a finite number")
+    check_number(name["base_start"], system.base_start)
 
 
 # a floor lighter than this (kg), or blocks this many times heavier than their floor: floor masses

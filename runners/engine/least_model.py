@@ -292,6 +292,9 @@ def answer(fm, scene: Scene, method: str = "fmu", accuracy: float = 1e-2, output
     if int(merged.get("contact.model", 0)) == 1 and method not in ("fmu", "auto"):
         raise ArgumentError(f"method {method} solves rigid rocking; the scene's [contact] model is "
                             "rocking-sliding (method fmu, or auto)")
+    if int(merged.get("support.kind", 0)) != 0 and method not in ("fmu", "auto"):
+        raise ArgumentError(f"method {method} solves a block on the ground; the scene's [building] or [platform] "
+                            "runs inside the FMU (method fmu, or auto)")
     if method in PYTHON_METHODS:
         return _python_answer(fm, scene, merged, method, h, rtol)
     if method == "auto":  # auto tries rigid rocking first, as for every scene

@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from runners.engine.supports import TABLES as SUPPORT_TABLES
+from runners.engine.supports import SupportError, scene_support
 from runners.errors import RockingError
 
 # "housner" is the momentum law: Housner's coefficient for one block, the
@@ -270,11 +272,16 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     if not name.isprintable():  # a newline or a control character would break every listing's lines
         raise SceneError(f"{source}: name must be one line of printable characters, got {name[:60]!r}")
     scene = Scene(name=name, source=source)
+    data = dict(data)
+    try:  # what the blocks stand on (runners.engine.supports): the FMU's own support
+        scene.parameters.update(scene_support(data, source))
+    except SupportError as exc:
+        raise SceneError(str(exc)) from None
     for table, content in data.items():
         if table == "name":
             continue
         if table not in SCHEMA:
-            raise SceneError(f"{source}: unknown table [{table}] (expected {', '.join(SCHEMA)})")
+            raise SceneError(f"{source}: unknown table [{table}] (expected {', '.join((*SCHEMA, *SUPPORT_TABLES))})")
         if not isinstance(content, dict):
             raise SceneError(f"{source}: '{table}' must be a table")
         for key, value in content.items():

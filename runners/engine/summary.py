@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from runners.engine import supports
 from runners.engine.fmu import RunResult
 from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene, uplift_threshold
 
@@ -175,6 +176,9 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         "final_energy_J": float(out["energy"][-1]),
         "wall_time_s": result.wall_time,
     }
+    support = supports.describe(p)
+    if support is not None:
+        summary["support"] = support
     end = excitation_end(p)
     if end is not None and end <= float(result.time[0]):  # (a negative start time shifted it out of the run)
         summary["excitation_end_s"] = end
@@ -494,6 +498,7 @@ def format_summary(s: dict[str, Any]) -> str:
         block,
         f"restitution      {s['restitution_law']}",
         f"excitation       {s['excitation']}",
+        *([f"support          {s['support']}"] if "support" in s else []),
         simulated_line(s),
     ]
     outcome = s["final_state"]
