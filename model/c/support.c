@@ -177,7 +177,10 @@ void support_derive(const Variables *v, SupportModes *sm) {
         }
     }
     for (int r = 0; r < sm->nm; r++) mode_terms(sm, sm->k1[r], sm->k2[r]);
-    for (int t = 0; t < sm->nt; t++) sm->fastest = fmax(sm->fastest, hypot(sm->lre[t], sm->lim[t]));
+    for (int t = 0; t < sm->nt; t++) {
+        sm->labs[t] = hypot(sm->lre[t], sm->lim[t]);
+        sm->fastest = fmax(sm->fastest, sm->labs[t]);
+    }
 }
 
 /* ------------------------------------------------------------------ one segment */
@@ -193,7 +196,6 @@ static Cx cx(double re, double im) {
 static Cx cmul(Cx a, Cx b) { return cx(a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re); }
 static Cx cadd(Cx a, Cx b) { return cx(a.re + b.re, a.im + b.im); }
 static Cx cscale(Cx a, double s) { return cx(a.re * s, a.im * s); }
-static double cabs2(Cx a) { return hypot(a.re, a.im); }
 
 /* Mode r's displacement on a segment from (x0, v0) under a_g = a0 + a1 s: its polynomial q[4] and, for
  * each of its terms (starting at term index t), (Z, Y), all times scale. Returns its number of terms. */
@@ -271,19 +273,44 @@ static double entry_derivative(const SupportModes *sm, const double *e, int k, d
     return sum;
 }
 
-/* A bound on |u^(k)| over [s0, s1] (0 <= s0 <= s1) of entry e. */
+/* A bound on |u^(k)| over [s0, s1] (0 <= s0 <= s1) of entry e: the polynomial's sum over p >= k of
+ * |q_p| p! / (p - k)! s1^(p - k), and each term's (|lambda|^k |Z| + k |lambda|^(k-1) |Y| + |lambda|^k |Y| s1)
+ * e^(Re lambda s0) (Re lambda <= 0). */
 static double entry_bound(const SupportModes *sm, const double *e, int k, double s0, double s1) {
-    /* the polynomial's: sum over p >= k of |q_p| p! / (p - k)! s1^(p - k) */
     static const double fall[4][4] = {{1, 1, 1, 1}, {0, 1, 2, 3}, {0, 0, 2, 6}, {0, 0, 0, 6}};
-    double b = 0.0;
-    for (int p = k; p < 4; p++) b += fabs(e[p]) * fall[k][p] * pow(s1, p - k);
+    double b = 0.0, sp = 1.0;
+    for (int p = k; p < 4; p++, sp *= s1) b += fabs(e[p]) * fall[k][p] * sp;
     const double *z = e + 4;
     for (int t = 0; t < sm->nt; t++, z += 4) {
-        double L = hypot(sm->lre[t], sm->lim[t]), Lk = pow(L, k), Lk1 = k > 0 ? pow(L, k - 1) : 0.0;
-        double zz = cabs2(cx(z[0], z[1])), yy = cabs2(cx(z[2], z[3]));
-        b += (Lk * zz + k * Lk1 * yy + Lk * yy * s1) * exp(sm->lre[t] * s0);
+        double L = sm->labs[t], Lk1 = 1.0;
+        for (int i = 1; i < k; i++) Lk1 *= L;
+        double zz = sqrt(z[0] * z[0] + z[1] * z[1]), yy = sqrt(z[2] * z[2] + z[3] * z[3]);
+        if (zz == 0.0 && yy == 0.0) continue;
+        b += Lk1 * (L * (zz + yy * s1) + k * yy) * exp(sm->lre[t] * s0);
     }
     return b;
+}
+
+/* u^(k)(s) and u^(k+1)(s) of entry e, with one exponential per term. */
+static void entry_derivative2(const SupportModes *sm, const double *e, int k, double s, double *d0, double *d1) {
+    *d0 = poly_derivative(e, k, s);
+    *d1 = poly_derivative(e, k + 1, s);
+    const double *z = e + 4;
+    for (int t = 0; t < sm->nt; t++, z += 4) {
+        if (z[0] == 0.0 && z[1] == 0.0 && z[2] == 0.0 && z[3] == 0.0) continue;
+        Cx lam = cx(sm->lre[t], sm->lim[t]), pk = cx(1.0, 0.0), pk1 = cx(0.0, 0.0);
+        for (int i = 0; i < k; i++) {
+            pk1 = pk;
+            pk = cmul(pk, lam);
+        }
+        Cx Z = cx(z[0], z[1]), Y = cx(z[2], z[3]), ZY = cadd(Z, cscale(Y, s));
+        /* order k: lambda^k (Z + Y s) + k lambda^(k-1) Y; order k + 1: lambda^(k+1) (Z + Y s) + (k + 1) lambda^k Y */
+        Cx c0 = cadd(cmul(pk, ZY), cscale(cmul(pk1, Y), (double)k));
+        Cx c1 = cadd(cmul(cmul(pk, lam), ZY), cscale(cmul(pk, Y), (double)(k + 1)));
+        double ex = exp(sm->lre[t] * s), cs = cos(sm->lim[t] * s), sn = sin(sm->lim[t] * s);
+        *d0 += ex * (c0.re * cs - c0.im * sn);
+        *d1 += ex * (c1.re * cs - c1.im * sn);
+    }
 }
 
 /* ------------------------------------------------------------------ the table */
@@ -433,9 +460,10 @@ static double slope_root(const Slope *S, double lo, double hi) {
  * communication points). */
 static int search(const Slope *S, double s0, double s1, double x, int forward, int depth, double *root) {
     if (forward ? s1 <= x : s0 > x) return 0;
-    double c = 0.5 * (s0 + s1), rad = 0.5 * (s1 - s0), f = slope_at(S, c), b4 = entry_bound(S->sm, S->e, 4, s0, s1);
+    double c = 0.5 * (s0 + s1), rad = 0.5 * (s1 - s0), f, d, b4 = entry_bound(S->sm, S->e, 4, s0, s1);
+    entry_derivative2(S->sm, S->e, 3, c, &f, &d);
+    f += S->a1;
     if (b4 == 0.0 || fabs(f) > b4 * rad) return 0; /* no root (or a constant slope: no extremum) */
-    double d = entry_derivative(S->sm, S->e, 4, c);
     if (fabs(d) > entry_bound(S->sm, S->e, 5, s0, s1) * rad) { /* monotone: one root at most */
         double f0 = slope_at(S, s0), f1 = slope_at(S, s1);
         double r;

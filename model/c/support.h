@@ -37,7 +37,7 @@
 typedef struct {
     int nm, nt;
     double k1[SUPPORT_MAX_STOREYS], k2[SUPPORT_MAX_STOREYS], c[SUPPORT_MAX_STOREYS];
-    double lre[SUPPORT_MAX_TERMS], lim[SUPPORT_MAX_TERMS];
+    double lre[SUPPORT_MAX_TERMS], lim[SUPPORT_MAX_TERMS], labs[SUPPORT_MAX_TERMS]; /* and |lambda| */
     double freq[SUPPORT_MAX_STOREYS]; /* natural frequencies, Hz (0: a platform without spring) */
     double fastest;                   /* largest |lambda|, 1/s */
 } SupportModes;
