@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from runners.engine.fmu import FMUError, RockingFMU
-from runners.engine.scene import load_scene, scene_from_dict
+from runners.engine.scene import SceneError, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = sorted((ROOT / "docs").glob("*.md"))
@@ -150,11 +150,15 @@ def test_model_page_states_the_block_counts_the_fmu_accepts(fmu_path):
 
 @pytest.mark.parametrize("path", sorted((ROOT / "examples").glob("*.toml")), ids=lambda p: p.name)
 def test_example_scene_loads(path):
-    if "building" in tomllib.loads(path.read_text(encoding="utf-8")):  # a system file (docs/cosimulation.md)
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+    if "building" in data and "excitation" in data:  # a system file (docs/cosimulation.md)
         from runners.engine.cosim import load_system
 
         system = load_system(path)
         assert system.blocks and system.base_file.is_file()
+    if data.get("coupling", {}).get("mode", "two-way") == "two-way" and ("building" in data or "platform" in data):
+        with pytest.raises(SceneError, match="runners cosim"):  # co-simulated only (docs/supports.md)
+            load_scene(path)
         return
     scene = load_scene(path)
     assert scene.parameters or scene.record or scene.file

@@ -21,22 +21,23 @@ CABINET = {"block": {"half_width": 0.3, "half_height": 1.0, "mass": 1000.0},
            "contact": {"model": "rocking-sliding", "mu_ground": 0.5},
            "excitation": {"file": PULSE}, "simulation": {"stop_time": 4.0}}
 FRAME = {"storeys": 3, "mass": [2000.0, 2000.0, 2000.0], "stiffness": 2.5e6, "damping_ratio": 0.02}
+ONE_WAY = {"mode": "one-way"}
 
 
 def test_a_building_table_sets_the_fmus_support():
-    p = scene_from_dict({**CABINET, "building": FRAME}).parameters
+    p = scene_from_dict({**CABINET, "building": FRAME, "coupling": ONE_WAY}).parameters
     assert p["support.kind"] == 1 and p["building.storeys"] == 3 and p["building.floor"] == 3  # the top
     assert [p[f"building.storey[{i}].mass"] for i in (1, 2, 3)] == [2000.0] * 3
     assert [p[f"building.storey[{i}].stiffness"] for i in (1, 2, 3)] == [2.5e6] * 3
-    p = scene_from_dict({**CABINET, "building": FRAME, "coupling": {"floor": 2}}).parameters
+    p = scene_from_dict({**CABINET, "building": FRAME, "coupling": {"floor": 2, **ONE_WAY}}).parameters
     assert p["building.floor"] == 2
-    p = scene_from_dict({**CABINET, "platform": {"mass": 800.0, "stiffness": 4e4}}).parameters
+    p = scene_from_dict({**CABINET, "platform": {"mass": 800.0, "stiffness": 4e4}, "coupling": ONE_WAY}).parameters
     assert (p["support.kind"], p["platform.mass"], p["platform.stiffness"], p["platform.damping"]) == (2, 800.0, 4e4, 0.0)
 
 
 def test_the_scene_runs_the_floor_the_fmu_is_given(fmu, tmp_path):
     """runners.simulate of a scene on the second floor is the FMU run with the same parameters."""
-    scene = {**CABINET, "building": FRAME, "coupling": {"floor": 2}}
+    scene = {**CABINET, "building": FRAME, "coupling": {"floor": 2, **ONE_WAY}}
     result = runners.simulate(scene, stop_time=4.0)
     assert result.summary["support"].startswith("shear building, 3 storeys")
     t, a = read_at2(PULSE)
@@ -46,7 +47,7 @@ def test_the_scene_runs_the_floor_the_fmu_is_given(fmu, tmp_path):
     direct = fmu.run(p, 4.0, 0.001, ["block1.maxAbsTheta", "impacts"])
     assert result.summary["impacts"] == int(direct.outputs["impacts"][-1]) > 0
     assert result.summary["max_abs_theta_rad"] == pytest.approx(direct.outputs["block1.maxAbsTheta"][-1], abs=1e-12)
-    on_top = runners.simulate({**CABINET, "building": FRAME}, stop_time=4.0)  # another floor, another motion
+    on_top = runners.simulate({**CABINET, "building": FRAME, "coupling": ONE_WAY}, stop_time=4.0)  # another floor, another motion
     assert abs(on_top.summary["max_abs_theta_rad"] - result.summary["max_abs_theta_rad"]) > 1e-3
 
 
@@ -61,13 +62,14 @@ def test_a_statue_on_an_isolator_does_not_tip_where_it_rocks_on_the_ground():
     ({"building": FRAME, "platform": {"mass": 1.0}}, "not both"),
     ({"coupling": {"floor": 1}}, "needs a [building] or a [platform]"),
     ({"building": FRAME, "coupling": {"mode": "two-way"}}, "runners cosim"),
+    ({"building": FRAME}, "two-way\" (the default) runs as a co-simulation"),
     ({"building": FRAME, "coupling": {"mode": "sideways"}}, "[coupling] mode must be one of one-way, two-way"),
-    ({"building": FRAME, "coupling": {"floor": 4}}, "[coupling] floor must be a floor of the building, 1 to 3"),
-    ({"building": {**FRAME, "stiffness": [1.0, 2.0]}}, "stiffness: 2 values for 3 storeys"),
-    ({"building": {**FRAME, "height": 3.0}}, "[building] unknown key 'height'"),
-    ({"platform": {"stiffness": 1.0}}, "[platform] needs mass"),
-    ({"platform": {"mass": 1.0, "damping": -1.0}}, "[platform] damping must be a number >= 0"),
-    ({"platform": {"mass": 1.0}, "coupling": {"floor": 1}}, "floor is a building's"),
+    ({"building": FRAME, "coupling": {"floor": 4, **ONE_WAY}}, "[coupling] floor must be a floor of the building, 1 to 3"),
+    ({"building": {**FRAME, "stiffness": [1.0, 2.0]}, "coupling": ONE_WAY}, "stiffness: 2 values for 3 storeys"),
+    ({"building": {**FRAME, "height": 3.0}, "coupling": ONE_WAY}, "[building] unknown key 'height'"),
+    ({"platform": {"stiffness": 1.0}, "coupling": ONE_WAY}, "[platform] needs mass"),
+    ({"platform": {"mass": 1.0, "damping": -1.0}, "coupling": ONE_WAY}, "[platform] damping must be a number >= 0"),
+    ({"platform": {"mass": 1.0}, "coupling": {"floor": 1, **ONE_WAY}}, "floor is a building's"),
     ({"building": 3}, "'building' must be a table"),
 ])
 def test_bad_support_tables_are_refused_in_one_line(tables, words):
@@ -78,7 +80,8 @@ def test_bad_support_tables_are_refused_in_one_line(tables, words):
 
 def test_the_command_line_refuses_a_bad_support_with_status_2(tmp_path):
     scene = tmp_path / "floor.toml"
-    scene.write_text(f'[excitation]\nfile = "{PULSE}"\n[building]\nstoreys = 2\nmass = 1000.0\nstiffness = -1.0\n')
+    scene.write_text(f'[excitation]\nfile = "{PULSE}"\n[building]\nstoreys = 2\nmass = 1000.0\nstiffness = -1.0\n'
+                     '[coupling]\nmode = "one-way"\n')
     db = tmp_path / "runs.db"
     done = subprocess.run([sys.executable, "-m", "runners.cli", "simulate", str(scene), "--db", f"sqlite:///{db}"],
                           capture_output=True, text=True)
@@ -89,4 +92,5 @@ def test_the_command_line_refuses_a_bad_support_with_status_2(tmp_path):
 
 def test_python_solvers_refuse_a_support():
     with pytest.raises(runners.RockingError, match="runs inside the FMU"):
-        runners.simulate({**CABINET, "contact": {"model": "rigid-rocking"}, "building": FRAME}, method="scipy")
+        runners.simulate({**CABINET, "contact": {"model": "rigid-rocking"}, "building": FRAME, "coupling": ONE_WAY},
+                         method="scipy")

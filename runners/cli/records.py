@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from runners.cli import output
@@ -235,6 +236,46 @@ def cmd_fragility(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_floor_spectra(args: argparse.Namespace) -> int:
+    import matplotlib
+    import numpy as np
+    from tqdm import tqdm
+
+    matplotlib.use("Agg")  # files only
+    from db.records import samples
+    from db.schema import Record, Sweep
+    from db.session import open_database
+    from runners.analysis.floor_spectra import plot_floor_spectra
+    from runners.cli.parser import resolve_latest
+    from runners.engine.floor_motion import floor_spectra
+    from runners.engine.tables import stored_sweep
+
+    factory = open_database(args.db, write=False)
+    sweep_id = resolve_latest(factory, Sweep, args.sweep, "sweep")
+    sw, params, refs = stored_sweep(factory, sweep_id)
+    if not refs:
+        raise ValueError(f"sweep {sw.id} is not over records (runners sweep --records)")
+    p = {**sw.grid["defaults"], **params}
+    with factory() as session:
+        records = [(r.name, *samples(session.get(Record, r.id))[:2]) for r in refs]
+    bar = tqdm(total=len(records), desc="floor spectra", unit="record", disable=args.quiet or not sys.stderr.isatty(),
+               leave=False)
+    fs = floor_spectra(p, records, progress=lambda i: bar.update(1))
+    bar.close()
+    out = Path(args.out or f"floor-spectra-{sw.id}.png")
+    plot_floor_spectra(out, fs, f"sweep {sw.id}: floor response spectra, {len(records)} records, per unit PGA of the base")
+    if args.json:
+        emit_json({"sweep": sw.id, **fs.as_dict(), "figure": str(out)})
+        return 0
+    i = int(fs.percentiles("floor")[1].argmax())
+    print(f"support          {fs.description}\n"
+          f"floor spectrum   median Sa / PGA peaks at {fs.percentiles('floor')[1][i]:.3g} at T = {fs.periods[i]:.3g} s "
+          f"(the base's median there: {fs.percentiles('base')[1][i]:.3g})\n"
+          f"PFA / PGA        median {float(np.median(fs.pfa)):.3g} over {len(records)} records\n"
+          f"figure           {out}")
+    return 0
+
+
 def _ida_run(oc, i: int) -> dict:
     """One run of an IDA as ida --json lists it: each block's own peak and overturn, and of a
     stack `blocks`: each block's demands (peak |theta| / alpha; rocking-sliding: peak |slip| in m,
@@ -325,7 +366,8 @@ def add_parser(sub) -> None:
         st = sub.add_parser(name, help=what)
         st.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
         st.add_argument("--im", default="pga", action=Once,
-                        help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s)")
+                        help="intensity measure: pga (g, default), pgv (m/s), pgd (m) or arias (m/s); on a "
+                             "[building] or [platform] also pfa (g, the peak floor acceleration) or sa_t1 (g)")
         st.add_argument("--out", type=figure_file, metavar="PNG",
                         help=f"figure, .png, .pdf or .svg (default {name}-SWEEP_ID.png)")
         st.add_argument("--select", action="append", metavar="NAME=VALUE",
@@ -355,5 +397,12 @@ def add_parser(sub) -> None:
         files(st, writes=["out"])
         st.set_defaults(func=func)
         studies.append(st)
-    for p in (imp, ls, sh, ex, *studies):
+    fl = sub.add_parser("floor-spectra", help="floor response spectra (Sa / PGA, 5 % damping) of a sweep over records "
+                        "on a [building] or [platform], against the base's (docs/supports.md)")
+    fl.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
+    fl.add_argument("--out", type=figure_file, metavar="PNG",
+                    help="figure, .png, .pdf or .svg (default floor-spectra-SWEEP_ID.png)")
+    files(fl, writes=["out"])
+    fl.set_defaults(func=cmd_floor_spectra)
+    for p in (imp, ls, sh, ex, *studies, fl):
         common(p, db=True)

@@ -283,7 +283,7 @@ def sweep_units(grid: dict) -> dict[str, str]:
     from runners.engine.tables import variable_units
 
     units = {"w": "1 (omega_g / p)", "a": "1 (a_g / (g tan alpha))", "scale": "", "pga": "m/s2", "pgv": "m/s",
-             "pgd": "m", "arias": "m/s", "pga_g": "g", "overturn_time": "s", "rest_time": "s",
+             "pgd": "m", "arias": "m/s", "pga_g": "g", "pfa": "m/s2", "sa_t1": "m/s2", "overturn_time": "s", "rest_time": "s",
              "slide_time": "s", "lift_time": "s", "fall_time": "s",
              "peak1_over_alpha": "1 (max |theta1| / alpha1)", "peak2_over_alpha": "1 (max |theta2| / alpha2)"}
     if grid.get("intensity"):

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from runners.engine.intensity import G0, SCALING
+from runners.engine.intensity import G0, SCALING, SUPPORT_MEASURES
 from runners.engine.scene import KINDS, MAX_PGA_G
 
 @dataclass(frozen=True)
@@ -68,10 +68,11 @@ def scales(p: dict[str, Any]) -> tuple[float, float]:
     return pf, g * b / h
 
 
-IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0)}  # --im measure: unit of its levels, factor to SI
+# --im measure: unit of its levels, factor to SI (pfa and sa_t1: scenes on a support, runners.engine.floor_motion)
+IM_UNITS = {"pga": ("g", G0), "pgv": ("m/s", 1.0), "pfa": ("g", G0), "sa_t1": ("g", G0)}
 # levels beyond these are a mistake of units, not an earthquake (the largest horizontal PGA
 # recorded is about 2.7 g, the largest PGV about 3 m/s: runners.engine.records' notes)
-IM_LIMITS = {"pga": MAX_PGA_G, "pgv": 10.0}
+IM_LIMITS = {"pga": MAX_PGA_G, "pgv": 10.0, "pfa": 4 * MAX_PGA_G, "sa_t1": 4 * MAX_PGA_G}
 
 
 @dataclass(frozen=True)
@@ -101,12 +102,13 @@ class Intensity:
 
 
 def parse_intensity(spec: str) -> Intensity:
-    """pga=START:STOP:COUNT (g) or pgv=START:STOP:COUNT (m/s), levels above zero."""
+    """pga=START:STOP:COUNT (g), pgv=START:STOP:COUNT (m/s), or on a support pfa= or sa_t1= (g), levels above zero."""
     name, eq, rng = spec.partition("=")
     parts = rng.split(":")
     name = name.strip().lower()
     if not eq or len(parts) != 3 or name not in IM_UNITS:
-        raise ValueError(f"--im {spec!r}: expected pga=START:STOP:COUNT (in g) or pgv=START:STOP:COUNT (in m/s)")
+        raise ValueError(f"--im {spec!r}: expected pga=START:STOP:COUNT (in g) or pgv=START:STOP:COUNT (in m/s); on a "
+                         "[building] or [platform], also pfa= or sa_t1= (in g)")
     try:
         start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
     except ValueError:
@@ -307,7 +309,10 @@ class Grid:
                 over["excitation.amplitude"] = [None if h else float(x) for x, h in zip((a * acc).tolist(), harmonic)]
 
     def as_json(self) -> dict[str, Any]:
+        through = {str(r.id): {k: r.measures[k] for k in SUPPORT_MEASURES if k in r.measures}
+                   for r in self.records or [] if any(k in r.measures for k in SUPPORT_MEASURES)}
         return {"axes": [[a.name, a.start, a.stop, a.count] + ([True] if a.integer else []) for a in self.axes],
+                **({"support_measures": through} if through else {}),
                 "records": [r.id for r in self.records] if self.records else None,
                 "intensity": None if self.intensity is None else
                 [self.intensity.measure, self.intensity.start, self.intensity.stop, self.intensity.count]}

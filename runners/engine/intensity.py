@@ -54,8 +54,11 @@ class Measures:
 
 
 # how each measure of a record scaled by s changes: s^power (0: it does not change)
-SCALING = {"pga": 1, "pgv": 1, "pgd": 1, "arias": 2, "d5_95": 0, "mean_period": 0}
-UNITS = {"pga": "m/s2", "pgv": "m/s", "pgd": "m", "arias": "m/s", "d5_95": "s", "mean_period": "s"}
+SCALING = {"pga": 1, "pgv": 1, "pgd": 1, "arias": 2, "d5_95": 0, "mean_period": 0,
+           "pfa": 1, "sa_t1": 1}  # the last two through a support (runners.engine.floor_motion)
+SUPPORT_MEASURES = ("pfa", "sa_t1")  # a record's measures through a scene's support, not stored with the record
+UNITS = {"pga": "m/s2", "pgv": "m/s", "pgd": "m", "arias": "m/s", "d5_95": "s", "mean_period": "s",
+         "pfa": "m/s2", "sa_t1": "m/s2"}
 
 
 def _check(t: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-BISECTIONS = 64  # halvings of a bracket: below the rounding of any segment's time
+BISECTIONS = 36  # halvings of a bracket: the extremum to 1.5e-11 of its segment, |u| there to rounding (its error is quadratic)
 
 
 @dataclass(frozen=True)

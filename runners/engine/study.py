@@ -47,7 +47,9 @@ if TYPE_CHECKING:
     import pandas as pd
 
 DISPLAY = {"pga": ("PGA", "g", G0), "pgv": ("PGV", "m/s", 1.0), "pgd": ("PGD", "m", 1.0),
-           "arias": ("Arias intensity", "m/s", 1.0)}
+           "arias": ("Arias intensity", "m/s", 1.0),
+           # through a scene's support (runners.engine.floor_motion)
+           "pfa": ("peak floor acceleration", "g", G0), "sa_t1": ("Sa(T1, 5 %) of the base", "g", G0)}
 
 
 @dataclass
@@ -249,8 +251,9 @@ class Outcomes:
     def uplift_threshold(self) -> float | None:
         """The PGA (in g0 = 9.80665 m/s2, as every PGA here) below which no record can lift the
         block (or the stack) from rest: g tan(alpha) with the model's own g (parameter g, 9.81 m/s2
-        by default) for one block, the stack's uplift acceleration for two."""
-        if self.measure != "pga":
+        by default) for one block, the stack's uplift acceleration for two. On a support the threshold is the
+        floor's: it bounds the peak floor acceleration (measure pfa), not the base's PGA."""
+        if self.measure != ("pfa" if int(self.params.get("support.kind", 0)) else "pga"):
             return None
         from runners.engine.sweep import scales
 
@@ -273,6 +276,9 @@ class Outcomes:
         thr = self.uplift_threshold()
         if thr is None:
             return None
+        return self._uplift_words(thr).replace("PGA", "PFA") if self.measure == "pfa" else self._uplift_words(thr)
+
+    def _uplift_words(self, thr: float) -> str:
         if self.sliding and self.two:
             return (f"no record below PGA {thr:.4g} g can move the stack from rest: the least of its uplift "
                     f"acceleration and mu g of its two contacts (muGround {float(self.params['contact.muGround']):g}, "

@@ -6,7 +6,8 @@
 - ``[platform]``: an isolation platform, ``mass`` (kg), ``stiffness`` (N/m, default 0) and
   ``damping`` (N s/m, default 0);
 - ``[coupling]``: ``floor`` (the blocks' floor, default the top), ``mode`` (``"one-way"``: the support
-  does not feel the blocks; ``"two-way"``) and, for a co-simulation, ``step`` (s).
+  does not feel the blocks; ``"two-way"``, the default, which ``runners cosim`` co-simulates) and, for a
+  co-simulation, ``step`` (s).
 
 A scene with one of them runs the support inside RockingBlock.fmu (:func:`fmu_parameters`); a system
 file for ``runners cosim`` gives the building to ShearBuilding.fmu (runners.engine.cosim). Units SI.
@@ -168,10 +169,11 @@ def scene_support(data: dict[str, Any], source: str) -> dict[str, Any]:
     unknown = sorted(set(coupling) - COUPLING_KEYS)
     if unknown:
         raise SupportError(f"{source}: [coupling] unknown key '{unknown[0]}' (expected floor, mode, step)")
-    mode = check_coupling(f"{source}: [coupling] mode", coupling.get("mode", "one-way"))
+    mode = check_coupling(f"{source}: [coupling] mode", coupling.get("mode", "two-way"))
     if mode == "two-way":
-        raise SupportError(f"{source}: [coupling] mode = \"two-way\" runs as a co-simulation: runners cosim {source} "
-                           "(the FMU's own support is coupled one-way)")
+        given = "" if "mode" in coupling else " (the default)"
+        raise SupportError(f"{source}: [coupling] mode = \"two-way\"{given} runs as a co-simulation: runners cosim "
+                           f"{source}; the FMU's own support is coupled one-way: set [coupling] mode = \"one-way\"")
     if platform is not None:
         if "floor" in coupling:
             raise SupportError(f"{source}: [coupling] floor is a building's; the blocks stand on the [platform]")

@@ -203,6 +203,7 @@ def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_s
             raise ValueError(f"record {bad[0]} has no {intensity.measure}: it cannot be scaled to a level of it")
     with factory.begin() as session:
         refs = record_refs(session, [r.id for r in chosen])
+        refs = through_support(session, refs, scene.parameters, names, intensity)
     notes = []
     start = float(scene.parameters.get("excitation.startTime", 0.0))
     longer = [r for r in refs if start + r.end > scene.stop_time] if scene.stop_time_given else []
@@ -214,7 +215,41 @@ def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_s
     return refs, intensity, notes
 
 
-def record_refs(session, ids: list[int]) -> list[RecordRef]:
+SUPPORT_PREFIXES = ("support.", "building.", "platform.")
+
+
+def through_support(session, refs: list[RecordRef], p: dict[str, Any], names: list[str],
+                    intensity: Intensity | None) -> list[RecordRef]:
+    """The records with their measures through the scene's support (runners.engine.floor_motion: PFA and
+    Sa(T1)), which --im pfa and sa_t1 scale by; unchanged on the ground, or when an axis changes the support."""
+    from db.records import samples
+    from db.schema import Record
+    from runners.engine.intensity import SUPPORT_MEASURES
+
+    varied = [n for n in names if n.startswith(SUPPORT_PREFIXES)]
+    on_support = int(p.get("support.kind", 0)) != 0
+    if intensity is not None and intensity.measure in SUPPORT_MEASURES:
+        if not on_support:
+            raise ValueError(f"--im {intensity.measure}: a measure of the floor the blocks stand on; the scene has no "
+                             "[building] or [platform]")
+        if varied:
+            raise ValueError(f"--im {intensity.measure}: --grid {varied[0]} changes the support, and with it every "
+                             f"record's {intensity.measure}: scale by pga or pgv")
+    if not on_support or varied:
+        return refs
+    from runners.engine.floor_motion import support_measures
+
+    out = []
+    for r in refs:
+        t, ah, _ = samples(session.get(Record, r.id))
+        measures = {**r.measures, **support_measures(p, t, ah)}
+        if intensity is not None and not measures.get(intensity.measure, 0) > 0:
+            raise ValueError(f"record {r.name} has no {intensity.measure}: it cannot be scaled to a level of it")
+        out.append(RecordRef(r.id, r.name, r.sha256, r.end, measures))
+    return out
+
+
+def record_refs(session, ids: list[int], support: dict | None = None) -> list[RecordRef]:
     """The RecordRefs of stored records, in the given order (their measures computed if missing)."""
     from db.records import MEASURES, samples
     from db.schema import Record
@@ -229,13 +264,14 @@ def record_refs(session, ids: list[int]) -> list[RecordRef]:
     for i in ids:
         r = by_id[i]
         t, _, _ = samples(r)
-        out.append(RecordRef(r.id, r.name, r.sha256, float(t[-1]), {k: getattr(r, k) for k in MEASURES}))
+        through = (support or {}).get(str(r.id), {})  # the sweep's measures through its support
+        out.append(RecordRef(r.id, r.name, r.sha256, float(t[-1]), {**{k: getattr(r, k) for k in MEASURES}, **through}))
     return out
 
 
 def grid_of(session, sw: Sweep) -> Grid:
     g = sw.grid
-    recs = record_refs(session, g["records"]) if g.get("records") else None
+    recs = record_refs(session, g["records"], g.get("support_measures")) if g.get("records") else None
     return Grid([Axis(*a) for a in g["axes"]], recs, Intensity(*g["intensity"]) if g.get("intensity") else None)
 
 

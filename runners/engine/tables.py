@@ -29,6 +29,7 @@ from sqlalchemy.orm import aliased, sessionmaker
 
 from db import series as packed
 from db.records import MEASURES
+from runners.engine.intensity import SUPPORT_MEASURES
 from db.schema import Block, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene, Sweep
 
 # outcome columns of a run (db.schema.RunSummary) and their pandas dtypes; nullable ones hold
@@ -199,8 +200,9 @@ def record_refs(session, sw: Sweep) -> list | None:
     missing = [i for i in ids if i not in found]
     if missing:
         raise ValueError(f"record {missing[0]} of sweep {sw.id} is no longer in the database")
-    return [RecordRef(i, found[i].name, found[i].sha256, 0.0, {m: getattr(found[i], m) for m in MEASURES})
-            for i in ids]
+    through = sw.grid.get("support_measures") or {}  # measures through the sweep's support
+    return [RecordRef(i, found[i].name, found[i].sha256, 0.0,
+                      {**{m: getattr(found[i], m) for m in MEASURES}, **through.get(str(i), {})}) for i in ids]
 
 
 def stored_sweep(factory: sessionmaker, sweep_id: int) -> tuple[Sweep, dict, list | None]:
@@ -236,6 +238,8 @@ def sweep_columns(sw: Sweep) -> dict[str, str]:
         cols["scale"] = "float64"
         cols.update({m: "float64" for m in SCALED})
         cols["pga_g"] = "float64"
+        if g.get("support_measures"):  # through the scene's support (runners.engine.floor_motion)
+            cols.update({m: "float64" for m in SUPPORT_MEASURES})
     cols.update(status="string", error_message="string")
     cols.update(OUTCOMES)
     return cols
