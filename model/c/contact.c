@@ -352,7 +352,11 @@ void contact_sample_rest(Model *M, double end, const Logger *log) {
     double a = M->s.t, T[2], N[2];
     int piece = model_piece(M, a);
     for (;;) {
-        double b = next_cell_edge(M, a, piece);
+        /* at rest every contact's friction demand is |a_h| / (g + a_v): a floor's span whose bound stays within the
+         * least demand met so far, and within mu, changes no monitor; its cells are skipped (its end is sampled) */
+        double least = INFINITY, quiet;
+        for (int c = 0; c < contacts(M); c++) least = fmin(least, fmin(M->s.demandMax[c], mu(M, c)));
+        double b = ground_quiet(M, a, piece, least, &quiet) ? quiet : next_cell_edge(M, a, piece);
         if (!(b > a && b < end)) break;
         contact_rest(M, b, 0, T, N);
         contact_sample(M, b, T, N, contact_rest, log);

@@ -417,6 +417,19 @@ static int support_piece(const Model *M, double a, int piece) {
     return support_moves(M) && a >= M->d.excStart && piece >= 1 && piece <= M->rec->n;
 }
 
+int ground_quiet(const Model *M, double a, int piece, double slope, double *end) {
+    if (!support_piece(M, a, piece)) return 0;
+    double t0, t1, s, h0, v0, h1, v1;
+    support_span(M, a, piece, &t0, &t1, &s);
+    /* the base is a straight line on the piece (0 after the record): its extremes are at the ends */
+    excitation_piece(M, a, piece, &h0, &v0);
+    excitation_piece(M, t1, piece, &h1, &v1);
+    double bound = fmax(fabs(h0), fabs(h1)) + support_acceleration_bound(M, piece, a, t1) + fabs(M->v.ahIn);
+    double gmin = M->v.g + fmin(v0, v1) + M->v.avIn;
+    *end = t1;
+    return gmin > 0 && bound < (1.0 - 1e-9) * slope * gmin;
+}
+
 double next_cell_edge(const Model *M, double a, int piece) {
     const Derived *d = &M->d;
     if (M->v.kind == KIND_NONE) return INFINITY;

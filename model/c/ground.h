@@ -64,6 +64,10 @@ double next_breakpoint(const Model *M, double t, int piece);
  * holds a (a itself outside the excitation), and the piece that starts at
  * the edge b that follows piece. */
 double next_cell_edge(const Model *M, double a, int piece);
+/* On a moving support: whether |horizontal acceleration| <= slope (g + vertical acceleration) holds, by a bound,
+ * from a to the end of the span of cells that holds it (written to end: a cell edge); 0 elsewhere. The rest phases
+ * skip such spans: no uplift (slope = upliftSlope), no new extreme of the monitors (a running friction demand). */
+int ground_quiet(const Model *M, double a, int piece, double slope, double *end);
 double cell_start(const Model *M, double a, int piece);
 int next_piece(const Model *M, int piece, double b);
 

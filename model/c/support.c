@@ -415,6 +415,12 @@ void support_motion(const Model *M, double t, int piece, double *u, double *v) {
     *v = e ? entry_derivative(&M->d.sup, e, 1, t - t0) : 0.0;
 }
 
+double support_acceleration_bound(const Model *M, int piece, double t0, double t1) {
+    double te;
+    const double *e = entry_of(M, piece, &te);
+    return e ? entry_bound(&M->d.sup, e, 2, t0 - te, t1 - te) : 0.0;
+}
+
 void support_series(const Model *M, double t, int piece, int nc, double *c) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
