@@ -323,7 +323,7 @@ int support_moves(const Model *M) { return support_needed(M) && M->sup && M->sup
 
 /* What a table is built from: the modes, the record's samples (count and hash), their scale and placement. */
 int support_matches(const Model *M, const SupportTable *T) {
-    return T->data && T->n == M->rec->n && T->recHash == M->rec->hash && T->accAmp == M->d.accAmp &&
+    return T->data && T->n == M->rec->n && T->recHash == M->rec->hash &&
            T->startTime == M->v.startTime && memcmp(&T->modes, &M->d.sup, sizeof(SupportModes)) == 0;
 }
 
@@ -332,16 +332,35 @@ void support_free(SupportTable *T, RecordFree release) {
     memset(T, 0, sizeof(*T));
 }
 
+/* e^(lambda_j L) of every term, for one segment length L (computed again only when L changes). */
+typedef struct {
+    double L;
+    Cx e[SUPPORT_MAX_TERMS];
+} Powers;
+
+static void powers_at(const SupportModes *sm, double L, Powers *P) {
+    if (P->L == L) return;
+    P->L = L;
+    for (int j = 0; j < sm->nt; j++) {
+        double ex = exp(sm->lre[j] * L);
+        P->e[j] = cx(ex * cos(sm->lim[j] * L), ex * sin(sm->lim[j] * L));
+    }
+}
+
 /* Mode m's displacement and velocity at the end (s = L) of a segment that starts at (*x, *v) under
  * a_g = a0 + a1 s: they become the next segment's start. */
-static void propagate(const SupportModes *sm, int m, int t, double a0, double a1, double L, double *x, double *v) {
+static void propagate(const SupportModes *sm, int m, int t, double a0, double a1, double L, const Powers *P,
+                      double *x, double *v) {
     double q[4] = {0};
     Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
     int nt = mode_segment(sm, m, t, *x, *v, a0, a1, 1.0, q, Z, Y);
     double xe = poly_derivative(q, 0, L), ve = poly_derivative(q, 1, L);
     for (int j = t; j < t + nt; j++) {
-        xe += term_derivative(sm->lre[j], sm->lim[j], Z[j], Y[j], 0, L);
-        ve += term_derivative(sm->lre[j], sm->lim[j], Z[j], Y[j], 1, L);
+        /* Re((Z + Y L) E) and Re((lambda (Z + Y L) + Y) E) */
+        Cx lam = cx(sm->lre[j], sm->lim[j]), ZY = cadd(Z[j], cscale(Y[j], L));
+        Cx d0 = cmul(ZY, P->e[j]), d1 = cmul(cadd(cmul(lam, ZY), Y[j]), P->e[j]);
+        xe += d0.re;
+        ve += d1.re;
     }
     *x = xe;
     *v = ve;
@@ -363,21 +382,27 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
     T->nt = sm->nt;
     T->stride = stride;
     T->recHash = r->hash;
-    T->accAmp = M->d.accAmp;
     T->startTime = M->v.startTime;
     T->modes = *sm;
     /* every mode starts at rest at the first sample and is carried exactly from sample to sample; entry
-     * n - 1 is the free vibration after the last one (a_g = 0) */
+     * n - 1 is the free vibration after the last one (a_g = 0). The table is the record's at scale 1: the
+     * support is linear and starts at rest, so the motion under excitation.scale is the table's times it
+     * (a sweep over scales builds it once). */
     double x[SUPPORT_MAX_STOREYS] = {0}, v[SUPPORT_MAX_STOREYS] = {0};
+    Powers P;
+    P.L = NAN;
     for (int i = 0; i < r->n; i++) {
         int last = i == r->n - 1;
         double L = last ? 0.0 : r->t[i + 1] - r->t[i];
-        double a0 = last ? 0.0 : M->d.accAmp * r->ah[i], a1 = last ? 0.0 : M->d.accAmp * (r->ah[i + 1] - r->ah[i]) / L;
+        double a0 = last ? 0.0 : r->ah[i], a1 = last ? 0.0 : (r->ah[i + 1] - r->ah[i]) / L;
         double *e = T->data + (size_t)i * stride;
         Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
         for (int m = 0, t = 0; m < sm->nm; m++) {
             int nt = mode_segment(sm, m, t, x[m], v[m], a0, a1, sm->c[m], e, Z, Y);
-            if (!last) propagate(sm, m, t, a0, a1, L, &x[m], &v[m]);
+            if (!last) {
+                powers_at(sm, L, &P);
+                propagate(sm, m, t, a0, a1, L, &P, &x[m], &v[m]);
+            }
             t += nt;
         }
         for (int j = 0; j < sm->nt; j++) {
@@ -405,20 +430,20 @@ static const double *entry_of(const Model *M, int piece, double *t0) {
 double support_relative_acceleration(const Model *M, double t, int piece) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
-    return e ? entry_derivative(&M->d.sup, e, 2, t - t0) : 0.0;
+    return e ? M->d.accAmp * entry_derivative(&M->d.sup, e, 2, t - t0) : 0.0;
 }
 
 void support_motion(const Model *M, double t, int piece, double *u, double *v) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
-    *u = e ? entry_derivative(&M->d.sup, e, 0, t - t0) : 0.0;
-    *v = e ? entry_derivative(&M->d.sup, e, 1, t - t0) : 0.0;
+    *u = e ? M->d.accAmp * entry_derivative(&M->d.sup, e, 0, t - t0) : 0.0;
+    *v = e ? M->d.accAmp * entry_derivative(&M->d.sup, e, 1, t - t0) : 0.0;
 }
 
 double support_acceleration_bound(const Model *M, int piece, double t0, double t1) {
     double te;
     const double *e = entry_of(M, piece, &te);
-    return e ? entry_bound(&M->d.sup, e, 2, t0 - te, t1 - te) : 0.0;
+    return e ? fabs(M->d.accAmp) * entry_bound(&M->d.sup, e, 2, t0 - te, t1 - te) : 0.0;
 }
 
 void support_series(const Model *M, double t, int piece, int nc, double *c) {
@@ -427,7 +452,7 @@ void support_series(const Model *M, double t, int piece, int nc, double *c) {
     if (!e) return;
     double f = 1.0;
     for (int k = 0; k <= nc; k++) {
-        c[k] += entry_derivative(&M->d.sup, e, k + 2, t - t0) / f;
+        c[k] += M->d.accAmp * entry_derivative(&M->d.sup, e, k + 2, t - t0) / f;
         f *= k + 1;
     }
 }
@@ -438,10 +463,10 @@ void support_series(const Model *M, double t, int piece, int nc, double *c) {
 typedef struct {
     const SupportModes *sm;
     const double *e;
-    double a1;
+    double a1, scale; /* the base's slope (m/s3) and the record's scale (the table's at scale 1) */
 } Slope;
 
-static double slope_at(const Slope *S, double s) { return S->a1 + entry_derivative(S->sm, S->e, 3, s); }
+static double slope_at(const Slope *S, double s) { return S->a1 + S->scale * entry_derivative(S->sm, S->e, 3, s); }
 
 /* The root of the slope in [lo, hi], where it is monotone and changes sign: bisection. */
 static double slope_root(const Slope *S, double lo, double hi) {
@@ -466,11 +491,12 @@ static double slope_root(const Slope *S, double lo, double hi) {
  * communication points). */
 static int search(const Slope *S, double s0, double s1, double x, int forward, int depth, double *root) {
     if (forward ? s1 <= x : s0 > x) return 0;
-    double c = 0.5 * (s0 + s1), rad = 0.5 * (s1 - s0), f, d, b4 = entry_bound(S->sm, S->e, 4, s0, s1);
+    double c = 0.5 * (s0 + s1), rad = 0.5 * (s1 - s0), f, d, b4 = fabs(S->scale) * entry_bound(S->sm, S->e, 4, s0, s1);
     entry_derivative2(S->sm, S->e, 3, c, &f, &d);
-    f += S->a1;
+    f = S->a1 + S->scale * f;
+    d *= S->scale;
     if (b4 == 0.0 || fabs(f) > b4 * rad) return 0; /* no root (or a constant slope: no extremum) */
-    if (fabs(d) > entry_bound(S->sm, S->e, 5, s0, s1) * rad) { /* monotone: one root at most */
+    if (fabs(d) > fabs(S->scale) * entry_bound(S->sm, S->e, 5, s0, s1) * rad) { /* monotone: one root at most */
         double f0 = slope_at(S, s0), f1 = slope_at(S, s1);
         double r;
         if (f0 == 0.0) r = s0;
@@ -501,7 +527,7 @@ static int cell_search(const Model *M, double a, int piece, double t0, double t1
     double te;
     const double *e = entry_of(M, piece, &te);
     if (!e || !(M->d.sup.fastest > 0)) return 0;
-    Slope S = {&M->d.sup, e, aBase1};
+    Slope S = {&M->d.sup, e, aBase1, M->d.accAmp};
     double r;
     if (!search(&S, t0 - te, t1 - te, a - te, forward, 0, &r)) return 0;
     *edge = te + r;

@@ -44,13 +44,13 @@ typedef struct {
 
 /* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
  * after the last sample) holds u(s) = q0 + q1 s + q2 s^2 + q3 s^3 + sum_j Re((Z_j + Y_j s) e^(lambda_j s)),
- * s the time since sample i: q[4], then (Re Z, Im Z, Re Y, Im Y) for each term. */
+ * s the time since sample i, at the record's scale 1: q[4], then (Re Z, Im Z, Re Y, Im Y) for each term. */
 typedef struct {
     int n, nt, stride;
     double *data;
     /* what it was built from */
     unsigned long long recHash;
-    double accAmp, startTime;
+    double startTime;
     SupportModes modes;
 } SupportTable;
 
