@@ -105,9 +105,15 @@ def _segments(t: np.ndarray, a: np.ndarray, s: Support, flow: _Flow) -> tuple[np
     """The state at each sample and each segment's (a0, slope); the last 'segment' is the free vibration."""
     slope = np.append(np.diff(a) / np.diff(t), 0.0)
     a0 = np.append(a[:-1], 0.0)
-    z = np.zeros((len(t), 2 * s.n))
-    for i, h in enumerate(np.diff(t)):
-        z[i + 1] = flow.matrix(float(h)) @ np.r_[z[i], a0[i], slope[i]]
+    n2 = 2 * s.n
+    z = np.zeros((len(t), n2))
+    parts: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    for i, h in enumerate(np.diff(t).tolist()):
+        if h not in parts:
+            m = flow.matrix(h)
+            parts[h] = (m[:, :n2], m[:, n2], m[:, n2 + 1])
+        F, fa, fs = parts[h]
+        z[i + 1] = F @ z[i] + fa * a0[i] + fs * slope[i]
     return z, a0, slope
 
 

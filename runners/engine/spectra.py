@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+SCALAR_PERIODS = 4  # at most this many periods: the recurrence runs on plain floats, one period at a time
 BISECTIONS = 36  # halvings of a bracket: the extremum to 1.5e-11 of its segment, |u| there to rounding (its error is quadratic)
 
 
@@ -149,14 +150,29 @@ def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[n
     slope = np.diff(a) / h
     maps: dict[float, tuple[np.ndarray, ...]] = {}
     zero, one = np.zeros_like(w), np.ones_like(w)
-    for i, hi in enumerate(h):
+    scalar = len(w) <= SCALAR_PERIODS  # a few oscillators: plain floats beat numpy's per-call cost
+    for i, hi in enumerate(h.tolist()):
         if hi not in maps:
             hh = np.full_like(w, hi)
             cols = []
             for basis in ((one, zero, zero, zero), (zero, one, zero, zero), (zero, zero, one, zero), (zero, zero, zero, one)):
                 seg = _Segments(w, zeta, *basis)
                 cols.append((seg.u(hh), seg.v(hh)))
-            maps[hi] = tuple(np.array(c) for c in zip(*cols))  # (u row: 4 coefficients), (v row)
+            cu, cv = (np.array(c) for c in zip(*cols))  # (u row: 4 coefficients), (v row)
+            maps[hi] = (cu, cv) if not scalar else (cu.T.tolist(), cv.T.tolist())
+    if scalar:
+        ai, si, hs = a.tolist(), slope.tolist(), h.tolist()
+        for k in range(len(w)):
+            uk, vk = 0.0, 0.0
+            col_u, col_v = [0.0] * n, [0.0] * n
+            for i, hi in enumerate(hs):
+                c, d = maps[hi][0][k], maps[hi][1][k]
+                uk, vk = (c[0] * uk + c[1] * vk + c[2] * ai[i] + c[3] * si[i],
+                          d[0] * uk + d[1] * vk + d[2] * ai[i] + d[3] * si[i])
+                col_u[i + 1], col_v[i + 1] = uk, vk
+            u[:, k], v[:, k] = col_u, col_v
+        return u, v
+    for i, hi in enumerate(h.tolist()):
         cu, cv = maps[hi]
         u[i + 1] = cu[0] * u[i] + cu[1] * v[i] + cu[2] * a[i] + cu[3] * slope[i]
         v[i + 1] = cv[0] * u[i] + cv[1] * v[i] + cv[2] * a[i] + cv[3] * slope[i]
