@@ -42,7 +42,8 @@ import numpy as np
 from runners.engine.fmu import SCENE_DEFAULTS
 from runners.engine.scene import SCHEMA, SceneError, check_times, implausible_sizes, scene_from_dict
 from runners.engine.ssp import Component, Connection, write_ssp
-from runners.engine.supports import (COUPLING_KEYS, COUPLINGS, MAX_STOREYS, Building, SupportError, building_from_dict,
+from runners.engine.supports import COUPLINGS  # noqa: F401 (cosim.COUPLINGS, as before)
+from runners.engine.supports import (COUPLING_KEYS, MAX_STOREYS, Building, SupportError, building_from_dict,
                                      check_coupling, check_damping, check_floor, check_number, positive)
 
 BUILDING = "building"  # the SSP components' instance names
