@@ -295,6 +295,23 @@ def impact(blk: SlidingBlock, s: int, omega_minus: float, slip_rate_minus: float
 # ----------------------------------------------------------------------------------------- the run
 
 
+def mode_after_impact(flat: bool, vp: float, mode: int, s_new: int,
+                      mu_below_tan: bool) -> tuple[int, int, int, str | None]:
+    """The mode after an impact that left the block flat (``flat``) or on pivot side ``s_new``, slipping at
+    ``vp`` (m/s; 0: it sticks); ``mode`` is the mode before, ``mu_below_tan`` says mu <= tan(alpha). Returns
+    (mode, its side or slip sign, slip direction sigma, the switch to record or None). A flat landing rests (no slip left) or slides (a squat block, mu <= tan(alpha))
+    or slide-rocks; otherwise the block rocks on its landing corner, sticking or sliding."""
+    if flat:
+        if vp == 0.0:
+            return REST, s_new, 0, "rest"
+        sig = 1 if vp > 0 else -1
+        return (SLIDE, sig, sig, "slide") if mu_below_tan else (SLIDE_ROCK, sig, sig, "slide-rock")
+    if vp == 0.0:
+        return ROCK, s_new, 0, None if mode == ROCK else "stick"
+    sig = 1 if vp > 0 else -1
+    return SLIDE_ROCK, s_new, sig, None if mode == SLIDE_ROCK else "slide-rock"
+
+
 @dataclass
 class Run:
     """What one run of the reference gives. Arrays at the integrator's steps and at events."""
@@ -587,23 +604,9 @@ class _Solver:
             run.impact_energy_change.append(e_after - e_before)
             run.events.append(("impact", te))
             wp, vp = res.omega_plus, res.slip_rate_plus
-            if res.flat:
-                if vp == 0.0:
-                    new, s_out, sig = REST, s_new, 0
-                    self.switch(te, mode, REST, "rest")
-                else:
-                    sig = 1 if vp > 0 else -1
-                    new, s_out = (SLIDE, sig) if blk.mu <= self.tan_a else (SLIDE_ROCK, sig)
-                    self.switch(te, mode, new, "slide" if new == SLIDE else "slide-rock")
-            elif vp == 0.0:
-                new, s_out, sig = ROCK, s_new, 0
-                if mode != ROCK:
-                    self.switch(te, mode, ROCK, "stick")
-            else:
-                sig = 1 if vp > 0 else -1
-                new, s_out = SLIDE_ROCK, s_new
-                if mode != SLIDE_ROCK:
-                    self.switch(te, mode, SLIDE_ROCK, "slide-rock")
+            new, s_out, sig, why = mode_after_impact(res.flat, vp, mode, s_new, blk.mu <= self.tan_a)
+            if why:
+                self.switch(te, mode, new, why)
             self.record_row(te, 0.0, wp, u, vp, new, s_out)
             return te, (0.0, wp, u, vp), new, s_out, sig
         # friction limit in Rock

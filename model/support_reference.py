@@ -139,7 +139,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from model.sliding_reference import (MODE_NAMES, OVERTURNED, REST, ROCK, SLIDE, SLIDE_ROCK, Excitation,
-                                     SlidingBlock, SlidingReferenceError, record, sine_pulse)
+                                     SlidingBlock, SlidingReferenceError, mode_after_impact, record, sine_pulse)
+from model.sliding_reference import _relocate as _relocate_state
 
 __all__ = ["Building", "Platform", "RigidGround", "Run", "ImpactOutcome", "impact_on_floor", "simulate",
            "read_at2", "record_file", "sine_pulse", "record", "SlidingBlock", "Excitation",
@@ -893,24 +894,9 @@ class _Solver:
             run.impact_momentum_jump.append(p_after - p_before)
             run.impact_energy_change.append(e_after - e_before)
             run.events.append(("impact", te))
-            wp, vp = res.omega_plus, res.slip_rate_plus
-            if res.flat:
-                if vp == 0.0:
-                    new, s_out, sig = REST, s_new, 0
-                    self.switch(te, mode, REST, "rest")
-                else:
-                    sig = 1 if vp > 0 else -1
-                    new, s_out = (SLIDE, sig) if self.mu <= self.tan_a else (SLIDE_ROCK, sig)
-                    self.switch(te, mode, new, "slide" if new == SLIDE else "slide-rock")
-            elif vp == 0.0:
-                new, s_out, sig = ROCK, s_new, 0
-                if mode != ROCK:
-                    self.switch(te, mode, ROCK, "stick")
-            else:
-                sig = 1 if vp > 0 else -1
-                new, s_out = SLIDE_ROCK, s_new
-                if mode != SLIDE_ROCK:
-                    self.switch(te, mode, SLIDE_ROCK, "slide-rock")
+            new, s_out, sig, why = mode_after_impact(res.flat, res.slip_rate_plus, mode, s_new, self.mu <= self.tan_a)
+            if why:
+                self.switch(te, mode, new, why)
             self.record_row(te, y2, new, s_out, sig, ag_next)
             return te, y2, new, s_out, sig
         # friction limit in Rock
@@ -954,24 +940,8 @@ def _refine(sol, ev, te: float, direction: float, t_lo: float, t_hi: float) -> f
 def _relocate(step, event, t0: float, samples: int = 256) -> float | None:
     """The first downward crossing of ``event`` after it has been positive on one step's dense
     output ``step`` (from t0), to one float; None if it never leaves 0 upwards."""
-    ts = np.linspace(t0, step.t, samples + 1)[1:]
-    was_positive, prev = False, t0
-    for tt in ts:
-        g = event(tt, step(tt))
-        if g > 0:
-            was_positive, prev = True, tt
-        elif was_positive:
-            a, b = prev, float(tt)
-            while True:
-                mid = 0.5 * (a + b)
-                if mid <= a or mid >= b:
-                    break
-                if event(mid, step(mid)) > 0:
-                    a = mid
-                else:
-                    b = mid
-            return float(b)
-    return None
+    found = _relocate_state(step, event, t0, samples)
+    return None if found is None else found[0]
 
 
 def simulate(block: SlidingBlock, support: Support, excitation: Excitation | None, t_end: float,

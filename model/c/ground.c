@@ -273,7 +273,7 @@ void model_ground_piece(const Model *M, double t, int piece, double *ah, double 
     excitation_piece(M, t, piece, &h, &vert);
     /* a support moves under it: its floor's acceleration relative to the base (0 without one; the
      * support is rigid vertically) */
-    if (M->v.kind == KIND_RECORD) h += support_relative_acceleration(M, t, piece);
+    if (M->sup) h += support_relative_acceleration(M, t, piece);
     *ah = h + M->v.ahIn;
     *av = vert + M->v.avIn;
 }
@@ -376,7 +376,7 @@ void ground_series(const Model *M, double t, int piece, int n, double *ah, doubl
             av[k] = M->v.verticalAmplitude * w[k];
         }
     }
-    if (M->v.kind == KIND_RECORD) support_series(M, t, piece, n, ah);
+    if (M->sup) support_series(M, t, piece, n, ah);
     ah[0] += M->v.ahIn;
     av[0] += M->v.avIn;
 }

@@ -197,47 +197,48 @@ static Cx cmul(Cx a, Cx b) { return cx(a.re * b.re - a.im * b.im, a.re * b.im + 
 static Cx cadd(Cx a, Cx b) { return cx(a.re + b.re, a.im + b.im); }
 static Cx cscale(Cx a, double s) { return cx(a.re * s, a.im * s); }
 
-/* Mode r's displacement on a segment from (x0, v0) under a_g = a0 + a1 s: its polynomial q[4] and, for
- * each of its terms (starting at term index t), (Z, Y), all times scale. Returns its number of terms. */
-static int mode_segment(const SupportModes *sm, int r, int t, double x0, double v0, double a0, double a1,
-                        double scale, double *q, Cx *Z, Cx *Y) {
+/* Mode r's displacement on a segment from (x0, v0) under a_g = a0 + a1 s: its polynomial q[4] (zeroed by the
+ * caller) and, for each of its terms (starting at term index t), (Z, Y). Returns its
+ * number of terms. */
+static int mode_segment(const SupportModes *sm, int r, int t, double x0, double v0, double a0, double a1, double *q,
+                        Cx *Z, Cx *Y) {
     double k1 = sm->k1[r], k2 = sm->k2[r];
     if (k2 > 0) {
         /* particular solution p0 + p1 s */
         double p1 = -a1 / k2, p0 = -(a0 - k1 * a1 / k2) / k2, H0 = x0 - p0, H1 = v0 - p1;
-        q[0] += scale * p0;
-        q[1] += scale * p1;
+        q[0] = p0;
+        q[1] = p1;
         double lr = sm->lre[t], li = sm->lim[t];
         if (li > 0) { /* Re(Z e^(lambda s)) with Re Z = H0, Re(Z lambda) = H1 */
-            Z[t] = cx(scale * H0, scale * (H0 * lr - H1) / li);
+            Z[t] = cx(H0, (H0 * lr - H1) / li);
             Y[t] = cx(0.0, 0.0);
             return 1;
         }
         if (k1 * k1 == 4.0 * k2) { /* (Z + Y s) e^(lambda s) */
-            Z[t] = cx(scale * H0, 0.0);
-            Y[t] = cx(scale * (H1 - lr * H0), 0.0);
+            Z[t] = cx(H0, 0.0);
+            Y[t] = cx(H1 - lr * H0, 0.0);
             return 1;
         }
         double l1 = sm->lre[t], l2 = sm->lre[t + 1], z1 = (H1 - l2 * H0) / (l1 - l2);
-        Z[t] = cx(scale * z1, 0.0);
-        Z[t + 1] = cx(scale * (H0 - z1), 0.0);
+        Z[t] = cx(z1, 0.0);
+        Z[t + 1] = cx(H0 - z1, 0.0);
         Y[t] = Y[t + 1] = cx(0.0, 0.0);
         return 2;
     }
     if (k1 > 0) { /* v' + k1 v = -a_g: v = r0 + r1 s + Zv e^(-k1 s) */
         double r1 = -a1 / k1, r0 = -(a0 - a1 / k1) / k1, Zv = v0 - r0;
-        q[0] += scale * (x0 + Zv / k1);
-        q[1] += scale * r0;
-        q[2] += scale * 0.5 * r1;
-        Z[t] = cx(-scale * Zv / k1, 0.0);
+        q[0] = x0 + Zv / k1;
+        q[1] = r0;
+        q[2] = 0.5 * r1;
+        Z[t] = cx(-Zv / k1, 0.0);
         Y[t] = cx(0.0, 0.0);
         return 1;
     }
     /* a free mass: x'' = -a_g */
-    q[0] += scale * x0;
-    q[1] += scale * v0;
-    q[2] -= scale * 0.5 * a0;
-    q[3] -= scale * a1 / 6.0;
+    q[0] = x0;
+    q[1] = v0;
+    q[2] = -0.5 * a0;
+    q[3] = -a1 / 6.0;
     return 0;
 }
 
@@ -319,7 +320,8 @@ int support_needed(const Model *M) {
     return M->v.supportKind != SUPPORT_GROUND && M->v.kind == KIND_RECORD && M->rec && M->d.sup.nm > 0;
 }
 
-int support_moves(const Model *M) { return support_needed(M) && M->sup && M->sup->data; }
+/* (M->sup is set only to a table built for M's parameters and record: instance.c) */
+int support_moves(const Model *M) { return M->sup != NULL; }
 
 /* What a table is built from: the modes, the record's samples (count and hash), their scale and placement. */
 int support_matches(const Model *M, const SupportTable *T) {
@@ -347,13 +349,10 @@ static void powers_at(const SupportModes *sm, double L, Powers *P) {
     }
 }
 
-/* Mode m's displacement and velocity at the end (s = L) of a segment that starts at (*x, *v) under
- * a_g = a0 + a1 s: they become the next segment's start. */
-static void propagate(const SupportModes *sm, int m, int t, double a0, double a1, double L, const Powers *P,
-                      double *x, double *v) {
-    double q[4] = {0};
-    Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
-    int nt = mode_segment(sm, m, t, *x, *v, a0, a1, 1.0, q, Z, Y);
+/* A mode's displacement and velocity at the end (s = L) of its segment (its polynomial q and terms t .. t + nt - 1,
+ * at scale 1): they become the next segment's start. */
+static void propagate(const SupportModes *sm, int t, int nt, const double *q, const Cx *Z, const Cx *Y, double L,
+                      const Powers *P, double *x, double *v) {
     double xe = poly_derivative(q, 0, L), ve = poly_derivative(q, 1, L);
     for (int j = t; j < t + nt; j++) {
         /* Re((Z + Y L) E) and Re((lambda (Z + Y L) + Y) E) */
@@ -396,21 +395,22 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
         double L = last ? 0.0 : r->t[i + 1] - r->t[i];
         double a0 = last ? 0.0 : r->ah[i], a1 = last ? 0.0 : (r->ah[i + 1] - r->ah[i]) / L;
         double *e = T->data + (size_t)i * stride;
-        Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
+        if (!last) powers_at(sm, L, &P);
         for (int m = 0, t = 0; m < sm->nm; m++) {
-            int nt = mode_segment(sm, m, t, x[m], v[m], a0, a1, sm->c[m], e, Z, Y);
-            if (!last) {
-                powers_at(sm, L, &P);
-                propagate(sm, m, t, a0, a1, L, &P, &x[m], &v[m]);
+            /* the mode's own segment, its share c_m of the floor's into the entry, and its state at the end */
+            double q[4] = {0};
+            Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
+            int nt = mode_segment(sm, m, t, x[m], v[m], a0, a1, q, Z, Y);
+            for (int k = 0; k < 4; k++) e[k] += sm->c[m] * q[k];
+            for (int j = t; j < t + nt; j++) {
+                double *z = e + 4 + 4 * j;
+                z[0] = sm->c[m] * Z[j].re;
+                z[1] = sm->c[m] * Z[j].im;
+                z[2] = sm->c[m] * Y[j].re;
+                z[3] = sm->c[m] * Y[j].im;
             }
+            if (!last) propagate(sm, t, nt, q, Z, Y, L, &P, &x[m], &v[m]);
             t += nt;
-        }
-        for (int j = 0; j < sm->nt; j++) {
-            double *z = e + 4 + 4 * j;
-            z[0] = Z[j].re;
-            z[1] = Z[j].im;
-            z[2] = Y[j].re;
-            z[3] = Y[j].im;
         }
     }
     return 0;

@@ -183,27 +183,15 @@ def scene_support(data: dict[str, Any], source: str) -> dict[str, Any]:
     return fmu_parameters(b, floor)
 
 
-def building_frequencies(masses: list[float], stiffnesses: list[float]) -> list[float]:
-    """Natural frequencies (Hz, increasing) of a shear building: K phi = w^2 M phi."""
-    import numpy as np
-    from scipy.linalg import eigh
-
-    m = np.asarray(masses, float)
-    k = np.append(np.asarray(stiffnesses, float), 0.0)
-    n = len(m)
-    K = np.diag(k[:n] + k[1:]) - np.diag(k[1:n], 1) - np.diag(k[1:n], -1)
-    return list(np.sqrt(eigh(K, np.diag(m), eigvals_only=True)) / (2 * math.pi))
-
-
 def describe(p: dict[str, Any]) -> str | None:
     """One line on the support of FMU parameters ``p`` (None on the ground)."""
     kind = int(p.get("support.kind", 0))
     if kind == 1:
+        from runners.engine.floor_motion import first_period  # (scipy, for the modes: imported when needed)
+
         n = int(p["building.storeys"])
-        f = building_frequencies([p[f"building.storey[{i}].mass"] for i in range(1, n + 1)],
-                                 [p[f"building.storey[{i}].stiffness"] for i in range(1, n + 1)])
         floor = int(p.get("building.floor", 0)) or n
-        return (f"shear building, {n} storey{'s' if n > 1 else ''} (f1 = {f[0]:.3g} Hz, damping "
+        return (f"shear building, {n} storey{'s' if n > 1 else ''} (f1 = {1 / first_period(p):.3g} Hz, damping "
                 f"{100 * float(p['building.dampingRatio']):.3g} %), the blocks on floor {floor}; one-way")
     if kind == 2:
         m, k, c = float(p["platform.mass"]), float(p["platform.stiffness"]), float(p["platform.damping"])
