@@ -171,3 +171,6 @@ def test_floor_spectra_refuse_a_study_on_the_ground(floor_study, fmu_path, tmp_p
                    db=db, fmu_path=fmu_path).returncode == 0
     p = run_cli("floor-spectra", "latest", "--out", str(tmp_path / "x.png"), db=db, fmu_path=fmu_path)
     assert p.returncode != 0 and "[building] or [platform]" in p.stderr and "Traceback" not in p.stderr
+    for command in ("fragility", "ida"):  # the floor's measures of a study on the ground: one line, not a KeyError
+        p = run_cli(command, "latest", "--im", "pfa", "--out", str(tmp_path / "y.png"), db=db, fmu_path=fmu_path)
+        assert p.returncode == 2 and "runs do not have" in p.stderr and "unexpected" not in p.stderr

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from runners.engine.fragility import Fragility, FragilityError, Words, fit
-from runners.engine.intensity import G0, SCALING
+from runners.engine.intensity import G0, SCALING, SUPPORT_MEASURES
 from runners.errors import RockingError
 
 if TYPE_CHECKING:
@@ -389,6 +389,9 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
                          f"runs --sweep {sw.id})")
     if not ok:
         raise StudyError(f"sweep {sw.id} has no finished runs yet (runners sweep {sw.id})")
+    if measure in SUPPORT_MEASURES and not all(r.point.get(measure) is not None for r in ok):
+        raise StudyError(f"--im {measure}: a measure through a [building] or [platform], which sweep {sw.id}'s runs do "
+                         "not have (its scene stands on the ground, or its --grid changes the support): use pga or pgv")
     factor = DISPLAY[measure][2]
     stripes = sw.grid.get("intensity")
     fixed = fixed_axes(sw.grid)
