@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "coupling.h"
 #include "engine.h"
 #include "events.h"
 #include "ground.h"
@@ -43,14 +44,75 @@ typedef struct {
     int slides;                /* one of its contacts slides (its slips integrated too) */
     double xi0[EN_MAX_BODIES]; /* the anchors of its sticking contacts */
     double placed[NMAX];       /* a chain's state as the last evaluation placed it (engine_rhs) */
+    int two;                   /* the support coupled two ways: its components follow the engine's (coupling.h) */
 } Ctx;
+
+static int nblock(const Ctx *c);
+
+/* f + s (g - f), each force and acceleration */
+static void forces_along(EnForces *f, const EnForces *g, double s) {
+    for (int q = 0; q < EN_NQ; q++) f->qdd[q] += s * (g->qdd[q] - f->qdd[q]);
+    for (int k = 0; k < EN_MAX_BODIES; k++) {
+        for (int i = 0; i < 2; i++) f->N[k][i] += s * (g->N[k][i] - f->N[k][i]);
+        f->T[k] += s * (g->T[k] - f->T[k]);
+        f->xidd[k] += s * (g->xidd[k] - f->xidd[k]);
+    }
+}
+
+/* Two-way coupling: the engine's derivatives (affine in the floor's acceleration) at the base's acceleration ag
+ * and at ag + 1, floor j's acceleration solved from them (coupling.h), and the derivatives there; then the
+ * support's. */
+static void coupled_rhs(Ctx *c, const double *y, double ag, double av, double *dy) {
+    const Model *M = c->M;
+    int nb = c->sys->nb, n0 = nblock(c);
+    const double *xi0 = c->chain ? c->xi0 : NULL;
+    double r[SUPPORT_MAX_STOREYS], dyB[NMAX], placedB[NMAX];
+    EnForces fB;
+    coupling_free(M, y, ag, r);
+    if (!engine_rhs(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->chain ? c->placed : NULL) ||
+        !engine_rhs(c->sys, &c->mode, xi0, y, ag + 1.0, av, dyB, &fB, c->chain ? placedB : NULL)) {
+        c->singular = 1;
+        return;
+    }
+    double uj = coupling_floor(M, r, c->f.T[0], fB.T[0] - c->f.T[0]);
+    for (int i = 0; i < n0; i++) dy[i] += uj * (dyB[i] - dy[i]);
+    for (int i = n0; i < EN_N(nb); i++) dy[i] = 0.0; /* (a chain's placed components ride along) */
+    forces_along(&c->f, &fB, uj);
+    const double *yc = c->chain ? c->placed : y;
+    double px = 0.0, py = 0.0;
+    for (int k = 0; k < nb; k++) {
+        px += c->sys->body[k].m * yc[EN_VEL(nb, k, 0)];
+        py += c->sys->body[k].m * yc[EN_VEL(nb, k, 1)];
+    }
+    coupling_rhs(M, y, r, uj, ag, av, px, py, dy);
+}
 
 static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     Ctx *c = (Ctx *)ctx; /* the integrator hands our own (non-const) context back */
     double ah, av;
     model_ground_piece(c->M, t, c->piece, &ah, &av);
+    if (c->two) {
+        coupled_rhs(c, y, ah, av, dy);
+        return;
+    }
     if (!engine_rhs(c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f, c->chain ? c->placed : NULL))
         c->singular = 1;
+}
+
+/* The forces of contact set m at the state y under the base's accelerations (ag, av): on a two-way support
+ * with floor j's acceleration solved with them. Returns the floor's absolute acceleration (ag elsewhere), or
+ * NAN if the set's system is singular. */
+static double solve_at(const Model *M, const EnMode *m, const double *y, double ag, double av, EnForces *f) {
+    const EnSystem *sys = &M->d.en;
+    if (!engine_solve(sys, m, y, ag, av, f)) return NAN;
+    if (!coupling_on(M)) return ag;
+    double r[SUPPORT_MAX_STOREYS];
+    EnForces g;
+    coupling_free(M, y, ag, r);
+    if (!engine_solve(sys, m, y, ag + 1.0, av, &g)) return NAN;
+    double uj = coupling_floor(M, r, f->T[0], g.T[0] - f->T[0]);
+    forces_along(f, &g, uj);
+    return ag + uj;
 }
 
 /* The context of the contact set m from t (its forces and placed state are written by each evaluation). */
@@ -63,19 +125,25 @@ static void context(Ctx *c, const Model *M, const EnMode *m, double t) {
     c->singular = 0;
     c->chain = engine_touches(c->sys, m);
     c->slides = c->chain && !engine_is_chain(c->sys, m);
+    c->two = coupling_on(M);
     memcpy(c->xi0, M->s.enAnchor, sizeof(c->xi0));
 }
 
-/* The components a step integrates: a chain's first EN_CHAIN_N (EN_SLIDE_N where a contact slides), or all. */
-static int nstep(const Ctx *c) {
+/* The engine's components a step integrates: a chain's first EN_CHAIN_N (EN_SLIDE_N where a contact slides), or
+ * all. */
+static int nblock(const Ctx *c) {
     return c->chain ? (c->slides ? EN_SLIDE_N(c->sys->nb) : EN_CHAIN_N(c->sys->nb)) : EN_N(c->sys->nb);
 }
+
+/* The components a step integrates: the engine's; on a two-way support all of the engine's (those a chain places
+ * ride along with derivative 0) and the support's after them. */
+static int nstep(const Ctx *c) { return c->two ? EN_N(c->sys->nb) + coupling_size(c->M) : nblock(c); }
 
 /* A step's result y (its first nstep components) completed: a chain's other components from rest (a sticking
  * chain's friction losses, unchanged) and its centres placed exactly from its reduced coordinates and anchors.
  * With f, a chain's forces under the ground's (ah, av) in the same evaluation; returns 1 if it gave them. */
 static void keep_rest(const Ctx *c, const double *rest, double *y) {
-    int n0 = nstep(c), n = EN_N(c->sys->nb);
+    int n0 = nblock(c), n = EN_N(c->sys->nb);
     memcpy(y + n0, rest + n0, sizeof(double) * (size_t)(n - n0));
 }
 
@@ -103,7 +171,7 @@ static void complete_last(Ctx *c, const double *rest, double *y) {
     }
 }
 
-static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1); }
+static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1) + coupling_size(M); }
 static double time_scale(const Model *M) { return 1.0 / sqrt(M->d.p2); }
 
 static int flying(const EnMode *m, int k) { return !m->closed[k][0] && !m->closed[k][1]; }
@@ -121,6 +189,123 @@ static double slip_of(const EnSystem *s, int k, const double *y, double *rate, d
     if (rate) *rate = p->xid;
     if (gap) *gap = fmax(0.0, fmin(L.g, R.g));
     return p->xi - c * s->body[k].b;
+}
+
+/* ------------------------------------------------------- impulses on a two-way support */
+
+/* The kinetic energy (J): the bodies' relative to their support; on a two-way support the bodies' and the
+ * support's in the base's frame. */
+static double kinetic(const Model *M, const double *y) {
+    const EnSystem *sys = &M->d.en;
+    double E = engine_kinetic(sys, y);
+    if (!coupling_on(M)) return E;
+    double mtot, px = coupling_momentum(sys, y, &mtot), U = coupling_floor_velocity(M, y);
+    const SupportModes *sm = &M->d.sup;
+    for (int i = 0; i < sm->ns; i++) {
+        double v = y[COUPLING_V(sys->nb, i)];
+        E += 0.5 * sm->mass[i] * v * v;
+    }
+    return E + U * px + 0.5 * mtot * U * U;
+}
+
+/* An impulsive change of the bodies' rates relative to their support in y (an impact, a projection onto
+ * constraints); returns nonzero if it succeeded. */
+typedef int (*RateChange)(const Model *M, double *y, void *ctx);
+
+/* The bodies' horizontal rates relative to the floor (and the ground contact's held slip rate) less d. */
+static void shift_rates(const EnSystem *s, double *y, double d) {
+    for (int k = 0; k < s->nb; k++) y[EN_VEL(s->nb, k, 0)] -= d;
+    y[EN_XID(s->nb, 0)] -= d;
+}
+
+/* op with the floor's jump D (m/s; its velocity after is U - ... + D): op applied to the rates relative to the floor
+ * after, the bodies' horizontal impulse P (kg m/s) it gives; returns m_j D + P, zero where the floor takes minus
+ * the bodies' impulse. */
+static double floor_balance(const Model *M, const double *y, double D, RateChange op, void *ctx, double *trial,
+                            int *ok, double *P) {
+    const EnSystem *sys = &M->d.en;
+    memcpy(trial, y, sizeof(double) * NMAX);
+    shift_rates(sys, trial, D);
+    double p0 = coupling_momentum(sys, trial, NULL);
+    *ok = op(M, trial, ctx);
+    *P = coupling_momentum(sys, trial, NULL) - p0;
+    return coupling_floor_mass(M) * D + *P;
+}
+
+/* op on the state y; on a two-way support with the floor: springs and dampers carry no impulse, so floor j's
+ * velocity jumps by D = -P / m_j, P the bodies' horizontal impulse, and op acts on the rates relative to the floor
+ * after the jump. Its P is piecewise affine and nondecreasing in D (op a plastic impact or a projection), so
+ * m_j D + P(D) = 0 has one root, found by the secant method kept in its bracket: exact on the piece of the
+ * solution, which keeps the horizontal momentum of bodies plus support. Returns op's success. */
+static int with_floor(const Model *M, double *y, RateChange op, void *ctx) {
+    if (!coupling_on(M)) return op(M, y, ctx);
+    const EnSystem *sys = &M->d.en;
+    double trial[NMAX], mj = coupling_floor_mass(M), mtot, P, lo = -INFINITY, hi = INFINITY;
+    coupling_momentum(sys, y, &mtot);
+    int ok;
+    double d0 = 0.0, g0 = floor_balance(M, y, d0, op, ctx, trial, &ok, &P), d1 = d0, g1 = g0;
+    for (int it = 0; it < 100; it++) {
+        double tol = 64.0 * DBL_EPSILON * (mj * fabs(d1) + fabs(P) + mtot * fabs(d1));
+        if (fabs(g1) <= tol) break;
+        if (g1 < 0) lo = fmax(lo, d1);
+        else hi = fmin(hi, d1);
+        double dn = it == 0 || g1 == g0 ? d1 - g1 / mj : d1 - g1 * (d1 - d0) / (g1 - g0);
+        if (!(dn > lo && dn < hi)) dn = isfinite(lo) && isfinite(hi) ? 0.5 * (lo + hi) : d1 - g1 / (mj + mtot);
+        if (dn == d1) break;
+        d0 = d1, g0 = g1, d1 = dn;
+        g1 = floor_balance(M, y, d1, op, ctx, trial, &ok, &P);
+    }
+    memcpy(y, trial, sizeof(double) * NMAX);
+    y[COUPLING_V(sys->nb, M->d.sup.j)] += d1;
+    return ok;
+}
+
+/* The plastic impact of the corners touching (impact_op: and the restitution law of the landing contact k; -1:
+ * none). */
+typedef struct {
+    int in[EN_MAX_BODIES][2], touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES], k;
+    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES];
+} ImpactOp;
+static void restitution(const Model *M, double *y, double kineticBefore, int contact);
+static int impact_op(const Model *M, double *y, void *ctx) {
+    ImpactOp *o = ctx;
+    memcpy(o->touching, o->in, sizeof(o->in));
+    double E0 = engine_kinetic(&M->d.en, y);
+    int fail = engine_impact(&M->d.en, y, o->touching, o->stuck, o->PN, o->PT);
+    if (o->k >= 0) restitution(M, y, E0, o->k);
+    return !fail;
+}
+
+/* The rates projected onto the constraints of m (engine_project; anchors xi0 or NULL). */
+typedef struct {
+    const EnMode *m;
+    const double *xi0;
+} ProjectOp;
+static int project_op(const Model *M, double *y, void *ctx) {
+    ProjectOp *o = ctx;
+    engine_project(&M->d.en, o->m, y, o->xi0, 1);
+    return 1;
+}
+static void project_rates(const Model *M, const EnMode *m, double *y, const double *xi0) {
+    if (!coupling_on(M)) {
+        engine_project(&M->d.en, m, y, xi0, 1);
+        return;
+    }
+    ProjectOp o = {m, xi0};
+    with_floor(M, y, project_op, &o);
+}
+
+/* The plastic impact onto the constraints of m (engine_plastic) in the system sys, accepted if it keeps the
+ * kinetic energy relative to the support within `slack` of the one before. */
+typedef struct {
+    const EnSystem *sys;
+    const EnMode *m;
+    double slack;
+} PlasticOp;
+static int plastic_op(const Model *M, double *y, void *ctx) {
+    PlasticOp *o = ctx;
+    double E0 = engine_kinetic(&M->d.en, y);
+    return engine_plastic(o->sys, o->m, y) && engine_kinetic(&M->d.en, y) <= E0 * o->slack;
 }
 
 /* Bookkeeping of a change of contact set at S->t: slides and flights that start or end. */
@@ -179,7 +364,7 @@ static void set_mode(Model *M, const EnMode *m, const Logger *log) {
     }
     changed(M, &S->en, m, log);
     S->en = *m;
-    engine_project(sys, m, S->y, NULL, 1);
+    project_rates(M, m, S->y, NULL);
     S->side = side_of(m, S->y);
     S->sigma = m->sigma[0];
     S->mode = MODE_ROCKING;
@@ -195,13 +380,22 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
     memset(&m, 0, sizeof(m));
     for (int k = 0; k < sys->nb; k++) m.closed[k][0] = m.closed[k][1] = 1;
     for (int k = 0; k < sys->nb; k++) S->enAnchor[k] = slip_of(sys, k, S->y, NULL, NULL);
-    double E0 = engine_energy(sys, S->y);
+    int two = coupling_on(M);
+    double E0 = two ? coupling_block_energy(M, S->y) + coupling_energy(M, S->y) : engine_energy(sys, S->y);
+    /* (two-way: the bodies stop on their floor, which keeps the horizontal momentum of bodies plus floor) */
+    double mtot, px = two ? coupling_momentum(sys, S->y, &mtot) : 0.0;
     engine_rest_state(sys, S->y);
     for (int k = 0; k < sys->nb; k++) S->y[EN_POS(sys->nb, k, 0)] = S->enAnchor[k] + (k > 0 ? S->y[EN_POS(sys->nb, k - 1, 0)] : 0.0);
-    S->impactLoss += E0 - engine_energy(sys, S->y); /* what the rest criterion stops */
+    if (two) {
+        for (int k = 0; k < sys->nb; k++) S->y[EN_XI(sys->nb, k)] = S->y[EN_XID(sys->nb, k)] = 0.0;
+        S->y[COUPLING_V(sys->nb, M->d.sup.j)] += px / (coupling_floor_mass(M) + mtot);
+    }
+    double E1 = two ? coupling_block_energy(M, S->y) + coupling_energy(M, S->y) : engine_energy(sys, S->y);
+    S->impactLoss += E0 - E1; /* what the rest criterion stops */
     changed(M, &S->en, &m, log);
     S->en = m;
-    S->mode = MODE_REST;
+    /* two-way: at rest as a contact set the engine integrates with its floor (its forces' indicators end it) */
+    S->mode = two ? MODE_ROCKING : MODE_REST;
     S->side = 1;
     S->sigma = 0;
     S->restTime = S->t;
@@ -211,6 +405,35 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
 }
 
 /* ----------------------------------------------------------------- choosing modes */
+
+/* The complementarity problem's choice on a two-way support at the state y under the base's (ag, av): floor j's
+ * acceleration d (relative to the base) with it, m_j (d - r_j) + T(ag + d) = 0, T the floor's force on body 0 in
+ * the set chosen under the floor's acceleration ag + d. T is piecewise affine and nondecreasing in it, so the
+ * root is one: Newton's method on the chosen set's line (exact once the set repeats), kept in its bracket. */
+static int choose_on_floor(const Model *M, const double *y, double ag, double av, int touching[][2], const int *stuck,
+                           EnMode *out) {
+    const EnSystem *sys = &M->d.en;
+    double r[SUPPORT_MAX_STOREYS], mj = coupling_floor_mass(M), lo = -INFINITY, hi = INFINITY;
+    coupling_free(M, y, ag, r);
+    double d = r[M->d.sup.j];
+    EnMode m;
+    for (int it = 0; it < 60; it++) {
+        EnForces f, g;
+        int rc = engine_choose(sys, y, ag + d, av, (const int(*)[2])touching, stuck, &m, &f);
+        if (rc) return rc;
+        if (!engine_solve(sys, &m, y, ag + d, av, &f) || !engine_solve(sys, &m, y, ag + d + 1.0, av, &g)) break;
+        double h = mj * (d - r[M->d.sup.j]) + f.T[0], Ta = g.T[0] - f.T[0];
+        if (fabs(h) <= 64.0 * DBL_EPSILON * (mj * (fabs(d) + fabs(r[M->d.sup.j])) + fabs(f.T[0]))) break;
+        if (h < 0) lo = fmax(lo, d);
+        else hi = fmin(hi, d);
+        double dn = d - h / (mj + Ta);
+        if (!(dn > lo && dn < hi)) dn = isfinite(lo) && isfinite(hi) ? 0.5 * (lo + hi) : dn;
+        if (dn == d) break;
+        d = dn;
+    }
+    *out = m;
+    return 0;
+}
 
 /* The complementarity problem's choice at (t, y) over the corners `touching` and the sticking
  * candidates `stuck`, its data taken LOOK_AHEAD / p after the event along the motion dy (the
@@ -226,6 +449,7 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
         for (int i = 0; i < n; i++) ya[i] += d * dy[i];
     model_ground_piece(M, t + (dy ? d : 0.0), model_piece(M, t), &ah, &av);
     EnForces f;
+    if (coupling_on(M)) return choose_on_floor(M, ya, ah, av, touching, stuck, out);
     return engine_choose(sys, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
 }
 
@@ -250,17 +474,22 @@ static void settle_mode(Model *M, int touching[][2], int *stuck, const double *d
         return;
     }
     const EnSystem *sys = &M->d.en;
-    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES], E0 = engine_kinetic(sys, S->y);
+    double E0 = kinetic(M, S->y);
     S->painleve++;
-    engine_impact(sys, S->y, touching, stuck, PN, PT);
-    S->impactLoss += E0 - engine_kinetic(sys, S->y);
+    ImpactOp op;
+    memcpy(op.in, touching, sizeof(op.in));
+    op.k = -1;
+    with_floor(M, S->y, impact_op, &op);
+    memcpy(touching, op.touching, sizeof(op.touching));
+    memcpy(stuck, op.stuck, sizeof(op.stuck));
+    S->impactLoss += E0 - kinetic(M, S->y);
     say(log, LOG_EVENTS, "painleve t=%.17g", S->t);
     if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
         for (int k = 0; k < sys->nb; k++) stuck[k] = 1;
         memset(&m, 0, sizeof(m));
         EnMode st = S->en;
         for (int k = 0; k < sys->nb; k++) st.sigma[k] = 0;
-        engine_project(sys, &st, S->y, NULL, 1);
+        project_rates(M, &st, S->y, NULL);
         if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) m = st;
     }
     set_mode(M, &m, log);
@@ -281,6 +510,13 @@ static int below_rest(const Model *M, double energy, double m, double R, double 
 static int negligible(const Model *M, double t, const double *y) {
     double ah, av;
     model_ground(M, t, &ah, &av);
+    if (coupling_on(M)) { /* the floor's acceleration with the bodies at rest on it */
+        EnMode r;
+        EnForces f;
+        memset(&r, 0, sizeof(r));
+        for (int k = 0; k < M->d.en.nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
+        ah = solve_at(M, &r, y, ah, av, &f);
+    }
     double geff = M->v.g + av;
     int two = M->v.nBlocks == 2;
     if (two ? !(rest_exit(M, t, model_piece(M, t)) <= 0.0) : !(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope))
@@ -328,8 +564,19 @@ static void finish(Model *M) {
     State *S = &M->s;
     int nb = M->v.nBlocks == 2 ? 2 : 1;
     S->mode = MODE_OVERTURNED;
+    /* two-way: the bodies stop on their floor (a plastic hit that keeps the horizontal momentum of bodies plus
+     * floor), which carries them from then on (support_after_end) */
+    int two = coupling_on(M);
+    double E0 = two ? coupling_block_energy(M, S->y) + coupling_energy(M, S->y) : 0.0, mtot;
+    double px = two ? coupling_momentum(&M->d.en, S->y, &mtot) : 0.0;
     for (int j = 0; j < nb; j++)
         for (int i = 0; i < 3; i++) S->y[EN_VEL(nb, j, i)] = 0.0;
+    if (two) {
+        S->y[COUPLING_V(nb, M->d.sup.j)] += px / (coupling_floor_mass(M) + mtot);
+        S->impactLoss += E0 - coupling_block_energy(M, S->y) - coupling_energy(M, S->y);
+        S->h = 0.0;
+        S->denseValid = 0;
+    }
     if (S->en.sigma[0]) S->slideDur += S->t - S->slideSince;
     if (nb == 2 && S->en.sigma[1]) S->slideDur2 += S->t - S->slideSince2;
     for (int j = 0; j < nb; j++)
@@ -401,7 +648,7 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
             flat.closed[j][1] = touching[j][1] || j == k;
             flat.sigma[j] = stuck[j] ? 0 : vs > 0 ? 1 : vs < 0 ? -1 : 0;
         }
-        double E0 = engine_kinetic(sys, S->y), keep[NMAX];
+        double E0 = kinetic(M, S->y), keep[NMAX];
         memcpy(keep, S->y, sizeof(keep));
         engine_project(sys, &flat, S->y, NULL, 0); /* the positions exactly flat */
         /* the plastic impact onto the set (each contact keeping its friction: the rigid stack's rule); where
@@ -411,19 +658,21 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
          * it a plinth chattered at 1e-8 s per impact under its sliding statue) */
         double projected[NMAX];
         memcpy(projected, S->y, sizeof(projected));
-        int ok = engine_plastic(sys, &flat, S->y) && engine_kinetic(sys, S->y) <= E0;
+        PlasticOp op = {sys, &flat, 1.0};
+        int ok = with_floor(M, S->y, plastic_op, &op);
         if (!ok && S->impactRun >= CHATTER_RUN) {
             EnSystem smooth = *sys;
             for (int j = 0; j < sys->nb; j++)
                 if (flat.sigma[j]) smooth.mu[j] = 0.0;
             memcpy(S->y, projected, sizeof(projected));
-            ok = engine_plastic(&smooth, &flat, S->y) && engine_kinetic(sys, S->y) <= E0 * (1.0 + 64.0 * DBL_EPSILON);
+            PlasticOp op2 = {&smooth, &flat, 1.0 + 64.0 * DBL_EPSILON};
+            ok = with_floor(M, S->y, plastic_op, &op2);
         }
         if (!ok) { /* (the rigid stack's test: no settling) */
             memcpy(S->y, keep, sizeof(keep));
             continue;
         }
-        S->impactLoss += E0 - engine_kinetic(sys, S->y);
+        S->impactLoss += E0 - kinetic(M, S->y);
         touching[k][0] = touching[k][1] = 1;
         stuck[k] = flat.sigma[k] == 0;
         say(log, LOG_EVENTS, "flat t=%.17g body=%d", S->t, k + 1);
@@ -462,26 +711,27 @@ static void impact(Model *M, const Logger *log) {
         touching[j][0] = land.closed[j][0];
         touching[j][1] = land.closed[j][1];
     }
-    double PN[EN_MAX_BODIES][2], PT[EN_MAX_BODIES];
-    double before[NMAX], E0 = engine_kinetic(sys, S->y), wm = S->y[EN_W(0)], vm = 0.0;
+    double before[NMAX], E0 = kinetic(M, S->y), wm = S->y[EN_W(0)], vm = 0.0;
     int logs = says(log, LOG_EVENTS);
     if (logs) { /* (the rates before, for the message alone) */
         memcpy(before, S->y, sizeof(before));
         slip_of(sys, 0, S->y, &vm, NULL);
     }
-    if (engine_impact(sys, S->y, touching, stuck, PN, PT)) {
-        say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
-    }
-    restitution(M, S->y, E0, k);
-    double Pn = PN[0][0] + PN[0][1];
-    if (Pn > 0 && fabs(PT[0]) / Pn > S->impulseDemandMax) S->impulseDemandMax = fabs(PT[0]) / Pn;
+    ImpactOp op;
+    memcpy(op.in, touching, sizeof(op.in));
+    op.k = k;
+    if (!with_floor(M, S->y, impact_op, &op)) say(log, LOG_ERROR, "no plastic impact found at t=%.17g", S->t);
+    memcpy(touching, op.touching, sizeof(op.touching));
+    memcpy(stuck, op.stuck, sizeof(op.stuck));
+    double Pn = op.PN[0][0] + op.PN[0][1];
+    if (Pn > 0 && fabs(op.PT[0]) / Pn > S->impulseDemandMax) S->impulseDemandMax = fabs(op.PT[0]) / Pn;
     S->impacts++;
     if (k == 0) S->impactsGround++;
     else S->impactsInterface++;
     S->impactRun = S->lastImpactTime >= 0 && S->t - S->lastImpactTime < CHATTER_INTERVAL * time_scale(M)
                        ? S->impactRun + 1 : 0;
     S->lastImpactTime = S->t;
-    S->impactLoss += E0 - engine_kinetic(sys, S->y);
+    S->impactLoss += E0 - kinetic(M, S->y);
     if (logs) { /* (slip rates for the message alone) */
         double vp;
         slip_of(sys, 0, S->y, &vp, NULL);
@@ -519,9 +769,9 @@ static void jam(Model *M, const Logger *log) {
     int k = S->eventContact, touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
     EnMode st = S->en;
     st.sigma[k] = 0;
-    double E0 = engine_kinetic(sys, S->y);
-    engine_project(sys, &st, S->y, NULL, 1);
-    S->impactLoss += E0 - engine_kinetic(sys, S->y);
+    double E0 = kinetic(M, S->y);
+    project_rates(M, &st, S->y, NULL);
+    S->impactLoss += E0 - kinetic(M, S->y);
     S->painleve++;
     say(log, LOG_EVENTS, "painleve t=%.17g body=%d jam=1", S->t, k + 1);
     for (int j = 0; j < sys->nb; j++) {
@@ -544,7 +794,7 @@ static void reselect(Model *M, const Logger *log) {
     EnMode m = S->en;
     if (S->pending == EVENT_SLIP_STOP) { /* the slip rate exactly zero */
         m.sigma[S->eventContact] = 0;
-        engine_project(sys, &m, S->y, NULL, 1);
+        project_rates(M, &m, S->y, NULL);
     }
     for (int k = 0; k < sys->nb; k++) {
         touching[k][0] = S->en.closed[k][0];
@@ -629,7 +879,7 @@ static int indicators(const Ctx *c, double t, const double *y, const EnForces *f
     if (!f) {
         double ah, av;
         model_ground_piece(c->M, t, c->piece, &ah, &av);
-        engine_solve(c->sys, &c->mode, y, ah, av, &g);
+        solve_at(c->M, &c->mode, y, ah, av, &g);
         f = &g;
     }
     return engine_indicators(c->sys, &c->mode, y, f, ind, kind, body, corner);
@@ -728,6 +978,16 @@ static int take_step(Model *M, const Logger *log) {
     /* the rotations alone while every contact of a chain sticks (the centres follow), else all but the
      * integrals (a sliding chain's rotations and slips) */
     int nErr = c.chain && !c.slides ? 2 * nb : n;
+    if (c.two) { /* and the support's floors (displacements in units of R, velocities of R p), not its integrals */
+        int ns = M->d.sup.ns;
+        for (int i = nErr; i < EN_N(nb); i++) scale[i] = 0.0;
+        for (int i = 0; i < ns; i++) {
+            scale[COUPLING_U(nb, i)] = R;
+            scale[COUPLING_V(nb, i)] = R * p;
+        }
+        scale[COUPLING_WORK(nb, ns)] = scale[COUPLING_DAMP(nb, ns)] = 0.0;
+        nErr = n;
+    }
     if (adaptive_step_controlled(rhs_cb, &c, n, nErr, scale, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1,
                                  f1, cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
@@ -930,11 +1190,11 @@ static int take_step(Model *M, const Logger *log) {
     S->denseSigma = S->sigma;
     S->denseMode = S->mode;
     S->t = tNew;
-    memcpy(S->y, y1, sizeof(double) * (size_t)EN_N(nb));
+    memcpy(S->y, y1, sizeof(double) * (size_t)nstate(M));
     memcpy(S->f, f1, sizeof(double) * (size_t)n);
     /* back onto the constraints of the contact set the step was taken in (at an event too: an impact's
      * velocities before must be those of the motion the contacts allow) */
-    if (!c.chain) engine_project(c.sys, &S->en, S->y, S->enAnchor, 1); /* (a chain's are placed) */
+    if (!c.chain) project_rates(M, &S->en, S->y, S->enAnchor); /* (a chain's are placed) */
     /* (the projection moves the centres by rounding: the derivative and indicators at the step's end
      * stay the next step's start) */
     S->fValid = ev == EVENT_NONE && !hitBp;
@@ -976,6 +1236,7 @@ static int take_step(Model *M, const Logger *log) {
  * forces there under the ground's (ah, av) (a sticking chain's from the evaluation that places it). */
 static void state_forces_at(const Model *M, double t, double *y, EnMode *m, double ah, double av, EnForces *f) {
     const State *S = &M->s;
+    int two = coupling_on(M);
     memcpy(y, S->y, sizeof(double) * NMAX);
     *m = S->en;
     int have = 0;
@@ -987,10 +1248,10 @@ static void state_forces_at(const Model *M, double t, double *y, EnMode *m, doub
         context(&c, M, &S->enDense, S->tOld);
         memcpy(c.xi0, S->enDenseAnchor, sizeof(c.xi0));
         dense_eval(S->cont, nstep(&c), s, y);
-        have = complete_forces(&c, S->y, y, ah, av, f);
+        have = complete_forces(&c, S->y, y, ah, av, two ? NULL : f);
         *m = S->enDense;
     }
-    if (f && !have) engine_solve(&M->d.en, m, y, ah, av, f);
+    if (f && !have) solve_at(M, m, y, ah, av, f);
 }
 
 static void state_at(const Model *M, double t, double *y, EnMode *m) { state_forces_at(M, t, y, m, 0.0, 0.0, NULL); }
@@ -1011,7 +1272,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     }
     model_ground(M, t, &ah, &av);
     if (inStep) state_forces_at(M, t, y, &m, ah, av, &f);
-    else engine_solve(sys, &M->s.en, M->s.y, ah, av, &f);
+    else solve_at(M, &M->s.en, M->s.y, ah, av, &f);
     for (int k = 0; k < 2; k++) {
         T[k] = k < sys->nb ? f.T[k] : 0.0;
         N[k] = k < sys->nb ? f.N[k][0] + f.N[k][1] : 0.0;
@@ -1030,7 +1291,7 @@ static double rest_exit(const Model *M, double t, int piece) {
     double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
     EnForces f;
-    if (!engine_solve(sys, &r, M->s.y, ah, av, &f)) return 1.0;
+    if (isnan(solve_at(M, &r, M->s.y, ah, av, &f))) return 1.0;
     return -engine_force_margin(sys, &r, &f);
 }
 
@@ -1074,7 +1335,73 @@ static void before_step(Model *M, const Logger *log) {
     }
 }
 
-static const SolverOps ENGINE = {apply_event, take_step, start_moving, before_step, reactions, rest_exit};
+/* After the bodies' run ended on a two-way support: the support carrying them on floor j (T = mtot a_f), its
+ * components alone integrated (from index 0 of the step's vector) and stepped ahead of tc like the engine's steps,
+ * their dense output kept for the outputs (engine_outputs). */
+typedef struct {
+    const Model *M;
+    int piece;
+} EndCtx;
+
+static void end_rhs(const void *ctx, double t, const double *z, double *dz) {
+    const EndCtx *c = ctx;
+    const Model *M = c->M;
+    int nb = M->d.en.nb;
+    double ag, av, y[NMAX], dy[NMAX], r[SUPPORT_MAX_STOREYS], mtot;
+    model_ground_piece(M, t, c->piece, &ag, &av);
+    coupling_momentum(&M->d.en, M->s.y, &mtot);
+    memcpy(y + EN_N(nb), z, sizeof(double) * (size_t)coupling_size(M));
+    coupling_free(M, y, ag, r);
+    double uj = coupling_floor(M, r, mtot * ag, mtot);
+    coupling_rhs(M, y, r, uj, ag, av, 0.0, 0.0, dy);
+    memcpy(dz, dy + EN_N(nb), sizeof(double) * (size_t)coupling_size(M));
+}
+
+static int support_after_end(Model *M, double tc, const Logger *log) {
+    (void)tc;
+    State *S = &M->s;
+    if (!coupling_on(M)) { /* (not reached: the engine plugs this in for a two-way support alone) */
+        S->t = tc;
+        return 0;
+    }
+    int nb = M->d.en.nb, n = coupling_size(M), ns = M->d.sup.ns, hitBp;
+    EndCtx c = {M, model_piece(M, S->t)};
+    double *z = S->y + EN_N(nb), z1[NMAX], f0[NMAX], f1[NMAX], cont[5][NMAX], scale[NMAX], hNext;
+    double bp = next_breakpoint(M, S->t, c.piece), h = S->h, R = M->d.R, p = sqrt(M->d.p2);
+    for (int i = 0; i < ns; i++) {
+        scale[2 * i] = R;
+        scale[2 * i + 1] = R * p;
+    }
+    scale[2 * ns] = scale[2 * ns + 1] = 0.0;
+    end_rhs(&c, S->t, z, f0);
+    if (adaptive_step_controlled(end_rhs, &c, n, n, scale, S->t, z, f0, &h, bp - S->t, M->v.relTol, M->v.absTol, z1,
+                                 f1, cont, &hNext, &hitBp, &S->rejected)) {
+        say(log, LOG_ERROR, "no acceptable step size for the support (last tried %g) at t=%.17g", h, S->t);
+        return -1;
+    }
+    S->steps++;
+    S->tOld = S->t;
+    S->hDense = h;
+    for (int j = 0; j < 5; j++) memcpy(S->cont[j], cont[j], sizeof(double) * (size_t)n);
+    S->denseValid = 1;
+    S->t = hitBp ? bp : S->t + h;
+    memcpy(z, z1, sizeof(double) * (size_t)n);
+    S->h = hNext;
+    return 0;
+}
+
+/* The support's components at tc after the bodies' run ended (the dense output of its last step). */
+static void support_after_end_at(const Model *M, double tc, double *y) {
+    const State *S = &M->s;
+    if (!coupling_on(M) || !S->denseValid || !(S->t > tc)) return;
+    double s = (tc - S->tOld) / S->hDense, z[NMAX];
+    dense_eval(S->cont, coupling_size(M), s < 0 ? 0 : s > 1 ? 1 : s, z);
+    memcpy(y + EN_N(M->d.en.nb), z, sizeof(double) * (size_t)coupling_size(M));
+}
+
+static const SolverOps ENGINE = {apply_event, take_step, start_moving, before_step, reactions, rest_exit, NULL};
+static const SolverOps ENGINE_ON_SUPPORT = {apply_event, take_step, start_moving, before_step, reactions, rest_exit,
+                                            support_after_end};
 
 /* ------------------------------------------------------------------ interface */
 
@@ -1096,7 +1423,8 @@ void engine_initialize(Model *M) {
     if (still) {
         memcpy(S->y, y, sizeof(y));
         for (int k = 0; k < nb; k++) S->en.closed[k][0] = S->en.closed[k][1] = 1;
-        S->mode = MODE_REST;
+        /* (two-way: at rest as a contact set the engine integrates with the support, come_to_rest) */
+        S->mode = coupling_on(M) ? MODE_ROCKING : MODE_REST;
         return;
     }
     S->mode = MODE_ROCKING;
@@ -1159,11 +1487,18 @@ void engine_initialize(Model *M) {
 }
 
 int engine_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
-    return advance_to(M, tc, log, &ENGINE, stop);
+    return advance_to(M, tc, log, coupling_on(M) ? &ENGINE_ON_SUPPORT : &ENGINE, stop);
 }
 
 void engine_rollback(Model *M, double tc) {
     State *S = &M->s;
+    if (S->mode == MODE_OVERTURNED && S->t > tc && S->denseValid && coupling_on(M)) { /* the support alone moves */
+        support_after_end_at(M, tc, S->y);
+        S->t = tc;
+        S->h = 0.0;
+        S->denseValid = 0;
+        return;
+    }
     if (S->mode != MODE_ROCKING || S->t <= tc || !S->denseValid) return;
     double y[NMAX];
     EnMode m;
@@ -1225,6 +1560,15 @@ void engine_outputs(Model *M, double tc) {
         state_at(M, tc, y, &m);
     } else {
         state_forces_at(M, tc, y, &m, ah, av, &f);
+    }
+    int twoWay = coupling_on(M);
+    if (twoWay && !over) v->ahTotal = solve_at(M, &m, y, ah, av, &f); /* the floor's, with the blocks on it */
+    if (twoWay && over) { /* the floor carrying the bodies */
+        double r[SUPPORT_MAX_STOREYS], mtot;
+        support_after_end_at(M, tc, y);
+        coupling_momentum(sys, y, &mtot);
+        coupling_free(M, y, ah, r);
+        v->ahTotal = ah + coupling_floor(M, r, mtot * ah, mtot);
     }
     if (S->mode == MODE_REST) {
         EnMode r;
@@ -1317,6 +1661,17 @@ void engine_outputs(Model *M, double tc) {
     v->groundWork = y[EN_WORK(nb)];
     v->frictionLoss = y[EN_LOSS(nb, 0)];
     v->impactLoss = S->impactLoss;
+    if (twoWay) {
+        int j = M->d.sup.j, ns = M->d.sup.ns;
+        v->supportU = y[COUPLING_U(nb, j)];
+        v->supportV = y[COUPLING_V(nb, j)];
+        v->supportEnergy = coupling_energy(M, y);
+        v->supportDampingLoss = y[COUPLING_DAMP(nb, ns)];
+        v->baseWork = y[COUPLING_WORK(nb, ns)];
+        int still = !over;
+        for (int k = 0; k < nb; k++) still &= m.closed[k][0] && m.closed[k][1] && m.sigma[k] == 0;
+        v->atRest = still;
+    }
     v->maxAbsSlip = fmax(S->maxAbsSlip, fabs(v->slip));
     v->slideDuration = S->slideDur + (m.sigma[0] && !over && tc > S->slideSince ? tc - S->slideSince : 0.0);
     v->slideStartTime = two ? S->slideStartTime1 : S->slideTime;

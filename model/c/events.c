@@ -340,6 +340,10 @@ int advance_to(Model *M, double tc, const Logger *log, const SolverOps *ops, Eve
         if (ops->before_step) ops->before_step(M, log);
         contact_sample_state(M, ops->reactions, log, 1);
         if (S->mode == MODE_OVERTURNED) {
+            if (ops->ended) {
+                if (ops->ended(M, tc, log)) return -1;
+                continue;
+            }
             S->t = tc;
             S->denseValid = 0;
         } else if (S->mode == MODE_REST) {

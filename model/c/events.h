@@ -114,6 +114,9 @@ typedef struct {
     void (*reactions)(const Model *M, double t, int inStep, double T[2], double N[2]);
     /* when the bodies at rest start to move (NULL: the rigid uplift threshold, find_uplift) */
     RestExitFn rest_exit;
+    /* once the bodies' run has ended (overturned): one step of what still moves (a two-way support; it may
+     * step past tc, with a dense output); nonzero on failure. NULL: nothing moves, time jumps to tc */
+    int (*ended)(Model *M, double tc, const Logger *log);
 } SolverOps;
 
 /* Advance M to tc: apply events once time reaches them, wait at rest for

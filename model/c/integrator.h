@@ -9,11 +9,12 @@
 #ifndef ROCKING_INTEGRATOR_H
 #define ROCKING_INTEGRATOR_H
 
-/* Largest number of components. RockingBlock's: 19, the contact engine's two bodies (three coordinates
- * each and their rates, the ground's work, two friction losses, and two slips and their rates). A model with more defines NMAX before including
+/* Largest number of components. RockingBlock's: 41, the contact engine's two bodies (three coordinates
+ * each and their rates, the ground's work, two friction losses, and two slips and their rates: 19) and a
+ * two-way support (ten floors' displacements and velocities, its base work and damping loss: 22). A model with more defines NMAX before including
  * this header, in every file that does (ShearBuilding: model/c/building/building_integrator.c). */
 #ifndef NMAX
-#define NMAX 20
+#define NMAX 44
 #endif
 
 typedef void (*RhsFn)(const void *ctx, double t, const double *y, double *dy);

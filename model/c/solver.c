@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "coupling.h"
 #include "engine_solver.h"
 #include "events.h"
 #include "ground.h"
@@ -338,7 +339,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     contact_one_block_terms(M, y[1], dy[1], &k, &T[0], &N[0]);
 }
 
-static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions, NULL};
+static const SolverOps ONE_BLOCK = {apply_event, take_step, start_rocking, commit_peaks, reactions, NULL, NULL};
 
 void solver_sample_contacts(Model *M, const Logger *log) { contact_sample_state(M, reactions, log, 0); }
 
@@ -449,7 +450,7 @@ static void outputs_at(Model *M, double tc) {
 void solver_outputs(Model *M, double tc) {
     Variables *v = &M->v;
     outputs_at(M, tc);
-    support_motion(M, tc, model_piece(M, tc), &v->supportU, &v->supportV);
+    if (!coupling_on(M)) support_motion(M, tc, model_piece(M, tc), &v->supportU, &v->supportV); /* (two-way: the engine's) */
     v->baseAh = ground_base_ah(M, tc);
     /* the last communication step's mean load, else the load on the ground at tc: -(rate of
      * change of the momentum relative to the ground) */

@@ -396,7 +396,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     contact_stack(M, S->mode, s1, s2, y, acc, ah, av, &T[0], &N[0], &T[1], &N[1]);
 }
 
-static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL, reactions, NULL};
+static const SolverOps TWO_BLOCKS = {apply_event, take_step, start_from_rest, NULL, reactions, NULL, NULL};
 
 int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     return advance_to(M, tc, log, &TWO_BLOCKS, stop);

@@ -40,7 +40,12 @@ int support_validate(const Variables *v, char *msg, size_t n) {
     if (v->supportKind < 0 || v->supportKind > 2)
         FAIL("support.kind = %d must be 0 (the ground), 1 (a shear building) or 2 (an isolation platform)",
              v->supportKind);
+    if (v->supportCoupling < 0 || v->supportCoupling > 1)
+        FAIL("support.coupling = %d must be 0 (one-way) or 1 (two-way)", v->supportCoupling);
     if (v->supportKind == SUPPORT_GROUND) return 0;
+    if (v->supportCoupling == 1 && v->contactModel != 1)
+        FAIL("support.coupling = 1 (two-way) needs contact.model = 1 (rocking-sliding); the rigid rocking model "
+             "stands on its support one way (support.coupling = 0)");
     if (v->kind != KIND_RECORD && v->kind != KIND_NONE)
         FAIL("support.kind = %d moves with a record at its base: excitation.kind must be 4 (a record file) or 0, "
              "not %d (give the pulse as a record file)", v->supportKind, v->kind);
@@ -137,6 +142,10 @@ void support_derive(const Variables *v, SupportModes *sm) {
         sm->k1[0] = v->platformDamping / v->platformMass;
         sm->c[0] = 1.0;
         sm->freq[0] = sqrt(sm->k2[0]) / (2.0 * M_PI);
+        sm->ns = 1;
+        sm->mass[0] = v->platformMass;
+        sm->stiff[0] = v->platformStiffness;
+        sm->a0 = v->platformDamping / v->platformMass;
     } else if (v->supportKind == SUPPORT_BUILDING) {
         int N = v->storeys, j = (v->buildingFloor == 0 ? N : v->buildingFloor) - 1;
         double m[SUPPORT_MAX_STOREYS], k[SUPPORT_MAX_STOREYS + 1] = {0};
@@ -164,7 +173,12 @@ void support_derive(const Variables *v, SupportModes *sm) {
         /* Rayleigh C = a0 M + a1 K with zeta at modes 1 and 2 (Chopra 2012, section 11.4); one storey:
          * stiffness-proportional */
         double a0 = N > 1 ? 2.0 * zeta * w1 * wB / (w1 + wB) : 0.0, a1 = N > 1 ? 2.0 * zeta / (w1 + wB) : 2.0 * zeta / w1;
-        sm->nm = N;
+        sm->nm = sm->ns = N;
+        sm->j = j;
+        memcpy(sm->mass, m, sizeof(sm->mass));
+        memcpy(sm->stiff, k, sizeof(sm->stiff));
+        sm->a0 = a0;
+        sm->a1 = a1;
         for (int r = 0; r < N; r++) {
             int c = order[r];
             double om2 = w2[c], gamma = 0.0;
@@ -176,6 +190,7 @@ void support_derive(const Variables *v, SupportModes *sm) {
             sm->freq[r] = sqrt(om2) / (2.0 * M_PI);
         }
     }
+    sm->twoWay = sm->ns > 0 && v->supportCoupling == 1;
     for (int r = 0; r < sm->nm; r++) mode_terms(sm, sm->k1[r], sm->k2[r]);
     for (int t = 0; t < sm->nt; t++) {
         sm->labs[t] = hypot(sm->lre[t], sm->lim[t]);
@@ -317,7 +332,8 @@ static void entry_derivative2(const SupportModes *sm, const double *e, int k, do
 /* ------------------------------------------------------------------ the table */
 
 int support_needed(const Model *M) {
-    return M->v.supportKind != SUPPORT_GROUND && M->v.kind == KIND_RECORD && M->rec && M->d.sup.nm > 0;
+    return M->v.supportKind != SUPPORT_GROUND && M->v.kind == KIND_RECORD && M->rec && M->d.sup.nm > 0 &&
+           !M->d.sup.twoWay; /* (two-way: the support is integrated with the blocks, coupling.c) */
 }
 
 /* (M->sup is set only to a table built for M's parameters and record: instance.c) */

@@ -40,6 +40,11 @@ typedef struct {
     double lre[SUPPORT_MAX_TERMS], lim[SUPPORT_MAX_TERMS], labs[SUPPORT_MAX_TERMS]; /* and |lambda| */
     double freq[SUPPORT_MAX_STOREYS]; /* natural frequencies, Hz (0: a platform without spring) */
     double fastest;                   /* largest |lambda|, 1/s */
+    /* Its physical form, for two-way coupling (support.coupling = 1, coupling.c): ns floors of mass mass[i]
+     * (kg), storey i of stiffness stiff[i] (N/m) between floor i - 1 and floor i (floor -1 the base), damping
+     * C = a0 M + a1 K (a platform: a0 = its damping / its mass, a1 = 0); the blocks on floor j (0-based). */
+    int twoWay, ns, j;
+    double mass[SUPPORT_MAX_STOREYS], stiff[SUPPORT_MAX_STOREYS], a0, a1;
 } SupportModes;
 
 /* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
