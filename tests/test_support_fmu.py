@@ -184,10 +184,12 @@ def test_a_stack_on_a_floor_is_the_record_run_of_its_floor(fmu, pulse_record, tm
         assert np.abs(run.outputs[name] - exact.outputs[name]).max() < 2e-4, name
 
 
-def test_a_restored_state_continues_the_same_run(fmu, pulse_record):
-    """fmi2GetFMUstate in the middle of a run on a floor, then fmi2SetFMUstate: the same end, bit for bit."""
+@pytest.mark.parametrize("coupling", [0, 1])
+def test_a_restored_state_continues_the_same_run(fmu, pulse_record, coupling):
+    """fmi2GetFMUstate in the middle of a run on a floor (one-way, two-way), then fmi2SetFMUstate: the same
+    end, bit for bit."""
     path, _, _ = pulse_record
-    params = {**CABINET, **FRAME, "excitation.kind": 4, "excitation.file": str(path)}
+    params = {**CABINET, **FRAME, "excitation.kind": 4, "excitation.file": str(path), "support.coupling": coupling}
     slave, _ = fmu.instantiate(lambda *a: None)
     try:
         slave.setupExperiment(startTime=0.0)
@@ -215,6 +217,8 @@ def test_a_restored_state_continues_the_same_run(fmu, pulse_record):
     ({"building.dampingRatio": 1.0}, "building.dampingRatio"),
     ({"support.kind": 2, "platform.mass": 0.0}, "platform.mass"),
     ({"support.kind": 3}, "support.kind = 3"),
+    ({"support.coupling": 2}, "support.coupling = 2"),
+    ({"support.coupling": 1, "contact.model": 0}, "needs contact.model = 1"),
 ])
 def test_bad_support_parameters_are_refused_with_a_message(fmu, pulse_record, change, words):
     path, _, _ = pulse_record

@@ -26,6 +26,8 @@ ONE_WAY = {"mode": "one-way"}
 
 def test_a_building_table_sets_the_fmus_support():
     p = scene_from_dict({**CABINET, "building": FRAME, "coupling": ONE_WAY}).parameters
+    assert p["support.coupling"] == 0
+    assert scene_from_dict({**CABINET, "building": FRAME}).parameters["support.coupling"] == 1  # two-way, the default
     assert p["support.kind"] == 1 and p["building.storeys"] == 3 and p["building.floor"] == 3  # the top
     assert [p[f"building.storey[{i}].mass"] for i in (1, 2, 3)] == [2000.0] * 3
     assert [p[f"building.storey[{i}].stiffness"] for i in (1, 2, 3)] == [2.5e6] * 3
@@ -61,8 +63,8 @@ def test_a_statue_on_an_isolator_does_not_tip_where_it_rocks_on_the_ground():
 @pytest.mark.parametrize("tables, words", [
     ({"building": FRAME, "platform": {"mass": 1.0}}, "not both"),
     ({"coupling": {"floor": 1}}, "needs a [building] or a [platform]"),
-    ({"building": FRAME, "coupling": {"mode": "two-way"}}, "runners cosim"),
-    ({"building": FRAME}, "two-way\" (the default) runs as a co-simulation"),
+    ({"building": FRAME, "contact": {"model": "rigid-rocking"}}, "two-way\" (the default) needs [contact] model = "
+     "\"rocking-sliding\""),
     ({"building": FRAME, "coupling": {"mode": "sideways"}}, "[coupling] mode must be one of one-way, two-way"),
     ({"building": FRAME, "coupling": {"floor": 4, **ONE_WAY}}, "[coupling] floor must be a floor of the building, 1 to 3"),
     ({"building": {**FRAME, "stiffness": [1.0, 2.0]}, "coupling": ONE_WAY}, "stiffness: 2 values for 3 storeys"),

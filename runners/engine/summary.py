@@ -78,12 +78,41 @@ STACK_SLIDING_OUTPUTS = SLIDING_OUTPUTS + (
 )
 
 
+# the outputs of a support (support.kind 1 or 2, docs/supports.md), and those of its energy balance in
+# the base's frame when it is coupled two ways (two_way_balance)
+SUPPORT_OUTPUTS = ("support.u", "support.v", "support.baseAh")  # m, m/s, m/s^2 (+x, relative to the base)
+TWO_WAY_OUTPUTS = ("momentum", "support.energy", "support.dampingLoss", "support.baseWork")  # kg m/s, J, J, J
+
+
 def sliding_outputs(p: dict[str, Any]) -> tuple[str, ...]:
-    """The sliding outputs a run with FMU parameters `p` (defaults included) samples, stores and
-    exports: none for rigid rocking, SLIDING_OUTPUTS for one block, STACK_SLIDING_OUTPUTS for a stack."""
+    """The model's own outputs a run with FMU parameters `p` (defaults included) samples, stores and
+    exports: none for rigid rocking on the ground, SLIDING_OUTPUTS for one block, STACK_SLIDING_OUTPUTS for a
+    stack; on a support SUPPORT_OUTPUTS too, and TWO_WAY_OUTPUTS where it is coupled two ways."""
+    support = ()
+    if int(p.get("support.kind", 0)):
+        support = SUPPORT_OUTPUTS + (TWO_WAY_OUTPUTS if int(p.get("support.coupling", 0)) == 1 else ())
     if not rocking_sliding(p):
-        return ()
-    return STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS
+        return support
+    return (STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS) + support
+
+
+def two_way_balance(out: dict[str, Any], p: dict[str, Any]) -> float:
+    """The largest residual of the energy balance of blocks plus a two-way support at the samples of `out`,
+    over the energy scale (the largest of the energies, works and losses), docs/supports.md: the blocks'
+    energy in the base's frame (energy + U momentum + m U^2 / 2, U = support.v) + support.energy +
+    support.dampingLoss + friction losses + impactLoss - support.baseWork, less its value at the start."""
+    import numpy as np
+
+    mass = float(p["block1.mass"]) + (float(p["block2.mass"]) if int(p.get("nBlocks", 1)) == 2 else 0.0)
+    U = np.asarray(out["support.v"])
+    blocks = np.asarray(out["energy"]) + U * np.asarray(out["momentum"]) + 0.5 * mass * U * U
+    friction = np.asarray(out["block1.frictionLoss"]) + (np.asarray(out["block2.frictionLoss"])
+                                                         if "block2.frictionLoss" in out else 0.0)
+    terms = [blocks, np.asarray(out["support.energy"]), np.asarray(out["support.dampingLoss"]), friction,
+             np.asarray(out["impactLoss"]), np.asarray(out["support.baseWork"])]
+    residual = terms[0] + terms[1] + terms[2] + terms[3] + terms[4] - terms[5]
+    scale = max(float(np.max(np.abs(t))) for t in terms)
+    return float(np.max(np.abs(residual - residual[0]))) / scale if scale > 0 else 0.0
 
 # block1.mode (the FMU's Enumeration ContactMode) -> its name
 MODES = {0: "rest", 1: "slide", 2: "rock", 3: "slide-rock", 4: "overturned", 5: "fell off", 6: "flight"}
@@ -179,6 +208,10 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     support = supports.describe(p)
     if support is not None:
         summary["support"] = support
+        if "support.u" in out:
+            summary["support_peak_displacement_m"] = float(max(abs(float(u)) for u in out["support.u"]))
+        if int(p.get("support.coupling", 0)) == 1 and all(o in out for o in sliding_outputs(p)):
+            summary["energy_balance_residual"] = two_way_balance(out, p)
     end = excitation_end(p)
     if end is not None and end <= float(result.time[0]):  # (a negative start time shifted it out of the run)
         summary["excitation_end_s"] = end
@@ -499,6 +532,8 @@ def format_summary(s: dict[str, Any]) -> str:
         f"restitution      {s['restitution_law']}",
         f"excitation       {s['excitation']}",
         *([f"support          {s['support']}"] if "support" in s else []),
+        *([f"energy balance   residual {s['energy_balance_residual']:.2g} of the energy scale (blocks plus support, "
+           "base's frame)"] if "energy_balance_residual" in s else []),
         simulated_line(s),
     ]
     outcome = s["final_state"]

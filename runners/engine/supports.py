@@ -5,12 +5,13 @@
   modes 1 and 2, default 0.05);
 - ``[platform]``: an isolation platform, ``mass`` (kg), ``stiffness`` (N/m, default 0) and
   ``damping`` (N s/m, default 0);
-- ``[coupling]``: ``floor`` (the blocks' floor, default the top), ``mode`` (``"one-way"``: the support
-  does not feel the blocks; ``"two-way"``, the default, which ``runners cosim`` co-simulates) and, for a
-  co-simulation, ``step`` (s).
+- ``[coupling]``: ``floor`` (the blocks' floor, default the top), ``mode`` (``"two-way"``, the default:
+  the blocks' forces and impacts act on the support; ``"one-way"``: the support does not feel the blocks)
+  and, for a co-simulation, ``step`` (s).
 
-A scene with one of them runs the support inside RockingBlock.fmu (:func:`fmu_parameters`); a system
-file for ``runners cosim`` gives the building to ShearBuilding.fmu (runners.engine.cosim). Units SI.
+A scene with one of them runs the support inside RockingBlock.fmu (:func:`fmu_parameters`; two-way with
+the rocking-sliding model, one-way with either); a system file for ``runners cosim`` gives the building
+to ShearBuilding.fmu (runners.engine.cosim), the same coupling across a communication step. Units SI.
 """
 
 from __future__ import annotations
@@ -137,12 +138,14 @@ def platform_from_dict(d: dict[str, Any], where: str) -> Platform:
     return Platform(mass, *spring_damper)
 
 
-def fmu_parameters(support: Building | Platform, floor: int | None = None) -> dict[str, Any]:
-    """RockingBlock.fmu's parameters of ``support`` (the blocks on ``floor`` of a building; None: the top)."""
+def fmu_parameters(support: Building | Platform, floor: int | None = None, mode: str = "two-way") -> dict[str, Any]:
+    """RockingBlock.fmu's parameters of ``support`` (the blocks on ``floor`` of a building; None: the top),
+    coupled ``mode`` ("two-way" or "one-way")."""
+    coupling = {"support.coupling": COUPLINGS.index(check_coupling("coupling mode", mode))}
     if isinstance(support, Platform):
         return {"support.kind": 2, "platform.mass": support.mass, "platform.stiffness": support.stiffness,
-                "platform.damping": support.damping}
-    p: dict[str, Any] = {"support.kind": 1, "building.storeys": support.storeys,
+                "platform.damping": support.damping, **coupling}
+    p: dict[str, Any] = {"support.kind": 1, **coupling, "building.storeys": support.storeys,
                          "building.floor": support.storeys if floor is None else int(floor),
                          "building.dampingRatio": support.damping_ratio}
     for i, (m, k) in enumerate(zip(support.mass, support.stiffness), start=1):
@@ -153,7 +156,7 @@ def fmu_parameters(support: Building | Platform, floor: int | None = None) -> di
 
 def scene_support(data: dict[str, Any], source: str) -> dict[str, Any]:
     """The FMU parameters of a scene document's [building] or [platform] and [coupling] tables (removed
-    from ``data``); {} without them. The support runs inside the FMU, coupled one-way."""
+    from ``data``); {} without them. The support runs inside the FMU."""
     building, platform = data.pop("building", None), data.pop("platform", None)
     coupling = data.pop("coupling", None)
     for name, table in (("building", building), ("platform", platform), ("coupling", coupling)):
@@ -170,34 +173,31 @@ def scene_support(data: dict[str, Any], source: str) -> dict[str, Any]:
     if unknown:
         raise SupportError(f"{source}: [coupling] unknown key '{unknown[0]}' (expected floor, mode, step)")
     mode = check_coupling(f"{source}: [coupling] mode", coupling.get("mode", "two-way"))
-    if mode == "two-way":
-        given = "" if "mode" in coupling else " (the default)"
-        raise SupportError(f"{source}: [coupling] mode = \"two-way\"{given} runs as a co-simulation: runners cosim "
-                           f"{source}; the FMU's own support is coupled one-way: set [coupling] mode = \"one-way\"")
     if platform is not None:
         if "floor" in coupling:
             raise SupportError(f"{source}: [coupling] floor is a building's; the blocks stand on the [platform]")
-        return fmu_parameters(platform_from_dict(platform, source))
+        return fmu_parameters(platform_from_dict(platform, source), mode=mode)
     b = building_from_dict(building, source)
     floor = check_floor(f"{source}: [coupling] floor", coupling.get("floor", b.storeys), b.storeys)
-    return fmu_parameters(b, floor)
+    return fmu_parameters(b, floor, mode)
 
 
 def describe(p: dict[str, Any]) -> str | None:
     """One line on the support of FMU parameters ``p`` (None on the ground)."""
     kind = int(p.get("support.kind", 0))
+    way = COUPLINGS[int(p.get("support.coupling", 0))]
     if kind == 1:
         from runners.engine.floor_motion import first_period  # (scipy, for the modes: imported when needed)
 
         n = int(p["building.storeys"])
         floor = int(p.get("building.floor", 0)) or n
         return (f"shear building, {n} storey{'s' if n > 1 else ''} (f1 = {1 / first_period(p):.3g} Hz, damping "
-                f"{100 * float(p['building.dampingRatio']):.3g} %), the blocks on floor {floor}; one-way")
+                f"{100 * float(p['building.dampingRatio']):.3g} %), the blocks on floor {floor}; {way}")
     if kind == 2:
         m, k, c = float(p["platform.mass"]), float(p["platform.stiffness"]), float(p["platform.damping"])
         if k == 0 and c == 0:
-            return f"isolation platform, {m:g} kg on rollers (no spring, no damper); one-way"
+            return f"isolation platform, {m:g} kg on rollers (no spring, no damper); {way}"
         spring = (f"f = {math.sqrt(k / m) / (2 * math.pi):.3g} Hz, damping {100 * c / (2 * math.sqrt(k * m)):.3g} %"
                   if k > 0 else f"no spring, damper {c:g} N s/m")
-        return f"isolation platform, {m:g} kg ({spring}); one-way"
+        return f"isolation platform, {m:g} kg ({spring}); {way}"
     return None
