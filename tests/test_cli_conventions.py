@@ -73,6 +73,23 @@ def test_the_parser_loads_nothing_heavy():
     assert p.returncode == 0 and p.stdout.strip() == "[]", (p.stdout, p.stderr)
 
 
+def test_every_commands_help_can_be_printed():
+    """argparse formats each help text with %: a bare "5 %" in one made runners --help end in a traceback."""
+    import argparse
+
+    from runners.cli.parser import build_parser
+
+    def parsers(p: argparse.ArgumentParser):
+        yield p
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for child in action.choices.values():
+                    yield from parsers(child)
+
+    for p in parsers(build_parser()):
+        assert p.format_help().startswith("usage: "), p.prog
+
+
 def test_the_parsers_database_help_is_the_databases():
     from db.session import DB_HELP
     from runners.cli.args import DB_HELP as COPY

@@ -132,7 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "of record names or ids, or of a folder of record files (docs/records.md)")
     sw.add_argument("--im", action=Once, metavar="pga=START:STOP:COUNT",
                     help="scale each record so that its PGA (in g) or PGV (pgv=..., in m/s) takes COUNT levels; on a "
-                         "[building] or [platform] also its peak floor acceleration (pfa=..., in g) or Sa(T1, 5 %) "
+                         "[building] or [platform] also its peak floor acceleration (pfa=..., in g) or Sa(T1, 5 %%) "
                          "(sa_t1=..., in g; docs/supports.md)")
     renamed(sw, "--resume", "the positional SWEEP_ID (runners sweep SWEEP_ID)", dest="resume", type=object_id)
     sw.add_argument("--workers", type=count, help="worker processes (default: all cores)")

@@ -397,7 +397,7 @@ def add_parser(sub) -> None:
         files(st, writes=["out"])
         st.set_defaults(func=func)
         studies.append(st)
-    fl = sub.add_parser("floor-spectra", help="floor response spectra (Sa / PGA, 5 % damping) of a sweep over records "
+    fl = sub.add_parser("floor-spectra", help="floor response spectra (Sa / PGA, 5 %% damping) of a sweep over records "
                         "on a [building] or [platform], against the base's (docs/supports.md)")
     fl.add_argument("sweep", type=object_id, metavar="SWEEP_ID", help="sweep id, or 'latest'")
     fl.add_argument("--out", type=figure_file, metavar="PNG",
