@@ -232,3 +232,52 @@ class Measurement(Base):
     block1: Mapped[Block | None] = relationship(foreign_keys=[block1_id])
     block2: Mapped[Block | None] = relationship(foreign_keys=[block2_id])
     excitation: Mapped[Excitation | None] = relationship()
+
+
+class CosimRun(Base):
+    """One co-simulation of blocks on a floor of a shear building (runners cosim,
+    runners.engine.cosim_store): the system that ran (its file's text, the building, the blocks'
+    floor, the blocks' and the building's parameters as run, the base record and its scale), the
+    engine, the coupling and the communication step, and the run's summary."""
+
+    __tablename__ = "cosim_runs"
+    __table_args__ = {"sqlite_autoincrement": True}  # ids never reused after a delete, as sweeps' (revision 0013)
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))  # the system's name
+    source: Mapped[str | None] = mapped_column(Text)  # the system file's text
+    source_sha256: Mapped[str | None] = mapped_column(String(64))  # of that text (UTF-8)
+    source_file: Mapped[str | None] = mapped_column(Text)  # where it was read from
+    engine: Mapped[str] = mapped_column(String(20))  # fmpy, libcosim
+    coupling: Mapped[str] = mapped_column(String(10))  # one-way, two-way
+    step: Mapped[float] = mapped_column(Float)  # s, the communication step
+    stop_time: Mapped[float] = mapped_column(Float)  # s, the last communication point
+    storeys: Mapped[int] = mapped_column(Integer)
+    floor: Mapped[int] = mapped_column(Integer)  # the floor the blocks stand on (1 = first above the base)
+    # the system (runners.engine.cosim_store.system_dict): building (kg, N/m, damping ratio), blocks,
+    # floor, coupling, step and stop time (s), the base record's file, scale and start time (s)
+    system: Mapped[dict] = mapped_column(JSON)
+    block_parameters: Mapped[dict] = mapped_column(JSON)  # the blocks' FMU parameters as run
+    building_parameters: Mapped[dict] = mapped_column(JSON)  # the building's, two-way: the blocks' mass on their floor
+    record_id: Mapped[int | None] = mapped_column(ForeignKey("records.id"), index=True)  # the base's stored record
+    base_scale: Mapped[float] = mapped_column(Float)  # multiplier of the base record's accelerations
+    base_sha256: Mapped[str | None] = mapped_column(String(64))  # of the record file the building's FMU read
+    summary: Mapped[dict | None] = mapped_column(JSON)  # peaks, verdicts, energy balance (runners.analysis.cosim.summary)
+    block_fmu_sha256: Mapped[str | None] = mapped_column(String(64))
+    building_fmu_sha256: Mapped[str | None] = mapped_column(String(64))
+    code_version: Mapped[str] = mapped_column(String(40))
+    wall_time: Mapped[float | None] = mapped_column(Float)  # s
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=_now)
+    record: Mapped[Record | None] = relationship()
+    series: Mapped["CosimSeries | None"] = relationship(back_populates="run", cascade="all, delete-orphan")
+
+
+class CosimSeries(Base):
+    """Every output of a co-simulated run at every communication point, compressed and lossless
+    (db.series, as run_series): one row per run."""
+
+    __tablename__ = "cosim_series"
+    run_id: Mapped[int] = mapped_column(ForeignKey("cosim_runs.id"), primary_key=True)
+    names: Mapped[list] = mapped_column(JSON)  # "building.<variable>", "block.<variable>", in column order
+    n_samples: Mapped[int] = mapped_column(Integer)
+    data: Mapped[bytes] = mapped_column(LargeBinary)  # zlib of float64 time + columns
+    run: Mapped[CosimRun] = relationship(back_populates="series")

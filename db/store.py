@@ -1,7 +1,10 @@
 """Writing runs: the scene, its excitation, the run, its summary and its series in one
 transaction (all or nothing). A simulated run that cannot be stored (disk full, database
 locked, ...) is kept in a file instead (keep_unsaved), which runners db import-unsaved stores
-later (store_pending): the same rows, bit for bit, as storing it at once would have written."""
+later (store_pending): the same rows, bit for bit, as storing it at once would have written.
+Co-simulated runs (runners cosim) go the same way: a cosim_runs row and its series in one
+transaction (store_cosims, kept in files by keep_unsaved when the database fails), stored later
+by store_cosim_pending."""
 
 from __future__ import annotations
 
@@ -24,11 +27,14 @@ from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 
 from db import leftovers, series
-from db.schema import Block, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene
+from db.schema import (Block, CosimRun, CosimSeries, Excitation, Measurement, Record, Run, RunSeries,
+                       RunSummary, Scene)
 from db.session import DatabaseError, database_failure, database_name, display_url, sqlite_file
 
 UNSAVED_FORMAT = "rocking-unsaved-run"  # the "format" of the files keep_unsaved writes
 UNSAVED_VERSION = 1
+COSIM_UNSAVED_FORMAT = "rocking-unsaved-cosim"  # the "format" of a co-simulated run's (pending_cosim)
+COSIM_UNSAVED_VERSION = 1
 
 KINDS = {0: "none", 1: "sine-pulse", 2: "cosine-pulse", 3: "harmonic", 4: "record", 5: "ricker",
          6: "ricker-antisymmetric", 7: "mavroeidis-papageorgiou"}
@@ -196,15 +202,17 @@ def _json_value(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON")
 
 
-def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | None = None) -> Path:
+def keep_unsaved(p: dict[str, Any], reason: str, database: str, folder: Path | None = None,
+                 label: str = "") -> Path:
     """Write a run that could not be stored to rocking-unsaved-<time>-<pid>.json in `folder`
-    (default: the working folder, else the temporary folder); OSError if neither can hold it."""
+    (default: the working folder, else the temporary folder); OSError if neither can hold it.
+    `label` (e.g. "one-way") ends the name, for runs of one command kept in the same second."""
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
     data = json.dumps({**p, "unsaved": {"reason": reason, "database": database}}, default=_json_value)
     folders = [folder] if folder is not None else [Path.cwd(), Path(tempfile.gettempdir())]
     err: OSError | None = None
     for f in folders:
-        path = (f / f"rocking-unsaved-{stamp}-{os.getpid()}.json").resolve()
+        path = (f / f"rocking-unsaved-{stamp}-{os.getpid()}{'-' + label if label else ''}.json").resolve()
         part = path.with_name(f".rocking-unsaved.{leftovers.tag()}-{stamp}.json.part")  # whole, or not at all
         leftovers.remove_stale(path.parent, ".rocking-unsaved.", ".part")  # those killed processes left
         try:
@@ -233,6 +241,8 @@ def read_unsaved(path: str | Path) -> dict[str, Any]:
         p = json.loads(Path(path).read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"{path} is not a file of an unsaved run (not JSON: {exc})") from None
+    if isinstance(p, dict) and p.get("format") == COSIM_UNSAVED_FORMAT:
+        return _read_unsaved_cosim(path, p)
     if not isinstance(p, dict) or p.get("format") != UNSAVED_FORMAT:
         raise ValueError(f"{path} is not a file of an unsaved run (rocking-unsaved-*.json)")
     if p.get("version") != UNSAVED_VERSION:
@@ -420,3 +430,146 @@ def store_or_keep(factory: sessionmaker, p: dict[str, Any]) -> int:
     hint = f"runners db import-unsaved {path}" + (f" --db {target}" if path_db is not None else " --db URL")
     raise DatabaseError(f"{reason}: the run was not stored (the database is unchanged); its results are in {path}: "
                         f"store them later with {hint}")
+
+
+# ---------------------------------------------------------------------------------------------
+# co-simulated runs (runners cosim; the pending dict is runners.engine.cosim_store.pending_cosim's)
+
+_COSIM_KEYS = {"created_at", "code_version", "name", "source", "source_sha256", "source_file", "engine", "coupling",
+               "step", "stop_time", "storeys", "floor", "system", "block_parameters", "building_parameters", "record",
+               "base_scale", "base_sha256", "summary", "block_fmu_sha256", "building_fmu_sha256", "wall_time",
+               "series"}
+
+
+def store_cosim_pending(session: Session, p: dict[str, Any]) -> CosimRun:
+    """Add a pending co-simulated run (runners.engine.cosim_store.pending_cosim) and its series;
+    its base record, when it names a stored one, by id if the name matches, else by name
+    (ValueError if this database does not hold it). The caller commits."""
+    rec = None if p["record"] is None or p["record"].get("id") is None else _record_of(session, p["record"])
+    ps = p["series"]
+    run = CosimRun(name=p["name"], source=p["source"], source_sha256=p["source_sha256"], source_file=p["source_file"],
+                   engine=p["engine"], coupling=p["coupling"], step=p["step"], stop_time=p["stop_time"],
+                   storeys=p["storeys"], floor=p["floor"], system=p["system"], block_parameters=p["block_parameters"],
+                   building_parameters=p["building_parameters"], record=rec, base_scale=p["base_scale"],
+                   base_sha256=p["base_sha256"], summary=p["summary"], block_fmu_sha256=p["block_fmu_sha256"],
+                   building_fmu_sha256=p["building_fmu_sha256"], code_version=p["code_version"],
+                   wall_time=p["wall_time"], created_at=datetime.fromisoformat(p["created_at"]))
+    run.series = CosimSeries(names=ps["names"], n_samples=ps["n_samples"], data=base64.b64decode(ps["data"]))
+    session.add(run)
+    session.flush()
+    return run
+
+
+def cosim_stored_already(session: Session, p: dict[str, Any]) -> int | None:
+    """The id of the co-simulated run a pending one was already stored as (same start, code,
+    system, engine and coupling), if any."""
+    return session.scalar(select(CosimRun.id).where(
+        CosimRun.created_at == datetime.fromisoformat(p["created_at"]), CosimRun.code_version == p["code_version"],
+        CosimRun.name == p["name"], CosimRun.engine == p["engine"], CosimRun.coupling == p["coupling"]).limit(1))
+
+
+def store_cosims(factory: sessionmaker, pending: list[dict[str, Any]]) -> list[int]:
+    """Store pending co-simulated runs in one transaction (all or none) and return their ids. If
+    the database fails, nothing is written to it: each run goes to a file (keep_unsaved, named
+    after its coupling when there are several) and a one-line DatabaseError says where, and how
+    to store them later (runners db import-unsaved)."""
+    engine = factory.kw["bind"]
+    try:
+        with factory.begin() as session:
+            return [store_cosim_pending(session, p).id for p in pending]
+    except SQLAlchemyError as exc:
+        reason = database_failure(exc, database_name(engine))
+    except Exception as exc:  # whatever went wrong, the computed runs are not lost
+        reason = f"storing the runs in {database_name(engine)} failed ({type(exc).__name__}: {exc})".splitlines()[0]
+    path_db = sqlite_file(engine)
+    target = os.path.abspath(path_db) if path_db is not None else display_url(engine)  # as --db takes it
+    kept: list[Path] = []
+    try:
+        for p in pending:
+            kept.append(keep_unsaved(p, reason, target, label=p["coupling"] if len(pending) > 1 else ""))
+    except OSError as err:
+        also = f" (kept so far: {', '.join(map(str, kept))})" if kept else ""
+        raise DatabaseError(f"{reason}: the co-simulated run{'s were' if len(pending) > 1 else ' was'} not stored, "
+                            f"and keeping {'them' if len(pending) > 1 else 'it'} in a file failed too ({err}){also}"
+                            ) from None
+    files = " and ".join(str(k) for k in kept)
+    hint = "runners db import-unsaved FILE" + (f" --db {target}" if path_db is not None else " --db URL")
+    raise DatabaseError(f"{reason}: the co-simulated run{'s were' if len(kept) > 1 else ' was'} not stored (the database "
+                        f"is unchanged); {'their' if len(kept) > 1 else 'its'} results are in {files}: store them "
+                        f"later with {hint}")
+
+
+def _read_unsaved_cosim(path: str | Path, p: dict[str, Any]) -> dict[str, Any]:
+    """A co-simulated run keep_unsaved wrote (read_unsaved): checked whole before anything is stored."""
+    if p.get("version") != COSIM_UNSAVED_VERSION:
+        raise ValueError(f"{path} is an unsaved co-simulated run of format version {p.get('version')}; this tool "
+                         f"reads version {COSIM_UNSAVED_VERSION}")
+    missing = sorted(_COSIM_KEYS - set(p))
+    if missing:
+        raise ValueError(f"{path} is not a whole unsaved co-simulated run: it lacks {', '.join(missing)}")
+    wrong = _cosim_problem(p)
+    if wrong:
+        raise ValueError(f"{path} is not a valid unsaved co-simulated run: {wrong}")
+    return p
+
+
+def _cosim_problem(p: dict[str, Any]) -> str | None:
+    """What is wrong with the values of an unsaved co-simulated run (None if nothing)."""
+    def number(v: Any, positive: bool = False) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and (not positive or v > 0)
+
+    def count(v: Any) -> bool:
+        return isinstance(v, int) and not isinstance(v, bool) and v >= 1
+
+    texts = ("name", "engine", "coupling", "code_version")
+    bad = next((k for k in texts if not isinstance(p[k], str) or not p[k]), None)
+    if bad:
+        return f"{bad} is not a text"
+    bad = next((k for k in ("source", "source_sha256", "source_file", "base_sha256", "block_fmu_sha256",
+                            "building_fmu_sha256") if not isinstance(p[k], (str, type(None)))), None)
+    if bad:
+        return f"{bad} is not a text"
+    if p["engine"] not in ("fmpy", "libcosim") or p["coupling"] not in ("one-way", "two-way"):
+        return f"engine {p['engine']!r} or coupling {p['coupling']!r} is not one a co-simulation runs with"
+    bad = next((k for k in ("step", "stop_time") if not number(p[k], positive=True)), None)
+    if bad:
+        return f"{bad} = {p[bad]!r} is not a time after the start (s)"
+    if not number(p["base_scale"]):
+        return f"base_scale = {p['base_scale']!r} is not a finite number"
+    if p["wall_time"] is not None and not number(p["wall_time"]):
+        return f"wall_time = {p['wall_time']!r} is not a number of seconds"
+    if not count(p["storeys"]) or not count(p["floor"]) or p["floor"] > p["storeys"]:
+        return f"floor {p['floor']!r} is not a floor of a building of {p['storeys']!r} storeys"
+    bad = next((k for k in ("system", "block_parameters", "building_parameters") if not isinstance(p[k], dict)), None)
+    if bad:
+        return f"{bad} is not a table"
+    if p["summary"] is not None and not isinstance(p["summary"], dict):
+        return "summary is not a table"
+    rec = p["record"]
+    if rec is not None and not (isinstance(rec, dict) and isinstance(rec.get("id"), (int, type(None)))
+                                and isinstance(rec.get("name"), str)):
+        return "record is not an id and a name"
+    try:
+        datetime.fromisoformat(p["created_at"])
+    except (TypeError, ValueError):
+        return "created_at is not a date and time"
+    ps = p["series"]
+    if not (isinstance(ps, dict) and isinstance(ps.get("names"), list) and count(ps.get("n_samples"))
+            and isinstance(ps.get("data"), str)):
+        return "series is not names, n_samples and data"
+    if not all(isinstance(n, str) and n for n in ps["names"]) or len(set(ps["names"])) != len(ps["names"]):
+        return "series.names are not distinct column names"
+    try:
+        blob = base64.b64decode(ps["data"], validate=True)
+    except ValueError:
+        return "series.data is not packed samples"
+    expected = 8 * (len(ps["names"]) + 1) * ps["n_samples"]
+    size = _inflated_size(blob, expected)
+    if size is None:
+        return "series.data is not packed samples"
+    if size != expected:
+        return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
+                "announces" + (" (it inflates to more)" if size > expected else ""))
+    if not _finite(blob):
+        return "series.data holds a sample that is not a finite number (NaN or infinite)"
+    return None
