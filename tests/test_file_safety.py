@@ -202,7 +202,7 @@ def systems(place, building_fmu_path, monkeypatch) -> Path:
 def test_a_cosim_that_fails_leaves_its_outputs_and_folders_as_they_were(systems):
     before = digests(systems)
     p = run_cli("cosim", "diverges.toml", "--step", "0.002", "--quiet", "--ssp", "old.ssp", "--out", "old.png",
-                "--csv", "new/series/s.csv", db="r.db", fmu_path=systems / "my.fmu")
+                "--csv", "new/series/s.csv", "--no-store", db="r.db", fmu_path=systems / "my.fmu")
     one_line_error(p, "two-way coupling diverged")
     assert digests(systems) == before  # old.ssp and old.png as they were, no temporary file left
     assert not (systems / "new").exists()
@@ -211,7 +211,7 @@ def test_a_cosim_that_fails_leaves_its_outputs_and_folders_as_they_were(systems)
 def test_a_cosim_that_succeeds_replaces_its_outputs_and_leaves_no_temporary_file(systems):
     before = digests(systems)
     p = run_cli("cosim", "ok.toml", "--quiet", "--ssp", "old.ssp", "--out", "old.png", "--csv", "new/s.csv",
-                "--compare", db="r.db", fmu_path=systems / "my.fmu")
+                "--compare", "--no-store", db="r.db", fmu_path=systems / "my.fmu")  # (stored runs: test_cosim_store.py)
     assert p.returncode == 0, p.stderr
     after = digests(systems)
     assert {k for k in after if after[k] != before.get(k)} == {"old.ssp", "old.png", "new/s-one-way.csv",

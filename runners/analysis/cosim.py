@@ -151,6 +151,49 @@ def between_impacts(result: CosimResult) -> np.ndarray:
     return a[~near] if np.any(~near) else a
 
 
+def has_balance(result: CosimResult) -> bool:
+    """Whether energy_balance accounts for the run: two-way coupling, blocks that report their losses
+    (the rocking–sliding model) and start at rest."""
+    b = result.system.blocks
+    return result.system.coupling == "two-way" and int(b.get("contact.model", 0)) == 1 and \
+        not any(float(b.get(k, 0.0)) for k in ("block1.theta0", "block1.omega0"))
+
+
+def summary(result: CosimResult, balance: EnergyBalance | None = None) -> dict:
+    """The run in numbers (SI units): floor, building and block peaks, and the energy balance's
+    residual at the end (the coupling's error measure; docs/cosimulation.md). What runners cosim
+    prints, gives in --json and stores (runners.engine.cosim_store)."""
+    from runners.engine.cosim import natural_frequencies
+
+    s, sys_ = result.series, result.system
+    out = {"system": sys_.name, "engine": result.engine, "coupling": sys_.coupling, "floor": sys_.floor,
+           "storeys": sys_.building.storeys, "step_s": sys_.step, "steps": len(result.time),
+           "stop_time_s": float(result.time[-1]),
+           "frequencies_hz": [round(f, 6) for f in natural_frequencies(sys_)],
+           "peak_base_acceleration": float(np.max(np.abs(s[f"{BUILDING}.base.aTotal"]))),
+           "peak_floor_acceleration": float(np.max(np.abs(result.floor("a")))),
+           "peak_floor_acceleration_between_impacts": float(np.max(np.abs(between_impacts(result)))),
+           "peak_floor_displacement": float(np.max(np.abs(result.floor("u")))),
+           "peak_base_shear": float(np.max(np.abs(s[f"{BUILDING}.baseShear"]))),
+           "peak_abs_theta": float(np.max(np.abs(s[f"{BLOCK}.block1.theta"]))),
+           "impacts": int(s[f"{BLOCK}.impacts"][-1]),
+           "final_slip": float(s[f"{BLOCK}.block1.slip"][-1]),
+           "overturned": bool(s[f"{BLOCK}.overturned"][-1]), "lifts": bool(s[f"{BLOCK}.lifts"][-1]),
+           "slides": bool(s[f"{BLOCK}.slides"][-1])}
+    if f"{BLOCK}.block2.overturned" in s:
+        out["block2_overturned"] = bool(s[f"{BLOCK}.block2.overturned"][-1])
+    if balance is not None:
+        out["energy_residual_end_j"] = float(balance.residual[-1])
+        out["energy_residual_end_relative"] = balance.relative_end
+        out["energy_scale_j"] = balance.scale
+    return out
+
+
+def run_summary(result: CosimResult) -> dict:
+    """summary() with the energy balance where the run allows one (has_balance)."""
+    return summary(result, energy_balance(result) if has_balance(result) else None)
+
+
 def _param(r: CosimResult, name: str) -> float | None:
     value = r.block_parameters.get(name, r.system.blocks.get(name))
     return None if value is None else float(value)

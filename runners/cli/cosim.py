@@ -39,38 +39,6 @@ def _progress_bar(desc: str):
     return bar, tick
 
 
-def summary(result, balance) -> dict:
-    """The run in numbers (SI units): floor, building and block peaks, and the energy balance's
-    residual at the end (the coupling's error measure; docs/cosimulation.md)."""
-    import numpy as np
-
-    from runners.analysis.cosim import between_impacts
-    from runners.engine.cosim import BLOCK, BUILDING, natural_frequencies
-
-    s, sys_ = result.series, result.system
-    out = {"system": sys_.name, "engine": result.engine, "coupling": sys_.coupling, "floor": sys_.floor,
-           "storeys": sys_.building.storeys, "step_s": sys_.step, "steps": len(result.time),
-           "stop_time_s": float(result.time[-1]),
-           "frequencies_hz": [round(f, 6) for f in natural_frequencies(sys_)],
-           "peak_base_acceleration": float(np.max(np.abs(s[f"{BUILDING}.base.aTotal"]))),
-           "peak_floor_acceleration": float(np.max(np.abs(result.floor("a")))),
-           "peak_floor_acceleration_between_impacts": float(np.max(np.abs(between_impacts(result)))),
-           "peak_floor_displacement": float(np.max(np.abs(result.floor("u")))),
-           "peak_base_shear": float(np.max(np.abs(s[f"{BUILDING}.baseShear"]))),
-           "peak_abs_theta": float(np.max(np.abs(s[f"{BLOCK}.block1.theta"]))),
-           "impacts": int(s[f"{BLOCK}.impacts"][-1]),
-           "final_slip": float(s[f"{BLOCK}.block1.slip"][-1]),
-           "overturned": bool(s[f"{BLOCK}.overturned"][-1]), "lifts": bool(s[f"{BLOCK}.lifts"][-1]),
-           "slides": bool(s[f"{BLOCK}.slides"][-1])}
-    if f"{BLOCK}.block2.overturned" in s:
-        out["block2_overturned"] = bool(s[f"{BLOCK}.block2.overturned"][-1])
-    if balance is not None:
-        out["energy_residual_end_j"] = float(balance.residual[-1])
-        out["energy_residual_end_relative"] = balance.relative_end
-        out["energy_scale_j"] = balance.scale
-    return out
-
-
 def _check_figure_path(out: str) -> None:
     """ValueError, before any run, unless the figure can be written there in a format matplotlib knows."""
     from matplotlib.figure import Figure
@@ -94,16 +62,22 @@ def _csv_files(csv: str | None, compare: bool) -> dict[str, Path]:
     return {f"--csv ({c})": path.with_name(f"{path.stem}-{c}{path.suffix or '.csv'}") for c in COUPLINGS}
 
 
-def _load(args: argparse.Namespace) -> tuple[Any, list[str]]:
+def _load(args: argparse.Namespace) -> tuple[Any, list[str], Any]:
     """The system of the command line (its file, --coupling and --step over it), checked as the API
-    checks it, and the couplings to run. ValueError, before the database is opened and before anything
-    runs, if an output would overwrite another, the database or a file the system names (its base
-    record, the FMUs: runners.cli.clobber)."""
+    checks it, the couplings to run and the database the runs are stored in (None with --no-store).
+    ValueError, before anything runs, if an output would overwrite another, the database or a file
+    the system names (its base record, the FMUs: runners.cli.clobber; _precheck refused what it could
+    before the database was opened); DatabaseError, before anything runs, for a database that cannot
+    be opened or written."""
     from runners.engine import cosim
 
-    _refuse_clobbering(args, {})
     factory = None
-    if args.db:  # where a stored base record is read (without --db: ROCKING_DB or rocking.db, when one is named)
+    if not args.no_store:  # where the runs are stored, and a stored base record read
+        from db.session import open_database, require_writable
+
+        factory = open_database(args.db)
+        require_writable(factory, "or run with --no-store")
+    elif args.db:  # where a stored base record is read (without --db: ROCKING_DB or rocking.db, when one is named)
         from db.session import open_database
 
         factory = open_database(args.db)
@@ -117,7 +91,24 @@ def _load(args: argparse.Namespace) -> tuple[Any, list[str]]:
     block, building = cosim.fmu_files(Path(args.fmu) if args.fmu else None)
     _refuse_clobbering(args, {"record file": system.record_file and str(system.record_file),
                               "blocks' FMU": str(block), "building's FMU": str(building)})
-    return system, list(COUPLINGS) if args.compare else [system.coupling]
+    return system, list(COUPLINGS) if args.compare else [system.coupling], None if args.no_store else factory
+
+
+def _precheck(args: argparse.Namespace) -> None:
+    """What can be refused before a database is opened (or made): an output that would overwrite
+    another, the database, the record file the system file names or an FMU (runners.cli.clobber), a
+    system file whose tables are invalid, a figure or series file that cannot be written."""
+    from runners.engine import cosim
+
+    _refuse_clobbering(args, {})
+    record = cosim.check_system_file(args.system)
+    block, building = cosim.fmu_files(Path(args.fmu) if args.fmu else None)
+    _refuse_clobbering(args, {"record file": record and str(record), "blocks' FMU": str(block),
+                              "building's FMU": str(building)})
+    if args.out:
+        _check_figure_path(args.out)
+    if args.csv and not Path(args.csv).parent.is_dir():
+        raise ValueError(f"--csv {args.csv}: the folder {Path(args.csv).parent} does not exist")
 
 
 def _outputs(args: argparse.Namespace) -> dict[str, str | None]:
@@ -144,11 +135,8 @@ def _notes(system: Any, couplings: list[str]) -> list[str]:
 def cmd_cosim(args: argparse.Namespace) -> int:
     from runners.analysis import cosim as checks
 
-    system, couplings = _load(args)
-    if args.out:
-        _check_figure_path(args.out)
-    if args.csv and not Path(args.csv).parent.is_dir():
-        raise ValueError(f"--csv {args.csv}: the folder {Path(args.csv).parent} does not exist")
+    _precheck(args)
+    system, couplings, factory = _load(args)
     csvs = _csv_files(args.csv, args.compare)
     if "two-way" in couplings and int(system.blocks.get("contact.model", 0)) != 1:
         output.note("no energy balance: it needs the blocks' friction and impact losses, which the rocking-sliding "
@@ -164,9 +152,13 @@ def cmd_cosim(args: argparse.Namespace) -> int:
         if args.out:
             fig = checks.figure([r for r, _ in results], title=system.name)
             _write(args.out, fig.savefig, tmp["--out"], dpi=120)
+        if factory is not None:  # last: a run the database does not take is kept in a file, the outputs not written
+            database = _store(factory, results, docs)
     out_files = [str(path) for path in csvs.values()]
     if args.json:
         out = {"runs": docs, "notes": notes}
+        if factory is not None:
+            out["database"] = database
         if args.ssp:
             out["ssp"] = str(args.ssp)
         if args.out:
@@ -175,7 +167,7 @@ def cmd_cosim(args: argparse.Namespace) -> int:
             out["series"] = out_files
         output.emit_json(out)
         return 0
-    _print_summaries(docs)
+    _print_summaries(docs, database if factory is not None else None)
     if args.ssp:
         print(f"SSP written to {args.ssp}")
     if args.out:
@@ -204,15 +196,24 @@ def _run(args: argparse.Namespace, system: Any, couplings: list[str], ssp: str |
     return results
 
 
+def _store(factory: Any, results: list[tuple[Any, float]], docs: list[dict]) -> str:
+    """Store the runs in one transaction (runners.engine.cosim_store); each summary gets its run's
+    id (``cosim_id``). The database's URL, password hidden."""
+    from db.session import display_url
+    from runners.engine.cosim_store import pending_cosim, store_pending
+
+    with output.busy("storing the run" + ("s" if len(results) > 1 else "")):
+        ids = store_pending(factory, [pending_cosim(r, d, wall_time=seconds) for (r, seconds), d in zip(results, docs)])
+    for d, ident in zip(docs, ids):
+        d["cosim_id"] = ident
+    return display_url(factory.kw["bind"])
+
+
 def _summary(r: Any, seconds: float) -> dict:
     """summary() of one run, with its energy balance where the run allows one, and its wall time."""
     from runners.analysis import cosim as checks
 
-    balance = None
-    if r.system.coupling == "two-way" and int(r.system.blocks.get("contact.model", 0)) == 1 and \
-            not any(float(r.system.blocks.get(k, 0.0)) for k in ("block1.theta0", "block1.omega0")):
-        balance = checks.energy_balance(r)
-    return {**summary(r, balance), "seconds": round(seconds, 3)}
+    return {**checks.run_summary(r), "seconds": round(seconds, 3)}
 
 
 def _write(path: str | Path, write, *args: Any, **kw: Any) -> None:
@@ -224,8 +225,9 @@ def _write(path: str | Path, write, *args: Any, **kw: Any) -> None:
         raise ValueError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
-def _print_summaries(docs: list[dict]) -> None:
-    """The runs' summaries (summary()) as text."""
+def _print_summaries(docs: list[dict], database: str | None = None) -> None:
+    """The runs' summaries (runners.analysis.cosim.summary) as text, each with the id it was stored
+    under in ``database``."""
     g = 9.81
     for d in docs:
         f = ", ".join(f"{x:.3g}" for x in d["frequencies_hz"][:3])
@@ -250,6 +252,10 @@ def _print_summaries(docs: list[dict]) -> None:
                 "no energy to balance (the base did no work and nothing moved)" if sc <= NO_ENERGY_J else
                 f"residual {e:.3g} J at the end, {100 * abs(e) / sc:.2g} % of {sc:.4g} J: the coupling's error "
                 "(docs/cosimulation.md)"))
+        if "cosim_id" in d:
+            i = d["cosim_id"]
+            print(f"  stored as co-simulated run {i} in {database} (runners db show cosim {i}; runners export "
+                  f"--cosim {i} writes its series)")
 
 
 def add_parser(sub) -> None:
@@ -269,6 +275,9 @@ def add_parser(sub) -> None:
     p.add_argument("--csv", type=output_file, metavar="FILE.csv",
                    help="write every output at every communication point (SI units); with --compare, FILE-one-way.csv "
                         "and FILE-two-way.csv")
+    p.add_argument("--no-store", action="store_true",
+                   help="do not store the runs in the database (by default each run is stored, as runners simulate "
+                        "stores its run: runners db list cosims, runners export --cosim ID)")
     common(p, db=True, fmu=True)
     files(p, reads=[("system", "system file"), "fmu"], writes=["ssp", "out", "csv"])
     p.set_defaults(func=cmd_cosim)

@@ -8,7 +8,7 @@ from typing import Any
 from runners.cli.args import common, count, files, object_id
 from runners.cli.output import emit_json
 
-TABLE_NAMES = ["blocks", "runs", "scenes", "sweeps", "measurements"]
+TABLE_NAMES = ["blocks", "runs", "scenes", "sweeps", "measurements", "cosims"]
 DEFAULT_LIMIT = 20
 
 
@@ -145,6 +145,8 @@ def cmd_list(args: argparse.Namespace) -> int:
     factory = open_database(args.db, write=False)
     if args.table == "runs":
         return _list_runs(args, factory)
+    if args.table == "cosims":
+        return _list_cosims(args, factory)
     model = _tables()[args.table]
     with factory() as session:
         total = session.scalar(select(func.count()).select_from(model))
@@ -175,6 +177,51 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
+COSIM_HEAD = (f"{'id':>7}  {'created (UTC)':16}  {'system':28} {'engine':9} {'coupling':9} {'step (s)':>9} "
+              f"{'stop (s)':>8} {'floor':>9} {'PFA (g)':>8} {'theta (rad)':>11} impacts  verdicts")
+
+
+def _cosim_line(r) -> str:
+    s = r.summary or {}
+    created = r.created_at.strftime("%Y-%m-%d %H:%M") if r.created_at else "-"
+    key = "peak_floor_acceleration_between_impacts"
+    pfa = f"{s[key] / 9.81:.3g}" if key in s else "-"
+    theta = f"{s['peak_abs_theta']:.4g}" if "peak_abs_theta" in s else "-"
+    verdicts = ", ".join(n for n in ("overturned", "lifts", "slides") if s.get(n)) or ("none" if s else "-")
+    return (f"{r.id:>7}  {created:16}  {r.name[:28]:28} {r.engine:9} {r.coupling:9} {r.step:>9.4g} {r.stop_time:>8.4g} "
+            f"{f'{r.floor} of {r.storeys}':>9} {pfa:>8} {theta:>11} {s.get('impacts', '-'):>7}  {verdicts}")
+
+
+def _list_cosims(args: argparse.Namespace, factory) -> int:
+    """Co-simulated runs (runners cosim), newest first: one line each (--json: every column but
+    the blobs, as db show cosim gives them)."""
+    from sqlalchemy import func, select
+    from sqlalchemy.orm import selectinload
+
+    from db.schema import CosimRun
+    from runners.engine.cosim_store import row
+
+    with factory() as session:
+        total = session.scalar(select(func.count()).select_from(CosimRun))
+        rows = session.scalars(select(CosimRun).options(selectinload(CosimRun.series), selectinload(CosimRun.record))
+                               .order_by(CosimRun.id.desc()).limit(min(args.limit, MAX_ID()))).all()
+        if args.json:
+            emit_json({"database": _url(factory), "total": total, "shown": len(rows), "more": total - len(rows),
+                       "cosims": [{k: v for k, v in row(r).items() if k not in ("source", "system", "block_parameters",
+                                                                                "building_parameters")}
+                                  for r in rows]})
+            return 0
+        print(f"co-simulated runs: {total} in {_url(factory)}" + (f", newest {args.limit}" if total > args.limit else "")
+              + "; PFA: the floor's peak absolute acceleration between the blocks' impacts")
+        if rows:
+            print(COSIM_HEAD)
+        for r in rows:
+            print(_cosim_line(r))
+        if total > len(rows):
+            print(f"... {total - len(rows)} more: --limit {total} shows them all")
+    return 0
+
+
 UNFINISHED = ("interrupted", "stopped", "failed")  # statuses of a sweep that runners sweep ID finishes
 
 
@@ -193,6 +240,16 @@ def cmd_show(args: argparse.Namespace) -> int:
     from runners.cli.parser import resolve_latest
 
     factory = open_database(args.db, write=False)
+    if args.what == "cosim":
+        from db.schema import CosimRun
+        from runners.engine.cosim_store import resolve, row
+
+        if not (args.key.isdecimal() or args.key == "latest"):
+            raise ValueError(f"cosim ids are integers (or 'latest'), got {args.key!r}")
+        ident = resolve(factory, args.key)
+        with factory() as session:
+            emit_json(row(session.get(CosimRun, ident)))
+        return 0
     with factory() as session:
         if args.what == "block":
             obj = session.scalar(select(Block).where(Block.name == args.key))
@@ -241,10 +298,12 @@ def cmd_delete(args: argparse.Namespace) -> int:
 
 def cmd_import_unsaved(args: argparse.Namespace) -> int:
     from db.session import open_database
-    from db.store import read_unsaved, store_pending, stored_already
+    from db.store import COSIM_UNSAVED_FORMAT, read_unsaved, store_pending, stored_already
 
     pending = read_unsaved(args.file)
     factory = open_database(args.db, write=True)
+    if pending["format"] == COSIM_UNSAVED_FORMAT:
+        return _import_unsaved_cosim(args, pending, factory)
     with factory.begin() as session:
         done = stored_already(session, pending)
         run_id = done if done is not None else store_pending(session, pending).id
@@ -259,12 +318,32 @@ def cmd_import_unsaved(args: argparse.Namespace) -> int:
     return 0
 
 
+def _import_unsaved_cosim(args: argparse.Namespace, pending: dict, factory) -> int:
+    """import-unsaved of a co-simulated run runners cosim kept in a file (db.store.store_cosims)."""
+    from db.store import cosim_stored_already, store_cosim_pending
+
+    with factory.begin() as session:
+        done = cosim_stored_already(session, pending)
+        cosim_id = done if done is not None else store_cosim_pending(session, pending).id
+    what = f"{pending['name']}, co-simulated ({pending['engine']}, {pending['coupling']}), run at {pending['created_at']}"
+    if args.json:
+        emit_json({"cosim_id": cosim_id, "stored_already": done is not None, "file": str(args.file),
+                   "database": _url(factory)})
+    elif done is not None:
+        print(f"{args.file} is stored already: co-simulated run {cosim_id} ({what}) in {_url(factory)}")
+    else:
+        print(f"stored co-simulated run {cosim_id} ({what}) from {args.file} in {_url(factory)}; the file can now be "
+              "deleted")
+    return 0
+
+
 def add_parser(sub) -> None:
     dbp = sub.add_parser("db", help="the experiment database: init, list, show, delete, import-unsaved")
     dsub = dbp.add_subparsers(dest="db_command", required=True, metavar="COMMAND")
     init = dsub.add_parser("init", help="create or migrate the database and load the block catalogue")
     init.set_defaults(func=cmd_init)
-    lst = dsub.add_parser("list", help="list blocks, runs, scenes, sweeps or measurements (newest first)")
+    lst = dsub.add_parser("list", help="list blocks, runs, scenes, sweeps, measurements or co-simulated runs "
+                                       "(cosims; newest first)")
     lst.add_argument("table", choices=TABLE_NAMES)
     lst.add_argument("--limit", type=count, default=DEFAULT_LIMIT, metavar="N",
                      help=f"show the newest N (default {DEFAULT_LIMIT}); a last line says how many more there are")
@@ -273,23 +352,25 @@ def add_parser(sub) -> None:
     lst.add_argument("--single", action="store_true", help="runs: only the runs that are not sweep points "
                                                            "(by default each sweep is one line)")
     lst.set_defaults(func=cmd_list)
-    show = dsub.add_parser("show", help="one block (by name or id), run, scene, sweep or measurement, as JSON")
-    show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement"])
+    show = dsub.add_parser("show", help="one block (by name or id), run, scene, sweep, measurement or co-simulated "
+                                        "run (cosim), as JSON")
+    show.add_argument("what", choices=["block", "run", "scene", "sweep", "measurement", "cosim"])
     show.add_argument("key", metavar="ID", help="the id (or 'latest'); a block's name or id")
     show.set_defaults(func=cmd_show)
-    rm = dsub.add_parser("delete", help="delete a sweep, a run or a record with every row that belongs to it "
-                                        "(refused if other rows need it, unless --force)",
-                         description="Delete a sweep, a run or a record with every row that belongs to it, in one "
-                                     "transaction (refused if other rows need it, unless --force). A deleted sweep's "
-                                     "id is never given again; in an SQLite database a deleted run's or record's id "
-                                     "is, when it was the newest (docs/database.md#deleting).")
-    rm.add_argument("what", choices=["sweep", "run", "record"])
-    rm.add_argument("key", metavar="ID|NAME", help="a sweep's or run's id (or 'latest'); a record's name or id")
+    rm = dsub.add_parser("delete", help="delete a sweep, a run, a co-simulated run or a record with every row that "
+                                        "belongs to it (refused if other rows need it, unless --force)",
+                         description="Delete a sweep, a run, a co-simulated run (cosim) or a record with every row that "
+                                     "belongs to it, in one transaction (refused if other rows need it, unless --force). "
+                                     "A deleted sweep's or co-simulated run's id is never given again; in an SQLite "
+                                     "database a deleted run's or record's id is, when it was the newest "
+                                     "(docs/database.md#deleting).")
+    rm.add_argument("what", choices=["sweep", "run", "cosim", "record"])
+    rm.add_argument("key", metavar="ID|NAME", help="a sweep's, run's or cosim's id (or 'latest'); a record's name or id")
     rm.add_argument("--force", action="store_true",
-                    help="also delete what needs it (a record's runs, sweeps and measurements) and take a run out of "
-                         "its sweep; says how many")
+                    help="also delete what needs it (a record's runs, co-simulated runs, sweeps and measurements) and "
+                         "take a run out of its sweep; says how many")
     rm.set_defaults(func=cmd_delete)
-    imp = dsub.add_parser("import-unsaved", help="store a run that could not be stored when it ran "
+    imp = dsub.add_parser("import-unsaved", help="store a run (simulated or co-simulated) that could not be stored when it ran "
                                                  "(the rocking-unsaved-*.json file the error named)")
     imp.add_argument("file", help="rocking-unsaved-*.json")
     files(imp, reads=[("file", "unsaved run file")])

@@ -93,6 +93,8 @@ class System:
     notes: list[str] = field(default_factory=list)  # the base record's notes (units, a run shorter than it)
     default_stop_time: float | None = None  # s, the base record's end plus 5 s
     record_file: Path | None = None  # the record file the system file names ([excitation] file), if any
+    # the base record: {"id": its id in the database (None: a file not stored), "name": its name}
+    record: dict[str, Any] | None = None
 
     @property
     def blocks_mass(self) -> float:
@@ -166,11 +168,9 @@ def _system_tables(data: dict[str, Any], source: str) -> tuple[Building, int, st
     return b, floor, mode, step, data
 
 
-def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=None) -> System:
-    """Validate a parsed system document: a scene (its [excitation] is the base motion, a
-    record) with a [building] and a [coupling] table."""
-    from runners.engine.records import TAIL, prepare_scene  # reads the base record
-
+def _system_scene(data: dict[str, Any], source: str) -> tuple[Building, int, str, float, Any]:
+    """The building, the blocks' floor, the coupling, the communication step (s) and the blocks'
+    scene of a parsed system document, checked without reading the base record."""
     b, floor, mode, step, data = system_tables(data, source)
     try:
         scene = scene_from_dict(data, source)
@@ -186,6 +186,15 @@ def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=Non
         key = {fmu: k for k, (fmu, _) in SCHEMA["excitation"].items()}.get(min(base_keys), min(base_keys))
         raise CosimError(f"{source}: [excitation] {key}: the building's base moves with a record, horizontally "
                          "(give record or file, scale or pga, start_time)")
+    return b, floor, mode, step, scene
+
+
+def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=None) -> System:
+    """Validate a parsed system document: a scene (its [excitation] is the base motion, a
+    record) with a [building] and a [coupling] table."""
+    from runners.engine.records import TAIL, prepare_scene  # reads the base record
+
+    b, floor, mode, step, scene = _system_scene(data, source)
     try:
         prepared = prepare_scene(scene, factory)
     except OSError as exc:
@@ -200,13 +209,26 @@ def system_from_dict(data: dict[str, Any], source: str = "<system>", factory=Non
                     base_file=Path(base["excitation.file"]), base_scale=float(base.get("excitation.scale", 1.0)),
                     base_start=start, source=source, notes=list(prepared.notes),
                     default_stop_time=start + prepared.end + TAIL,
-                    record_file=Path(scene.file) if scene.file else None)
+                    record_file=Path(scene.file) if scene.file else None,
+                    record={"id": prepared.record_id, "name": prepared.name})
     check_system(system, FILE_NAMES, source)
     return system
 
 
 def load_system(path: str | Path, factory=None) -> System:
     """Read and validate a system file (TOML: a scene plus [building] and [coupling])."""
+    return system_from_dict(_read_system_file(path), str(path), factory)
+
+
+def check_system_file(path: str | Path) -> Path | None:
+    """CosimError, in one line, for a system file that cannot be read or whose tables are invalid,
+    without reading its base record or opening a database (load_system does both); the record file
+    it names ([excitation] file), if any."""
+    scene = _system_scene(_read_system_file(path), str(path))[-1]
+    return Path(scene.file) if scene.file else None
+
+
+def _read_system_file(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
@@ -218,7 +240,7 @@ def load_system(path: str | Path, factory=None) -> System:
         raise CosimError(f"{path}: cannot read: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise CosimError(f"{path}: invalid TOML: {exc}") from None
-    return system_from_dict(data, str(path), factory)
+    return data
 
 
 # ------------------------------------------------------------------ checks the command line and the API share
@@ -499,6 +521,8 @@ class CosimResult:
     series: dict[str, np.ndarray]
     # the blocks' parameters as run: the FMU's start values, the system's over them
     block_parameters: dict[str, Any] = field(default_factory=dict)
+    block_fmu: Path | None = None  # the FMUs that ran (run() sets them)
+    building_fmu: Path | None = None
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.series[name]
@@ -546,6 +570,7 @@ def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, bui
         runner = run_ssp_fmpy if engine == "fmpy" else run_ssp_libcosim
         result = runner(system, path, progress)
     result.block_parameters = {**_start_values(block_fmu), **system.block_parameters()}
+    result.block_fmu, result.building_fmu = Path(block_fmu), Path(building_fmu)
     why = divergence(result)
     if why:
         raise CosimDiverged(why, result)

@@ -5,6 +5,8 @@ measurements as pandas DataFrames, and one run or sweep as the API's result type
     >>> db.runs(single=True, limit=5)           # the newest five runs that are in no sweep
     >>> db.run(12).series["block1.theta"]       # rad, indexed by time in s
     >>> db.sweep(3).to_pandas()                 # one row per grid point
+    >>> db.cosims()                             # the co-simulated runs (runners cosim), newest first
+    >>> db.cosim(2)["building.storey[3].a"]     # m/s2, at db.cosim(2).time (s)
 
 Units are SI and angles radians (docs/conventions.md); docs/export.md lists every column.
 """
@@ -26,6 +28,7 @@ from runners.engine.tables import OUTCOMES, fmu_defaults, stored_table
 if TYPE_CHECKING:
     import pandas as pd
 
+    from runners.engine.cosim_store import StoredCosim
     from runners.engine.deletion import Deleted
 
 
@@ -96,6 +99,16 @@ class Database:
         (Hz), instrument, uncertainties (rad, s, m or m/s^2), source."""
         return stored_table(self.factory, "measurements")
 
+    def cosims(self, limit: int | None = None) -> "pd.DataFrame":
+        """Stored co-simulated runs (runners cosim), newest first: the system's name, engine,
+        coupling, communication step and stop time (s), storeys, floor, base record and scale, the
+        summary's numbers (peak_floor_acceleration in m/s2, peak_abs_theta in rad, impacts,
+        overturned, energy_residual_end_relative, ...), wall_time (s), code_version, created_at.
+        limit: the newest N (runners.engine.cosim_store.table)."""
+        from runners.engine.cosim_store import table
+
+        return table(limit, factory=self.factory)
+
     # -- one run, one sweep -------------------------------------------------------------------
 
     def run(self, run_id: int) -> RunResult:
@@ -148,15 +161,29 @@ class Database:
         return SweepResult(sweep_id=sweep_id, factory=self.factory, stats=stats)
 
 
+    def cosim(self, cosim_id: int | str) -> "StoredCosim":
+        """A stored co-simulated run (its id, or "latest"): a runners.engine.cosim.CosimResult
+        (``time`` in s, ``series`` by output name, ``system``, ``engine``, ``block_parameters``) as
+        the run gave it, bit for bit, with its ``cosim_id``, ``summary``, ``building_parameters``,
+        the system file's text (``source``), ``wall_time`` (s), ``code_version`` and ``created_at``;
+        runners.analysis.cosim's checks and figure take it as they take a fresh run. ValueError for a
+        run that is not there."""
+        from runners.engine.cosim_store import load
+
+        if not (cosim_id == "latest" or arguments.is_whole(cosim_id)):
+            raise ArgumentError(f"cosim_id must be a whole number or 'latest', got {cosim_id!r}")
+        return load(cosim_id if cosim_id == "latest" else int(cosim_id), factory=self.factory)
+
     # -- deleting ----------------------------------------------------------------------------
 
     def delete(self, kind: str, key: int | str, *, force: bool = False) -> "Deleted":
-        """Delete a stored sweep or run (its id, or "latest") or record (its name or id) with every
-        row that belongs to it, in one transaction (runners.engine.deletion): a sweep's points with
-        their summaries and series, a run's summary, series and excitation, and the scenes no other
-        row uses. Something other rows need is refused (InUse, a RockingError and ValueError, one
-        line naming them; nothing changes): a record that runs, sweeps or measurements were driven by
-        or made from, a run that is a point of a sweep; with force=True those go too (a sweep's point
+        """Delete a stored sweep, run or co-simulated run (kind "cosim"; its id, or "latest") or record
+        (its name or id) with every row that belongs to it, in one transaction
+        (runners.engine.deletion): a sweep's points with their summaries and series, a run's summary,
+        series and excitation, and the scenes no other row uses, a co-simulated run's series.
+        Something other rows need is refused (InUse, a RockingError and ValueError, one line naming
+        them; nothing changes): a record that runs, co-simulated runs, sweeps or measurements were
+        driven by or made from, a run that is a point of a sweep; with force=True those go too (a sweep's point
         is taken out of it, to be run again by resuming it). A sweep a process is running is never
         deleted. Returns a runners.engine.deletion.Deleted: rows deleted per table (.rows), what
         went with it (.with_it), .text(), .as_dict(). The database is opened for writing for this

@@ -1,15 +1,18 @@
-"""Deleting a stored sweep, run or record, with every row that belongs to it, in one transaction.
+"""Deleting a stored sweep, run, co-simulated run or record, with every row that belongs to it, in one
+transaction.
 
 What belongs to it (db/schema.py, every foreign key): a run's summary (run_summaries), series
 (run_series) and excitation (excitations, when no other run or measurement shares it) and its
 scene (scenes, when no other run or sweep uses it); a sweep's runs with all of theirs, and its
 scene. What needs it, and so refuses the delete unless ``force`` (then it goes too, and is
 counted): a record is needed by the runs and sweeps driven by it (runs.excitation_id ->
-excitations.record_id, and sweeps.grid["records"]) and by the measurements it was made from
+excitations.record_id, and sweeps.grid["records"]), by the co-simulated runs whose building's
+base it moved (cosim_runs.record_id) and by the measurements it was made from
 (measurements.excitation_id); a run that is a point of a sweep is needed by that sweep (``force``
-takes the point out of it, which ``runners sweep ID`` then runs again). Nothing else in the
-schema refers to a run or a sweep (measurements and calibrations refer to blocks and excitations,
-not to runs). A sweep a live process is running (runners.engine.sweep_lock) is never deleted.
+takes the point out of it, which ``runners sweep ID`` then runs again). A co-simulated run goes
+with its series (cosim_series); nothing refers to it. Nothing else in the schema refers to a run
+or a sweep (measurements and calibrations refer to blocks and excitations, not to runs). A sweep
+a live process is running (runners.engine.sweep_lock) is never deleted.
 
 Each delete is one transaction: it happens whole or not at all (a failure on the way rolls back
 everything), and a refused one changes nothing. Statements work on sets (``DELETE ... WHERE
@@ -24,15 +27,17 @@ from typing import Any
 from sqlalchemy import delete, func, select, update
 from sqlalchemy.orm import sessionmaker
 
-from db.schema import Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene, Sweep
+from db.schema import CosimRun, CosimSeries, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene, Sweep
 from runners.errors import RockingError
 
-KINDS = ("sweep", "run", "record")
+KINDS = ("sweep", "run", "cosim", "record")
 # what a key of each kind is, in words (messages of runners db delete and Database.delete)
 KEY_WORDS = {"sweep": "a sweep's id (a whole number) or 'latest'", "run": "a run's id (a whole number) or 'latest'",
-             "record": "a record's name or id"}
+             "cosim": "a co-simulated run's id (a whole number) or 'latest'", "record": "a record's name or id"}
 TABLES = {"runs": "run", "run_summaries": "run summary", "run_series": "run series", "excitations": "excitation",
           "sweeps": "sweep", "scenes": "scene", "measurements": "measurement", "records": "record"}  # table -> one row
+# tables Deleted.rows counts only when a delete removed rows of them (co-simulated runs)
+OTHER_TABLES = {"cosim_runs": "cosim run", "cosim_series": "cosim series"}
 
 
 class InUse(RockingError, ValueError):
@@ -54,7 +59,8 @@ class Deleted:
 
     def add(self, counts: dict[str, int]) -> None:
         for table, n in counts.items():
-            self.rows[table] += n
+            if table in self.rows or n:
+                self.rows[table] = self.rows.get(table, 0) + n
 
     def as_dict(self) -> dict[str, Any]:
         return {"deleted": self.kind, "id": self.id, "name": self.name, "rows": dict(self.rows),
@@ -63,9 +69,11 @@ class Deleted:
     def text(self) -> str:
         """One line: 'deleted sweep 3 (sine pulse, 4,900 of 4,900 points); rows: 4,900 runs, 4,900 run
         summaries, 1 sweep, 1 scene'; with what went with it ('with --force also: sweep 1, run 7')."""
-        rows = ", ".join(f"{n:,} {TABLES[table] if n == 1 else table.replace('_', ' ')}"
+        one = {**TABLES, **OTHER_TABLES}
+        rows = ", ".join(f"{n:,} {one[table] if n == 1 else table.replace('_', ' ')}"
                          for table, n in self.rows.items() if n)
-        also = ", ".join(f"{k if len(v) > 1 or k.startswith('taken') else TABLES[k]} {', '.join(map(str, v[:10]))}"
+        also = ", ".join(f"{k.replace('_', ' ') if len(v) > 1 or k.startswith('taken') else one[k]} "
+                         f"{', '.join(map(str, v[:10]))}"
                          f"{' ...' if len(v) > 10 else ''}" for k, v in self.with_it.items() if v)
         return (f"deleted {self.kind} {self.id} ({self.name})" + (f"; with --force also: {also}" if also else "")
                 + f"; rows: {rows or 'none'}")
@@ -79,11 +87,18 @@ def delete_stored(factory: sessionmaker, kind: str, key: int | str, force: bool 
     from db.session import display_url
 
     if kind not in KINDS:
-        raise ValueError(f"cannot delete a {kind!r}: a sweep, a run or a record")
+        raise ValueError(f"cannot delete a {kind!r}: a sweep, a run, a cosim (co-simulated run) or a record")
     where = display_url(factory.kw["bind"])
     with factory.begin() as session:
         if kind == "record":
             done = _delete_record(session, factory, _record(session, key), force)
+        elif kind == "cosim":
+            ident = _newest(session, CosimRun, "co-simulated run") if key == "latest" else int(key)
+            row = session.get(CosimRun, ident)
+            if row is None:
+                raise ValueError(f"no co-simulated run {key} in {where}")
+            done = Deleted("cosim", row.id, f"{row.name}, {row.coupling}, {row.engine}")
+            done.add(_delete_cosims(session, CosimRun.id == row.id))
         else:
             model = Sweep if kind == "sweep" else Run
             ident = _newest(session, model, kind) if key == "latest" else int(key)
@@ -158,10 +173,12 @@ def _delete_record(session, factory: sessionmaker, rec: Record, force: bool) -> 
                                                                                 Run.sweep_id.is_not(None)))))
     runs = sorted(session.scalars(select(Run.id).where(Run.excitation_id.in_(uses), Run.sweep_id.is_(None))))
     measurements = sorted(session.scalars(select(Measurement.id).where(Measurement.excitation_id.in_(uses))))
-    needs = {"sweeps": sweeps, "runs": runs, "measurements": measurements}
+    cosims = sorted(session.scalars(select(CosimRun.id).where(CosimRun.record_id == rec.id)))
+    needs = {"sweeps": sweeps, "runs": runs, "cosim_runs": cosims, "measurements": measurements}
     if any(needs.values()) and not force:
-        named = " and ".join(f"{len(ids)} {k[:-1] if len(ids) == 1 else k} ({', '.join(map(str, ids[:5]))}"
-                             f"{' ...' if len(ids) > 5 else ''})" for k, ids in needs.items() if ids)
+        named = " and ".join(f"{len(ids)} {OTHER_TABLES.get(k, k[:-1]) if len(ids) == 1 else k.replace('_', ' ')} "
+                             f"({', '.join(map(str, ids[:5]))}{' ...' if len(ids) > 5 else ''})"
+                             for k, ids in needs.items() if ids)
         raise InUse(f"record {rec.name!r} (id {rec.id}) is needed by {named}: delete them first, or give --force to "
                     "delete them with it")
     _refuse_running(factory, sweeps)
@@ -169,6 +186,8 @@ def _delete_record(session, factory: sessionmaker, rec: Record, force: bool) -> 
     done.add(_delete_sweeps(session, sweeps))
     if runs:
         done.add(_delete_runs(session, Run.id.in_(runs)))
+    if cosims:
+        done.add(_delete_cosims(session, CosimRun.id.in_(cosims)))
     done.add({"measurements": _execute(session, delete(Measurement).where(Measurement.id.in_(measurements)))})
     done.add({"excitations": _execute(session, delete(Excitation).where(Excitation.record_id == rec.id)),
               "records": _execute(session, delete(Record).where(Record.id == rec.id))})
@@ -178,6 +197,13 @@ def _delete_record(session, factory: sessionmaker, rec: Record, force: bool) -> 
 def _execute(session, statement) -> int:
     """Run a bulk DELETE or UPDATE without loading its rows; the rows it matched."""
     return session.execute(statement.execution_options(synchronize_session=False)).rowcount
+
+
+def _delete_cosims(session, which) -> dict[str, int]:
+    """Delete the co-simulated runs `which` (a condition on cosim_runs) with their series."""
+    ids = select(CosimRun.id).where(which)
+    return {"cosim_series": _execute(session, delete(CosimSeries).where(CosimSeries.run_id.in_(ids))),
+            "cosim_runs": _execute(session, delete(CosimRun).where(which))}
 
 
 def _delete_sweeps(session, sweep_ids: list[int]) -> dict[str, int]:

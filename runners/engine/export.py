@@ -12,7 +12,12 @@ after it: results.csv and results-events.csv):
 - a run, json:    run-ID.json, one object {run, scene, parameters, summary, units,
                   series: {time: [...], column: [...]}, events: [{time, kind, ...}]};
 - a sweep:        sweep-ID.csv, sweep-ID.parquet (units and the sweep's grid in the metadata)
-                  or sweep-ID.json ({sweep, units, points: [{column: value}, ...]}).
+                  or sweep-ID.json ({sweep, units, points: [{column: value}, ...]});
+- a co-simulated run (runners cosim): cosim-ID.csv (time in s, then every output of the
+                  building and the blocks, "building.storey[3].a", "block.block1.theta", ...),
+                  cosim-ID.parquet (the units, the system, summary and parameters in the
+                  metadata) or cosim-ID.json ({cosim, system, engine, coupling, step, parameters,
+                  summary, units, series: {time: [...], column: [...]}}); no events file.
 
 Floats are written so that they read back bit for bit: in CSV and JSON as the shortest
 decimal that does (what Python's repr prints; 0.1, not 0.10000000000000001), in Parquet as
@@ -199,6 +204,46 @@ def export_run(factory: sessionmaker, run_id: int, fmt: str = "csv", out: str | 
             _run_json(files, main, meta, series, _stored_events(factory, run_id), progress)
         written = files.commit()
     return Exported(written, len(series), len(events))
+
+
+def export_cosim(factory: sessionmaker, cosim_id: int, fmt: str = "csv", out: str | Path | None = None,
+                 progress: bool = False) -> Exported:
+    """Write stored co-simulated run `cosim_id`'s series (every output at every communication
+    point) as `fmt` (csv, parquet, json) to `out` (default: cosim-ID.EXT in the working folder).
+    ValueError for a run that is not there."""
+    from runners.engine.cosim_store import load, system_dict, units
+    from runners.engine.tables import series_frame
+
+    fmt = choose_format(fmt, str(out) if out is not None else None)
+    run = load(cosim_id, factory=factory)
+    main = Path(out) if out is not None else Path(f"cosim-{cosim_id}{FORMATS[fmt]}")
+    series = series_frame(run.time, run.series)
+    meta = {"cosim": cosim_id, "system": run.system.name, "engine": run.engine, "coupling": run.system.coupling,
+            "step": run.system.step, "units": units(list(run.series)), "summary": run.summary,
+            "parameters": {"system": system_dict(run.system), "blocks": run.block_parameters,
+                           "building": run.building_parameters}}
+    check_destination(main)  # before writing anything
+    with _Files() as files:
+        if fmt == "csv":
+            _frame_csv(files, main, series, progress, f"cosim {cosim_id}")
+        elif fmt == "parquet":
+            _parquet(files, main, series, meta, index=True)
+        else:
+            _cosim_json(files, main, meta, series, progress)
+        written = files.commit()
+    return Exported(written, len(series))
+
+
+def _cosim_json(files: _Files, path: Path, meta: dict, series, progress: bool) -> None:
+    head = {k: meta[k] for k in ("cosim", "system", "engine", "coupling", "step", "parameters", "summary", "units")}
+    with files.open(path) as fh, _bar(series.shape[1] + 1, f"cosim {meta['cosim']}", progress, "column") as bar:
+        fh.write(_json(head)[:-1] + ', "series": {')
+        columns = [("time", series.index.to_numpy())] + [(c, series[c].to_numpy()) for c in series.columns]
+        for k, (name, values) in enumerate(columns):
+            fh.write(("" if k == 0 else ", ") + json.dumps(name) + ": ")
+            fh.write(json.dumps([_plain(v) for v in values.tolist()]))
+            bar.update(1)
+        fh.write("}}\n")
 
 
 def _stored_events(factory: sessionmaker, run_id: int) -> list[dict]:
