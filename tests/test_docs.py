@@ -258,7 +258,7 @@ def test_the_python_block_of_the_cosimulation_page_runs(tmp_path, monkeypatch, f
     if libcosim_available():
         pytest.skip(libcosim_available())  # the block runs the system in libcosim too
     blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "cosimulation.md").read_text(encoding="utf-8"), re.S)
-    assert len(blocks) == 1
+    assert len(blocks) == 2  # running the system, then storing a run and reading it back (#stored-runs)
     (tmp_path / "examples").mkdir()
     for name in ("cabinet_on_floor.toml", "pulse_3hz.AT2"):
         shutil.copy(ROOT / "examples" / name, tmp_path / "examples" / name)
@@ -268,6 +268,10 @@ def test_the_python_block_of_the_cosimulation_page_runs(tmp_path, monkeypatch, f
     namespace: dict = {}
     exec(compile(blocks[0], "docs/cosimulation.md", "exec"), namespace)
     assert (tmp_path / "cabinet.ssp").is_file() and len(namespace["finer"].time) == 4 * len(namespace["result"].time)
+    stored: dict = {}
+    exec(compile(blocks[1], "docs/cosimulation.md", "exec"), stored)
+    assert (tmp_path / "results.db").is_file() and stored["stored"].cosim_id == stored["cosim_id"] == 1
+    assert all((stored["stored"][n] == stored["result"][n]).all() for n in stored["result"].series)
 
 
 def test_the_cabinet_of_the_docs_gives_the_numbers_they_state(fmu_path, tmp_path):
