@@ -611,7 +611,7 @@ def sweep(
             sweepable = axis_parameters(fm)  # name -> "Real" or "Integer"
             defaults = fm.defaults()
             axes = [parse_axis(spec, sweepable) for spec in specs]
-            recs, intensity, notes = record_axes(factory, sc, axes, records, im, stop_time is not None)
+            recs, intensity, notes = record_axes(factory, sc, axes, records, im, stop_time is not None, fm)
             if not axes and not recs:
                 raise ArgumentError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
             check_axes(axes, {**defaults, **sc.parameters})

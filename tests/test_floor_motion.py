@@ -67,6 +67,24 @@ def test_the_peak_floor_acceleration_is_the_largest_on_any_finer_grid(near_field
     assert pfa > 1.5 * np.abs(a).max()  # the top floor amplifies
 
 
+@pytest.mark.parametrize("coupling", [0, 1])
+def test_the_fmus_peak_floor_acceleration_is_the_python_one(fmu, near_field, tmp_path, coupling):
+    """support.peakFloorAcceleration (the FMU's, at initialisation: the extrema of the modes' closed form located by
+    its bound-certified search) equals the matrix exponential's PFA to 1e-12, scaled with the record, on a floor
+    of the frame and on an isolation platform; the bare support's also when the blocks load it (two-way)."""
+    isolator = {"support.kind": 2, "platform.mass": 800.0, "platform.stiffness": 800.0 * (2 * np.pi / 2.5) ** 2,
+                "platform.damping": 2 * 0.1 * 800.0 * 2 * np.pi / 2.5}
+    for k, support in enumerate([FRAME, {**FRAME, "building.floor": 1}, isolator]):
+        t, a = near_field[k % 2]
+        rec = write_record(tmp_path / f"nf{k}.txt", t, a)
+        python = floor_motion.FloorMotion(support, t, a).peak()
+        p = {**CABINET, **support, "support.coupling": coupling, "excitation.kind": 4, "excitation.file": str(rec),
+             "excitation.scale": -1.7}
+        assert abs(floor_motion.fmu_peak_floor_acceleration(fmu, p, rec) - python) < 1e-12 * python
+        run = fmu.run(p, 0.1, 0.1, ["support.peakFloorAcceleration"])
+        assert abs(run.outputs["support.peakFloorAcceleration"][-1] - 1.7 * python) < 1e-12 * python
+
+
 def test_a_floor_as_stiff_as_the_ground_has_the_grounds_spectrum(near_field):
     """A 1e6 rad/s platform: the floor spectrum is the record's, and the PFA its PGA (to the grid's resolution of
     the platform's own vibration, sampled at 1/16 of the record's interval)."""

@@ -163,7 +163,8 @@ Status instance_initialize(Instance *I) {
         INSTANCE_ERROR(I, "support: %s", msg);
         return STATUS_ERROR;
     }
-    if (I->sup.data) M->sup = &I->sup;
+    M->supportPeak = I->sup.data ? I->sup.peak : 0.0;
+    if (I->sup.data && !M->d.sup.twoWay) M->sup = &I->sup; /* (two-way: integrated with the blocks, coupling.c) */
     solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
     solver_outputs(M, I->s.tc);
@@ -587,7 +588,7 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
             support_free(&I->sup, I->release);
             I->sup = fresh;
         }
-        moves = check.sup != NULL;
+        moves = check.sup != NULL && !check.d.sup.twoWay;
     }
     I->s = *snap;
     I->s.model.rec = (!snap->dirty && sm->v.kind == KIND_RECORD) ? &I->rec : NULL;

@@ -332,8 +332,7 @@ static void entry_derivative2(const SupportModes *sm, const double *e, int k, do
 /* ------------------------------------------------------------------ the table */
 
 int support_needed(const Model *M) {
-    return M->v.supportKind != SUPPORT_GROUND && M->v.kind == KIND_RECORD && M->rec && M->d.sup.nm > 0 &&
-           !M->d.sup.twoWay; /* (two-way: the support is integrated with the blocks, coupling.c) */
+    return M->v.supportKind != SUPPORT_GROUND && M->v.kind == KIND_RECORD && M->rec && M->d.sup.nm > 0;
 }
 
 /* (M->sup is set only to a table built for M's parameters and record: instance.c) */
@@ -380,6 +379,8 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
     *x = xe;
     *v = ve;
 }
+
+static double table_peak(const Model *M, const SupportTable *T);
 
 int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
     if (!support_needed(M)) {
@@ -429,6 +430,7 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             t += nt;
         }
     }
+    T->peak = table_peak(M, T);
     return 0;
 }
 
@@ -512,7 +514,16 @@ static int search(const Slope *S, double s0, double s1, double x, int forward, i
     f = S->a1 + S->scale * f;
     d *= S->scale;
     if (b4 == 0.0 || fabs(f) > b4 * rad) return 0; /* no root (or a constant slope: no extremum) */
-    if (fabs(d) > fabs(S->scale) * entry_bound(S->sm, S->e, 5, s0, s1) * rad) { /* monotone: one root at most */
+    double b5 = fabs(S->scale) * entry_bound(S->sm, S->e, 5, s0, s1);
+    int monotone = fabs(d) > b5 * rad;
+    if (!monotone) {
+        /* the same tests to second order about c, which the bounds alone fail near a multiple root (an undamped
+         * support starting from rest has a double one: its slope's bounds sum modes that cancel there) */
+        if (fabs(f) > (fabs(d) + b5 * rad) * rad) return 0;
+        double d2 = S->scale * entry_derivative(S->sm, S->e, 5, c), b6 = fabs(S->scale) * entry_bound(S->sm, S->e, 6, s0, s1);
+        monotone = fabs(d) > (fabs(d2) + b6 * rad) * rad;
+    }
+    if (monotone) { /* one root at most */
         double f0 = slope_at(S, s0), f1 = slope_at(S, s1);
         double r;
         if (f0 == 0.0) r = s0;
@@ -560,4 +571,64 @@ double support_cell_start(const Model *M, double a, int piece, double t0, double
     double edge;
     if (cell_search(M, a, piece, t0, t1, aBase1, 0, &edge) && edge <= a && edge > t0) return edge;
     return t0;
+}
+
+/* ------------------------------------------------------------------ peak floor acceleration */
+
+/* Samples per period of the support's fastest mode at which the peak floor acceleration is sought (each sampled
+ * maximum then refined by Newton's method on the slope); runners.engine.floor_motion samples the same way. */
+#define SUPPORT_PEAK_GRID 64
+
+/* |a_f| = |a_g + u''| on entry e at s (a_g = a0 + a1 s, at scale 1). */
+static double floor_abs(const SupportModes *sm, const double *e, double a0, double a1, double s) {
+    return fabs(a0 + a1 * s + entry_derivative(sm, e, 2, s));
+}
+
+/* The largest |a_f| on entry e over [0, L]: sampled at n + 1 points, each sampled local maximum refined by Newton's
+ * method on its slope a1 + u''' (its derivative u'''') inside the samples around it; a value is kept only where it
+ * is evaluated, so the result is exact at the peak found. */
+static double entry_peak(const SupportModes *sm, const double *e, double a0, double a1, double L, int n) {
+    double best = 0.0, prev = -1.0, cur = floor_abs(sm, e, a0, a1, 0.0);
+    for (int i = 0; i <= n; i++) {
+        double next = i < n ? floor_abs(sm, e, a0, a1, L * (i + 1) / n) : -1.0;
+        best = fmax(best, cur);
+        if (cur >= prev && cur >= next && cur > 0.0) { /* a sampled local maximum: refine */
+            double lo = L * (i > 0 ? i - 1 : 0) / n, hi = L * (i < n ? i + 1 : n) / n, x = L * i / n;
+            for (int it = 0; it < 20; it++) {
+                double f = a1 + entry_derivative(sm, e, 3, x), d = entry_derivative(sm, e, 4, x);
+                if (d == 0.0) break;
+                double xn = x - f / d;
+                if (!(xn >= lo && xn <= hi)) break;
+                int done = fabs(xn - x) <= 8.0 * DBL_EPSILON * fmax(fabs(x), L);
+                x = xn;
+                best = fmax(best, floor_abs(sm, e, a0, a1, x));
+                if (done) break;
+            }
+        }
+        prev = cur;
+        cur = next;
+    }
+    return best;
+}
+
+/* The bare support's peak floor acceleration under M's record at scale 1 (m/s^2): every record segment, then the
+ * free vibration (a_g = 0) for SUPPORT_TAIL_PERIODS of its slowest mode (at most SUPPORT_TAIL_MAX s), sampled at
+ * SUPPORT_PEAK_GRID points per period of its fastest mode and refined (entry_peak). */
+static double table_peak(const Model *M, const SupportTable *T) {
+    const SupportModes *sm = &T->modes;
+    const Record *r = M->rec;
+    double slowest = INFINITY;
+    for (int m = 0; m < sm->nm; m++)
+        if (sm->freq[m] > 0) slowest = fmin(slowest, sm->freq[m]);
+    double tail = fmin(SUPPORT_TAIL_PERIODS / slowest, SUPPORT_TAIL_MAX);
+    double dt = sm->fastest > 0 ? 2.0 * M_PI / sm->fastest / SUPPORT_PEAK_GRID : tail;
+    double best = 0.0;
+    for (int i = 0; i + 1 < r->n; i++) {
+        double L = r->t[i + 1] - r->t[i];
+        int n = (int)fmin(ceil(L / dt), 1e6);
+        best = fmax(best, entry_peak(sm, T->data + (size_t)i * T->stride, r->ah[i], (r->ah[i + 1] - r->ah[i]) / L, L,
+                                     n < 1 ? 1 : n));
+    }
+    int n = (int)fmin(ceil(tail / dt), 1e7);
+    return fmax(best, entry_peak(sm, T->data + (size_t)(r->n - 1) * T->stride, 0.0, 0.0, tail, n < 1 ? 1 : n));
 }

@@ -57,6 +57,8 @@ typedef struct {
     unsigned long long recHash;
     double startTime;
     SupportModes modes;
+    /* the largest |a_f| at scale 1 over the record and its free vibration after it (support_peak) */
+    double peak;
 } SupportTable;
 
 struct Model;
@@ -73,7 +75,12 @@ void support_derive(const struct Variables *v, SupportModes *sm);
 int support_attach(const struct Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n);
 void support_free(SupportTable *T, RecordFree release);
 
-/* The model needs a table: a building or a platform under a record (with its record attached). */
+/* The length of the free vibration after the record that the peak floor acceleration covers: SUPPORT_TAIL_PERIODS
+ * periods of the slowest mode, at most SUPPORT_TAIL_MAX s (runners.engine.floor_motion follows the same). */
+#define SUPPORT_TAIL_PERIODS 5.0
+#define SUPPORT_TAIL_MAX 60.0
+/* The model needs a table: a building or a platform under a record (with its record attached); with two-way
+ * coupling it gives the bare support's peak floor acceleration alone (the support then moves with the blocks). */
 int support_needed(const struct Model *M);
 /* T was built for M's support and record. */
 int support_matches(const struct Model *M, const SupportTable *T);

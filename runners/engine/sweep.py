@@ -161,11 +161,12 @@ BUILT_IN = {"w", "a", "excitation.amplitude", "excitation.frequency", "excitatio
 
 
 def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_spec: str | None,
-                stop_given: bool) -> tuple[list[RecordRef] | None, Intensity | None, list[str]]:
+                stop_given: bool, fmu: RockingFMU | None = None) -> tuple[list[RecordRef] | None, Intensity | None, list[str]]:
     """(records, intensity, notes) of a new sweep of `scene` (runners.engine.scene.Scene, changed in
     place when records replace its excitation), checked against its axes: records from
     `records_spec` (runners.engine.records.select_records) or the scene's own record, scaled by
-    `im_spec` (pga=START:STOP:COUNT, ...); `stop_given`: a stop time was given for this sweep.
+    `im_spec` (pga=START:STOP:COUNT, ...); `stop_given`: a stop time was given for this sweep; `fmu`: the
+    sweep's FMU, which gives the records' peak floor accelerations on a support (else computed in Python).
     ValueError, before anything is stored, for combinations a record would ignore or that conflict."""
     from runners.engine.records import prepare_scene, select_records, sweep_scaling_notes
 
@@ -203,7 +204,7 @@ def record_axes(factory, scene, axes: list[Axis], records_spec: str | None, im_s
             raise ValueError(f"record {bad[0]} has no {intensity.measure}: it cannot be scaled to a level of it")
     with factory.begin() as session:
         refs = record_refs(session, [r.id for r in chosen])
-        refs = through_support(session, refs, scene.parameters, names, intensity)
+        refs = through_support(session, refs, scene.parameters, names, intensity, fmu)
     notes = []
     start = float(scene.parameters.get("excitation.startTime", 0.0))
     longer = [r for r in refs if start + r.end > scene.stop_time] if scene.stop_time_given else []
@@ -219,9 +220,10 @@ SUPPORT_PREFIXES = ("support.", "building.", "platform.")
 
 
 def through_support(session, refs: list[RecordRef], p: dict[str, Any], names: list[str],
-                    intensity: Intensity | None) -> list[RecordRef]:
-    """The records with their measures through the scene's support (runners.engine.floor_motion: PFA and
-    Sa(T1)), which --im pfa and sa_t1 scale by; unchanged on the ground, or when an axis changes the support."""
+                    intensity: Intensity | None, fmu: RockingFMU | None = None) -> list[RecordRef]:
+    """The records with their measures through the scene's support (runners.engine.floor_motion: PFA, from
+    ``fmu`` when given, and Sa(T1)), which --im pfa and sa_t1 scale by; unchanged on the ground, or when an axis
+    changes the support."""
     from db.records import samples
     from db.schema import Record
     from runners.engine.intensity import SUPPORT_MEASURES
@@ -237,12 +239,15 @@ def through_support(session, refs: list[RecordRef], p: dict[str, Any], names: li
                              f"record's {intensity.measure}: scale by pga or pgv")
     if not on_support or varied:
         return refs
-    from runners.engine.floor_motion import support_measures
+    from runners.engine.floor_motion import fmu_peak_floor_acceleration, support_measures
+    from runners.engine.records import file_of
 
     out = []
     for r in refs:
-        t, ah, _ = samples(session.get(Record, r.id))
-        measures = {**r.measures, **support_measures(p, t, ah)}
+        rec = session.get(Record, r.id)
+        t, ah, _ = samples(rec)
+        pfa = None if fmu is None else fmu_peak_floor_acceleration(fmu, p, file_of(rec))
+        measures = {**r.measures, **support_measures(p, t, ah, pfa)}
         if intensity is not None and not measures.get(intensity.measure, 0) > 0:
             raise ValueError(f"record {r.name} has no {intensity.measure}: it cannot be scaled to a level of it")
         out.append(RecordRef(r.id, r.name, r.sha256, r.end, measures))
