@@ -163,7 +163,6 @@ Status instance_initialize(Instance *I) {
         INSTANCE_ERROR(I, "support: %s", msg);
         return STATUS_ERROR;
     }
-    M->supportPeak = I->sup.data ? I->sup.peak : 0.0;
     if (I->sup.data && !M->d.sup.twoWay) M->sup = &I->sup; /* (two-way: integrated with the blocks, coupling.c) */
     solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
@@ -408,6 +407,8 @@ Status instance_get_real(Instance *I, unsigned vr, double *value, const char *fn
     const double *p = (const double *)lookup(I, vr, TYPE_REAL, 0, fn, NULL);
     if (!p) return STATUS_ERROR;
     *value = *p;
+    if (p == &I->s.model.v.supportPfa) /* (computed when first read: support_peak) */
+        *value = I->sup.data ? fabs(I->s.model.d.accAmp) * support_peak(&I->s.model, &I->sup) : 0.0;
     return STATUS_OK;
 }
 

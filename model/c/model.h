@@ -260,9 +260,6 @@ typedef struct Model {
     /* A moving support's table of the record's segments (support.h): owned by the instance like the
      * record, re-attached to a restored state (NULL on the ground). */
     const SupportTable *sup;
-    /* The bare support's peak floor acceleration under the record at scale 1 (its table's, support_peak; m/s^2, 0
-     * without a table): kept with the state, the table's property whether it drives the blocks (one-way) or not. */
-    double supportPeak;
 } Model;
 
 /* Logging callback used by the solver; ctx is opaque. category: 0 events,

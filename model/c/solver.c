@@ -452,7 +452,6 @@ void solver_outputs(Model *M, double tc) {
     outputs_at(M, tc);
     if (!coupling_on(M)) support_motion(M, tc, model_piece(M, tc), &v->supportU, &v->supportV); /* (two-way: the engine's) */
     v->baseAh = ground_base_ah(M, tc);
-    v->supportPfa = fabs(M->d.accAmp) * M->supportPeak;
     /* the last communication step's mean load, else the load on the ground at tc: -(rate of
      * change of the momentum relative to the ground) */
     double mass = v->mass + (v->nBlocks == 2 ? v->mass2 : 0.0);

@@ -382,6 +382,15 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
 
 static double table_peak(const Model *M, const SupportTable *T);
 
+double support_peak(const Model *M, SupportTable *T) {
+    if (!T->data) return 0.0;
+    if (!T->peakKnown) {
+        T->peak = table_peak(M, T);
+        T->peakKnown = 1;
+    }
+    return T->peak;
+}
+
 int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
     if (!support_needed(M)) {
         support_free(T, release);
@@ -430,7 +439,8 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             t += nt;
         }
     }
-    T->peak = table_peak(M, T);
+    T->peak = 0.0;
+    T->peakKnown = 0;
     return 0;
 }
 

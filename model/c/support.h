@@ -57,13 +57,18 @@ typedef struct {
     unsigned long long recHash;
     double startTime;
     SupportModes modes;
-    /* the largest |a_f| at scale 1 over the record and its free vibration after it (support_peak) */
+    /* the largest |a_f| at scale 1 over the record and its free vibration after it (support_peak: computed when
+     * first asked for, peakKnown) */
     double peak;
+    int peakKnown;
 } SupportTable;
 
 struct Model;
 struct Variables;
 
+/* The bare support's peak floor acceleration at scale 1 (m/s^2) of M's record, T the table built for it: computed
+ * on the first call (a few ms for a long record; a sweep's runs that do not read it do not pay for it), kept. */
+double support_peak(const struct Model *M, SupportTable *T);
 /* Checks of the support's parameters (with the excitation's kind, which a support needs a record of). */
 int support_validate(const struct Variables *v, char *msg, size_t n);
 /* The modes of the support's parameters. */
