@@ -381,6 +381,7 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
 }
 
 static double table_peak(const Model *M, const SupportTable *T);
+static void segment_edges(const SupportModes *sm, double *e, double a1, double L);
 
 double support_peak(const Model *M, SupportTable *T) {
     if (!T->data) return 0.0;
@@ -400,7 +401,7 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
     support_free(T, release);
     const SupportModes *sm = &M->d.sup;
     const Record *r = M->rec;
-    int stride = 4 + 4 * sm->nt;
+    int stride = 4 + 4 * sm->nt + 1 + SUPPORT_EDGES;
     T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
     if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
     T->n = r->n;
@@ -438,6 +439,7 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             if (!last) propagate(sm, t, nt, q, Z, Y, L, &P, &x[m], &v[m]);
             t += nt;
         }
+        if (!last) segment_edges(sm, e, a1, L);
     }
     T->peak = 0.0;
     T->peakKnown = 0;
@@ -564,6 +566,17 @@ static int cell_search(const Model *M, double a, int piece, double t0, double t1
     double te;
     const double *e = entry_of(M, piece, &te);
     if (!e || !(M->d.sup.fastest > 0)) return 0;
+    const double *known = e + 4 + 4 * M->d.sup.nt;
+    if (piece < M->rec->n && known[0] >= 0) { /* a record segment: its edges found when the table was built */
+        int n = (int)known[0];
+        double x = a - te;
+        for (int i = forward ? 0 : n - 1; forward ? i < n : i >= 0; i += forward ? 1 : -1)
+            if (forward ? known[1 + i] > x : known[1 + i] <= x) {
+                *edge = te + known[1 + i];
+                return 1;
+            }
+        return 0;
+    }
     Slope S = {&M->d.sup, e, aBase1, M->d.accAmp};
     double r;
     if (!search(&S, t0 - te, t1 - te, a - te, forward, 0, &r)) return 0;
@@ -641,4 +654,26 @@ static double table_peak(const Model *M, const SupportTable *T) {
     }
     int n = (int)fmin(ceil(tail / dt), 1e7);
     return fmax(best, entry_peak(sm, T->data + (size_t)(r->n - 1) * T->stride, 0.0, 0.0, tail, n < 1 ? 1 : n));
+}
+
+/* The floor acceleration's extrema on a record segment's entry e (length L, the base's slope a1 at scale 1), found
+ * once when the table is built and kept after its terms: their count, then each s in (0, L) ascending (-1: more than
+ * SUPPORT_EDGES, searched for each time). They do not depend on the record's scale (the floor's acceleration is the
+ * table's times it), so a sweep over scales searches each segment once. The search is the cells' own (search):
+ * each dyadic interval judged alone. */
+static void segment_edges(const SupportModes *sm, double *e, double a1, double L) {
+    double *known = e + 4 + 4 * sm->nt, x = 0.0, r;
+    Slope S = {sm, e, a1, 1.0};
+    int n = 0;
+    known[0] = 0.0;
+    if (!(sm->fastest > 0)) return;
+    while (search(&S, 0.0, L, x, 1, 0, &r) && r > x && r < L) {
+        if (n == SUPPORT_EDGES) {
+            known[0] = -1.0;
+            return;
+        }
+        known[1 + n++] = r;
+        x = r;
+    }
+    known[0] = n;
 }

@@ -29,6 +29,8 @@
 #define SUPPORT_PLATFORM 2
 #define SUPPORT_MAX_STOREYS 10
 #define SUPPORT_MAX_TERMS (2 * SUPPORT_MAX_STOREYS)
+/* Extrema of the floor's acceleration kept per record segment in the table (support_attach). */
+#define SUPPORT_EDGES 8
 
 /* The support's modes (derived from the parameters, part of Derived: no pointers). Mode r:
  * x_r'' + k1[r] x_r' + k2[r] x_r = -a_g, and the floor's displacement u = sum_r c[r] x_r. Its
@@ -49,7 +51,8 @@ typedef struct {
 
 /* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
  * after the last sample) holds u(s) = q0 + q1 s + q2 s^2 + q3 s^3 + sum_j Re((Z_j + Y_j s) e^(lambda_j s)),
- * s the time since sample i, at the record's scale 1: q[4], then (Re Z, Im Z, Re Y, Im Y) for each term. */
+ * s the time since sample i, at the record's scale 1: q[4], then (Re Z, Im Z, Re Y, Im Y) for each term, then the
+ * count and times s of the floor acceleration's extrema inside the segment (SUPPORT_EDGES of them at most). */
 typedef struct {
     int n, nt, stride;
     double *data;
