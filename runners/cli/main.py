@@ -209,6 +209,10 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
         return [("FMI interfaces", interfaces)]
     if args.cosim:
         return [("co-simulation", _cosim_bench(fmu))]
+    if args.supports:
+        from runners.analysis.bench_supports import run_support_study_bench
+
+        return [("a study on a floor against the ground", lambda: run_support_study_bench(fmu, args.workers or 2))]
     if args.against:
         tasks = [("native, against another build", lambda: b.run_native_against(fmu, Path(args.against), args.repeats))]
         if args.study:
@@ -259,15 +263,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
     if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against,
-                      args.startup, args.throughput, args.cosim))) > 1:
+                      args.startup, args.throughput, args.cosim, args.supports))) > 1:
         raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against, "
-                         "--startup, --throughput and --cosim (or none: every benchmark)")
+                         "--startup, --throughput, --cosim and --supports (or none: every benchmark)")
     if args.study and not args.against:
         raise ValueError("--study is a part of --against FMU: give the other build")
     if args.baseline and not (args.startup or args.throughput):
         raise ValueError("--baseline is the other installation of --startup or --throughput")
-    if args.workers is not None and not args.throughput:
-        raise ValueError("--workers is the number of workers of --throughput")
+    if args.workers is not None and not (args.throughput or args.supports):
+        raise ValueError("--workers is the number of workers of --throughput or --supports")
     if args.workers is not None and args.workers < 1:
         raise ValueError(f"--workers {args.workers}: give 1 or more")
     fmu = fmu_path_from(args.fmu)

@@ -221,8 +221,11 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--cosim", action="store_true",
                        help="only the co-simulation of examples/cabinet_on_floor.toml: the cost in fmpy and libcosim "
                             "and the coupling's errors against the communication step (docs/cosimulation.md)")
+    bench.add_argument("--supports", action="store_true",
+                       help="only the 560-run cabinet study on a building's third floor (one-way and two-way) against "
+                            "the same study on the ground, side by side (docs/supports.md)")
     bench.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="with --throughput: worker processes of each sweep (default 2)")
+                       help="with --throughput or --supports: worker processes of each sweep (default 2)")
     bench.add_argument("--baseline", metavar="PYTHON",
                        help="with --startup or --throughput: also the Python of another installation (say a "
                             "checkout from before a change), alternating in one run, with the ratios")

