@@ -321,19 +321,26 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
         late = [e["t"] for e in ps["events"] or [] if e["t"] > p["stop_time"] * (1 + 1e-12) + 1e-12]
         if late:
             return f"series.events has an event at t = {late[0]!r} s, after the run's stop_time = {p['stop_time']!r} s"
-        try:
-            blob = base64.b64decode(ps["data"], validate=True)
-        except ValueError:
-            return "series.data is not packed samples"
-        expected = 8 * (len(ps["names"]) + 1) * ps["n_samples"]
-        size = _inflated_size(blob, expected)
-        if size is None:
-            return "series.data is not packed samples"
-        if size != expected:
-            return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
-                    "announces" + (" (it inflates to more)" if size > expected else ""))
-        if not _finite(blob):
-            return "series.data holds a sample that is not a finite number (NaN or infinite)"
+        return _packed_problem(ps)
+    return None
+
+
+def _packed_problem(ps: dict) -> str | None:
+    """What is wrong with a kept run's packed series ps (names, n_samples, data: base64 of the compressed
+    float64 columns, time first), or None."""
+    try:
+        blob = base64.b64decode(ps["data"], validate=True)
+    except ValueError:
+        return "series.data is not packed samples"
+    expected = 8 * (len(ps["names"]) + 1) * ps["n_samples"]
+    size = _inflated_size(blob, expected)
+    if size is None:
+        return "series.data is not packed samples"
+    if size != expected:
+        return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
+                "announces" + (" (it inflates to more)" if size > expected else ""))
+    if not _finite(blob):
+        return "series.data holds a sample that is not a finite number (NaN or infinite)"
     return None
 
 
@@ -559,17 +566,4 @@ def _cosim_problem(p: dict[str, Any]) -> str | None:
         return "series is not names, n_samples and data"
     if not all(isinstance(n, str) and n for n in ps["names"]) or len(set(ps["names"])) != len(ps["names"]):
         return "series.names are not distinct column names"
-    try:
-        blob = base64.b64decode(ps["data"], validate=True)
-    except ValueError:
-        return "series.data is not packed samples"
-    expected = 8 * (len(ps["names"]) + 1) * ps["n_samples"]
-    size = _inflated_size(blob, expected)
-    if size is None:
-        return "series.data is not packed samples"
-    if size != expected:
-        return (f"series.data does not hold the {ps['n_samples']} samples of {len(ps['names']) + 1} columns it "
-                "announces" + (" (it inflates to more)" if size > expected else ""))
-    if not _finite(blob):
-        return "series.data holds a sample that is not a finite number (NaN or infinite)"
-    return None
+    return _packed_problem(ps)

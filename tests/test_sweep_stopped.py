@@ -42,6 +42,12 @@ def count_runs(url: str) -> int:
         return 0
 
 
+def pause(p: subprocess.Popen) -> None:
+    """Stop the runner and its workers where they are (SIGSTOP to its process group): a sweep paused after its
+    first points is still running whatever the machine's speed, so its listing cannot race its end."""
+    os.killpg(p.pid, signal.SIGSTOP)
+
+
 def listed_status(url: str, fmu_path: Path) -> str:
     """The status `runners db list sweeps` prints for sweep 1, checked against runners.open_db's."""
     p = run_cli("db", "list", "sweeps", db=url, fmu_path=fmu_path)
@@ -132,8 +138,10 @@ def test_a_sweep_whose_database_server_went_away_is_listed_stopped_and_resumes(o
     url, stop, start = own_postgres_server
     p = runner(url, fmu_path, *HARMONIC)
     wait_for(lambda: count_runs(url) >= 1, "the first points stored", p)
+    pause(p)
     assert listed_status(url, fmu_path) == "running"  # while it runs
     stop()
+    os.killpg(p.pid, signal.SIGCONT)  # on into the server that went away
     _, err = p.communicate(timeout=PATIENCE)
     assert p.returncode == 2 and err.count("\n") == 1 and err.startswith("error: ") and "runners sweep 1" in err, err
     start()
@@ -147,6 +155,7 @@ def test_a_runner_killed_outright_leaves_its_sweep_listed_stopped(tmp_path, fmu_
     url = f"sqlite:///{tmp_path / 's.db'}"
     p = runner(url, fmu_path, *HARMONIC)
     wait_for(lambda: count_runs(url) >= 1, "the first points stored", p)
+    pause(p)
     assert listed_status(url, fmu_path) == "running"
     os.killpg(p.pid, signal.SIGKILL)  # the runner and its workers, as the out-of-memory killer would
     p.communicate(timeout=PATIENCE)

@@ -234,15 +234,20 @@ def export_cosim(factory: sessionmaker, cosim_id: int, fmt: str = "csv", out: st
     return Exported(written, len(series))
 
 
+def _series_json(fh, head: dict, series, bar) -> None:
+    """head as JSON with its "series": time and every column, one column at a time (the object left open)."""
+    fh.write(_json(head)[:-1] + ', "series": {')
+    columns = [("time", series.index.to_numpy())] + [(c, series[c].to_numpy()) for c in series.columns]
+    for k, (name, values) in enumerate(columns):
+        fh.write(("" if k == 0 else ", ") + json.dumps(name) + ": ")
+        fh.write(json.dumps([_plain(v) for v in values.tolist()]))
+        bar.update(1)
+
+
 def _cosim_json(files: _Files, path: Path, meta: dict, series, progress: bool) -> None:
     head = {k: meta[k] for k in ("cosim", "system", "engine", "coupling", "step", "parameters", "summary", "units")}
     with files.open(path) as fh, _bar(series.shape[1] + 1, f"cosim {meta['cosim']}", progress, "column") as bar:
-        fh.write(_json(head)[:-1] + ', "series": {')
-        columns = [("time", series.index.to_numpy())] + [(c, series[c].to_numpy()) for c in series.columns]
-        for k, (name, values) in enumerate(columns):
-            fh.write(("" if k == 0 else ", ") + json.dumps(name) + ": ")
-            fh.write(json.dumps([_plain(v) for v in values.tolist()]))
-            bar.update(1)
+        _series_json(fh, head, series, bar)
         fh.write("}}\n")
 
 
@@ -310,12 +315,7 @@ def _run_json(files: _Files, path: Path, meta: dict, series, events, progress: b
     head = {"run": meta["run"], "scene": meta["scene"], "parameters": meta["parameters"], "summary": meta["summary"],
             "units": meta["units"]}
     with files.open(path) as fh, _bar(series.shape[1] + 1, f"run {meta['run']}", progress, "column") as bar:
-        fh.write(_json(head)[:-1] + ', "series": {')
-        columns = [("time", series.index.to_numpy())] + [(c, series[c].to_numpy()) for c in series.columns]
-        for k, (name, values) in enumerate(columns):
-            fh.write(("" if k == 0 else ", ") + json.dumps(name) + ": ")
-            fh.write(json.dumps([_plain(v) for v in values.tolist()]))
-            bar.update(1)
+        _series_json(fh, head, series, bar)
         fh.write('}, "events": ' + json.dumps(events) + "}\n")
 
 
