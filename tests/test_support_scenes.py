@@ -4,6 +4,7 @@ line before anything runs."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -96,3 +97,24 @@ def test_python_solvers_refuse_a_support():
     with pytest.raises(runners.RockingError, match="runs inside the FMU"):
         runners.simulate({**CABINET, "contact": {"model": "rigid-rocking"}, "building": FRAME, "coupling": ONE_WAY},
                          method="scipy")
+
+
+def test_simulate_couples_the_support_as_the_command_line_says(fmu_path, tmp_path):
+    """runners simulate --coupling one-way | two-way runs the scene's building so, as runners.simulate does with
+    support.coupling; a scene on the ground is refused in one line with exit status 2."""
+    from conftest import run_cli
+
+    db = f"sqlite:///{tmp_path / 'r.db'}"
+    scene = ROOT / "examples" / "cabinet_on_floor.toml"
+    got = {}
+    for mode in ("one-way", "two-way"):
+        p = run_cli("simulate", str(scene), "--coupling", mode, "--no-store", "--json", db=db, fmu_path=fmu_path)
+        assert p.returncode == 0, p.stderr
+        got[mode] = json.loads(p.stdout)
+        assert got[mode]["support"].endswith(mode)
+        api = runners.simulate(scene, support__coupling=["one-way", "two-way"].index(mode)).summary
+        assert (got[mode]["impacts"], got[mode]["max_abs_theta_rad"]) == (api["impacts"], api["max_abs_theta_rad"])
+    assert got["one-way"]["max_abs_theta_rad"] != got["two-way"]["max_abs_theta_rad"]
+    p = run_cli("simulate", str(ROOT / "examples" / "statue.toml"), "--coupling", "two-way", "--no-store", db=db,
+                fmu_path=fmu_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "has none" in p.stderr

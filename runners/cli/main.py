@@ -42,6 +42,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             raise ValueError(f"{option}, and the scene {args.scene} names none: give one with --record NAME|ID|FILE (runners "
                              "records list shows the stored ones), or use a scene whose [excitation] names one "
                              "(record = NAME or file = PATH)")
+    coupling = None
+    if args.coupling is not None:
+        from runners.api import as_scene
+        from runners.engine.supports import COUPLINGS
+
+        if not int(as_scene(args.scene).parameters.get("support.kind", 0)):
+            raise ValueError(f"--coupling couples a support to the blocks, and the scene {args.scene} has none: give it "
+                             "a [building] or a [platform] (docs/supports.md)")
+        coupling = {"support.coupling": COUPLINGS.index(args.coupling)}
     if args.rrd:  # besides the files of the command line (runners.cli.clobber.check): the scene's record file
         from runners.api import as_scene
         from runners.engine.files import refuse
@@ -53,7 +62,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         record = str(motion_record(open_database(args.db), args.motion))
     with output.busy(f"simulating {args.scene}"):
-        run = simulate(args.scene, stop_time=args.stop_time, step=args.step, method=args.method,
+        run = simulate(args.scene, coupling, stop_time=args.stop_time, step=args.step, method=args.method,
                        accuracy=args.accuracy, h=args.h, rtol=args.rtol, record=record, scale=args.scale,
                        pga=args.pga, recording=args.rrd, measured=args.measured, store=not args.no_store,
                        db=args.db, fmu=args.fmu)

@@ -110,6 +110,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--pga", action=Once, type=positive, metavar="G",
                      help="scale the record (of --record, or the scene's) so that its PGA is G, in g (a note says "
                           "when G is above 2 g)")
+    sim.add_argument("--coupling", action=Once, choices=("one-way", "two-way"),
+                     help="the coupling of the scene's [building] or [platform] with the blocks, instead of its "
+                          "[coupling] mode (docs/supports.md)")
     sim.add_argument("--motion", type=object_id, metavar="MEASUREMENT_ID",
                      help="drive the block with the record of a stored ground or table motion "
                           "(runners import-measured), instead of the scene's excitation")
