@@ -45,6 +45,7 @@ typedef struct {
     double xi0[EN_MAX_BODIES]; /* the anchors of its sticking contacts */
     double placed[NMAX];       /* a chain's state as the last evaluation placed it (engine_rhs) */
     int two;                   /* the support coupled two ways: its components follow the engine's (coupling.h) */
+    int resting;               /* two-way, every body flat on its support and sticking (a sticking chain) */
 } Ctx;
 
 static int nblock(const Ctx *c);
@@ -69,6 +70,20 @@ static void coupled_rhs(Ctx *c, const double *y, double ag, double av, double *d
     double r[SUPPORT_MAX_STOREYS], dyB[NMAX], placedB[NMAX];
     EnForces fB;
     coupling_free(M, y, ag, r);
+    if (c->resting) { /* every body flat and sticking: they move with the floor, T = (their mass) a_f exactly */
+        double mtot, uj;
+        coupling_momentum(c->sys, y, &mtot);
+        uj = coupling_floor(M, r, mtot * ag, mtot);
+        if (!engine_rhs(c->sys, &c->mode, xi0, y, ag + uj, av, dy, &c->f, c->placed)) {
+            c->singular = 1;
+            return;
+        }
+        for (int i = n0; i < EN_N(nb); i++) dy[i] = 0.0;
+        double py = 0.0;
+        for (int k = 0; k < nb; k++) py += c->sys->body[k].m * c->placed[EN_VEL(nb, k, 1)];
+        coupling_rhs(M, y, r, uj, ag, av, 0.0, py, dy);
+        return;
+    }
     if (!engine_rhs(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->chain ? c->placed : NULL) ||
         !engine_rhs(c->sys, &c->mode, xi0, y, ag + 1.0, av, dyB, &fB, c->chain ? placedB : NULL)) {
         c->singular = 1;
@@ -126,6 +141,8 @@ static void context(Ctx *c, const Model *M, const EnMode *m, double t) {
     c->chain = engine_touches(c->sys, m);
     c->slides = c->chain && !engine_is_chain(c->sys, m);
     c->two = coupling_on(M);
+    c->resting = c->two && c->chain && !c->slides;
+    for (int k = 0; k < c->sys->nb && c->resting; k++) c->resting = m->closed[k][0] && m->closed[k][1];
     memcpy(c->xi0, M->s.enAnchor, sizeof(c->xi0));
 }
 
@@ -457,7 +474,7 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
 static void derivative(const Model *M, const EnMode *m, double *dy) {
     Ctx c;
     context(&c, M, m, M->s.t);
-    c.chain = c.slides = 0; /* m may not be the state's contact set: its anchors are not known */
+    c.chain = c.slides = c.resting = 0; /* m may not be the state's contact set: its anchors are not known */
     memset(dy, 0, sizeof(double) * NMAX);
     rhs_cb(&c, M->s.t, M->s.y, dy);
 }
