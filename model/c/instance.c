@@ -159,7 +159,10 @@ Status instance_initialize(Instance *I) {
     }
     model_derive(M);
     M->sup = NULL;
-    if (support_attach(M, &I->sup, I->alloc, I->release, msg, sizeof(msg))) {
+    if (M->d.sup.twoWay) { /* integrated with the blocks: its table only gives the peak floor acceleration, built
+                            * when that is first read (instance_get_real) */
+        support_free(&I->sup, I->release);
+    } else if (support_attach(M, &I->sup, I->alloc, I->release, msg, sizeof(msg))) {
         INSTANCE_ERROR(I, "support: %s", msg);
         return STATUS_ERROR;
     }
@@ -407,8 +410,16 @@ Status instance_get_real(Instance *I, unsigned vr, double *value, const char *fn
     const double *p = (const double *)lookup(I, vr, TYPE_REAL, 0, fn, NULL);
     if (!p) return STATUS_ERROR;
     *value = *p;
-    if (p == &I->s.model.v.supportPfa) /* (computed when first read: support_peak) */
-        *value = I->sup.data ? fabs(I->s.model.d.accAmp) * support_peak(&I->s.model, &I->sup) : 0.0;
+    if (p == &I->s.model.v.supportPfa) { /* (computed when first read: support_peak; two-way, its table too) */
+        const Model *M = &I->s.model;
+        char msg[256];
+        if (!I->sup.data && M->rec && support_needed(M) &&
+            support_attach(M, &I->sup, I->alloc, I->release, msg, sizeof(msg))) {
+            INSTANCE_ERROR(I, "%s: support.peakFloorAcceleration: %s", fn, msg);
+            return STATUS_ERROR;
+        }
+        *value = I->sup.data ? fabs(M->d.accAmp) * support_peak(M, &I->sup) : 0.0;
+    }
     return STATUS_OK;
 }
 
@@ -558,7 +569,7 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
         model_derive(&check);
         /* the support's table of these parameters and record: the instance's own when it was built for
          * them, else a new one, adopted with the state */
-        if (memcmp(&check.d, &sm->d, sizeof(Derived)) == 0 && support_needed(&check)) {
+        if (memcmp(&check.d, &sm->d, sizeof(Derived)) == 0 && support_needed(&check) && !check.d.sup.twoWay) {
             if (support_matches(&check, &I->sup)) {
                 check.sup = &I->sup;
             } else if (support_attach(&check, &fresh, I->alloc, I->release, msg, sizeof(msg))) {
