@@ -218,7 +218,8 @@ def test_a_restored_state_continues_the_same_run(fmu, pulse_record, coupling):
     ({"support.kind": 2, "platform.mass": 0.0}, "platform.mass"),
     ({"support.kind": 3}, "support.kind = 3"),
     ({"support.coupling": 2}, "support.coupling = 2"),
-    ({"support.coupling": 1, "contact.model": 0}, "needs contact.model = 1"),
+    ({"support.coupling": 1, "contact.model": 0, "solver.method": 1}, "rigid rocking on a two-way support needs "
+                                                                      "solver.method = 0"),
 ])
 def test_bad_support_parameters_are_refused_with_a_message(fmu, pulse_record, change, words):
     path, _, _ = pulse_record

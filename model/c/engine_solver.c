@@ -31,7 +31,7 @@
  * a step's start says the contact set no longer holds there: far below a located event's rounding. */
 #define RECHOOSE_SLACK 1e-9
 
-int engine_on(const Model *M) { return M->v.contactModel == 1; }
+int engine_on(const Model *M) { return model_engine(&M->v); }
 
 typedef struct {
     const Model *M;

@@ -108,23 +108,24 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     if (!(v->muGround > 0)) FAIL("contact.muGround = %g must be > 0", v->muGround);
     if (v->contactModel != 0 && v->contactModel != 1)
         FAIL("contact.model = %d must be 0 (rigid rocking) or 1 (rocking-sliding)", v->contactModel);
-    if (v->contactModel == 1) {
+    if (model_engine(v)) {
+        /* the contact engine's runs: rocking-sliding, and rigid rocking on a two-way support */
+        const char *who = v->contactModel == 1 ? "contact.model = 1" : "rigid rocking on a two-way support";
         double alpha = atan(v->halfWidth / v->halfHeight), s2 = sin(alpha) * sin(alpha);
         double eta = model_law_restitution(v, alpha) * v->correction;
         if (v->nBlocks == 2 && v->halfWidth2 > v->halfWidth)
-            FAIL("contact.model = 1 with nBlocks = 2 needs block 2 no wider than block 1 (block2.halfWidth = %g > "
-                 "block1.halfWidth = %g): a wider block 2 would turn about block 1's edge, not modelled",
+            FAIL("%s with nBlocks = 2 needs block 2 no wider than block 1 (block2.halfWidth = %g > "
+                 "block1.halfWidth = %g): a wider block 2 would turn about block 1's edge, not modelled", who,
                  v->halfWidth2, v->halfWidth);
-        if (v->method == 1)
-            FAIL("contact.model = 1 (rocking-sliding) needs solver.method = 0 (Dormand-Prince) or 2 (auto)");
-        if (v->earlyOverturn) FAIL("solver.earlyOverturn is available for contact.model = 0 only");
+        if (v->method == 1) FAIL("%s needs solver.method = 0 (Dormand-Prince) or 2 (auto)", who);
+        if (v->earlyOverturn) FAIL("solver.earlyOverturn is not available for %s", who);
         if (!(v->restRatio >= 1e-12))
-            FAIL("solver.restRatio = %g must be >= 1e-12 with contact.model = 1 (a smaller rebound lies below what "
-                 "double precision resolves of the angle and the slip)", v->restRatio);
+            FAIL("solver.restRatio = %g must be >= 1e-12 with %s (a smaller rebound lies below what "
+                 "double precision resolves of the angle and the slip)", v->restRatio, who);
         if (!(eta >= 0.5 - 1.5 * s2))
-            FAIL("restitution %g is below 0.5 - 1.5 sin^2(alpha) = %g: with contact.model = 1 an impact of a "
+            FAIL("restitution %g is below 0.5 - 1.5 sin^2(alpha) = %g: with %s an impact of a "
                  "sliding block could then gain energy (use a larger coefficient or restitution.law = 0)",
-                 eta, 0.5 - 1.5 * s2);
+                 eta, 0.5 - 1.5 * s2, who);
     }
     if (!(v->muInterface > 0)) FAIL("contact.muInterface = %g must be > 0", v->muInterface);
     if (ground_validate(v, msg, n)) return 1;
@@ -159,13 +160,18 @@ double model_law_restitution(const Variables *v, double alpha) {
     }
 }
 
-/* The contact engine's bodies (the memset of model_derive leaves the rest 0). */
+int model_engine(const Variables *v) {
+    return v->contactModel == 1 || (v->contactModel == 0 && v->supportKind != 0 && v->supportCoupling == 1);
+}
+
+/* The contact engine's bodies (the memset of model_derive leaves the rest 0). Rigid rocking (on a two-way support)
+ * is the engine's contacts with friction that never lets them slip, RIGID_MU. */
 static void engine_bodies(const Variables *v, EnSystem *s) {
     s->nb = v->nBlocks == 2 ? 2 : 1;
     s->g = v->g;
     double b[2] = {v->halfWidth, v->halfWidth2}, h[2] = {v->halfHeight, v->halfHeight2}, m[2] = {v->mass, v->mass2};
-    s->mu[0] = v->muGround;
-    s->mu[1] = v->muInterface;
+    s->mu[0] = v->contactModel == 1 ? v->muGround : RIGID_MU;
+    s->mu[1] = v->contactModel == 1 ? v->muInterface : RIGID_MU;
     for (int k = 0; k < s->nb; k++) {
         s->body[k].b = b[k];
         s->body[k].h = h[k];

@@ -289,6 +289,10 @@ void model_set_defaults(Model *M);
  * return nonzero. A record (kind 4) is checked by ground_validate_record once
  * it is attached. */
 int model_validate(const Variables *v, char *msg, size_t n);
+/* The contact engine runs the model (engine_solver.c): rocking-sliding (contact.model = 1), and rigid rocking on a
+ * two-way support (its contacts then never slip: friction RIGID_MU; docs/supports.md). */
+int model_engine(const Variables *v);
+#define RIGID_MU 1e6
 
 /* Compute the derived quantities (parameters valid, record attached). */
 void model_derive(Model *M);

@@ -43,9 +43,6 @@ int support_validate(const Variables *v, char *msg, size_t n) {
     if (v->supportCoupling < 0 || v->supportCoupling > 1)
         FAIL("support.coupling = %d must be 0 (one-way) or 1 (two-way)", v->supportCoupling);
     if (v->supportKind == SUPPORT_GROUND) return 0;
-    if (v->supportCoupling == 1 && v->contactModel != 1)
-        FAIL("support.coupling = 1 (two-way) needs contact.model = 1 (rocking-sliding); the rigid rocking model "
-             "stands on its support one way (support.coupling = 0)");
     if (v->kind != KIND_RECORD && v->kind != KIND_NONE)
         FAIL("support.kind = %d moves with a record at its base: excitation.kind must be 4 (a record file) or 0, "
              "not %d (give the pulse as a record file)", v->supportKind, v->kind);

@@ -321,9 +321,10 @@ def contact_model_problem(p: dict[str, Any]) -> str | None:
         return ("contact.model must be " + " or ".join(f"{v} ({k})" for k, v in CONTACT_MODELS.items())
                 + f", got {model!r}")
     if int(model) != CONTACT_MODELS["rocking-sliding"]:
-        if int(p.get("support.kind", 0)) and int(p.get("support.coupling", 0)) == 1:
-            return ("[coupling] mode = \"two-way\" (the default) needs [contact] model = \"rocking-sliding\": rigid "
-                    "rocking stands on its support one way ([coupling] mode = \"one-way\")")
+        if int(p.get("support.kind", 0)) and int(p.get("support.coupling", 0)) == 1 and \
+                p.get("solver.method", 0) == METHODS["taylor"]:
+            return ("[simulation] method = \"taylor\" integrates rigid rocking on the ground or on a one-way support; "
+                    "on a two-way support the contact engine integrates it with \"dormand-prince\"")
         return None
     if int(p.get("nBlocks", 1)) == 2 and p.get("block2.halfWidth", 0.1) > p.get("block1.halfWidth", 0.1):
         return ("[contact] model = \"rocking-sliding\" of a stack needs block 2 no wider than block 1 (block2 "

@@ -81,7 +81,8 @@ STACK_SLIDING_OUTPUTS = SLIDING_OUTPUTS + (
 # the outputs of a support (support.kind 1 or 2, docs/supports.md), and those of its energy balance in
 # the base's frame when it is coupled two ways (two_way_balance)
 SUPPORT_OUTPUTS = ("support.u", "support.v", "support.baseAh")  # m, m/s, m/s^2 (+x, relative to the base)
-TWO_WAY_OUTPUTS = ("momentum", "support.energy", "support.dampingLoss", "support.baseWork")  # kg m/s, J, J, J
+TWO_WAY_OUTPUTS = ("momentum", "support.energy", "support.dampingLoss", "support.baseWork",  # kg m/s, J, J, J
+                   "block1.frictionLoss", "block2.frictionLoss", "impactLoss")  # J
 
 
 def sliding_outputs(p: dict[str, Any]) -> tuple[str, ...]:
@@ -90,10 +91,12 @@ def sliding_outputs(p: dict[str, Any]) -> tuple[str, ...]:
     stack; on a support SUPPORT_OUTPUTS too, and TWO_WAY_OUTPUTS where it is coupled two ways."""
     support = ()
     if int(p.get("support.kind", 0)):
-        support = SUPPORT_OUTPUTS + (TWO_WAY_OUTPUTS if int(p.get("support.coupling", 0)) == 1 else ())
+        two = TWO_WAY_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else tuple(o for o in TWO_WAY_OUTPUTS if "block2" not in o)
+        support = SUPPORT_OUTPUTS + (two if int(p.get("support.coupling", 0)) == 1 else ())
     if not rocking_sliding(p):
         return support
-    return (STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS) + support
+    own = STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS
+    return tuple(dict.fromkeys(own + support))
 
 
 def two_way_balance(out: dict[str, Any], p: dict[str, Any]) -> float:
