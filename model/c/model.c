@@ -110,7 +110,8 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         FAIL("contact.model = %d must be 0 (rigid rocking) or 1 (rocking-sliding)", v->contactModel);
     if (model_engine(v)) {
         /* the contact engine's runs: rocking-sliding, and rigid rocking on a two-way support */
-        const char *who = v->contactModel == 1 ? "contact.model = 1" : "rigid rocking on a two-way support";
+        const char *who =
+            v->contactModel == 1 ? "contact.model = 1 (rocking-sliding)" : "rigid rocking on a two-way support";
         double alpha = atan(v->halfWidth / v->halfHeight), s2 = sin(alpha) * sin(alpha);
         double eta = model_law_restitution(v, alpha) * v->correction;
         if (v->nBlocks == 2 && v->halfWidth2 > v->halfWidth)
