@@ -235,8 +235,8 @@ static void shift_rates(const EnSystem *s, double *y, double d) {
     y[EN_XID(s->nb, 0)] -= d;
 }
 
-/* op with the floor's jump D (m/s; its velocity after is U - ... + D): op applied to the rates relative to the floor
- * after, the bodies' horizontal impulse P (kg m/s) it gives; returns m_j D + P, zero where the floor takes minus
+/* op applied with the floor's velocity jump D (m/s, U+ = U- + D): to the bodies' rates relative to the floor after
+ * the jump (trial), writing their horizontal impulse P (kg m/s); returns m_j D + P, zero where the floor takes minus
  * the bodies' impulse. */
 static double floor_balance(const Model *M, const double *y, double D, RateChange op, void *ctx, double *trial,
                             int *ok, double *P) {
