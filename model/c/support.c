@@ -631,9 +631,11 @@ static double entry_peak(const SupportModes *sm, const double *e, double a0, dou
     return best;
 }
 
-/* The bare support's peak floor acceleration under M's record at scale 1 (m/s^2): every record segment, then the
- * free vibration (a_g = 0) for SUPPORT_TAIL_PERIODS of its slowest mode (at most SUPPORT_TAIL_MAX s), sampled at
- * SUPPORT_PEAK_GRID points per period of its fastest mode and refined (entry_peak). */
+/* The bare support's peak floor acceleration under M's record at scale 1 (m/s^2): on every record segment at its
+ * ends and at the extrema of a_f the table keeps (segment_edges; where it keeps none, more than SUPPORT_EDGES,
+ * sampled and refined as below); then the free vibration (a_g = 0) for SUPPORT_TAIL_PERIODS of its slowest mode (at
+ * most SUPPORT_TAIL_MAX s), sampled at SUPPORT_PEAK_GRID points per period of its fastest mode and refined
+ * (entry_peak). */
 static double table_peak(const Model *M, const SupportTable *T) {
     const SupportModes *sm = &T->modes;
     const Record *r = M->rec;
@@ -644,10 +646,15 @@ static double table_peak(const Model *M, const SupportTable *T) {
     double dt = sm->fastest > 0 ? 2.0 * M_PI / sm->fastest / SUPPORT_PEAK_GRID : tail;
     double best = 0.0;
     for (int i = 0; i + 1 < r->n; i++) {
-        double L = r->t[i + 1] - r->t[i];
+        double L = r->t[i + 1] - r->t[i], a0 = r->ah[i], a1 = (r->ah[i + 1] - a0) / L;
+        const double *e = T->data + (size_t)i * T->stride, *known = e + 4 + 4 * sm->nt;
+        if (known[0] >= 0) { /* the segment's extrema, found when the table was built (segment_edges): exact */
+            best = fmax(best, fmax(floor_abs(sm, e, a0, a1, 0.0), floor_abs(sm, e, a0, a1, L)));
+            for (int k = 0; k < (int)known[0]; k++) best = fmax(best, floor_abs(sm, e, a0, a1, known[1 + k]));
+            continue;
+        }
         int n = (int)fmin(ceil(L / dt), 1e6);
-        best = fmax(best, entry_peak(sm, T->data + (size_t)i * T->stride, r->ah[i], (r->ah[i + 1] - r->ah[i]) / L, L,
-                                     n < 1 ? 1 : n));
+        best = fmax(best, entry_peak(sm, e, a0, a1, L, n < 1 ? 1 : n));
     }
     int n = (int)fmin(ceil(tail / dt), 1e7);
     return fmax(best, entry_peak(sm, T->data + (size_t)(r->n - 1) * T->stride, 0.0, 0.0, tail, n < 1 ? 1 : n));
