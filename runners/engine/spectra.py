@@ -140,6 +140,23 @@ def _peaks_inside(seg: _Segments, h: np.ndarray) -> np.ndarray:
     return best.max(axis=0)
 
 
+def _affine_scan(a, b, c, d, e, f) -> tuple[np.ndarray, np.ndarray]:
+    """Every (u, v) of the recurrence (u, v)_(i+1) = [[a_i, b_i], [c_i, d_i]] (u, v)_i + (e_i, f_i) from (0, 0):
+    an inclusive scan over the affine maps, composed in log2(n) passes of whole arrays (Hillis & Steele 1986)
+    instead of n steps of Python. The maps contract (a damped oscillator's), so the order of the sums costs
+    rounding alone."""
+    a, b, c, d, e, f = (np.array(x, dtype=float) for x in (a, b, c, d, e, f))
+    s = 1
+    while s < len(a):
+        # map i after map i - s: M_i M_(i-s), M_i (e, f)_(i-s) + (e, f)_i
+        a2, b2, c2, d2 = a[s:], b[s:], c[s:], d[s:]
+        a1, b1, c1, d1, e1, f1 = a[:-s], b[:-s], c[:-s], d[:-s], e[:-s], f[:-s]
+        e[s:], f[s:] = a2 * e1 + b2 * f1 + e[s:], c2 * e1 + d2 * f1 + f[s:]
+        a[s:], b[s:], c[s:], d[s:] = a2 * a1 + b2 * c1, a2 * b1 + b2 * d1, c2 * a1 + d2 * c1, c2 * b1 + d2 * d1
+        s *= 2
+    return e, f
+
+
 def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """u and u' at every sample (rows) of every oscillator (columns): Nigam & Jennings' recurrence, the
     exact map of a segment, linear in (u0, v0, a0, a1), with its coefficients computed once per length."""
@@ -161,16 +178,13 @@ def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[n
             cu, cv = (np.array(c) for c in zip(*cols))  # (u row: 4 coefficients), (v row)
             maps[hi] = (cu, cv) if not scalar else (cu.T.tolist(), cv.T.tolist())
     if scalar:
-        ai, si, hs = a.tolist(), slope.tolist(), h.tolist()
+        keys = {hi: j for j, hi in enumerate(maps)}
+        which = np.array([keys[hi] for hi in h.tolist()])
         for k in range(len(w)):
-            uk, vk = 0.0, 0.0
-            col_u, col_v = [0.0] * n, [0.0] * n
-            for i, hi in enumerate(hs):
-                c, d = maps[hi][0][k], maps[hi][1][k]
-                uk, vk = (c[0] * uk + c[1] * vk + c[2] * ai[i] + c[3] * si[i],
-                          d[0] * uk + d[1] * vk + d[2] * ai[i] + d[3] * si[i])
-                col_u[i + 1], col_v[i + 1] = uk, vk
-            u[:, k], v[:, k] = col_u, col_v
+            table = np.array([np.r_[maps[hi][0][k], maps[hi][1][k]] for hi in maps])[which]  # (n - 1, 8)
+            u[1:, k], v[1:, k] = _affine_scan(table[:, 0], table[:, 1], table[:, 4], table[:, 5],
+                                              table[:, 2] * a[:-1] + table[:, 3] * slope,
+                                              table[:, 6] * a[:-1] + table[:, 7] * slope)
         return u, v
     for i, hi in enumerate(h.tolist()):
         cu, cv = maps[hi]
