@@ -42,6 +42,12 @@ int me_check(Instance *I) {
                      "lives in the FMU's own event loop): run it with Co-Simulation", v->contactModel);
         return 1;
     }
+    if (model_engine(v)) {
+        INSTANCE_ERROR(I, "invalid parameter: support.coupling = 1: Model Exchange runs rigid rocking on the ground or "
+                     "on a one-way support (support.coupling = 0); a two-way support is integrated with the blocks in "
+                     "the FMU's own event loop: run it with Co-Simulation");
+        return 1;
+    }
     if (v->earlyOverturn) {
         INSTANCE_ERROR(I, "invalid parameter: solver.earlyOverturn belongs to the built-in solver of Co-Simulation; "
                      "in Model Exchange the importer's solver integrates until |theta| = pi/2");
