@@ -251,7 +251,7 @@ def _print_summaries(docs: list[dict], database: str | None = None) -> None:
             print(f"  energy balance (building + blocks){until}: " + (
                 "no energy to balance (the base did no work and nothing moved)" if sc <= NO_ENERGY_J else
                 f"residual {e:.3g} J at the end, {100 * abs(e) / sc:.2g} % of {sc:.4g} J: the coupling's error "
-                "(docs/cosimulation.md)"))
+                "(docs/cosimulation.md; the same system without a step: runners simulate SYSTEM, docs/supports.md)"))
         if "cosim_id" in d:
             i = d["cosim_id"]
             print(f"  stored as co-simulated run {i} in {database} (runners db show cosim {i}; runners export "
