@@ -220,15 +220,18 @@ static double uplift_indicator(const Model *M, double t, int piece) {
 double find_exit(const Model *M, double t, double tc, RestExitFn ind) {
     double a = t;
     int piece = model_piece(M, a);
-    for (int first = 1;; first = 0) {
-        if (ind(M, a, piece) > 0) return a;
+    for (int first = 1, still = 0;; first = 0) {
+        /* (still: a quiet span ended at a, certified to leave the indicator negative there too) */
+        if (!still && ind(M, a, piece) > 0) return a;
         double quiet;
         if (ground_quiet(M, a, piece, M->d.upliftSlope, &quiet)) { /* a floor's span that cannot lift the blocks */
             if (quiet >= tc) return INFINITY;
             piece = next_piece(M, piece, quiet);
             a = quiet;
+            still = 1;
             continue;
         }
+        still = 0;
         double b = next_cell_edge(M, a, piece);
         if (!isfinite(b)) return INFINITY; /* no waveform left: the indicator stays put */
         if (!(b > a)) return NAN;

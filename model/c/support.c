@@ -378,7 +378,7 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
 }
 
 static double table_peak(const Model *M, const SupportTable *T);
-static void segment_edges(const SupportModes *sm, double *e, double a1, double L);
+static void segment_edges(const SupportModes *sm, double *e, double a0, double a1, double L);
 
 double support_peak(const Model *M, SupportTable *T) {
     if (!T->data) return 0.0;
@@ -398,7 +398,7 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
     support_free(T, release);
     const SupportModes *sm = &M->d.sup;
     const Record *r = M->rec;
-    int stride = 4 + 4 * sm->nt + 1 + SUPPORT_EDGES;
+    int stride = 4 + 4 * sm->nt + 2 + SUPPORT_EDGES;
     T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
     if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
     T->n = r->n;
@@ -436,7 +436,7 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             if (!last) propagate(sm, t, nt, q, Z, Y, L, &P, &x[m], &v[m]);
             t += nt;
         }
-        if (!last) segment_edges(sm, e, a1, L);
+        if (!last) segment_edges(sm, e, a0, a1, L);
     }
     T->peak = 0.0;
     T->peakKnown = 0;
@@ -648,9 +648,8 @@ static double table_peak(const Model *M, const SupportTable *T) {
     for (int i = 0; i + 1 < r->n; i++) {
         double L = r->t[i + 1] - r->t[i], a0 = r->ah[i], a1 = (r->ah[i + 1] - a0) / L;
         const double *e = T->data + (size_t)i * T->stride, *known = e + 4 + 4 * sm->nt;
-        if (known[0] >= 0) { /* the segment's extrema, found when the table was built (segment_edges): exact */
-            best = fmax(best, fmax(floor_abs(sm, e, a0, a1, 0.0), floor_abs(sm, e, a0, a1, L)));
-            for (int k = 0; k < (int)known[0]; k++) best = fmax(best, floor_abs(sm, e, a0, a1, known[1 + k]));
+        if (known[0] >= 0) { /* the segment's peak, found when the table was built (segment_edges): exact */
+            best = fmax(best, known[1 + SUPPORT_EDGES]);
             continue;
         }
         int n = (int)fmin(ceil(L / dt), 1e6);
@@ -660,24 +659,36 @@ static double table_peak(const Model *M, const SupportTable *T) {
     return fmax(best, entry_peak(sm, T->data + (size_t)(r->n - 1) * T->stride, 0.0, 0.0, tail, n < 1 ? 1 : n));
 }
 
-/* The floor acceleration's extrema on a record segment's entry e (length L, the base's slope a1 at scale 1), found
+/* The floor acceleration's extrema on a record segment's entry e (length L, the base's a0 + a1 s at scale 1), found
  * once when the table is built and kept after its terms: their count, then each s in (0, L) ascending (-1: more than
- * SUPPORT_EDGES, searched for each time). They do not depend on the record's scale (the floor's acceleration is the
- * table's times it), so a sweep over scales searches each segment once. The search is the cells' own (search):
- * each dyadic interval judged alone. */
-static void segment_edges(const SupportModes *sm, double *e, double a1, double L) {
+ * SUPPORT_EDGES, searched for each time), then the segment's peak |a_f| (its ends' and extrema's; -1 where the
+ * extrema are not kept). They do not depend on the record's scale (the floor's acceleration is the table's times
+ * it), so a sweep over scales searches each segment once. The search is the cells' own (search): each dyadic
+ * interval judged alone. */
+static void segment_edges(const SupportModes *sm, double *e, double a0, double a1, double L) {
     double *known = e + 4 + 4 * sm->nt, x = 0.0, r;
     Slope S = {sm, e, a1, 1.0};
     int n = 0;
     known[0] = 0.0;
+    known[1 + SUPPORT_EDGES] = fmax(floor_abs(sm, e, a0, a1, 0.0), floor_abs(sm, e, a0, a1, L));
     if (!(sm->fastest > 0)) return;
     while (search(&S, 0.0, L, x, 1, 0, &r) && r > x && r < L) {
         if (n == SUPPORT_EDGES) {
             known[0] = -1.0;
+            known[1 + SUPPORT_EDGES] = -1.0;
             return;
         }
         known[1 + n++] = r;
+        known[1 + SUPPORT_EDGES] = fmax(known[1 + SUPPORT_EDGES], floor_abs(sm, e, a0, a1, r));
         x = r;
     }
     known[0] = n;
+}
+
+double support_segment_peak(const Model *M, int piece) {
+    double te;
+    const double *e = entry_of(M, piece, &te);
+    if (!e || piece >= M->rec->n) return -1.0;
+    double peak = e[4 + 4 * M->d.sup.nt + 1 + SUPPORT_EDGES];
+    return peak >= 0 ? fabs(M->d.accAmp) * peak : -1.0;
 }

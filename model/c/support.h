@@ -97,6 +97,9 @@ int support_moves(const struct Model *M);
 /* The floor's acceleration relative to the base (m/s2) at t on piece `piece` (record pieces 1..n-1,
  * n after the end; 0 before the start: at rest). */
 double support_relative_acceleration(const struct Model *M, double t, int piece);
+/* The floor's absolute acceleration's largest magnitude (m/s^2) over record piece `piece` (1 .. n - 1), exact (the
+ * table's, at its extrema), or -1 where the table does not know it (after the record, or more extrema than it keeps). */
+double support_segment_peak(const struct Model *M, int piece);
 /* A bound on its magnitude over [t0, t1] (t0 at or after the piece's start). */
 double support_acceleration_bound(const struct Model *M, int piece, double t0, double t1);
 /* Its Taylor coefficients c[0..nc] about t (added to c). */
