@@ -81,7 +81,26 @@ double coupling_momentum(const EnSystem *s, const double *y, double *mtot) {
     return p;
 }
 
-double coupling_block_energy(const Model *M, const double *y) {
+/* What the floor's velocity U adds to the blocks' kinetic energy in the base's frame: U px + mtot U^2 / 2. */
+static double frame_energy(const Model *M, const double *y) {
     double mtot, px = coupling_momentum(&M->d.en, y, &mtot), U = coupling_floor_velocity(M, y);
-    return engine_energy(&M->d.en, y) + U * px + 0.5 * mtot * U * U;
+    return U * px + 0.5 * mtot * U * U;
+}
+
+double coupling_block_energy(const Model *M, const double *y) { return engine_energy(&M->d.en, y) + frame_energy(M, y); }
+
+double coupling_total_energy(const Model *M, const double *y) {
+    return coupling_block_energy(M, y) + coupling_energy(M, y);
+}
+
+double coupling_kinetic(const Model *M, const double *y) {
+    const SupportModes *sm = &M->d.sup;
+    const double *z = y + EN_N(M->d.en.nb);
+    double E = engine_kinetic(&M->d.en, y) + frame_energy(M, y);
+    for (int i = 0; i < sm->ns; i++) E += 0.5 * sm->mass[i] * z[2 * i + 1] * z[2 * i + 1];
+    return E;
+}
+
+void coupling_carry(const Model *M, double *y, double px, double mtot) {
+    y[COUPLING_V(M->d.en.nb, M->d.sup.j)] += px / (coupling_floor_mass(M) + mtot);
 }

@@ -49,5 +49,12 @@ double coupling_floor_mass(const struct Model *M);
 double coupling_momentum(const EnSystem *s, const double *y, double *mtot);
 /* The blocks' kinetic plus potential energy in the base's frame (J): engine_energy with floor j's velocity. */
 double coupling_block_energy(const struct Model *M, const double *y);
+/* And with the support's (coupling_energy): what the two-way energy balance follows (J). */
+double coupling_total_energy(const struct Model *M, const double *y);
+/* The kinetic energy of blocks and support in the base's frame (J). */
+double coupling_kinetic(const struct Model *M, const double *y);
+/* The blocks, whose horizontal momentum relative to the floor was px (kg m/s, their mass mtot), stopped on their
+ * floor by a plastic hit: the floor's velocity takes the momentum of both. */
+void coupling_carry(const struct Model *M, double *y, double px, double mtot);
 
 #endif

@@ -213,16 +213,13 @@ static double slip_of(const EnSystem *s, int k, const double *y, double *rate, d
 /* The kinetic energy (J): the bodies' relative to their support; on a two-way support the bodies' and the
  * support's in the base's frame. */
 static double kinetic(const Model *M, const double *y) {
-    const EnSystem *sys = &M->d.en;
-    double E = engine_kinetic(sys, y);
-    if (!coupling_on(M)) return E;
-    double mtot, px = coupling_momentum(sys, y, &mtot), U = coupling_floor_velocity(M, y);
-    const SupportModes *sm = &M->d.sup;
-    for (int i = 0; i < sm->ns; i++) {
-        double v = y[COUPLING_V(sys->nb, i)];
-        E += 0.5 * sm->mass[i] * v * v;
-    }
-    return E + U * px + 0.5 * mtot * U * U;
+    return coupling_on(M) ? coupling_kinetic(M, y) : engine_kinetic(&M->d.en, y);
+}
+
+/* The energy (J) the run's balance follows: kinetic plus potential, the bodies' relative to their support; on a
+ * two-way support the bodies' in the base's frame and the support's. */
+static double energy(const Model *M, const double *y) {
+    return coupling_on(M) ? coupling_total_energy(M, y) : engine_energy(&M->d.en, y);
 }
 
 /* An impulsive change of the bodies' rates relative to their support in y (an impact, a projection onto
@@ -304,10 +301,6 @@ static int project_op(const Model *M, double *y, void *ctx) {
     return 1;
 }
 static void project_rates(const Model *M, const EnMode *m, double *y, const double *xi0) {
-    if (!coupling_on(M)) {
-        engine_project(&M->d.en, m, y, xi0, 1);
-        return;
-    }
     ProjectOp o = {m, xi0};
     with_floor(M, y, project_op, &o);
 }
@@ -398,17 +391,14 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
     for (int k = 0; k < sys->nb; k++) m.closed[k][0] = m.closed[k][1] = 1;
     for (int k = 0; k < sys->nb; k++) S->enAnchor[k] = slip_of(sys, k, S->y, NULL, NULL);
     int two = coupling_on(M);
-    double E0 = two ? coupling_block_energy(M, S->y) + coupling_energy(M, S->y) : engine_energy(sys, S->y);
-    /* (two-way: the bodies stop on their floor, which keeps the horizontal momentum of bodies plus floor) */
-    double mtot, px = two ? coupling_momentum(sys, S->y, &mtot) : 0.0;
+    double E0 = energy(M, S->y), mtot, px = coupling_momentum(sys, S->y, &mtot);
     engine_rest_state(sys, S->y);
     for (int k = 0; k < sys->nb; k++) S->y[EN_POS(sys->nb, k, 0)] = S->enAnchor[k] + (k > 0 ? S->y[EN_POS(sys->nb, k - 1, 0)] : 0.0);
-    if (two) {
+    if (two) { /* the bodies stop on their floor, which keeps the horizontal momentum of both */
         for (int k = 0; k < sys->nb; k++) S->y[EN_XI(sys->nb, k)] = S->y[EN_XID(sys->nb, k)] = 0.0;
-        S->y[COUPLING_V(sys->nb, M->d.sup.j)] += px / (coupling_floor_mass(M) + mtot);
+        coupling_carry(M, S->y, px, mtot);
     }
-    double E1 = two ? coupling_block_energy(M, S->y) + coupling_energy(M, S->y) : engine_energy(sys, S->y);
-    S->impactLoss += E0 - E1; /* what the rest criterion stops */
+    S->impactLoss += E0 - energy(M, S->y); /* what the rest criterion stops */
     changed(M, &S->en, &m, log);
     S->en = m;
     /* two-way: at rest as a contact set the engine integrates with its floor (its forces' indicators end it) */
@@ -584,13 +574,12 @@ static void finish(Model *M) {
     /* two-way: the bodies stop on their floor (a plastic hit that keeps the horizontal momentum of bodies plus
      * floor), which carries them from then on (support_after_end) */
     int two = coupling_on(M);
-    double E0 = two ? coupling_block_energy(M, S->y) + coupling_energy(M, S->y) : 0.0, mtot;
-    double px = two ? coupling_momentum(&M->d.en, S->y, &mtot) : 0.0;
+    double E0 = energy(M, S->y), mtot, px = coupling_momentum(&M->d.en, S->y, &mtot);
     for (int j = 0; j < nb; j++)
         for (int i = 0; i < 3; i++) S->y[EN_VEL(nb, j, i)] = 0.0;
     if (two) {
-        S->y[COUPLING_V(nb, M->d.sup.j)] += px / (coupling_floor_mass(M) + mtot);
-        S->impactLoss += E0 - coupling_block_energy(M, S->y) - coupling_energy(M, S->y);
+        coupling_carry(M, S->y, px, mtot);
+        S->impactLoss += E0 - energy(M, S->y);
         S->h = 0.0;
         S->denseValid = 0;
     }
@@ -1375,12 +1364,8 @@ static void end_rhs(const void *ctx, double t, const double *z, double *dz) {
 }
 
 static int support_after_end(Model *M, double tc, const Logger *log) {
-    (void)tc;
+    (void)tc; /* (it steps ahead of tc: the outputs at tc come from its dense output) */
     State *S = &M->s;
-    if (!coupling_on(M)) { /* (not reached: the engine plugs this in for a two-way support alone) */
-        S->t = tc;
-        return 0;
-    }
     int nb = M->d.en.nb, n = coupling_size(M), ns = M->d.sup.ns, hitBp;
     EndCtx c = {M, model_piece(M, S->t)};
     double *z = S->y + EN_N(nb), z1[NMAX], f0[NMAX], f1[NMAX], cont[5][NMAX], scale[NMAX], hNext;
@@ -1575,11 +1560,12 @@ void engine_outputs(Model *M, double tc) {
     memset(&f, 0, sizeof(f));
     if (S->mode == MODE_REST || over) {
         state_at(M, tc, y, &m);
-    } else {
-        state_forces_at(M, tc, y, &m, ah, av, &f);
     }
     int twoWay = coupling_on(M);
-    if (twoWay && !over) v->ahTotal = solve_at(M, &m, y, ah, av, &f); /* the floor's, with the blocks on it */
+    if (S->mode != MODE_REST && !over) {
+        state_forces_at(M, tc, y, &m, ah, av, twoWay ? NULL : &f);
+        if (twoWay) v->ahTotal = solve_at(M, &m, y, ah, av, &f); /* the floor's, with the blocks on it */
+    }
     if (twoWay && over) { /* the floor carrying the bodies */
         double r[SUPPORT_MAX_STOREYS], mtot;
         support_after_end_at(M, tc, y);

@@ -166,7 +166,7 @@ Status instance_initialize(Instance *I) {
         INSTANCE_ERROR(I, "support: %s", msg);
         return STATUS_ERROR;
     }
-    if (I->sup.data && !M->d.sup.twoWay) M->sup = &I->sup; /* (two-way: integrated with the blocks, coupling.c) */
+    if (I->sup.data) M->sup = &I->sup;
     solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
     solver_outputs(M, I->s.tc);
@@ -600,7 +600,7 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
             support_free(&I->sup, I->release);
             I->sup = fresh;
         }
-        moves = check.sup != NULL && !check.d.sup.twoWay;
+        moves = check.sup != NULL;
     }
     I->s = *snap;
     I->s.model.rec = (!snap->dirty && sm->v.kind == KIND_RECORD) ? &I->rec : NULL;
