@@ -42,6 +42,16 @@ def count_runs(url: str) -> int:
         return 0
 
 
+def sweep_status(url: str) -> str | None:
+    """Sweep 1's stored status, None before the database or the sweep exists."""
+    try:
+        with open_database(url, write=False)() as s:
+            sw = s.get(Sweep, 1)
+            return sw.status if sw is not None else None
+    except Exception:  # not created yet, or the server is starting
+        return None
+
+
 def pause(p: subprocess.Popen) -> None:
     """Stop the runner and its workers where they are (SIGSTOP to its process group): a sweep paused after its
     first points is still running whatever the machine's speed, so its listing cannot race its end."""
@@ -137,7 +147,7 @@ def own_postgres_server():
 def test_a_sweep_whose_database_server_went_away_is_listed_stopped_and_resumes(own_postgres_server, fmu_path):
     url, stop, start = own_postgres_server
     p = runner(url, fmu_path, *HARMONIC)
-    wait_for(lambda: count_runs(url) >= 1, "the first points stored", p)
+    wait_for(lambda: sweep_status(url) == "running", "the sweep stored as running", p)
     pause(p)
     assert listed_status(url, fmu_path) == "running"  # while it runs
     stop()
@@ -154,7 +164,7 @@ def test_a_sweep_whose_database_server_went_away_is_listed_stopped_and_resumes(o
 def test_a_runner_killed_outright_leaves_its_sweep_listed_stopped(tmp_path, fmu_path):
     url = f"sqlite:///{tmp_path / 's.db'}"
     p = runner(url, fmu_path, *HARMONIC)
-    wait_for(lambda: count_runs(url) >= 1, "the first points stored", p)
+    wait_for(lambda: sweep_status(url) == "running", "the sweep stored as running", p)
     pause(p)
     assert listed_status(url, fmu_path) == "running"
     os.killpg(p.pid, signal.SIGKILL)  # the runner and its workers, as the out-of-memory killer would
