@@ -377,6 +377,43 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
     *v = ve;
 }
 
+/* The degree of the Taylor polynomials that replace the exponentials of u'' on segments of at most Lmax (rho = the
+ * fastest |lambda| times Lmax): the least whose remainder bound rho^(D+1) e^rho / (D+1)! is below 2^-54 of the terms
+ * (-1 where none up to SUPPORT_ACC_MAX is). */
+static int acc_degree(double rho) {
+    if (!(rho >= 0.0 && rho < 4.0)) return -1;
+    double rem = exp(rho) * rho; /* rho^(D+1) e^rho / (D+1)! at D = 0 */
+    for (int D = 0; D <= SUPPORT_ACC_MAX; D++) {
+        if (rem <= 0x1p-54) return D;
+        rem *= rho / (D + 2);
+    }
+    return -1;
+}
+
+/* u''(s) of entry e as a polynomial of degree deg, written after its extrema: coefficient m is u^(2+m)(0) / m!, each
+ * term's Re((lambda^(2+m) Z + (2+m) lambda^(1+m) Y)) / m! plus the polynomial's own. */
+static void acc_polynomial(const SupportModes *sm, double *e, int deg) {
+    double *c = e + 4 + 4 * sm->nt + 2 + SUPPORT_EDGES, fact = 1.0;
+    if (deg < 0) return;
+    for (int m = 0; m <= deg; m++) {
+        c[m] = poly_derivative(e, 2 + m, 0.0) / fact;
+        fact *= m + 1;
+    }
+    const double *z = e + 4;
+    for (int t = 0; t < sm->nt; t++, z += 4) {
+        Cx lam = cx(sm->lre[t], sm->lim[t]), Z = cx(z[0], z[1]), Y = cx(z[2], z[3]);
+        Cx pk1 = lam, pk = cmul(lam, lam); /* lambda^(1+m), lambda^(2+m) at m = 0 */
+        double f = 1.0;
+        for (int m = 0; m <= deg; m++) {
+            Cx v = cadd(cmul(pk, Z), cscale(cmul(pk1, Y), 2.0 + m));
+            c[m] += v.re / f;
+            f *= m + 1;
+            pk1 = pk;
+            pk = cmul(pk, lam);
+        }
+    }
+}
+
 static double table_peak(const Model *M, const SupportTable *T);
 static void segment_edges(const SupportModes *sm, double *e, double a0, double a1, double L);
 
@@ -398,12 +435,16 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
     support_free(T, release);
     const SupportModes *sm = &M->d.sup;
     const Record *r = M->rec;
-    int stride = 4 + 4 * sm->nt + 2 + SUPPORT_EDGES;
+    double Lmax = 0.0;
+    for (int i = 0; i + 1 < r->n; i++) Lmax = fmax(Lmax, r->t[i + 1] - r->t[i]);
+    int deg = acc_degree(sm->fastest * Lmax);
+    int stride = 4 + 4 * sm->nt + 2 + SUPPORT_EDGES + deg + 1;
     T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
     if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
     T->n = r->n;
     T->nt = sm->nt;
     T->stride = stride;
+    T->accDeg = deg;
     T->recHash = r->hash;
     T->startTime = M->v.startTime;
     T->modes = *sm;
@@ -436,7 +477,10 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             if (!last) propagate(sm, t, nt, q, Z, Y, L, &P, &x[m], &v[m]);
             t += nt;
         }
-        if (!last) segment_edges(sm, e, a0, a1, L);
+        if (!last) {
+            segment_edges(sm, e, a0, a1, L);
+            acc_polynomial(sm, e, deg);
+        }
     }
     T->peak = 0.0;
     T->peakKnown = 0;
@@ -457,7 +501,13 @@ static const double *entry_of(const Model *M, int piece, double *t0) {
 double support_relative_acceleration(const Model *M, double t, int piece) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
-    return e ? M->d.accAmp * entry_derivative(&M->d.sup, e, 2, t - t0) : 0.0;
+    if (!e) return 0.0;
+    int deg = M->sup->accDeg;
+    if (deg < 0 || piece >= M->rec->n) return M->d.accAmp * entry_derivative(&M->d.sup, e, 2, t - t0);
+    const double *c = e + 4 + 4 * M->sup->nt + 2 + SUPPORT_EDGES;
+    double s = t - t0, sum = c[deg];
+    for (int m = deg - 1; m >= 0; m--) sum = sum * s + c[m];
+    return M->d.accAmp * sum;
 }
 
 void support_motion(const Model *M, double t, int piece, double *u, double *v) {

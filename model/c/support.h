@@ -31,6 +31,8 @@
 #define SUPPORT_MAX_TERMS (2 * SUPPORT_MAX_STOREYS)
 /* Extrema of the floor's acceleration kept per record segment in the table (support_attach). */
 #define SUPPORT_EDGES 8
+/* The largest degree of a segment's polynomial of the floor's acceleration (support_attach). */
+#define SUPPORT_ACC_MAX 24
 
 /* The support's modes (derived from the parameters, part of Derived: no pointers). Mode r:
  * x_r'' + k1[r] x_r' + k2[r] x_r = -a_g, and the floor's displacement u = sum_r c[r] x_r. Its
@@ -52,9 +54,16 @@ typedef struct {
 /* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
  * after the last sample) holds u(s) = q0 + q1 s + q2 s^2 + q3 s^3 + sum_j Re((Z_j + Y_j s) e^(lambda_j s)),
  * s the time since sample i, at the record's scale 1: q[4], then (Re Z, Im Z, Re Y, Im Y) for each term, then the
- * count and times s of the floor acceleration's extrema inside the segment (SUPPORT_EDGES of them at most). */
+ * count and times s of the floor acceleration's extrema inside the segment (SUPPORT_EDGES of them at most) and its
+ * peak, then u''(s) as one polynomial in s of degree accDeg: each term's exponential replaced by its Taylor series
+ * about the segment's start, cut where the rest is below the rounding of the terms' own sum. The integrator's
+ * right-hand side reads the floor's acceleration from it (a few multiplications instead of an exponential, a sine
+ * and a cosine per term). */
 typedef struct {
     int n, nt, stride;
+    /* the degree of each record segment's polynomial of u'' kept after its extrema (SUPPORT_ACC_MAX at most; -1:
+     * none, the segments too long for the record's sampling against the fastest mode: u'' evaluated term by term) */
+    int accDeg;
     double *data;
     /* what it was built from */
     unsigned long long recHash;
