@@ -424,13 +424,14 @@ int ground_quiet(const Model *M, double a, int piece, double slope, double *end)
     /* the base is a straight line on the piece (0 after the record): its extremes are at the ends */
     excitation_piece(M, a, piece, &h0, &v0);
     excitation_piece(M, t1, piece, &h1, &v1);
-    /* the segment's exact peak of the floor's acceleration where the table keeps it, else a bound */
-    double peak = support_segment_peak(M, piece);
-    double bound = (peak >= 0 ? peak : fmax(fabs(h0), fabs(h1)) + support_acceleration_bound(M, piece, a, t1)) +
-                   fabs(M->v.ahIn);
-    double gmin = M->v.g + fmin(v0, v1) + M->v.avIn;
+    double gmin = M->v.g + fmin(v0, v1) + M->v.avIn, limit = (1.0 - 1e-9) * slope * gmin;
     *end = t1;
-    return gmin > 0 && bound < (1.0 - 1e-9) * slope * gmin;
+    if (!(gmin > 0)) return 0;
+    /* a bound of the floor's acceleration (the base's, plus the support's from its polynomial on the segment), and
+     * where that is not enough, the segment's exact peak (found once and kept by the table) */
+    if (fmax(fabs(h0), fabs(h1)) + support_acceleration_bound(M, piece, a, t1) + fabs(M->v.ahIn) < limit) return 1;
+    double peak = support_segment_peak(M, piece);
+    return peak >= 0 && peak + fabs(M->v.ahIn) < limit;
 }
 
 double next_cell_edge(const Model *M, double a, int piece) {

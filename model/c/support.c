@@ -377,6 +377,15 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
     *v = ve;
 }
 
+/* Where an entry's parts start after its polynomial and terms (support.h's SupportTable): the extrema and peak of
+ * the floor's acceleration, then the sum of its terms' magnitudes |lambda^2 Z| + |2 lambda Y| (the rounding scale of
+ * the polynomial of u'' that follows it). */
+#define KNOWN_AT(nt) (4 + 4 * (nt))
+#define TERMS_AT(nt) (KNOWN_AT(nt) + 2 + SUPPORT_EDGES)
+#define ACC_AT(nt) (TERMS_AT(nt) + 1)
+/* known[0] of a segment whose extrema are not searched yet (they are searched when first needed: edges_of) */
+#define EDGES_PENDING -2.0
+
 /* The degree of the Taylor polynomials that replace the exponentials of u'' on segments of at most Lmax (rho = the
  * fastest |lambda| times Lmax): the least whose remainder bound rho^(D+1) e^rho / (D+1)! is below 2^-54 of the terms
  * (-1 where none up to SUPPORT_ACC_MAX is). */
@@ -390,28 +399,40 @@ static int acc_degree(double rho) {
     return -1;
 }
 
-/* u''(s) of entry e as a polynomial of degree deg, written after its extrema: coefficient m is u^(2+m)(0) / m!, each
- * term's Re((lambda^(2+m) Z + (2+m) lambda^(1+m) Y)) / m! plus the polynomial's own. */
-static void acc_polynomial(const SupportModes *sm, double *e, int deg) {
-    double *c = e + 4 + 4 * sm->nt + 2 + SUPPORT_EDGES, fact = 1.0;
-    if (deg < 0) return;
-    for (int m = 0; m <= deg; m++) {
-        c[m] = poly_derivative(e, 2 + m, 0.0) / fact;
-        fact *= m + 1;
+/* The powers lambda_t^k (k = 0 .. SUPPORT_ACC_MAX + 2) of every term, and 1 / m!, that every segment's polynomial
+ * shares (acc_polynomial). */
+typedef struct {
+    Cx pw[SUPPORT_MAX_TERMS][SUPPORT_ACC_MAX + 3];
+    double invFact[SUPPORT_ACC_MAX + 1];
+} AccPowers;
+
+static void acc_powers(const SupportModes *sm, int deg, AccPowers *A) {
+    for (int t = 0; t < sm->nt; t++) {
+        Cx lam = cx(sm->lre[t], sm->lim[t]);
+        A->pw[t][0] = cx(1.0, 0.0);
+        for (int k = 1; k <= deg + 2; k++) A->pw[t][k] = cmul(A->pw[t][k - 1], lam);
     }
+    A->invFact[0] = 1.0;
+    for (int m = 1; m <= deg; m++) A->invFact[m] = A->invFact[m - 1] / m;
+}
+
+/* u''(s) of entry e as a polynomial of degree deg, written after its extrema: coefficient m is u^(2+m)(0) / m!, each
+ * term's Re(lambda^(2+m) Z + (2+m) lambda^(1+m) Y) / m! plus the polynomial's own; and before it, the terms'
+ * magnitudes |lambda^2 Z| + |2 lambda Y|. */
+static void acc_polynomial(const SupportModes *sm, double *e, int deg, const AccPowers *A) {
+    double *c = e + ACC_AT(sm->nt);
+    if (deg < 0) return;
+    for (int m = 0; m <= deg; m++) c[m] = poly_derivative(e, 2 + m, 0.0);
     const double *z = e + 4;
     for (int t = 0; t < sm->nt; t++, z += 4) {
-        Cx lam = cx(sm->lre[t], sm->lim[t]), Z = cx(z[0], z[1]), Y = cx(z[2], z[3]);
-        Cx pk1 = lam, pk = cmul(lam, lam); /* lambda^(1+m), lambda^(2+m) at m = 0 */
-        double f = 1.0;
-        for (int m = 0; m <= deg; m++) {
-            Cx v = cadd(cmul(pk, Z), cscale(cmul(pk1, Y), 2.0 + m));
-            c[m] += v.re / f;
-            f *= m + 1;
-            pk1 = pk;
-            pk = cmul(pk, lam);
-        }
+        const Cx *pw = A->pw[t];
+        double L = sm->labs[t], zr = z[0], zi = z[1], yr = z[2], yi = z[3];
+        e[TERMS_AT(sm->nt)] += L * (L * sqrt(zr * zr + zi * zi) + 2.0 * sqrt(yr * yr + yi * yi));
+        for (int m = 0; m <= deg; m++) c[m] += pw[m + 2].re * zr - pw[m + 2].im * zi;
+        if (yr != 0.0 || yi != 0.0)
+            for (int m = 0; m <= deg; m++) c[m] += (2.0 + m) * (pw[m + 1].re * yr - pw[m + 1].im * yi);
     }
+    for (int m = 0; m <= deg; m++) c[m] *= A->invFact[m];
 }
 
 static double table_peak(const Model *M, const SupportTable *T);
@@ -438,7 +459,7 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
     double Lmax = 0.0;
     for (int i = 0; i + 1 < r->n; i++) Lmax = fmax(Lmax, r->t[i + 1] - r->t[i]);
     int deg = acc_degree(sm->fastest * Lmax);
-    int stride = 4 + 4 * sm->nt + 2 + SUPPORT_EDGES + deg + 1;
+    int stride = ACC_AT(sm->nt) + deg + 1;
     T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
     if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
     T->n = r->n;
@@ -455,6 +476,8 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
     double x[SUPPORT_MAX_STOREYS] = {0}, v[SUPPORT_MAX_STOREYS] = {0};
     Powers P;
     P.L = NAN;
+    AccPowers A;
+    acc_powers(sm, deg, &A);
     for (int i = 0; i < r->n; i++) {
         int last = i == r->n - 1;
         double L = last ? 0.0 : r->t[i + 1] - r->t[i];
@@ -478,8 +501,8 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             t += nt;
         }
         if (!last) {
-            segment_edges(sm, e, a0, a1, L);
-            acc_polynomial(sm, e, deg);
+            e[KNOWN_AT(sm->nt)] = EDGES_PENDING;
+            acc_polynomial(sm, e, deg, &A);
         }
     }
     T->peak = 0.0;
@@ -498,16 +521,40 @@ static const double *entry_of(const Model *M, int piece, double *t0) {
     return M->sup->data + (size_t)(piece - 1) * M->sup->stride;
 }
 
+/* Record segment i's extrema and peak of the floor's acceleration (segment_edges), searched when first needed and
+ * kept in T: they depend on the entry alone, so when they are searched changes nothing. */
+static const double *edges_of(const Model *M, const SupportTable *T, int i) {
+    double *e = T->data + (size_t)i * T->stride;
+    if (e[KNOWN_AT(T->nt)] == EDGES_PENDING) {
+        const Record *r = M->rec;
+        double L = r->t[i + 1] - r->t[i], a0 = r->ah[i], a1 = (r->ah[i + 1] - a0) / L;
+        segment_edges(&T->modes, e, a0, a1, L);
+    }
+    return e + KNOWN_AT(T->nt);
+}
+
+/* u''(s) of a record segment's entry e from its polynomial (T->accDeg >= 0), and a bound on |u''| over [0, s]: the sum
+ * of |c_m| s^m and the polynomial's distance to u'' (2^-54 of the terms' magnitudes, times 4). */
+static double acc_poly(const SupportTable *T, const double *e, double s) {
+    const double *c = e + ACC_AT(T->nt);
+    double sum = c[T->accDeg];
+    for (int m = T->accDeg - 1; m >= 0; m--) sum = sum * s + c[m];
+    return sum;
+}
+
+static double acc_bound(const SupportTable *T, const double *e, double s) {
+    const double *c = e + ACC_AT(T->nt);
+    double b = fabs(c[T->accDeg]);
+    for (int m = T->accDeg - 1; m >= 0; m--) b = b * s + fabs(c[m]);
+    return b + 0x1p-52 * e[TERMS_AT(T->nt)];
+}
+
 double support_relative_acceleration(const Model *M, double t, int piece) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
     if (!e) return 0.0;
-    int deg = M->sup->accDeg;
-    if (deg < 0 || piece >= M->rec->n) return M->d.accAmp * entry_derivative(&M->d.sup, e, 2, t - t0);
-    const double *c = e + 4 + 4 * M->sup->nt + 2 + SUPPORT_EDGES;
-    double s = t - t0, sum = c[deg];
-    for (int m = deg - 1; m >= 0; m--) sum = sum * s + c[m];
-    return M->d.accAmp * sum;
+    if (M->sup->accDeg < 0 || piece >= M->rec->n) return M->d.accAmp * entry_derivative(&M->d.sup, e, 2, t - t0);
+    return M->d.accAmp * acc_poly(M->sup, e, t - t0);
 }
 
 void support_motion(const Model *M, double t, int piece, double *u, double *v) {
@@ -520,7 +567,10 @@ void support_motion(const Model *M, double t, int piece, double *u, double *v) {
 double support_acceleration_bound(const Model *M, int piece, double t0, double t1) {
     double te;
     const double *e = entry_of(M, piece, &te);
-    return e ? fabs(M->d.accAmp) * entry_bound(&M->d.sup, e, 2, t0 - te, t1 - te) : 0.0;
+    if (!e) return 0.0;
+    if (M->sup->accDeg < 0 || piece >= M->rec->n)
+        return fabs(M->d.accAmp) * entry_bound(&M->d.sup, e, 2, t0 - te, t1 - te);
+    return fabs(M->d.accAmp) * acc_bound(M->sup, e, t1 - te);
 }
 
 void support_series(const Model *M, double t, int piece, int nc, double *c) {
@@ -613,8 +663,8 @@ static int cell_search(const Model *M, double a, int piece, double t0, double t1
     double te;
     const double *e = entry_of(M, piece, &te);
     if (!e || !(M->d.sup.fastest > 0)) return 0;
-    const double *known = e + 4 + 4 * M->d.sup.nt;
-    if (piece < M->rec->n && known[0] >= 0) { /* a record segment: its edges found when the table was built */
+    const double *known = piece < M->rec->n ? edges_of(M, M->sup, piece - 1) : NULL;
+    if (known && known[0] >= 0) { /* a record segment: its edges, found once (edges_of) */
         int n = (int)known[0];
         double x = a - te;
         for (int i = forward ? 0 : n - 1; forward ? i < n : i >= 0; i += forward ? 1 : -1)
@@ -694,11 +744,19 @@ static double table_peak(const Model *M, const SupportTable *T) {
         if (sm->freq[m] > 0) slowest = fmin(slowest, sm->freq[m]);
     double tail = fmin(SUPPORT_TAIL_PERIODS / slowest, SUPPORT_TAIL_MAX);
     double dt = sm->fastest > 0 ? 2.0 * M_PI / sm->fastest / SUPPORT_PEAK_GRID : tail;
-    double best = 0.0;
+    double best = 0.0, under = 0.0;
+    if (T->accDeg >= 0) /* a value under the peak: the largest |a_f| at the segments' starts, from their polynomials */
+        for (int i = 0; i + 1 < r->n; i++) {
+            const double *e = T->data + (size_t)i * T->stride;
+            under = fmax(under, fabs(r->ah[i] + acc_poly(T, e, 0.0)));
+        }
     for (int i = 0; i + 1 < r->n; i++) {
         double L = r->t[i + 1] - r->t[i], a0 = r->ah[i], a1 = (r->ah[i + 1] - a0) / L;
-        const double *e = T->data + (size_t)i * T->stride, *known = e + 4 + 4 * sm->nt;
-        if (known[0] >= 0) { /* the segment's peak, found when the table was built (segment_edges): exact */
+        const double *e = T->data + (size_t)i * T->stride;
+        /* a segment whose bound is below that does not hold the peak: its extrema are not searched */
+        if (T->accDeg >= 0 && fmax(fabs(r->ah[i]), fabs(r->ah[i + 1])) + acc_bound(T, e, L) < under) continue;
+        const double *known = edges_of(M, T, i);
+        if (known[0] >= 0) { /* the segment's peak at its ends and extrema (segment_edges): exact */
             best = fmax(best, known[1 + SUPPORT_EDGES]);
             continue;
         }
@@ -710,13 +768,13 @@ static double table_peak(const Model *M, const SupportTable *T) {
 }
 
 /* The floor acceleration's extrema on a record segment's entry e (length L, the base's a0 + a1 s at scale 1), found
- * once when the table is built and kept after its terms: their count, then each s in (0, L) ascending (-1: more than
+ * once, when first needed (edges_of), and kept after its terms: their count, then each s in (0, L) ascending (-1: more than
  * SUPPORT_EDGES, searched for each time), then the segment's peak |a_f| (its ends' and extrema's; -1 where the
  * extrema are not kept). They do not depend on the record's scale (the floor's acceleration is the table's times
  * it), so a sweep over scales searches each segment once. The search is the cells' own (search): each dyadic
  * interval judged alone. */
 static void segment_edges(const SupportModes *sm, double *e, double a0, double a1, double L) {
-    double *known = e + 4 + 4 * sm->nt, x = 0.0, r;
+    double *known = e + KNOWN_AT(sm->nt), x = 0.0, r;
     Slope S = {sm, e, a1, 1.0};
     int n = 0;
     known[0] = 0.0;
@@ -739,6 +797,6 @@ double support_segment_peak(const Model *M, int piece) {
     double te;
     const double *e = entry_of(M, piece, &te);
     if (!e || piece >= M->rec->n) return -1.0;
-    double peak = e[4 + 4 * M->d.sup.nt + 1 + SUPPORT_EDGES];
+    double peak = edges_of(M, M->sup, piece - 1)[1 + SUPPORT_EDGES];
     return peak >= 0 ? fabs(M->d.accAmp) * peak : -1.0;
 }
