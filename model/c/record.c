@@ -41,14 +41,13 @@ void record_free(Record *r, RecordFree release) {
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
 /* Parse the number in tok[0..len) with '.' as the decimal point, whatever the
- * locale (an importer may run with a locale whose decimal point is ','). */
-static int parse_number(const char *tok, size_t len, double *value) {
+ * locale (an importer may run with a locale whose decimal point is ','): point is the
+ * locale's, which strtod reads. */
+static int parse_number(const char *tok, size_t len, char point, double *value) {
     char buf[MAX_TOKEN];
     if (len == 0 || len >= MAX_TOKEN) return 1;
     memcpy(buf, tok, len);
     buf[len] = '\0';
-    const struct lconv *lc = localeconv();
-    char point = (lc && lc->decimal_point && lc->decimal_point[0]) ? lc->decimal_point[0] : '.';
     for (size_t i = 0; i < len; i++) {
         char c = buf[i];
         if (c == ',' && point != ',') return 1;
@@ -69,7 +68,7 @@ static int parse_number(const char *tok, size_t len, double *value) {
  * that is not a number: its text in bad), -2 (an empty value between
  * separators) or -3 (spaces between some values, commas between others: a
  * decimal comma, most likely). */
-static int split_values(const char *p, const char *e, double *vals, char *bad, size_t badLen) {
+static int split_values(const char *p, const char *e, char point, double *vals, char *bad, size_t badLen) {
     int count = 0, spaced = 0, commas = 0;
     while (p < e && is_space(*p)) p++;
     while (p < e) {
@@ -78,7 +77,7 @@ static int split_values(const char *p, const char *e, double *vals, char *bad, s
         if (p == s) return -2;
         if (count < 4) {
             double v;
-            if (parse_number(s, (size_t)(p - s), &v)) {
+            if (parse_number(s, (size_t)(p - s), point, &v)) {
                 size_t k = (size_t)(p - s) < badLen - 1 ? (size_t)(p - s) : badLen - 1;
                 memcpy(bad, s, k);
                 bad[k] = '\0';
@@ -175,6 +174,8 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
 
     /* second pass: parse and check */
     int line = 0, columns = 0, firstLine = 0, k = 0;
+    const struct lconv *lc = localeconv();
+    char point = (lc && lc->decimal_point && lc->decimal_point[0]) ? lc->decimal_point[0] : '.';
     for (const char *p = start, *next; p < end; p = next) {
         const char *e = line_end(p, end, &next);
         line++;
@@ -183,7 +184,7 @@ int record_read(const char *path, Record *r, RecordAlloc alloc, RecordFree relea
         if (skip_line(p, e)) continue;
         double v[4];
         char bad[24];
-        int c = split_values(p, e, v, bad, sizeof(bad));
+        int c = split_values(p, e, point, v, bad, sizeof(bad));
         /* Quote nothing of a file that has not shown a sample yet: it may not be a record
          * at all (pointed at /etc/passwd, the log printed its first line). */
         if (c == -1 && k == 0)
