@@ -157,6 +157,18 @@ def _affine_scan(a, b, c, d, e, f) -> tuple[np.ndarray, np.ndarray]:
     return e, f
 
 
+def _may_pass(w: np.ndarray, zeta: float, u: np.ndarray, v: np.ndarray, a: np.ndarray, h: np.ndarray,
+              peak: np.ndarray) -> np.ndarray:
+    """Which segments (rows) of which oscillators (columns) may hold a |u| above ``peak`` (each oscillator's
+    largest at the samples): |u| on a segment exceeds the larger of its ends by at most h^2 / 8 max|u''|, and
+    u'' = -a - 2 zeta w u' - w^2 u with R = sqrt(u'^2 + w^2 u^2) growing by at most |a| a second (R R' =
+    -u' a - 2 zeta w u'^2), so max|u''| <= A + (2 zeta + 1) w (R0 + A h), A the larger |a| at the segment's ends."""
+    A = np.maximum(np.abs(a[:-1]), np.abs(a[1:]))[:, None]
+    R = np.sqrt(v[:-1] ** 2 + (w * u[:-1]) ** 2) + A * h
+    excess = h * h / 8.0 * (A + (2.0 * zeta + 1.0) * w * R)
+    return np.maximum(np.abs(u[:-1]), np.abs(u[1:])) + excess * (1.0 + 1e-9) >= peak
+
+
 def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """u and u' at every sample (rows) of every oscillator (columns): Nigam & Jennings' recurrence, the
     exact map of a segment, linear in (u0, v0, a0, a1), with its coefficients computed once per length."""
@@ -165,9 +177,18 @@ def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[n
     v = np.zeros((n, len(w)))
     h = np.diff(t)
     slope = np.diff(a) / h
+    if len(w) <= SCALAR_PERIODS:  # a few oscillators: each one's maps for every distinct length at once, then a scan
+        lengths, which = np.unique(h, return_inverse=True)
+        for k in range(len(w)):
+            # the map's (u, v) rows: responses to unit u0, v0, a0, a1 over each length
+            cu, cv = zip(*((seg.u(lengths), seg.v(lengths)) for seg in
+                           (_Segments(w[k], zeta, *basis) for basis in np.eye(4))))
+            cu, cv = np.array(cu)[:, which], np.array(cv)[:, which]
+            u[1:, k], v[1:, k] = _affine_scan(cu[0], cu[1], cv[0], cv[1], cu[2] * a[:-1] + cu[3] * slope,
+                                              cv[2] * a[:-1] + cv[3] * slope)
+        return u, v
     maps: dict[float, tuple[np.ndarray, ...]] = {}
     zero, one = np.zeros_like(w), np.ones_like(w)
-    scalar = len(w) <= SCALAR_PERIODS  # a few oscillators: plain floats beat numpy's per-call cost
     for i, hi in enumerate(h.tolist()):
         if hi not in maps:
             hh = np.full_like(w, hi)
@@ -176,16 +197,7 @@ def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[n
                 seg = _Segments(w, zeta, *basis)
                 cols.append((seg.u(hh), seg.v(hh)))
             cu, cv = (np.array(c) for c in zip(*cols))  # (u row: 4 coefficients), (v row)
-            maps[hi] = (cu, cv) if not scalar else (cu.T.tolist(), cv.T.tolist())
-    if scalar:
-        keys = {hi: j for j, hi in enumerate(maps)}
-        which = np.array([keys[hi] for hi in h.tolist()])
-        for k in range(len(w)):
-            table = np.array([np.r_[maps[hi][0][k], maps[hi][1][k]] for hi in maps])[which]  # (n - 1, 8)
-            u[1:, k], v[1:, k] = _affine_scan(table[:, 0], table[:, 1], table[:, 4], table[:, 5],
-                                              table[:, 2] * a[:-1] + table[:, 3] * slope,
-                                              table[:, 6] * a[:-1] + table[:, 7] * slope)
-        return u, v
+            maps[hi] = (cu, cv)
     for i, hi in enumerate(h.tolist()):
         cu, cv = maps[hi]
         u[i + 1] = cu[0] * u[i] + cu[1] * v[i] + cu[2] * a[i] + cu[3] * slope[i]
@@ -202,11 +214,13 @@ def spectrum(t, a, periods, zeta: float = 0.05) -> Spectrum:
     w = 2.0 * np.pi / periods
     u, v = _states(w, zeta, t, a)
     peak = np.abs(u).max(axis=0)
-    # inside the segments: every segment and oscillator at once
+    # inside the segments that may hold more than the samples' peak (_may_pass), all at once
     h = np.diff(t)[:, None] * np.ones_like(w)
     slope = (np.diff(a) / np.diff(t))[:, None]
-    segments = _Segments(w, zeta, u[:-1], v[:-1], a[:-1, None], slope)
-    peak = np.maximum(peak, _peaks_inside(segments, h).max(axis=0))
+    seg, osc = np.nonzero(_may_pass(w, zeta, u, v, a, h, peak))
+    if seg.size:
+        segments = _Segments(w[osc], zeta, u[seg, osc], v[seg, osc], a[seg], slope[seg, 0])
+        np.maximum.at(peak, osc, _peaks_inside(segments, h[seg, osc]))
     # free vibration after the last sample (a = 0): its first extremum is its largest
     free = _Segments(w, zeta, u[-1], v[-1], 0.0, 0.0)
     theta = np.mod(np.arctan2(free.wd * free.B - free.sigma * free.A, free.wd * free.A + free.sigma * free.B), np.pi)
