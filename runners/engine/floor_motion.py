@@ -252,27 +252,26 @@ def first_period(p: dict[str, Any]) -> float | None:
 SA_DAMPING = 0.05
 
 
-def fmu_peak_floor_acceleration(fmu, p: dict[str, Any], record_file) -> float:
-    """PFA (m/s^2) of the bare support of FMU parameters ``p`` under the record file at scale 1, as
+def fmu_peak_floor_accelerations(fmu, p: dict[str, Any], record_files) -> list[float]:
+    """PFA (m/s^2) of the bare support of FMU parameters ``p`` under each record file at scale 1, as
     RockingBlock.fmu computes it at initialisation (``fmu``, a runners.engine.fmu.RockingFMU; its output
     support.peakFloorAcceleration: the extrema of the support's closed form located by its bound-certified search,
     model/c/support.c). It equals :func:`peak_floor_acceleration` to rounding (tests/test_floor_motion.py) at a
     fraction of its cost."""
-    q = {**p, "excitation.kind": 4, "excitation.file": str(record_file), "excitation.scale": 1.0}
-    start = float(q.get("excitation.startTime", 0.0))
-    run = fmu.run(q, start + 1e-3, 1e-3, ["support.peakFloorAcceleration"], start_time=start)
-    return float(run.outputs["support.peakFloorAcceleration"][-1])
+    return fmu.initial_values(({**p, "excitation.kind": 4, "excitation.file": str(f), "excitation.scale": 1.0}
+                               for f in record_files), "support.peakFloorAcceleration")
 
 
-def support_measures(p: dict[str, Any], t, a, pfa: float | None = None) -> dict[str, float]:
-    """{"pfa": PFA, "sa_t1": Sa(T1, 5 %) of the base} (m/s^2) of the record (t, a) under the support of
-    FMU parameters ``p`` (sa_t1 left out for a platform without spring); ``pfa``: the PFA already known (the
-    FMU's, :func:`fmu_peak_floor_acceleration`), else computed here."""
-    out = {"pfa": peak_floor_acceleration(p, t, a) if pfa is None else float(pfa)}
+def fmu_peak_floor_acceleration(fmu, p: dict[str, Any], record_file) -> float:
+    """:func:`fmu_peak_floor_accelerations` of one record file."""
+    return fmu_peak_floor_accelerations(fmu, p, [record_file])[0]
+
+
+def base_measures(p: dict[str, Any], t, a) -> dict[str, float]:
+    """{"sa_t1": Sa(T1, 5 %)} (m/s^2) of the record (t, a) at the base of the support of FMU parameters ``p``
+    (empty for a platform without spring)."""
     T1 = first_period(p)
-    if T1 is not None:
-        out["sa_t1"] = spectra.pseudo_acceleration(t, a, T1, SA_DAMPING)
-    return out
+    return {} if T1 is None else {"sa_t1": spectra.pseudo_acceleration(t, a, T1, SA_DAMPING)}
 
 
 # periods of a floor spectrum (s): 0.02 to 5 s, 48 of them evenly in log (and the support's own)

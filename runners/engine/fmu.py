@@ -306,6 +306,31 @@ class RockingFMU:
         finally:
             slave.freeInstance()
 
+    def initial_values(self, runs: Iterable[dict[str, float | int | bool | str]], output: str) -> list[float]:
+        """``output`` (a Real) just after initialisation for each parameter set of ``runs``, on one instance
+        reset between them (no fmpy instance to build per run). Raises :class:`FMUError` with the FMU's
+        message if a set is refused."""
+        errors: list[str] = []
+        slave, _callbacks = self.instantiate(lambda status, _c, msg: errors.append(msg) if status >= 3 else None,
+                                             logging_on=False)
+        vr = [self.variable(output).valueReference]
+        out = []
+        try:
+            for k, parameters in enumerate(runs):
+                try:
+                    if k:
+                        slave.reset()
+                    slave.setupExperiment(startTime=float(parameters.get("excitation.startTime", 0.0)))
+                    self.set_parameters(slave, parameters)
+                    slave.enterInitializationMode()
+                    slave.exitInitializationMode()
+                    out.append(float(slave.getReal(vr)[0]))
+                except Exception as exc:
+                    raise FMUError(errors[-1] if errors else str(exc)) from None
+        finally:
+            slave.freeInstance()
+        return out
+
     def set_parameters(self, slave: FMU2Slave, parameters: dict[str, float | int | bool]) -> None:
         """Set a scene's parameters on an instance before initialisation, with
         :data:`SCENE_DEFAULTS` for those it leaves out."""

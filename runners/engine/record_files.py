@@ -309,9 +309,33 @@ def cached_record_file(time: np.ndarray, ah: np.ndarray, av: np.ndarray | None =
     return path
 
 
+# cache files this process has read whole and found right: path -> (sha, inode, size, mtime_ns, ctime_ns) then
+_CHECKED: dict[Path, tuple] = {}
+
+
+def _stamp(path: Path) -> tuple[int, int, int, int] | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns
+
+
 def cached_file_ok(path: Path, sha: str) -> bool:
     """Whether a record cache file holds, as written by write_record_file (comments at the top,
-    then 2 or 3 numbers a line), samples whose samples_sha256 is `sha`."""
+    then 2 or 3 numbers a line), samples whose samples_sha256 is `sha`. A file this process has already
+    read whole and found right is taken again without reading while its inode, size, modification and
+    change times are unchanged (a sweep's support measures ask for each record's file in turn)."""
+    stamp = _stamp(path)
+    if stamp is not None and _CHECKED.get(path) == (sha, *stamp):
+        return True
+    ok = _holds(path, sha)
+    if ok and stamp is not None and _stamp(path) == stamp:
+        _CHECKED[path] = (sha, *stamp)
+    return ok
+
+
+def _holds(path: Path, sha: str) -> bool:
     try:
         raw = path.read_bytes()
     except OSError:

@@ -239,15 +239,22 @@ def through_support(session, refs: list[RecordRef], p: dict[str, Any], names: li
                              f"record's {intensity.measure}: scale by pga or pgv")
     if not on_support or varied:
         return refs
-    from runners.engine.floor_motion import fmu_peak_floor_acceleration, support_measures
+    from concurrent.futures import ThreadPoolExecutor
+
+    from runners.engine.floor_motion import base_measures, fmu_peak_floor_accelerations, peak_floor_acceleration
     from runners.engine.records import file_of
 
+    recs = [session.get(Record, r.id) for r in refs]
+    data = [samples(rec)[:2] for rec in recs]
+    files = [file_of(rec) for rec in recs] if fmu is not None else []
+    halves = [files[:len(files) // 2], files[len(files) // 2:]]
+    with ThreadPoolExecutor(2) as pool:  # the records' PFA by the FMU (in C, outside the GIL) beside their Sa(T1)
+        pfas = [pool.submit(fmu_peak_floor_accelerations, fmu, p, half) for half in halves] if fmu is not None else []
+        base = [base_measures(p, t, ah) for t, ah in data]
+        pfa = [x for f in pfas for x in f.result()] if pfas else [peak_floor_acceleration(p, t, ah) for t, ah in data]
     out = []
-    for r in refs:
-        rec = session.get(Record, r.id)
-        t, ah, _ = samples(rec)
-        pfa = None if fmu is None else fmu_peak_floor_acceleration(fmu, p, file_of(rec))
-        measures = {**r.measures, **support_measures(p, t, ah, pfa)}
+    for r, b, f in zip(refs, base, pfa):
+        measures = {**r.measures, "pfa": float(f), **b}
         if intensity is not None and not measures.get(intensity.measure, 0) > 0:
             raise ValueError(f"record {r.name} has no {intensity.measure}: it cannot be scaled to a level of it")
         out.append(RecordRef(r.id, r.name, r.sha256, r.end, measures))
