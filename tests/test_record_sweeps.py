@@ -421,6 +421,24 @@ def test_a_folder_imported_after_one_of_its_files_is_one_suite_that_its_sweep_ru
         assert s.scalar(select(func.count()).select_from(Record)) == 28 + 1 + 4
 
 
+def test_a_cache_file_replaced_after_this_process_checked_it_is_read_and_written_again(tmp_path, caplog):
+    """A cache file this process has already checked is taken again unread, but not once it has been
+    replaced (another inode, size or time): then its samples are checked again and it is written again."""
+    import logging
+
+    from runners.engine.record_files import cached_record_file, read_record_file, write_record_file
+
+    t = np.arange(0.0, 2.0, 0.01)
+    ah = np.sin(7.0 * t)
+    path = cached_record_file(t, ah, folder=tmp_path)
+    assert cached_record_file(t, ah, folder=tmp_path) == path
+    write_record_file(path, t, 0.5 * ah)
+    with caplog.at_level(logging.WARNING, logger="runners.records"):
+        assert cached_record_file(t, ah, folder=tmp_path) == path
+    np.testing.assert_array_equal(read_record_file(path)[1], ah)
+    assert any("did not hold the samples" in r.getMessage() for r in caplog.records)
+
+
 def test_a_damaged_record_cache_file_is_found_and_written_again(db, fmu_path, statue, tmp_path, monkeypatch, caplog):
     """A record's file in the cache replaced by its samples x 0.5 (same name): the next run finds
     that the samples no longer hash to the name, writes the file again, says so, and runs the
