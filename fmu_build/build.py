@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 C_DIR = ROOT / "model" / "c"
 C_SOURCES = ["fmi2.c", "instance.c", "me.c", "model.c", "ground.c", "record.c", "solver.c", "stack.c", "stack_solver.c", "events.c",
              "taylor.c", "integrator.c", "contact.c",
-             "engine.c", "engine_solver.c", "lcp.c", "support.c", "coupling.c"]
+             "engine.c", "engine_solver.c", "lcp.c", "support.c", "support_rest.c", "coupling.c"]
 C_HEADERS = ["instance.h", "me.h", "model.h", "ground.h", "record.h", "solver.h", "stack.h", "stack_solver.h", "events.h", "taylor.h",
              "integrator.h", "contact.h", "engine.h", "engine_solver.h", "lcp.h", "support.h", "coupling.h", "codes.h", "variables.def"]
 VERSION = "0.1.0"

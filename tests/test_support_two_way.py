@@ -67,6 +67,45 @@ def test_two_way_building_matches_the_independent_monolithic_reference(fmu, puls
     assert two_way_balance(o, CABINET) < 1e-9
 
 
+PLATFORM = {"support.kind": 2, "support.coupling": 1, "platform.mass": 300.0, "platform.stiffness": 3.0e4,
+            "platform.damping": 60.0}
+
+
+@pytest.mark.parametrize("support, scale, zeta, moves", [("frame", 0.2, 0.02, False), ("frame", 0.1, 0.0, False),
+                                                         ("frame", 1.0, 0.02, True), ("frame", 0.3, 0.0, True),
+                                                         ("platform", 0.3, None, False), ("platform", 2.0, None, True)])
+def test_blocks_at_rest_on_a_two_way_support_match_the_reference_in_closed_form(fmu, pulse, support, scale, zeta,
+                                                                                  moves):
+    """The cabinet at rest on its floor moves with it, and the support with the cabinet on it is linear: the FMU
+    then carries them in closed form (the support's first-order modes with the cabinet's mass on its floor, and
+    the base's work exactly; docs/supports.md), through the record (where the cabinet never moves) and after it
+    (where it rocks, comes to rest, and the floor vibrates on with it), on an undamped frame and an isolation
+    platform too. The floor's motion, the base's work and the dampers' loss equal the independent reference's, which
+    integrates them."""
+    if support == "frame":
+        params = {**frame(), "building.dampingRatio": zeta}
+        sup = ref.Building([2000.0] * 3, [2.5e6] * 3, zeta, 3)
+    else:
+        params = dict(PLATFORM)
+        sup = ref.Platform(300.0, 3.0e4, 60.0)
+    res = fmu.run({**CABINET, **params, "excitation.kind": 4, "excitation.file": str(pulse),
+                   "excitation.scale": scale}, 8.0, 0.01, OUT)
+    run = ref.simulate(slide.SlidingBlock(b=0.3, h=1.0, m=1000.0, mu=0.5, g=9.81), sup, ref.record_file(PULSE, scale),
+                       8.0, coupling="two-way")
+    o = res.outputs
+    assert o["atRest"][-1] == 1.0 and o["impacts"][-1] == run.impacts
+    assert (run.impacts > 0) == moves
+    s = run.sample(res.time)
+    assert np.abs(o["support.u"] - s["floor_u"]).max() < 1e-8
+    assert np.abs(o["support.v"] - s["floor_v"]).max() < 1e-7
+    scale_j = run.energy_scale
+    assert abs(o["support.baseWork"][-1] - run.base_work[-1]) < 1e-8 * scale_j
+    assert abs(o["support.dampingLoss"][-1] - run.damping_loss[-1]) < 1e-8 * scale_j
+    if zeta == 0.0:
+        assert o["support.dampingLoss"][-1] == 0.0 or abs(o["support.dampingLoss"][-1]) < 1e-9 * scale_j
+    assert two_way_balance(o, CABINET) < 1e-9
+
+
 def test_two_way_differs_from_one_way_where_the_floor_is_light(fmu, pulse):
     """The coupling is real: on the 50 kg top floor the cabinet's own load changes its motion."""
     base = {**CABINET, **frame(50.0), "excitation.kind": 4, "excitation.file": str(pulse)}

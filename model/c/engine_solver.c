@@ -120,7 +120,7 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
 static double solve_at(const Model *M, const EnMode *m, const double *y, double ag, double av, EnForces *f) {
     const EnSystem *sys = &M->d.en;
     if (!engine_solve(sys, m, y, ag, av, f)) return NAN;
-    if (!coupling_on(M)) return ag;
+    if (!coupling_on(M) || M->s.rest.on) return ag; /* (at rest in closed form ag is the floor's: support_rest) */
     double r[SUPPORT_MAX_STOREYS];
     EnForces g;
     coupling_free(M, y, ag, r);
@@ -381,6 +381,37 @@ static void set_mode(Model *M, const EnMode *m, const Logger *log) {
     S->fValid = 0;
 }
 
+/* Two-way: every body at rest on floor j from S->t, the support with them in closed form (support.h's SupportRest)
+ * while the base's inputs are zero; the floors' components of S->y are then those of S->t until rest_closed_end.
+ * Returns 1 if it started. */
+static int rest_closed(Model *M) {
+    State *S = &M->s;
+    int nb = M->d.en.nb, ns = M->d.sup.ns;
+    if (M->v.ahIn != 0.0 || M->v.avIn != 0.0 || support_rest_start(M, S->t, S->y + EN_N(nb))) return 0;
+    S->restE0 = coupling_total_energy(M, S->y);
+    S->restW0 = S->y[COUPLING_WORK(nb, ns)];
+    S->restD0 = S->y[COUPLING_DAMP(nb, ns)];
+    return 1;
+}
+
+/* The support's components of y at t (at or after the rest's start) from the closed form: the floors, the base's
+ * work, and the dampers' loss by the energy balance (the base's work less what blocks and support gained). */
+static void rest_closed_at(Model *M, double t, double *y) {
+    int nb = M->d.en.nb, ns = M->d.sup.ns;
+    support_rest_floors(M, t, y + EN_N(nb));
+    double W = M->s.restW0 + support_rest_work(M, t);
+    y[COUPLING_WORK(nb, ns)] = W;
+    y[COUPLING_DAMP(nb, ns)] = M->s.restD0 + (W - M->s.restW0) - (coupling_total_energy(M, y) - M->s.restE0);
+}
+
+/* The closed form ends at t: the support's components of S->y from it. */
+static void rest_closed_end(Model *M, double t) {
+    if (!M->s.rest.on) return;
+    rest_closed_at(M, t, M->s.y);
+    M->s.rest.on = 0;
+    M->sup = NULL;
+}
+
 /* Every body flat and sticking on its support, at rest relative to it (announce: log "rest"; a slide that
  * stops has logged its "stick"). */
 static void come_to_rest(Model *M, const Logger *log, int announce) {
@@ -401,8 +432,9 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
     S->impactLoss += E0 - energy(M, S->y); /* what the rest criterion stops */
     changed(M, &S->en, &m, log);
     S->en = m;
-    /* two-way: at rest as a contact set the engine integrates with its floor (its forces' indicators end it) */
-    S->mode = two ? MODE_ROCKING : MODE_REST;
+    /* two-way: at rest with its floor in closed form where it can be, else as a contact set the engine integrates
+     * with its floor (its forces' indicators end it) */
+    S->mode = two && !rest_closed(M) ? MODE_ROCKING : MODE_REST;
     S->side = 1;
     S->sigma = 0;
     S->restTime = S->t;
@@ -582,6 +614,7 @@ static void finish(Model *M) {
         S->impactLoss += E0 - energy(M, S->y);
         S->h = 0.0;
         S->denseValid = 0;
+        rest_closed(M); /* the floor carries them: in closed form where it can */
     }
     if (S->en.sigma[0]) S->slideDur += S->t - S->slideSince;
     if (nb == 2 && S->en.sigma[1]) S->slideDur2 += S->t - S->slideSince2;
@@ -857,6 +890,7 @@ static int apply_event(Model *M, const Logger *log) {
 static void start_moving(Model *M, double t, int side, const Logger *log) {
     State *S = &M->s;
     (void)side;
+    rest_closed_end(M, t);
     S->t = t;
     S->h = 0.0;
     int nb = M->v.nBlocks == 2 ? 2 : 1;
@@ -1364,8 +1398,13 @@ static void end_rhs(const void *ctx, double t, const double *z, double *dz) {
 }
 
 static int support_after_end(Model *M, double tc, const Logger *log) {
-    (void)tc; /* (it steps ahead of tc: the outputs at tc come from its dense output) */
     State *S = &M->s;
+    if (S->rest.on) { /* in closed form: nothing to integrate (the outputs take it at tc) */
+        S->t = tc;
+        S->denseValid = 0;
+        return 0;
+    }
+    /* (it steps ahead of tc: the outputs at tc come from its dense output) */
     int nb = M->d.en.nb, n = coupling_size(M), ns = M->d.sup.ns, hitBp;
     EndCtx c = {M, model_piece(M, S->t)};
     double *z = S->y + EN_N(nb), z1[NMAX], f0[NMAX], f1[NMAX], cont[5][NMAX], scale[NMAX], hNext;
@@ -1392,9 +1431,14 @@ static int support_after_end(Model *M, double tc, const Logger *log) {
     return 0;
 }
 
-/* The support's components at tc after the bodies' run ended (the dense output of its last step). */
-static void support_after_end_at(const Model *M, double tc, double *y) {
+/* The support's components at tc after the bodies' run ended (the closed form, or the dense output of its last
+ * step). */
+static void support_after_end_at(Model *M, double tc, double *y) {
     const State *S = &M->s;
+    if (S->rest.on) {
+        rest_closed_at(M, tc, y);
+        return;
+    }
     if (!coupling_on(M) || !S->denseValid || !(S->t > tc)) return;
     double s = (tc - S->tOld) / S->hDense, z[NMAX];
     dense_eval(S->cont, coupling_size(M), s < 0 ? 0 : s > 1 ? 1 : s, z);
@@ -1425,8 +1469,8 @@ void engine_initialize(Model *M) {
     if (still) {
         memcpy(S->y, y, sizeof(y));
         for (int k = 0; k < nb; k++) S->en.closed[k][0] = S->en.closed[k][1] = 1;
-        /* (two-way: at rest as a contact set the engine integrates with the support, come_to_rest) */
-        S->mode = coupling_on(M) ? MODE_ROCKING : MODE_REST;
+        /* (two-way: at rest in closed form, or as a contact set the engine integrates with the support, come_to_rest) */
+        S->mode = coupling_on(M) && !rest_closed(M) ? MODE_ROCKING : MODE_REST;
         return;
     }
     S->mode = MODE_ROCKING;
@@ -1489,6 +1533,14 @@ void engine_initialize(Model *M) {
 }
 
 int engine_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
+    State *S = &M->s;
+    if (S->rest.on && (M->v.ahIn != 0.0 || M->v.avIn != 0.0)) {
+        /* the base's inputs move the floor beyond the closed form (the record's alone): integrated from here */
+        rest_closed_end(M, S->t);
+        if (S->mode == MODE_REST) S->mode = MODE_ROCKING;
+        S->h = 0.0;
+        S->fValid = 0;
+    }
     return advance_to(M, tc, log, coupling_on(M) ? &ENGINE_ON_SUPPORT : &ENGINE, stop);
 }
 
@@ -1560,6 +1612,7 @@ void engine_outputs(Model *M, double tc) {
     memset(&f, 0, sizeof(f));
     if (S->mode == MODE_REST || over) {
         state_at(M, tc, y, &m);
+        if (S->rest.on && S->mode == MODE_REST) rest_closed_at(M, tc, y);
     }
     int twoWay = coupling_on(M);
     if (S->mode != MODE_REST && !over) {

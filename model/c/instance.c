@@ -167,6 +167,11 @@ Status instance_initialize(Instance *I) {
         return STATUS_ERROR;
     }
     if (I->sup.data) M->sup = &I->sup;
+    if (support_rest_attach(M, &I->supRest, I->alloc, I->release, msg, sizeof(msg))) {
+        INSTANCE_ERROR(I, "support: %s", msg);
+        return STATUS_ERROR;
+    }
+    M->restTable = I->supRest.data ? &I->supRest : NULL;
     solver_initialize(M, I->s.startTime);
     I->s.tc = I->s.startTime;
     solver_outputs(M, I->s.tc);
@@ -233,6 +238,7 @@ void instance_free(Instance *I) {
     RecordFree release = I->release;
     record_free(&I->rec, release);
     support_free(&I->sup, release);
+    support_free(&I->supRest, release);
     if (I->resourceDir) release(I->resourceDir);
     release(I->name);
     release(I);
@@ -544,8 +550,8 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
     }
     const Model *sm = &snap->model;
     StagedRecord staged = {0};
-    SupportTable fresh = {0};
-    int moves = 0;
+    SupportTable fresh = {0}, freshRest = {0};
+    int moves = 0, rests = 0;
     if (!snap->dirty) {
         /* the state's parameters must be valid, its derived values exactly those they give
          * (with its record, which must have the same samples), and its integrator and
@@ -580,9 +586,26 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
                 check.sup = &fresh;
             }
         }
-        if (memcmp(&check.d, &sm->d, sizeof(Derived)) != 0) {
+        /* and the table of the support with the blocks at rest on it (two-way) */
+        check.restTable = NULL;
+        if (memcmp(&check.d, &sm->d, sizeof(Derived)) == 0 && support_rest_needed(&check)) {
+            SupportTable *own = &I->supRest;
+            int kept = own->data && own->n == check.rec->n && own->recHash == check.rec->hash &&
+                       own->startTime == check.v.startTime &&
+                       memcmp(&own->modes, &check.d.supRest, sizeof(SupportModes)) == 0;
+            if (!kept && support_rest_attach(&check, &freshRest, I->alloc, I->release, msg, sizeof(msg))) {
+                drop_record(I, &staged);
+                support_free(&fresh, I->release);
+                INSTANCE_ERROR(I, "%s: support: %s", fn, msg);
+                return STATUS_ERROR;
+            }
+            check.restTable = kept ? own : &freshRest;
+        }
+        if (check.s.rest.on) check.sup = check.restTable;
+        if (memcmp(&check.d, &sm->d, sizeof(Derived)) != 0 || (check.s.rest.on && !check.restTable)) {
             drop_record(I, &staged);
             support_free(&fresh, I->release);
+            support_free(&freshRest, I->release);
             INSTANCE_ERROR(I, "%s: the state does not match its own parameters (a corrupted state?)", fn);
             return STATUS_ERROR;
         }
@@ -592,6 +615,7 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
         if (state_validate(&check, snap->startTime, snap->tc, use, msg, sizeof(msg))) {
             drop_record(I, &staged);
             support_free(&fresh, I->release);
+            support_free(&freshRest, I->release);
             INSTANCE_ERROR(I, "%s: invalid state (corrupted?): %s", fn, msg);
             return STATUS_ERROR;
         }
@@ -600,11 +624,17 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
             support_free(&I->sup, I->release);
             I->sup = fresh;
         }
-        moves = check.sup != NULL;
+        if (freshRest.data) {
+            support_free(&I->supRest, I->release);
+            I->supRest = freshRest;
+        }
+        moves = check.sup != NULL && !check.s.rest.on;
+        rests = check.restTable != NULL;
     }
     I->s = *snap;
     I->s.model.rec = (!snap->dirty && sm->v.kind == KIND_RECORD) ? &I->rec : NULL;
-    I->s.model.sup = moves ? &I->sup : NULL;
+    I->s.model.restTable = rests ? &I->supRest : NULL;
+    I->s.model.sup = moves ? &I->sup : (rests && snap->model.s.rest.on) ? &I->supRest : NULL;
     return STATUS_OK;
 }
 

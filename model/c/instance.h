@@ -88,6 +88,7 @@ typedef struct Instance {
     Record rec; /* the record of excitation.kind = 4, read once per file */
     FileStamp recFile;
     SupportTable sup; /* a moving support's table of the record's segments (support.h), built once per parameters */
+    SupportTable supRest; /* two-way: the support's with the blocks at rest on it (support_rest_attach) */
     double meTimeFloor; /* Model Exchange: the last event's or completed step's time, which
                            fmi2SetTime may not go back past (no FMU states to restore) */
 } Instance;

@@ -109,6 +109,8 @@ typedef struct {
 
     EnSystem en; /* the contact engine's bodies (one block, or a stack of two) */
     SupportModes sup; /* the support's modes (support.h; nm = 0 on the ground) */
+    SupportModes supRest; /* on a two-way support, its first-order modes with every block at rest on it (first = 0:
+                           * none; support_rest_modes) */
 
     /* two stacked blocks (nBlocks = 2), see stack.h */
     double c;          /* half width of the contact between the blocks, m */
@@ -247,6 +249,10 @@ typedef struct {
      * sets it, with loadValid = 1); without one (loadValid = 0) the output is the load at the time */
     int loadValid;
     double loadMean;
+    /* blocks at rest on a two-way support in closed form (support.h), with the energy of blocks and support, the
+     * base's work and the dampers' loss when they came to rest (J) */
+    SupportRest rest;
+    double restE0, restW0, restD0;
 } State;
 
 typedef struct Model {
@@ -260,6 +266,9 @@ typedef struct Model {
     /* A moving support's table of the record's segments (support.h): owned by the instance like the
      * record, re-attached to a restored state (NULL on the ground). */
     const SupportTable *sup;
+    /* On a two-way support, the table of the support with the blocks at rest on it (support_rest_attach), owned by the
+     * instance like the record; M->sup while they rest in closed form (State's rest). */
+    const SupportTable *restTable;
 } Model;
 
 /* Logging callback used by the solver; ctx is opaque. category: 0 events,

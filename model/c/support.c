@@ -208,6 +208,15 @@ static Cx cx(double re, double im) {
 static Cx cmul(Cx a, Cx b) { return cx(a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re); }
 static Cx cadd(Cx a, Cx b) { return cx(a.re + b.re, a.im + b.im); }
 static Cx cscale(Cx a, double s) { return cx(a.re * s, a.im * s); }
+static Cx csub(Cx a, Cx b) { return cx(a.re - b.re, a.im - b.im); }
+static Cx cdiv(Cx a, Cx b) {
+    double d = b.re * b.re + b.im * b.im;
+    return cx((a.re * b.re + a.im * b.im) / d, (a.im * b.re - a.re * b.im) / d);
+}
+static Cx cexpi(double re, double im) { /* e^(re + i im) */
+    double e = exp(re);
+    return cx(e * cos(im), e * sin(im));
+}
 
 /* Mode r's displacement on a segment from (x0, v0) under a_g = a0 + a1 s: its polynomial q[4] (zeroed by the
  * caller) and, for each of its terms (starting at term index t), (Z, Y). Returns its
@@ -336,28 +345,41 @@ int support_needed(const Model *M) {
 int support_moves(const Model *M) { return M->sup != NULL; }
 
 /* What a table is built from: the modes, the record's samples (count and hash), their scale and placement. */
-int support_matches(const Model *M, const SupportTable *T) {
+static int table_matches(const Model *M, const SupportTable *T, const SupportModes *sm) {
     return T->data && T->n == M->rec->n && T->recHash == M->rec->hash &&
-           T->startTime == M->v.startTime && memcmp(&T->modes, &M->d.sup, sizeof(SupportModes)) == 0;
+           T->startTime == M->v.startTime && memcmp(&T->modes, sm, sizeof(SupportModes)) == 0;
 }
+
+int support_matches(const Model *M, const SupportTable *T) { return table_matches(M, T, &M->d.sup); }
 
 void support_free(SupportTable *T, RecordFree release) {
     if (T->data) release(T->data);
     memset(T, 0, sizeof(*T));
 }
 
-/* e^(lambda_j L) of every term, for one segment length L (computed again only when L changes). */
+/* e^(lambda_j L) of every term, for one segment length L: computed at a reference length L0, and for lengths that
+ * differ from it by rounding (a record's uniform samples: their differences take a dozen values within 1e-15 of each
+ * other) multiplied by e^(lambda_j (L - L0)) from its series to second order, exact to rounding there. */
 typedef struct {
-    double L;
-    Cx e[SUPPORT_MAX_TERMS];
+    double L, L0;
+    Cx e[SUPPORT_MAX_TERMS], e0[SUPPORT_MAX_TERMS];
 } Powers;
 
 static void powers_at(const SupportModes *sm, double L, Powers *P) {
     if (P->L == L) return;
     P->L = L;
+    double d = L - P->L0;
+    if (!(fabs(d) <= 1e-9 * L)) {
+        P->L0 = L;
+        d = 0.0;
+        for (int j = 0; j < sm->nt; j++) {
+            double ex = exp(sm->lre[j] * L);
+            P->e0[j] = cx(ex * cos(sm->lim[j] * L), ex * sin(sm->lim[j] * L));
+        }
+    }
     for (int j = 0; j < sm->nt; j++) {
-        double ex = exp(sm->lre[j] * L);
-        P->e[j] = cx(ex * cos(sm->lim[j] * L), ex * sin(sm->lim[j] * L));
+        Cx x = cx(sm->lre[j] * d, sm->lim[j] * d), x2 = cmul(x, x);
+        P->e[j] = cmul(P->e0[j], cx(1.0 + x.re + 0.5 * x2.re, x.im + 0.5 * x2.im));
     }
 }
 
@@ -383,6 +405,9 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
 #define KNOWN_AT(nt) (4 + 4 * (nt))
 #define TERMS_AT(nt) (KNOWN_AT(nt) + 2 + SUPPORT_EDGES)
 #define ACC_AT(nt) (TERMS_AT(nt) + 1)
+/* a first-order table (support_rest_attach): each term's modal coordinate at the segment's start, after the
+ * polynomial of degree deg */
+#define MODAL_AT(nt, deg) (ACC_AT(nt) + (deg) + 1)
 /* known[0] of a segment whose extrema are not searched yet (they are searched when first needed: edges_of) */
 #define EDGES_PENDING -2.0
 
@@ -447,19 +472,74 @@ double support_peak(const Model *M, SupportTable *T) {
     return T->peak;
 }
 
-int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
-    if (!support_needed(M)) {
-        support_free(T, release);
-        return 0;
+/* A first-order table's segment for term t from its modal coordinate z under a_g = a0 + a1 s: its share of the
+ * floor's u (polynomial q, term Z) and z at s = L (E = e^(lambda L)). z' = lambda z + beta a_g has the particular
+ * solution p0 + p1 s, p1 = -beta a1 / lambda, p0 = (p1 - beta a0) / lambda. */
+static Cx first_segment(const SupportModes *sm, int t, Cx z, double a0, double a1, double L, Cx E, double *q, Cx *Z) {
+    Cx lam = cx(sm->lre[t], sm->lim[t]), beta = cx(sm->bre[t], sm->bim[t]), Yj = cx(sm->Yre[t][sm->j], sm->Yim[t][sm->j]);
+    Cx p1 = cdiv(cscale(beta, -a1), lam), p0 = cdiv(csub(p1, cscale(beta, a0)), lam);
+    q[0] += cmul(Yj, p0).re;
+    q[1] += cmul(Yj, p1).re;
+    *Z = cmul(Yj, csub(z, p0));
+    return cadd(cadd(p0, cscale(p1, L)), cmul(csub(z, p0), E));
+}
+
+/* A first-order term's constants for the base's work: 1 / lambda, beta / lambda, beta / lambda^2, lambda mu. */
+typedef struct {
+    Cx il, b1, b2, lm;
+} WorkTerm;
+
+static void work_terms(const SupportModes *sm, WorkTerm *w) {
+    for (int t = 0; t < sm->nt; t++) {
+        Cx lam = cx(sm->lre[t], sm->lim[t]), beta = cx(sm->bre[t], sm->bim[t]);
+        w[t].il = cdiv(cx(1.0, 0.0), lam);
+        w[t].b1 = cmul(beta, w[t].il);
+        w[t].b2 = cmul(w[t].b1, w[t].il);
+        w[t].lm = cmul(lam, cx(sm->mure[t], sm->muim[t]));
     }
-    if (support_matches(M, T)) return 0;
-    support_free(T, release);
-    const SupportModes *sm = &M->d.sup;
+}
+
+/* G(x) = e^(lambda x) ((A0 + A1 x) / lambda - A1 / lambda^2), whose difference is int (A0 + A1 x) e^(lambda x) dx
+ * (Ex = e^(lambda x)). */
+static Cx G_at(const WorkTerm *c, double A0, double A1, double x, Cx Ex) {
+    return cmul(Ex, csub(cscale(c->il, A0 + A1 * x), cscale(cmul(c->il, c->il), A1)));
+}
+
+/* The base's work over [0, s] of record segment i of the first-order table whose entry is e (J, at the record's scale
+ * 1 from rest): -int a_g 1^T M' u' with a_g = A0 + A1 s and 1^T M' u' = sum_t Re(lambda_t mu_t z_t), each
+ * z_t = p0 + p1 s + (z_t(0) - p0) e^(lambda s) there (p1 = -A1 beta / lambda, p0 = -A0 beta / lambda - A1 beta /
+ * lambda^2). Es[t] = e^(lambda_t s). And B_t at s (when B is given): int_(ts + s)^end a_g e^(lambda_t (tau - ts - s))
+ * dtau from its value at the segment's end (the next sample's), e^(-lambda s) (G(L) - G(s)) + e^(lambda (L - s)) B_t(L)
+ * (EL[t] = e^(lambda_t L), Bn the next sample's B). */
+static double segment_work(const SupportTable *T, const double *e, double A0, double A1, double s, const Cx *Es,
+                           const WorkTerm *w, double L, const Cx *EL, const double *Bn, Cx *B) {
+    const double *z = e + MODAL_AT(T->nt, T->accDeg);
+    double W = 0.0, ps = A0 * s + 0.5 * A1 * s * s, qs = 0.5 * A0 * s * s + A1 * s * s * s / 3.0;
+    for (int t = 0; t < T->nt; t++) {
+        const WorkTerm *c = &w[t];
+        Cx p1 = cscale(c->b1, -A1), p0 = csub(cscale(c->b1, -A0), cscale(c->b2, A1));
+        /* int (A0 + A1 x)(p0 + p1 x) dx, and (z(0) - p0) int (A0 + A1 x) e^(lambda x) dx = (z(0) - p0) [G(s) - G(0)],
+         * G(x) = e^(lambda x) ((A0 + A1 x) / lambda - A1 / lambda^2) */
+        Cx G0 = G_at(c, A0, A1, 0.0, cx(1.0, 0.0)), Gs = G_at(c, A0, A1, s, Es[t]);
+        Cx I0 = cadd(cadd(cscale(p0, ps), cscale(p1, qs)), cmul(csub(cx(z[2 * t], z[2 * t + 1]), p0), csub(Gs, G0)));
+        W -= cmul(c->lm, I0).re;
+        if (B) {
+            Cx GL = G_at(c, A0, A1, L, EL[t]), Ei = cdiv(cx(1.0, 0.0), Es[t]), ELs = cmul(EL[t], Ei);
+            B[t] = cadd(cmul(Ei, csub(GL, Gs)), cmul(ELs, cx(Bn[2 * t], Bn[2 * t + 1])));
+        }
+    }
+    return W;
+}
+
+/* The table of the modes sm under M's record (support_attach, support_rest_attach). */
+static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, RecordAlloc alloc, char *msg, size_t n) {
     const Record *r = M->rec;
     double Lmax = 0.0;
     for (int i = 0; i + 1 < r->n; i++) Lmax = fmax(Lmax, r->t[i + 1] - r->t[i]);
     int deg = acc_degree(sm->fastest * Lmax);
-    int stride = ACC_AT(sm->nt) + deg + 1;
+    /* a first-order table keeps at each sample its modal coordinates, the base's work since the record's start and
+     * each term's K (segment_work) */
+    int stride = MODAL_AT(sm->nt, deg) + (sm->first ? 4 * sm->nt + 1 : 0);
     T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
     if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
     T->n = r->n;
@@ -474,8 +554,13 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
      * support is linear and starts at rest, so the motion under excitation.scale is the table's times it
      * (a sweep over scales builds it once). */
     double x[SUPPORT_MAX_STOREYS] = {0}, v[SUPPORT_MAX_STOREYS] = {0};
+    Cx zf[SUPPORT_MAX_TERMS];
+    for (int t = 0; t < sm->nt; t++) zf[t] = cx(0.0, 0.0);
+    WorkTerm W[SUPPORT_MAX_TERMS];
+    if (sm->first) work_terms(sm, W);
+    double work = 0.0;
     Powers P;
-    P.L = NAN;
+    P.L = P.L0 = NAN;
     AccPowers A;
     acc_powers(sm, deg, &A);
     for (int i = 0; i < r->n; i++) {
@@ -484,7 +569,22 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
         double a0 = last ? 0.0 : r->ah[i], a1 = last ? 0.0 : (r->ah[i + 1] - r->ah[i]) / L;
         double *e = T->data + (size_t)i * stride;
         if (!last) powers_at(sm, L, &P);
-        for (int m = 0, t = 0; m < sm->nm; m++) {
+        if (sm->first) {
+            double *z = e + MODAL_AT(sm->nt, deg);
+            if (i == 0) work = 0.0;
+            z[2 * sm->nt] = work;
+            for (int t = 0; t < sm->nt; t++) {
+                Cx Z;
+                z[2 * t] = zf[t].re;
+                z[2 * t + 1] = zf[t].im;
+                Cx end = first_segment(sm, t, zf[t], a0, a1, L, last ? cx(1.0, 0.0) : P.e[t], e, &Z);
+                e[4 + 4 * t] = Z.re;
+                e[4 + 4 * t + 1] = Z.im;
+                if (!last) zf[t] = end;
+            }
+            if (!last) work += segment_work(T, e, a0, a1, L, P.e, W, L, P.e, NULL, NULL);
+        }
+        for (int m = 0, t = 0; m < sm->nm && !sm->first; m++) {
             /* the mode's own segment, its share c_m of the floor's into the entry, and its state at the end */
             double q[4] = {0};
             Cx Z[SUPPORT_MAX_TERMS], Y[SUPPORT_MAX_TERMS];
@@ -505,21 +605,109 @@ int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFre
             acc_polynomial(sm, e, deg, &A);
         }
     }
+    /* a first-order table's B_t (segment_work) from the record's end (0: the base is still after it) backwards */
+    for (int i = r->n - 2; i >= 0 && sm->first; i--) {
+        double L = r->t[i + 1] - r->t[i], a0 = r->ah[i], a1 = (r->ah[i + 1] - a0) / L;
+        double *b = T->data + (size_t)i * stride + MODAL_AT(sm->nt, deg) + 2 * sm->nt + 1;
+        const double *bn = b + stride;
+        Cx B[SUPPORT_MAX_TERMS], one[SUPPORT_MAX_TERMS];
+        powers_at(sm, L, &P);
+        for (int t = 0; t < sm->nt; t++) one[t] = cx(1.0, 0.0);
+        segment_work(T, T->data + (size_t)i * stride, a0, a1, 0.0, one, W, L, P.e, bn, B);
+        for (int t = 0; t < sm->nt; t++) {
+            b[2 * t] = B[t].re;
+            b[2 * t + 1] = B[t].im;
+        }
+    }
     T->peak = 0.0;
     T->peakKnown = 0;
     return 0;
+}
+
+int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
+    if (!support_needed(M)) {
+        support_free(T, release);
+        return 0;
+    }
+    if (support_matches(M, T)) return 0;
+    support_free(T, release);
+    return build_table(M, &M->d.sup, T, alloc, msg, n);
+}
+
+int support_rest_needed(const Model *M) { return M->d.supRest.first && M->v.kind == KIND_RECORD && M->rec; }
+
+int support_rest_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
+    if (!support_rest_needed(M)) {
+        support_free(T, release);
+        return 0;
+    }
+    if (table_matches(M, T, &M->d.supRest)) return 0;
+    support_free(T, release);
+    return build_table(M, &M->d.supRest, T, alloc, msg, n);
 }
 
 /* ------------------------------------------------------------------ evaluation */
 
 static double record_time(const Model *M, int i) { return M->v.startTime + M->rec->t[i]; }
 
-/* The entry of piece (NULL before the record: the support rests) and its start time. */
+/* The entry of piece (NULL before the record: the support rests) and its start time, in M->sup. */
 static const double *entry_of(const Model *M, int piece, double *t0) {
     if (!support_moves(M) || piece < 1 || piece > M->rec->n) return NULL;
     *t0 = record_time(M, piece - 1);
     return M->sup->data + (size_t)(piece - 1) * M->sup->stride;
 }
+
+/* Blocks at rest on a two-way support in closed form (support.h's SupportRest): M->sup is then the table of the
+ * support with them, whose u times the record's scale is joined by the free vibration sum_t Re(F_t e^(lambda_t
+ * (t - t0))), F_t = Y_tj d_t. */
+static int resting(const Model *M) { return M->s.rest.on; }
+
+static Cx free_amplitude_of(const SupportModes *sm, const SupportRest *R, int t) {
+    return cmul(cx(sm->Yre[t][sm->j], sm->Yim[t][sm->j]), cx(R->dre[t], R->dim[t]));
+}
+
+static Cx free_amplitude(const Model *M, int t) { return free_amplitude_of(&M->sup->modes, &M->s.rest, t); }
+
+/* The free vibration's k-th derivative at t. */
+static double free_derivative(const Model *M, int k, double t) {
+    const SupportModes *sm = &M->sup->modes;
+    double sum = 0.0, s = t - M->s.rest.t0;
+    for (int j = 0; j < sm->nt; j++) {
+        Cx lam = cx(sm->lre[j], sm->lim[j]), c = cmul(free_amplitude(M, j), cexpi(sm->lre[j] * s, sm->lim[j] * s));
+        for (int i = 0; i < k; i++) c = cmul(c, lam);
+        sum += c.re;
+    }
+    return sum;
+}
+
+/* A bound on |its second derivative| at and after t: its terms decay at least as the slowest (Re lambda <= 0). */
+static double free_bound(const Model *M, double t) {
+    const SupportRest *R = &M->s.rest;
+    return R->accBound * exp(-R->decay * fmax(t - R->t0, 0.0));
+}
+
+/* Piece's entry as one entry of scale 1 (into buf): the table's at the record's scale, and at rest in closed form
+ * the free vibration's terms moved to the piece's start; with no known extrema (searched each time). */
+static const double *entry_scaled(const Model *M, int piece, double *t0, double *buf, double *amp) {
+    const double *e = entry_of(M, piece, t0);
+    *amp = M->d.accAmp;
+    if (!e || !resting(M)) return e;
+    const SupportModes *sm = &M->sup->modes;
+    int nt = sm->nt;
+    for (int k = 0; k < KNOWN_AT(nt); k++) buf[k] = M->d.accAmp * e[k];
+    double s = *t0 - M->s.rest.t0;
+    for (int j = 0; j < nt; j++) {
+        Cx F = cmul(free_amplitude(M, j), cexpi(sm->lre[j] * s, sm->lim[j] * s));
+        buf[4 + 4 * j] += F.re;
+        buf[4 + 4 * j + 1] += F.im;
+    }
+    buf[KNOWN_AT(nt)] = -1.0;
+    buf[KNOWN_AT(nt) + 1 + SUPPORT_EDGES] = -1.0;
+    *amp = 1.0;
+    return buf;
+}
+
+#define ENTRY_BUF (KNOWN_AT(SUPPORT_MAX_TERMS) + 2 + SUPPORT_EDGES)
 
 /* Record segment i's extrema and peak of the floor's acceleration (segment_edges), searched when first needed and
  * kept in T: they depend on the entry alone, so when they are searched changes nothing. */
@@ -553,33 +741,38 @@ double support_relative_acceleration(const Model *M, double t, int piece) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
     if (!e) return 0.0;
-    if (M->sup->accDeg < 0 || piece >= M->rec->n) return M->d.accAmp * entry_derivative(&M->d.sup, e, 2, t - t0);
-    return M->d.accAmp * acc_poly(M->sup, e, t - t0);
+    double a = M->sup->accDeg < 0 || piece >= M->rec->n ? entry_derivative(&M->sup->modes, e, 2, t - t0)
+                                                        : acc_poly(M->sup, e, t - t0);
+    return M->d.accAmp * a + (resting(M) ? free_derivative(M, 2, t) : 0.0);
 }
 
 void support_motion(const Model *M, double t, int piece, double *u, double *v) {
     double t0;
     const double *e = entry_of(M, piece, &t0);
-    *u = e ? M->d.accAmp * entry_derivative(&M->d.sup, e, 0, t - t0) : 0.0;
-    *v = e ? M->d.accAmp * entry_derivative(&M->d.sup, e, 1, t - t0) : 0.0;
+    *u = e ? M->d.accAmp * entry_derivative(&M->sup->modes, e, 0, t - t0) : 0.0;
+    *v = e ? M->d.accAmp * entry_derivative(&M->sup->modes, e, 1, t - t0) : 0.0;
+    if (e && resting(M)) {
+        *u += free_derivative(M, 0, t);
+        *v += free_derivative(M, 1, t);
+    }
 }
 
 double support_acceleration_bound(const Model *M, int piece, double t0, double t1) {
     double te;
     const double *e = entry_of(M, piece, &te);
     if (!e) return 0.0;
-    if (M->sup->accDeg < 0 || piece >= M->rec->n)
-        return fabs(M->d.accAmp) * entry_bound(&M->d.sup, e, 2, t0 - te, t1 - te);
-    return fabs(M->d.accAmp) * acc_bound(M->sup, e, t1 - te);
+    double b = M->sup->accDeg < 0 || piece >= M->rec->n ? entry_bound(&M->sup->modes, e, 2, t0 - te, t1 - te)
+                                                        : acc_bound(M->sup, e, t1 - te);
+    return fabs(M->d.accAmp) * b + (resting(M) ? free_bound(M, t0) : 0.0);
 }
 
 void support_series(const Model *M, double t, int piece, int nc, double *c) {
-    double t0;
-    const double *e = entry_of(M, piece, &t0);
+    double t0, buf[ENTRY_BUF], amp;
+    const double *e = entry_scaled(M, piece, &t0, buf, &amp);
     if (!e) return;
     double f = 1.0;
     for (int k = 0; k <= nc; k++) {
-        c[k] += M->d.accAmp * entry_derivative(&M->d.sup, e, k + 2, t - t0) / f;
+        c[k] += amp * entry_derivative(&M->sup->modes, e, k + 2, t - t0) / f;
         f *= k + 1;
     }
 }
@@ -651,7 +844,7 @@ static int search(const Slope *S, double s0, double s1, double x, int forward, i
 }
 
 void support_free_cell(const Model *M, double a, double tEnd, double *t0, double *t1) {
-    double L = SUPPORT_FREE_CELL * 2.0 * M_PI / M->d.sup.fastest, k = floor((a - tEnd) / L);
+    double L = SUPPORT_FREE_CELL * 2.0 * M_PI / M->sup->modes.fastest, k = floor((a - tEnd) / L);
     if (k < 0) k = 0;
     if (tEnd + (k + 1.0) * L <= a) k += 1.0;
     *t0 = tEnd + k * L;
@@ -660,10 +853,10 @@ void support_free_cell(const Model *M, double a, double tEnd, double *t0, double
 
 static int cell_search(const Model *M, double a, int piece, double t0, double t1, double aBase1, int forward,
                        double *edge) {
-    double te;
-    const double *e = entry_of(M, piece, &te);
-    if (!e || !(M->d.sup.fastest > 0)) return 0;
-    const double *known = piece < M->rec->n ? edges_of(M, M->sup, piece - 1) : NULL;
+    double te, buf[ENTRY_BUF], amp;
+    const double *e = entry_scaled(M, piece, &te, buf, &amp);
+    if (!e || !(M->sup->modes.fastest > 0)) return 0;
+    const double *known = piece < M->rec->n && !resting(M) ? edges_of(M, M->sup, piece - 1) : NULL;
     if (known && known[0] >= 0) { /* a record segment: its edges, found once (edges_of) */
         int n = (int)known[0];
         double x = a - te;
@@ -674,7 +867,7 @@ static int cell_search(const Model *M, double a, int piece, double t0, double t1
             }
         return 0;
     }
-    Slope S = {&M->d.sup, e, aBase1, M->d.accAmp};
+    Slope S = {&M->sup->modes, e, aBase1, amp};
     double r;
     if (!search(&S, t0 - te, t1 - te, a - te, forward, 0, &r)) return 0;
     *edge = te + r;
@@ -798,5 +991,136 @@ double support_segment_peak(const Model *M, int piece) {
     const double *e = entry_of(M, piece, &te);
     if (!e || piece >= M->rec->n) return -1.0;
     double peak = edges_of(M, M->sup, piece - 1)[1 + SUPPORT_EDGES];
-    return peak >= 0 ? fabs(M->d.accAmp) * peak : -1.0;
+    if (!(peak >= 0)) return -1.0;
+    /* at rest in closed form a bound: the table's exact peak at the record's scale and the free vibration's bound */
+    return fabs(M->d.accAmp) * peak + (resting(M) ? free_bound(M, te) : 0.0);
+}
+
+/* ------------------------------------------------------------------ blocks at rest, two-way */
+
+/* The record's sample at or before t (the entry holding t: n - 1 after the last sample), t at or after the first. */
+static int sample_at(const Model *M, double t) {
+    const Record *r = M->rec;
+    int lo = 0, hi = r->n - 1;
+    if (t >= record_time(M, hi)) return hi;
+    while (hi - lo > 1) {
+        int mid = lo + (hi - lo) / 2;
+        if (record_time(M, mid) <= t) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* Term t's modal coordinate in the rest table at time t (scale 1): from its value at sample i's time. */
+static Cx table_modal(const Model *M, const SupportTable *T, int term, double t) {
+    const Record *r = M->rec;
+    int i = sample_at(M, t);
+    const double *e = T->data + (size_t)i * T->stride + MODAL_AT(T->nt, T->accDeg);
+    double L = t - record_time(M, i), a0 = 0.0, a1 = 0.0, q[4] = {0};
+    if (i < r->n - 1) {
+        a0 = r->ah[i];
+        a1 = (r->ah[i + 1] - a0) / (r->t[i + 1] - r->t[i]);
+    }
+    const SupportModes *sm = &T->modes;
+    Cx Z, E = cexpi(sm->lre[term] * L, sm->lim[term] * L);
+    return first_segment(sm, term, cx(e[2 * term], e[2 * term + 1]), a0, a1, L, E, q, &Z);
+}
+
+/* Term t's modal coordinate of the support with the blocks at rest at time t. */
+static Cx rest_modal(const Model *M, int term, double t) {
+    const SupportModes *sm = &M->restTable->modes;
+    double s = t - M->s.rest.t0;
+    Cx fr = cmul(cx(M->s.rest.dre[term], M->s.rest.dim[term]), cexpi(sm->lre[term] * s, sm->lim[term] * s));
+    return cadd(cscale(table_modal(M, M->restTable, term, t), M->d.accAmp), fr);
+}
+
+static double work_at(const Model *M, double t, Cx *B);
+
+int support_rest_start(Model *M, double t, const double *z) {
+    const SupportTable *T = M->restTable;
+    if (!T || !T->data || !M->rec || t < M->d.excStart) return 1;
+    const SupportModes *sm = &T->modes;
+    SupportRest *R = &M->s.rest;
+    memset(R, 0, sizeof(*R));
+    for (int k = 0; k < sm->nt; k++) {
+        Cx c = cx(0.0, 0.0);
+        for (int i = 0; i < sm->ns; i++)
+            c = cadd(c, cadd(cscale(cx(sm->gure[k][i], sm->guim[k][i]), z[2 * i]),
+                             cscale(cx(sm->gvre[k][i], sm->gvim[k][i]), z[2 * i + 1])));
+        Cx d = csub(c, cscale(table_modal(M, T, k, t), M->d.accAmp));
+        R->dre[k] = d.re;
+        R->dim[k] = d.im;
+    }
+    Cx K[SUPPORT_MAX_TERMS];
+    R->workA0 = work_at(M, t, K);
+    for (int k = 0; k < sm->nt; k++) {
+        R->k0re[k] = K[k].re;
+        R->k0im[k] = K[k].im;
+    }
+    R->t0 = t;
+    R->on = 1;
+    R->decay = INFINITY;
+    for (int k = 0; k < sm->nt; k++) {
+        Cx F = free_amplitude_of(sm, R, k);
+        R->accBound += hypot(F.re, F.im) * sm->labs[k] * sm->labs[k];
+        R->decay = fmin(R->decay, -sm->lre[k]);
+    }
+    if (!(R->decay >= 0.0)) R->decay = 0.0;
+    M->sup = T;
+    return 0;
+}
+
+void support_rest_floors(const Model *M, double t, double *z) {
+    const SupportModes *sm = &M->restTable->modes;
+    for (int i = 0; i < sm->ns; i++) z[2 * i] = z[2 * i + 1] = 0.0;
+    for (int k = 0; k < sm->nt; k++) {
+        Cx c = rest_modal(M, k, t), lam = cx(sm->lre[k], sm->lim[k]);
+        for (int i = 0; i < sm->ns; i++) {
+            Cx Yc = cmul(cx(sm->Yre[k][i], sm->Yim[k][i]), c);
+            z[2 * i] += Yc.re;
+            z[2 * i + 1] += cmul(lam, Yc).re;
+        }
+    }
+}
+
+/* The base's work since the record's start at scale 1 from rest (the table's) and each term's B at t. */
+static double work_at(const Model *M, double t, Cx *B) {
+    const Record *r = M->rec;
+    const SupportTable *T = M->restTable;
+    const SupportModes *sm = &T->modes;
+    int i = sample_at(M, t);
+    const double *e = T->data + (size_t)i * T->stride;
+    double s = t - record_time(M, i), A0 = 0.0, A1 = 0.0;
+    if (i < r->n - 1) {
+        A0 = r->ah[i];
+        A1 = (r->ah[i + 1] - A0) / (r->t[i + 1] - r->t[i]);
+    }
+    Cx Es[SUPPORT_MAX_TERMS], EL[SUPPORT_MAX_TERMS];
+    WorkTerm w[SUPPORT_MAX_TERMS];
+    work_terms(sm, w);
+    double L = i < r->n - 1 ? r->t[i + 1] - r->t[i] : s; /* (after the record: B = 0, the base still) */
+    for (int k = 0; k < sm->nt; k++) {
+        Es[k] = cexpi(sm->lre[k] * s, sm->lim[k] * s);
+        EL[k] = cexpi(sm->lre[k] * L, sm->lim[k] * L);
+    }
+    static const double zero[2 * SUPPORT_MAX_TERMS];
+    const double *bn = i < r->n - 1 ? e + T->stride + MODAL_AT(T->nt, T->accDeg) + 2 * T->nt + 1 : zero;
+    return e[MODAL_AT(T->nt, T->accDeg) + 2 * T->nt] + segment_work(T, e, A0, A1, s, Es, w, L, EL, bn, B);
+}
+
+/* W(t0, t) = k^2 (W_A(t) - W_A(t0)) - k sum_t Re(lambda_t mu_t d_t X_t) for the record's scale k, the free vibration
+ * d_t e^(lambda_t (tau - t0)) adding -k int a_g Re(lambda mu d e^(lambda (tau - t0))) dtau with
+ * X_t = int_t0^t a_g e^(lambda_t (tau - t0)) dtau = B_t(t0) - e^(lambda_t (t - t0)) B_t(t): each term's weight decays
+ * forward in time, so B (the integral to the record's end) is the sum that stays bounded. */
+double support_rest_work(const Model *M, double t) {
+    const SupportRest *R = &M->s.rest;
+    const SupportModes *sm = &M->restTable->modes;
+    Cx K[SUPPORT_MAX_TERMS];
+    double k = M->d.accAmp, W = k * k * (work_at(M, t, K) - R->workA0), s = t - R->t0;
+    for (int j = 0; j < sm->nt; j++) {
+        Cx lam = cx(sm->lre[j], sm->lim[j]), lm = cmul(lam, cx(sm->mure[j], sm->muim[j]));
+        Cx X = csub(cx(R->k0re[j], R->k0im[j]), cmul(cexpi(sm->lre[j] * s, sm->lim[j] * s), K[j]));
+        W -= k * cmul(lm, cmul(cx(R->dre[j], R->dim[j]), X)).re;
+    }
+    return W;
 }

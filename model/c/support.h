@@ -49,6 +49,17 @@ typedef struct {
      * C = a0 M + a1 K (a platform: a0 = its damping / its mass, a1 = 0); the blocks on floor j (0-based). */
     int twoWay, ns, j;
     double mass[SUPPORT_MAX_STOREYS], stiff[SUPPORT_MAX_STOREYS], a0, a1;
+    /* first = 1: the support with the blocks (mass mb, kg) at rest on floor j, as first-order modes
+     * (support_rest_modes): term t's modal coordinate z_t' = lambda_t z_t + beta_t a_g, the floors'
+     * u = sum_t Re(Y_t z_t) and u' = sum_t Re(lambda_t Y_t z_t) (Y_t the mode's shape, twice it for a complex
+     * pair), z_t = sum_i gu_ti u_i + gv_ti u_i' from a state, and mu_t = 1^T M' Y_t (M' the floors' masses
+     * with the blocks' on floor j). nm = nt, c[] unused. */
+    int first;
+    double mb;
+    double bre[SUPPORT_MAX_TERMS], bim[SUPPORT_MAX_TERMS], mure[SUPPORT_MAX_TERMS], muim[SUPPORT_MAX_TERMS];
+    double Yre[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], Yim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
+    double gure[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], guim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
+    double gvre[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], gvim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
 } SupportModes;
 
 /* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
@@ -75,8 +86,36 @@ typedef struct {
     int peakKnown;
 } SupportTable;
 
+/* Blocks at rest on a two-way support, in closed form (engine_solver.c's rest, docs/supports.md): from t0 the
+ * support with the blocks on it moves as the record's response of its first-order modes (the model's restTable: at
+ * scale 1 from rest, its modal coordinates kept at each sample) times the record's scale, plus the free vibration
+ * of those modes from what differed at t0 (each term's amplitude d there). The floors' state at any time follows
+ * (support_rest_floors), and the base's work since t0 (support_rest_work), both in closed form. Part of the state. */
+typedef struct {
+    int on;
+    double t0;
+    double dre[SUPPORT_MAX_TERMS], dim[SUPPORT_MAX_TERMS];
+    double workA0, k0re[SUPPORT_MAX_TERMS], k0im[SUPPORT_MAX_TERMS]; /* support_rest_work's values at t0 */
+    /* the free vibration's bound on |u''| at t0 (sum |Y_tj d_t| |lambda_t|^2) and its slowest decay (1/s) */
+    double accBound, decay;
+} SupportRest;
+
 struct Model;
 struct Variables;
+
+/* Build (or keep) the table of M's support with the blocks at rest on it (M->d.supRest, first-order modes) under
+ * M's record, as support_attach; emptied where M has none (support_rest_needed false). */
+int support_rest_attach(const struct Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg,
+                        size_t n);
+/* M's support can hold its blocks at rest in closed form: two-way, under a record, its first-order modes found. */
+int support_rest_needed(const struct Model *M);
+/* Start the closed form at t (M->sup is then M->restTable, the floors' state z = (u_0, u_0', u_1, ...) relative to
+ * the base at t). Returns 0, or 1 where it cannot (before the record starts, no table). */
+int support_rest_start(struct Model *M, double t, const double *z);
+/* The floors' state (u_0, u_0', u_1, u_1', ...) relative to the base at t (at or after the start), and the base's
+ * work on blocks and support since the start (J), exact. */
+void support_rest_floors(const struct Model *M, double t, double *z);
+double support_rest_work(const struct Model *M, double t);
 
 /* The bare support's peak floor acceleration at scale 1 (m/s^2) of M's record, T the table built for it: computed
  * on the first call (a few ms for a long record; a sweep's runs that do not read it do not pay for it), kept. */
@@ -85,6 +124,12 @@ double support_peak(const struct Model *M, SupportTable *T);
 int support_validate(const struct Variables *v, char *msg, size_t n);
 /* The modes of the support's parameters. */
 void support_derive(const struct Variables *v, SupportModes *sm);
+/* The first-order modes (first = 1) of the support sm (its physical form) with blocks of mass mb (kg) at rest on
+ * its floor j, which then moves them with it: the eigenvalues and eigenvectors of M' u'' + C u' + K u = -M' 1 a_g,
+ * M' the floors' masses with mb on floor j (support_rest.c). Returns 0, or 1 where that form is not available to
+ * full precision (a support without stiffness, a repeated or zero eigenvalue, ill-conditioned modes): the blocks at
+ * rest are then integrated with the support. */
+int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out);
 
 /* Build (or keep, when its key matches) the table of M's support under M's record. Returns 0, or
  * nonzero with a one-line reason (out of memory). A model without a moving support needs none:
