@@ -106,6 +106,57 @@ def test_blocks_at_rest_on_a_two_way_support_match_the_reference_in_closed_form(
     assert two_way_balance(o, CABINET) < 1e-9
 
 
+def test_a_state_taken_at_rest_in_closed_form_continues_in_another_instance(fmu, pulse):
+    """fmi2GetFMUstate while the cabinet rests on its two-way floor in closed form, serialized and set into another
+    instance that ran a block on the ground (which reads the record and builds that form's table again): the same
+    floor, base work and dampers' loss, bit for bit."""
+    params = {**CABINET, **frame(), "excitation.kind": 4, "excitation.file": str(pulse), "excitation.scale": 0.2}
+    names = ["support.u", "support.v", "support.baseWork", "support.dampingLoss"]
+
+    def started(p):
+        slave, callbacks = fmu.instantiate(lambda *a: None)
+        slave.setupExperiment(startTime=0.0)
+        fmu.set_parameters(slave, p)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        return slave, callbacks
+
+    a, _ca = started(params)
+    b, _cb = started({**CABINET, "excitation.kind": 1})
+    try:
+        vrs = [fmu.variable(n).valueReference for n in names]
+        a.doStep(0.0, 0.5)
+        blob = bytes(a.serializeFMUstate(a.getFMUstate()))
+        a.doStep(0.5, 2.5)
+        first = a.getReal(vrs)
+        assert a.getBoolean([fmu.variable("atRest").valueReference]) == [True]
+        assert first[2] != 0.0 and first[3] > 0.0
+        b.setFMUstate(b.deSerializeFMUstate(blob))
+        b.doStep(0.5, 2.5)
+        assert b.getReal(vrs) == first
+    finally:
+        for slave in (a, b):
+            slave.terminate()
+            slave.freeInstance()
+
+
+def test_an_input_on_the_base_ends_the_closed_form_and_moves_the_floor_as_a_record_would(fmu, pulse, tmp_path):
+    """The cabinet at rest on its two-way floor in closed form, then ground.ah = 0.3 m/s2 held from t = 1 s: the
+    floor moves as under a record that steps to 0.3 m/s2 there (within what the record's 2e-6 s ramps change)."""
+    t, a = ref.read_at2(PULSE)
+    stepped = tmp_path / "stepped.txt"
+    # (the pulse's record ends at a nonzero sample, after which the base is still: a 2e-6 s ramp to 0 there too)
+    np.savetxt(stepped, np.column_stack([np.r_[t, t[-1] + 2e-6, 1.0 - 2e-6, 1.0, 6.0], np.r_[0.2 * a, 0.0, 0.0, 0.3, 0.3]]),
+               fmt="%.17g")
+    base = {**CABINET, **frame(), "excitation.kind": 4}
+    held = fmu.run({**base, "excitation.file": str(pulse), "excitation.scale": 0.2}, 5.0, 0.01, OUT,
+                   inputs=lambda tt: (0.3 if tt >= 1.0 - 1e-9 else 0.0, 0.0))
+    record = fmu.run({**base, "excitation.file": str(stepped)}, 5.0, 0.01, OUT)
+    assert np.abs(held.outputs["support.u"]).max() > 1e-3
+    assert np.abs(held.outputs["support.u"] - record.outputs["support.u"]).max() < 1e-6
+    assert two_way_balance(held.outputs, CABINET) < 1e-6
+
+
 def test_two_way_differs_from_one_way_where_the_floor_is_light(fmu, pulse):
     """The coupling is real: on the 50 kg top floor the cabinet's own load changes its motion."""
     base = {**CABINET, **frame(50.0), "excitation.kind": 4, "excitation.file": str(pulse)}
