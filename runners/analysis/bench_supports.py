@@ -62,6 +62,39 @@ def _study(params: dict, db: str, fmu_path: Path, workers: int, levels: str = LE
             "fmu_ms": 1e3 * st["fmu_seconds"] / max(st["ran"], 1)}
 
 
+COUNT_LEVELS = (0.3, 1.0, 2.0)  # g: the single runs whose instructions are counted
+
+
+def instruction_table(fmu_path: Path, db: str) -> list[str]:
+    """Markdown lines: valgrind's instructions per simulation (the native harness's custom form, a fresh instance
+    each: the record read and the support's tables built) of the study's first record at COUNT_LEVELS of PGA,
+    on the ground, one-way and two-way; a line saying why where valgrind is not installed."""
+    import shutil
+
+    if shutil.which("valgrind") is None:
+        return ["(valgrind is not installed here: no instruction counts)"]
+    from db.session import open_database
+    from runners.analysis.bench import _compile_native, _Custom
+    from runners.engine import records
+    from runners.engine.intensity import G0
+
+    rec = records.select_records(open_database(db), SUITE)[0]
+    path, stop = records.file_of(rec), rec.duration + 5.0
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        custom = _Custom(_compile_native(fmu_path, Path(tmp)), fmu_path)
+        for level in COUNT_LEVELS:
+            counts = [custom.instructions({**p, "excitation.kind": 4, "excitation.file": str(path),
+                                           "excitation.scale": level * G0 / rec.pga}, stop, repeats=2)
+                      for p in scenes().values()]
+            rows.append(f"| {level:g} | " + " | ".join(f"{c / 1e6:.1f}" for c in counts) +
+                        f" | {counts[1] / counts[0]:.2f} | {counts[2] / counts[0]:.2f} |")
+    return [f"Instructions per simulation (millions; valgrind, exact), a fresh instance each (the record read and the "
+            f"support's tables built), record {rec.name} to {stop:g} s:", "",
+            "| PGA (g) | ground | one-way | two-way | one-way / ground | two-way / ground |",
+            "|---:|---:|---:|---:|---:|---:|", *rows]
+
+
 def run_support_study_bench(fmu_path: Path, workers: int = 2, repeats: int = 2) -> str:
     """The Markdown section: the three studies side by side, best of `repeats`, interleaved."""
     from db.session import open_database
@@ -81,6 +114,7 @@ def run_support_study_bench(fmu_path: Path, workers: int = 2, repeats: int = 2) 
             r = _study(cases["ground"], db, fmu_path, workers, AMPLIFIED)
             if "ground, levels x 2.5" not in best or r["wall"] < best["ground, levels x 2.5"]["wall"]:
                 best["ground, levels x 2.5"] = r
+        counts = instruction_table(fmu_path, db)
     g = best["ground"]
     rows = [f"| {name} | {r['wall']:.2f} | {r['wall'] / g['wall']:.2f} | {r['measures']:.2f} | {r['fmu_ms']:.2f} | "
             f"{r['fmu_ms'] / g['fmu_ms']:.2f} |" for name, r in best.items()]
@@ -95,4 +129,6 @@ def run_support_study_bench(fmu_path: Path, workers: int = 2, repeats: int = 2) 
         "",
         f"The last row is the ground study at PGA levels 2.5 times higher ({AMPLIFIED}), near the frame's median "
         "amplification PFA / PGA: what the cabinet's larger motion on the floor costs without any support.",
+        "",
+        *counts,
     ])
