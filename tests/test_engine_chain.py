@@ -26,7 +26,7 @@ def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
                     str(ROOT / "tests" / "c" / "engine_chain.c"), str(C / "lcp.c"), "-lm"], check=True)
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
     dynamics, placement, sliding, impulses = float(out[0]), float(out[1]), int(out[2]), float(out[3])
-    reduced, jam, jam_slack = float(out[4]), float(out[5]), float(out[6])
+    reduced, jam, jam_slack, slope = float(out[4]), float(out[5]), float(out[6]), float(out[7])
     assert sliding > 5000, sliding  # the states with a sliding contact were drawn
     assert dynamics <= 1e-12, dynamics   # accelerations over g, forces over the weight carried (or their size)
     assert placement <= 1e-14, placement  # gaps over R, rates over sqrt(g R)
@@ -38,6 +38,8 @@ def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
     # Painleve's margin on the ground written out, against the rows; and never below 1 - 3 mu / 4
     assert jam <= 1e-14, jam
     assert 0.0 <= jam_slack < 1e-2, jam_slack  # the bound holds, and is nearly reached (it is the least)
+    # one body's slopes in the support's acceleration from one evaluation (two-way supports), against two evaluations
+    assert 0.0 < slope <= 1e-12, slope
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("valgrind") is None,

@@ -247,7 +247,8 @@ static void perp(const double r[2], double out[2]) {
  * does not turn); tests/c/engine_chain.c checks both against the constrained system. */
 static inline __attribute__((always_inline)) int chain_one(const int SLIDES, const EnSystem *s, const EnMode *m,
                                                            const double *xi0, const double *yin, double *yout,
-                                                           double ah, double av, EnForces *f, double *slipRate) {
+                                                           double ah, double av, EnForces *f, double *slipRate,
+                                                           EnForces *fa) {
     const EnBody *B = &s->body[0];
     double gv = s->g + av, smu = SLIDES ? m->sigma[0] * s->mu[0] : 0.0;
     /* placed: a sliding contact's slip and slip rate from yin, a sticking one's anchor and no slip rate */
@@ -271,6 +272,14 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
         f->T[0] = T;
         f->N[0][1] = (N * B->b - T * B->h) / (2.0 * B->b); /* the moment balance about the centre */
         f->N[0][0] = N - f->N[0][1];
+        if (fa) { /* the slopes in ah: sliding, the centre's -1 and no force; sticking, T's m and its moment */
+            memset(fa, 0, sizeof(*fa));
+            fa->qdd[0] = SLIDES ? -1.0 : 0.0;
+            if (SLIDES) fa->xidd[0] = -1.0;
+            fa->T[0] = SLIDES ? 0.0 : B->m;
+            fa->N[0][1] = -fa->T[0] * B->h / (2.0 * B->b);
+            fa->N[0][0] = -fa->N[0][1];
+        }
         return 1;
     }
     int c = m->closed[0][1] ? 1 : -1;
@@ -311,6 +320,25 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
     f->T[0] = SLIDES ? -smu * N : B->m * (acc[0] + ah);
     f->N[0][c > 0] = N;
     f->N[0][c < 0] = 0.0;
+    if (fa) { /* the same in ah alone: the right-hand side's -m (1, 0) on the centre */
+        double dal, dxdd = 0.0;
+        if (!SLIDES) {
+            dal = -B->m * G[0] * B->iIo;
+        } else {
+            double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic, A01 = B->m * G[0], A10 = B->m * (G[0] + smu * G[1]);
+            double A11 = B->m, det = A * A11 - A01 * A10, dr0 = -B->m * G[0], dr1 = -B->m;
+            dal = (dr0 * A11 - A01 * dr1) / det;
+            dxdd = (A * dr1 - A10 * dr0) / det;
+        }
+        memset(fa, 0, sizeof(*fa));
+        fa->qdd[0] = G[0] * dal + dxdd;
+        fa->qdd[1] = G[1] * dal;
+        fa->qdd[2] = dal;
+        if (SLIDES) fa->xidd[0] = dxdd;
+        double dN = B->m * fa->qdd[1];
+        fa->T[0] = SLIDES ? -smu * dN : B->m * (fa->qdd[0] + 1.0);
+        fa->N[0][c > 0] = dN;
+    }
     return 1;
 }
 
@@ -518,8 +546,8 @@ static inline __attribute__((always_inline)) int chain(const EnSystem *s, const 
                                                        const double *yin, double *yout, double ah, double av,
                                                        EnForces *f, double *slipRate) {
     if (s->nb == 1)
-        return m->sigma[0] ? chain_one(1, s, m, xi0, yin, yout, ah, av, f, slipRate)
-                           : chain_one(0, s, m, xi0, yin, yout, ah, av, f, slipRate);
+        return m->sigma[0] ? chain_one(1, s, m, xi0, yin, yout, ah, av, f, slipRate, NULL)
+                           : chain_one(0, s, m, xi0, yin, yout, ah, av, f, slipRate, NULL);
     return chain_general(s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
 
@@ -606,6 +634,30 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const doub
         dy[EN_XI(nb, k)] = dy[EN_XID(nb, k)] = 0.0; /* (held by a sliding chain alone) */
     }
     dy[EN_WORK(nb)] = work;
+    return 1;
+}
+
+int engine_rhs_slope(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
+                     double *dy, EnForces *f, double *placed, double *dya, EnForces *fa) {
+    if (s->nb != 1 || !xi0 || !all_touch(s, m)) return -1;
+    int slides = m->sigma[0] != 0;
+    if (!(slides ? chain_one(1, s, m, xi0, y, placed, ah, av, f, NULL, fa)
+                 : chain_one(0, s, m, xi0, y, placed, ah, av, f, NULL, fa)))
+        return 0;
+    for (int i = 0; i < EN_N(1); i++) dy[i] = dya[i] = 0.0;
+    dy[EN_TH(0)] = placed[EN_W(0)];
+    dy[EN_W(0)] = f->qdd[EN_Q(0, 2)];
+    dya[EN_W(0)] = fa->qdd[EN_Q(0, 2)];
+    dy[EN_WORK(1)] = -s->body[0].m * (ah * placed[EN_VEL(1, 0, 0)] + av * placed[EN_VEL(1, 0, 1)]);
+    dya[EN_WORK(1)] = -s->body[0].m * placed[EN_VEL(1, 0, 0)];
+    if (slides) {
+        double v = y[EN_XID(1, 0)];
+        dy[EN_LOSS(1, 0)] = -f->T[0] * v;
+        dya[EN_LOSS(1, 0)] = -fa->T[0] * v;
+        dy[EN_XI(1, 0)] = v;
+        dy[EN_XID(1, 0)] = f->xidd[0];
+        dya[EN_XID(1, 0)] = fa->xidd[0];
+    }
     return 1;
 }
 

@@ -110,6 +110,12 @@ int engine_chain(const EnSystem *s, const EnMode *m, const double *xi0, double *
  * placed goes to `placed` unless NULL (each body's EN_TH, EN_W, EN_POS and EN_VEL: as engine_chain places y). */
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
                double *dy, EnForces *f, double *placed);
+/* engine_rhs of one body on a chain (its anchors xi0 given) with the derivatives' and forces' slopes in ah too (dya,
+ * fa: the contact set's accelerations and forces are affine in the support's acceleration), from one evaluation.
+ * Returns 1, 0 where the set's system is singular, -1 where it does not apply (a stack, a flight): then evaluate
+ * engine_rhs at two values of ah. */
+int engine_rhs_slope(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
+                     double *dy, EnForces *f, double *placed, double *dya, EnForces *fa);
 
 /* Event indicators of mode m at (y, forces f): each >= 0 while the mode holds, normalised by weights
  * (forces) or by the bodies' sizes (gaps). Writes up to EN_IND values; returns how many. kind[i]

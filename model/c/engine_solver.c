@@ -84,8 +84,18 @@ static void coupled_rhs(Ctx *c, const double *y, double ag, double av, double *d
         coupling_rhs(M, y, r, uj, ag, av, 0.0, py, dy);
         return;
     }
-    if (!engine_rhs(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->chain ? c->placed : NULL) ||
-        !engine_rhs(c->sys, &c->mode, xi0, y, ag + 1.0, av, dyB, &fB, c->chain ? placedB : NULL)) {
+    /* one body on a chain: the slopes in the support's acceleration from one evaluation; else two */
+    int one = c->chain ? engine_rhs_slope(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->placed, dyB, &fB) : -1;
+    if (one == 1) {
+        for (int i = 0; i < n0; i++) dyB[i] += dy[i];
+        for (int q = 0; q < EN_NQ; q++) fB.qdd[q] += c->f.qdd[q];
+        for (int k = 0; k < EN_MAX_BODIES; k++) {
+            for (int i = 0; i < 2; i++) fB.N[k][i] += c->f.N[k][i];
+            fB.T[k] += c->f.T[k];
+            fB.xidd[k] += c->f.xidd[k];
+        }
+    } else if (one == 0 || !engine_rhs(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->chain ? c->placed : NULL) ||
+               !engine_rhs(c->sys, &c->mode, xi0, y, ag + 1.0, av, dyB, &fB, c->chain ? placedB : NULL)) {
         c->singular = 1;
         return;
     }

@@ -7,9 +7,10 @@
  * Where a contact slides, the chain as a step integrates it (engine_rhs from its reduced coordinates, the
  * slips and slip rates engine_hold_slips writes) against the full state: the centres it places and the
  * derivatives. And Painleve's margin of one body sliding on one corner of the ground, written out, against the
- * rows, with its bound 1 - 3 mu / 4.
+ * rows, with its bound 1 - 3 mu / 4. And one body's chain with its slopes in the support's acceleration from one
+ * evaluation (engine_rhs_slope), against two evaluations of engine_rhs a unit of acceleration apart.
  * Prints the largest of each and the number of states with a sliding contact, then the impacts', the reduced
- * sliding chain's, the margin's and the least slack of its bound;
+ * sliding chain's, the margin's and the least slack of its bound, then the slopes';
  * tests/test_engine_chain.py runs it. White-box: it includes engine.c for its static solvers. */
 #include "engine.c"
 
@@ -21,6 +22,7 @@ static double rnd(void) { return 2.0 * rand() / RAND_MAX - 1.0; }
 int main(int argc, char **argv) {
     int trials = argc > 1 ? atoi(argv[1]) : 20000;
     double worstDyn = 0.0, worstPlace = 0.0, worstImp = 0.0, worstSlide = 0.0, worstJam = 0.0, jamSlack = INFINITY;
+    double worstSlope = 0.0;
     int nSliding = 0;
     const double b[2] = {0.3, 0.2}, h[2] = {0.5, 0.8}, m[2] = {450.0, 690.0}, g = 9.81;
     srand(12345);
@@ -81,6 +83,27 @@ int main(int argc, char **argv) {
             engine_hold_slips(&s, &mode, yr);
             if (!engine_rhs(&s, &mode, xi0, yr, ah, av, dyr, &fr, placed) || !engine_rhs(&s, &mode, NULL, yr, ah, av, dyf, &ff, NULL))
                 return 2;
+            if (s.nb == 1) { /* the slopes in ah from one evaluation against the difference of two, over g (or size) */
+                double d0[NMAX], d1[NMAX], da[NMAX], p0[NMAX], p1[NMAX];
+                EnForces f0, f1, fa;
+                if (engine_rhs_slope(&s, &mode, xi0, yr, ah, av, d0, &f0, p0, da, &fa) != 1 ||
+                    !engine_rhs(&s, &mode, xi0, yr, ah + 1.0, av, d1, &f1, p1))
+                    return 2;
+                double R = sqrt(s.body[0].b * s.body[0].b + s.body[0].h * s.body[0].h), sc = fmax(g, fabs(f0.qdd[2]) * R);
+                for (int q = 0; q < 3; q++)
+                    worstSlope = fmax(worstSlope, fabs(f1.qdd[q] - f0.qdd[q] - fa.qdd[q]) * (q == 2 ? R : 1.0) / sc);
+                worstSlope = fmax(worstSlope, fabs(f1.T[0] - f0.T[0] - fa.T[0]) / s.weight[0]);
+                for (int i = 0; i < 2; i++) worstSlope = fmax(worstSlope, fabs(f1.N[0][i] - f0.N[0][i] - fa.N[0][i]) / s.weight[0]);
+                if (mode.sigma[0]) worstSlope = fmax(worstSlope, fabs(f1.xidd[0] - f0.xidd[0] - fa.xidd[0]) / sc);
+                /* the derivatives engine_rhs writes for this chain (the losses and slips where it slides), over g or
+                 * their size, and the powers over the weight times sqrt(g R) */
+                const int at[6] = {EN_TH(0), EN_W(0), EN_WORK(1), EN_LOSS(1, 0), EN_XI(1, 0), EN_XID(1, 0)};
+                for (int j = 0; j < (mode.sigma[0] ? 6 : 3); j++) {
+                    int i = at[j];
+                    double size = i == EN_WORK(1) || i == EN_LOSS(1, 0) ? s.weight[0] * sqrt(g * R) : sc;
+                    worstSlope = fmax(worstSlope, fmax(fabs(d1[i] - d0[i] - da[i]), fabs(d0[i] - dyr[i])) / size);
+                }
+            }
             for (int k = 0; k < s.nb; k++) {
                 double R = sqrt(s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h), v = sqrt(g * R), a = g;
                 for (int i = 0; i < 2; i++) {
@@ -159,6 +182,7 @@ int main(int argc, char **argv) {
             }
         }
     }
-    printf("%.3e %.3e %d %.3e %.3e %.3e %.3e\n", worstDyn, worstPlace, nSliding, worstImp, worstSlide, worstJam, jamSlack);
+    printf("%.3e %.3e %d %.3e %.3e %.3e %.3e %.3e\n", worstDyn, worstPlace, nSliding, worstImp, worstSlide, worstJam, jamSlack,
+           worstSlope);
     return 0;
 }
