@@ -210,7 +210,10 @@ void model_derive(Model *M) {
     /* two-way: the support with every block at rest on its floor, in closed form where it can be */
     double mb = 0.0;
     for (int k = 0; k < d->en.nb; k++) mb += d->en.body[k].m;
-    if (!d->sup.twoWay || support_rest_modes(&d->sup, mb, &d->supRest)) memset(&d->supRest, 0, sizeof(d->supRest));
+    if (!d->sup.twoWay || support_rest_modes(&d->sup, mb, &d->supRest, &d->restShapes)) {
+        memset(&d->supRest, 0, sizeof(d->supRest));
+        memset(&d->restShapes, 0, sizeof(d->restShapes));
+    }
 }
 
 void model_rhs_terms(const Model *M, double t, const double y[2], int side, int piece, double dy[2],

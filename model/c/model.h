@@ -110,7 +110,8 @@ typedef struct {
     EnSystem en; /* the contact engine's bodies (one block, or a stack of two) */
     SupportModes sup; /* the support's modes (support.h; nm = 0 on the ground) */
     SupportModes supRest; /* on a two-way support, its first-order modes with every block at rest on it (first = 0:
-                           * none; support_rest_modes) */
+                           * none; support_rest_modes), and their shapes on every floor */
+    SupportShapes restShapes;
 
     /* two stacked blocks (nBlocks = 2), see stack.h */
     double c;          /* half width of the contact between the blocks, m */

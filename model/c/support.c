@@ -476,7 +476,7 @@ double support_peak(const Model *M, SupportTable *T) {
  * floor's u (polynomial q, term Z) and z at s = L (E = e^(lambda L)). z' = lambda z + beta a_g has the particular
  * solution p0 + p1 s, p1 = -beta a1 / lambda, p0 = (p1 - beta a0) / lambda. */
 static Cx first_segment(const SupportModes *sm, int t, Cx z, double a0, double a1, double L, Cx E, double *q, Cx *Z) {
-    Cx lam = cx(sm->lre[t], sm->lim[t]), beta = cx(sm->bre[t], sm->bim[t]), Yj = cx(sm->Yre[t][sm->j], sm->Yim[t][sm->j]);
+    Cx lam = cx(sm->lre[t], sm->lim[t]), beta = cx(sm->bre[t], sm->bim[t]), Yj = cx(sm->yjre[t], sm->yjim[t]);
     Cx p1 = cdiv(cscale(beta, -a1), lam), p0 = cdiv(csub(p1, cscale(beta, a0)), lam);
     q[0] += cmul(Yj, p0).re;
     q[1] += cmul(Yj, p1).re;
@@ -663,7 +663,7 @@ static const double *entry_of(const Model *M, int piece, double *t0) {
 static int resting(const Model *M) { return M->s.rest.on; }
 
 static Cx free_amplitude_of(const SupportModes *sm, const SupportRest *R, int t) {
-    return cmul(cx(sm->Yre[t][sm->j], sm->Yim[t][sm->j]), cx(R->dre[t], R->dim[t]));
+    return cmul(cx(sm->yjre[t], sm->yjim[t]), cx(R->dre[t], R->dim[t]));
 }
 
 static Cx free_amplitude(const Model *M, int t) { return free_amplitude_of(&M->sup->modes, &M->s.rest, t); }
@@ -1042,12 +1042,10 @@ int support_rest_start(Model *M, double t, const double *z) {
     const SupportModes *sm = &T->modes;
     SupportRest *R = &M->s.rest;
     memset(R, 0, sizeof(*R));
+    double zre[SUPPORT_MAX_TERMS], zim[SUPPORT_MAX_TERMS];
+    support_rest_coordinates(sm, &M->d.restShapes, z, zre, zim);
     for (int k = 0; k < sm->nt; k++) {
-        Cx c = cx(0.0, 0.0);
-        for (int i = 0; i < sm->ns; i++)
-            c = cadd(c, cadd(cscale(cx(sm->gure[k][i], sm->guim[k][i]), z[2 * i]),
-                             cscale(cx(sm->gvre[k][i], sm->gvim[k][i]), z[2 * i + 1])));
-        Cx d = csub(c, cscale(table_modal(M, T, k, t), M->d.accAmp));
+        Cx d = csub(cx(zre[k], zim[k]), cscale(table_modal(M, T, k, t), M->d.accAmp));
         R->dre[k] = d.re;
         R->dim[k] = d.im;
     }
@@ -1076,7 +1074,7 @@ void support_rest_floors(const Model *M, double t, double *z) {
     for (int k = 0; k < sm->nt; k++) {
         Cx c = rest_modal(M, k, t), lam = cx(sm->lre[k], sm->lim[k]);
         for (int i = 0; i < sm->ns; i++) {
-            Cx Yc = cmul(cx(sm->Yre[k][i], sm->Yim[k][i]), c);
+            Cx Yc = cmul(cx(M->d.restShapes.Yre[k][i], M->d.restShapes.Yim[k][i]), c);
             z[2 * i] += Yc.re;
             z[2 * i + 1] += cmul(lam, Yc).re;
         }

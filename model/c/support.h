@@ -50,17 +50,24 @@ typedef struct {
     int twoWay, ns, j;
     double mass[SUPPORT_MAX_STOREYS], stiff[SUPPORT_MAX_STOREYS], a0, a1;
     /* first = 1: the support with the blocks (mass mb, kg) at rest on floor j, as first-order modes
-     * (support_rest_modes): term t's modal coordinate z_t' = lambda_t z_t + beta_t a_g, the floors'
-     * u = sum_t Re(Y_t z_t) and u' = sum_t Re(lambda_t Y_t z_t) (Y_t the mode's shape, twice it for a complex
-     * pair), z_t = sum_i gu_ti u_i + gv_ti u_i' from a state, and mu_t = 1^T M' Y_t (M' the floors' masses
-     * with the blocks' on floor j). nm = nt, c[] unused. */
+     * (support_rest_modes): term t's modal coordinate z_t' = lambda_t z_t + beta_t a_g, floor j's
+     * u_j = sum_t Re(Yj_t z_t) (Y_t the mode's shape, twice it for a complex pair: every floor's in
+     * SupportShapes), and mu_t = 1^T M' Y_t (M' the floors' masses with the blocks' on floor j). nm = nt, c[]
+     * unused. */
     int first;
     double mb;
     double bre[SUPPORT_MAX_TERMS], bim[SUPPORT_MAX_TERMS], mure[SUPPORT_MAX_TERMS], muim[SUPPORT_MAX_TERMS];
-    double Yre[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], Yim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
-    double gure[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], guim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
-    double gvre[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], gvim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
+    double yjre[SUPPORT_MAX_TERMS], yjim[SUPPORT_MAX_TERMS];
 } SupportModes;
+
+/* The first-order modes' shapes on every floor (Y_t, as SupportModes' Yj: u = sum_t Re(Y_t z_t),
+ * u' = sum_t Re(lambda_t Y_t z_t)) and their norms N_t = y_t^T (2 lambda_t M' + C) y_t (y_t = Y_t / 2 for a
+ * complex pair, Y_t for a real root), from which a state's modal coordinates follow:
+ * z_t = (y_t^T (lambda_t M' + C) u + y_t^T M' u') / N_t. */
+typedef struct {
+    double Yre[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS], Yim[SUPPORT_MAX_TERMS][SUPPORT_MAX_STOREYS];
+    double Nre[SUPPORT_MAX_TERMS], Nim[SUPPORT_MAX_TERMS];
+} SupportShapes;
 
 /* The table of a record's segments: entry i (i = 0 .. n - 2: between samples i and i + 1; n - 1:
  * after the last sample) holds u(s) = q0 + q1 s + q2 s^2 + q3 s^3 + sum_j Re((Z_j + Y_j s) e^(lambda_j s)),
@@ -129,7 +136,10 @@ void support_derive(const struct Variables *v, SupportModes *sm);
  * M' the floors' masses with mb on floor j (support_rest.c). Returns 0, or 1 where that form is not available to
  * full precision (a support without stiffness, a repeated or zero eigenvalue, ill-conditioned modes): the blocks at
  * rest are then integrated with the support. */
-int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out);
+int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out, SupportShapes *shapes);
+/* The modal coordinates (zre + i zim per term) of the floors' state z = (u_0, u_0', u_1, ...) relative to the base. */
+void support_rest_coordinates(const SupportModes *sm, const SupportShapes *shapes, const double *z, double *zre,
+                              double *zim);
 
 /* Build (or keep, when its key matches) the table of M's support under M's record. Returns 0, or
  * nonzero with a one-line reason (out of memory). A model without a moving support needs none:

@@ -198,8 +198,9 @@ static int refine(const Scaled *S, cplx *x, cplx *y) {
     return 0;
 }
 
-int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out) {
+int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out, SupportShapes *shapes) {
     memset(out, 0, sizeof(*out));
+    memset(shapes, 0, sizeof(*shapes));
     Scaled S;
     if (sm->ns < 1 || !(mb >= 0.0) || scaled(sm, mb, &S)) return 1;
     int n = S.n;
@@ -253,14 +254,13 @@ int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out) {
         out->mure[nt] = creal(w * m1);
         out->muim[nt] = cimag(w * m1);
         for (int i = 0; i < n; i++) {
-            cplx gu = (lam * My[i] + Cy[i]) / N, gv = My[i] / N;
-            out->Yre[nt][i] = creal(w * y[i]);
-            out->Yim[nt][i] = cimag(w * y[i]);
-            out->gure[nt][i] = creal(gu);
-            out->guim[nt][i] = cimag(gu);
-            out->gvre[nt][i] = creal(gv);
-            out->gvim[nt][i] = cimag(gv);
+            shapes->Yre[nt][i] = creal(w * y[i]);
+            shapes->Yim[nt][i] = cimag(w * y[i]);
         }
+        shapes->Nre[nt] = creal(N);
+        shapes->Nim[nt] = cimag(N);
+        out->yjre[nt] = shapes->Yre[nt][sm->j];
+        out->yjim[nt] = shapes->Yim[nt][sm->j];
         nt++;
     }
     if (upper != lower || 2 * upper + (nt - upper) != d) return 1; /* a complex root without its conjugate */
@@ -281,14 +281,16 @@ int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out) {
     }
     /* checks to full precision: a state rebuilt from its modal coordinates, and the base's acceleration entering
      * the velocities alone with u'' = -a_g at rest (sum Re(Y beta) = 0, sum Re(lambda Y beta) = -1 on every floor) */
-    double err = 0.0;
+    double err = 0.0, zre[SUPPORT_MAX_TERMS], zim[SUPPORT_MAX_TERMS], st[2 * NS];
+    for (int k = 0; k < n; k++) {
+        st[2 * k] = sin(1.0 + k);
+        st[2 * k + 1] = cos(2.0 * k + 1.0);
+    }
+    support_rest_coordinates(out, shapes, st, zre, zim);
     for (int i = 0; i < n; i++) {
         double u = 0.0, v = 0.0, f0 = 0.0, f1 = 0.0, size = 0.0;
         for (int t = 0; t < nt; t++) {
-            cplx z = 0.0, Yt = out->Yre[t][i] + I * out->Yim[t][i], lam = out->lre[t] + I * out->lim[t];
-            for (int k = 0; k < n; k++)
-                z += (out->gure[t][k] + I * out->guim[t][k]) * sin(1.0 + k) +
-                     (out->gvre[t][k] + I * out->gvim[t][k]) * cos(2.0 * k + 1.0);
+            cplx z = zre[t] + I * zim[t], Yt = shapes->Yre[t][i] + I * shapes->Yim[t][i], lam = out->lre[t] + I * out->lim[t];
             cplx b = out->bre[t] + I * out->bim[t];
             u += creal(Yt * z);
             v += creal(lam * Yt * z);
@@ -300,4 +302,25 @@ int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out) {
         err = fmax(err, fmax(fabs(f0) / size, fabs(f1 + 1.0)));
     }
     return err < 1e-9 ? 0 : 1;
+}
+
+void support_rest_coordinates(const SupportModes *sm, const SupportShapes *sh, const double *z, double *zre,
+                              double *zim) {
+    int n = sm->ns;
+    for (int t = 0; t < sm->nt; t++) {
+        double w = sm->lim[t] > 0.0 ? 2.0 : 1.0;
+        cplx lam = sm->lre[t] + I * sm->lim[t], s = 0.0;
+        for (int i = 0; i < n; i++) {
+            /* (lambda M' + C) y and M' y, row i: C = a0 M + a1 K, K tridiagonal; y = Y / w */
+            cplx yi = (sh->Yre[t][i] + I * sh->Yim[t][i]) / w;
+            cplx ky = (sm->stiff[i] + (i + 1 < n ? sm->stiff[i + 1] : 0.0)) * yi;
+            if (i > 0) ky -= sm->stiff[i] * (sh->Yre[t][i - 1] + I * sh->Yim[t][i - 1]) / w;
+            if (i + 1 < n) ky -= sm->stiff[i + 1] * (sh->Yre[t][i + 1] + I * sh->Yim[t][i + 1]) / w;
+            double mp = sm->mass[i] + (i == sm->j ? sm->mb : 0.0);
+            s += (lam * mp * yi + sm->a0 * sm->mass[i] * yi + sm->a1 * ky) * z[2 * i] + mp * yi * z[2 * i + 1];
+        }
+        cplx c = s / (sh->Nre[t] + I * sh->Nim[t]);
+        zre[t] = creal(c);
+        zim[t] = cimag(c);
+    }
 }
