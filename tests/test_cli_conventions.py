@@ -210,6 +210,16 @@ def test_bench_refuses_out_without_charts(stocked, fmu_path):
     one_line_error(cli(stocked, fmu_path, "bench", "--out", "x"), "--out is the folder of --charts")
 
 
+@pytest.mark.parametrize("args", [("export", "latest"), ("export", "--sweep", "latest", "--format", "json")])
+def test_a_dash_for_an_output_file_is_refused_not_written_as_a_file_named_dash(stocked, fmu_path, tmp_path, monkeypatch,
+                                                                                args):
+    """'--out -' is no standard output here (an export writes files, a run's two): one line, and no file named '-'."""
+    monkeypatch.chdir(tmp_path)
+    p = cli(stocked, fmu_path, *args, "--out", "-")
+    one_line_error(p, "'-'", "standard output")
+    assert not (tmp_path / "-").exists()
+
+
 # --- ids -------------------------------------------------------------------------------------------
 
 def test_latest_names_the_newest_run_and_sweep(stocked, fmu_path, tmp_path):

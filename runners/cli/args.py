@@ -99,6 +99,8 @@ def output_file(text: str):
     from pathlib import Path
 
     path = Path(text)
+    if text == "-":  # (not standard output: every such option writes files, and a run's export writes two)
+        raise argparse.ArgumentTypeError("'-' would be a file named '-' here, not standard output: give a file's path")
     try:
         if not text or path.is_dir() or text.endswith(("/", "\\")):
             raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
