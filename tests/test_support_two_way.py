@@ -106,6 +106,48 @@ def test_blocks_at_rest_on_a_two_way_support_match_the_reference_in_closed_form(
     assert two_way_balance(o, CABINET) < 1e-9
 
 
+@pytest.mark.parametrize("scale", [0.2, 1.0])
+def test_a_tall_heavily_damped_frame_has_overdamped_modes_in_its_closed_form(fmu, pulse, scale):
+    """Eight storeys at 50 % damping: with the cabinet on the top floor four of the support's modes are overdamped,
+    so its closed form at rest has twelve terms (a real root each for those), more than the storeys: at rest
+    (scale 0.2) and after rocking (scale 1) the floor, the base's work and the dampers' loss still equal the
+    reference's."""
+    n = 8
+    params = {"support.kind": 1, "support.coupling": 1, "building.storeys": n, "building.floor": n,
+              "building.dampingRatio": 0.5, **{f"building.storey[{i}].mass": 2000.0 for i in range(1, n + 1)},
+              **{f"building.storey[{i}].stiffness": 2.5e6 for i in range(1, n + 1)}}
+    res = fmu.run({**CABINET, **params, "excitation.kind": 4, "excitation.file": str(pulse), "excitation.scale": scale},
+                  6.0, 0.01, OUT)
+    run = ref.simulate(slide.SlidingBlock(b=0.3, h=1.0, m=1000.0, mu=0.5, g=9.81),
+                       ref.Building([2000.0] * n, [2.5e6] * n, 0.5, n), ref.record_file(PULSE, scale), 6.0,
+                       coupling="two-way")
+    o = res.outputs
+    assert o["atRest"][-1] == 1.0 and o["impacts"][-1] == run.impacts
+    s = run.sample(res.time)
+    assert np.abs(o["support.u"] - s["floor_u"]).max() < 1e-8
+    assert abs(o["support.baseWork"][-1] - run.base_work[-1]) < 1e-8 * run.energy_scale
+    assert abs(o["support.dampingLoss"][-1] - run.damping_loss[-1]) < 1e-8 * run.energy_scale
+    assert two_way_balance(o, CABINET) < 1e-9
+
+
+def test_a_stiffly_damped_platform_carries_the_cabinet_to_rest_long_after_the_record(fmu, pulse):
+    """A platform with a damper of 1e6 N s/m (a root near -770 1/s): the cabinet, released tilted, rocks and comes
+    to rest 3.4 s after the record's end, where that root's e^(-lambda t) would overflow any double; the closed form
+    works from the rest's start instead. Floor, base work and dampers' loss as the reference's."""
+    params = {**CABINET, **PLATFORM, "platform.damping": 1.0e6, "block1.theta0": 0.1, "excitation.kind": 4,
+              "excitation.file": str(pulse), "excitation.scale": 0.2}
+    res = fmu.run(params, 8.0, 0.01, OUT)
+    run = ref.simulate(slide.SlidingBlock(b=0.3, h=1.0, m=1000.0, mu=0.5, g=9.81), ref.Platform(300.0, 3.0e4, 1.0e6),
+                       ref.record_file(PULSE, 0.2), 8.0, coupling="two-way", theta0=0.1)
+    o = res.outputs
+    rests = [e.t for e in res.events if e.kind == "rest"]
+    assert rests and rests[0] > 3.0 and o["atRest"][-1] == 1.0 and o["impacts"][-1] == run.impacts
+    assert np.abs(o["support.u"] - run.sample(res.time)["floor_u"]).max() < 1e-8
+    assert abs(o["support.baseWork"][-1] - run.base_work[-1]) < 1e-8 * run.energy_scale
+    assert abs(o["support.dampingLoss"][-1] - run.damping_loss[-1]) < 1e-8 * run.energy_scale
+    assert two_way_balance(o, CABINET) < 1e-9
+
+
 def test_a_state_taken_at_rest_in_closed_form_continues_in_another_instance(fmu, pulse):
     """fmi2GetFMUstate while the cabinet rests on its two-way floor in closed form, serialized and set into another
     instance that ran a block on the ground (which reads the record and builds that form's table again): the same

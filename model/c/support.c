@@ -499,20 +499,20 @@ static void work_terms(const SupportModes *sm, WorkTerm *w) {
     }
 }
 
-/* G(x) = e^(lambda x) ((A0 + A1 x) / lambda - A1 / lambda^2), whose difference is int (A0 + A1 x) e^(lambda x) dx
- * (Ex = e^(lambda x)). */
-static Cx G_at(const WorkTerm *c, double A0, double A1, double x, Cx Ex) {
-    return cmul(Ex, csub(cscale(c->il, A0 + A1 * x), cscale(cmul(c->il, c->il), A1)));
+/* H(x) = (A0 + A1 x) / lambda - A1 / lambda^2: G(x) = e^(lambda x) H(x) has the derivative (A0 + A1 x) e^(lambda x). */
+static Cx H_at(const WorkTerm *c, double A0, double A1, double x) {
+    return csub(cscale(c->il, A0 + A1 * x), cscale(cmul(c->il, c->il), A1));
 }
 
 /* The base's work over [0, s] of record segment i of the first-order table whose entry is e (J, at the record's scale
  * 1 from rest): -int a_g 1^T M' u' with a_g = A0 + A1 s and 1^T M' u' = sum_t Re(lambda_t mu_t z_t), each
  * z_t = p0 + p1 s + (z_t(0) - p0) e^(lambda s) there (p1 = -A1 beta / lambda, p0 = -A0 beta / lambda - A1 beta /
  * lambda^2). Es[t] = e^(lambda_t s). And B_t at s (when B is given): int_(ts + s)^end a_g e^(lambda_t (tau - ts - s))
- * dtau from its value at the segment's end (the next sample's), e^(-lambda s) (G(L) - G(s)) + e^(lambda (L - s)) B_t(L)
- * (EL[t] = e^(lambda_t L), Bn the next sample's B). */
+ * dtau from its value at the segment's end (the next sample's Bn), e^(-lambda s) (G(L) - G(s)) + e^(lambda (L - s)) B_t(L)
+ * = e^(lambda (L - s)) (H(L) + B_t(L)) - H(s), each factor at most 1 in size (ELs[t] = e^(lambda_t (L - s)): an
+ * overdamped mode's lambda can be large, and e^(-lambda s) would overflow). */
 static double segment_work(const SupportTable *T, const double *e, double A0, double A1, double s, const Cx *Es,
-                           const WorkTerm *w, double L, const Cx *EL, const double *Bn, Cx *B) {
+                           const WorkTerm *w, double L, const Cx *ELs, const double *Bn, Cx *B) {
     const double *z = e + MODAL_AT(T->nt, T->accDeg);
     double W = 0.0, ps = A0 * s + 0.5 * A1 * s * s, qs = 0.5 * A0 * s * s + A1 * s * s * s / 3.0;
     for (int t = 0; t < T->nt; t++) {
@@ -520,13 +520,10 @@ static double segment_work(const SupportTable *T, const double *e, double A0, do
         Cx p1 = cscale(c->b1, -A1), p0 = csub(cscale(c->b1, -A0), cscale(c->b2, A1));
         /* int (A0 + A1 x)(p0 + p1 x) dx, and (z(0) - p0) int (A0 + A1 x) e^(lambda x) dx = (z(0) - p0) [G(s) - G(0)],
          * G(x) = e^(lambda x) ((A0 + A1 x) / lambda - A1 / lambda^2) */
-        Cx G0 = G_at(c, A0, A1, 0.0, cx(1.0, 0.0)), Gs = G_at(c, A0, A1, s, Es[t]);
+        Cx Hs = H_at(c, A0, A1, s), G0 = H_at(c, A0, A1, 0.0), Gs = cmul(Es[t], Hs);
         Cx I0 = cadd(cadd(cscale(p0, ps), cscale(p1, qs)), cmul(csub(cx(z[2 * t], z[2 * t + 1]), p0), csub(Gs, G0)));
         W -= cmul(c->lm, I0).re;
-        if (B) {
-            Cx GL = G_at(c, A0, A1, L, EL[t]), Ei = cdiv(cx(1.0, 0.0), Es[t]), ELs = cmul(EL[t], Ei);
-            B[t] = cadd(cmul(Ei, csub(GL, Gs)), cmul(ELs, cx(Bn[2 * t], Bn[2 * t + 1])));
-        }
+        if (B) B[t] = csub(cmul(ELs[t], cadd(H_at(c, A0, A1, L), cx(Bn[2 * t], Bn[2 * t + 1]))), Hs);
     }
     return W;
 }
@@ -582,7 +579,7 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
                 e[4 + 4 * t + 1] = Z.im;
                 if (!last) zf[t] = end;
             }
-            if (!last) work += segment_work(T, e, a0, a1, L, P.e, W, L, P.e, NULL, NULL);
+            if (!last) work += segment_work(T, e, a0, a1, L, P.e, W, L, NULL, NULL, NULL);
         }
         for (int m = 0, t = 0; m < sm->nm && !sm->first; m++) {
             /* the mode's own segment, its share c_m of the floor's into the entry, and its state at the end */
@@ -695,6 +692,26 @@ static const double *entry_scaled(const Model *M, int piece, double *t0, double 
     const SupportModes *sm = &M->sup->modes;
     int nt = sm->nt;
     for (int k = 0; k < KNOWN_AT(nt); k++) buf[k] = M->d.accAmp * e[k];
+    /* the entry's origin moved to the rest's start where the piece began before it (the free vibration's terms
+     * there are e^(lambda (t - t0)), whose value at an earlier origin can overflow): the cubic re-expanded, the
+     * table's terms times e^(lambda delta) */
+    double delta = M->s.rest.t0 - *t0;
+    if (delta > 0.0) {
+        double *q = buf, d2 = delta * delta;
+        q[0] += delta * q[1] + d2 * q[2] + d2 * delta * q[3];
+        q[1] += 2.0 * delta * q[2] + 3.0 * d2 * q[3];
+        q[2] += 3.0 * delta * q[3];
+        for (int j = 0; j < nt; j++) {
+            Cx E = cexpi(sm->lre[j] * delta, sm->lim[j] * delta), Z = cmul(cx(buf[4 + 4 * j], buf[4 + 4 * j + 1]), E);
+            Cx Y = cmul(cx(buf[4 + 4 * j + 2], buf[4 + 4 * j + 3]), E);
+            Z = cadd(Z, cscale(Y, delta)); /* (Z + Y (s + delta)) e^(lambda (s + delta)) */
+            buf[4 + 4 * j] = Z.re;
+            buf[4 + 4 * j + 1] = Z.im;
+            buf[4 + 4 * j + 2] = Y.re;
+            buf[4 + 4 * j + 3] = Y.im;
+        }
+        *t0 = M->s.rest.t0;
+    }
     double s = *t0 - M->s.rest.t0;
     for (int j = 0; j < nt; j++) {
         Cx F = cmul(free_amplitude(M, j), cexpi(sm->lre[j] * s, sm->lim[j] * s));
@@ -1093,17 +1110,17 @@ static double work_at(const Model *M, double t, Cx *B) {
         A0 = r->ah[i];
         A1 = (r->ah[i + 1] - A0) / (r->t[i + 1] - r->t[i]);
     }
-    Cx Es[SUPPORT_MAX_TERMS], EL[SUPPORT_MAX_TERMS];
+    Cx Es[SUPPORT_MAX_TERMS], ELs[SUPPORT_MAX_TERMS];
     WorkTerm w[SUPPORT_MAX_TERMS];
     work_terms(sm, w);
     double L = i < r->n - 1 ? r->t[i + 1] - r->t[i] : s; /* (after the record: B = 0, the base still) */
     for (int k = 0; k < sm->nt; k++) {
         Es[k] = cexpi(sm->lre[k] * s, sm->lim[k] * s);
-        EL[k] = cexpi(sm->lre[k] * L, sm->lim[k] * L);
+        ELs[k] = cexpi(sm->lre[k] * (L - s), sm->lim[k] * (L - s));
     }
     static const double zero[2 * SUPPORT_MAX_TERMS];
     const double *bn = i < r->n - 1 ? e + T->stride + MODAL_AT(T->nt, T->accDeg) + 2 * T->nt + 1 : zero;
-    return e[MODAL_AT(T->nt, T->accDeg) + 2 * T->nt] + segment_work(T, e, A0, A1, s, Es, w, L, EL, bn, B);
+    return e[MODAL_AT(T->nt, T->accDeg) + 2 * T->nt] + segment_work(T, e, A0, A1, s, Es, w, L, ELs, bn, B);
 }
 
 /* W(t0, t) = k^2 (W_A(t) - W_A(t0)) - k sum_t Re(lambda_t mu_t d_t X_t) for the record's scale k, the free vibration

@@ -52,8 +52,8 @@ typedef struct {
     /* first = 1: the support with the blocks (mass mb, kg) at rest on floor j, as first-order modes
      * (support_rest_modes): term t's modal coordinate z_t' = lambda_t z_t + beta_t a_g, floor j's
      * u_j = sum_t Re(Yj_t z_t) (Y_t the mode's shape, twice it for a complex pair: every floor's in
-     * SupportShapes), and mu_t = 1^T M' Y_t (M' the floors' masses with the blocks' on floor j). nm = nt, c[]
-     * unused. */
+     * SupportShapes), and mu_t = 1^T M' Y_t (M' the floors' masses with the blocks' on floor j); up to 2 n
+     * terms (a real root each where a mode is overdamped). nm = 0: the per-mode arrays above are unused. */
     int first;
     double mb;
     double bre[SUPPORT_MAX_TERMS], bim[SUPPORT_MAX_TERMS], mure[SUPPORT_MAX_TERMS], muim[SUPPORT_MAX_TERMS];

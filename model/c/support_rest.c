@@ -266,7 +266,8 @@ int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out, Sup
     if (upper != lower || 2 * upper + (nt - upper) != d) return 1; /* a complex root without its conjugate */
     out->first = 1;
     out->mb = mb;
-    out->nm = out->nt = nt;
+    out->nt = nt;
+    out->nm = 0; /* (its terms are the modes: k1, k2, c and freq, per second-order mode, stay unused) */
     out->ns = n;
     out->j = sm->j;
     out->twoWay = sm->twoWay;
@@ -277,7 +278,6 @@ int support_rest_modes(const SupportModes *sm, double mb, SupportModes *out, Sup
     for (int t = 0; t < nt; t++) {
         out->labs[t] = hypot(out->lre[t], out->lim[t]);
         out->fastest = fmax(out->fastest, out->labs[t]);
-        out->freq[t] = out->lim[t] / (2.0 * M_PI);
     }
     /* checks to full precision: a state rebuilt from its modal coordinates, and the base's acceleration entering
      * the velocities alone with u'' = -a_g at rest (sum Re(Y beta) = 0, sum Re(lambda Y beta) = -1 on every floor) */
