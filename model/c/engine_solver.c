@@ -50,6 +50,16 @@ typedef struct {
 
 static int nblock(const Ctx *c);
 
+/* f + s g, each force and acceleration */
+static void forces_axpy(EnForces *f, const EnForces *g, double s) {
+    for (int q = 0; q < EN_NQ; q++) f->qdd[q] += s * g->qdd[q];
+    for (int k = 0; k < EN_MAX_BODIES; k++) {
+        for (int i = 0; i < 2; i++) f->N[k][i] += s * g->N[k][i];
+        f->T[k] += s * g->T[k];
+        f->xidd[k] += s * g->xidd[k];
+    }
+}
+
 /* f + s (g - f), each force and acceleration */
 static void forces_along(EnForces *f, const EnForces *g, double s) {
     for (int q = 0; q < EN_NQ; q++) f->qdd[q] += s * (g->qdd[q] - f->qdd[q]);
@@ -84,25 +94,25 @@ static void coupled_rhs(Ctx *c, const double *y, double ag, double av, double *d
         coupling_rhs(M, y, r, uj, ag, av, 0.0, py, dy);
         return;
     }
-    /* one body on a chain: the slopes in the support's acceleration from one evaluation; else two */
+    /* the derivatives' and forces' slopes in the floor's acceleration (dyB, fB): one body on a chain gives them from
+     * one evaluation; else the difference of two a unit of acceleration apart */
     int one = c->chain ? engine_rhs_slope(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->placed, dyB, &fB) : -1;
-    if (one == 1) {
-        for (int i = 0; i < n0; i++) dyB[i] += dy[i];
-        for (int q = 0; q < EN_NQ; q++) fB.qdd[q] += c->f.qdd[q];
-        for (int k = 0; k < EN_MAX_BODIES; k++) {
-            for (int i = 0; i < 2; i++) fB.N[k][i] += c->f.N[k][i];
-            fB.T[k] += c->f.T[k];
-            fB.xidd[k] += c->f.xidd[k];
+    if (one == -1) {
+        if (!engine_rhs(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->chain ? c->placed : NULL) ||
+            !engine_rhs(c->sys, &c->mode, xi0, y, ag + 1.0, av, dyB, &fB, c->chain ? placedB : NULL)) {
+            c->singular = 1;
+            return;
         }
-    } else if (one == 0 || !engine_rhs(c->sys, &c->mode, xi0, y, ag, av, dy, &c->f, c->chain ? c->placed : NULL) ||
-               !engine_rhs(c->sys, &c->mode, xi0, y, ag + 1.0, av, dyB, &fB, c->chain ? placedB : NULL)) {
+        for (int i = 0; i < n0; i++) dyB[i] -= dy[i];
+        forces_axpy(&fB, &c->f, -1.0);
+    } else if (one == 0) {
         c->singular = 1;
         return;
     }
-    double uj = coupling_floor(M, r, c->f.T[0], fB.T[0] - c->f.T[0]);
-    for (int i = 0; i < n0; i++) dy[i] += uj * (dyB[i] - dy[i]);
+    double uj = coupling_floor(M, r, c->f.T[0], fB.T[0]);
+    for (int i = 0; i < n0; i++) dy[i] += uj * dyB[i];
     for (int i = n0; i < EN_N(nb); i++) dy[i] = 0.0; /* (a chain's placed components ride along) */
-    forces_along(&c->f, &fB, uj);
+    forces_axpy(&c->f, &fB, uj);
     const double *yc = c->chain ? c->placed : y;
     double px = 0.0, py = 0.0;
     for (int k = 0; k < nb; k++) {
