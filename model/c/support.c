@@ -677,10 +677,12 @@ static double free_derivative(const Model *M, int k, double t) {
     return sum;
 }
 
-/* A bound on |its second derivative| at and after t: its terms decay at least as the slowest (Re lambda <= 0). */
+/* A bound on |its second derivative| at and after t: its terms decay at least as the slowest (Re lambda <= 0), and
+ * e^(-x) <= 1 / (1 + x + x^2/2 + x^3/6 + x^4/24) for x >= 0 (e^x exceeds its series): no exponential per call. */
 static double free_bound(const Model *M, double t) {
     const SupportRest *R = &M->s.rest;
-    return R->accBound * exp(-R->decay * fmax(t - R->t0, 0.0));
+    double x = R->decay * fmax(t - R->t0, 0.0);
+    return R->accBound / (1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0))));
 }
 
 /* Piece's entry as one entry of scale 1 (into buf): the table's at the record's scale, and at rest in closed form
