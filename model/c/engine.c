@@ -592,6 +592,29 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
     return p.xid;
 }
 
+/* A chain's derivatives from its reduced coordinates y, its placed state yc and its forces f under (ah, av): the
+ * rotations' rates and accelerations, the work of the support's motion, and where a contact slides (slides:
+ * sliding(s, m)) its loss, slip and slip acceleration (no friction works where every contact sticks). */
+static inline __attribute__((always_inline)) void chain_rates(const EnSystem *s, const EnMode *m, int slides,
+                                                              const double *y, const double *yc, double ah, double av,
+                                                              const EnForces *f, double *dy) {
+    int nb = s->nb;
+    double work = 0.0;
+    for (int k = 0; k < nb; k++) {
+        work -= s->body[k].m * (ah * yc[EN_VEL(nb, k, 0)] + av * yc[EN_VEL(nb, k, 1)]);
+        dy[EN_TH(k)] = yc[EN_W(k)];
+        dy[EN_W(k)] = f->qdd[EN_Q(k, 2)];
+    }
+    dy[EN_WORK(nb)] = work;
+    if (slides)
+        for (int k = 0; k < nb; k++) {
+            double v = m->sigma[k] ? y[EN_XID(nb, k)] : 0.0;
+            dy[EN_LOSS(nb, k)] = -f->T[k] * v;
+            dy[EN_XI(nb, k)] = v;
+            dy[EN_XID(nb, k)] = m->sigma[k] ? f->xidd[k] : 0.0;
+        }
+}
+
 int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const double *y, double ah, double av,
                double *dy, EnForces *fo, double *placed) {
     int nb = s->nb, known = 0;
@@ -599,20 +622,7 @@ int engine_rhs(const EnSystem *s, const EnMode *m, const double *xi0, const doub
     double ycl[NMAX], *yc = placed ? placed : ycl, xid[EN_MAX_BODIES] = {0}; /* (slip rates, where known) */
     if (xi0 && all_touch(s, m)) { /* a chain: its centres placed from its reduced coordinates, which it integrates */
         if (!chain(s, m, xi0, y, yc, ah, av, fp, NULL)) return 0;
-        double work = 0.0;
-        for (int k = 0; k < nb; k++) {
-            work -= s->body[k].m * (ah * yc[EN_VEL(nb, k, 0)] + av * yc[EN_VEL(nb, k, 1)]);
-            dy[EN_TH(k)] = yc[EN_W(k)];
-            dy[EN_W(k)] = fp->qdd[EN_Q(k, 2)];
-        }
-        dy[EN_WORK(nb)] = work;
-        if (sliding(s, m)) /* the losses and the slips (no friction works where every contact sticks) */
-            for (int k = 0; k < nb; k++) {
-                double v = m->sigma[k] ? y[EN_XID(nb, k)] : 0.0;
-                dy[EN_LOSS(nb, k)] = -fp->T[k] * v;
-                dy[EN_XI(nb, k)] = v;
-                dy[EN_XID(nb, k)] = m->sigma[k] ? fp->xidd[k] : 0.0;
-            }
+        chain_rates(s, m, sliding(s, m), y, yc, ah, av, fp, dy);
         return 1;
     }
     if (all_touch(s, m)) { /* the chain, which gives the slip rates too */
@@ -644,20 +654,11 @@ int engine_rhs_slope(const EnSystem *s, const EnMode *m, const double *xi0, cons
     if (!(slides ? chain_one(1, s, m, xi0, y, placed, ah, av, f, NULL, fa)
                  : chain_one(0, s, m, xi0, y, placed, ah, av, f, NULL, fa)))
         return 0;
-    for (int i = 0; i < EN_N(1); i++) dy[i] = dya[i] = 0.0;
-    dy[EN_TH(0)] = placed[EN_W(0)];
-    dy[EN_W(0)] = f->qdd[EN_Q(0, 2)];
-    dya[EN_W(0)] = fa->qdd[EN_Q(0, 2)];
-    dy[EN_WORK(1)] = -s->body[0].m * (ah * placed[EN_VEL(1, 0, 0)] + av * placed[EN_VEL(1, 0, 1)]);
-    dya[EN_WORK(1)] = -s->body[0].m * placed[EN_VEL(1, 0, 0)];
-    if (slides) {
-        double v = y[EN_XID(1, 0)];
-        dy[EN_LOSS(1, 0)] = -f->T[0] * v;
-        dya[EN_LOSS(1, 0)] = -fa->T[0] * v;
-        dy[EN_XI(1, 0)] = v;
-        dy[EN_XID(1, 0)] = f->xidd[0];
-        dya[EN_XID(1, 0)] = fa->xidd[0];
-    }
+    chain_rates(s, m, slides, y, placed, ah, av, f, dy);
+    /* the same rates are affine in ah with the slopes fa and the work's -m X': the kinematic rates do not move */
+    chain_rates(s, m, slides, y, placed, 1.0, 0.0, fa, dya);
+    dya[EN_TH(0)] = 0.0;
+    if (slides) dya[EN_XI(1, 0)] = 0.0;
     return 1;
 }
 

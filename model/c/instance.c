@@ -590,9 +590,7 @@ Status instance_set_state(Instance *I, const void *state, const char *fn) {
         check.restTable = NULL;
         if (memcmp(&check.d, &sm->d, sizeof(Derived)) == 0 && support_rest_needed(&check)) {
             SupportTable *own = &I->supRest;
-            int kept = own->data && own->n == check.rec->n && own->recHash == check.rec->hash &&
-                       own->startTime == check.v.startTime &&
-                       memcmp(&own->modes, &check.d.supRest, sizeof(SupportModes)) == 0;
+            int kept = support_rest_matches(&check, own);
             if (!kept && support_rest_attach(&check, &freshRest, I->alloc, I->release, msg, sizeof(msg))) {
                 drop_record(I, &staged);
                 support_free(&fresh, I->release);

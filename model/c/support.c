@@ -352,6 +352,8 @@ static int table_matches(const Model *M, const SupportTable *T, const SupportMod
 
 int support_matches(const Model *M, const SupportTable *T) { return table_matches(M, T, &M->d.sup); }
 
+int support_rest_matches(const Model *M, const SupportTable *T) { return table_matches(M, T, &M->d.supRest); }
+
 void support_free(SupportTable *T, RecordFree release) {
     if (T->data) release(T->data);
     memset(T, 0, sizeof(*T));
@@ -472,24 +474,13 @@ double support_peak(const Model *M, SupportTable *T) {
     return T->peak;
 }
 
-/* A first-order table's segment for term t from its modal coordinate z under a_g = a0 + a1 s: its share of the
- * floor's u (polynomial q, term Z) and z at s = L (E = e^(lambda L)). z' = lambda z + beta a_g has the particular
- * solution p0 + p1 s, p1 = -beta a1 / lambda, p0 = (p1 - beta a0) / lambda. */
-static Cx first_segment(const SupportModes *sm, int t, Cx z, double a0, double a1, double L, Cx E, double *q, Cx *Z) {
-    Cx lam = cx(sm->lre[t], sm->lim[t]), beta = cx(sm->bre[t], sm->bim[t]), Yj = cx(sm->yjre[t], sm->yjim[t]);
-    Cx p1 = cdiv(cscale(beta, -a1), lam), p0 = cdiv(csub(p1, cscale(beta, a0)), lam);
-    q[0] += cmul(Yj, p0).re;
-    q[1] += cmul(Yj, p1).re;
-    *Z = cmul(Yj, csub(z, p0));
-    return cadd(cadd(p0, cscale(p1, L)), cmul(csub(z, p0), E));
-}
-
-/* A first-order term's constants for the base's work: 1 / lambda, beta / lambda, beta / lambda^2, lambda mu. */
+/* A first-order term's constants: 1 / lambda, beta / lambda, beta / lambda^2 (its particular solutions), lambda mu
+ * (the base's work). */
 typedef struct {
     Cx il, b1, b2, lm;
-} WorkTerm;
+} FirstTerm;
 
-static void work_terms(const SupportModes *sm, WorkTerm *w) {
+static void first_terms(const SupportModes *sm, FirstTerm *w) {
     for (int t = 0; t < sm->nt; t++) {
         Cx lam = cx(sm->lre[t], sm->lim[t]), beta = cx(sm->bre[t], sm->bim[t]);
         w[t].il = cdiv(cx(1.0, 0.0), lam);
@@ -499,8 +490,27 @@ static void work_terms(const SupportModes *sm, WorkTerm *w) {
     }
 }
 
+/* z' = lambda z + beta (a0 + a1 s) has the particular solution p0 + p1 s: p1 = -a1 beta / lambda,
+ * p0 = -a0 beta / lambda - a1 beta / lambda^2. */
+static void particular(const FirstTerm *c, double a0, double a1, Cx *p0, Cx *p1) {
+    *p1 = cscale(c->b1, -a1);
+    *p0 = csub(cscale(c->b1, -a0), cscale(c->b2, a1));
+}
+
+/* A first-order table's segment for term t (constants c) from its modal coordinate z under a_g = a0 + a1 s: its share
+ * of the floor's u (polynomial q, term Z) and z at s = L (E = e^(lambda L)). */
+static Cx first_segment(const SupportModes *sm, const FirstTerm *c, int t, Cx z, double a0, double a1, double L, Cx E,
+                        double *q, Cx *Z) {
+    Cx Yj = cx(sm->yjre[t], sm->yjim[t]), p0, p1;
+    particular(c, a0, a1, &p0, &p1);
+    q[0] += cmul(Yj, p0).re;
+    q[1] += cmul(Yj, p1).re;
+    *Z = cmul(Yj, csub(z, p0));
+    return cadd(cadd(p0, cscale(p1, L)), cmul(csub(z, p0), E));
+}
+
 /* H(x) = (A0 + A1 x) / lambda - A1 / lambda^2: G(x) = e^(lambda x) H(x) has the derivative (A0 + A1 x) e^(lambda x). */
-static Cx H_at(const WorkTerm *c, double A0, double A1, double x) {
+static Cx H_at(const FirstTerm *c, double A0, double A1, double x) {
     return csub(cscale(c->il, A0 + A1 * x), cscale(cmul(c->il, c->il), A1));
 }
 
@@ -512,12 +522,13 @@ static Cx H_at(const WorkTerm *c, double A0, double A1, double x) {
  * = e^(lambda (L - s)) (H(L) + B_t(L)) - H(s), each factor at most 1 in size (ELs[t] = e^(lambda_t (L - s)): an
  * overdamped mode's lambda can be large, and e^(-lambda s) would overflow). */
 static double segment_work(const SupportTable *T, const double *e, double A0, double A1, double s, const Cx *Es,
-                           const WorkTerm *w, double L, const Cx *ELs, const double *Bn, Cx *B) {
+                           const FirstTerm *w, double L, const Cx *ELs, const double *Bn, Cx *B) {
     const double *z = e + MODAL_AT(T->nt, T->accDeg);
     double W = 0.0, ps = A0 * s + 0.5 * A1 * s * s, qs = 0.5 * A0 * s * s + A1 * s * s * s / 3.0;
     for (int t = 0; t < T->nt; t++) {
-        const WorkTerm *c = &w[t];
-        Cx p1 = cscale(c->b1, -A1), p0 = csub(cscale(c->b1, -A0), cscale(c->b2, A1));
+        const FirstTerm *c = &w[t];
+        Cx p0, p1;
+        particular(c, A0, A1, &p0, &p1);
         /* int (A0 + A1 x)(p0 + p1 x) dx, and (z(0) - p0) int (A0 + A1 x) e^(lambda x) dx = (z(0) - p0) [G(s) - G(0)],
          * G(x) = e^(lambda x) ((A0 + A1 x) / lambda - A1 / lambda^2) */
         Cx Hs = H_at(c, A0, A1, s), G0 = H_at(c, A0, A1, 0.0), Gs = cmul(Es[t], Hs);
@@ -535,7 +546,7 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
     for (int i = 0; i + 1 < r->n; i++) Lmax = fmax(Lmax, r->t[i + 1] - r->t[i]);
     int deg = acc_degree(sm->fastest * Lmax);
     /* a first-order table keeps at each sample its modal coordinates, the base's work since the record's start and
-     * each term's K (segment_work) */
+     * each term's B (segment_work) */
     int stride = MODAL_AT(sm->nt, deg) + (sm->first ? 4 * sm->nt + 1 : 0);
     T->data = (double *)alloc((size_t)r->n * (size_t)stride, sizeof(double));
     if (!T->data) FAIL("out of memory for the support's table (%d samples x %d values)", r->n, stride);
@@ -553,8 +564,8 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
     double x[SUPPORT_MAX_STOREYS] = {0}, v[SUPPORT_MAX_STOREYS] = {0};
     Cx zf[SUPPORT_MAX_TERMS];
     for (int t = 0; t < sm->nt; t++) zf[t] = cx(0.0, 0.0);
-    WorkTerm W[SUPPORT_MAX_TERMS];
-    if (sm->first) work_terms(sm, W);
+    FirstTerm W[SUPPORT_MAX_TERMS];
+    if (sm->first) first_terms(sm, W);
     double work = 0.0;
     Powers P;
     P.L = P.L0 = NAN;
@@ -568,13 +579,12 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
         if (!last) powers_at(sm, L, &P);
         if (sm->first) {
             double *z = e + MODAL_AT(sm->nt, deg);
-            if (i == 0) work = 0.0;
             z[2 * sm->nt] = work;
             for (int t = 0; t < sm->nt; t++) {
                 Cx Z;
                 z[2 * t] = zf[t].re;
                 z[2 * t + 1] = zf[t].im;
-                Cx end = first_segment(sm, t, zf[t], a0, a1, L, last ? cx(1.0, 0.0) : P.e[t], e, &Z);
+                Cx end = first_segment(sm, &W[t], t, zf[t], a0, a1, L, last ? cx(1.0, 0.0) : P.e[t], e, &Z);
                 e[4 + 4 * t] = Z.re;
                 e[4 + 4 * t + 1] = Z.im;
                 if (!last) zf[t] = end;
@@ -603,13 +613,14 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
         }
     }
     /* a first-order table's B_t (segment_work) from the record's end (0: the base is still after it) backwards */
+    Cx one[SUPPORT_MAX_TERMS];
+    for (int t = 0; t < sm->nt; t++) one[t] = cx(1.0, 0.0);
     for (int i = r->n - 2; i >= 0 && sm->first; i--) {
         double L = r->t[i + 1] - r->t[i], a0 = r->ah[i], a1 = (r->ah[i + 1] - a0) / L;
         double *b = T->data + (size_t)i * stride + MODAL_AT(sm->nt, deg) + 2 * sm->nt + 1;
         const double *bn = b + stride;
-        Cx B[SUPPORT_MAX_TERMS], one[SUPPORT_MAX_TERMS];
+        Cx B[SUPPORT_MAX_TERMS];
         powers_at(sm, L, &P);
-        for (int t = 0; t < sm->nt; t++) one[t] = cx(1.0, 0.0);
         segment_work(T, T->data + (size_t)i * stride, a0, a1, 0.0, one, W, L, P.e, bn, B);
         for (int t = 0; t < sm->nt; t++) {
             b[2 * t] = B[t].re;
@@ -638,7 +649,7 @@ int support_rest_attach(const Model *M, SupportTable *T, RecordAlloc alloc, Reco
         support_free(T, release);
         return 0;
     }
-    if (table_matches(M, T, &M->d.supRest)) return 0;
+    if (support_rest_matches(M, T)) return 0;
     support_free(T, release);
     return build_table(M, &M->d.supRest, T, alloc, msg, n);
 }
@@ -1030,30 +1041,30 @@ static int sample_at(const Model *M, double t) {
     return lo;
 }
 
-/* Term t's modal coordinate in the rest table at time t (scale 1): from its value at sample i's time. */
-static Cx table_modal(const Model *M, const SupportTable *T, int term, double t) {
+/* Every term's modal coordinate z of the rest table at time t times the record's scale, plus (free) the free
+ * vibration from the rest's start: from their values at the sample at or before t. */
+static void rest_modals(const Model *M, double t, int free, Cx *z) {
     const Record *r = M->rec;
+    const SupportTable *T = M->restTable;
+    const SupportModes *sm = &T->modes;
     int i = sample_at(M, t);
     const double *e = T->data + (size_t)i * T->stride + MODAL_AT(T->nt, T->accDeg);
-    double L = t - record_time(M, i), a0 = 0.0, a1 = 0.0, q[4] = {0};
+    double L = t - record_time(M, i), a0 = 0.0, a1 = 0.0, q[4] = {0}, s = t - M->s.rest.t0;
     if (i < r->n - 1) {
         a0 = r->ah[i];
         a1 = (r->ah[i + 1] - a0) / (r->t[i + 1] - r->t[i]);
     }
-    const SupportModes *sm = &T->modes;
-    Cx Z, E = cexpi(sm->lre[term] * L, sm->lim[term] * L);
-    return first_segment(sm, term, cx(e[2 * term], e[2 * term + 1]), a0, a1, L, E, q, &Z);
+    FirstTerm c[SUPPORT_MAX_TERMS];
+    first_terms(sm, c);
+    for (int k = 0; k < sm->nt; k++) {
+        Cx Z, E = cexpi(sm->lre[k] * L, sm->lim[k] * L);
+        z[k] = cscale(first_segment(sm, &c[k], k, cx(e[2 * k], e[2 * k + 1]), a0, a1, L, E, q, &Z), M->d.accAmp);
+        if (free)
+            z[k] = cadd(z[k], cmul(cx(M->s.rest.dre[k], M->s.rest.dim[k]), cexpi(sm->lre[k] * s, sm->lim[k] * s)));
+    }
 }
 
-/* Term t's modal coordinate of the support with the blocks at rest at time t. */
-static Cx rest_modal(const Model *M, int term, double t) {
-    const SupportModes *sm = &M->restTable->modes;
-    double s = t - M->s.rest.t0;
-    Cx fr = cmul(cx(M->s.rest.dre[term], M->s.rest.dim[term]), cexpi(sm->lre[term] * s, sm->lim[term] * s));
-    return cadd(cscale(table_modal(M, M->restTable, term, t), M->d.accAmp), fr);
-}
-
-static double work_at(const Model *M, double t, Cx *B);
+static double work_at(const Model *M, double t, Cx *B, FirstTerm *w);
 
 int support_rest_start(Model *M, double t, const double *z) {
     const SupportTable *T = M->restTable;
@@ -1062,17 +1073,17 @@ int support_rest_start(Model *M, double t, const double *z) {
     SupportRest *R = &M->s.rest;
     memset(R, 0, sizeof(*R));
     double zre[SUPPORT_MAX_TERMS], zim[SUPPORT_MAX_TERMS];
+    Cx zt[SUPPORT_MAX_TERMS], B[SUPPORT_MAX_TERMS];
     support_rest_coordinates(sm, &M->d.restShapes, z, zre, zim);
+    rest_modals(M, t, 0, zt);
     for (int k = 0; k < sm->nt; k++) {
-        Cx d = csub(cx(zre[k], zim[k]), cscale(table_modal(M, T, k, t), M->d.accAmp));
-        R->dre[k] = d.re;
-        R->dim[k] = d.im;
+        R->dre[k] = zre[k] - zt[k].re;
+        R->dim[k] = zim[k] - zt[k].im;
     }
-    Cx K[SUPPORT_MAX_TERMS];
-    R->workA0 = work_at(M, t, K);
+    R->workA0 = work_at(M, t, B, NULL);
     for (int k = 0; k < sm->nt; k++) {
-        R->k0re[k] = K[k].re;
-        R->k0im[k] = K[k].im;
+        R->b0re[k] = B[k].re;
+        R->b0im[k] = B[k].im;
     }
     R->t0 = t;
     R->on = 1;
@@ -1089,19 +1100,22 @@ int support_rest_start(Model *M, double t, const double *z) {
 
 void support_rest_floors(const Model *M, double t, double *z) {
     const SupportModes *sm = &M->restTable->modes;
+    Cx zt[SUPPORT_MAX_TERMS];
+    rest_modals(M, t, 1, zt);
     for (int i = 0; i < sm->ns; i++) z[2 * i] = z[2 * i + 1] = 0.0;
     for (int k = 0; k < sm->nt; k++) {
-        Cx c = rest_modal(M, k, t), lam = cx(sm->lre[k], sm->lim[k]);
+        Cx lam = cx(sm->lre[k], sm->lim[k]);
         for (int i = 0; i < sm->ns; i++) {
-            Cx Yc = cmul(cx(M->d.restShapes.Yre[k][i], M->d.restShapes.Yim[k][i]), c);
+            Cx Yc = cmul(cx(M->d.restShapes.Yre[k][i], M->d.restShapes.Yim[k][i]), zt[k]);
             z[2 * i] += Yc.re;
             z[2 * i + 1] += cmul(lam, Yc).re;
         }
     }
 }
 
-/* The base's work since the record's start at scale 1 from rest (the table's) and each term's B at t. */
-static double work_at(const Model *M, double t, Cx *B) {
+/* The base's work since the record's start at scale 1 from rest (the table's) and each term's B at t; w (when given):
+ * the terms' constants, written. */
+static double work_at(const Model *M, double t, Cx *B, FirstTerm *w) {
     const Record *r = M->rec;
     const SupportTable *T = M->restTable;
     const SupportModes *sm = &T->modes;
@@ -1113,8 +1127,9 @@ static double work_at(const Model *M, double t, Cx *B) {
         A1 = (r->ah[i + 1] - A0) / (r->t[i + 1] - r->t[i]);
     }
     Cx Es[SUPPORT_MAX_TERMS], ELs[SUPPORT_MAX_TERMS];
-    WorkTerm w[SUPPORT_MAX_TERMS];
-    work_terms(sm, w);
+    FirstTerm own[SUPPORT_MAX_TERMS];
+    if (!w) w = own;
+    first_terms(sm, w);
     double L = i < r->n - 1 ? r->t[i + 1] - r->t[i] : s; /* (after the record: B = 0, the base still) */
     for (int k = 0; k < sm->nt; k++) {
         Es[k] = cexpi(sm->lre[k] * s, sm->lim[k] * s);
@@ -1132,12 +1147,12 @@ static double work_at(const Model *M, double t, Cx *B) {
 double support_rest_work(const Model *M, double t) {
     const SupportRest *R = &M->s.rest;
     const SupportModes *sm = &M->restTable->modes;
-    Cx K[SUPPORT_MAX_TERMS];
-    double k = M->d.accAmp, W = k * k * (work_at(M, t, K) - R->workA0), s = t - R->t0;
+    Cx B[SUPPORT_MAX_TERMS];
+    FirstTerm c[SUPPORT_MAX_TERMS];
+    double k = M->d.accAmp, W = k * k * (work_at(M, t, B, c) - R->workA0), s = t - R->t0;
     for (int j = 0; j < sm->nt; j++) {
-        Cx lam = cx(sm->lre[j], sm->lim[j]), lm = cmul(lam, cx(sm->mure[j], sm->muim[j]));
-        Cx X = csub(cx(R->k0re[j], R->k0im[j]), cmul(cexpi(sm->lre[j] * s, sm->lim[j] * s), K[j]));
-        W -= k * cmul(lm, cmul(cx(R->dre[j], R->dim[j]), X)).re;
+        Cx X = csub(cx(R->b0re[j], R->b0im[j]), cmul(cexpi(sm->lre[j] * s, sm->lim[j] * s), B[j]));
+        W -= k * cmul(c[j].lm, cmul(cx(R->dre[j], R->dim[j]), X)).re;
     }
     return W;
 }

@@ -102,7 +102,7 @@ typedef struct {
     int on;
     double t0;
     double dre[SUPPORT_MAX_TERMS], dim[SUPPORT_MAX_TERMS];
-    double workA0, k0re[SUPPORT_MAX_TERMS], k0im[SUPPORT_MAX_TERMS]; /* support_rest_work's values at t0 */
+    double workA0, b0re[SUPPORT_MAX_TERMS], b0im[SUPPORT_MAX_TERMS]; /* support_rest_work's values at t0 */
     /* the free vibration's bound on |u''| at t0 (sum |Y_tj d_t| |lambda_t|^2) and its slowest decay (1/s) */
     double accBound, decay;
 } SupportRest;
@@ -114,6 +114,8 @@ struct Variables;
  * M's record, as support_attach; emptied where M has none (support_rest_needed false). */
 int support_rest_attach(const struct Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg,
                         size_t n);
+/* T was built for M's support with the blocks at rest on it and M's record. */
+int support_rest_matches(const struct Model *M, const SupportTable *T);
 /* M's support can hold its blocks at rest in closed form: two-way, under a record, its first-order modes found. */
 int support_rest_needed(const struct Model *M);
 /* Start the closed form at t (M->sup is then M->restTable, the floors' state z = (u_0, u_0', u_1, ...) relative to

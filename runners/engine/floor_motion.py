@@ -262,11 +262,6 @@ def fmu_peak_floor_accelerations(fmu, p: dict[str, Any], record_files) -> list[f
                                for f in record_files), "support.peakFloorAcceleration")
 
 
-def fmu_peak_floor_acceleration(fmu, p: dict[str, Any], record_file) -> float:
-    """:func:`fmu_peak_floor_accelerations` of one record file."""
-    return fmu_peak_floor_accelerations(fmu, p, [record_file])[0]
-
-
 def base_measures(p: dict[str, Any], t, a) -> dict[str, float]:
     """{"sa_t1": Sa(T1, 5 %)} (m/s^2) of the record (t, a) at the base of the support of FMU parameters ``p``
     (empty for a platform without spring)."""
