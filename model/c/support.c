@@ -632,26 +632,22 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
     return 0;
 }
 
-int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
-    if (!support_needed(M)) {
-        support_free(T, release);
-        return 0;
-    }
-    if (support_matches(M, T)) return 0;
+/* T built for the modes sm under M's record where it is needed (kept where it already was), else emptied. */
+static int attach(const Model *M, int needed, const SupportModes *sm, SupportTable *T, RecordAlloc alloc,
+                  RecordFree release, char *msg, size_t n) {
+    if (needed && table_matches(M, T, sm)) return 0;
     support_free(T, release);
-    return build_table(M, &M->d.sup, T, alloc, msg, n);
+    return needed ? build_table(M, sm, T, alloc, msg, n) : 0;
+}
+
+int support_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
+    return attach(M, support_needed(M), &M->d.sup, T, alloc, release, msg, n);
 }
 
 int support_rest_needed(const Model *M) { return M->d.supRest.first && M->v.kind == KIND_RECORD && M->rec; }
 
 int support_rest_attach(const Model *M, SupportTable *T, RecordAlloc alloc, RecordFree release, char *msg, size_t n) {
-    if (!support_rest_needed(M)) {
-        support_free(T, release);
-        return 0;
-    }
-    if (support_rest_matches(M, T)) return 0;
-    support_free(T, release);
-    return build_table(M, &M->d.supRest, T, alloc, msg, n);
+    return attach(M, support_rest_needed(M), &M->d.supRest, T, alloc, release, msg, n);
 }
 
 /* ------------------------------------------------------------------ evaluation */
