@@ -40,12 +40,58 @@ void record_free(Record *r, RecordFree release) {
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
+/* The decimal number tok[0..len) ([sign] digits [. digits] [e [sign] digits], '.' the point) exactly, where it
+ * is m 10^e with an integer m <= 2^53 and |e| <= 22: then m and 10^e are doubles and one correctly rounded product
+ * or quotient is the correctly rounded value (Clinger 1990), strtod's. Returns 0 there; 1 for any other token
+ * (strtod reads it). A record's samples, written with up to 17 digits, mostly are such numbers, read about ten
+ * times faster than by strtod. */
+static int parse_decimal(const char *tok, size_t len, double *value) {
+    static const double POW10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                     1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+    size_t i = 0;
+    int negative = 0, digits = 0, significant = 0, exp10 = 0;
+    unsigned long long m = 0;
+    if (i < len && (tok[i] == '+' || tok[i] == '-')) negative = tok[i++] == '-';
+    for (int point = 0; i < len; i++) {
+        char c = tok[i];
+        if (c == '.' && !point) {
+            point = 1;
+            continue;
+        }
+        if (c < '0' || c > '9') break;
+        digits++;
+        if (m || c != '0') significant++;
+        if (significant > 19) return 1;
+        m = 10 * m + (unsigned long long)(c - '0');
+        exp10 -= point;
+    }
+    if (!digits) return 1;
+    if (i < len && (tok[i] == 'e' || tok[i] == 'E')) {
+        int sign = 1, e = 0, ed = 0;
+        i++;
+        if (i < len && (tok[i] == '+' || tok[i] == '-')) sign = tok[i++] == '-' ? -1 : 1;
+        for (; i < len && tok[i] >= '0' && tok[i] <= '9'; i++, ed++)
+            if (e < 10000) e = 10 * e + (tok[i] - '0');
+        if (!ed) return 1;
+        exp10 += sign * e;
+    }
+    if (i != len || m > (1ULL << 53)) return 1;
+    double x = (double)m;
+    if (m == 0) x = 0.0;
+    else if (exp10 >= 0 && exp10 <= 22) x *= POW10[exp10];
+    else if (exp10 < 0 && exp10 >= -22) x /= POW10[-exp10];
+    else return 1;
+    *value = negative ? -x : x;
+    return 0;
+}
+
 /* Parse the number in tok[0..len) with '.' as the decimal point, whatever the
  * locale (an importer may run with a locale whose decimal point is ','): point is the
  * locale's, which strtod reads. */
 static int parse_number(const char *tok, size_t len, char point, double *value) {
     char buf[MAX_TOKEN];
     if (len == 0 || len >= MAX_TOKEN) return 1;
+    if (!parse_decimal(tok, len, value)) return 0;
     memcpy(buf, tok, len);
     buf[len] = '\0';
     for (size_t i = 0; i < len; i++) {
