@@ -46,6 +46,7 @@ typedef struct {
     double placed[NMAX];       /* a chain's state as the last evaluation placed it (engine_rhs) */
     int two;                   /* the support coupled two ways: its components follow the engine's (coupling.h) */
     int resting;               /* two-way, every body flat on its support and sticking (a sticking chain) */
+    int method;                /* the integrator: DOP853 with a two-way support, else DOPRI5 (step_method) */
 } Ctx;
 
 static int nblock(const Ctx *c);
@@ -150,6 +151,11 @@ static double solve_at(const Model *M, const EnMode *m, const double *y, double 
     return ag + uj;
 }
 
+/* The integrator of the engine's steps. On a two-way support the floors' modes (of periods down to a few hundredths of
+ * a second) are integrated with the bodies: Dormand and Prince's 8(5,3) (DOP853) takes about a fifth of DOPRI5's steps
+ * and half its evaluations there (docs/supports.md). Elsewhere DOPRI5, whose steps the record's samples bound. */
+static int step_method(const Model *M) { return coupling_on(M) ? RK_DOP853 : RK_DOPRI5; }
+
 /* The context of the contact set m from t (its forces and placed state are written by each evaluation). */
 static void context(Ctx *c, const Model *M, const EnMode *m, double t) {
     c->M = M;
@@ -164,6 +170,21 @@ static void context(Ctx *c, const Model *M, const EnMode *m, double t) {
     c->resting = c->two && c->chain && !c->slides;
     for (int k = 0; k < c->sys->nb && c->resting; k++) c->resting = m->closed[k][0] && m->closed[k][1];
     memcpy(c->xi0, M->s.enAnchor, sizeof(c->xi0));
+    c->method = step_method(M);
+}
+
+/* The dense output of a DOP853 step completed (three more evaluations), the context's last evaluation (its forces
+ * and a chain's placement, which the step's end left and its callers read) kept. */
+static void dense_finish(Ctx *c, Dop853Stages *st, Dense *d) {
+    if (d->method != RK_DOP853 || d->rows == DENSE_ROWS) return;
+    EnForces f = c->f;
+    double placed[NMAX];
+    int singular = c->singular;
+    memcpy(placed, c->placed, sizeof(placed));
+    dop853_dense(rhs_cb, c, st, d);
+    c->f = f;
+    c->singular = singular;
+    memcpy(c->placed, placed, sizeof(placed));
 }
 
 /* The engine's components a step integrates: a chain's first EN_CHAIN_N (EN_SLIDE_N where a contact slides), or
@@ -175,6 +196,18 @@ static int nblock(const Ctx *c) {
 /* The components a step integrates: the engine's; on a two-way support all of the engine's (those a chain places
  * ride along with derivative 0) and the support's after them. */
 static int nstep(const Ctx *c) { return c->two ? EN_N(c->sys->nb) + coupling_size(c->M) : nblock(c); }
+
+/* The components a two-way step varies, for DOP853's linear algebra: a chain's reduced ones and the support's (those
+ * the chain places ride along with derivative 0: coupled_rhs); all otherwise. */
+static void varying(const Ctx *c, Dop853Stages *st) {
+    st->nRanges = 0;
+    if (!c->two || !c->chain) return;
+    st->nRanges = 2;
+    st->lo[0] = 0;
+    st->hi[0] = nblock(c);
+    st->lo[1] = EN_N(c->sys->nb);
+    st->hi[1] = nstep(c);
+}
 
 /* A step's result y (its first nstep components) completed: a chain's other components from rest (a sticking
  * chain's friction losses, unchanged) and its centres placed exactly from its reduced coordinates and anchors.
@@ -952,8 +985,9 @@ typedef struct {
     double t;
     const double *y, *f0;
     double *y1, *f1;
-    double (*cont)[NMAX];
-    double x; /* the length of the step whose result y1, f1, cont hold (-1: none) */
+    Dense *cont;
+    Dop853Stages *st; /* (the DOP853 step's stages, to complete its dense output) */
+    double x;         /* the length of the step whose result y1, f1, cont hold (-1: none) */
 } Search;
 
 static void step_indicators(Search *s, double x, double *ind);
@@ -967,9 +1001,8 @@ static double indicator_after(void *ctx, double x) {
 
 /* Every indicator after a real step of length x from the step's start (one step for all). */
 static void step_indicators(Search *s, double x, double *ind) {
-    double err[NMAX];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
-    dopri5_step(rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, err, s->cont);
+    rk_step(s->c->method, rhs_cb, s->c, s->n, s->t, s->y, s->f0, x, s->y1, s->f1, s->cont, s->st);
     s->x = x;
     complete_last(s->c, s->y, s->y1); /* (the step's last evaluation was at its end) */
     indicators(s->c, s->t + x, s->y1, &s->c->f, ind, kind, body, corner);
@@ -1005,7 +1038,10 @@ static int take_step(Model *M, const Logger *log) {
     for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
     if (free_motion) hmax = fmin(hmax, FREE_STEP_MAX * time_scale(M));
     /* (the step writes the first n components; those after are completed, or never read) */
-    double y1[NMAX], f1[NMAX], cont[5][NMAX], h = S->h, hNext;
+    double y1[NMAX], f1[NMAX], h = S->h, hNext;
+    Dense cont;
+    Dop853Stages st;
+    varying(&c, &st);
     int hitBp, reuse = S->fValid && S->enIndValid; /* the last step's end, in the same contact set */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
@@ -1048,8 +1084,8 @@ static int take_step(Model *M, const Logger *log) {
         scale[COUPLING_WORK(nb, ns)] = scale[COUPLING_DAMP(nb, ns)] = 0.0;
         nErr = n;
     }
-    if (adaptive_step_controlled(rhs_cb, &c, n, nErr, scale, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1,
-                                 f1, cont, &hNext, &hitBp, &S->rejected)) {
+    if (adaptive_step_controlled(c.method, rhs_cb, &c, n, nErr, scale, S->t, S->y, S->f, &h, hmax, v->relTol,
+                                 v->absTol, y1, f1, &cont, &st, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
@@ -1058,6 +1094,7 @@ static int take_step(Model *M, const Logger *log) {
         say(log, LOG_ERROR, "the contact forces have no unique solution at t=%.17g", S->t);
         return -1;
     }
+    dense_finish(&c, &st, &cont);
     S->steps++;
     if (hitBp && hmax < bp - S->t) hitBp = 0;
     /* the first indicator that falls below zero: at dense samples (the kinematic ones the dense output does not
@@ -1072,7 +1109,7 @@ static int take_step(Model *M, const Logger *log) {
             haveEnd = 1;
         } else {
             memcpy(yd, S->y, sizeof(yd));
-            dense_eval(cont, n, s, yd);
+            dense_eval(&cont, n, s, yd);
             complete(&c, S->y, yd);
             EnForces none;
             memset(&none, 0, sizeof(none));
@@ -1095,10 +1132,10 @@ static int take_step(Model *M, const Logger *log) {
     for (int k = 0; k < nb; k++) {
         /* a chain's sliding contact stops exactly when its slip rate (a component) reaches zero */
         if (c.slides && S->en.sigma[k]) {
-            double P[5];
-            dense_poly(cont, EN_XID(nb, k), P);
-            for (int i = 0; i < 5; i++) P[i] *= S->en.sigma[k];
-            stopAt[k] = first_crossing(P, -1);
+            double P[DENSE_ROWS];
+            int deg = dense_poly(&cont, EN_XID(nb, k), P);
+            for (int i = 0; i <= deg; i++) P[i] *= S->en.sigma[k];
+            stopAt[k] = first_crossing(P, deg, -1);
             if (stopAt[k] <= 1.0 && stopAt[k] < sHi) {
                 sHi = stopAt[k];
                 sLo = 0.0;
@@ -1106,14 +1143,14 @@ static int take_step(Model *M, const Logger *log) {
             }
         }
         if (S->en.closed[k][0] == S->en.closed[k][1]) continue;
-        double ck[5], cj[5] = {0}, P[5], Q[5];
-        dense_poly(cont, EN_TH(k), ck);
-        if (k > 0) dense_poly(cont, EN_TH(k - 1), cj);
+        double ck[DENSE_ROWS], cj[DENSE_ROWS] = {0}, P[DENSE_ROWS], Q[DENSE_ROWS];
+        int deg = dense_poly(&cont, EN_TH(k), ck);
+        if (k > 0) dense_poly(&cont, EN_TH(k - 1), cj);
         int sgn = S->en.closed[k][1] ? 1 : -1; /* rocking on the right corner: relative rotation > 0 */
-        for (int i = 0; i < 5; i++) P[i] = Q[i] = sgn * (ck[i] - cj[i]);
+        for (int i = 0; i <= deg; i++) P[i] = Q[i] = sgn * (ck[i] - cj[i]);
         Q[0] -= M_PI / 2;
-        rootAt[k] = first_crossing(P, -1);
-        overAt[k] = first_crossing(Q, +1);
+        rootAt[k] = first_crossing(P, deg, -1);
+        overAt[k] = first_crossing(Q, deg, +1);
         double r = fmin(rootAt[k], overAt[k]);
         if (r <= 1.0 && r < sHi) {
             sHi = r;
@@ -1127,11 +1164,14 @@ static int take_step(Model *M, const Logger *log) {
         /* locate each crossing in [sLo, sHi] with real steps; the earliest wins. The indicators at the
          * bracket's ends come from one real step each; a rocking body's landing or overturn (a rotation
          * reaching its target) by Newton on the step length from the dense output's root. */
-        double best = INFINITY, yb[NMAX] = {0}, fb[NMAX] = {0}, cb[5][NMAX] = {{0}};
-        double ya[NMAX] = {0}, fa[NMAX] = {0}, ca[5][NMAX] = {{0}};
+        double best = INFINITY, yb[NMAX] = {0}, fb[NMAX] = {0};
+        double ya[NMAX] = {0}, fa[NMAX] = {0};
+        Dense ca, cb;
+        Dop853Stages sa;
+        varying(&c, &sa);
         double indA[EN_IND], indB[EN_IND], a = sLo * h, b = sHi * h;
         int which = -1, any = 0;
-        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, ca, -1.0};
+        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, &ca, &sa, -1.0};
         step_indicators(&se, b, indB);
         /* a rocking body's landing or overturn whose dense root lies in the bracket crosses there, whatever the
          * sign its indicator takes by rounding after the real step (its root is found exactly below) */
@@ -1162,8 +1202,10 @@ static int take_step(Model *M, const Logger *log) {
                     if (k > 0) w[EN_TH(k - 1)] = -1.0;
                 }
                 double x1 = (r <= 1.0 ? r : 1.0) * h; /* (the step to it may have been taken above) */
-                x = se.x == x1 ? refine_step_from(rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, ca)
-                               : refine_step(rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, ca);
+                x = se.x == x1 ? refine_step_from(c.method, rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa,
+                                                  &ca, &sa)
+                               : refine_step(c.method, rhs_cb, &c, n, S->t, S->y, S->f, x1, h, w, target, ya, fa, &ca,
+                                             &sa);
                 se.x = x;
                 x0 = 1;
             } else {
@@ -1179,9 +1221,10 @@ static int take_step(Model *M, const Logger *log) {
                 best = x;
                 which = i;
                 if (!x0) indicator_after(&se, x);
+                dense_finish(&c, &sa, &ca);
                 memcpy(yb, ya, sizeof(yb));
                 memcpy(fb, fa, sizeof(fb));
-                memcpy(cb, ca, sizeof(cb));
+                cb = ca;
             }
         }
         if (which >= 0) {
@@ -1189,7 +1232,7 @@ static int take_step(Model *M, const Logger *log) {
             memcpy(y1, yb, sizeof(y1));
             complete(&c, S->y, y1);
             memcpy(f1, fb, sizeof(f1));
-            memcpy(cont, cb, sizeof(cont));
+            cont = cb;
             tNew = S->t + hStep;
             hitBp = 0;
             switch (kind[which]) {
@@ -1221,19 +1264,21 @@ static int take_step(Model *M, const Logger *log) {
     }
     /* peaks of body 0's rotation (its rate's zeros) inside the step, while it rocks on one corner (flat, or in
      * flight, it has none to report) */
-    double com[5], roots[4];
-    int iw = EN_W(0), rocks = S->en.closed[0][0] != S->en.closed[0][1];
+    double com[DENSE_ROWS], dcom[DENSE_ROWS], roots[DENSE_ROWS];
+    int iw = EN_W(0), rocks = S->en.closed[0][0] != S->en.closed[0][1], deg = 0;
     S->nStepPeaks = 0;
-    if (rocks) dense_poly(cont, iw, com);
-    if (rocks && may_have_root(com)) {
-        int nr = poly_roots(com, 4, 0.0, 1.0, roots);
+    if (rocks) deg = dense_poly(&cont, iw, com);
+    if (rocks && may_have_root(com, deg)) {
+        int nr = poly_roots(com, deg, 0.0, 1.0, roots);
+        for (int i = 1; i <= deg; i++) dcom[i - 1] = i * com[i];
         for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
-            double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
+            double r = roots[j], d = deg == 4 ? com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]))
+                                              : poly_eval(dcom, deg - 1, r);
             if (r <= 0.0 || d == 0.0 || (ev != EVENT_NONE && r >= 1.0)) continue;
             if (r < 1e-6 && fabs(S->y[EN_W(0)]) <= 1e-12 * p) continue; /* the start from rest, no reversal */
             double yd[NMAX];
             memcpy(yd, S->y, sizeof(yd));
-            dense_eval(cont, n, r, yd);
+            dense_eval(&cont, n, r, yd);
             S->stepPeakTime[S->nStepPeaks] = S->t + r * hStep;
             S->stepPeakTheta[S->nStepPeaks] = yd[EN_TH(0)];
             S->nStepPeaks++;
@@ -1241,7 +1286,7 @@ static int take_step(Model *M, const Logger *log) {
     }
     S->tOld = S->t;
     S->hDense = hStep;
-    for (int j = 0; j < 5; j++) memcpy(S->cont[j], cont[j], sizeof(double) * (size_t)n);
+    dense_copy(&S->cont, &cont, n);
     S->denseTaylor = 0;
     S->denseSide = S->side;
     S->denseValid = 1;
@@ -1282,8 +1327,8 @@ static int take_step(Model *M, const Logger *log) {
         if (gap > S->gapMax[k]) S->gapMax[k] = gap;
     }
     if (nb == 2) {
-        S->maxAbsTheta = fmax(S->maxAbsTheta, dense_abs_max(cont, EN_TH(0), 1.0));
-        S->maxAbsTheta2 = fmax(S->maxAbsTheta2, dense_abs_max(cont, EN_TH(1), 1.0));
+        S->maxAbsTheta = fmax(S->maxAbsTheta, dense_abs_max(&cont, EN_TH(0), 1.0));
+        S->maxAbsTheta2 = fmax(S->maxAbsTheta2, dense_abs_max(&cont, EN_TH(1), 1.0));
     }
     if (!isfinite(S->y[0]) || !isfinite(S->y[EN_TH(0)])) {
         say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
@@ -1307,7 +1352,7 @@ static void state_forces_at(const Model *M, double t, double *y, EnMode *m, doub
         Ctx c;
         context(&c, M, &S->enDense, S->tOld);
         memcpy(c.xi0, S->enDenseAnchor, sizeof(c.xi0));
-        dense_eval(S->cont, nstep(&c), s, y);
+        dense_eval(&S->cont, nstep(&c), s, y);
         have = complete_forces(&c, S->y, y, ah, av, two ? NULL : f);
         *m = S->enDense;
     }
@@ -1427,7 +1472,8 @@ static int support_after_end(Model *M, double tc, const Logger *log) {
     /* (it steps ahead of tc: the outputs at tc come from its dense output) */
     int nb = M->d.en.nb, n = coupling_size(M), ns = M->d.sup.ns, hitBp;
     EndCtx c = {M, model_piece(M, S->t)};
-    double *z = S->y + EN_N(nb), z1[NMAX], f0[NMAX], f1[NMAX], cont[5][NMAX], scale[NMAX], hNext;
+    double *z = S->y + EN_N(nb), z1[NMAX], f0[NMAX], f1[NMAX], scale[NMAX], hNext;
+    Dense cont;
     double bp = next_breakpoint(M, S->t, c.piece), h = S->h, R = M->d.R, p = sqrt(M->d.p2);
     for (int i = 0; i < ns; i++) {
         scale[2 * i] = R;
@@ -1435,15 +1481,15 @@ static int support_after_end(Model *M, double tc, const Logger *log) {
     }
     scale[2 * ns] = scale[2 * ns + 1] = 0.0;
     end_rhs(&c, S->t, z, f0);
-    if (adaptive_step_controlled(end_rhs, &c, n, n, scale, S->t, z, f0, &h, bp - S->t, M->v.relTol, M->v.absTol, z1,
-                                 f1, cont, &hNext, &hitBp, &S->rejected)) {
+    if (adaptive_step_controlled(RK_DOPRI5, end_rhs, &c, n, n, scale, S->t, z, f0, &h, bp - S->t, M->v.relTol,
+                                 M->v.absTol, z1, f1, &cont, NULL, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size for the support (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
     S->tOld = S->t;
     S->hDense = h;
-    for (int j = 0; j < 5; j++) memcpy(S->cont[j], cont[j], sizeof(double) * (size_t)n);
+    dense_copy(&S->cont, &cont, n);
     S->denseValid = 1;
     S->t = hitBp ? bp : S->t + h;
     memcpy(z, z1, sizeof(double) * (size_t)n);
@@ -1461,7 +1507,7 @@ static void support_after_end_at(Model *M, double tc, double *y) {
     }
     if (!coupling_on(M) || !S->denseValid || !(S->t > tc)) return;
     double s = (tc - S->tOld) / S->hDense, z[NMAX];
-    dense_eval(S->cont, coupling_size(M), s < 0 ? 0 : s > 1 ? 1 : s, z);
+    dense_eval(&S->cont, coupling_size(M), s < 0 ? 0 : s > 1 ? 1 : s, z);
     memcpy(y + EN_N(M->d.en.nb), z, sizeof(double) * (size_t)coupling_size(M));
 }
 
@@ -1788,8 +1834,12 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
     if (!finite_all(S->y, ny) || !finite_all(S->f, ny) || !isfinite(S->t) || !isfinite(S->h) || !isfinite(S->tOld) ||
         !(S->hDense >= 0 && isfinite(S->hDense)) || !finite_all(S->stepPeakTime, MAX_STEP_PEAKS))
         BAD("the integrator's state holds a number that is not finite");
-    for (int k = 0; k < 5; k++)
-        if (!finite_all(S->cont[k], ny)) BAD("the last step's dense output holds a number that is not finite");
+    if (!((S->cont.method == RK_DOPRI5 && (S->cont.rows == 5 || S->cont.rows == 0)) ||
+          (S->cont.method == RK_DOP853 && S->cont.rows == DENSE_ROWS)))
+        BAD("the last step's dense output (method %d, %d rows) is neither DOPRI5's (5 rows) nor DOP853's (8)",
+            S->cont.method, S->cont.rows);
+    for (int k = 0; k < DENSE_ROWS; k++)
+        if (!finite_all(S->cont.r[k], ny)) BAD("the last step's dense output holds a number that is not finite");
 #undef BAD
     for (int k = 0; k < EN_MAX_BODIES; k++) {
         for (int i = 0; i < 2; i++)

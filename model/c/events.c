@@ -23,10 +23,17 @@ void say(const Logger *log, int category, const char *fmt, ...) {
 
 int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   const double *f0, double *h, double hmax, double rtol, double atol,
-                  double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                  double *y1, double *f1, Dense *cont, double *hNext,
                   int *hitMax, long long *rejected) {
-    return adaptive_step_controlled(f, ctx, n, n, NULL, t, y, f0, h, hmax, rtol, atol, y1, f1, cont, hNext, hitMax,
-                                    rejected);
+    return adaptive_step_controlled(RK_DOPRI5, f, ctx, n, n, NULL, t, y, f0, h, hmax, rtol, atol, y1, f1, cont, NULL,
+                                    hNext, hitMax, rejected);
+}
+
+void rk_step(int method, RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
+             double *y1, double *f1, Dense *cont, Dop853Stages *st) {
+    double err[NMAX], err3[NMAX];
+    if (method == RK_DOP853) dop853_step(f, ctx, n, t, y, f0, h, y1, f1, err, err3, cont, st);
+    else dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
 }
 
 /* dopri5_error_norm with the absolute tolerance of component i scaled by scale[i] (0: not controlled). */
@@ -44,11 +51,13 @@ static double scaled_error_norm(int n, const double *scale, const double *y0, co
     return counted ? sqrt(sum / counted) : 0.0;
 }
 
-int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,
+int adaptive_step_controlled(int method, RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,
                              const double *y, const double *f0, double *h, double hmax, double rtol, double atol,
-                             double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                             double *y1, double *f1, Dense *cont, Dop853Stages *st, double *hNext,
                              int *hitMax, long long *rejected) {
-    double err[NMAX], hh = *h;
+    double err[NMAX], err3[NMAX], hh = *h;
+    /* the step-size exponent: 1 / (the lower order + 1) */
+    double expo = method == RK_DOP853 ? -1.0 / 8.0 : -0.2;
     double hmin = 16.0 * DBL_EPSILON * fmax(1.0, fabs(t));
     if (!(hh > 0)) hh = dopri5_initial_step(f, ctx, nErr, t, y, f0, rtol, atol, fmin(hmax, 1.0));
     if (!(hh >= hmin)) {                  /* zero, NaN, or below the resolution of t */
@@ -69,17 +78,23 @@ int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const do
             hh = hmax;
             *hitMax = 1;
         }
-        dopri5_step(f, ctx, n, t, y, f0, hh, y1, f1, err, cont);
-        double en = scale ? scaled_error_norm(nErr, scale, y, y1, err, rtol, atol)
-                          : dopri5_error_norm(nErr, y, y1, err, rtol, atol);
+        double en;
+        if (method == RK_DOP853) {
+            dop853_step(f, ctx, n, t, y, f0, hh, y1, f1, err, err3, cont, st);
+            en = dop853_error_norm(nErr, scale, y, y1, err, err3, rtol, atol);
+        } else {
+            dopri5_step(f, ctx, n, t, y, f0, hh, y1, f1, err, cont);
+            en = scale ? scaled_error_norm(nErr, scale, y, y1, err, rtol, atol)
+                       : dopri5_error_norm(nErr, y, y1, err, rtol, atol);
+        }
         if (en <= 1.0) {
-            double fac = en > 0 ? 0.9 * pow(en, -0.2) : 5.0;
+            double fac = en > 0 ? 0.9 * pow(en, expo) : 5.0;
             *hNext = hh * fmin(5.0, fmax(0.2, fac));
             *h = hh;
             return 0;
         }
         if (!isfinite(en)) en = 1e10;
-        hh *= fmax(0.2, 0.9 * pow(en, -0.2));
+        hh *= fmax(0.2, 0.9 * pow(en, expo));
         (*rejected)++;
         if (hh < 16.0 * DBL_EPSILON * fmax(1.0, fabs(t))) {
             *h = hh;
@@ -94,17 +109,16 @@ static double weighted(int n, const double *w, const double *y) {
     return s;
 }
 
-double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
+double refine_step(int method, RhsFn f, const void *ctx, int n, double t, const double *y,
                    const double *f0, double h, double hMax, const double *w,
-                   double target, double *y1, double *f1, double cont[5][NMAX]) {
-    double err[NMAX];
-    dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
-    return refine_step_from(f, ctx, n, t, y, f0, h, hMax, w, target, y1, f1, cont);
+                   double target, double *y1, double *f1, Dense *cont, Dop853Stages *st) {
+    rk_step(method, f, ctx, n, t, y, f0, h, y1, f1, cont, st);
+    return refine_step_from(method, f, ctx, n, t, y, f0, h, hMax, w, target, y1, f1, cont, st);
 }
 
-double refine_step_from(RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
-                        double hMax, const double *w, double target, double *y1, double *f1, double cont[5][NMAX]) {
-    double err[NMAX];
+double refine_step_from(int method, RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0,
+                        double h, double hMax, const double *w, double target, double *y1, double *f1, Dense *cont,
+                        Dop853Stages *st) {
     for (int it = 0; it < 8; it++) {
         double g = weighted(n, w, y1) - target, dg = weighted(n, w, f1);
         if (g == 0.0 || dg == 0.0 || !isfinite(dg)) break;
@@ -115,7 +129,7 @@ double refine_step_from(RhsFn f, const void *ctx, int n, double t, const double 
         if (hn <= 0.0) hn = 0.5 * h;
         if (hn == h) break;
         h = hn;
-        dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
+        rk_step(method, f, ctx, n, t, y, f0, h, y1, f1, cont, st);
     }
     return h;
 }
@@ -190,23 +204,23 @@ double first_negative_sampled(double (*g)(void *ctx, double s), void *ctx, int s
     return 2.0;
 }
 
-int may_have_root(const double *c) {
+int may_have_root(const double *c, int deg) {
     double lo = c[0], hi = c[0];
-    for (int i = 1; i <= 4; i++) {
+    for (int i = 1; i <= deg; i++) {
         if (c[i] < 0) lo += c[i];
         else hi += c[i];
     }
     return lo <= 0.0 && hi >= 0.0;
 }
 
-double first_crossing(const double *c, int slope) {
-    double roots[4], d[4];
-    if (!may_have_root(c)) return 2.0;
-    int nr = poly_roots(c, 4, 0.0, 1.0, roots);
-    for (int i = 1; i <= 4; i++) d[i - 1] = i * c[i];
+double first_crossing(const double *c, int deg, int slope) {
+    double roots[DENSE_ROWS], d[DENSE_ROWS];
+    if (!may_have_root(c, deg)) return 2.0;
+    int nr = poly_roots(c, deg, 0.0, 1.0, roots);
+    for (int i = 1; i <= deg; i++) d[i - 1] = i * c[i];
     for (int j = 0; j < nr; j++) {
         if (roots[j] <= 0.0) continue;
-        double dv = poly_eval(d, 3, roots[j]);
+        double dv = poly_eval(d, deg - 1, roots[j]);
         if ((slope < 0 && dv < 0) || (slope > 0 && dv > 0)) return roots[j];
     }
     return 2.0;

@@ -25,26 +25,32 @@ void say(const Logger *log, int category, const char *fmt, ...);
 #define MAX_REJECTS 1000
 int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                   const double *f0, double *h, double hmax, double rtol, double atol,
-                  double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                  double *y1, double *f1, Dense *cont, double *hNext,
                   int *hitMax, long long *rejected);
 
-/* adaptive_step whose error control covers the first nErr of the n components only (the
- * others are integrals that ride along, such as work done), with the absolute tolerance of
- * component i scaled by scale[i] (components of other units than the angles; 0: a component not controlled; NULL: all 1). */
-int adaptive_step_controlled(RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,
+/* adaptive_step by the method (RK_DOPRI5, or RK_DOP853 with its stages in st, NULL for DOPRI5) whose error control
+ * covers the first nErr of the n components only (the others are integrals that ride along, such as work done),
+ * with the absolute tolerance of component i scaled by scale[i] (components of other units than the angles; 0: a
+ * component not controlled; NULL: all 1). A DOP853 step's dense output is of degree 3 until dop853_dense. */
+int adaptive_step_controlled(int method, RhsFn f, const void *ctx, int n, int nErr, const double *scale, double t,
                              const double *y, const double *f0, double *h, double hmax, double rtol, double atol,
-                             double *y1, double *f1, double cont[5][NMAX], double *hNext,
+                             double *y1, double *f1, Dense *cont, Dop853Stages *st, double *hNext,
                              int *hitMax, long long *rejected);
+
+/* One step of the method (stages in st for RK_DOP853) of length h, its error estimate discarded. */
+void rk_step(int method, RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
+             double *y1, double *f1, Dense *cont, Dop853Stages *st);
 
 /* Newton iteration on the step length h in (0, hMax] so that the weighted
  * sum of the step result's components, sum w[i] y1[i], equals target.
  * Leaves the step result for the returned h in y1, f1, cont. */
-double refine_step(RhsFn f, const void *ctx, int n, double t, const double *y,
+double refine_step(int method, RhsFn f, const void *ctx, int n, double t, const double *y,
                    const double *f0, double h, double hMax, const double *w,
-                   double target, double *y1, double *f1, double cont[5][NMAX]);
+                   double target, double *y1, double *f1, Dense *cont, Dop853Stages *st);
 /* refine_step from a step of length h already taken (its result in y1, f1, cont). */
-double refine_step_from(RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
-                        double hMax, const double *w, double target, double *y1, double *f1, double cont[5][NMAX]);
+double refine_step_from(int method, RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0,
+                        double h, double hMax, const double *w, double target, double *y1, double *f1, Dense *cont,
+                        Dop853Stages *st);
 
 /* The first x in (a, b] at which f turns negative, given f(a) = fa >= 0 > f(b) = fb: regula
  * falsi with the Illinois change (a few evaluations for a smooth f), falling back to halving
@@ -67,12 +73,12 @@ double first_negative_costly(double (*f)(void *ctx, double x), void *ctx, double
  * rocking-sliding's stick-to-slip. */
 double first_negative_sampled(double (*g)(void *ctx, double s), void *ctx, int samples);
 
-/* First root in (0, 1] of the quartic c crossing with the given slope sign
+/* First root in (0, 1] of the polynomial c of degree deg (at most 7) crossing with the given slope sign
  * (-1 falling, +1 rising); 2 if there is none. */
-double first_crossing(const double *c, int slope);
+double first_crossing(const double *c, int deg, int slope);
 
-/* Nonzero if the quartic c may have a root in [0, 1] (coefficient bounds). */
-int may_have_root(const double *c);
+/* Nonzero if the polynomial c of degree deg may have a root in [0, 1] (coefficient bounds). */
+int may_have_root(const double *c, int deg);
 
 /* At rest: the first time in [t, tc] at which |ah| exceeds
  * M->d.upliftSlope * (g + av), found cell by cell (the excitation is

@@ -176,7 +176,7 @@ typedef struct {
     /* dense output of the last accepted step, valid on [tOld, t] */
     int denseValid;
     double tOld, hDense;
-    double cont[5][NMAX];
+    Dense cont;           /* (DOP853 on a two-way support, else DOPRI5: engine_solver.c) */
     int denseSide, denseSide2;
     int denseSigma;       /* rocking-sliding: the slip direction of the last step */
     Mode denseMode;       /* and its mode (MODE_ROCKING or MODE_SLIDE) */

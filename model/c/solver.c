@@ -50,10 +50,10 @@ static RhsCtx rhs_context(const Model *M, double t, int side) {
 /* Step length so that component comp of the step result equals target. */
 static double refine(const RhsCtx *c, double t, const double *y, const double *f0,
                      double h, double hMax, int comp, double target, double *y1,
-                     double *f1, double cont[5][NMAX]) {
+                     double *f1, Dense *cont) {
     double w[NMAX] = {0};
     w[comp] = 1.0;
-    return refine_step(rhs_cb, c, 2, t, y, f0, h, hMax, w, target, y1, f1, cont);
+    return refine_step(RK_DOPRI5, rhs_cb, c, 2, t, y, f0, h, hMax, w, target, y1, f1, cont, NULL);
 }
 
 /* Block 1 has fallen over at S->t: it lies on its side. */
@@ -130,7 +130,8 @@ static int take_step(Model *M, const Logger *log) {
     double hmax = bp - S->t;
     /* zeroed: the step fills components 0 and 1 only, and the whole array goes into the state
      * (no stray stack bytes in a saved state) */
-    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}};
+    double y1[NMAX] = {0}, f1[NMAX] = {0};
+    Dense cont = {0};
     double h = S->h, hNext;
     int hitBp;
 
@@ -139,7 +140,7 @@ static int take_step(Model *M, const Logger *log) {
         S->fValid = 1;
         S->endValid = 0; /* the reactions stored are not this state's */
     }
-    if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1, cont, &hNext, &hitBp,
+    if (adaptive_step(rhs_cb, &c, 2, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1, &cont, &hNext, &hitBp,
                       &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
@@ -150,14 +151,14 @@ static int take_step(Model *M, const Logger *log) {
 
     /* events on the dense output */
     int side = S->side;
-    double cth[5], P[5], Q[5];
-    dense_poly(cont, 0, cth);
+    double cth[DENSE_ROWS], P[5], Q[5];
+    dense_poly(&cont, 0, cth);
     for (int i = 0; i < 5; i++) {
         P[i] = side * cth[i];
         Q[i] = P[i];
     }
     Q[0] -= M_PI / 2;
-    double sImpact = first_crossing(P, -1), sOver = first_crossing(Q, +1);
+    double sImpact = first_crossing(P, 4, -1), sOver = first_crossing(Q, 4, +1);
     EventKind ev = EVENT_NONE;
     double hStep = h, tNew = hitBp ? bp : S->t + h;
     double sFirst = fmin(sImpact, sOver);
@@ -169,27 +170,28 @@ static int take_step(Model *M, const Logger *log) {
             ev = EVENT_OVERTURN;
             target = side * M_PI / 2;
         }
-        hStep = refine(&c, S->t, S->y, S->f, sFirst * h, h, 0, target, y1, f1, cont);
+        hStep = refine(&c, S->t, S->y, S->f, sFirst * h, h, 0, target, y1, f1, &cont);
         y1[0] = target;
         tNew = S->t + hStep;
         hitBp = 0;
     }
 
     /* peaks (omega = 0) inside the step, refined the same way */
-    double com[5], roots[4];
-    dense_poly(cont, 1, com);
+    double com[DENSE_ROWS], roots[4];
+    dense_poly(&cont, 1, com);
     S->nStepPeaks = 0;
-    if (may_have_root(com)) {
+    if (may_have_root(com, 4)) {
         int nr = poly_roots(com, 4, 0.0, 1.0, roots);
         for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
             double r = roots[j], d = com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]));
             if (r <= 0.0 || d == 0.0) continue;
             if (ev != EVENT_NONE && r >= 1.0) continue;
-            double yp[NMAX], fp[NMAX], cp[5][NMAX], yd[NMAX];
-            double hp = refine(&c, S->t, S->y, S->f, r * hStep, hStep, 1, 0.0, yp, fp, cp);
+            double yp[NMAX], fp[NMAX], yd[NMAX];
+            Dense cp;
+            double hp = refine(&c, S->t, S->y, S->f, r * hStep, hStep, 1, 0.0, yp, fp, &cp);
             double tp = S->t + hp, thp = yp[0];
             if (fabs(hp - r * hStep) > 1e-3 * hStep) { /* Newton strayed: keep the interpolant */
-                dense_eval(cont, 2, r, yd);
+                dense_eval(&cont, 2, r, yd);
                 tp = S->t + r * hStep;
                 thp = yd[0];
             }
@@ -201,7 +203,7 @@ static int take_step(Model *M, const Logger *log) {
 
     S->tOld = S->t;
     S->hDense = hStep;
-    memcpy(S->cont, cont, sizeof(cont));
+    S->cont = cont;
     S->denseTaylor = 0;
     S->denseSide = side;
     S->denseValid = 1;
@@ -302,7 +304,7 @@ static int take_step_taylor(Model *M, const Logger *log) {
 static void dense_state(const Model *M, double s, double *y) {
     const State *S = &M->s;
     if (S->denseTaylor) taylor_eval(S->tay, S->tayN, s * S->hDense, &y[0], &y[1]);
-    else dense_eval(S->cont, 2, s, y);
+    else dense_eval(&S->cont, 2, s, y);
 }
 
 /* The ground tips the block resting at time t over its corner on side. */
@@ -510,7 +512,7 @@ static void state_rhs(const Model *M, double f[NMAX]) {
 /* The last step taken again from its start (tOld, and the dense output at s = 0),
  * as take_step took it: its end values y1 and, for Dormand-Prince, its dense
  * output cont, for the Taylor series x. */
-static void replay_step(const Model *M, double y1[NMAX], double cont[5][NMAX], double x[TAYLOR_MAX + 1]) {
+static void replay_step(const Model *M, double y1[NMAX], Dense *cont, double x[TAYLOR_MAX + 1]) {
     const State *S = &M->s;
     double f1[NMAX] = {0};
     if (M->v.nBlocks == 2) {
@@ -525,7 +527,7 @@ static void replay_step(const Model *M, double y1[NMAX], double cont[5][NMAX], d
     }
     RhsCtx c = rhs_context(M, S->tOld, S->denseSide);
     double y0[NMAX] = {0}, f0[NMAX] = {0}, err[NMAX];
-    for (int i = 0; i < 2; i++) y0[i] = S->cont[0][i];
+    for (int i = 0; i < 2; i++) y0[i] = S->cont.r[0][i];
     rhs_cb(&c, S->tOld, y0, f0);
     dopri5_step(rhs_cb, &c, 2, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
 }
@@ -673,8 +675,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         int count;
     } numbers[] = {
         {"t", &S->t, 1}, {"y", S->y, NMAX}, {"f", S->f, NMAX}, {"h", &S->h, 1}, {"tOld", &S->tOld, 1},
-        {"hDense", &S->hDense, 1}, {"cont[0]", S->cont[0], NMAX}, {"cont[1]", S->cont[1], NMAX},
-        {"cont[2]", S->cont[2], NMAX}, {"cont[3]", S->cont[3], NMAX}, {"cont[4]", S->cont[4], NMAX},
+        {"hDense", &S->hDense, 1}, {"cont", S->cont.r[0], DENSE_ROWS * NMAX},
         {"tay", S->tay, TAYLOR_MAX + 1}, {"stepPeakTime", S->stepPeakTime, MAX_STEP_PEAKS},
         {"stepPeakTheta", S->stepPeakTheta, MAX_STEP_PEAKS}, {"lastImpactTime", &S->lastImpactTime, 1},
         {"lastPeakTime", &S->lastPeakTime, 1}, {"lastPeakTheta", &S->lastPeakTheta, 1},
@@ -690,6 +691,9 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         int i = not_finite(numbers[k].x, numbers[k].count);
         if (i >= 0) FAIL("%s[%d] = %g is not a finite number", numbers[k].name, i, numbers[k].x[i]);
     }
+    if (!(S->cont.method == RK_DOPRI5 && (S->cont.rows == 5 || S->cont.rows == 0)))
+        FAIL("the last step's dense output (method %d, %d rows) is not DOPRI5's (5 rows, or none yet)", S->cont.method,
+             S->cont.rows);
     /* what a solver never writes keeps the zeros model_initialize gave it */
     if (two) {
         if (!isfinite(S->lastSwitchTime) && S->lastSwitchTime != -INFINITY)
@@ -702,7 +706,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         for (int i = 0; i < NMAX; i++) {
             int unused = i >= ny || taylor;
             int used = unused && (!zero_bits(S->f[i]) || (i >= ny && !zero_bits(S->y[i])));
-            for (int k = 0; k < 5; k++) used |= unused && !zero_bits(S->cont[k][i]);
+            for (int k = 0; k < DENSE_ROWS; k++) used |= unused && !zero_bits(S->cont.r[k][i]);
             if (used)
                 FAIL("component %d of y, f or the dense output is unused%s and must be 0", i,
                      taylor ? " (Taylor series)" : "");
@@ -813,12 +817,13 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
      * (no event applied since): taken again from the step's start, the step must give the same
      * dense output and end values (an angle an event set to its target excepted) */
     if (moving && S->denseValid && S->t > tc) {
-        double y1[NMAX] = {0}, cont[5][NMAX] = {{0}}, x[TAYLOR_MAX + 1] = {0};
+        double y1[NMAX] = {0}, x[TAYLOR_MAX + 1] = {0};
+        Dense cont = {0};
         if (S->denseSide != S->side || S->denseSide2 != S->side2)
             FAIL("the pivots of the last step (%d, %d) are not the current ones (%d, %d)", S->denseSide, S->denseSide2,
                  S->side, S->side2);
-        replay_step(M, y1, cont, x);
-        if (S->denseTaylor ? memcmp(x, S->tay, sizeof(x)) != 0 : memcmp(cont, S->cont, sizeof(cont)) != 0)
+        replay_step(M, y1, &cont, x);
+        if (S->denseTaylor ? memcmp(x, S->tay, sizeof(x)) != 0 : memcmp(&cont, &S->cont, sizeof(cont)) != 0)
             FAIL("the last step's dense output is not the one its start (t = %.17g) gives", S->tOld);
         for (int i = 0; i < ny; i++) {
             int angle = i % 2 == 0;

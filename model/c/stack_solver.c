@@ -256,7 +256,7 @@ static int apply_event(Model *M, const Logger *log) {
 
 /* Weakest margin (shifted by STACK_TOL_OPEN) on the dense output at s. */
 static double open_margin(const Model *M, const Ctx *c, double t0, double h,
-                          const double cont[5][NMAX], double s) {
+                          const Dense *cont, double s) {
     double y[NMAX], ah, av;
     int contact, end;
     dense_eval(cont, 4, s, y);
@@ -269,7 +269,7 @@ typedef struct {
     const Model *M;
     const Ctx *c;
     double t0, h;
-    const double (*cont)[NMAX];
+    const Dense *cont;
 } OpenSearch;
 
 static double open_at(void *ctx, double s) {
@@ -280,7 +280,7 @@ static double open_at(void *ctx, double s) {
 /* First s in (0, 1] at which a closed contact opens, or 2. The margin is
  * sampled and the first sign change bisected to machine precision. */
 static double open_crossing(const Model *M, const Ctx *c, double t0, double h,
-                            const double cont[5][NMAX]) {
+                            const Dense *cont) {
     OpenSearch o = {M, c, t0, h, cont};
     return first_negative_sampled(open_at, &o, OPEN_SAMPLES);
 }
@@ -301,23 +301,24 @@ static int take_step(Model *M, const Logger *log) {
         }
     }
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
-    double y1[NMAX] = {0}, f1[NMAX] = {0}, cont[5][NMAX] = {{0}}, h = S->h, hNext; /* components past 4: 0 in the state */
+    double y1[NMAX] = {0}, f1[NMAX] = {0}, h = S->h, hNext;
+    Dense cont = {0}; /* components past 4: 0 in the state */
     if (!S->fValid) {
         rhs_cb(&c, S->t, S->y, S->f);
         S->fValid = 1;
     }
     if (adaptive_step(rhs_cb, &c, 4, S->t, S->y, S->f, &h, hmax, v->relTol, v->absTol, y1, f1,
-                      cont, &hNext, &hitBp, &S->rejected)) {
+                      &cont, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size (last tried %g) at t=%.17g", h, S->t);
         return -1;
     }
     S->steps++;
 
     /* events: polynomial crossings of the dense output, and contact opening */
-    double a[5], b[5], P[5];
+    double a[DENSE_ROWS], b[DENSE_ROWS], P[5];
     int s1 = S->side, s2 = S->side2;
-    dense_poly(cont, 0, a);
-    dense_poly(cont, 2, b);
+    dense_poly(&cont, 0, a);
+    dense_poly(&cont, 2, b);
     EventKind ev = EVENT_NONE;
     double sEv = 2.0;
     struct {
@@ -335,11 +336,11 @@ static int take_step(Model *M, const Logger *log) {
         if (!cand[k].use) continue;
         for (int i = 0; i < 5; i++) P[i] = cand[k].sign * (cand[k].rel ? b[i] - a[i] : a[i]);
         P[0] -= cand[k].offset;
-        double s = first_crossing(P, cand[k].slope);
+        double s = first_crossing(P, 4, cand[k].slope);
         if (s < sEv) sEv = s, ev = cand[k].kind;
     }
     if (S->mode == MODE_LOCKED || S->mode == MODE_UPPER) {
-        double s = open_crossing(M, &c, S->t, h, cont);
+        double s = open_crossing(M, &c, S->t, h, &cont);
         if (s < sEv) sEv = s, ev = EVENT_OPEN;
     }
     double hStep = h, tNew = hitBp ? bp : S->t + h;
@@ -349,17 +350,17 @@ static int take_step(Model *M, const Logger *log) {
         if (ev == EVENT_INTERFACE || ev == EVENT_OVERTURN2) w[0] = -1.0, w[2] = 1.0;
         if (ev == EVENT_OVERTURN) target = s1 * M_PI / 2;
         if (ev == EVENT_OVERTURN2) target = s2 * M_PI / 2;
-        hStep = refine_step(rhs_cb, &c, 4, S->t, S->y, S->f, sEv * h, h, w, target, y1, f1, cont);
+        hStep = refine_step(RK_DOPRI5, rhs_cb, &c, 4, S->t, S->y, S->f, sEv * h, h, w, target, y1, f1, &cont, NULL);
         if (ev == EVENT_IMPACT || ev == EVENT_OVERTURN) y1[0] = target;
         if (ev == EVENT_INTERFACE || ev == EVENT_OVERTURN2) y1[2] = y1[0] + target;
         tNew = S->t + hStep;
         hitBp = 0;
     }
 
-    stack_track_peaks(S, (const double(*)[NMAX])cont, y1);
+    stack_track_peaks(S, &cont, y1);
     S->tOld = S->t;
     S->hDense = hStep;
-    memcpy(S->cont, cont, sizeof(cont));
+    S->cont = cont;
     S->denseSide = s1;
     S->denseSide2 = s2;
     S->denseValid = 1;
@@ -412,13 +413,13 @@ static int state_at(const Model *M, double tc, double y[4], int *s1, int *s2, do
     *s = (tc - S->tOld) / S->hDense;
     if (*s < 0) *s = 0;
     if (*s > 1) *s = 1;
-    dense_eval(S->cont, 4, *s, y);
+    dense_eval(&S->cont, 4, *s, y);
     *s1 = S->denseSide;
     *s2 = S->denseSide2;
     return 1;
 }
 
-void stack_track_peaks(State *S, const double cont[5][NMAX], const double *y1) {
+void stack_track_peaks(State *S, const Dense *cont, const double *y1) {
     S->maxPrev = S->maxAbsTheta;
     S->maxPrev2 = S->maxAbsTheta2;
     S->maxAbsTheta = fmax(S->maxAbsTheta, fmax(dense_abs_max(cont, 0, 1.0), fabs(y1[0])));
@@ -461,8 +462,8 @@ void stack_outputs(Model *M, double tc) {
     v->maxAbsTheta = S->maxAbsTheta;
     v->maxAbsTheta2 = S->maxAbsTheta2;
     if (inStep) {
-        v->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
-        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
+        v->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(&S->cont, 0, s));
+        v->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(&S->cont, 2, s));
     }
     v->energy = stack_energy(M, s1, s2, y);
     stack_counter_outputs(M, v, ah, av);
@@ -487,8 +488,8 @@ void stack_rollback(Model *M, double tc) {
     int s1, s2;
     if (!moving(S->mode) || S->t <= tc || !S->denseValid) return;
     state_at(M, tc, y, &s1, &s2, &s);
-    S->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(S->cont, 0, s));
-    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(S->cont, 2, s));
+    S->maxAbsTheta = fmax(S->maxPrev, dense_abs_max(&S->cont, 0, s));
+    S->maxAbsTheta2 = fmax(S->maxPrev2, dense_abs_max(&S->cont, 2, s));
     memcpy(S->y, y, sizeof(y));
     S->t = tc;
     S->side = s1;
@@ -504,11 +505,11 @@ void stack_state_rhs(const Model *M, double f[NMAX]) {
     rhs_cb(&c, S->t, S->y, f);
 }
 
-void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]) {
+void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], Dense *cont) {
     const State *S = &M->s;
     Ctx c = {M, S->mode, S->denseSide, S->denseSide2, model_piece(M, S->tOld)};
     double y0[NMAX], f0[NMAX], err[NMAX];
-    for (int i = 0; i < NMAX; i++) y0[i] = S->cont[0][i];
+    for (int i = 0; i < NMAX; i++) y0[i] = S->cont.r[0][i];
     rhs_cb(&c, S->tOld, y0, f0);
     dopri5_step(rhs_cb, &c, 4, S->tOld, y0, f0, S->hDense, y1, f1, err, cont);
 }

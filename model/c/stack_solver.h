@@ -25,7 +25,7 @@ int stack_advance(Model *M, double tc, const Logger *log, EventStop *stop);
 void stack_outputs(Model *M, double tc);
 /* After a step with dense output cont ending at y1: the largest |theta1|, |theta2| so far, and
  * those before the step (for outputs inside it). Both stack models. */
-void stack_track_peaks(State *S, const double cont[5][NMAX], const double *y1);
+void stack_track_peaks(State *S, const Dense *cont, const double *y1);
 /* The outputs both stack models take from the state as they are: counters, times, flags, pattern
  * and the ground's accelerations (ah, av) at the output time. */
 void stack_counter_outputs(const Model *M, Variables *v, double ah, double av);
@@ -36,6 +36,6 @@ void stack_rollback(Model *M, double tc);
  * output at s = 0) in the state's pattern: its end values, derivative there and
  * dense output. */
 void stack_state_rhs(const Model *M, double f[NMAX]);
-void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], double cont[5][NMAX]);
+void stack_replay_step(const Model *M, double y1[NMAX], double f1[NMAX], Dense *cont);
 
 #endif

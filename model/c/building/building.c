@@ -243,7 +243,8 @@ void building_start(Building *B, const Record *rec, double t0) {
 int building_advance(Building *B, double target, char *msg, size_t n) {
     int dim = 2 * B->n + 3;
     double rtol = B->v.relTol, atol = B->v.absTol;
-    double f0[NMAX], y1[NMAX], f1[NMAX], err[NMAX], cont[5][NMAX];
+    double f0[NMAX], y1[NMAX], f1[NMAX], err[NMAX];
+    Dense cont; /* (not used: the building is sampled at step ends) */
     long tries = 0;
     while (B->t < target) {
         Rhs ctx = {B, piece_at(B, B->t)};
@@ -262,7 +263,7 @@ int building_advance(Building *B, double target, char *msg, size_t n) {
             }
             if (++tries > MAX_STEPS)
                 FAIL("more than %ld steps in one communication step at t = %.17g", MAX_STEPS, B->t);
-            dopri5_step(rhs, &ctx, dim, B->t, B->y, f0, h, y1, f1, err, cont);
+            dopri5_step(rhs, &ctx, dim, B->t, B->y, f0, h, y1, f1, err, &cont);
             double e = dopri5_error_norm(dim, B->y, y1, err, rtol, atol);
             if (!isfinite(e)) e = 1e10;
             double fac = e == 0.0 ? 5.0 : fmin(5.0, fmax(0.2, 0.9 * pow(e, -0.2)));
