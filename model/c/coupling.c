@@ -6,25 +6,18 @@ int coupling_on(const Model *M) { return M->d.sup.twoWay; }
 
 int coupling_size(const Model *M) { return M->d.sup.twoWay ? COUPLING_N(M->d.sup.ns) : 0; }
 
-/* (K u)_i of the shear building (a platform: its spring to the base) */
-static double stiffness_row(const SupportModes *sm, const double *u, int i) {
-    double ki = sm->stiff[i], kn = i + 1 < sm->ns ? sm->stiff[i + 1] : 0.0;
-    double below = i > 0 ? u[2 * (i - 1)] : 0.0, above = i + 1 < sm->ns ? u[2 * (i + 1)] : 0.0;
-    return ki * (u[2 * i] - below) - kn * (above - u[2 * i]);
-}
-
 void coupling_free(const Model *M, const double *y, double ag, double *r) {
     const SupportModes *sm = &M->d.sup;
     const double *z = y + EN_N(M->d.en.nb);
-    for (int i = 0; i < sm->ns; i++) {
-        double ku = stiffness_row(sm, z, i), kv = 0.0;
-        if (sm->a1 != 0.0) {
-            double vb = i > 0 ? z[2 * (i - 1) + 1] : 0.0, va = i + 1 < sm->ns ? z[2 * (i + 1) + 1] : 0.0;
-            double ki = sm->stiff[i], kn = i + 1 < sm->ns ? sm->stiff[i + 1] : 0.0;
-            kv = ki * (z[2 * i + 1] - vb) - kn * (va - z[2 * i + 1]);
-        }
-        r[i] = -(sm->a0 * sm->mass[i] * z[2 * i + 1] + sm->a1 * kv + ku) / sm->mass[i] - ag;
+    int ns = sm->ns;
+    /* storey i's force on floor i, k_i (drift + a1 drift rate) (C = a0 M + a1 K); floor i feels F_i - F_(i+1) */
+    double F[SUPPORT_MAX_STOREYS + 1];
+    for (int i = 0; i < ns; i++) {
+        double du = z[2 * i] - (i > 0 ? z[2 * i - 2] : 0.0), dv = z[2 * i + 1] - (i > 0 ? z[2 * i - 1] : 0.0);
+        F[i] = sm->stiff[i] * (du + sm->a1 * dv);
     }
+    F[ns] = 0.0;
+    for (int i = 0; i < ns; i++) r[i] = -sm->a0 * z[2 * i + 1] - (F[i] - F[i + 1]) / sm->mass[i] - ag;
 }
 
 double coupling_floor(const Model *M, const double *r, double T0, double Ta) {

@@ -257,9 +257,10 @@ def fmu_peak_floor_accelerations(fmu, p: dict[str, Any], record_files) -> list[f
     RockingBlock.fmu computes it at initialisation (``fmu``, a runners.engine.fmu.RockingFMU; its output
     support.peakFloorAcceleration: the extrema of the support's closed form located by its bound-certified search,
     model/c/support.c). It equals :func:`peak_floor_acceleration` to rounding (tests/test_floor_motion.py) at a
-    fraction of its cost."""
-    return fmu.initial_values(({**p, "excitation.kind": 4, "excitation.file": str(f), "excitation.scale": 1.0}
-                               for f in record_files), "support.peakFloorAcceleration")
+    fraction of its cost. (Computed one-way whatever ``p``'s coupling: the bare support's motion is the same, and a
+    two-way instance would also build the table of the blocks at rest, which this does not read.)"""
+    return fmu.initial_values(({**p, "support.coupling": 0, "excitation.kind": 4, "excitation.file": str(f),
+                                "excitation.scale": 1.0} for f in record_files), "support.peakFloorAcceleration")
 
 
 def base_measures(p: dict[str, Any], t, a) -> dict[str, float]:
