@@ -103,6 +103,18 @@ def _scratch_database(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("ROCKING_DB", f"sqlite:///{tmp_path_factory.getbasetemp() / 'tests.db'}")
 
 
+def compile_white_box(tmp_path: Path, source: str, *extra: str,
+                      flags: tuple[str, ...] = ("-O2", "-Wall", "-Wextra", "-Werror")) -> Path:
+    """A white-box check tests/c/<source> (it includes the model/c file it tests) compiled with the system's gcc,
+    with the model/c files ``extra``; the executable's path."""
+    root = Path(__file__).resolve().parents[1]
+    exe = tmp_path / Path(source).stem
+    subprocess.run(["gcc", "-std=c99", *flags, f"-I{root / 'model' / 'c'}", "-o", str(exe),
+                    str(root / "tests" / "c" / source), *(str(root / "model" / "c" / f) for f in extra), "-lm"],
+                   check=True)
+    return exe
+
+
 def run_cli(*args: str, db: str, fmu_path: Path) -> subprocess.CompletedProcess:
     """The runners command line in this process (runners.cli.main.main, as the console script
     calls it): exit status and what it printed, without a Python start-up per call."""

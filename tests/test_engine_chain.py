@@ -11,19 +11,15 @@ equals the general one and never falls below 1 - 3 mu / 4. A white-box check com
 system's gcc."""
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-C = ROOT / "model" / "c"
+from tests.conftest import compile_white_box
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
 def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
-    exe = tmp_path / "engine_chain"
-    subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{C}", "-o", str(exe),
-                    str(ROOT / "tests" / "c" / "engine_chain.c"), str(C / "lcp.c"), "-lm"], check=True)
+    exe = compile_white_box(tmp_path, "engine_chain.c", "lcp.c")
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
     dynamics, placement, sliding, impulses = float(out[0]), float(out[1]), int(out[2]), float(out[3])
     reduced, jam, jam_slack, slope = float(out[4]), float(out[5]), float(out[6]), float(out[7])
@@ -47,9 +43,7 @@ def test_the_chain_equals_the_constrained_system_at_random_states(tmp_path):
 def test_the_chain_reads_no_uninitialised_memory(tmp_path):
     """valgrind's memcheck over 2,000 states: the reduced system sums every body's columns of every
     coordinate, so a column left unset would be read (it once was, and passed the comparison by luck)."""
-    exe = tmp_path / "engine_chain"
-    subprocess.run(["gcc", "-std=c99", "-O1", "-g", f"-I{C}", "-o", str(exe), str(ROOT / "tests" / "c" / "engine_chain.c"),
-                    str(C / "lcp.c"), "-lm"], check=True)
+    exe = compile_white_box(tmp_path, "engine_chain.c", "lcp.c", flags=("-O1", "-g"))
     p = subprocess.run(["valgrind", "--error-exitcode=9", "--track-origins=yes", str(exe), "2000"],
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr[-2000:]

@@ -3,19 +3,15 @@ rounded operation where m <= 2^53 and |e| <= 22, Clinger 1990) gives strtod's va
 random tokens of every form a record holds. A white-box check compiled from model/c with the system's gcc."""
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-C = ROOT / "model" / "c"
+from tests.conftest import compile_white_box
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
 def test_the_fast_reader_equals_strtod_to_the_bit(tmp_path):
-    exe = tmp_path / "record_parse"
-    subprocess.run(["gcc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{C}", "-o", str(exe),
-                    str(ROOT / "tests" / "c" / "record_parse.c"), "-lm"], check=True)
+    exe = compile_white_box(tmp_path, "record_parse.c")
     trials, fast, differ = map(int, subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split())
     assert trials == 2_000_000
     assert fast > trials // 4, fast  # the fast path read a good share (the rest: strtod's)
