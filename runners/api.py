@@ -615,6 +615,9 @@ def sweep(
             if not axes and not recs:
                 raise ArgumentError("a sweep needs at least one --grid NAME=START:STOP:COUNT, or --records")
             check_axes(axes, {**defaults, **sc.parameters})
+            wrong = contact_model_problem({**defaults, **sc.parameters})
+            if wrong:  # (what depends on the support's coupling: a scene file leaves it to the run)
+                raise ArgumentError(wrong)
             full = Grid(axes, recs, intensity)
             check_size(full.total, factory)
             # the FMU's own checks, at the corners of the grid's axes, before the sweep exists

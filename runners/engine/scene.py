@@ -301,7 +301,7 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     if scene.parameters.get("solver.method") == METHODS["taylor"] and scene.n_blocks == 2:
         raise SceneError(f"{source}: [simulation] method = \"taylor\" integrates one block; a two-block scene "
                          "([block2]) uses \"dormand-prince\"")
-    wrong = contact_model_problem(scene.parameters)
+    wrong = contact_model_problem(scene.parameters, coupled=False)
     if wrong:
         raise SceneError(f"{source}: {wrong}")
     try:
@@ -311,20 +311,22 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     return scene
 
 
-def contact_model_problem(p: dict[str, Any]) -> str | None:
+def contact_model_problem(p: dict[str, Any], coupled: bool = True) -> str | None:
     """Why parameters `p` (a scene's, or merged with overrides) cannot run the contact model they
     name (one line), or None. Rocking-sliding (contact.model = 1) models one block, or a stack whose
     block 2 is no wider than block 1, integrated by Dormand-Prince; any other value of contact.model
-    is none of the FMU's models."""
+    is none of the FMU's models. ``coupled`` False: the support's coupling may still change (a scene
+    being read: runners simulate --coupling), so what depends on it is left to the run's check."""
     model = p.get("contact.model", 0)
     if isinstance(model, bool) or not isinstance(model, numbers.Real) or model not in CONTACT_MODEL_NAMES:
         return ("contact.model must be " + " or ".join(f"{v} ({k})" for k, v in CONTACT_MODELS.items())
                 + f", got {model!r}")
     if int(model) != CONTACT_MODELS["rocking-sliding"]:
-        if int(p.get("support.kind", 0)) and int(p.get("support.coupling", 0)) == 1 and \
+        if coupled and int(p.get("support.kind", 0)) and int(p.get("support.coupling", 0)) == 1 and \
                 p.get("solver.method", 0) == METHODS["taylor"]:
             return ("[simulation] method = \"taylor\" integrates rigid rocking on the ground or on a one-way support; "
-                    "on a two-way support the contact engine integrates it with \"dormand-prince\"")
+                    "on a two-way support the contact engine integrates it: use \"auto\" or \"dormand-prince\", or "
+                    "couple the support one way")
         return None
     if int(p.get("nBlocks", 1)) == 2 and p.get("block2.halfWidth", 0.1) > p.get("block1.halfWidth", 0.1):
         return ("[contact] model = \"rocking-sliding\" of a stack needs block 2 no wider than block 1 (block2 "
