@@ -1272,8 +1272,7 @@ static int take_step(Model *M, const Logger *log) {
         int nr = poly_roots(com, deg, 0.0, 1.0, roots);
         for (int i = 1; i <= deg; i++) dcom[i - 1] = i * com[i];
         for (int j = 0; j < nr && S->nStepPeaks < MAX_STEP_PEAKS; j++) {
-            double r = roots[j], d = deg == 4 ? com[1] + r * (2 * com[2] + r * (3 * com[3] + r * 4 * com[4]))
-                                              : poly_eval(dcom, deg - 1, r);
+            double r = roots[j], d = poly_eval(dcom, deg - 1, r);
             if (r <= 0.0 || d == 0.0 || (ev != EVENT_NONE && r >= 1.0)) continue;
             if (r < 1e-6 && fabs(S->y[EN_W(0)]) <= 1e-12 * p) continue; /* the start from rest, no reversal */
             double yd[NMAX];

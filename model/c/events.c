@@ -29,11 +29,18 @@ int adaptive_step(RhsFn f, const void *ctx, int n, double t, const double *y,
                                     hNext, hitMax, rejected);
 }
 
+/* rk_step with its error estimates (err3: DOP853's of order 3) */
+static void rk_step_errors(int method, RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0,
+                           double h, double *y1, double *f1, Dense *cont, Dop853Stages *st, double *err,
+                           double *err3) {
+    if (method == RK_DOP853) dop853_step(f, ctx, n, t, y, f0, h, y1, f1, err, err3, cont, st);
+    else dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
+}
+
 void rk_step(int method, RhsFn f, const void *ctx, int n, double t, const double *y, const double *f0, double h,
              double *y1, double *f1, Dense *cont, Dop853Stages *st) {
     double err[NMAX], err3[NMAX];
-    if (method == RK_DOP853) dop853_step(f, ctx, n, t, y, f0, h, y1, f1, err, err3, cont, st);
-    else dopri5_step(f, ctx, n, t, y, f0, h, y1, f1, err, cont);
+    rk_step_errors(method, f, ctx, n, t, y, f0, h, y1, f1, cont, st, err, err3);
 }
 
 /* dopri5_error_norm with the absolute tolerance of component i scaled by scale[i] (0: not controlled). */
@@ -78,15 +85,10 @@ int adaptive_step_controlled(int method, RhsFn f, const void *ctx, int n, int nE
             hh = hmax;
             *hitMax = 1;
         }
-        double en;
-        if (method == RK_DOP853) {
-            dop853_step(f, ctx, n, t, y, f0, hh, y1, f1, err, err3, cont, st);
-            en = dop853_error_norm(nErr, scale, y, y1, err, err3, rtol, atol);
-        } else {
-            dopri5_step(f, ctx, n, t, y, f0, hh, y1, f1, err, cont);
-            en = scale ? scaled_error_norm(nErr, scale, y, y1, err, rtol, atol)
-                       : dopri5_error_norm(nErr, y, y1, err, rtol, atol);
-        }
+        rk_step_errors(method, f, ctx, n, t, y, f0, hh, y1, f1, cont, st, err, err3);
+        double en = method == RK_DOP853 ? dop853_error_norm(nErr, scale, y, y1, err, err3, rtol, atol)
+                    : scale             ? scaled_error_norm(nErr, scale, y, y1, err, rtol, atol)
+                                        : dopri5_error_norm(nErr, y, y1, err, rtol, atol);
         if (en <= 1.0) {
             double fac = en > 0 ? 0.9 * pow(en, expo) : 5.0;
             *hNext = hh * fmin(5.0, fmax(0.2, fac));
