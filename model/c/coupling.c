@@ -9,15 +9,16 @@ int coupling_size(const Model *M) { return M->d.sup.twoWay ? COUPLING_N(M->d.sup
 void coupling_free(const Model *M, const double *y, double ag, double *r) {
     const SupportModes *sm = &M->d.sup;
     const double *z = y + EN_N(M->d.en.nb);
-    int ns = sm->ns;
-    /* storey i's force on floor i, k_i (drift + a1 drift rate) (C = a0 M + a1 K); floor i feels F_i - F_(i+1) */
-    double F[SUPPORT_MAX_STOREYS + 1];
-    for (int i = 0; i < ns; i++) {
+    /* storey i's force on floor i, k_i (drift + a1 drift rate) (C = a0 M + a1 K); floor i feels F_i - F_(i+1).
+     * From the top down, the storey above's force carried in a scalar: an array of them, stored one by one and
+     * read two at a time by the vectorised loop, stalled each call on its stores' forwarding. */
+    double above = 0.0;
+    for (int i = sm->ns - 1; i >= 0; i--) {
         double du = z[2 * i] - (i > 0 ? z[2 * i - 2] : 0.0), dv = z[2 * i + 1] - (i > 0 ? z[2 * i - 1] : 0.0);
-        F[i] = sm->stiff[i] * (du + sm->a1 * dv);
+        double F = sm->stiff[i] * (du + sm->a1 * dv);
+        r[i] = -sm->a0 * z[2 * i + 1] - (F - above) / sm->mass[i] - ag;
+        above = F;
     }
-    F[ns] = 0.0;
-    for (int i = 0; i < ns; i++) r[i] = -sm->a0 * z[2 * i + 1] - (F[i] - F[i + 1]) / sm->mass[i] - ag;
 }
 
 double coupling_floor(const Model *M, const double *r, double T0, double Ta) {

@@ -240,6 +240,13 @@ static void perp(const double r[2], double out[2]) {
     out[1] = -r[0];
 }
 
+/* Every force and acceleration of f zero, field by field: memset's string store, on every evaluation, cost more than the
+ * chain's own arithmetic and kept the stores that follow it from reaching the loads that read them soon after. */
+static inline void forces_clear(EnForces *f) {
+    for (int q = 0; q < EN_NQ; q++) f->qdd[q] = 0.0;
+    for (int k = 0; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = f->xidd[k] = 0.0;
+}
+
 /* The chain of one body on the ground, written out (the right-hand side of most runs): flat, or on its
  * corner c (X = D - r, with D the corner's place on the ground and r its offset from the centre), the contact
  * sticking or sliding (sigma: the slip xi then a second coordinate, X'' gains xi'' along the ground, and the
@@ -273,7 +280,7 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
         f->N[0][1] = (N * B->b - T * B->h) / (2.0 * B->b); /* the moment balance about the centre */
         f->N[0][0] = N - f->N[0][1];
         if (fa) { /* the slopes in ah: sliding, the centre's -1 and no force; sticking, T's m and its moment */
-            memset(fa, 0, sizeof(*fa));
+            forces_clear(fa);
             fa->qdd[0] = SLIDES ? -1.0 : 0.0;
             if (SLIDES) fa->xidd[0] = -1.0;
             fa->T[0] = SLIDES ? 0.0 : B->m;
@@ -330,7 +337,7 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
             dal = (dr0 * A11 - A01 * dr1) / det;
             dxdd = (A * dr1 - A10 * dr0) / det;
         }
-        memset(fa, 0, sizeof(*fa));
+        forces_clear(fa);
         fa->qdd[0] = G[0] * dal + dxdd;
         fa->qdd[1] = G[1] * dal;
         fa->qdd[2] = dal;

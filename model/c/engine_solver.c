@@ -111,7 +111,10 @@ static void coupled_rhs(Ctx *c, const double *y, double ag, double av, double *d
         return;
     }
     double uj = coupling_floor(M, r, c->f.T[0], fB.T[0]);
-    for (int i = 0; i < n0; i++) dy[i] += uj * dyB[i];
+    /* (the components with a slope alone, one at a time: the vectorised loop read dy two at a time just after the
+     * engine stored it one at a time, and stalled on the stores' forwarding) */
+    for (int i = 0; i < n0; i++)
+        if (dyB[i] != 0.0) dy[i] += uj * dyB[i];
     for (int i = n0; i < EN_N(nb); i++) dy[i] = 0.0; /* (a chain's placed components ride along) */
     forces_axpy(&c->f, &fB, uj);
     const double *yc = c->chain ? c->placed : y;

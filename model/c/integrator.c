@@ -278,8 +278,9 @@ void dop853_step(RhsFn f, const void *ctx, int n, double t, const double *y, con
     for (int r = 0; r < nr; r++) step_errors(lo[r], hi[r], h, st->k, err5, err3);
     d->method = RK_DOP853;
     d->rows = 4; /* (of 8 once dop853_dense completes it) */
-    for (int j = 0; j < DENSE_ROWS; j++) memset(d->r[j], 0, sizeof(d->r[j]));
     memcpy(d->r[0], y, sizeof(double) * (size_t)n);
+    for (int j = 1; j < DENSE_ROWS; j++) /* (the first n alone: a whole row's memset cost more than the rows' sums) */
+        for (int i = 0; i < n; i++) d->r[j][i] = 0.0;
     for (int r = 0; r < nr; r++)
         for (int i = lo[r]; i < hi[r]; i++) {
             double dy = y1[i] - y[i];
