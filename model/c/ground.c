@@ -238,7 +238,20 @@ int model_piece(const Model *M, double tStart) {
     if (tStart >= M->d.excEnd && tStart >= M->d.excStart && support_moves(M)) return M->rec->n; /* free vibration */
     if (tStart < M->d.excStart || tStart >= M->d.excEnd) return 0;
     if (M->v.kind != KIND_RECORD) return 1;
-    int lo = 0, hi = M->rec->n - 1; /* record_time(lo) <= tStart < record_time(hi) */
+    /* record_time(lo) <= tStart < record_time(hi) (a record has two samples at least): first at the sample an evenly
+     * sampled record would put tStart after (records nearly always are: then that piece or the next), then by
+     * bisection */
+    int n = M->rec->n, lo = 0, hi = n - 1;
+    double span = record_time(M, n - 1) - record_time(M, 0);
+    int g = span > 0.0 ? (int)fmin(fmax((tStart - record_time(M, 0)) / span * (n - 1), 0.0), n - 2.0) : 0;
+    if (record_time(M, g) <= tStart) {
+        if (tStart < record_time(M, g + 1)) return g + 1;
+        if (g + 2 < n && tStart < record_time(M, g + 2)) return g + 2;
+        lo = g + 1;
+    } else {
+        if (g > 0 && record_time(M, g - 1) <= tStart) return g;
+        hi = g;
+    }
     while (hi - lo > 1) {
         int mid = lo + (hi - lo) / 2;
         if (record_time(M, mid) <= tStart) lo = mid;
