@@ -406,7 +406,10 @@ static void propagate(const SupportModes *sm, int t, int nt, const double *q, co
  * the polynomial of u'' that follows it). */
 #define KNOWN_AT(nt) (4 + 4 * (nt))
 #define TERMS_AT(nt) (KNOWN_AT(nt) + 2 + SUPPORT_EDGES)
-#define ACC_AT(nt) (TERMS_AT(nt) + 1)
+/* then acc_bound over the whole segment, with the length it was taken at (the one support_acceleration_bound passes:
+ * a resting block's every step asks for it), then the polynomial */
+#define BOUND_AT(nt) (TERMS_AT(nt) + 1)
+#define ACC_AT(nt) (TERMS_AT(nt) + 3)
 /* a first-order table (support_rest_attach): each term's modal coordinate at the segment's start, after the
  * polynomial of degree deg */
 #define MODAL_AT(nt, deg) (ACC_AT(nt) + (deg) + 1)
@@ -463,6 +466,7 @@ static void acc_polynomial(const SupportModes *sm, double *e, int deg, const Acc
 }
 
 static double table_peak(const Model *M, const SupportTable *T);
+static double acc_bound(const SupportTable *T, const double *e, double s);
 static void segment_edges(const SupportModes *sm, double *e, double a0, double a1, double L);
 
 double support_peak(const Model *M, SupportTable *T) {
@@ -610,6 +614,9 @@ static int build_table(const Model *M, const SupportModes *sm, SupportTable *T, 
         if (!last) {
             e[KNOWN_AT(sm->nt)] = EDGES_PENDING;
             acc_polynomial(sm, e, deg, &A);
+            double whole = (T->startTime + r->t[i + 1]) - (T->startTime + r->t[i]); /* (as record times subtract) */
+            e[BOUND_AT(sm->nt)] = NAN;
+            if (deg >= 0) e[BOUND_AT(sm->nt) + 1] = acc_bound(T, e, whole), e[BOUND_AT(sm->nt)] = whole;
         }
     }
     /* a first-order table's B_t (segment_work) from the record's end (0: the base is still after it) backwards */
@@ -757,6 +764,7 @@ static double acc_poly(const SupportTable *T, const double *e, double s) {
 }
 
 static double acc_bound(const SupportTable *T, const double *e, double s) {
+    if (s == e[BOUND_AT(T->nt)]) return e[BOUND_AT(T->nt) + 1];
     const double *c = e + ACC_AT(T->nt);
     double b = fabs(c[T->accDeg]);
     for (int m = T->accDeg - 1; m >= 0; m--) b = b * s + fabs(c[m]);
