@@ -1303,8 +1303,8 @@ static int take_step(Model *M, const Logger *log) {
      * velocities before must be those of the motion the contacts allow) */
     if (!c.chain) project_rates(M, &S->en, S->y, S->enAnchor); /* (a chain's are placed) */
     /* (the projection moves the centres by rounding: the derivative and indicators at the step's end
-     * stay the next step's start) */
-    S->fValid = ev == EVENT_NONE && !hitBp;
+     * stay the next step's start, across a record's sample too: ground_continuous_after) */
+    S->fValid = ev == EVENT_NONE && (!hitBp || ground_continuous_after(M, c.piece));
     S->enIndValid = S->fValid && haveEnd && first < 0;
     if (S->enIndValid) {
         memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);

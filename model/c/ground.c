@@ -409,6 +409,10 @@ double next_breakpoint(const Model *M, double t, int piece) {
     return M->d.excEnd;
 }
 
+int ground_continuous_after(const Model *M, int piece) {
+    return M->v.kind == KIND_RECORD && M->rec && !M->sup && record_piece_ok(M, piece) && record_piece_ok(M, piece + 1);
+}
+
 /* The built-in sine waveforms are monotone on quarter periods from their start. */
 static int quarter_cells(const Model *M) { return M->v.kind >= KIND_SINE_PULSE && M->v.kind <= KIND_HARMONIC; }
 

@@ -58,6 +58,12 @@ int excitation_over(const Model *M, double t);
 /* Next break point after t (a step stops there), +inf if none; piece is
  * model_piece(M, t), which the caller has already found. */
 double next_breakpoint(const Model *M, double t, int piece);
+/* The base's acceleration, and with it every right-hand side, is continuous where piece ends: a record's interior
+ * sample (the straight lines of the two pieces meet there), on the ground or on a support the solver integrates with
+ * the blocks. A step that ends there keeps its last derivative as the next step's first. (Not under a one-way
+ * support: its table gives the floor's acceleration on each segment by the segment's own polynomial, equal at the
+ * sample to rounding only.) */
+int ground_continuous_after(const Model *M, int piece);
 
 /* Cells on which the excitation is monotone, for the uplift search: the next
  * cell edge after a (of the piece active at a), the start of the cell that

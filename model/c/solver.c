@@ -212,7 +212,7 @@ static int take_step(Model *M, const Logger *log) {
         S->y[i] = y1[i];
         S->f[i] = f1[i];
     }
-    S->fValid = (ev == EVENT_NONE && !hitBp);
+    S->fValid = ev == EVENT_NONE && (!hitBp || ground_continuous_after(M, c.piece)); /* (the next step's start) */
     S->h = hNext;
     S->pending = ev;
     /* the contact reactions at the step's end, from that evaluation: a few products */
