@@ -28,8 +28,8 @@ from sqlalchemy import select
 from db.records import MEASURES, add_record, find_record, free_name, samples, suite_records
 from db.schema import Record
 from runners.engine.intensity import G0, measures
-from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cached_record_file, check_size,
-                                         read_record_file, samples_sha256)
+from runners.engine.record_files import (MAX_INTERVAL, MAX_SAMPLES, MIN_INTERVAL, cache_folder, cached_file_ok,
+                                         cached_record_file, check_size, read_record_file, samples_sha256)
 from runners.engine.scene import KIND_NAMES, KINDS, MAX_PGA_G, Scene, check_pga, with_times
 
 TAIL = 5.0  # s simulated after a record ends, unless a scene or a sweep says otherwise
@@ -456,6 +456,11 @@ def file_of(factory_or_record, key: str | int | None = None) -> Path:
         with factory_or_record() as session:
             rec = find_record(session, key)
             session.expunge(rec)
+    # its file already in the cache and holding the samples it is named by (Record.sha256 is their hash): no
+    # decompression, nor hashing (a sweep on a support asks for every record's file at its start)
+    known = cache_folder().resolve() / f"{rec.sha256}.txt" if rec.sha256 else None
+    if known is not None and known.is_file() and cached_file_ok(known, rec.sha256):
+        return known
     t, ah, av = samples(rec)
     return cached_record_file(t, ah, av, comments=[f"record {rec.name}", *([rec.source] if rec.source else [])])
 
