@@ -367,7 +367,7 @@ static int take_step(Model *M, const Logger *log) {
     S->t = tNew;
     memcpy(S->y, y1, 4 * sizeof(double));
     memcpy(S->f, f1, 4 * sizeof(double));
-    S->fValid = (ev == EVENT_NONE && !hitBp);
+    S->fValid = ev == EVENT_NONE && (!hitBp || ground_continuous_after(M, c.piece)); /* (the next step's start) */
     S->h = hNext;
     S->pending = ev;
 
