@@ -26,8 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
+SCALAR_PERIODS = 4  # at most this many periods: the recurrence runs on plain floats, one period at a time
 BISECTIONS = 36  # halvings of a bracket: the extremum to 1.5e-11 of its segment, |u| there to rounding (its error is quadratic)
 
 
@@ -140,6 +140,23 @@ def _peaks_inside(seg: _Segments, h: np.ndarray) -> np.ndarray:
     return best.max(axis=0)
 
 
+def _affine_scan(a, b, c, d, e, f) -> tuple[np.ndarray, np.ndarray]:
+    """Every (u, v) of the recurrence (u, v)_(i+1) = [[a_i, b_i], [c_i, d_i]] (u, v)_i + (e_i, f_i) from (0, 0):
+    an inclusive scan over the affine maps, composed in log2(n) passes of whole arrays (Hillis & Steele 1986)
+    instead of n steps of Python. The maps contract (a damped oscillator's), so the order of the sums costs
+    rounding alone."""
+    a, b, c, d, e, f = (np.array(x, dtype=float) for x in (a, b, c, d, e, f))
+    s = 1
+    while s < len(a):
+        # map i after map i - s: M_i M_(i-s), M_i (e, f)_(i-s) + (e, f)_i
+        a2, b2, c2, d2 = a[s:], b[s:], c[s:], d[s:]
+        a1, b1, c1, d1, e1, f1 = a[:-s], b[:-s], c[:-s], d[:-s], e[:-s], f[:-s]
+        e[s:], f[s:] = a2 * e1 + b2 * f1 + e[s:], c2 * e1 + d2 * f1 + f[s:]
+        a[s:], b[s:], c[s:], d[s:] = a2 * a1 + b2 * c1, a2 * b1 + b2 * d1, c2 * a1 + d2 * c1, c2 * b1 + d2 * d1
+        s *= 2
+    return e, f
+
+
 def _may_pass(w: np.ndarray, zeta: float, u: np.ndarray, v: np.ndarray, a: np.ndarray, h: np.ndarray,
               peak: np.ndarray) -> np.ndarray:
     """Which segments (rows) of which oscillators (columns) may hold a |u| above ``peak`` (each oscillator's
@@ -152,45 +169,39 @@ def _may_pass(w: np.ndarray, zeta: float, u: np.ndarray, v: np.ndarray, a: np.nd
     return np.maximum(np.abs(u[:-1]), np.abs(u[1:])) + excess * (1.0 + 1e-9) >= peak
 
 
-def _first_order(lam: complex, g: np.ndarray) -> np.ndarray:
-    """z_0 = 0, z_(i+1) = lam z_i + g_i (i = 0 .. len(g) - 1): len(g) + 1 values, by scipy.signal.lfilter
-    (the recurrence in compiled code)."""
-    return lfilter([0.0, 1.0], [1.0, -lam], np.append(g, 0.0))
-
-
 def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """u and u' at every sample (rows) of every oscillator (columns): Nigam & Jennings' recurrence, the
-    exact map of a segment, linear in (u0, v0, a0, a1), in the oscillator's modal coordinate.
-
-    (u, u') = 2 Re(p z) with p = (1, mu), mu = -zeta w + i w_d the eigenvalue whose eigenvector p is,
-    whatever the segment's length h: z = q (u, u'), q the left eigenvector with q p = 1, and a segment
-    takes z to e^(mu h) z plus its forcing's response from rest (_Segments, taken into z by q). Records
-    are sampled evenly up to the rounding of their times: the recurrence runs at the commonest length's
-    e^(mu h) (a first-order filter, _first_order), and a second pass adds what each other segment's
-    e^(mu h_i) - e^(mu h) does to it, to first order (the second order is that difference squared, some
-    1e-24 of z)."""
+    exact map of a segment, linear in (u0, v0, a0, a1), with its coefficients computed once per length."""
     n = len(t)
     u = np.zeros((n, len(w)))
     v = np.zeros((n, len(w)))
     h = np.diff(t)
     slope = np.diff(a) / h
-    lengths, which = np.unique(h, return_inverse=True)
-    ref = int(np.argmax(np.bincount(which)))
-    for k, wk in enumerate(np.asarray(w, float)):
-        wd = wk * np.sqrt(1.0 - zeta * zeta)
-        mu = complex(-zeta * wk, wd)
-        q1, q2 = -np.conj(mu) / (2j * wd), 1.0 / (2j * wd)
-        # the modal responses from rest to a unit a0 and a unit a1 over each length
-        s0, s1 = _Segments(wk, zeta, 0.0, 0.0, 1.0, 0.0), _Segments(wk, zeta, 0.0, 0.0, 0.0, 1.0)
-        c0 = q1 * s0.u(lengths) + q2 * s0.v(lengths)
-        c1 = q1 * s1.u(lengths) + q2 * s1.v(lengths)
-        lam = np.exp(mu * lengths)
-        z = _first_order(lam[ref], c0[which] * a[:-1] + c1[which] * slope)
-        other = (lam - lam[ref])[which]
-        if np.any(other != 0):
-            z = z + _first_order(lam[ref], other * z[:-1])
-        u[:, k] = 2.0 * z.real
-        v[:, k] = 2.0 * (mu * z).real
+    if len(w) <= SCALAR_PERIODS:  # a few oscillators: each one's maps for every distinct length at once, then a scan
+        lengths, which = np.unique(h, return_inverse=True)
+        for k in range(len(w)):
+            # the map's (u, v) rows: responses to unit u0, v0, a0, a1 over each length
+            cu, cv = zip(*((seg.u(lengths), seg.v(lengths)) for seg in
+                           (_Segments(w[k], zeta, *basis) for basis in np.eye(4))))
+            cu, cv = np.array(cu)[:, which], np.array(cv)[:, which]
+            u[1:, k], v[1:, k] = _affine_scan(cu[0], cu[1], cv[0], cv[1], cu[2] * a[:-1] + cu[3] * slope,
+                                              cv[2] * a[:-1] + cv[3] * slope)
+        return u, v
+    maps: dict[float, tuple[np.ndarray, ...]] = {}
+    zero, one = np.zeros_like(w), np.ones_like(w)
+    for i, hi in enumerate(h.tolist()):
+        if hi not in maps:
+            hh = np.full_like(w, hi)
+            cols = []
+            for basis in ((one, zero, zero, zero), (zero, one, zero, zero), (zero, zero, one, zero), (zero, zero, zero, one)):
+                seg = _Segments(w, zeta, *basis)
+                cols.append((seg.u(hh), seg.v(hh)))
+            cu, cv = (np.array(c) for c in zip(*cols))  # (u row: 4 coefficients), (v row)
+            maps[hi] = (cu, cv)
+    for i, hi in enumerate(h.tolist()):
+        cu, cv = maps[hi]
+        u[i + 1] = cu[0] * u[i] + cu[1] * v[i] + cu[2] * a[i] + cu[3] * slope[i]
+        v[i + 1] = cv[0] * u[i] + cv[1] * v[i] + cv[2] * a[i] + cv[3] * slope[i]
     return u, v
 
 
