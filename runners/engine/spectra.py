@@ -27,7 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SCALAR_PERIODS = 4  # at most this many periods: the recurrence runs on plain floats, one period at a time
+# _states' blocks: at most e^BLOCK_DECAY between a block's largest and smallest exponential (e^709 overflows),
+# and arguments of at most BLOCK_PHASE radians (their rounding, BLOCK_PHASE x 1.1e-16, stays below 1e-13)
+BLOCK_DECAY = 300.0
+BLOCK_PHASE = 500.0
 BISECTIONS = 36  # halvings of a bracket: the extremum to 1.5e-11 of its segment, |u| there to rounding (its error is quadratic)
 
 
@@ -140,23 +143,6 @@ def _peaks_inside(seg: _Segments, h: np.ndarray) -> np.ndarray:
     return best.max(axis=0)
 
 
-def _affine_scan(a, b, c, d, e, f) -> tuple[np.ndarray, np.ndarray]:
-    """Every (u, v) of the recurrence (u, v)_(i+1) = [[a_i, b_i], [c_i, d_i]] (u, v)_i + (e_i, f_i) from (0, 0):
-    an inclusive scan over the affine maps, composed in log2(n) passes of whole arrays (Hillis & Steele 1986)
-    instead of n steps of Python. The maps contract (a damped oscillator's), so the order of the sums costs
-    rounding alone."""
-    a, b, c, d, e, f = (np.array(x, dtype=float) for x in (a, b, c, d, e, f))
-    s = 1
-    while s < len(a):
-        # map i after map i - s: M_i M_(i-s), M_i (e, f)_(i-s) + (e, f)_i
-        a2, b2, c2, d2 = a[s:], b[s:], c[s:], d[s:]
-        a1, b1, c1, d1, e1, f1 = a[:-s], b[:-s], c[:-s], d[:-s], e[:-s], f[:-s]
-        e[s:], f[s:] = a2 * e1 + b2 * f1 + e[s:], c2 * e1 + d2 * f1 + f[s:]
-        a[s:], b[s:], c[s:], d[s:] = a2 * a1 + b2 * c1, a2 * b1 + b2 * d1, c2 * a1 + d2 * c1, c2 * b1 + d2 * d1
-        s *= 2
-    return e, f
-
-
 def _may_pass(w: np.ndarray, zeta: float, u: np.ndarray, v: np.ndarray, a: np.ndarray, h: np.ndarray,
               peak: np.ndarray) -> np.ndarray:
     """Which segments (rows) of which oscillators (columns) may hold a |u| above ``peak`` (each oscillator's
@@ -170,39 +156,44 @@ def _may_pass(w: np.ndarray, zeta: float, u: np.ndarray, v: np.ndarray, a: np.nd
 
 
 def _states(w: np.ndarray, zeta: float, t: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """u and u' at every sample (rows) of every oscillator (columns): Nigam & Jennings' recurrence, the
-    exact map of a segment, linear in (u0, v0, a0, a1), with its coefficients computed once per length."""
-    n = len(t)
-    u = np.zeros((n, len(w)))
-    v = np.zeros((n, len(w)))
+    """u and u' at every sample (rows) of every oscillator (columns): Nigam & Jennings' exact map of each
+    segment, in the oscillator's modal coordinate, by blocks of numpy sums.
+
+    (u, u') = 2 Re(p z) with p = (1, mu), mu = -zeta w + i w_d: p is the eigenvector whatever a segment's
+    length, so z = q (u, u') (q the left eigenvector, q p = 1) goes over segment i to e^(mu h_i) z plus g_i,
+    its forcing's response from rest (_Segments' closed forms, into z by q). From a block's first sample s,
+
+        z_(s+j) = e^(mu tau_j) (z_s + sum_(i<j) e^(-mu tau_(i+1)) g_(s+i)),   tau_j = t_(s+j) - t_s,
+
+    the exponentials taken from the times themselves (exact for any sampling), each block short enough that
+    they stay far inside the doubles' range and their arguments' rounding far below the result's (BLOCK_DECAY,
+    BLOCK_PHASE). The sums' rounding is the recurrence's: each term is about its share of z."""
+    n, w = len(t), np.asarray(w, float)
     h = np.diff(t)
     slope = np.diff(a) / h
-    if len(w) <= SCALAR_PERIODS:  # a few oscillators: each one's maps for every distinct length at once, then a scan
-        lengths, which = np.unique(h, return_inverse=True)
-        for k in range(len(w)):
-            # the map's (u, v) rows: responses to unit u0, v0, a0, a1 over each length
-            cu, cv = zip(*((seg.u(lengths), seg.v(lengths)) for seg in
-                           (_Segments(w[k], zeta, *basis) for basis in np.eye(4))))
-            cu, cv = np.array(cu)[:, which], np.array(cv)[:, which]
-            u[1:, k], v[1:, k] = _affine_scan(cu[0], cu[1], cv[0], cv[1], cu[2] * a[:-1] + cu[3] * slope,
-                                              cv[2] * a[:-1] + cv[3] * slope)
-        return u, v
-    maps: dict[float, tuple[np.ndarray, ...]] = {}
-    zero, one = np.zeros_like(w), np.ones_like(w)
-    for i, hi in enumerate(h.tolist()):
-        if hi not in maps:
-            hh = np.full_like(w, hi)
-            cols = []
-            for basis in ((one, zero, zero, zero), (zero, one, zero, zero), (zero, zero, one, zero), (zero, zero, zero, one)):
-                seg = _Segments(w, zeta, *basis)
-                cols.append((seg.u(hh), seg.v(hh)))
-            cu, cv = (np.array(c) for c in zip(*cols))  # (u row: 4 coefficients), (v row)
-            maps[hi] = (cu, cv)
-    for i, hi in enumerate(h.tolist()):
-        cu, cv = maps[hi]
-        u[i + 1] = cu[0] * u[i] + cu[1] * v[i] + cu[2] * a[i] + cu[3] * slope[i]
-        v[i + 1] = cv[0] * u[i] + cv[1] * v[i] + cv[2] * a[i] + cv[3] * slope[i]
-    return u, v
+    wd = w * np.sqrt(1.0 - zeta * zeta)
+    mu = -zeta * w + 1j * wd
+    q1, q2 = -np.conj(mu) / (2j * wd), 1.0 / (2j * wd)
+    # each distinct length's responses from rest to a unit a0 and a unit a1, in z (lengths x oscillators)
+    lengths, which = np.unique(h, return_inverse=True)
+    s0 = _Segments(w[None, :], zeta, 0.0, 0.0, 1.0, 0.0)
+    s1 = _Segments(w[None, :], zeta, 0.0, 0.0, 0.0, 1.0)
+    L = lengths[:, None]
+    c0, c1 = q1 * s0.u(L) + q2 * s0.v(L), q1 * s1.u(L) + q2 * s1.v(L)
+    g = c0[which] * a[:-1, None] + c1[which] * slope[:, None]
+    z = np.zeros((n, len(w)), dtype=complex)
+    span = min(BLOCK_PHASE / np.max(np.abs(mu)), BLOCK_DECAY / max(zeta * np.max(w), 1e-300))
+    s = 0
+    while s < n - 1:
+        e = min(max(int(np.searchsorted(t, t[s] + span, side="right")) - 1, s + 1), n - 1)
+        tau = (t[s + 1:e + 1] - t[s])[:, None]
+        if e == s + 1 and zeta * np.max(w) * tau[0, 0] > BLOCK_DECAY:  # one segment longer than a block
+            z[e] = np.exp(mu * tau[0]) * z[s] + g[s]
+        else:
+            E = np.exp(mu * tau)
+            z[s + 1:e + 1] = E * (z[s] + np.cumsum(g[s:e] / E, axis=0))
+        s = e
+    return 2.0 * z.real, 2.0 * (mu * z).real
 
 
 def spectrum(t, a, periods, zeta: float = 0.05) -> Spectrum:
