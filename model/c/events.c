@@ -81,6 +81,7 @@ int adaptive_step_controlled(int method, RhsFn f, const void *ctx, int n, int nE
             return -1;
         }
         *hitMax = 0;
+        double proposed = hh;
         if (hh >= hmax) {
             hh = hmax;
             *hitMax = 1;
@@ -92,6 +93,9 @@ int adaptive_step_controlled(int method, RhsFn f, const void *ctx, int n, int nE
         if (en <= 1.0) {
             double fac = en > 0 ? 0.9 * pow(en, expo) : 5.0;
             *hNext = hh * fmin(5.0, fmax(0.2, fac));
+            /* a sliver up to a break point (a communication point rounding a hair short of a record's sample) says
+             * nothing of the next step: that would start below the resolution of t and stand still */
+            if (*hitMax && hh < hmin) *hNext = proposed;
             *h = hh;
             return 0;
         }
@@ -249,7 +253,9 @@ double find_exit(const Model *M, double t, double tc, RestExitFn ind) {
         }
         still = 0;
         double b = next_cell_edge(M, a, piece);
-        if (!isfinite(b)) return INFINITY; /* no waveform left: the indicator stays put */
+        /* no waveform left: the indicator stays put, or moves with a sloped input, linearly up to tc */
+        if (!isfinite(b) && model_inputs_on(M) && tc > a) b = tc;
+        if (!isfinite(b)) return INFINITY;
         if (!(b > a)) return NAN;
         /* Bisect on the whole cell (where the indicator is still <= 0 at its start), not from a:
          * the root then does not depend on where the previous call stopped, i.e. on the
