@@ -121,7 +121,7 @@ def model_description(
     w(
         f'  <CoSimulation modelIdentifier="{model_identifier}" '
         'canHandleVariableCommunicationStepSize="true" canGetAndSetFMUstate="true" '
-        'canSerializeFMUstate="true" canInterpolateInputs="false" '
+        'canSerializeFMUstate="true" canInterpolateInputs="true" '
         'canBeInstantiatedOnlyOncePerProcess="false" needsExecutionTool="false">'
     )
     w("    <SourceFiles>")

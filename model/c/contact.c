@@ -351,7 +351,7 @@ void contact_sample_state(Model *M, ReactionsFn moving, const Logger *log, int c
 /* The blocks' vertical excitation may vary: a record with a vertical column, a built-in vertical amplitude or the
  * input ground.av. */
 static int vertical_motion(const Model *M) {
-    return M->v.avIn != 0.0 || M->v.verticalAmplitude != 0.0 || (M->rec && M->rec->vertical);
+    return model_input_on(M, 1) || M->v.verticalAmplitude != 0.0 || (M->rec && M->rec->vertical);
 }
 
 void contact_sample_rest(Model *M, double end, const Logger *log) {

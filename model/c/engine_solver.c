@@ -443,7 +443,7 @@ static void set_mode(Model *M, const EnMode *m, const Logger *log) {
 static int rest_closed(Model *M) {
     State *S = &M->s;
     int nb = M->d.en.nb, ns = M->d.sup.ns;
-    if (M->v.ahIn != 0.0 || M->v.avIn != 0.0 || support_rest_start(M, S->t, S->y + EN_N(nb))) return 0;
+    if (model_inputs_on(M) || support_rest_start(M, S->t, S->y + EN_N(nb))) return 0;
     S->restE0 = coupling_total_energy(M, S->y);
     S->restW0 = S->y[COUPLING_WORK(nb, ns)];
     S->restD0 = S->y[COUPLING_DAMP(nb, ns)];
@@ -1602,7 +1602,7 @@ void engine_initialize(Model *M) {
 
 int engine_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
     State *S = &M->s;
-    if (S->rest.on && (M->v.ahIn != 0.0 || M->v.avIn != 0.0)) {
+    if (S->rest.on && model_inputs_on(M)) {
         /* the base's inputs move the floor beyond the closed form (the record's alone): integrated from here */
         rest_closed_end(M, S->t);
         if (S->mode == MODE_REST) S->mode = MODE_ROCKING;

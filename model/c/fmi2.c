@@ -292,10 +292,20 @@ static int wrong_type(Instance *I, InterfaceType want, const char *fn) {
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {
     Instance *I = (Instance *)c;
-    (void)vr, (void)nvr, (void)order, (void)value;
-    CHECK_CS(I, ANY_PHASE, "fmi2SetRealInputDerivatives");
-    INSTANCE_ERROR(I, "fmi2SetRealInputDerivatives is not supported (inputs are held constant over a step)");
-    return fmi2Error;
+    const char *fn = "fmi2SetRealInputDerivatives";
+    CHECK_CS(I, ANY_PHASE, fn);
+    if (instance_begin_access(I, 1, vr, nvr, value, fn)) return fmi2Error;
+    if (nvr > 0 && !order) {
+        INSTANCE_ERROR(I, "%s: NULL order array with nvr = %zu", fn, nvr);
+        return fmi2Error;
+    }
+    for (size_t i = 0; i < nvr; i++)
+        if (instance_set_real_derivative(I, vr[i], order[i], value[i], fn)) {
+            if (i > 0) inputs_changed(I);
+            return fmi2Error;
+        }
+    inputs_changed(I);
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,

@@ -2,6 +2,7 @@
 #include "ground.h"
 #include "support.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -281,14 +282,42 @@ static void excitation_piece(const Model *M, double t, int piece, double *ah, do
     *av = vert;
 }
 
+static double input_value(const Model *M, int which) { return which ? M->v.avIn : M->v.ahIn; }
+
+static int input_moves(const Model *M, int which) { return M->s.inD[which][0] != 0.0 || M->s.inD[which][1] != 0.0; }
+
+double model_input(const Model *M, int which, double t) {
+    if (!input_moves(M, which)) return input_value(M, which);
+    double x = t - M->s.inT0[which];
+    return input_value(M, which) + x * (M->s.inD[which][0] + 0.5 * M->s.inD[which][1] * x);
+}
+
+void model_input_range(const Model *M, int which, double t0, double t1, double *lo, double *hi) {
+    double u = input_value(M, which);
+    *lo = *hi = u;
+    if (!input_moves(M, which)) return;
+    double d1 = M->s.inD[which][0], d2 = M->s.inD[which][1], x0 = t0 - M->s.inT0[which], x1 = t1 - M->s.inT0[which];
+    double ends[3];
+    ends[0] = model_input(M, which, t0);
+    ends[1] = ends[2] = model_input(M, which, t1);
+    if (d2 != 0.0 && -d1 / d2 > x0 && -d1 / d2 < x1) ends[2] = u - 0.5 * d1 * d1 / d2; /* the vertex */
+    double X = fmax(fabs(x0), fabs(x1)), slack = 8.0 * DBL_EPSILON * (fabs(u) + fabs(d1) * X + fabs(d2) * X * X);
+    *lo = fmin(fmin(ends[0], ends[1]), ends[2]) - slack;
+    *hi = fmax(fmax(ends[0], ends[1]), ends[2]) + slack;
+}
+
+int model_input_on(const Model *M, int which) { return input_value(M, which) != 0.0 || input_moves(M, which); }
+
+int model_inputs_on(const Model *M) { return model_input_on(M, 0) || model_input_on(M, 1); }
+
 void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
     double h, vert;
     excitation_piece(M, t, piece, &h, &vert);
     /* a support moves under it: its floor's acceleration relative to the base (0 without one; the
      * support is rigid vertically) */
     if (M->sup) h += support_relative_acceleration(M, t, piece);
-    *ah = h + M->v.ahIn;
-    *av = vert + M->v.avIn;
+    *ah = h + model_input(M, 0, t);
+    *av = vert + model_input(M, 1, t);
 }
 
 double ground_base_ah(const Model *M, double t) {
@@ -390,8 +419,13 @@ void ground_series(const Model *M, double t, int piece, int n, double *ah, doubl
         }
     }
     if (M->sup) support_series(M, t, piece, n, ah);
-    ah[0] += M->v.ahIn;
-    av[0] += M->v.avIn;
+    for (int i = 0; i < 2; i++) { /* the inputs' polynomials about t */
+        double *c = i ? av : ah;
+        c[0] += model_input(M, i, t);
+        if (!input_moves(M, i)) continue;
+        if (n >= 1) c[1] += M->s.inD[i][0] + M->s.inD[i][1] * (t - M->s.inT0[i]);
+        if (n >= 2) c[2] += 0.5 * M->s.inD[i][1];
+    }
 }
 
 /* ------------------------------------------------------------ break points and cells */
@@ -441,14 +475,17 @@ int ground_quiet(const Model *M, double a, int piece, double slope, double *end)
     /* the base is a straight line on the piece (0 after the record): its extremes are at the ends */
     excitation_piece(M, a, piece, &h0, &v0);
     excitation_piece(M, t1, piece, &h1, &v1);
-    double gmin = M->v.g + fmin(v0, v1) + M->v.avIn, limit = (1.0 - 1e-9) * slope * gmin;
+    double hLo, hHi, vLo, vHi;
+    model_input_range(M, 0, a, t1, &hLo, &hHi);
+    model_input_range(M, 1, a, t1, &vLo, &vHi);
+    double gmin = M->v.g + fmin(v0, v1) + vLo, limit = (1.0 - 1e-9) * slope * gmin, hIn = fmax(fabs(hLo), fabs(hHi));
     *end = t1;
     if (!(gmin > 0)) return 0;
     /* a bound of the floor's acceleration (the base's, plus the support's from its polynomial on the segment), and
      * where that is not enough, the segment's exact peak (found once and kept by the table) */
-    if (fmax(fabs(h0), fabs(h1)) + support_acceleration_bound(M, piece, a, t1) + fabs(M->v.ahIn) < limit) return 1;
+    if (fmax(fabs(h0), fabs(h1)) + support_acceleration_bound(M, piece, a, t1) + hIn < limit) return 1;
     double peak = support_segment_peak(M, piece);
-    return peak >= 0 && peak + fabs(M->v.ahIn) < limit;
+    return peak >= 0 && peak + hIn < limit;
 }
 
 double next_cell_edge(const Model *M, double a, int piece) {
@@ -458,7 +495,7 @@ double next_cell_edge(const Model *M, double a, int piece) {
     if (support_piece(M, a, piece)) {
         double t0, t1, slope;
         support_span(M, a, piece, &t0, &t1, &slope);
-        return support_next_edge(M, a, piece, t0, t1, slope);
+        return support_next_edge(M, a, piece, t0, t1, slope + M->s.inD[0][0]); /* (a sloped input's too) */
     }
     if (a >= d->excEnd) return INFINITY;
     if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece) : d->excEnd;
@@ -479,7 +516,7 @@ double cell_start(const Model *M, double a, int piece) {
     if (support_piece(M, a, piece)) {
         double t0, t1, slope;
         support_span(M, a, piece, &t0, &t1, &slope);
-        return support_cell_start(M, a, piece, t0, t1, slope);
+        return support_cell_start(M, a, piece, t0, t1, slope + M->s.inD[0][0]);
     }
     if (M->v.kind == KIND_NONE || a < d->excStart || a >= d->excEnd) return a;
     if (M->v.kind == KIND_RECORD) return record_piece_ok(M, piece) ? record_time(M, piece - 1) : a;

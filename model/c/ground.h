@@ -45,6 +45,16 @@ void model_ground_piece(const Model *M, double t, int piece, double *ah, double 
  * the input ground.ah. */
 double ground_base_ah(const Model *M, double t);
 
+/* The input ground.ah (which = 0) or ground.av (1) at t (m/s2): its value, extended by the time derivatives an importer
+ * set (fmi2SetRealInputDerivatives: State's inD) into a polynomial from their communication point. */
+double model_input(const Model *M, int which, double t);
+/* The least and largest value of input `which` over [t0, t1] (m/s2; with a margin for rounding). */
+void model_input_range(const Model *M, int which, double t0, double t1, double *lo, double *hi);
+/* Input `which` (any, for model_inputs_on) is nonzero or has a nonzero derivative: it moves the base beyond the
+ * excitation. */
+int model_input_on(const Model *M, int which);
+int model_inputs_on(const Model *M);
+
 /* Total ground accelerations at t (the piece that starts at t). */
 void model_ground(const Model *M, double t, double *ah, double *av);
 

@@ -337,6 +337,9 @@ static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean", "String"}
 /* Common checks of the getters and setters; returns the variable's address
  * or NULL after logging an error. A parameter about to be set marks the
  * instance for validation and re-initialisation. */
+/* Which continuous input p is (0 ground.ah, 1 ground.av), -1 if none. */
+static int input_index(const Model *M, const double *p) { return p == &M->v.ahIn ? 0 : p == &M->v.avIn ? 1 : -1; }
+
 static void *lookup(Instance *I, unsigned vr, VarType want, int set, const char *fn,
                     const char **nameOut) {
     VarInfo info = {TYPE_REAL, CAUSALITY_output, ""};
@@ -375,9 +378,53 @@ Status instance_set_real(Instance *I, unsigned vr, double value, const char *fn)
         INSTANCE_ERROR(I, "%s: '%s' = %g is not a finite number", fn, name, value);
         return STATUS_ERROR;
     }
-    /* a changed input restarts the integrator at the communication point */
-    if ((I->s.phase & RUNNING_PHASES) && *p != value) solver_rollback(&I->s.model, I->s.tc);
+    /* a changed input restarts the integrator at the communication point; a value set at a later communication point
+     * than the input's derivatives ends their polynomial (instance_set_real_derivative) */
+    State *S = &I->s.model.s;
+    int which = input_index(&I->s.model, p);
+    int dropped = which >= 0 && S->inT0[which] != I->s.tc && (S->inD[which][0] != 0.0 || S->inD[which][1] != 0.0);
+    if ((I->s.phase & RUNNING_PHASES) && (*p != value || dropped)) solver_rollback(&I->s.model, I->s.tc);
     *p = value;
+    if (dropped) S->inD[which][0] = S->inD[which][1] = 0.0;
+    return STATUS_OK;
+}
+
+Status instance_set_real_derivative(Instance *I, unsigned vr, int order, double value, const char *fn) {
+    const char *name;
+    double *p = (double *)lookup(I, vr, TYPE_REAL, 0, fn, &name);
+    if (!p) return STATUS_ERROR;
+    Model *M = &I->s.model;
+    State *S = &M->s;
+    int which = input_index(M, p);
+    if (which < 0) {
+        INSTANCE_ERROR(I, "%s: '%s' takes no derivatives (the continuous inputs ground.ah and ground.av do)", fn, name);
+        return STATUS_ERROR;
+    }
+    if (!lookup(I, vr, TYPE_REAL, 1, fn, NULL)) return STATUS_ERROR; /* (settable now, as by fmi2SetReal) */
+    if (order != 1) { /* (a linear input keeps the cells on which the ground's acceleration is monotone: ground.c) */
+        INSTANCE_ERROR(I, "%s: '%s': derivative of order %d (the FMU takes the first derivative: the input is linear "
+                       "over the step)", fn, name, order);
+        return STATUS_ERROR;
+    }
+    if (M->v.kind != KIND_NONE && M->v.kind != KIND_RECORD) {
+        INSTANCE_ERROR(I, "%s: '%s': input derivatives drive the blocks with excitation.kind none or record (a built-in "
+                       "waveform's cells would not stay monotone with a sloped input)", fn, name);
+        return STATUS_ERROR;
+    }
+    if (!isfinite(value)) {
+        INSTANCE_ERROR(I, "%s: derivative %d of '%s' = %g is not a finite number", fn, order, name, value);
+        return STATUS_ERROR;
+    }
+    /* at a new communication point a new polynomial: the other order's derivative from before is dropped */
+    double d[2] = {S->inD[which][0], S->inD[which][1]};
+    int moved = S->inT0[which] != I->s.tc;
+    if (moved) d[0] = d[1] = 0.0;
+    d[order - 1] = value;
+    int changed = d[0] != S->inD[which][0] || d[1] != S->inD[which][1] || (moved && (d[0] != 0.0 || d[1] != 0.0));
+    if ((I->s.phase & RUNNING_PHASES) && changed) solver_rollback(M, I->s.tc);
+    S->inD[which][0] = d[0];
+    S->inD[which][1] = d[1];
+    S->inT0[which] = I->s.tc;
     return STATUS_OK;
 }
 

@@ -254,6 +254,11 @@ typedef struct {
      * base's work and the dampers' loss when they came to rest (J) */
     SupportRest rest;
     double restE0, restW0, restD0;
+    /* the inputs' time derivatives (Co-Simulation, fmi2SetRealInputDerivatives): inD[i][k - 1] the k-th (k = 1, 2) of
+     * ground.ah (i = 0) and ground.av (i = 1), from the communication point inT0[i] (s): each input is then the
+     * polynomial value + d1 (t - inT0) + d2 (t - inT0)^2 / 2 (model_input) */
+    double inD[2][2];
+    double inT0[2];
 } State;
 
 typedef struct Model {

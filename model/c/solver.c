@@ -112,7 +112,7 @@ static int finish_step(Model *M, const Logger *log, int side, EventKind ev) {
      * alpha it falls if it moves outwards, or if it moves inwards without
      * the energy to get back over the corner (E < p^2). */
     if (ev == EVENT_NONE && v->earlyOverturn && excitation_over(M, S->t) &&
-        v->ahIn == 0.0 && v->avIn == 0.0 && fabs(S->y[0]) > M->d.alpha) {
+        !model_inputs_on(M) && fabs(S->y[0]) > M->d.alpha) {
         double E = 0.5 * S->y[1] * S->y[1] + M->d.p2 * cos(M->d.alpha - fabs(S->y[0]));
         if (side * S->y[1] > 0 || E < M->d.p2) S->pending = EVENT_OVERTURN;
     }
@@ -685,7 +685,8 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         {"normalMin", S->normalMin, 2}, {"slideTime", &S->slideTime, 1}, {"liftTime", &S->liftTime, 1},
         {"impulseDemandMax", &S->impulseDemandMax, 1}, {"endTr", &S->endTr, 1}, {"endN", &S->endN, 1},
         {"withinTime", &S->withinTime, 1}, {"maxAbsSlip", &S->maxAbsSlip, 1}, {"slideSince", &S->slideSince, 1},
-        {"slideDur", &S->slideDur, 1}, {"impactLoss", &S->impactLoss, 1},
+        {"slideDur", &S->slideDur, 1}, {"impactLoss", &S->impactLoss, 1}, {"inD", S->inD[0], 4},
+        {"inT0", S->inT0, 2},
     };
     for (size_t k = 0; k < sizeof(numbers) / sizeof(numbers[0]); k++) {
         int i = not_finite(numbers[k].x, numbers[k].count);
