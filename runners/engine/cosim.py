@@ -554,10 +554,12 @@ def recorded_outputs(system: System) -> dict[str, list[str]]:
 # ------------------------------------------------------------------ engines
 
 def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, building_fmu: Path | None = None,
-        ssp: str | Path | None = None, progress=None) -> CosimResult:
+        ssp: str | Path | None = None, progress=None, interpolate: bool = True) -> CosimResult:
     """Write the system's SSP (to ``ssp``, else a temporary file) and run it with ``engine``
-    ("fmpy": fmpy reads the SSP and the master here steps its FMUs; "libcosim": libcosim's SSP
-    loader and fixed-step algorithm). ``progress(k, n)`` is called after every step, if given.
+    ("fmpy": fmpy reads the SSP and the master here steps its FMUs, one-way the building first and the
+    block's input a straight line over each step unless ``interpolate`` is False (:func:`run_ssp_fmpy`);
+    "libcosim": libcosim's SSP loader and fixed-step algorithm). ``progress(k, n)`` is called after every
+    step, if given.
     InvalidSystem, before anything runs, for a system that cannot run (:func:`check_system`);
     ``result.notes`` says what to read before trusting the run (:func:`system_notes`)."""
     if engine not in ENGINES:
@@ -567,8 +569,10 @@ def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, bui
     with tempfile.TemporaryDirectory(prefix="rocking-ssp-") as tmp:
         path = Path(ssp) if ssp else Path(tmp) / f"{_ssp_name(system.name)}.ssp"
         _write_ssp(system, path, block_fmu, building_fmu)
-        runner = run_ssp_fmpy if engine == "fmpy" else run_ssp_libcosim
-        result = runner(system, path, progress)
+        if engine == "fmpy":
+            result = run_ssp_fmpy(system, path, progress, interpolate=interpolate)
+        else:
+            result = run_ssp_libcosim(system, path, progress)
     result.block_parameters = {**_start_values(block_fmu), **system.block_parameters()}
     result.block_fmu, result.building_fmu = Path(block_fmu), Path(building_fmu)
     why = divergence(result)
@@ -619,11 +623,31 @@ def _start_values(fmu: Path) -> dict[str, float]:
             if v.causality == "parameter" and v.type in ("Real", "Integer") and v.start is not None}
 
 
-def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = None) -> CosimResult | None:
+def _order(names: list[str], links: list[tuple]) -> list[str] | None:
+    """The components in an order where each comes after those it reads (None if the connections loop: two-way)."""
+    order, left = [], list(names)
+    while left:
+        ready = [c for c in left if not any(b == c and a in left for a, _, b, _ in links)]
+        if not ready:
+            return None
+        order += ready
+        left = [c for c in left if c not in ready]
+    return order
+
+
+def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = None,
+                 interpolate: bool = True) -> CosimResult | None:
     """Run the SSP with fmpy: its SSD reader (validated against the SSP schema) gives components,
-    parameter bindings and connections; fmpy's FMI 2.0 wrapper runs each FMU; the master steps
-    them as libcosim's fixed-step algorithm does. ``steps = 0`` only initialises the FMUs (None
-    when they accept their parameters, else CosimError with the FMU's message)."""
+    parameter bindings and connections; fmpy's FMI 2.0 wrapper runs each FMU. ``steps = 0`` only
+    initialises the FMUs (None when they accept their parameters, else CosimError with the FMU's message).
+
+    Where the connections do not loop (one-way coupling) and ``interpolate``, the master steps the FMUs in
+    that order, each after those it reads, and gives an input that can take it (canInterpolateInputs) the
+    straight line from its source's output at the step's start to its output at the step's end: its value
+    and first derivative (fmi2SetRealInputDerivatives). The blocks then feel the floor's acceleration joined
+    by straight lines, second order in the step instead of held. Otherwise (two-way coupling, or
+    ``interpolate=False``) every FMU steps from the outputs of the step before, held: libcosim's fixed-step
+    algorithm."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
     from fmpy.ssp.ssd import read_ssd
@@ -642,6 +666,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
         with zipfile.ZipFile(ssp) as zf:
             zf.extractall(unzip)
         info: dict[str, dict[str, Any]] = {}
+        slopes: dict[str, bool] = {}  # the component takes input derivatives
         for comp in ssd.system.elements:
             fmu = unzip / comp.source
             md = read_model_description(str(fmu), validate=False)
@@ -651,6 +676,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
             s.instantiate(callbacks=callbacks, loggingOn=False)
             slaves[comp.name] = s
             info[comp.name] = vars_
+            slopes[comp.name] = bool(md.coSimulation.canInterpolateInputs)
             s.setupExperiment(startTime=0.0, stopTime=n * h)
             for binding in comp.parameterBindings:
                 for pset in binding.parameterValues:
@@ -670,15 +696,30 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
         def sample() -> list[float]:
             return [x for read in readers for x in read()]
 
+        def step(name: str, k: int) -> None:
+            status = slaves[name].doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
+            if status not in (0, None):
+                raise CosimError(f"fmpy: a doStep at t = {k * h:g} s returned status {status}")
+
+        order = _order(list(slaves), links) if interpolate else None
         transfer()
+        held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]  # each link's value at the step's start
         rows = []
         for k in range(n):
-            for s in slaves.values():
-                status = s.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
-                if status not in (0, None):
-                    raise CosimError(f"fmpy: a doStep at t = {k * h:g} s returned status {status}")
+            if order is None:
+                for name in slaves:
+                    step(name, k)
+            else:
+                for name in order:
+                    for i, (a, out, b, inp) in enumerate(links):
+                        if b == name and slopes[b]:  # (its source has stepped: order)
+                            end = slaves[a].getReal([out])[0]
+                            slaves[b].setReal([inp], [held[i]])
+                            slaves[b].setRealInputDerivatives([inp], [1], [(end - held[i]) / h])
+                    step(name, k)
             rows.append(sample())  # as libcosim's observer: after the step, before the transfer
             transfer()
+            held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]
             if progress:
                 progress(k + 1, n)
         for s in slaves.values():
