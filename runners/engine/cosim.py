@@ -57,7 +57,7 @@ BASE_KEYS = {"excitation.kind", "excitation.scale", "excitation.startTime", "exc
 # the blocks' outputs a result keeps (block 2's only for a stack)
 BLOCK_OUTPUTS = ["block1.theta", "block1.omega", "impacts", "overturned", "lifts", "slides", "energy", "momentum",
                  "contact.groundLoad", "contact.groundT", "contact.groundN", "ground.ahTotal", "groundWork",
-                 "block1.frictionLoss", "impactLoss", "block1.slip"]
+                 "block1.frictionLoss", "impactLoss", "block1.slip", "block1.maxAbsTheta"]
 BLOCK2_OUTPUTS = ["block2.theta", "block2.omega", "block2.frictionLoss", "block2.overturned"]
 BUILDING_OUTPUTS = ["base.aTotal", "energy", "baseWork", "forceWork", "dampingLoss", "baseShear"]
 STOREY_OUTPUTS = ["u", "v", "a"]
