@@ -1,6 +1,6 @@
-"""Input derivatives (Co-Simulation, fmi2SetRealInputDerivatives; docs/cosimulation.md): an importer that sets
+"""Input derivatives (Co-Simulation, fmi2SetRealInputDerivatives; docs/model.md): an importer that sets
 ground.ah's or ground.av's first derivative at a communication point drives the blocks with the input linear over
-the step. Checked against the same motion given as a record (the FMU joins a record's samples by straight lines):
+the step (ground.ah's second derivative too, on the ground: a parabola). Checked against the same motion given as a record (the FMU joins a record's samples by straight lines):
 a ramp set as a value and its slope at each communication point equals the record of that ramp, for rigid rocking
 and rocking-sliding, at rest (the uplift located inside the step) and moving; and the refusals."""
 
@@ -98,7 +98,8 @@ def test_bad_derivatives_are_refused_with_a_message(fmu):
     s = Slave(fmu)
     s.start({"excitation.kind": 0})
     vr = s.vr["ground.ah"]
-    s.expect_error(lambda: s.s.setRealInputDerivatives([vr], [2], [1.0]), "derivative of order 2")
+    s.expect_error(lambda: s.s.setRealInputDerivatives([vr], [3], [1.0]), "derivative of order 3")
+    s.expect_error(lambda: s.s.setRealInputDerivatives([s.vr["ground.av"]], [2], [1.0]), "a second derivative")
     s.expect_error(lambda: s.s.setRealInputDerivatives([s.vr["block1.mass"]], [1], [1.0]), "takes no derivatives")
     s.expect_error(lambda: s.s.setRealInputDerivatives([vr], [1], [float("nan")]), "not a finite number")
     s.close()
@@ -146,3 +147,39 @@ def test_a_sloped_input_on_a_floor_does_not_depend_on_the_communication_step(fmu
     assert abs(coarse[0]) > 1e-4  # lifted inside the step
     assert ramp[-1][1] > 0
     np.testing.assert_allclose(coarse, fine, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("params", [{}, {"contact.model": 1, "contact.muGround": 0.8}],
+                         ids=["rigid rocking", "rocking-sliding"])
+def test_a_bent_input_that_peaks_inside_one_step_lifts_the_block_as_finer_steps_do(fmu, params):
+    """ground.ah = 4 - 16 (t - 0.5)^2 over [0, 1] s: 0 at both ends of one step of 1 s, 4 m/s2 at its middle, above
+    the uplift threshold g tan(alpha) = 3.27 m/s2. Given once (value, first and second derivative at t = 0) it
+    lifts the block inside the step as the same parabola given at 100 points does; then both rock freely."""
+
+    def run(points):
+        s = Slave(fmu)
+        s.start({**TIGHT, **params, "excitation.kind": 0})
+        vr, t = s.vr["ground.ah"], 0.0
+        for stop in points:
+            s.s.setReal([vr], [4.0 - 16.0 * (t - 0.5) ** 2])
+            s.s.setRealInputDerivatives([vr, vr], [1, 2], [-32.0 * (t - 0.5), -32.0])
+            s.s.doStep(t, stop - t)
+            t = stop
+        s.s.setReal([vr], [0.0])
+        s.s.setRealInputDerivatives([vr], [1], [0.0])
+        s.s.doStep(t, 2.0 - t)
+        out = np.array(s.real("block1.theta", "block1.omega", "block1.maxAbsTheta") + s.s.getInteger([s.vr["impacts"]]))
+        s.close()
+        return out
+
+    coarse, fine = run([1.0]), run(list(np.linspace(0.01, 1.0, 100)))
+    assert coarse[2] > 1e-3  # it rocked
+    assert coarse[3] == fine[3]
+    np.testing.assert_allclose(coarse[:3], fine[:3], rtol=0, atol=1e-9)
+
+
+def test_a_second_derivative_is_refused_on_a_support(fmu):
+    s = Slave(fmu)
+    s.start({**FRAME, "excitation.kind": 0})
+    s.expect_error(lambda: s.s.setRealInputDerivatives([s.vr["ground.ah"]], [2], [1.0]), "support.kind = 0")
+    s.close()

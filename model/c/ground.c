@@ -488,7 +488,28 @@ int ground_quiet(const Model *M, double a, int piece, double slope, double *end)
     return peak >= 0 && peak + hIn < limit;
 }
 
+/* Where the total horizontal acceleration on piece turns, when an input's second derivative bends it (State's inD): its
+ * excitation there a straight line of slope s (a record's segment, or none), s + d1 + d2 (t - inT0) vanishes; NAN if
+ * the input is not bent. (Only on the ground: instance_set_real_derivative.) */
+static double input_vertex(const Model *M, double a, int piece) {
+    const State *S = &M->s;
+    if (S->inD[0][1] == 0.0) return NAN;
+    double s = 0.0;
+    if (M->v.kind == KIND_RECORD && a >= M->d.excStart && a < M->d.excEnd && record_piece_ok(M, piece)) {
+        const Record *r = M->rec;
+        s = M->d.accAmp * (r->ah[piece] - r->ah[piece - 1]) / (r->t[piece] - r->t[piece - 1]);
+    }
+    return S->inT0[0] - (s + S->inD[0][0]) / S->inD[0][1];
+}
+
+static double cell_edge(const Model *M, double a, int piece);
+
 double next_cell_edge(const Model *M, double a, int piece) {
+    double b = cell_edge(M, a, piece), v = input_vertex(M, a, piece);
+    return v > a && v < b ? v : b;
+}
+
+static double cell_edge(const Model *M, double a, int piece) {
     const Derived *d = &M->d;
     if (M->v.kind == KIND_NONE) return INFINITY;
     if (a < d->excStart) return d->excStart;
@@ -511,7 +532,14 @@ double next_cell_edge(const Model *M, double a, int piece) {
     return d->excEnd;
 }
 
+static double cell_begin(const Model *M, double a, int piece);
+
 double cell_start(const Model *M, double a, int piece) {
+    double lo = cell_begin(M, a, piece), v = input_vertex(M, a, piece);
+    return v <= a && v > lo ? v : lo;
+}
+
+static double cell_begin(const Model *M, double a, int piece) {
     const Derived *d = &M->d;
     if (support_piece(M, a, piece)) {
         double t0, t1, slope;

@@ -401,9 +401,16 @@ Status instance_set_real_derivative(Instance *I, unsigned vr, int order, double 
         return STATUS_ERROR;
     }
     if (!lookup(I, vr, TYPE_REAL, 1, fn, NULL)) return STATUS_ERROR; /* (settable now, as by fmi2SetReal) */
-    if (order != 1) { /* (a linear input keeps the cells on which the ground's acceleration is monotone: ground.c) */
-        INSTANCE_ERROR(I, "%s: '%s': derivative of order %d (the FMU takes the first derivative: the input is linear "
-                       "over the step)", fn, name, order);
+    if (order != 1 && order != 2) {
+        INSTANCE_ERROR(I, "%s: '%s': derivative of order %d (the FMU takes the first and second derivatives)", fn, name,
+                       order);
+        return STATUS_ERROR;
+    }
+    /* (a second derivative bends the input: the cells on which the ground's acceleration is monotone are then cut at
+     * the total's vertex, ground.c, which holds for the horizontal input on the ground) */
+    if (order == 2 && (which != 0 || M->v.supportKind != 0)) {
+        INSTANCE_ERROR(I, "%s: '%s': a second derivative is taken for ground.ah of blocks on the ground (support.kind "
+                       "= 0): give the first derivative alone", fn, name);
         return STATUS_ERROR;
     }
     if (M->v.kind != KIND_NONE && M->v.kind != KIND_RECORD) {

@@ -130,7 +130,7 @@ typedef enum { TYPE_REAL, TYPE_INTEGER, TYPE_BOOLEAN, TYPE_STRING } VarType;
 
 /* Set or get one scalar; a getter first brings the outputs up to date. */
 Status instance_set_real(Instance *I, unsigned vr, double value, const char *fn);
-/* The order-th time derivative (1; State's inD keeps room for 2) of the continuous input vr (ground.ah, ground.av) from the communication point
+/* The order-th time derivative (1 or 2; 2 for ground.ah on the ground alone) of the continuous input vr (ground.ah, ground.av) from the communication point
  * on (Co-Simulation, fmi2SetRealInputDerivatives; State's inD). Derivatives set at an earlier communication point are
  * dropped by the first derivative or value set for that input at a later one. */
 Status instance_set_real_derivative(Instance *I, unsigned vr, int order, double value, const char *fn);

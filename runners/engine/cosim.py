@@ -557,7 +557,7 @@ def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, bui
         ssp: str | Path | None = None, progress=None, interpolate: bool = True) -> CosimResult:
     """Write the system's SSP (to ``ssp``, else a temporary file) and run it with ``engine``
     ("fmpy": fmpy reads the SSP and the master here steps its FMUs, one-way the building first and the
-    block's input a straight line over each step unless ``interpolate`` is False (:func:`run_ssp_fmpy`);
+    block's input a parabola over each step unless ``interpolate`` is False (:func:`run_ssp_fmpy`);
     "libcosim": libcosim's SSP loader and fixed-step algorithm). ``progress(k, n)`` is called after every
     step, if given.
     InvalidSystem, before anything runs, for a system that cannot run (:func:`check_system`);
@@ -643,9 +643,9 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
 
     Where the connections do not loop (one-way coupling) and ``interpolate``, the master steps the FMUs in
     that order, each after those it reads, and gives an input that can take it (canInterpolateInputs) the
-    straight line from its source's output at the step's start to its output at the step's end: its value
-    and first derivative (fmi2SetRealInputDerivatives). The blocks then feel the floor's acceleration joined
-    by straight lines, second order in the step instead of held. Otherwise (two-way coupling, or
+    parabola through its source's outputs at the step before's start, this step's start and its end (on the
+    first step the straight line): its value and first and second derivatives (fmi2SetRealInputDerivatives).
+    The blocks then feel the floor's acceleration interpolated to third order in the step instead of held. Otherwise (two-way coupling, or
     ``interpolate=False``) every FMU steps from the outputs of the step before, held: libcosim's fixed-step
     algorithm."""
     from fmpy import extract, read_model_description
@@ -704,6 +704,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
         order = _order(list(slaves), links) if interpolate else None
         transfer()
         held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]  # each link's value at the step's start
+        before: list[float] | None = None  # and at the step before
         rows = []
         for k in range(n):
             if order is None:
@@ -713,13 +714,18 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
                 for name in order:
                     for i, (a, out, b, inp) in enumerate(links):
                         if b == name and slopes[b]:  # (its source has stepped: order)
-                            end = slaves[a].getReal([out])[0]
-                            slaves[b].setReal([inp], [held[i]])
-                            slaves[b].setRealInputDerivatives([inp], [1], [(end - held[i]) / h])
+                            end, now = slaves[a].getReal([out])[0], held[i]
+                            slaves[b].setReal([inp], [now])
+                            if before is None:  # the first step: the straight line to the step's end
+                                slaves[b].setRealInputDerivatives([inp], [1], [(end - now) / h])
+                            else:  # the parabola through the step before's start, this step's start and its end
+                                prev = before[i]
+                                slaves[b].setRealInputDerivatives([inp, inp], [1, 2], [(end - prev) / (2.0 * h),
+                                                                                        (end - 2.0 * now + prev) / h ** 2])
                     step(name, k)
             rows.append(sample())  # as libcosim's observer: after the step, before the transfer
             transfer()
-            held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]
+            before, held = held, [slaves[a].getReal([out])[0] for a, out, _, _ in links]
             if progress:
                 progress(k + 1, n)
         for s in slaves.values():
