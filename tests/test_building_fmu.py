@@ -574,3 +574,38 @@ def test_the_sanitizer_build_makes_the_building_too(tmp_path):
     makefile = (Path(__file__).resolve().parents[1] / "Makefile").read_text()
     recipe = makefile.split("\nsanitize:", 1)[1].split("\n\n", 1)[0]
     assert "ROCKING_BUILDING_FMU=build/ShearBuilding-sanitize.fmu" in recipe and "tests/test_building_fmu.py" in recipe
+
+
+def test_output_derivatives_are_the_floors_rates(building, tmp_path):
+    """fmi2GetRealOutputDerivatives (maxOutputDerivativeOrder = 1): storey[i].u's is storey[i].v, storey[i].v's is
+    u_i'' = storey[i].a - base.aTotal, and storey[i].a's is -(K u' + C u'')_i / m_i: against a one-sided difference of
+    the outputs (second order, steps of 0.1 ms at relTol 1e-13), with a force held on floor 2."""
+    t_rec = np.round(np.arange(0, 301) * 0.01, 12)
+    write_record(tmp_path / "decay.txt", t_rec, 1.5 * np.sin(2 * np.pi * 2.3 * t_rec) * np.exp(-t_rec))
+    building.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": 0.03}),
+                    "excitation.file": str(tmp_path / "decay.txt"), "storey[2].force": 3e4, "solver.relTol": 1e-13})
+    building.run(1.0, 0.05, ["energy"])
+    names = [f"storey[{i}].{q}" for i in (1, 2, 3) for q in ("u", "v", "a")]
+    vrs = [building.vars[n].valueReference for n in names]
+    d = np.array(building.s.getRealOutputDerivatives(vrs, [1] * len(vrs)))
+    out = building.get(names + ["base.aTotal"])
+    np.testing.assert_array_equal(d[0::3], out[1:9:3])  # u' = v
+    np.testing.assert_allclose(d[1::3], out[2:9:3] - out[-1], rtol=0, atol=1e-12 * np.abs(out[2:9:3]).max())
+    dt, x = 1e-4, [out[:9]]
+    for _ in range(2):
+        building.s.doStep(building.t, dt)
+        building.t += dt
+        x.append(building.get(names))
+    fd = (-3 * x[0] + 4 * x[1] - x[2]) / (2 * dt)
+    np.testing.assert_allclose(d[2::3], fd[2::3], rtol=2e-4)
+
+
+def test_output_derivatives_it_does_not_have_are_refused_in_one_line(building):
+    building.start(structure({"m": MASSES, "k": STIFFNESSES, "zeta": 0.03}))
+    a = building.vars["storey[1].a"].valueReference
+    for vrs, orders, words in (([a], [2], "maxOutputDerivativeOrder is 1"),
+                               ([building.vars["energy"].valueReference], [1], "has no derivative output")):
+        n = len(building.messages)
+        with pytest.raises(FMICallException):
+            building.s.getRealOutputDerivatives(vrs, orders)
+        assert any(words in m for m in building.messages[n:]), building.messages[n:]

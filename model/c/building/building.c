@@ -285,6 +285,28 @@ int building_advance(Building *B, double target, char *msg, size_t n) {
     return 0;
 }
 
+int building_output_derivative(const Building *B, const double *p, double *d) {
+    const BuildingVars *v = &B->v;
+    int n = B->n;
+    for (int i = 0; i < n; i++) {
+        if (p == &v->u[i]) {
+            *d = v->v[i];
+            return 0;
+        }
+        if (p != &v->v[i] && p != &v->a[i]) continue;
+        double ag = building_ground(B, B->t), w[BUILDING_MAX_STOREYS], f[BUILDING_MAX_STOREYS];
+        for (int j = 0; j < n; j++) w[j] = v->a[j] - ag; /* u'' */
+        if (p == &v->v[i]) {
+            *d = w[i];
+            return 0;
+        }
+        internal_forces(B, v->v, w, f); /* K u' + C u'' */
+        *d = -f[i] / v->mass[i];
+        return 0;
+    }
+    return 1;
+}
+
 void building_outputs(Building *B) {
     BuildingVars *v = &B->v;
     int n = B->n;

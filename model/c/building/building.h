@@ -117,5 +117,9 @@ void building_outputs(Building *B);
 /* Base acceleration a_g at time t (m/s2): the record, linear between its samples and zero
  * outside them, plus the input base.a. */
 double building_ground(const Building *B, double t);
+/* The first time derivative of the output at p (one of B's storey[i].u, .v, .a, written by building_outputs) into *d:
+ * v_i (m/s), u_i'' (m/s2), and a_i' = -(K u' + C u'')_i / m_i (m/s3; the floors' forces are held over a step, so F'
+ * = 0). Returns 1 if p is no such output. */
+int building_output_derivative(const Building *B, const double *p, double *d);
 
 #endif

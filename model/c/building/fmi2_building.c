@@ -548,10 +548,27 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[]) {
     Instance *I = (Instance *)c;
-    (void)vr, (void)nvr, (void)order, (void)value;
-    CHECK(I, ANY_PHASE, "fmi2GetRealOutputDerivatives");
-    LOG_ERROR(I, "fmi2GetRealOutputDerivatives is not supported");
-    return fmi2Error;
+    VarInfo info;
+    const char *fn = "fmi2GetRealOutputDerivatives";
+    if (begin_access(I, 0, vr, nvr, value, fn)) return fmi2Error;
+    if (nvr > 0 && !order) {
+        LOG_ERROR(I, "%s: NULL order array with nvr = %zu", fn, nvr);
+        return fmi2Error;
+    }
+    for (size_t i = 0; i < nvr; i++) {
+        const double *p = (const double *)lookup(I, vr[i], TYPE_REAL, 0, fn, &info);
+        if (!p) return fmi2Error;
+        if (order[i] != 1) {
+            LOG_ERROR(I, "%s: derivative of order %d of '%s' (maxOutputDerivativeOrder is 1)", fn, (int)order[i],
+                      info.name);
+            return fmi2Error;
+        }
+        if (building_output_derivative(&I->b, p, &value[i])) {
+            LOG_ERROR(I, "%s: '%s' has no derivative output (the floors' storey[i].u, .v and .a have)", fn, info.name);
+            return fmi2Error;
+        }
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
