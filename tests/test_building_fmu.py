@@ -448,7 +448,7 @@ def test_invalid_call_sequences_are_errors_not_crashes(building):
     with pytest.raises(FMICallException):
         building.s.doStep(0.5, 0.1)  # not the FMU's time
     with pytest.raises(FMICallException):
-        building.s.getFMUstate()
+        building.s.serializeFMUstate(building.s.getFMUstate())  # canSerializeFMUstate is false
     building.s.doStep(0.0, 0.1)  # still usable
     assert building.get(["storey[1].u"])[0] == 0.0  # at rest without excitation
     building.s.terminate()
@@ -609,3 +609,31 @@ def test_output_derivatives_it_does_not_have_are_refused_in_one_line(building):
         with pytest.raises(FMICallException):
             building.s.getRealOutputDerivatives(vrs, orders)
         assert any(words in m for m in building.messages[n:]), building.messages[n:]
+
+
+def test_a_state_taken_and_restored_repeats_the_steps_bit_for_bit(building_fmu, tmp_path):
+    """canGetAndSetFMUstate: a master that rolls a step back (to iterate it) gets the same run again, force input
+    and record included; a state from a run on another record is refused in one line."""
+    t_rec = np.round(np.arange(0, 301) * 0.01, 12)
+    write_record(tmp_path / "decay.txt", t_rec, 1.5 * np.sin(2 * np.pi * 2.3 * t_rec) * np.exp(-t_rec))
+    b = Building(building_fmu)
+    b.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": 0.03}), "excitation.file": str(tmp_path / "decay.txt")})
+    b.run(0.5, 0.05, ["energy"])
+    state, t_state = b.s.getFMUstate(), b.t
+    names = ["storey[3].u", "storey[3].a", "energy", "baseWork", "forceWork"]
+    force = lambda t: {"storey[2].force": 2e4 * np.sin(5 * t)}  # noqa: E731
+    first = b.run(1.0, 0.05, names, inputs=force)[1]
+    b.s.setFMUstate(state)
+    b.t = t_state
+    again = b.run(1.0, 0.05, names, inputs=force)[1]
+    np.testing.assert_array_equal(first, again)
+    assert np.abs(first[:, 0]).max() > 0
+    other = Building(building_fmu)
+    write_record(tmp_path / "other.txt", t_rec[:100], 0.5 * np.ones(100))
+    other.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": 0.03}), "excitation.file": str(tmp_path / "other.txt")})
+    with pytest.raises(FMICallException):
+        other.s.setFMUstate(state)
+    assert any("the state ran on another record" in m for m in other.messages)
+    b.s.freeFMUstate(state)
+    other.close()
+    b.close()

@@ -485,28 +485,88 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     return fmi2OK;
 }
 
-/* ------------------------------------------- FMU state (not supported) */
+/* ------------------------------------------------------------- FMU state */
+
+/* A saved state: the building (its record re-attached on restore: the instance owns it), the phase, the
+ * communication point, and the record it ran on (a state is restored only onto the same record). */
+#define STATE_MAGIC 0x53425354u /* "SBST" */
+typedef struct {
+    unsigned magic;
+    Building b;
+    Phase phase;
+    int dirty;
+    double tc;
+    int recN;
+} Snapshot;
+
+#define STATE_PHASES (PHASE_INITIALIZATION | PHASE_STEP_COMPLETE | PHASE_TERMINATED)
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Instance *I = (Instance *)c;
+    const char *fn = "fmi2GetFMUstate";
+    CHECK(I, STATE_PHASES, fn);
+    if (!state) {
+        LOG_ERROR(I, "%s: NULL state pointer", fn);
+        return fmi2Error;
+    }
+    Snapshot *s = (Snapshot *)*state;
+    if (!s) s = (Snapshot *)I->cb.allocateMemory(1, sizeof(Snapshot));
+    else if (s->magic != STATE_MAGIC) {
+        LOG_ERROR(I, "%s: *state is not a ShearBuilding state (give NULL for a new one)", fn);
+        return fmi2Error;
+    }
+    if (!s) {
+        LOG_ERROR(I, "%s: out of memory", fn);
+        return fmi2Error;
+    }
+    s->magic = STATE_MAGIC;
+    s->b = I->b;
+    s->b.rec = NULL;
+    s->phase = I->phase;
+    s->dirty = I->dirty;
+    s->tc = I->tc;
+    s->recN = I->rec.n;
+    *state = s;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    Instance *I = (Instance *)c;
+    const char *fn = "fmi2SetFMUstate";
+    CHECK(I, STATE_PHASES, fn);
+    const Snapshot *s = (const Snapshot *)state;
+    if (!s || s->magic != STATE_MAGIC) {
+        LOG_ERROR(I, "%s: not a ShearBuilding state", fn);
+        return fmi2Error;
+    }
+    if (s->recN != I->rec.n || strcmp(s->b.v.file, I->b.v.file) != 0) {
+        LOG_ERROR(I, "%s: the state ran on another record ('%s', %d samples; this instance: '%s', %d)", fn,
+                  s->b.v.file, s->recN, I->b.v.file, I->rec.n);
+        return fmi2Error;
+    }
+    I->b = s->b;
+    I->b.rec = I->rec.n > 0 ? &I->rec : NULL;
+    I->phase = s->phase;
+    I->dirty = s->dirty;
+    I->tc = s->tc;
+    return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    Instance *I = (Instance *)c;
+    CHECK(I, ANY_PHASE, "fmi2FreeFMUstate");
+    if (state && *state) {
+        I->cb.freeMemory(*state);
+        *state = NULL;
+    }
+    return fmi2OK;
+}
 
 static fmi2Status no_states(fmi2Component c, const char *fn) {
     Instance *I = (Instance *)c;
     CHECK(I, ANY_PHASE, fn);
-    LOG_ERROR(I, "%s: ShearBuilding cannot get and set FMU states (canGetAndSetFMUstate is false)", fn);
+    LOG_ERROR(I, "%s: ShearBuilding cannot serialize FMU states (canSerializeFMUstate is false)", fn);
     return fmi2Error;
-}
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    (void)state;
-    return no_states(c, "fmi2GetFMUstate");
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
-    (void)state;
-    return no_states(c, "fmi2SetFMUstate");
-}
-
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    (void)state;
-    return no_states(c, "fmi2FreeFMUstate");
 }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
