@@ -54,6 +54,10 @@ def resource(c: Component) -> str:
     return f"resources/{c.name}.fmu"
 
 
+# The name of every component's parameter set: one name, so that an engine that applies a set only when it is
+# selected by name (Ecos: init(parameter_set=PARAMETER_SET)) applies all of them at once.
+PARAMETER_SET = "parameters"
+
 def _ssv(value: Value) -> str:
     if isinstance(value, bool):
         return f'<ssv:Boolean value="{str(value).lower()}"/>'
@@ -91,7 +95,7 @@ def ssd_text(name: str, components: list[Component], connections: list[Connectio
         if c.parameters:
             w += ["        <ssd:ParameterBindings>", "          <ssd:ParameterBinding>",
                   "            <ssd:ParameterValues>",
-                  f'              <ssv:ParameterSet version="1.0" name={quoteattr(c.name + " parameters")}>',
+                  f'              <ssv:ParameterSet version="1.0" name={quoteattr(PARAMETER_SET)}>',
                   "                <ssv:Parameters>"]
             for pname, value in c.parameters.items():
                 w.append(f"                  <ssv:Parameter name={quoteattr(pname)}>{_ssv(value)}</ssv:Parameter>")
