@@ -92,3 +92,17 @@ def test_every_file_it_writes_is_made_as_open_makes_it(place):
             assert stat.S_IMODE(path.stat().st_mode) == mode, (path.name, oct(path.stat().st_mode), oct(umask))
             path.unlink()
         assert not [p for p in place.iterdir() if p.name.startswith(".")]  # no temporary file left
+
+
+def test_the_ssp_members_are_readable_by_everyone_once_extracted(place):
+    """The SSD and both FMUs inside the SSP are rw-r--r-- (zipfile's SSD default is rw-------, which another
+    user's tool, or a service account, could not read after extracting it)."""
+    import zipfile
+
+    p = runners("cosim", "system.toml", "--step", "0.004", "--ssp", "m.ssp", "--coupling", "one-way", *FMUS,
+                cwd=place, env=ENV)
+    assert p.returncode == 0, p.stderr
+    with zipfile.ZipFile(place / "m.ssp") as zf:
+        modes = {i.filename: stat.S_IMODE(i.external_attr >> 16) for i in zf.infolist()}
+    assert set(modes) == {"SystemStructure.ssd", "resources/block.fmu", "resources/building.fmu"}
+    assert set(modes.values()) == {0o644}, modes

@@ -122,6 +122,17 @@ def ssd_text(name: str, components: list[Component], connections: list[Connectio
     return "\n".join(w) + "\n"
 
 
+def _entry(name: str) -> zipfile.ZipInfo:
+    """An archive member readable by everyone once extracted (rw-r--r--, whatever the FMU file's own mode or the
+    SSD's default of rw-------), compressed."""
+    import time
+
+    info = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
+    info.external_attr = 0o100644 << 16
+    info.compress_type = zipfile.ZIP_DEFLATED
+    return info
+
+
 def write_ssp(path: str | Path, name: str, components: list[Component], connections: list[Connection],
               start_time: float, stop_time: float, description: str = "", step: float | None = None) -> Path:
     """Write the SSP archive ``path`` (SystemStructure.ssd and the FMUs in resources/, each named
@@ -136,9 +147,9 @@ def write_ssp(path: str | Path, name: str, components: list[Component], connecti
     fd, tmp = create_beside(path)
     try:
         with os.fdopen(fd, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as zf:
-            zf.writestr("SystemStructure.ssd", text)
+            zf.writestr(_entry("SystemStructure.ssd"), text)
             for fname, fpath in sorted(fmus.items()):
-                zf.write(fpath, fname)
+                zf.writestr(_entry(fname), Path(fpath).read_bytes())
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
