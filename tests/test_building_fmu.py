@@ -637,3 +637,21 @@ def test_a_state_taken_and_restored_repeats_the_steps_bit_for_bit(building_fmu, 
     b.s.freeFMUstate(state)
     other.close()
     b.close()
+
+
+def test_a_copy_that_carries_its_base_record_runs_it_with_no_file_set(building_fmu_path, tmp_path):
+    """resources/base_record.txt in a copy of the FMU (what the runners' SSP makes, for tools that set no String
+    parameters) is its base when excitation.file is empty; the FMU without it stays at rest."""
+    from runners.engine.cosim import _with_record
+
+    t_rec = np.round(np.arange(0, 101) * 0.01, 12)
+    write_record(tmp_path / "pulse.txt", t_rec, 2.0 * np.sin(2 * np.pi * 3.0 * t_rec))
+    (tmp_path / "copy").mkdir()
+    copy = _with_record(building_fmu_path, tmp_path / "pulse.txt", tmp_path / "copy")
+    moved = []
+    for path in (building_fmu_path, copy):
+        b = Building((extract(str(path), str(tmp_path / f"x{len(moved)}")), read_model_description(str(path))))
+        b.start(structure({"m": MASSES, "k": STIFFNESSES, "zeta": 0.03}))
+        moved.append(np.abs(b.run(0.5, 0.05, ["storey[3].u"])[1]).max())
+        b.close()
+    assert moved[0] == 0.0 and moved[1] > 1e-4

@@ -447,14 +447,36 @@ def write_system_ssp(system: System, path: str | Path, block_fmu: Path | None = 
     return _write_ssp(system, path, *_fmus(block_fmu, building_fmu))
 
 
+# The base record's name in the resources of the SSP's copy of the building FMU, which runs it when excitation.file is
+# empty (model/c/building/building.h's BUILDING_BASE_RECORD)
+BASE_RECORD = "base_record.txt"
+
+
+def _with_record(building_fmu: Path, record: Path, folder: Path) -> Path:
+    """A copy of the building FMU in ``folder`` that carries ``record`` in its resources (BASE_RECORD): it runs it
+    with excitation.file empty, so a tool that sets no String parameters (OMSimulator drops them) still has it."""
+    out = folder / Path(building_fmu).name
+    with zipfile.ZipFile(building_fmu) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
+        for info in src.infolist():
+            dst.writestr(info, src.read(info))
+        dst.write(record, f"resources/{BASE_RECORD}")
+    return out
+
+
 def _write_ssp(system: System, path: str | Path, block_fmu: Path, building_fmu: Path) -> Path:
-    """write_system_ssp with the system checked and the FMUs found."""
-    components, connections = system_components(system, block_fmu, building_fmu)
+    """write_system_ssp with the system checked and the FMUs found. The building FMU goes in with the base record in
+    its resources, which the binding names relative to them (a tool that drops the binding runs it too)."""
     description = (f"{system.name}: blocks on floor {system.floor} of a {system.building.storeys}-storey shear "
                    f"building, {system.coupling} coupling, communication step {system.step:g} s")
     try:
-        return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.end_time, description,
-                         system.step)
+        with tempfile.TemporaryDirectory(prefix="rocking-ssp-") as tmp:
+            building = _with_record(building_fmu, Path(system.base_file), Path(tmp))
+            components, connections = system_components(system, block_fmu, building)
+            for c in components:
+                if c.fmu == building:
+                    c.parameters["excitation.file"] = BASE_RECORD
+            return write_ssp(path, _ssp_name(system.name), components, connections, 0.0, system.end_time,
+                             description, system.step)
     except OSError as exc:
         raise CosimError(f"cannot write the SSP {path}: {exc.strerror or exc}") from None
 

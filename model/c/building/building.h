@@ -39,6 +39,9 @@
 #endif
 
 #define BUILDING_FILE_CAPACITY 4096 /* bytes of excitation.file, its terminating NUL included */
+/* The record a copy of the FMU carries in its resources for its base, run when excitation.file is empty: a system
+ * file's copy (runners' SSP) reaches its record in a tool that sets no String parameters (docs/cosimulation.md). */
+#define BUILDING_BASE_RECORD "base_record.txt"
 #define BUILDING_REL_TOL_MIN 1e-14
 #define BUILDING_REL_TOL_MAX 0.1
 /* m, m/s, J: the integrator's absolute error per state at most; a micrometre (per second, a

@@ -91,7 +91,13 @@ static int load_record(Instance *I) {
     char path[BUILDING_FILE_CAPACITY + 512], msg[MSG_LEN];
     const char *file = I->b.v.file;
     record_free(&I->rec, I->cb.freeMemory);
-    if (!file[0]) return 0;
+    if (!file[0]) { /* none, unless this copy of the FMU carries its base record */
+        FILE *f = I->resourceDir && record_path(BUILDING_BASE_RECORD, I->resourceDir, path, sizeof(path), msg,
+                                                sizeof(msg)) == 0 ? fopen(path, "rb") : NULL;
+        if (!f) return 0;
+        fclose(f);
+        file = BUILDING_BASE_RECORD;
+    }
     if (!I->resourceDir && I->resourceNote[0] && !record_is_absolute(file)) {
         LOG_ERROR(I, "invalid parameter: excitation.file: '%s' is a relative path, but the importer's resources "
                      "location %s", file, I->resourceNote);
