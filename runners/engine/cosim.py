@@ -763,11 +763,12 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
                 raise CosimError(f"fmpy: a doStep at t = {k * h:g} s returned status {status}")
 
         order = _order(list(slaves), links) if interpolate else None
-        loops = iterate and order is None
-        if loops:  # two-way: the sources of interpolated inputs first, then the rest, the step iterated
+        # two-way, iterated where every FMU can roll back (else held, as without iterate): the sources of
+        # interpolated inputs first, then the rest
+        loops = iterate and order is None and all(states[c] for c in slaves)
+        if loops:
             first = [c for c in slaves if any(a == c and slopes[b] for a, _, b, _ in links)]
             order = first + [c for c in slaves if c not in first]
-            loops = all(states[c] for c in slaves)
         transfer()
         held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]  # each link's value at the step's start
         before: list[float] | None = None  # and at the step before
