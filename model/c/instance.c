@@ -334,12 +334,12 @@ static Status settable(Instance *I, const VarInfo *info, const char *fn) {
 
 static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean", "String"};
 
-/* Common checks of the getters and setters; returns the variable's address
- * or NULL after logging an error. A parameter about to be set marks the
- * instance for validation and re-initialisation. */
 /* Which continuous input p is (0 ground.ah, 1 ground.av), -1 if none. */
 static int input_index(const Model *M, const double *p) { return p == &M->v.ahIn ? 0 : p == &M->v.avIn ? 1 : -1; }
 
+/* Common checks of the getters and setters; returns the variable's address
+ * or NULL after logging an error. A parameter about to be set marks the
+ * instance for validation and re-initialisation. */
 static void *lookup(Instance *I, unsigned vr, VarType want, int set, const char *fn,
                     const char **nameOut) {
     VarInfo info = {TYPE_REAL, CAUSALITY_output, ""};
