@@ -183,3 +183,23 @@ def test_a_second_derivative_is_refused_on_a_support(fmu):
     s.start({**FRAME, "excitation.kind": 0})
     s.expect_error(lambda: s.s.setRealInputDerivatives([s.vr["ground.ah"]], [2], [1.0]), "support.kind = 0")
     s.close()
+
+
+def test_a_state_carries_the_input_derivatives(fmu):
+    """A state taken after the slope was set, serialized and restored, steps as the run it was taken from (the
+    derivatives are part of the state, and a restored state's are checked: finite, orders the FMU takes)."""
+    s = Slave(fmu)
+    s.start({**TIGHT, "excitation.kind": 0})
+    vr = s.vr["ground.ah"]
+    s.s.setReal([vr], [3.0])  # 3 + 3 t - 2 t^2 m/s2: above the uplift threshold 3.27 m/s2 after 0.1 s
+    s.s.setRealInputDerivatives([vr, vr], [1, 2], [3.0, -4.0])
+    blob = s.s.serializeFMUstate(s.s.getFMUstate())
+    s.s.doStep(0.0, 0.8)
+    first = s.real("block1.theta", "block1.omega", "ground.ahTotal")
+    state = s.s.deSerializeFMUstate(blob)
+    s.s.setFMUstate(state)
+    s.s.freeFMUstate(state)
+    s.s.doStep(0.0, 0.8)
+    assert s.real("block1.theta", "block1.omega", "ground.ahTotal") == first
+    assert first[0] != 0.0
+    s.close()

@@ -685,8 +685,7 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
         {"normalMin", S->normalMin, 2}, {"slideTime", &S->slideTime, 1}, {"liftTime", &S->liftTime, 1},
         {"impulseDemandMax", &S->impulseDemandMax, 1}, {"endTr", &S->endTr, 1}, {"endN", &S->endN, 1},
         {"withinTime", &S->withinTime, 1}, {"maxAbsSlip", &S->maxAbsSlip, 1}, {"slideSince", &S->slideSince, 1},
-        {"slideDur", &S->slideDur, 1}, {"impactLoss", &S->impactLoss, 1}, {"inD", S->inD[0], 4},
-        {"inT0", S->inT0, 2},
+        {"slideDur", &S->slideDur, 1}, {"impactLoss", &S->impactLoss, 1},
     };
     for (size_t k = 0; k < sizeof(numbers) / sizeof(numbers[0]); k++) {
         int i = not_finite(numbers[k].x, numbers[k].count);
@@ -863,7 +862,25 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
     return 0;
 }
 
+/* The inputs' derivatives of a restored state (every model's): finite, and only those instance_set_real_derivative
+ * takes. */
+static int check_inputs(const Model *M, char *msg, size_t n) {
+    const State *S = &M->s;
+    for (int i = 0; i < 2; i++) {
+        if (!isfinite(S->inD[i][0]) || !isfinite(S->inD[i][1]) || !isfinite(S->inT0[i]))
+            FAIL("input %d's derivatives (%g, %g from t = %g) are not finite numbers", i, S->inD[i][0], S->inD[i][1],
+                 S->inT0[i]);
+    }
+    int moves = S->inD[0][0] != 0.0 || S->inD[0][1] != 0.0 || S->inD[1][0] != 0.0 || S->inD[1][1] != 0.0;
+    if (S->inD[1][1] != 0.0 || (S->inD[0][1] != 0.0 && M->v.supportKind != 0))
+        FAIL("a second derivative of ground.av, or on a support, which the FMU does not take");
+    if (moves && M->v.kind != KIND_NONE && M->v.kind != KIND_RECORD)
+        FAIL("input derivatives with a built-in waveform excitation (kind %d), which the FMU does not take", M->v.kind);
+    return 0;
+}
+
 int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg, size_t n) {
+    if (check_inputs(M, msg, n)) return 1;
     if (engine_on(M)) return engine_check_state(M, msg, n);
     if (check_discrete(M, use, msg, n)) return 1;
     if (use == STATE_INERT) return 0;
