@@ -55,6 +55,20 @@ void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y,
     p[1][1] = v->mass2 * (vK[1] + v2[1]);
 }
 
+/* Position relative to the pivot of the point rot(theta) (ux, uy), horizontal (arm_velocity's integral). */
+static double arm_x(double theta, double ux, double uy) { return ux * cos(theta) + uy * sin(theta); }
+
+double contact_mass_moment(const Model *M, Mode mode, int s1, int s2, const double *y) {
+    const Variables *v = &M->v;
+    double b = v->halfWidth;
+    if (v->nBlocks != 2) /* the centre of mass: from the pivot at s1 b, at rest above the origin */
+        return mode == MODE_ROCKING ? v->mass * (s1 * b + arm_x(y[0], -s1 * b, v->halfHeight)) : 0.0;
+    if (mode != MODE_UPPER && mode != MODE_LOCKED && mode != MODE_BOTH) return 0.0;
+    double x1 = s1 * b + arm_x(y[0], -s1 * b, v->halfHeight);
+    double xK = s1 * b + arm_x(y[0], s2 * M->d.c - s1 * b, 2.0 * v->halfHeight); /* block 2's pivot */
+    return v->mass * x1 + v->mass2 * (xK + arm_x(y[2], -s2 * M->d.c, v->halfHeight2));
+}
+
 /* One block: the centre of mass sits at R (-sin(phi), cos(phi)) from the pivot,
  * phi = side alpha - theta, so it accelerates relative to the ground by
  * R (cos(phi) theta'' + sin(phi) theta'^2, sin(phi) theta'' - cos(phi) theta'^2). */

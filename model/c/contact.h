@@ -31,6 +31,9 @@ void contact_stack(const Model *M, Mode mode, int s1, int s2, const double y[4],
  * one block, and for bodies at rest or overturned) in pattern mode with pivots
  * s1, s2 at y = (theta1, omega1[, theta2, omega2]). */
 void contact_momenta(const Model *M, Mode mode, int s1, int s2, const double *y, double p[2][2]);
+/* The blocks' mass times their centres of mass's horizontal displacement from rest relative to the ground, summed
+ * (kg m): the integral of contact_momenta's horizontal momentum (the rigid models; 0 at rest). */
+double contact_mass_moment(const Model *M, Mode mode, int s1, int s2, const double *y);
 
 /* ---------------------------------------------------------------- monitors
  *

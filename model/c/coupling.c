@@ -1,12 +1,13 @@
 /* Two-way coupling of a support with the contact engine: the support's side (coupling.h). */
 #include "coupling.h"
+#include "ground.h"
 #include "model.h"
 
 int coupling_on(const Model *M) { return M->d.sup.twoWay; }
 
 int coupling_size(const Model *M) { return M->d.sup.twoWay ? COUPLING_N(M->d.sup.ns) : 0; }
 
-void coupling_free(const Model *M, const double *y, double ag, double *r) {
+void coupling_free(const Model *M, double t, const double *y, double ag, double *r) {
     const SupportModes *sm = &M->d.sup;
     const double *z = y + EN_N(M->d.en.nb);
     /* storey i's force on floor i, k_i (drift + a1 drift rate) (C = a0 M + a1 K); floor i feels F_i - F_(i+1).
@@ -19,6 +20,8 @@ void coupling_free(const Model *M, const double *y, double ag, double *r) {
         r[i] = -sm->a0 * z[2 * i + 1] - (F - above) / sm->mass[i] - ag;
         above = F;
     }
+    /* the input support.force: the rest of a structure the FMU does not model, acting on the blocks' floor */
+    if (model_input_on(M, 2)) r[sm->j] += model_input(M, 2, t) / sm->mass[sm->j];
 }
 
 double coupling_floor(const Model *M, const double *r, double T0, double Ta) {

@@ -28,9 +28,9 @@
 int coupling_on(const struct Model *M);
 /* How many components it adds to the engine's (0 unless coupling_on). */
 int coupling_size(const struct Model *M);
-/* Each floor's acceleration relative to the base without the blocks' force, r (m/s2), at the support's state
- * in y and the base's acceleration ag. */
-void coupling_free(const struct Model *M, const double *y, double ag, double *r);
+/* Each floor's acceleration relative to the base without the blocks' force, r (m/s2), at time t (s), the support's
+ * state in y and the base's acceleration ag; the input support.force at t included. */
+void coupling_free(const struct Model *M, double t, const double *y, double ag, double *r);
 /* Floor j's acceleration relative to the base (m/s2) with the blocks' force T = T0 + Ta (a_f - a_g). */
 double coupling_floor(const struct Model *M, const double *r, double T0, double Ta);
 /* The support's derivatives (written at its components of dy) with floor j's acceleration uj (relative to

@@ -74,13 +74,13 @@ static void forces_along(EnForces *f, const EnForces *g, double s) {
 /* Two-way coupling: the engine's derivatives (affine in the floor's acceleration) at the base's acceleration ag
  * and at ag + 1, floor j's acceleration solved from them (coupling.h), and the derivatives there; then the
  * support's. */
-static void coupled_rhs(Ctx *c, const double *y, double ag, double av, double *dy) {
+static void coupled_rhs(Ctx *c, double t, const double *y, double ag, double av, double *dy) {
     const Model *M = c->M;
     int nb = c->sys->nb, n0 = nblock(c);
     const double *xi0 = c->chain ? c->xi0 : NULL;
     double r[SUPPORT_MAX_STOREYS], dyB[NMAX], placedB[NMAX];
     EnForces fB;
-    coupling_free(M, y, ag, r);
+    coupling_free(M, t, y, ag, r);
     if (c->resting) { /* every body flat and sticking: they move with the floor, T = (their mass) a_f exactly */
         double mtot, uj;
         coupling_momentum(c->sys, y, &mtot);
@@ -131,7 +131,7 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
     double ah, av;
     model_ground_piece(c->M, t, c->piece, &ah, &av);
     if (c->two) {
-        coupled_rhs(c, y, ah, av, dy);
+        coupled_rhs(c, t, y, ah, av, dy);
         return;
     }
     if (!engine_rhs(c->sys, &c->mode, c->chain ? c->xi0 : NULL, y, ah, av, dy, &c->f, c->chain ? c->placed : NULL))
@@ -141,13 +141,13 @@ static void rhs_cb(const void *ctx, double t, const double *y, double *dy) {
 /* The forces of contact set m at the state y under the base's accelerations (ag, av): on a two-way support
  * with floor j's acceleration solved with them. Returns the floor's absolute acceleration (ag elsewhere), or
  * NAN if the set's system is singular. */
-static double solve_at(const Model *M, const EnMode *m, const double *y, double ag, double av, EnForces *f) {
+static double solve_at(const Model *M, double t, const EnMode *m, const double *y, double ag, double av, EnForces *f) {
     const EnSystem *sys = &M->d.en;
     if (!engine_solve(sys, m, y, ag, av, f)) return NAN;
     if (!coupling_on(M) || M->s.rest.on) return ag; /* (at rest in closed form ag is the floor's: support_rest) */
     double r[SUPPORT_MAX_STOREYS];
     EnForces g;
-    coupling_free(M, y, ag, r);
+    coupling_free(M, t, y, ag, r);
     if (!engine_solve(sys, m, y, ag + 1.0, av, &g)) return NAN;
     double uj = coupling_floor(M, r, f->T[0], g.T[0] - f->T[0]);
     forces_along(f, &g, uj);
@@ -505,11 +505,11 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
  * acceleration d (relative to the base) with it, m_j (d - r_j) + T(ag + d) = 0, T the floor's force on body 0 in
  * the set chosen under the floor's acceleration ag + d. T is piecewise affine and nondecreasing in it, so the
  * root is one: Newton's method on the chosen set's line (exact once the set repeats), kept in its bracket. */
-static int choose_on_floor(const Model *M, const double *y, double ag, double av, int touching[][2], const int *stuck,
+static int choose_on_floor(const Model *M, double t, const double *y, double ag, double av, int touching[][2], const int *stuck,
                            EnMode *out) {
     const EnSystem *sys = &M->d.en;
     double r[SUPPORT_MAX_STOREYS], mj = coupling_floor_mass(M), lo = -INFINITY, hi = INFINITY;
-    coupling_free(M, y, ag, r);
+    coupling_free(M, t, y, ag, r);
     double d = r[M->d.sup.j];
     EnMode m;
     for (int it = 0; it < 60; it++) {
@@ -544,7 +544,7 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
         for (int i = 0; i < n; i++) ya[i] += d * dy[i];
     model_ground_piece(M, t + (dy ? d : 0.0), model_piece(M, t), &ah, &av);
     EnForces f;
-    if (coupling_on(M)) return choose_on_floor(M, ya, ah, av, touching, stuck, out);
+    if (coupling_on(M)) return choose_on_floor(M, t + (dy ? d : 0.0), ya, ah, av, touching, stuck, out);
     return engine_choose(sys, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
 }
 
@@ -610,7 +610,7 @@ static int negligible(const Model *M, double t, const double *y) {
         EnForces f;
         memset(&r, 0, sizeof(r));
         for (int k = 0; k < M->d.en.nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
-        ah = solve_at(M, &r, y, ah, av, &f);
+        ah = solve_at(M, t, &r, y, ah, av, &f);
     }
     double geff = M->v.g + av;
     int two = M->v.nBlocks == 2;
@@ -975,7 +975,7 @@ static int indicators(const Ctx *c, double t, const double *y, const EnForces *f
     if (!f) {
         double ah, av;
         model_ground_piece(c->M, t, c->piece, &ah, &av);
-        solve_at(c->M, &c->mode, y, ah, av, &g);
+        solve_at(c->M, t, &c->mode, y, ah, av, &g);
         f = &g;
     }
     return engine_indicators(c->sys, &c->mode, y, f, ind, kind, body, corner);
@@ -1039,7 +1039,9 @@ static int take_step(Model *M, const Logger *log) {
     double bp = next_breakpoint(M, S->t, c.piece), hmax = bp - S->t;
     int free_motion = 0;
     for (int k = 0; k < nb; k++) free_motion |= S->en.sigma[k] != 0 || flying(&S->en, k);
-    if (free_motion) hmax = fmin(hmax, FREE_STEP_MAX * time_scale(M));
+    /* free motion, and any motion on a two-way support (a sticking chain on a free platform moves as a polynomial, whose
+     * error estimate, 0, would let the step grow without end where no record sample bounds it) */
+    if (free_motion || c.two) hmax = fmin(hmax, FREE_STEP_MAX * time_scale(M));
     /* (the step writes the first n components; those after are completed, or never read) */
     double y1[NMAX], f1[NMAX], h = S->h, hNext;
     Dense cont;
@@ -1358,7 +1360,7 @@ static void state_forces_at(const Model *M, double t, double *y, EnMode *m, doub
         have = complete_forces(&c, S->y, y, ah, av, two ? NULL : f);
         *m = S->enDense;
     }
-    if (f && !have) solve_at(M, m, y, ah, av, f);
+    if (f && !have) solve_at(M, t, m, y, ah, av, f);
 }
 
 static void state_at(const Model *M, double t, double *y, EnMode *m) { state_forces_at(M, t, y, m, 0.0, 0.0, NULL); }
@@ -1379,7 +1381,7 @@ static void reactions(const Model *M, double t, int inStep, double T[2], double 
     }
     model_ground(M, t, &ah, &av);
     if (inStep) state_forces_at(M, t, y, &m, ah, av, &f);
-    else solve_at(M, &M->s.en, M->s.y, ah, av, &f);
+    else solve_at(M, t, &M->s.en, M->s.y, ah, av, &f);
     for (int k = 0; k < 2; k++) {
         T[k] = k < sys->nb ? f.T[k] : 0.0;
         N[k] = k < sys->nb ? f.N[k][0] + f.N[k][1] : 0.0;
@@ -1398,7 +1400,7 @@ static double rest_exit(const Model *M, double t, int piece) {
     double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
     EnForces f;
-    if (isnan(solve_at(M, &r, M->s.y, ah, av, &f))) return 1.0;
+    if (isnan(solve_at(M, t, &r, M->s.y, ah, av, &f))) return 1.0;
     return -engine_force_margin(sys, &r, &f);
 }
 
@@ -1458,7 +1460,7 @@ static void end_rhs(const void *ctx, double t, const double *z, double *dz) {
     model_ground_piece(M, t, c->piece, &ag, &av);
     coupling_momentum(&M->d.en, M->s.y, &mtot);
     memcpy(y + EN_N(nb), z, sizeof(double) * (size_t)coupling_size(M));
-    coupling_free(M, y, ag, r);
+    coupling_free(M, t, y, ag, r);
     double uj = coupling_floor(M, r, mtot * ag, mtot);
     coupling_rhs(M, y, r, uj, ag, av, 0.0, 0.0, dy);
     memcpy(dz, dy + EN_N(nb), sizeof(double) * (size_t)coupling_size(M));
@@ -1483,7 +1485,9 @@ static int support_after_end(Model *M, double tc, const Logger *log) {
     }
     scale[2 * ns] = scale[2 * ns + 1] = 0.0;
     end_rhs(&c, S->t, z, f0);
-    if (adaptive_step_controlled(RK_DOPRI5, end_rhs, &c, n, n, scale, S->t, z, f0, &h, bp - S->t, M->v.relTol,
+    /* (bounded as the engine's steps: a free platform moves as a polynomial) */
+    double hmax = fmin(bp - S->t, FREE_STEP_MAX * time_scale(M));
+    if (adaptive_step_controlled(RK_DOPRI5, end_rhs, &c, n, n, scale, S->t, z, f0, &h, hmax, M->v.relTol,
                                  M->v.absTol, z1, f1, &cont, NULL, &hNext, &hitBp, &S->rejected)) {
         say(log, LOG_ERROR, "no acceptable step size for the support (last tried %g) at t=%.17g", h, S->t);
         return -1;
@@ -1493,7 +1497,7 @@ static int support_after_end(Model *M, double tc, const Logger *log) {
     S->hDense = h;
     dense_copy(&S->cont, &cont, n);
     S->denseValid = 1;
-    S->t = hitBp ? bp : S->t + h;
+    S->t = hitBp && hmax == bp - S->t ? bp : S->t + h;
     memcpy(z, z1, sizeof(double) * (size_t)n);
     S->h = hNext;
     return 0;
@@ -1685,13 +1689,13 @@ void engine_outputs(Model *M, double tc) {
     int twoWay = coupling_on(M);
     if (S->mode != MODE_REST && !over) {
         state_forces_at(M, tc, y, &m, ah, av, twoWay ? NULL : &f);
-        if (twoWay) v->ahTotal = solve_at(M, &m, y, ah, av, &f); /* the floor's, with the blocks on it */
+        if (twoWay) v->ahTotal = solve_at(M, tc, &m, y, ah, av, &f); /* the floor's, with the blocks on it */
     }
     if (twoWay && over) { /* the floor carrying the bodies */
         double r[SUPPORT_MAX_STOREYS], mtot;
         support_after_end_at(M, tc, y);
         coupling_momentum(sys, y, &mtot);
-        coupling_free(M, y, ah, r);
+        coupling_free(M, tc, y, ah, r);
         v->ahTotal = ah + coupling_floor(M, r, mtot * ah, mtot);
     }
     if (S->mode == MODE_REST) {
@@ -1778,9 +1782,13 @@ void engine_outputs(Model *M, double tc) {
             v->interfaceN = sys->body[1].m * (sys->g + av);
         }
     }
-    double p = 0.0;
-    for (int k = 0; k < nb && !over; k++) p += sys->body[k].m * y[EN_VEL(nb, k, 0)];
+    double p = 0.0, q = 0.0;
+    for (int k = 0; k < nb && !over; k++) {
+        p += sys->body[k].m * y[EN_VEL(nb, k, 0)];
+        q += sys->body[k].m * y[EN_POS(nb, k, 0)];
+    }
     v->momentum = p;
+    M->s.massMoment = q;
     v->energy = over ? engine_energy(sys, S->y) : engine_energy(sys, y);
     v->groundWork = y[EN_WORK(nb)];
     v->frictionLoss = y[EN_LOSS(nb, 0)];

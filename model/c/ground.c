@@ -282,7 +282,9 @@ static void excitation_piece(const Model *M, double t, int piece, double *ah, do
     *av = vert;
 }
 
-static double input_value(const Model *M, int which) { return which ? M->v.avIn : M->v.ahIn; }
+static double input_value(const Model *M, int which) {
+    return which == 0 ? M->v.ahIn : which == 1 ? M->v.avIn : M->v.supportForce;
+}
 
 static int input_moves(const Model *M, int which) { return M->s.inD[which][0] != 0.0 || M->s.inD[which][1] != 0.0; }
 
@@ -308,7 +310,7 @@ void model_input_range(const Model *M, int which, double t0, double t1, double *
 
 int model_input_on(const Model *M, int which) { return input_value(M, which) != 0.0 || input_moves(M, which); }
 
-int model_inputs_on(const Model *M) { return model_input_on(M, 0) || model_input_on(M, 1); }
+int model_inputs_on(const Model *M) { return model_input_on(M, 0) || model_input_on(M, 1) || model_input_on(M, 2); }
 
 void model_ground_piece(const Model *M, double t, int piece, double *ah, double *av) {
     double h, vert;

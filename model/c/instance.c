@@ -334,8 +334,19 @@ static Status settable(Instance *I, const VarInfo *info, const char *fn) {
 
 static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean", "String"};
 
-/* Which continuous input p is (0 ground.ah, 1 ground.av), -1 if none. */
-static int input_index(const Model *M, const double *p) { return p == &M->v.ahIn ? 0 : p == &M->v.avIn ? 1 : -1; }
+/* Which continuous input p is (0 ground.ah, 1 ground.av, 2 support.force), -1 if none. */
+static int input_index(const Model *M, const double *p) {
+    return p == &M->v.ahIn ? 0 : p == &M->v.avIn ? 1 : p == &M->v.supportForce ? 2 : -1;
+}
+
+/* support.force acts on a two-way support alone (its floor is in the state): 1 after logging an error elsewhere. */
+static int force_refused(Instance *I, const char *fn) {
+    const Variables *v = &I->s.model.v;
+    if (v->supportKind != 0 && v->supportCoupling == 1) return 0;
+    INSTANCE_ERROR(I, "%s: 'support.force' acts on a two-way support (support.kind 1 or 2 with support.coupling = 1), "
+                      "not with support.kind = %d, support.coupling = %d", fn, v->supportKind, v->supportCoupling);
+    return 1;
+}
 
 /* Common checks of the getters and setters; returns the variable's address
  * or NULL after logging an error. A parameter about to be set marks the
@@ -382,6 +393,7 @@ Status instance_set_real(Instance *I, unsigned vr, double value, const char *fn)
      * than the input's derivatives ends their polynomial (instance_set_real_derivative) */
     State *S = &I->s.model.s;
     int which = input_index(&I->s.model, p);
+    if (which == 2 && value != 0.0 && (I->s.phase & RUNNING_PHASES) && force_refused(I, fn)) return STATUS_ERROR;
     int dropped = which >= 0 && S->inT0[which] != I->s.tc && (S->inD[which][0] != 0.0 || S->inD[which][1] != 0.0);
     if ((I->s.phase & RUNNING_PHASES) && (*p != value || dropped)) solver_rollback(&I->s.model, I->s.tc);
     *p = value;
@@ -397,7 +409,8 @@ Status instance_set_real_derivative(Instance *I, unsigned vr, int order, double 
     State *S = &M->s;
     int which = input_index(M, p);
     if (which < 0) {
-        INSTANCE_ERROR(I, "%s: '%s' takes no derivatives (the continuous inputs ground.ah and ground.av do)", fn, name);
+        INSTANCE_ERROR(I, "%s: '%s' takes no derivatives (the continuous inputs ground.ah, ground.av and support.force do)",
+                       fn, name);
         return STATUS_ERROR;
     }
     if (!lookup(I, vr, TYPE_REAL, 1, fn, NULL)) return STATUS_ERROR; /* (settable now, as by fmi2SetReal) */
@@ -408,9 +421,11 @@ Status instance_set_real_derivative(Instance *I, unsigned vr, int order, double 
     }
     /* (a second derivative bends the input: the cells on which the ground's acceleration is monotone are then cut at
      * the total's vertex, ground.c, which holds for the horizontal input on the ground) */
-    if (order == 2 && (which != 0 || M->v.supportKind != 0)) {
+    if (which == 2 && (I->s.phase & RUNNING_PHASES) && force_refused(I, fn)) return STATUS_ERROR;
+    /* (support.force only enters the support's equations of motion: both orders) */
+    if (order == 2 && which != 2 && (which != 0 || M->v.supportKind != 0)) {
         INSTANCE_ERROR(I, "%s: '%s': a second derivative is taken for ground.ah of blocks on the ground (support.kind "
-                       "= 0): give the first derivative alone", fn, name);
+                       "= 0) and for support.force: give the first derivative alone", fn, name);
         return STATUS_ERROR;
     }
     if (M->v.kind != KIND_NONE && M->v.kind != KIND_RECORD) {
@@ -758,7 +773,7 @@ Status instance_do_step(Instance *I, double currentPoint, double h, int earlyRet
     Model *M = &I->s.model;
     Logger log = instance_solver_logger(I);
     EventStop stop = {earlyReturn, M->v.stopAtOverturn, tc, 0, 0.0};
-    double momentum0 = M->v.momentum;
+    double momentum0 = M->v.momentum, moment0 = M->s.massMoment;
     if (solver_advance(M, target, &log, &stop)) {
         I->s.phase = PHASE_ERROR;
         return STATUS_ERROR;
@@ -769,9 +784,14 @@ Status instance_do_step(Instance *I, double currentPoint, double h, int earlyRet
     M->s.loadValid = 0;
     solver_outputs(M, reached);
     if (reached > tc) {
-        M->s.loadMean = -(M->v.momentum - momentum0) / (reached - tc);
+        /* and its first moment, the integral of (t - tc) load dt = -dt p1 + (q1 - q0) (p the momentum, q the mass
+         * moment whose rate it is): the slope of the line with both, 12 (q1 - q0 - dt (p0 + p1) / 2) / dt^3 */
+        double dt = reached - tc;
+        M->s.loadMean = -(M->v.momentum - momentum0) / dt;
+        M->s.loadSlope = 12.0 * (M->s.massMoment - moment0 - 0.5 * dt * (momentum0 + M->v.momentum)) / (dt * dt * dt);
         M->s.loadValid = 1;
         M->v.groundLoad = M->s.loadMean;
+        M->v.groundLoadSlope = M->s.loadSlope;
     }
     r->time = reached;
     r->event = stop.stopped;

@@ -27,6 +27,7 @@
 /* String parameters (excitation.file) live in the struct as fixed buffers,
  * so that a Model stays free of pointers into variable data. */
 #define STRING_CAPACITY 4096
+#define MODEL_INPUTS 3    /* the continuous inputs ground.ah, ground.av, support.force (State's inD) */
 typedef char FixedString[STRING_CAPACITY];
 
 #define REAL_TYPE double
@@ -249,16 +250,19 @@ typedef struct {
     /* contact.groundLoad's mean over the last communication step (Co-Simulation: instance_do_step
      * sets it, with loadValid = 1); without one (loadValid = 0) the output is the load at the time */
     int loadValid;
-    double loadMean;
+    double loadMean, loadSlope;
+    /* the blocks' mass times their centres of mass's horizontal position relative to the ground, summed (kg m), at the
+     * outputs' time: its change over a communication step is the momentum's integral (contact.groundLoadSlope) */
+    double massMoment;
     /* blocks at rest on a two-way support in closed form (support.h), with the energy of blocks and support, the
      * base's work and the dampers' loss when they came to rest (J) */
     SupportRest rest;
     double restE0, restW0, restD0;
     /* the inputs' time derivatives (Co-Simulation, fmi2SetRealInputDerivatives): inD[i][k - 1] the k-th (k = 1, 2) of
-     * ground.ah (i = 0) and ground.av (i = 1), from the communication point inT0[i] (s): each input is then the
-     * polynomial value + d1 (t - inT0) + d2 (t - inT0)^2 / 2 (model_input) */
-    double inD[2][2];
-    double inT0[2];
+     * ground.ah (i = 0), ground.av (i = 1) and support.force (i = 2), from the communication point inT0[i] (s): each
+     * input is then the polynomial value + d1 (t - inT0) + d2 (t - inT0)^2 / 2 (model_input) */
+    double inD[MODEL_INPUTS][2];
+    double inT0[MODEL_INPUTS];
 } State;
 
 typedef struct Model {

@@ -444,6 +444,7 @@ static void outputs_at(Model *M, double tc) {
     double p[2][2];
     contact_momenta(M, S->mode, side, 0, y, p);
     v->momentum = p[0][0];
+    M->s.massMoment = contact_mass_moment(M, S->mode, side, 0, y);
     v->interfaceT = v->interfaceN = 0.0;
     v->contactMode = mode == MODE_REST ? 0 : mode == MODE_OVERTURNED ? 4 : 2;
     contact_outputs(M, v);
@@ -460,6 +461,7 @@ void solver_outputs(Model *M, double tc) {
     v->groundLoad = M->s.loadValid                ? M->s.loadMean
                     : M->s.mode == MODE_OVERTURNED ? 0.0
                                                    : -(v->groundT - mass * v->ahTotal);
+    v->groundLoadSlope = M->s.loadValid ? M->s.loadSlope : 0.0;
 }
 
 void solver_log_pending(const Model *M, double tc, const Logger *log) {
@@ -866,12 +868,15 @@ static int check_numbers(const Model *M, double t0, double tc, StateUse use, cha
  * takes. */
 static int check_inputs(const Model *M, char *msg, size_t n) {
     const State *S = &M->s;
-    for (int i = 0; i < 2; i++) {
+    int moves = 0;
+    for (int i = 0; i < MODEL_INPUTS; i++) {
         if (!isfinite(S->inD[i][0]) || !isfinite(S->inD[i][1]) || !isfinite(S->inT0[i]))
             FAIL("input %d's derivatives (%g, %g from t = %g) are not finite numbers", i, S->inD[i][0], S->inD[i][1],
                  S->inT0[i]);
+        moves |= S->inD[i][0] != 0.0 || S->inD[i][1] != 0.0;
     }
-    int moves = S->inD[0][0] != 0.0 || S->inD[0][1] != 0.0 || S->inD[1][0] != 0.0 || S->inD[1][1] != 0.0;
+    if ((S->inD[2][0] != 0.0 || S->inD[2][1] != 0.0) && !coupling_on(M))
+        FAIL("derivatives of support.force off a two-way support, which the FMU does not take");
     if (S->inD[1][1] != 0.0 || (S->inD[0][1] != 0.0 && M->v.supportKind != 0))
         FAIL("a second derivative of ground.av, or on a support, which the FMU does not take");
     if (moves && M->v.kind != KIND_NONE && M->v.kind != KIND_RECORD)
@@ -893,8 +898,10 @@ int state_validate(const Model *M, double t0, double tc, StateUse use, char *msg
     out.v.alphaDD2 = M->v.alphaDD2;
     out.v.ahTotal = M->v.ahTotal;
     out.v.avTotal = M->v.avTotal;
-    if (!(M->s.loadValid == 0 || M->s.loadValid == 1) || !isfinite(M->s.loadMean))
-        FAIL("the last step's mean load (valid %d) = %g is not a load", M->s.loadValid, M->s.loadMean);
+    if (!(M->s.loadValid == 0 || M->s.loadValid == 1) || !isfinite(M->s.loadMean) || !isfinite(M->s.loadSlope) ||
+        !isfinite(M->s.massMoment))
+        FAIL("the last step's mean load (valid %d) = %g, its slope %g or the mass moment %g is not a number",
+             M->s.loadValid, M->s.loadMean, M->s.loadSlope, M->s.massMoment);
 #define VAR(T, vr, field, name, caus, var, start, unit, desc)         \
     if (memcmp(&out.v.field, &M->v.field, sizeof(out.v.field)) != 0) \
         FAIL("%s is not what the state gives at t = %.17g", name, tc);

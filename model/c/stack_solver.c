@@ -479,6 +479,7 @@ void stack_outputs(Model *M, double tc) {
     double p[2][2];
     contact_momenta(M, S->mode, s1, s2, y, p);
     v->momentum = p[0][0] + p[1][0];
+    M->s.massMoment = contact_mass_moment(M, S->mode, s1, s2, y);
     contact_outputs(M, v);
 }
 

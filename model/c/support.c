@@ -42,6 +42,9 @@ int support_validate(const Variables *v, char *msg, size_t n) {
              v->supportKind);
     if (v->supportCoupling < 0 || v->supportCoupling > 1)
         FAIL("support.coupling = %d must be 0 (one-way) or 1 (two-way)", v->supportCoupling);
+    if (v->supportForce != 0.0 && (v->supportKind == SUPPORT_GROUND || v->supportCoupling != 1))
+        FAIL("support.force = %g N acts on a two-way support (support.kind 1 or 2 with support.coupling = 1), not with "
+             "support.kind = %d, support.coupling = %d", v->supportForce, v->supportKind, v->supportCoupling);
     if (v->supportKind == SUPPORT_GROUND) return 0;
     if (v->kind != KIND_RECORD && v->kind != KIND_NONE)
         FAIL("support.kind = %d moves with a record at its base: excitation.kind must be 4 (a record file) or 0, "
