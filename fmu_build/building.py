@@ -91,7 +91,7 @@ def building_model_description(variables: list[Variable], guid: str, ranges: dic
            f'horizontal floor forces" version="{VERSION}" generationTool="rocking fmu_build" '
            'variableNamingConvention="structured" numberOfEventIndicators="0">',
            f'  <CoSimulation modelIdentifier="{BUILDING_IDENTIFIER}" canHandleVariableCommunicationStepSize="true" '
-           'canGetAndSetFMUstate="true" canSerializeFMUstate="false" canInterpolateInputs="false" '
+           'canGetAndSetFMUstate="true" canSerializeFMUstate="false" canInterpolateInputs="true" '
            'maxOutputDerivativeOrder="1" canBeInstantiatedOnlyOncePerProcess="false" needsExecutionTool="false">',
            "    <SourceFiles>", *[f'      <File name="{f}"/>' for f in files], "    </SourceFiles>",
            "  </CoSimulation>", *unit_definitions(used_units)]

@@ -38,6 +38,8 @@ int building_validate(const BuildingVars *v, char *msg, size_t n) {
         if (!(v->mass[i] > 0 && isfinite(v->mass[i])))
             FAIL("storey[%d].mass = %g kg must be > 0 (storey %d of nStoreys = %d)", i + 1, v->mass[i], i + 1,
                  v->nStoreys);
+        if (!(v->carriedMass[i] >= 0 && isfinite(v->carriedMass[i])))
+            FAIL("storey[%d].carriedMass = %g kg must be >= 0", i + 1, v->carriedMass[i]);
         if (!(v->stiffness[i] > 0 && isfinite(v->stiffness[i])))
             FAIL("storey[%d].stiffness = %g N/m must be > 0 (storey %d of nStoreys = %d)", i + 1, v->stiffness[i],
                  i + 1, v->nStoreys);
@@ -189,6 +191,10 @@ static void internal_forces(const Building *B, const double *u, const double *v,
     for (int i = 0; i < n; i++) out[i] = ku[i] + B->a0 * B->v.mass[i] * v[i] + B->a1 * kv[i];
 }
 
+double building_force(const Building *B, int i, double t) {
+    return B->v.force[i] + (B->dForce[i] != 0.0 ? B->dForce[i] * (t - B->forceT0[i]) : 0.0);
+}
+
 typedef struct {
     const Building *B;
     int piece;
@@ -205,12 +211,13 @@ static void rhs(const void *ctx, double t, const double *y, double *dy) {
     stiffness_times(n, B->v.stiffness, v, kv);
     double baseWork = 0.0, forceWork = 0.0, damping = 0.0;
     for (int i = 0; i < n; i++) {
-        double m = B->v.mass[i];
-        double cv = B->a0 * m * v[i] + B->a1 * kv[i];
+        double m = B->v.mass[i] + B->v.carriedMass[i]; /* inertia */
+        double cv = B->a0 * B->v.mass[i] * v[i] + B->a1 * kv[i];
         dy[i] = v[i];
-        dy[n + i] = (B->v.force[i] - cv - ku[i]) / m - ag;
+        double F = building_force(B, i, t);
+        dy[n + i] = (F - cv - ku[i]) / m - ag;
         baseWork -= ag * m * v[i];
-        forceWork += B->v.force[i] * v[i];
+        forceWork += F * v[i];
         damping += v[i] * cv;
     }
     dy[2 * n] = baseWork;
@@ -236,6 +243,8 @@ void building_start(Building *B, const Record *rec, double t0) {
     B->t = t0;
     memset(B->y, 0, sizeof(B->y));
     B->h = 0.0;
+    memset(B->dForce, 0, sizeof(B->dForce));
+    memset(B->forceT0, 0, sizeof(B->forceT0));
     B->steps = 0;
     building_outputs(B);
 }
@@ -293,7 +302,7 @@ int building_output_derivative(const Building *B, const double *p, double *d) {
             *d = v->v[i];
             return 0;
         }
-        if (p != &v->v[i] && p != &v->a[i]) continue;
+        if (p != &v->v[i] && p != &v->a[i] && p != &v->structureForce[i]) continue;
         double ag = building_ground(B, B->t), w[BUILDING_MAX_STOREYS], f[BUILDING_MAX_STOREYS];
         for (int j = 0; j < n; j++) w[j] = v->a[j] - ag; /* u'' */
         if (p == &v->v[i]) {
@@ -301,7 +310,7 @@ int building_output_derivative(const Building *B, const double *p, double *d) {
             return 0;
         }
         internal_forces(B, v->v, w, f); /* K u' + C u'' */
-        *d = -f[i] / v->mass[i];
+        *d = p == &v->structureForce[i] ? -f[i] : (B->dForce[i] - f[i]) / (v->mass[i] + v->carriedMass[i]);
         return 0;
     }
     return 1;
@@ -316,13 +325,14 @@ void building_outputs(Building *B) {
     double shear = 0.0, kinetic = 0.0, strain = 0.0;
     for (int i = 0; i < BUILDING_MAX_STOREYS; i++) {
         if (i >= n) {
-            v->u[i] = v->v[i] = v->a[i] = 0.0;
+            v->u[i] = v->v[i] = v->a[i] = v->structureForce[i] = 0.0;
             continue;
         }
-        double m = v->mass[i];
+        double m = v->mass[i] + v->carriedMass[i];
         v->u[i] = u[i];
         v->v[i] = vel[i];
-        v->a[i] = (v->force[i] - f[i]) / m; /* a_g + u'' */
+        v->a[i] = (building_force(B, i, B->t) - f[i]) / m; /* a_g + u'' */
+        v->structureForce[i] = -f[i];
         shear += f[i];
         kinetic += 0.5 * m * vel[i] * vel[i];
         double drift = i > 0 ? u[i] - u[i - 1] : u[i];

@@ -57,6 +57,7 @@ typedef struct {
     int nStoreys;
     double mass[BUILDING_MAX_STOREYS];      /* kg */
     double stiffness[BUILDING_MAX_STOREYS]; /* N/m */
+    double carriedMass[BUILDING_MAX_STOREYS]; /* kg: inertia only (not in the Rayleigh damping) */
     double dampingRatio;                    /* 1 */
     char file[BUILDING_FILE_CAPACITY];      /* record file, "" = none */
     double scale;                           /* 1 */
@@ -71,6 +72,7 @@ typedef struct {
     double u[BUILDING_MAX_STOREYS]; /* m, relative to the base */
     double v[BUILDING_MAX_STOREYS]; /* m/s, relative */
     double a[BUILDING_MAX_STOREYS]; /* m/s2, absolute: a_g + u'' */
+    double structureForce[BUILDING_MAX_STOREYS]; /* N: -(K u + C u')_i, the storeys' force on floor i */
     double aTotal;                  /* m/s2, a_g */
     double baseShear;               /* N: 1^T (K u + C u'), the force of the building on the base, +x */
     double energy, baseWork, forceWork, dampingLoss; /* J */
@@ -87,6 +89,10 @@ typedef struct {
     double t;             /* s */
     double y[BUILDING_NMAX];
     double h;             /* the step size the integrator proposes next (0: not yet known) */
+    /* the forces' first derivatives (N/s, fmi2SetRealInputDerivatives) from forceT0 (s): force[i] + dForce[i] (t -
+     * forceT0[i]) (building_force) */
+    double dForce[BUILDING_MAX_STOREYS];
+    double forceT0[BUILDING_MAX_STOREYS];
     long steps;           /* accepted steps, for the log */
 } Building;
 
@@ -124,5 +130,7 @@ double building_ground(const Building *B, double t);
  * v_i (m/s), u_i'' (m/s2), and a_i' = -(K u' + C u'')_i / m_i (m/s3; the floors' forces are held over a step, so F'
  * = 0). Returns 1 if p is no such output. */
 int building_output_derivative(const Building *B, const double *p, double *d);
+/* The force on floor i (0-based) at t (s): its value, and its straight line where a derivative was set (N). */
+double building_force(const Building *B, int i, double t);
 
 #endif

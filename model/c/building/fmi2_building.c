@@ -394,6 +394,8 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             return fmi2Error;
         }
         *p = value[i];
+        int k = (int)info.storey - 1; /* a force set at a later communication point than its derivative: held */
+        if (k >= 0 && p == &I->b.v.force[k] && I->b.forceT0[k] != I->tc) I->b.dForce[k] = 0.0;
     }
     inputs_changed(I);
     return fmi2OK;
@@ -602,13 +604,40 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
 
 /* ---------------------------------------------------------- co-simulation */
 
+/* The first derivative of a floor's force (storey[i].force): the force is then a straight line from the
+ * communication point over the step (building_force); a value set at a later communication point ends it. */
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {
     Instance *I = (Instance *)c;
-    (void)vr, (void)nvr, (void)order, (void)value;
-    CHECK(I, ANY_PHASE, "fmi2SetRealInputDerivatives");
-    LOG_ERROR(I, "fmi2SetRealInputDerivatives is not supported (inputs are held constant over a step)");
-    return fmi2Error;
+    VarInfo info;
+    const char *fn = "fmi2SetRealInputDerivatives";
+    if (begin_access(I, 1, vr, nvr, value, fn)) return fmi2Error;
+    if (nvr > 0 && !order) {
+        LOG_ERROR(I, "%s: NULL order array with nvr = %zu", fn, nvr);
+        return fmi2Error;
+    }
+    for (size_t i = 0; i < nvr; i++) {
+        const double *p = (const double *)lookup(I, vr[i], TYPE_REAL, 1, fn, &info);
+        if (!p) return fmi2Error;
+        int k = (int)info.storey - 1;
+        if (info.causality != CAUSALITY_input || k < 0 || p != &I->b.v.force[k]) {
+            LOG_ERROR(I, "%s: '%s' takes no derivatives (the floors' storey[i].force do)", fn, info.name);
+            return fmi2Error;
+        }
+        if (order[i] != 1) {
+            LOG_ERROR(I, "%s: derivative of order %d of '%s' (the FMU takes the first)", fn, (int)order[i], info.name);
+            return fmi2Error;
+        }
+        if (!isfinite(value[i])) {
+            LOG_ERROR(I, "%s: derivative 1 of '%s' = %g is not a finite number", fn, info.name, value[i]);
+            return fmi2Error;
+        }
+        if (absent_storey(I, &info, value[i])) return fmi2Error;
+        I->b.dForce[k] = value[i];
+        I->b.forceT0[k] = I->tc;
+    }
+    inputs_changed(I);
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
@@ -630,7 +659,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
             return fmi2Error;
         }
         if (building_output_derivative(&I->b, p, &value[i])) {
-            LOG_ERROR(I, "%s: '%s' has no derivative output (the floors' storey[i].u, .v and .a have)", fn, info.name);
+            LOG_ERROR(I, "%s: '%s' has no derivative output (the floors' storey[i].u, .v, .a and .structureForce have)", fn, info.name);
             return fmi2Error;
         }
     }
