@@ -176,8 +176,7 @@ def test_a_system_file_and_the_api_say_the_same(system, tmp_path):
 
 def test_floor_masses_typed_in_tonnes_are_a_note_hard_to_miss(fmu_path, building_fmu_path, tmp_path):
     """20 kg floors under a 1 t cabinet (masses typed in tonnes as kg): the run goes on, with a note on
-    stderr and in the JSON saying the masses are in kg, not tonnes, and that two-way coupling may not
-    converge; the Python result carries the same notes."""
+    stderr and in the JSON saying the masses are in kg, not tonnes; the Python result carries the same notes."""
     (tmp_path / "pulse_3hz.AT2").write_bytes((ROOT / "examples" / "pulse_3hz.AT2").read_bytes())
     slip = tmp_path / "tonnes.toml"
     slip.write_text(EXAMPLE.read_text().replace("mass = 2000.0", "mass = 20.0").replace("stop_time = 4.0",
@@ -187,11 +186,10 @@ def test_floor_masses_typed_in_tonnes_are_a_note_hard_to_miss(fmu_path, building
     notes = json.loads(p.stdout)["notes"]
     unit = [n for n in notes if "not tonnes" in n]
     assert len(unit) == 1 and "20, 20, 20 kg" in unit[0] and "50 times" in unit[0], notes
-    assert any("outweigh their floor" in n for n in notes)
     assert "note: check the building's masses" in p.stderr
     r = cosim.run(replace(cosim.load_system(slip), coupling="one-way"), block_fmu=fmu_path,
                   building_fmu=building_fmu_path)
-    assert any("not tonnes" in n for n in r.notes) and not any("outweigh" in n for n in r.notes)
+    assert any("not tonnes" in n for n in r.notes)
 
 
 def test_a_plausible_building_has_no_mass_note(system):
@@ -199,18 +197,20 @@ def test_a_plausible_building_has_no_mass_note(system):
 
 
 def test_a_two_way_run_that_diverges_is_an_error_not_a_result(fmu_path, building_fmu_path, tmp_path):
-    """The same 20 kg floors, run on at 2 ms: the coupling makes energy (the floor passes 1e6 g) and the
-    command ends in one error line instead of printing it; the Python error keeps the run."""
+    """The same 20 kg floors (their highest mode at 160 Hz) run on at 10 ms, one and a half periods a step: the coupling
+    makes energy and the command ends in one error line naming the step and the mode instead of printing it; the
+    Python error keeps the run. At 1 ms the same floors hold, the blocks 50 times their floor's mass."""
     (tmp_path / "pulse_3hz.AT2").write_bytes((ROOT / "examples" / "pulse_3hz.AT2").read_bytes())
     slip = tmp_path / "tonnes.toml"
     slip.write_text(EXAMPLE.read_text().replace("mass = 2000.0", "mass = 20.0").replace("stop_time = 4.0",
                                                                                         "stop_time = 1.0"))
-    p = runners("cosim", str(slip), "--step", "0.002", "--quiet", "--fmu", str(fmu_path), building=building_fmu_path)
+    p = runners("cosim", str(slip), "--step", "0.01", "--quiet", "--fmu", str(fmu_path), building=building_fmu_path)
     line = one_line_error(p)
-    assert "two-way coupling diverged at t = " in line and "50 times their floor" in line and p.stdout == ""
+    assert "two-way coupling diverged at t = " in line and "periods of the building's highest mode" in line
+    assert p.stdout == ""
     with pytest.raises(cosim.CosimDiverged) as caught:
-        cosim.run(replace(cosim.load_system(slip), step=0.002), block_fmu=fmu_path, building_fmu=building_fmu_path)
-    assert np.max(np.abs(caught.value.result.floor("a"))) > 1e5 * 9.81  # 1e5 g within one second
-    fine = cosim.run(replace(cosim.load_system(slip), step=2.5e-4, stop_time=0.5), block_fmu=fmu_path,
-                     building_fmu=building_fmu_path)  # the same floors hold at a quarter of a millisecond
+        cosim.run(replace(cosim.load_system(slip), step=0.01), block_fmu=fmu_path, building_fmu=building_fmu_path)
+    assert np.max(np.abs(caught.value.result["building.forceWork"])) > 100.0
+    fine = cosim.run(replace(cosim.load_system(slip), step=1e-3, stop_time=0.5), block_fmu=fmu_path,
+                     building_fmu=building_fmu_path)
     assert cosim.divergence(fine) is None

@@ -132,9 +132,9 @@ def impact_steps(result: CosimResult) -> np.ndarray:
 
 
 def near_impacts(result: CosimResult, reach: int = 2) -> np.ndarray:
-    """True at the samples within ``reach`` steps of an impact or overturn (impact_steps), where two-way
-    coupling turns the blocks' impulse into a one-step spike of the floor's acceleration; any length
-    of run, one step included."""
+    """True at the samples within ``reach`` steps of an impact or overturn (impact_steps), where a floor model that
+    takes the blocks' impulse over a step (a building FMU's own storey[j].a) spikes; any length of run, one step
+    included."""
     hit = impact_steps(result)
     near = hit.copy()
     for k in range(1, min(reach, len(hit) - 1) + 1):
@@ -230,8 +230,9 @@ def _alpha(r: CosimResult) -> float | None:
 
 def figure(results: list[CosimResult], title: str = ""):
     """Floor motion and block response, one column of panels; one colour per result (labelled by
-    its coupling): the base and floor accelerations (the two-way floor's one-step spikes at impacts
-    marked, not drawn: the line bridges them), the floor's displacement, block 1's rotation with
+    its coupling): the base and floor accelerations (two-way, the floor's as the blocks' FMU has it, the floor's mass
+    with the blocks' forces: their impulses change its velocity, no sample of its acceleration), the floor's
+    displacement, block 1's rotation with
     +-alpha (its slenderness: its centre of mass above a corner) and its impacts marked, and
     (rocking-sliding) its slip. The title (``title``, then the blocks, the building, the coupling and
     the step) and one legend above the panels, outside the data."""
@@ -250,18 +251,12 @@ def figure(results: list[CosimResult], title: str = ""):
     base = first[f"{BUILDING}.base.aTotal"] / g
     ax[0].plot(first.time, base, color="0.6", lw=0.8)
     handles = [Line2D([], [], color="0.6", lw=0.8, label="base")]
-    calm = [base]  # what sets the acceleration panel's scale: all but the two-way impacts' spikes
-    spikes = []
     for n, r in enumerate(results):
         color = f"C{n}"
-        handles.append(Line2D([], [], color=color, lw=1.2, label=f"{r.system.coupling} coupling"))
-        a, t = r.floor("a") / g, r.time
-        ax[0].plot(t, a, lw=0.9, color=color)
-        if r.system.coupling == "two-way" and impact_steps(r).any():
-            calm.append(between_impacts(r) / g)
-            spikes.append((t, a, color))
-        else:
-            calm.append(a)
+        held = " (held inputs)" if r.system.coupling == "two-way" and r.scheme == "held" else ""
+        handles.append(Line2D([], [], color=color, lw=1.2, label=f"{r.system.coupling} coupling{held}"))
+        t = r.time
+        ax[0].plot(t, r.floor("a") / g, lw=0.9, color=color)
         ax[1].plot(t, 1000 * r.floor("u"), lw=0.9, color=color)
         theta = r[f"{BLOCK}.block1.theta"]
         ax[2].plot(t, theta, lw=0.9, color=color)
@@ -276,17 +271,6 @@ def figure(results: list[CosimResult], title: str = ""):
             ax[2].axhline(sign * alpha, color="0.3", ls="--", lw=0.8)
         handles.append(Line2D([], [], color="0.3", ls="--", lw=0.8,
                               label=f"\u00b1alpha = \u00b1{alpha:.3g} rad: centre of mass over a corner"))
-    if spikes:  # the scale of the rest; the spikes beyond it marked at the panel's edge, pointing their way
-        top = 1.15 * max(float(np.max(np.abs(c))) for c in calm)
-        peak = max(float(np.max(np.abs(a))) for _, a, _ in spikes)
-        for t, a, color in spikes:
-            for marker, beyond, y in (("^", a > top, 0.95 * top), ("v", a < -top, -0.95 * top)):
-                ax[0].plot(t[beyond], np.full(beyond.sum(), y), marker, ms=4, color=color, ls="none")
-        ax[0].set_ylim(-top, top)
-        handles.append(Line2D([], [], ls="none", marker="^", ms=4, color="0.3",
-                              label=f"two-way floor at an impact: a one-step spike (up to {peak:.3g} g, marked "
-                                    "where\noff the scale), then a few steps of ringing (the impulse reaches the "
-                                    "floor a step late)"))
     ax[0].set_ylabel(f"floor {first.system.floor} and base\nacceleration (g)")
     ax[1].set_ylabel("floor displacement\nrelative to base (mm)")
     ax[2].set_ylabel("block 1 rotation\ntheta (rad)")

@@ -63,6 +63,10 @@ BUILDING_OUTPUTS = ["base.aTotal", "energy", "baseWork", "forceWork", "dampingLo
 STOREY_OUTPUTS = ["u", "v", "a"]
 
 
+# two-way: the blocks' floor in RockingBlock.fmu, a free mass coupled with them (System.block_parameters)
+FLOOR_PLATFORM = {"support.kind": 2, "support.coupling": 1, "platform.stiffness": 0.0, "platform.damping": 0.0}
+
+
 class CosimError(SupportError):
     """A system file or a co-simulation request is invalid, or an engine failed; one line."""
 
@@ -110,12 +114,14 @@ class System:
         return n_steps(self) * self.step
 
     def building_parameters(self) -> dict[str, Any]:
-        """ShearBuilding.fmu's parameters; two-way coupling adds the blocks' mass to their floor."""
+        """ShearBuilding.fmu's parameters. Two-way coupling gives their floor the blocks' mass to carry (carriedMass:
+        inertia, not the structure's Rayleigh damping), so that the building takes their load beyond carrying them
+        along: the same structure as RockingBlock.fmu's built-in support."""
         b = self.building
         p: dict[str, Any] = {"nStoreys": b.storeys, "damping.ratio": float(b.damping_ratio)}
         for i, (m, k) in enumerate(zip(b.mass, b.stiffness), start=1):
             if i == self.floor and self.coupling == "two-way":
-                m += self.blocks_mass
+                p[f"storey[{i}].carriedMass"] = float(self.blocks_mass)
             p[f"storey[{i}].mass"] = float(m)
             p[f"storey[{i}].stiffness"] = float(k)
         p["excitation.file"] = str(self.base_file)
@@ -124,7 +130,13 @@ class System:
         return p
 
     def block_parameters(self) -> dict[str, Any]:
-        return {**SCENE_DEFAULTS, **self.blocks}
+        """RockingBlock.fmu's parameters. Two-way coupling puts the blocks on their floor's own mass (structure only), a
+        free platform in the FMU pushed by the rest of the building (the input support.force, the building's
+        storey[j].structureForce): the blocks' forces and impacts act on that mass at once (docs/cosimulation.md)."""
+        p = {**SCENE_DEFAULTS, **self.blocks}
+        if self.coupling == "two-way":
+            p.update(FLOOR_PLATFORM, **{"platform.mass": float(self.building.mass[self.floor - 1])})
+        return p
 
 
 # How a system file names what it sets (check_system's messages); the Python API's names are the
@@ -330,6 +342,12 @@ def _check_inputs(system: System, name: dict[str, str]) -> None:
     if moved:
         raise CosimError(f"{name['blocks']} set {moved[0]}: the floor drives the blocks (the base's motion is "
                          "the building's record)")
+    for key in ("block1.mass", "block2.mass"):  # (two-way, the building carries them: said as the blocks')
+        if key in system.blocks:
+            positive(key, [system.blocks[key]])
+    placed = sorted(k for k in system.blocks if str(k).split(".")[0] in ("support", "platform", "building"))
+    if placed:
+        raise CosimError(f"{name['blocks']} set {placed[0]}: the system's building is the blocks' support")
     if not Path(system.base_file).is_file():
         raise CosimError(f"{name['base_file']} {system.base_file}: no such record file")
     check_number(name["base_scale"], system.base_scale, "a finite number")
@@ -344,8 +362,7 @@ UNIT_SLIP_RATIO = 10.0
 
 def mass_notes(system: System) -> list[str]:
     """Notes on the building's masses: floors implausibly light for a building, or blocks much
-    heavier than their floor (floor masses in tonnes instead of kg, most likely), and, with two-way
-    coupling, blocks that outweigh their floor (docs/cosimulation.md#limits)."""
+    heavier than their floor (floor masses in tonnes instead of kg, most likely)."""
     floor = system.building.mass[system.floor - 1]
     ratio = system.blocks_mass / floor
     notes = []
@@ -354,9 +371,6 @@ def mass_notes(system: System) -> list[str]:
         notes.append(f"check the building's masses: floors of {masses} kg carry {system.blocks_mass:g} kg of blocks "
                      f"on floor {system.floor} ({ratio:.3g} times its mass); the masses are in kg per floor, not "
                      "tonnes (a 20 t floor is mass = 20000.0)")
-    if system.coupling == "two-way" and ratio > 1:
-        notes.append(f"the blocks ({system.blocks_mass:g} kg) outweigh their floor ({floor:g} kg): two-way coupling "
-                     "with impacts may not converge as the step shrinks (docs/cosimulation.md#limits)")
     return notes
 
 
@@ -365,7 +379,7 @@ def natural_frequencies(system: System) -> list[float]:
     blocks' mass on their floor), lowest first."""
     p = system.building_parameters()
     n = int(p["nStoreys"])
-    m = np.array([p[f"storey[{i}].mass"] for i in range(1, n + 1)])
+    m = np.array([p[f"storey[{i}].mass"] + p.get(f"storey[{i}].carriedMass", 0.0) for i in range(1, n + 1)])
     k = np.array([p[f"storey[{i}].stiffness"] for i in range(1, n + 1)])
     K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
     w2 = np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m)))
@@ -426,16 +440,21 @@ def _block_parameters(system: System, fmu: Path) -> dict[str, Any]:
 def system_components(system: System, block_fmu: Path, building_fmu: Path) -> tuple[list[Component], list[Connection]]:
     """The SSP's two components (parameters bound) and their connections."""
     j = system.floor
-    building = Component(BUILDING, Path(building_fmu),
-                         {f"storey[{j}].a": ("output", "Real"), f"storey[{j}].force": ("input", "Real")},
+    if system.coupling == "one-way":  # the floor's acceleration drives the blocks
+        building = Component(BUILDING, Path(building_fmu), {f"storey[{j}].a": ("output", "Real")},
+                             system.building_parameters())
+        block = Component(BLOCK, Path(block_fmu), {"ground.ah": ("input", "Real")},
+                          _block_parameters(system, Path(block_fmu)))
+        return [building, block], [Connection(BUILDING, f"storey[{j}].a", BLOCK, "ground.ah")]
+    # two-way: the storeys push the blocks' floor (its mass in the blocks' FMU), the blocks load the building's
+    building = Component(BUILDING, Path(building_fmu), {f"storey[{j}].structureForce": ("output", "Real"),
+                                                        f"storey[{j}].force": ("input", "Real")},
                          system.building_parameters())
-    block = Component(BLOCK, Path(block_fmu),
-                      {"ground.ah": ("input", "Real"), "contact.groundLoad": ("output", "Real")},
+    block = Component(BLOCK, Path(block_fmu), {"support.force": ("input", "Real"),
+                                               "contact.groundLoad": ("output", "Real")},
                       _block_parameters(system, Path(block_fmu)))
-    connections = [Connection(BUILDING, f"storey[{j}].a", BLOCK, "ground.ah")]
-    if system.coupling == "two-way":
-        connections.append(Connection(BLOCK, "contact.groundLoad", BUILDING, f"storey[{j}].force"))
-    return [building, block], connections
+    return [building, block], [Connection(BUILDING, f"storey[{j}].structureForce", BLOCK, "support.force"),
+                               Connection(BLOCK, "contact.groundLoad", BUILDING, f"storey[{j}].force")]
 
 
 def write_system_ssp(system: System, path: str | Path, block_fmu: Path | None = None,
@@ -546,12 +565,20 @@ class CosimResult:
     block_fmu: Path | None = None  # the FMUs that ran (run() sets them)
     building_fmu: Path | None = None
     passes: int = 0  # passes over the communication steps in all (the iterated two-way master; 0: one each)
+    # how the master passed the inputs (SCHEMES): "held" (libcosim's algorithm), "interpolated" (one-way parabolas),
+    # "interface" (two-way: the blocks' floor force extrapolated, their load a line), "iterated" (that, to convergence)
+    scheme: str = "held"
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.series[name]
 
     def floor(self, name: str) -> np.ndarray:
-        """The building's storey output ``name`` (u, v or a) at the blocks' floor."""
+        """The building's storey output ``name`` (u, v or a) at the blocks' floor; two-way, its acceleration ``a`` is
+        the blocks' FMU's (ground.ahTotal), which carries the floor's mass with the blocks' forces at each instant (the
+        building takes their load as a line over each step: at a communication point after an impact its own
+        storey[j].a holds the impulse spread over the step, about J / (h m), no acceleration the floor had)."""
+        if name == "a" and self.system.coupling == "two-way":
+            return self.series[f"{BLOCK}.ground.ahTotal"]
         return self.series[f"{BUILDING}.storey[{self.system.floor}].{name}"]
 
     @property
@@ -634,11 +661,11 @@ def divergence(result: CosimResult) -> str | None:
         return None
     k = int(np.argmax(bad))
     system = result.system
-    ratio = system.blocks_mass / system.building.mass[system.floor - 1]
+    f = max(natural_frequencies(system))
     return (f"two-way coupling diverged at t = {result.time[k]:.4g} s: the blocks' load had done {work[k]:.3g} J of "
-            f"work on the floor, more than {DIVERGED:g} times the {given[k]:.3g} J the system was given; the blocks "
-            f"weigh {ratio:.3g} times their floor (check the masses, in kg), so take a smaller step or one-way "
-            "coupling (docs/cosimulation.md#limits)")
+            f"work on the floor, more than {DIVERGED:g} times the {given[k]:.3g} J the system was given; the step "
+            f"{system.step:g} s is {system.step * f:.3g} periods of the building's highest mode ({f:.3g} Hz; check "
+            f"the masses, in kg), so take a step below {1 / (STEPS_PER_PERIOD * f):.2g} s (docs/cosimulation.md#limits)")
 
 
 def _start_values(fmu: Path) -> dict[str, float]:
@@ -663,27 +690,91 @@ MAX_SWEEPS = 8  # passes over a two-way step at most
 SWEEP_TOL = 1e-6  # a fed-back value converged: its change, relative to the largest such value so far
 
 
-def _pass(slaves, links, order, slopes, held, before, guess, h, step) -> None:
-    """One pass over a communication step: each component in `order` gets its inputs and steps. An input from a
-    component already stepped is the parabola through its source's outputs at the step before's start, this step's
-    start and its end (the straight line on the first step) where its FMU takes derivatives (slopes), else held; an
-    input fed back from a later one takes `guess` (by link index)."""
+def _pass(slaves, links, order, slopes, held, before, h, step) -> None:
+    """One pass over a one-way communication step: each component in `order` gets its inputs and steps. An input from
+    a component already stepped is the parabola through its source's outputs at the step before's start, this step's
+    start and its end (the straight line on the first step) where its FMU takes derivatives (slopes), else held (as
+    the transfer set it)."""
     for name in order:
         for i, (a, out, b, inp) in enumerate(links):
-            if b != name:
+            if b != name or not slopes[b]:
                 continue
-            if i in guess:
-                slaves[b].setReal([inp], [guess[i]])
-            elif slopes[b]:
-                end, now = slaves[a].getReal([out])[0], held[i]
-                slaves[b].setReal([inp], [now])
-                if before is None:
-                    slaves[b].setRealInputDerivatives([inp], [1], [(end - now) / h])
-                else:
-                    prev = before[i]
-                    slaves[b].setRealInputDerivatives([inp, inp], [1, 2], [(end - prev) / (2.0 * h),
-                                                                            (end - 2.0 * now + prev) / h ** 2])
+            end, now = slaves[a].getReal([out])[0], held[i]
+            slaves[b].setReal([inp], [now])
+            if before is None:
+                slaves[b].setRealInputDerivatives([inp], [1], [(end - now) / h])
+            else:
+                prev = before[i]
+                slaves[b].setRealInputDerivatives([inp, inp], [1, 2], [(end - prev) / (2.0 * h),
+                                                                        (end - 2.0 * now + prev) / h ** 2])
         step(name)
+
+
+@dataclass
+class _InterfaceLinks:
+    """The links of a two-way system whose load carries its line and whose floor force its rate
+    (:func:`_interface_links`): ``slope`` maps a link to its source's slope output (value reference), ``rate`` lists
+    the links whose source gives its output's derivative."""
+
+    links: list[tuple]
+    slope: dict[int, int]
+    rate: list[int]
+
+    def rates(self, slaves) -> dict[int, float]:
+        """Each rate link's source's output derivative now."""
+        return {i: slaves[self.links[i][0]].getRealOutputDerivatives([self.links[i][1]], [1])[0] for i in self.rate}
+
+    def back(self, order: list[str]) -> list[int]:
+        """The rate links fed back: their source steps after the component they drive."""
+        return [i for i in self.rate if order.index(self.links[i][0]) > order.index(self.links[i][2])]
+
+    def step(self, slaves, order, held, rates, rates_before, ends, h, step) -> None:
+        """One pass over a communication step [t_k, t_k + h] in ``order``. A load link whose source stepped: the
+        straight line with the step's mean and first moment, mean - slope h / 2 + slope (t - t_k). A rate link: the
+        parabola with the source's value and derivative at t_k and its value at the step's end (``ends``, from the
+        last pass or this one), else its curvature from the derivatives at t_k-1 and t_k (extrapolated). Any other
+        link: its value at t_k, held."""
+        done: set[str] = set()
+        for name in order:
+            for i, (a, out, b, inp) in enumerate(self.links):
+                if b != name:
+                    continue
+                if i in self.slope and a in done:
+                    mean, slope = slaves[a].getReal([out, self.slope[i]])
+                    slaves[b].setReal([inp], [mean - 0.5 * slope * h])
+                    slaves[b].setRealInputDerivatives([inp], [1], [slope])
+                elif i in self.rate:
+                    x0, d0 = held[i], rates[i]
+                    end = slaves[a].getReal([out])[0] if a in done else ends.get(i)
+                    if end is not None:
+                        d2 = 2.0 * (end - x0 - h * d0) / h ** 2
+                    else:
+                        d2 = (d0 - rates_before[i]) / h if rates_before is not None else 0.0
+                    slaves[b].setReal([inp], [x0])
+                    slaves[b].setRealInputDerivatives([inp, inp], [1, 2], [d0, d2])
+                else:
+                    slaves[b].setReal([inp], [held[i]])
+            step(name)
+            done.add(name)
+
+
+def _interface_links(slaves, info, links, slopes, outputs_rate) -> _InterfaceLinks | None:
+    """A two-way system's links as _InterfaceLinks where each one's target takes input derivatives and its source gives
+    either its output's slope (a variable named the output's name + "Slope": contact.groundLoad's) or its derivative
+    (maxOutputDerivativeOrder >= 1), one of each at least; else None (held Jacobi)."""
+    slope, rate = {}, []
+    names = {c: {v.valueReference: name for name, v in info[c].items()} for c in info}
+    for i, (a, out, b, _) in enumerate(links):
+        if not slopes[b]:
+            return None
+        companion = info[a].get(names[a][out] + "Slope")
+        if companion is not None and companion.causality == "output":
+            slope[i] = companion.valueReference
+        elif outputs_rate[a]:
+            rate.append(i)
+        else:
+            return None
+    return _InterfaceLinks(links, slope, rate) if slope and rate else None
 
 
 def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = None,
@@ -727,6 +818,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
         info: dict[str, dict[str, Any]] = {}
         slopes: dict[str, bool] = {}  # the component takes input derivatives
         states: dict[str, bool] = {}  # and rolls back
+        outputs_rate: dict[str, bool] = {}  # and gives its outputs' first derivatives
         for comp in ssd.system.elements:
             fmu = unzip / comp.source
             md = read_model_description(str(fmu), validate=False)
@@ -738,6 +830,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
             info[comp.name] = vars_
             slopes[comp.name] = bool(md.coSimulation.canInterpolateInputs)
             states[comp.name] = bool(md.coSimulation.canGetAndSetFMUstate)
+            outputs_rate[comp.name] = int(md.coSimulation.maxOutputDerivativeOrder or 0) >= 1
             s.setupExperiment(startTime=0.0, stopTime=n * h)
             for binding in comp.parameterBindings:
                 for pset in binding.parameterValues:
@@ -763,45 +856,49 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
                 raise CosimError(f"fmpy: a doStep at t = {k * h:g} s returned status {status}")
 
         order = _order(list(slaves), links) if interpolate else None
-        # two-way, iterated where every FMU can roll back (else held, as without iterate): the sources of
-        # interpolated inputs first, then the rest
-        loops = iterate and order is None and all(states[c] for c in slaves)
-        if loops:
-            first = [c for c in slaves if any(a == c and slopes[b] for a, _, b, _ in links)]
+        lines = _interface_links(slaves, info, links, slopes, outputs_rate) if interpolate and order is None else None
+        if lines:  # two-way, the blocks' floor in their FMU: the source of the load's line first
+            first = [c for c in slaves if any(links[i][0] == c for i in lines.slope)]
             order = first + [c for c in slaves if c not in first]
+        # iterated where every FMU can roll back (else one pass, as without iterate)
+        loops = iterate and lines is not None and all(states[c] for c in slaves)
         transfer()
         held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]  # each link's value at the step's start
-        before: list[float] | None = None  # and at the step before
+        rates = lines.rates(slaves) if lines else {}  # and its source's derivative there (rate links)
+        before: list[float] | None = None  # the values at the step before's start
+        rates_before: dict[int, float] | None = None
         saved: dict[str, Any] = {c: None for c in slaves}
         scale, rows = 0.0, []
         for k in range(n):
-            if order is None:
-                for name in slaves:
-                    step(name, k)
-            else:
-                back = [i for i, (a, _, b, _) in enumerate(links) if order.index(a) > order.index(b)]  # fed back
-                guess = {i: held[i] for i in back}
+            if lines:
                 if loops:
                     for c in slaves:
                         if saved[c] is not None:
                             slaves[c].freeFMUstate(saved[c])
                         saved[c] = slaves[c].getFMUstate()
+                ends: dict[int, float] = {}  # the back links' sources' outputs at the step's end, from the last pass
                 for sweep in range(MAX_SWEEPS if loops else 1):
                     if sweep:
                         for c in slaves:
                             slaves[c].setFMUstate(saved[c])
-                    _pass(slaves, links, order, slopes, held, before, guess, h, lambda name: step(name, k))
-                    if not back:
-                        break
-                    new = {i: slaves[links[i][0]].getReal([links[i][1]])[0] for i in back}
+                    lines.step(slaves, order, held, rates, rates_before, ends, h, lambda name: step(name, k))
+                    new = {i: slaves[links[i][0]].getReal([links[i][1]])[0] for i in lines.back(order)}
                     scale = max([scale] + [abs(x) for x in new.values()])
-                    if all(abs(new[i] - guess[i]) <= SWEEP_TOL * scale for i in back):
+                    settled = sweep > 0 and all(abs(new[i] - ends[i]) <= SWEEP_TOL * scale for i in new)
+                    ends = new
+                    if settled:
                         break
-                    guess = new
                 iterations.append(sweep + 1)
+            elif order is None:
+                for name in slaves:
+                    step(name, k)
+            else:  # one-way
+                _pass(slaves, links, order, slopes, held, before, h, lambda name: step(name, k))
             rows.append(sample())  # as libcosim's observer: after the step, before the transfer
             transfer()
             before, held = held, [slaves[a].getReal([out])[0] for a, out, _, _ in links]
+            if lines:
+                rates_before, rates = rates, lines.rates(slaves)
             if progress:
                 progress(k + 1, n)
         for c, st in saved.items():
@@ -824,6 +921,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
         return None
     result = _result(system, "fmpy", h, rows, wanted)
     result.passes = sum(iterations)
+    result.scheme = "iterated" if loops else "interface" if lines else "interpolated" if order is not None else "held"
     return result
 
 
