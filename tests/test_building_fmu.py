@@ -655,3 +655,83 @@ def test_a_copy_that_carries_its_base_record_runs_it_with_no_file_set(building_f
         moved.append(np.abs(b.run(0.5, 0.05, ["storey[3].u"])[1]).max())
         b.close()
     assert moved[0] == 0.0 and moved[1] > 1e-4
+
+
+# ------------------------------------------------------------------ a floor carrying blocks another FMU moves
+
+def test_a_force_line_on_a_carried_mass_matches_a_second_integrator(building):
+    """storey[2].force given at each communication point as its value and its first derivative (a straight line over
+    the step, fmi2SetRealInputDerivatives), on a floor carrying 4 t more (storey[2].carriedMass: inertia, not in the
+    Rayleigh damping nor in the frequencies it is set at): u and u' at every communication point equal scipy's
+    DOP853 on M_inertia u'' + C u' + K u = F(t), F piecewise linear, C of the structure's own masses; the storeys'
+    force output is -(K u + C u') and its derivative -(K u' + C u'')."""
+    ref, carried, h = Reference(MASSES, STIFFNESSES, ZETA), 4000.0, 0.02
+    knots = np.round(np.arange(0, 51) * h, 12)
+    values = 3e5 * np.sin(9.0 * knots) * np.exp(-knots)
+    building.start({**structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}), "storey[2].carriedMass": carried,
+                    "solver.relTol": 1e-12})
+    f1 = building.vars["storey[2].force"].valueReference
+    rows = [building.get(names(3, "u", "v", "structureForce"))]
+    for k in range(50):
+        building.set({"storey[2].force": values[k]})
+        building.s.setRealInputDerivatives([f1], [1], [(values[k + 1] - values[k]) / h])
+        building.s.doStep(building.t, h)
+        building.t += h
+        rows.append(building.get(names(3, "u", "v", "structureForce")))
+    rows = np.array(rows)
+    M = ref.M + np.diag([0.0, carried, 0.0])
+
+    def rhs(t, y):
+        force = np.array([0.0, np.interp(t, knots, values), 0.0])
+        return np.concatenate([y[3:], np.linalg.solve(M, force - ref.C @ y[3:] - ref.K @ y[:3])])
+
+    sol = solve_ivp(rhs, (0, knots[-1]), np.zeros(6), method="DOP853", t_eval=knots, rtol=1e-12, atol=1e-15,
+                    max_step=h / 4)
+    u, v = sol.y[:3].T, sol.y[3:].T
+    np.testing.assert_allclose(rows[:, :3], u, rtol=0, atol=1e-9 * np.abs(u).max())
+    np.testing.assert_allclose(rows[:, 3:6], v, rtol=0, atol=1e-9 * np.abs(v).max())
+    np.testing.assert_allclose(rows[:, 6:], -(u @ ref.K.T + v @ ref.C.T), rtol=0, atol=1e-9 * np.abs(rows[:, 6:]).max())
+    # the rate of the storeys' force at the end, from the outputs and the structure's own matrices
+    vrs = [building.vars[n].valueReference for n in names(3, "structureForce")]
+    d = np.array(building.s.getRealOutputDerivatives(vrs, [1, 1, 1]))
+    out = building.get(names(3, "u", "v", "a") + ["base.aTotal"])
+    acc = out[6:9] - out[9]
+    np.testing.assert_allclose(d, -(ref.K @ out[3:6] + ref.C @ acc), rtol=1e-12, atol=1e-9)
+    assert building.get(["frequency1"])[0] == pytest.approx(ref.w[0] / (2 * np.pi), rel=1e-12)
+
+
+def test_a_force_value_set_at_a_later_point_is_held(building_fmu):
+    """A derivative lasts until the force's value is set at a later communication point: then the force is held, bit
+    for bit as when the derivative is set to 0 there, and not as when the line goes on."""
+    runs = []
+    for later in (None, 0.0, 5e5):  # at t = 0.01 s: the value alone, with a zero derivative, with the slope again
+        b = Building(building_fmu)
+        b.start(structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}))
+        f = b.vars["storey[3].force"].valueReference
+        b.set({"storey[3].force": 1e4})
+        b.s.setRealInputDerivatives([f], [1], [5e5])
+        b.s.doStep(0.0, 0.01)
+        b.t = 0.01
+        b.set({"storey[3].force": 2e4})
+        if later is not None:
+            b.s.setRealInputDerivatives([f], [1], [later])
+        runs.append(b.run(0.2, 0.01, ["storey[3].u", "storey[3].v"])[1])
+        b.close()
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.abs(runs[2] - runs[0]).max() > 1e-3 * np.abs(runs[0]).max()
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda b, vr: b.s.setRealInputDerivatives([vr("storey[1].force")], [2], [1.0]), "derivative of order 2"),
+    (lambda b, vr: b.s.setRealInputDerivatives([vr("base.a")], [1], [1.0]), "takes no derivatives"),
+    (lambda b, vr: b.s.setRealInputDerivatives([vr("storey[1].u")], [1], [1.0]), "cannot be set"),
+    (lambda b, vr: b.s.setRealInputDerivatives([vr("storey[1].force")], [1], [float("nan")]), "not a finite number"),
+    (lambda b, vr: b.s.setRealInputDerivatives([vr("storey[7].force")], [1], [1.0]), "does not have"),
+])
+def test_force_derivatives_it_does_not_take_are_refused_in_one_line(building, call, words):
+    building.start(structure({"m": MASSES, "k": STIFFNESSES, "zeta": ZETA}))
+    n = len(building.messages)
+    with pytest.raises(FMICallException):
+        call(building, lambda name: building.vars[name].valueReference)
+    assert any(words in m for m in building.messages[n:]), building.messages[n:]
+    building.s.doStep(0.0, 0.01)  # and it runs on
