@@ -250,6 +250,8 @@ def test_cli_cosim_writes_ssp_figure_and_json(fmu_path, building_fmu, tmp_path):
     one, two = doc["runs"]
     assert (one["coupling"], two["coupling"]) == ("one-way", "two-way")
     assert "energy_residual_end_j" in two and "energy_residual_end_j" not in one
+    for run_ in (one, two):  # each run's error estimate: the same run at twice the step
+        assert run_["error_estimate_step_s"] == 0.004 and run_["error_estimate_peak_abs_theta"] < 1e-3
     # the cabinet's mass on the top floor lowers the building's first frequency
     assert two["frequencies_hz"][0] < one["frequencies_hz"][0]
     assert (tmp_path / "f.png").stat().st_size > 10_000 and zipfile.is_zipfile(tmp_path / "s.ssp")
@@ -371,6 +373,10 @@ def test_two_way_meets_the_exact_support(system, fmu_path, building_fmu):
         assert checks.energy_balance(r).relative_end < 0.01
     assert abs(held["block.block1.maxAbsTheta"][-1] - exact.peak_abs_theta) > 1e-4
     assert ours.passes == len(ours.time) and 2 * len(iterated.time) <= iterated.passes <= 3 * len(iterated.time)
+    # the error estimate (the same run at 2 ms) is of the size of the error: here within a factor 10 above it
+    e, actual = checks.error_estimate(ours), abs(ours["block.block1.maxAbsTheta"][-1] - exact.peak_abs_theta)
+    assert e["error_estimate_step_s"] == 2e-3 and e["error_estimate_impacts"] == [exact.impacts] * 2
+    assert actual <= e["error_estimate_peak_abs_theta"] <= 10 * actual
 
 
 def test_ecos_runs_the_ssp_as_the_held_master_does(system, fmu_path, building_fmu, tmp_path):

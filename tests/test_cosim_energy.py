@@ -56,3 +56,9 @@ def test_the_command_reports_the_end_residual_as_the_error(fmu_path, building_fm
     line = next(line for line in text.stdout.splitlines() if "energy balance" in line)
     assert f"{run['energy_residual_end_j']:.3g} J at the end" in line and "the coupling's error" in line
     assert "at most" not in line
+    # the error estimate: the same run at twice the step, in the text and the JSON; --no-estimate skips it
+    assert f"error estimate (the same run at h = 0.004 s): peak |theta| {run['error_estimate_peak_abs_theta']:.2g} rad" \
+        in text.stdout
+    bare = subprocess.run([exe, "cosim", str(EXAMPLE), "--step", "0.002", "--fmu", str(fmu_path), "--json",
+                           "--no-estimate", "--no-store"], capture_output=True, text=True, env=env, timeout=300)
+    assert bare.returncode == 0 and not [k for k in json.loads(bare.stdout)["runs"][0] if k.startswith("error_est")]

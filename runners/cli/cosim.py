@@ -147,6 +147,9 @@ def cmd_cosim(args: argparse.Namespace) -> int:
     with staged(_outputs(args)) as tmp:  # each written beside its file, moved onto it only if the command succeeds
         results = _run(args, system, couplings, tmp.get("--ssp"))
         docs = [_summary(r, seconds) for r, seconds in results]
+        if not args.no_estimate:
+            for (r, _), doc in zip(results, docs):
+                doc.update(_estimate(r))
         for (r, _), (label, path) in zip(results, csvs.items()):
             _write(path, r.to_pandas().to_csv, tmp[label], index=False, float_format="%.17g")
         if args.out:
@@ -194,6 +197,18 @@ def _run(args: argparse.Namespace, system: Any, couplings: list[str], ssp: str |
                 bar.close()
         results.append((r, time.perf_counter() - t0))
     return results
+
+
+def _estimate(r: Any) -> dict:
+    """runners.analysis.cosim.error_estimate of a run (the same system at twice its step), with a progress bar."""
+    from runners.analysis import cosim as checks
+
+    bar, tick = _progress_bar(f"{r.engine}, {r.system.coupling}, error estimate at {2 * r.system.step:g} s")
+    try:
+        return checks.error_estimate(r, progress=tick)
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _store(factory: Any, results: list[tuple[Any, float]], docs: list[dict]) -> str:
@@ -252,6 +267,12 @@ def _print_summaries(docs: list[dict], database: str | None = None) -> None:
                 "no energy to balance (the base did no work and nothing moved)" if sc <= NO_ENERGY_J else
                 f"residual {e:.3g} J at the end, {100 * abs(e) / sc:.2g} % of {sc:.4g} J: the coupling's error "
                 "(docs/cosimulation.md; the same system without a step: runners simulate SYSTEM, docs/supports.md)"))
+        if "error_estimate_step_s" in d:
+            n, m = d["error_estimate_impacts"]
+            same = "the same" if n == m else f"{m} at the double step: not settled"
+            print(f"  error estimate (the same run at h = {d['error_estimate_step_s']:g} s): peak |theta| "
+                  f"{d['error_estimate_peak_abs_theta']:.2g} rad, slip {1000 * d['error_estimate_final_slip']:.2g} mm; "
+                  f"impacts {n} ({same})")
         if "cosim_id" in d:
             i = d["cosim_id"]
             print(f"  stored as co-simulated run {i} in {database} (runners db show cosim {i}; runners export "
@@ -278,6 +299,9 @@ def add_parser(sub) -> None:
     p.add_argument("--no-store", action="store_true",
                    help="do not store the runs in the database (by default each run is stored, as runners simulate "
                         "stores its run: runners db list cosims, runners export --cosim ID)")
+    p.add_argument("--no-estimate", action="store_true",
+                   help="skip the error estimate (by default each run is run again at twice the step, half the cost, "
+                        "and the differences are its error estimate: docs/cosimulation.md#error-estimate)")
     common(p, db=True, fmu=True)
     files(p, reads=[("system", "system file"), "fmu"], writes=["ssp", "out", "csv"])
     p.set_defaults(func=cmd_cosim)
