@@ -261,7 +261,7 @@ def describe(r: CosimResult) -> str:
     stiff = (f"{b.stiffness[0]:g}" if len(set(b.stiffness)) == 1 else "/".join(f"{k:g}" for k in b.stiffness)) + " N/m"
     return (f"{'; '.join(blocks)}; {contact}{friction}\n"
             f"on floor {s.floor} of a {b.storeys}-storey shear building ({masses}, {stiff} per storey, "
-            f"damping {b.damping_ratio:g}); Jacobi, h = {s.step:g} s, {r.engine}")
+            f"damping {b.damping_ratio:g}); h = {s.step:g} s, {r.engine}")
 
 
 def _alpha(r: CosimResult) -> float | None:

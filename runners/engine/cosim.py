@@ -2,16 +2,20 @@
 ShearBuilding.fmu, connected by an SSP file and run by a fixed-step master (fmpy, or libcosim
 through its SSP loader).
 
-The building (a linear shear frame under a base acceleration record, docs/cosimulation.md)
-gives the blocks its floor's absolute acceleration (``storey[j].a`` to ``ground.ah``). With
-``two-way`` coupling the blocks load the floor back: ``contact.groundLoad``, the horizontal
-force of the blocks on the floor beyond the one that carries their mass along (its mean over
-each communication step, impacts included), drives ``storey[j].force``, and the floor's mass
-counts the blocks' mass (which the runner adds). ``one-way`` leaves the floor unloaded (the
-blocks' mass is not added either): the blocks ride on a floor they do not affect.
+The building (a linear shear frame under a base acceleration record, docs/cosimulation.md) moves
+the blocks' floor. ``one-way``: its floor's absolute acceleration drives the blocks (``storey[j].a``
+to ``ground.ah``), and the blocks do not load it. ``two-way``: the floor is one body shared by both
+FMUs. The blocks' FMU carries its mass (a free platform of ``storey[j].mass``, pushed by the
+building's ``storey[j].structureForce`` through ``support.force``), so their forces and impacts act
+on it at once; the building carries the blocks' mass as inertia (``storey[j].carriedMass``) and
+takes their load beyond it, ``contact.groundLoad`` (its mean over each communication step, impacts
+included) with ``contact.groundLoadSlope`` (the step's line with the same first moment).
 
-Both masters are Jacobi schemes with a fixed communication step h: at t_k = k h every FMU steps
-to t_{k+1} with its inputs held at the values of t_k, then outputs are passed to inputs.
+Masters with a fixed communication step h. libcosim's, and ours with ``interpolate=False``, hold the
+inputs: at t_k = k h every FMU steps to t_{k+1} with its inputs at the values of t_k (Jacobi). Ours by
+default interpolates them with input derivatives: one-way the floor's acceleration as a parabola over
+the step (the building first), two-way the storey force extrapolated from its value and derivatives
+(the blocks first) and the blocks' load as its line (:func:`run_ssp_fmpy`).
 
 Python API::
 
@@ -526,8 +530,8 @@ def _fmus(block_fmu: Path | None, building_fmu: Path | None) -> tuple[Path, Path
         from fmu_build.building import build_building_fmu
 
         building = build_building_fmu()
-    for p, role, needs in ((block, "the blocks' FMU (--fmu)", "contact.groundLoad"),
-                           (building, "the building's FMU", "storey[1].a")):
+    for p, role, needs in ((block, "the blocks' FMU (--fmu)", "contact.groundLoadSlope"),
+                           (building, "the building's FMU", "storey[1].carriedMass")):
         _check_fmu(p, role, needs)
     return block, building
 
@@ -606,9 +610,10 @@ def recorded_outputs(system: System) -> dict[str, list[str]]:
 def run(system: System, engine: str = "fmpy", block_fmu: Path | None = None, building_fmu: Path | None = None,
         ssp: str | Path | None = None, progress=None, interpolate: bool = True, iterate: bool = False) -> CosimResult:
     """Write the system's SSP (to ``ssp``, else a temporary file) and run it with ``engine``
-    ("fmpy": fmpy reads the SSP and the master here steps its FMUs, one-way the building first and the
-    block's input a parabola over each step unless ``interpolate`` is False; two-way held, or each step iterated
-    with ``iterate`` (:func:`run_ssp_fmpy`);
+    ("fmpy": fmpy reads the SSP and the master here steps its FMUs, with input derivatives unless
+    ``interpolate`` is False (then held): one-way the building first and the floor's acceleration a parabola
+    over each step, two-way the blocks first with the storey force extrapolated and the building with their load's
+    line, each step iterated with ``iterate`` (:func:`run_ssp_fmpy`);
     "libcosim": libcosim's SSP loader and fixed-step algorithm). ``progress(k, n)`` is called after every
     step, if given.
     InvalidSystem, before anything runs, for a system that cannot run (:func:`check_system`);
@@ -787,16 +792,17 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
     that order, each after those it reads, and gives an input that can take it (canInterpolateInputs) the
     parabola through its source's outputs at the step before's start, this step's start and its end (on the
     first step the straight line): its value and first and second derivatives (fmi2SetRealInputDerivatives).
-    The blocks then feel the floor's acceleration interpolated to third order in the step instead of held. Otherwise (two-way coupling, or
-    ``interpolate=False``) every FMU steps from the outputs of the step before, held: libcosim's fixed-step
-    algorithm.
+    The blocks then feel the floor's acceleration interpolated to third order in the step instead of held.
 
-    ``iterate`` (two-way, every FMU able to save and restore its state): the building steps first under the blocks'
-    load guessed (the step before's), the blocks under the floor's acceleration interpolated as one-way, and the
-    step is taken again from the saved states with the load they returned until it changes by at most SWEEP_TOL
-    of the largest load so far (at most MAX_SWEEPS passes; ``result.passes`` counts them): an impact's impulse
-    reaches the floor in its own step. Experimental: about 5 times as accurate as the held master, first order
-    still (docs/cosimulation.md)."""
+    Two-way with ``interpolate`` (every link's target taking input derivatives, a source giving its output's
+    slope and one its derivative: _interface_links): the source of the slope (the blocks) steps first, with
+    the other's output (the storey force) extrapolated as a parabola from its value and derivative at t_k
+    and its derivative at t_k-1; then the other, with the load as the straight line of the step's mean and
+    slope. With ``iterate`` (every FMU able to save and restore its state) the step is taken again from the
+    saved states with the storey force interpolated through its value at the step's end, until that value
+    changes by at most SWEEP_TOL of the largest so far (at most MAX_SWEEPS passes; ``result.passes`` counts
+    them). Otherwise (``interpolate=False``, or FMUs without derivatives) every FMU steps from the outputs of
+    the step before, held: libcosim's fixed-step algorithm. ``result.scheme`` says which ran."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
     from fmpy.ssp.ssd import read_ssd

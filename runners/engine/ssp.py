@@ -20,7 +20,8 @@ from runners.engine.files import create_beside
 NS = ('xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
       'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
       'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" '
-      'xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations"')
+      'xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations" '
+      'xmlns:oms="https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"')
 
 Value = float | int | bool | str
 
@@ -109,6 +110,13 @@ def ssd_text(name: str, components: list[Component], connections: list[Connectio
         w.append(f"      <ssd:Connection startElement={quoteattr(k.start_element)} startConnector={quoteattr(k.start)} "
                  f"endElement={quoteattr(k.end_element)} endConnector={quoteattr(k.end)}/>")
     w.append("    </ssd:Connections>")
+    if step is not None:  # OMSimulator makes the system only with its own annotation, which gives its fixed step
+        w += ["    <ssd:Annotations>", '      <ssc:Annotation type="org.openmodelica">', "        <oms:Annotations>",
+              "          <oms:SimulationInformation>",
+              f'            <oms:FixedStepMaster description="oms-ma" stepSize="{step!r}" absoluteTolerance="1e-6" '
+              'relativeTolerance="1e-6"/>',
+              "          </oms:SimulationInformation>", "        </oms:Annotations>", "      </ssc:Annotation>",
+              "    </ssd:Annotations>"]
     w.append("  </ssd:System>")
     experiment = f'  <ssd:DefaultExperiment startTime="{start_time!r}" stopTime="{stop_time!r}"'
     if step is None:
