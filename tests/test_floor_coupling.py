@@ -104,13 +104,17 @@ def moments(fmu, params, H, n, stop):
     return np.array(ours), np.array(fine), np.array(composed), impacts
 
 
-@pytest.mark.parametrize("model", [0, 1], ids=["rigid rocking", "rocking-sliding"])
-def test_the_load_slope_is_the_line_of_the_step_s_first_moment(fmu, model):
+STACK = {"nBlocks": 2, "block2.halfWidth": 0.2, "block2.halfHeight": 0.5, "block2.mass": 300.0}
+
+
+@pytest.mark.parametrize("model, extra", [(0, {}), (1, {}), (0, STACK), (1, STACK)],
+                         ids=["rigid rocking", "rocking-sliding", "two blocks, rigid rocking", "two blocks, sliding"])
+def test_the_load_slope_is_the_line_of_the_step_s_first_moment(fmu, model, extra):
     """contact.groundLoadSlope, from the momentum and the blocks' mass moment at the step's ends, against the first
     moment of the load by a midpoint rule over substeps: the difference falls as the substeps shrink (an impact's
     impulse lands anywhere in its substep), within 1 % of the largest slope over steps with impacts; composed from the
     substeps' own lines, it agrees to 1e-7."""
-    params = {**SWAY, "contact.model": model, "contact.muGround": 0.9}
+    params = {**SWAY, **extra, "contact.model": model, "contact.muGround": 0.9, "contact.muInterface": 0.9}
     diffs = []
     for n in (40, 160):
         ours, fine, composed, impacts = moments(fmu, params, 0.02, n, 1.2)
