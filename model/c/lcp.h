@@ -7,7 +7,9 @@
 #ifndef ROCKING_LCP_H
 #define ROCKING_LCP_H
 
+#ifndef LCP_MAX
 #define LCP_MAX 12
+#endif
 
 typedef enum {
     LCP_SOLVED = 0,   /* z, w hold a solution; w[i] of a basic z[i] is exactly 0, and z[i] of a basic w[i] */
