@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""One or two stacked rigid blocks on a moving ground, by Siconos: an independent nonsmooth peer.
+"""A column of 1 to 8 stacked rigid blocks on a moving ground, by Siconos: an independent nonsmooth peer.
 
 Run with the system Python that has the Debian package ``python3-siconos`` (the project's venv cannot
 import it)::
@@ -7,13 +7,13 @@ import it)::
     /usr/bin/python3 model/siconos_blocks.py case.json > run.json
     /usr/bin/python3 model/siconos_blocks.py < case.json > run.json
 
-**Model.** N = 1 or 2 rigid rectangles stacked centred (body 1 on the ground, body 2 on body 1's top),
+**Model.** N = 1 to 8 rigid rectangles stacked centred (body 1 on the ground, body k on body k - 1's top),
 body k of half width ``b_k``, half height ``h_k`` (m), mass ``m_k`` (kg), ``Ic = m (b^2 + h^2) / 3``
 (kg m^2), in the ground's frame: each body carries its weight and the inertial force of the ground's
 motion, ``-m (a_h, g + a_v)`` (N). Coordinates of body k: its centre ``(X_k, Y_k)`` (m; origin at body
 1's base centre at rest, x right, y up) and its rotation ``theta_k`` (rad, clockwise positive,
 docs/conventions.md), absolute. Every bottom corner of a body is a unilateral contact with its
-support's top face (the ground for body 1, body 1's top face for body 2) with Coulomb friction
+support's top face (the ground for body 1, body k - 1's top face for body k) with Coulomb friction
 (``mu`` on the ground, ``mu_interface`` between the bodies) and a plastic impact law (Newton
 restitution 0, tangential restitution 0).
 
@@ -35,8 +35,8 @@ can still leave: the velocity-level problem lets an active contact separate).
 
 **Input** (JSON, a file named on the command line or stdin; SI units)::
 
-    {"blocks": [{"b": 0.3, "h": 0.36, "m": 1.0}, ...],    # 1 or 2, body 1 first
-     "mu": 0.3, "mu_interface": 0.5,                       # mu_interface only for 2 blocks
+    {"blocks": [{"b": 0.3, "h": 0.36, "m": 1.0}, ...],    # 1 to 8, body 1 first
+     "mu": 0.3, "mu_interface": 0.5,                       # between the blocks: one value, or N - 1 bottom up
      "g": 9.81,                                            # optional, m/s2
      "excitation": [{"kind": "sine", "A": 3.0, "V": -15.0, "f": 2.0, "t0": 0.0},
                     {"kind": "constant", "ah": 0.0, "av": 0.0},
@@ -77,6 +77,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 GAP_MARGIN = 1e-9  # m: a corner at zero gap counts as touching (see the docstring)
+MAX_BLOCKS = 8  # blocks in a column
 
 
 # ------------------------------------------------------------------ ground motion
@@ -206,11 +207,14 @@ def simulate(case: dict) -> dict:
     import siconos.numerics as sn
 
     blocks = [{"b": float(b["b"]), "h": float(b["h"]), "m": float(b["m"])} for b in case["blocks"]]
-    if len(blocks) not in (1, 2):
-        raise ValueError("1 or 2 blocks")
+    if not 1 <= len(blocks) <= MAX_BLOCKS:
+        raise ValueError(f"1 to {MAX_BLOCKS} blocks")
     N = len(blocks)
     g = float(case.get("g", 9.81))
-    mus = [float(case["mu"])] + ([float(case["mu_interface"])] if N == 2 else [])
+    above = case.get("mu_interface", []) if N > 1 else []
+    mus = [float(case["mu"])] + ([float(m) for m in above] if isinstance(above, list) else [float(above)] * (N - 1))
+    if len(mus) != N:
+        raise ValueError(f"mu_interface: {N - 1} values (one per interface, bottom up) or one for all")
     t_end, step, theta = float(case["t_end"]), float(case["h"]), float(case.get("theta", 0.5))
     if "t_out" in case:
         t_out = np.asarray(case["t_out"], dtype=float)

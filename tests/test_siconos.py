@@ -255,3 +255,34 @@ def test_the_peer_gives_the_closed_forms_of_a_coulomb_block_and_of_ballistic_fli
     b, ramp = run["blocks"][0], t / w - np.sin(w * t) / w ** 2
     assert np.abs(np.asarray(b["slip"]) + A * ramp).max() < 1e-6
     assert np.abs(np.asarray(b["gap"]) - (-(9.81 - 20.0) * t ** 2 / 2 - V * ramp)).max() < 1e-6
+
+
+@pytest.mark.parametrize("n, amplitude, t_end", [(3, 7.0, 0.45), (5, 6.0, 0.31)], ids=["3 drums", "5 drums"])
+def test_a_column_of_squat_drums_rocking_as_one_converges_to_one_block_of_its_size(fmu, siconos, n, amplitude,
+                                                                                  t_end):
+    """A column of n squat drums (each b = 0.5 m, h = 0.25 m, 400 kg, mu = 0.9 everywhere) under a 2 Hz sine pulse
+    above the column's uplift acceleration g b / (n h) and far below a drum's own: Siconos' column of n bodies
+    (every corner a contact) converges to the FMU's one block of the column's height and mass, each drum's rotation
+    to the block's, and the drums' rotations relative to each other to 0. Measured (largest differences):
+
+        3 drums, 7 m/s2, 0.45 s (5 small impacts):  h = 1e-3: 5.2e-5 rad   1e-4: 4.9e-6   1e-5: 6.2e-7
+        5 drums, 6 m/s2, 0.31 s:                    h = 1e-3: 7.5e-5 rad   1e-4: 1.2e-6   1e-5: 5.0e-8
+
+    (Over a larger rocking the drums' impacts differ: Siconos resolves each contact of the column at an impact,
+    which can open an interface, where one block's impact law pivots it whole.)"""
+    b, h, m = 0.5, 0.25, 400.0
+    params = {"contact.model": 1, "block1.halfWidth": b, "block1.halfHeight": n * h, "block1.mass": n * m,
+              "contact.muGround": 0.9, "excitation.kind": 1, "excitation.amplitude": amplitude,
+              "excitation.frequency": 2.0}
+    t, out, res = fmu_run(fmu, params, t_end, ["block1.theta"])
+    assert np.abs(out["block1.theta"]).max() > 5e-4  # it rocks
+    case = {"blocks": [{"b": b, "h": h, "m": m}] * n, "mu": 0.9, "mu_interface": 0.9,
+            "excitation": {"kind": "sine", "A": amplitude, "V": 0.0, "f": 2.0}, "t_end": t_end, "t_out": t.tolist()}
+    errors, relative = [], []
+    for step in STEPS:
+        run = run_siconos(siconos, {**case, "h": step})
+        thetas = [np.asarray(run["blocks"][k]["theta"]) for k in range(n)]
+        errors.append(max(float(np.max(np.abs(x - out["block1.theta"]))) for x in thetas))
+        relative.append(max(float(np.max(np.abs(x - thetas[0]))) for x in thetas))
+    assert all(a > RATIO * c for a, c in zip(errors, errors[1:])) and errors[-1] < 1e-6, errors
+    assert relative[-1] < 1e-6 and relative[-1] < relative[0] / 10, relative
