@@ -23,7 +23,9 @@ static inline __attribute__((always_inline)) void point(const EnSystem *s, int k
                                                         const int ROWS) {
     int nb = s->nb;
     const EnBody *B = &s->body[k];
-    if (ROWS) memset(p, 0, sizeof(*p));
+    /* the rows over the bodies' coordinates (a reader reads no further: the rest of EnPoint's rows is undefined) */
+    if (ROWS)
+        for (int q = 0; q < 3 * nb; q++) p->wN[q] = p->wT[q] = 0.0;
     double th = y[EN_TH(k)], ck = cos(th), sk = sin(th);
     double w = y[EN_W(k)];
     double Rd[2], JRd[2];
@@ -176,8 +178,8 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
         for (int i = 0; i < 2; i++) {
             if (!m->closed[k][i]) continue;
             engine_point(s, k, 2 * i - 1, y, &P[i]);
-            memcpy(row[nr], P[i].wN, sizeof(row[nr]));
-            for (int q = 0; q < EN_NQ; q++) col[nr][q] = P[i].wN[q] - m->sigma[k] * s->mu[k] * P[i].wT[q];
+            memcpy(row[nr], P[i].wN, sizeof(double) * (size_t)nq);
+            for (int q = 0; q < nq; q++) col[nr][q] = P[i].wN[q] - m->sigma[k] * s->mu[k] * P[i].wT[q];
             bias[nr] = P[i].bN;
             who[nr] = k;
             corner[nr] = i;
@@ -186,8 +188,8 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
         }
         if (any && m->sigma[k] == 0) {
             const EnPoint *p = &P[m->closed[k][0] ? 0 : 1];
-            memcpy(row[nr], p->wT, sizeof(row[nr]));
-            memcpy(col[nr], p->wT, sizeof(col[nr]));
+            memcpy(row[nr], p->wT, sizeof(double) * (size_t)nq);
+            memcpy(col[nr], p->wT, sizeof(double) * (size_t)nq);
             bias[nr] = p->bT;
             who[nr] = k;
             corner[nr] = -1;
@@ -240,6 +242,11 @@ static void perp(const double r[2], double out[2]) {
     out[1] = -r[0];
 }
 
+/* The forces of bodies past a system's own that readers still take as 0: those of the two blocks the outputs name
+ * (block1.*, block2.*), whatever EN_MAX_BODIES (the clears below go that far, not to EN_MAX_BODIES, so that a larger
+ * maximum costs a run of one or two bodies nothing). */
+#define EN_READ_BODIES (EN_MAX_BODIES < 2 ? EN_MAX_BODIES : 2)
+
 /* Every force and acceleration of f zero, field by field: memset's string store, on every evaluation, cost more than the
  * chain's own arithmetic and kept the stores that follow it from reaching the loads that read them soon after. */
 static inline void forces_clear(EnForces *f) {
@@ -270,8 +277,8 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
         }
         if (slipRate && SLIDES) slipRate[0] = xi0 ? xid : yin[EN_VEL(1, 0, 0)];
         if (!f) return 1;
-        for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
-        for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
+        for (int k = 1; k < EN_READ_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+        for (int q = 3; q < 3 * EN_READ_BODIES; q++) f->qdd[q] = 0.0;
         double N = B->m * gv, T = SLIDES ? -smu * N : B->m * ah;
         f->qdd[0] = SLIDES ? -ah - smu * gv : 0.0;
         f->qdd[1] = f->qdd[2] = 0.0;
@@ -304,8 +311,8 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
     /* the corner's slip rate along the ground: the centre's velocity plus w J r */
     if (slipRate && SLIDES) slipRate[0] = xi0 ? xid : yin[EN_VEL(1, 0, 0)] + w * r[1];
     if (!f) return 1;
-    for (int k = 1; k < EN_MAX_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
-    for (int q = 3; q < EN_NQ; q++) f->qdd[q] = 0.0;
+    for (int k = 1; k < EN_READ_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = 0.0;
+    for (int q = 3; q < 3 * EN_READ_BODIES; q++) f->qdd[q] = 0.0;
     double kap[2] = {w * w * r[0], w * w * r[1]}, al, xdd = 0.0;
     if (!SLIDES) { /* the moment about the corner over the inertia about it (|G| = |r|: the corner's distance) */
         al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) * B->iIo;
@@ -524,8 +531,8 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
             }
         }
     }
-    for (int k = nb; k < NB; k++) f->N[k][0] = f->N[k][1] = f->T[k] = f->xidd[k] = 0.0;
-    for (int q = 3 * nb; q < EN_NQ; q++) f->qdd[q] = 0.0;
+    for (int k = nb; k < EN_READ_BODIES; k++) f->N[k][0] = f->N[k][1] = f->T[k] = f->xidd[k] = 0.0;
+    for (int q = 3 * nb; q < 3 * EN_READ_BODIES; q++) f->qdd[q] = 0.0;
     return 1;
 }
 
@@ -537,6 +544,12 @@ static int sliding(const EnSystem *s, const EnMode *m) {
 
 static int chain_general(const EnSystem *s, const EnMode *m, const double *xi0, const double *yin, double *yout,
                          double ah, double av, EnForces *f, double *slipRate) {
+#if EN_MAX_BODIES > 2 /* (two bodies, the stacks of most runs: loops unrolled to their own coordinates) */
+    if (s->nb == 2) {
+        if (!sliding(s, m)) return chain_nd(2, 0, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
+        return chain_nd(4, 1, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
+    }
+#endif
     if (!sliding(s, m)) return chain_nd(EN_MAX_BODIES, 0, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
     return chain_nd(2 * EN_MAX_BODIES, 1, 0, s, m, xi0, yin, yout, ah, av, f, slipRate);
 }
@@ -676,7 +689,7 @@ static double jam_margin_rows(const EnSystem *s, const EnMode *m, int k, int c, 
     free_terms(s, 0.0, 0.0, Minv, fext);
     EnPoint p;
     engine_point(s, k, c, y, &p);
-    for (int q = 0; q < EN_NQ; q++) col[q] = p.wN[q] - m->sigma[k] * s->mu[k] * p.wT[q];
+    for (int q = 0; q < nq; q++) col[q] = p.wN[q] - m->sigma[k] * s->mu[k] * p.wT[q];
     return wdot(p.wN, Minv, col, nq) / wdot(p.wN, Minv, p.wN, nq);
 }
 
@@ -855,13 +868,13 @@ static int assemble(const EnSystem *s, const Candidates *c, const double *Minv, 
         int k = c->k[j];
         const EnPoint *pt = friction_point(c, k);
         double mu = s->mu[k], fr = c->sOf[k] >= 0 ? mu : sig[k] * mu;
-        for (int q2 = 0; q2 < EN_NQ; q2++) col[j][q2] = c->P[j].wN[q2] - fr * pt->wT[q2];
-        memcpy(row[j], c->P[j].wN, sizeof(row[j]));
+        for (int q2 = 0; q2 < nq; q2++) col[j][q2] = c->P[j].wN[q2] - fr * pt->wT[q2];
+        memcpy(row[j], c->P[j].wN, sizeof(double) * (size_t)nq);
     }
     for (int t = 0; t < ns; t++) {
         const EnPoint *pt = friction_point(c, c->sk[t]);
-        memcpy(col[nc + t], pt->wT, sizeof(col[nc + t]));
-        memcpy(row[nc + t], pt->wT, sizeof(row[nc + t]));
+        memcpy(col[nc + t], pt->wT, sizeof(double) * (size_t)nq);
+        memcpy(row[nc + t], pt->wT, sizeof(double) * (size_t)nq);
     }
     for (int i = 0; i < n * n; i++) A[i] = 0.0;
     for (int i = 0; i < nc + ns; i++) {
@@ -1101,7 +1114,7 @@ void engine_rest_state(const EnSystem *s, double *y) {
  * (flatten): one gap row then holds both corners. */
 static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, const double *xi0,
                            double row[][EN_NQ], double *res, double *rate) {
-    int nr = 0;
+    int nr = 0, nq = 3 * s->nb;
     for (int k = 0; k < s->nb; k++) {
         int done = 0, flat = m->closed[k][0] && m->closed[k][1];
         for (int i = 0; i < 2; i++) {
@@ -1112,17 +1125,17 @@ static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, 
             for (int j = 0; j < s->nb; j++) p.wN[EN_Q(j, 2)] = p.wT[EN_Q(j, 2)] = 0.0;
             if (flat && i == 1) { /* the right corner's gap is the left one's */
                 if (m->sigma[k] == 0 && !done) {
-                    memcpy(row[nr], p.wT, sizeof(row[nr]));
+                    memcpy(row[nr], p.wT, sizeof(double) * (size_t)nq);
                     res[nr] = xi0 ? p.xi - (xi0[k] + s->body[k].b) : 0.0;
                     rate[nr++] = p.xid;
                 }
                 continue;
             }
-            memcpy(row[nr], p.wN, sizeof(row[nr]));
+            memcpy(row[nr], p.wN, sizeof(double) * (size_t)nq);
             res[nr] = p.g;
             rate[nr++] = p.gd;
             if (m->sigma[k] == 0 && !done) {
-                memcpy(row[nr], p.wT, sizeof(row[nr]));
+                memcpy(row[nr], p.wT, sizeof(double) * (size_t)nq);
                 res[nr] = xi0 ? p.xi - (xi0[k] + (2 * i - 1) * s->body[k].b) : 0.0;
                 rate[nr++] = p.xid;
                 done = 1;

@@ -1057,10 +1057,10 @@ static int take_step(Model *M, const Logger *log) {
     int ni;
     if (reuse) {
         ni = S->enIndN;
-        memcpy(ind0, S->enInd, sizeof(ind0));
-        memcpy(kind, S->enIndKind, sizeof(kind));
-        memcpy(body, S->enIndBody, sizeof(body));
-        memcpy(corner, S->enIndCorner, sizeof(corner));
+        memcpy(ind0, S->enInd, sizeof(double) * (size_t)ni);
+        memcpy(kind, S->enIndKind, sizeof(int) * (size_t)ni);
+        memcpy(body, S->enIndBody, sizeof(int) * (size_t)ni);
+        memcpy(corner, S->enIndCorner, sizeof(int) * (size_t)ni);
     } else {
         ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
     }
@@ -1113,7 +1113,7 @@ static int take_step(Model *M, const Logger *log) {
             indicators(&c, S->t + h, y1, &c.f, ind, kind, body, corner);
             haveEnd = 1;
         } else {
-            memcpy(yd, S->y, sizeof(yd));
+            memcpy(yd, S->y, sizeof(double) * (size_t)nstate(M));
             dense_eval(&cont, n, s, yd);
             complete(&c, S->y, yd);
             EnForces none;
@@ -1281,7 +1281,7 @@ static int take_step(Model *M, const Logger *log) {
             if (r <= 0.0 || d == 0.0 || (ev != EVENT_NONE && r >= 1.0)) continue;
             if (r < 1e-6 && fabs(S->y[EN_W(0)]) <= 1e-12 * p) continue; /* the start from rest, no reversal */
             double yd[NMAX];
-            memcpy(yd, S->y, sizeof(yd));
+            memcpy(yd, S->y, sizeof(double) * (size_t)nstate(M));
             dense_eval(&cont, n, r, yd);
             S->stepPeakTime[S->nStepPeaks] = S->t + r * hStep;
             S->stepPeakTheta[S->nStepPeaks] = yd[EN_TH(0)];
@@ -1310,16 +1310,17 @@ static int take_step(Model *M, const Logger *log) {
     S->enIndValid = S->fValid && haveEnd && first < 0;
     if (S->enIndValid) {
         memcpy(S->enInd, ind, sizeof(double) * (size_t)ni);
-        for (int i = ni; i < EN_IND; i++) S->enInd[i] = 1.0; /* (none: before_step reads them all) */
+        int was = S->enIndN; /* (past it the kinds, bodies and corners are 0 already) */
         S->enIndN = ni;
         for (int k = 0; k < EN_MAX_BODIES; k++) { /* (the step's last evaluation was at its end) */
             S->enT[k] = k < nb ? c.f.T[k] : 0.0;
             S->enN[k] = k < nb ? c.f.N[k][0] + c.f.N[k][1] : 0.0;
         }
-        for (int i = 0; i < EN_IND; i++) { /* (the unused ones 0: a state holds no undefined bytes) */
+        for (int i = 0; i < ni || i < was; i++) { /* (the unused ones 0: a state holds no undefined bytes) */
             S->enIndKind[i] = i < ni ? kind[i] : 0;
             S->enIndBody[i] = i < ni ? body[i] : 0;
             S->enIndCorner[i] = i < ni ? corner[i] : 0;
+            if (i >= ni) S->enInd[i] = 0.0;
         }
     }
     S->h = hNext;
@@ -1346,7 +1347,7 @@ static int take_step(Model *M, const Logger *log) {
 static void state_forces_at(const Model *M, double t, double *y, EnMode *m, double ah, double av, EnForces *f) {
     const State *S = &M->s;
     int two = coupling_on(M);
-    memcpy(y, S->y, sizeof(double) * NMAX);
+    memcpy(y, S->y, sizeof(double) * (size_t)nstate(M));
     *m = S->en;
     int have = 0;
     if (S->t > t && S->denseValid && S->mode != MODE_OVERTURNED) {
@@ -1414,7 +1415,7 @@ static void before_step(Model *M, const Logger *log) {
      * leaves nothing to do */
     if (S->fValid && S->enIndValid) {
         int clear = 1;
-        for (int i = 0; i < EN_IND; i++) clear &= S->enInd[i] > 0;
+        for (int i = 0; i < S->enIndN; i++) clear &= S->enInd[i] > 0;
         if (clear) return;
     }
     Ctx c;
