@@ -178,7 +178,7 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
         for (int i = 0; i < 2; i++) {
             if (!m->closed[k][i]) continue;
             engine_point(s, k, 2 * i - 1, y, &P[i]);
-            memcpy(row[nr], P[i].wN, sizeof(double) * (size_t)nq);
+            for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = P[i].wN[q_];
             for (int q = 0; q < nq; q++) col[nr][q] = P[i].wN[q] - m->sigma[k] * s->mu[k] * P[i].wT[q];
             bias[nr] = P[i].bN;
             who[nr] = k;
@@ -188,8 +188,8 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
         }
         if (any && m->sigma[k] == 0) {
             const EnPoint *p = &P[m->closed[k][0] ? 0 : 1];
-            memcpy(row[nr], p->wT, sizeof(double) * (size_t)nq);
-            memcpy(col[nr], p->wT, sizeof(double) * (size_t)nq);
+            for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = p->wT[q_];
+            for (int q_ = 0; q_ < nq; q_++) col[nr][q_] = p->wT[q_];
             bias[nr] = p->bT;
             who[nr] = k;
             corner[nr] = -1;
@@ -869,12 +869,12 @@ static int assemble(const EnSystem *s, const Candidates *c, const double *Minv, 
         const EnPoint *pt = friction_point(c, k);
         double mu = s->mu[k], fr = c->sOf[k] >= 0 ? mu : sig[k] * mu;
         for (int q2 = 0; q2 < nq; q2++) col[j][q2] = c->P[j].wN[q2] - fr * pt->wT[q2];
-        memcpy(row[j], c->P[j].wN, sizeof(double) * (size_t)nq);
+        for (int q_ = 0; q_ < nq; q_++) row[j][q_] = c->P[j].wN[q_];
     }
     for (int t = 0; t < ns; t++) {
         const EnPoint *pt = friction_point(c, c->sk[t]);
-        memcpy(col[nc + t], pt->wT, sizeof(double) * (size_t)nq);
-        memcpy(row[nc + t], pt->wT, sizeof(double) * (size_t)nq);
+        for (int q_ = 0; q_ < nq; q_++) col[nc + t][q_] = pt->wT[q_];
+        for (int q_ = 0; q_ < nq; q_++) row[nc + t][q_] = pt->wT[q_];
     }
     for (int i = 0; i < n * n; i++) A[i] = 0.0;
     for (int i = 0; i < nc + ns; i++) {
@@ -1125,17 +1125,17 @@ static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, 
             for (int j = 0; j < s->nb; j++) p.wN[EN_Q(j, 2)] = p.wT[EN_Q(j, 2)] = 0.0;
             if (flat && i == 1) { /* the right corner's gap is the left one's */
                 if (m->sigma[k] == 0 && !done) {
-                    memcpy(row[nr], p.wT, sizeof(double) * (size_t)nq);
+                    for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = p.wT[q_];
                     res[nr] = xi0 ? p.xi - (xi0[k] + s->body[k].b) : 0.0;
                     rate[nr++] = p.xid;
                 }
                 continue;
             }
-            memcpy(row[nr], p.wN, sizeof(double) * (size_t)nq);
+            for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = p.wN[q_];
             res[nr] = p.g;
             rate[nr++] = p.gd;
             if (m->sigma[k] == 0 && !done) {
-                memcpy(row[nr], p.wT, sizeof(double) * (size_t)nq);
+                for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = p.wT[q_];
                 res[nr] = xi0 ? p.xi - (xi0[k] + (2 * i - 1) * s->body[k].b) : 0.0;
                 rate[nr++] = p.xid;
                 done = 1;

@@ -1057,10 +1057,10 @@ static int take_step(Model *M, const Logger *log) {
     int ni;
     if (reuse) {
         ni = S->enIndN;
-        memcpy(ind0, S->enInd, sizeof(double) * (size_t)ni);
-        memcpy(kind, S->enIndKind, sizeof(int) * (size_t)ni);
-        memcpy(body, S->enIndBody, sizeof(int) * (size_t)ni);
-        memcpy(corner, S->enIndCorner, sizeof(int) * (size_t)ni);
+        memcpy(ind0, S->enInd, sizeof(ind0)); /* (whole: a fixed size copies inline, where a call cost more) */
+        memcpy(kind, S->enIndKind, sizeof(kind));
+        memcpy(body, S->enIndBody, sizeof(body));
+        memcpy(corner, S->enIndCorner, sizeof(corner));
     } else {
         ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
     }
@@ -1113,7 +1113,7 @@ static int take_step(Model *M, const Logger *log) {
             indicators(&c, S->t + h, y1, &c.f, ind, kind, body, corner);
             haveEnd = 1;
         } else {
-            memcpy(yd, S->y, sizeof(double) * (size_t)nstate(M));
+            memcpy(yd, S->y, sizeof(yd));
             dense_eval(&cont, n, s, yd);
             complete(&c, S->y, yd);
             EnForces none;
@@ -1281,7 +1281,7 @@ static int take_step(Model *M, const Logger *log) {
             if (r <= 0.0 || d == 0.0 || (ev != EVENT_NONE && r >= 1.0)) continue;
             if (r < 1e-6 && fabs(S->y[EN_W(0)]) <= 1e-12 * p) continue; /* the start from rest, no reversal */
             double yd[NMAX];
-            memcpy(yd, S->y, sizeof(double) * (size_t)nstate(M));
+            memcpy(yd, S->y, sizeof(yd));
             dense_eval(&cont, n, r, yd);
             S->stepPeakTime[S->nStepPeaks] = S->t + r * hStep;
             S->stepPeakTheta[S->nStepPeaks] = yd[EN_TH(0)];
@@ -1347,7 +1347,7 @@ static int take_step(Model *M, const Logger *log) {
 static void state_forces_at(const Model *M, double t, double *y, EnMode *m, double ah, double av, EnForces *f) {
     const State *S = &M->s;
     int two = coupling_on(M);
-    memcpy(y, S->y, sizeof(double) * (size_t)nstate(M));
+    memcpy(y, S->y, sizeof(double) * NMAX);
     *m = S->en;
     int have = 0;
     if (S->t > t && S->denseValid && S->mode != MODE_OVERTURNED) {
