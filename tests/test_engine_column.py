@@ -39,3 +39,18 @@ def test_columns_read_no_uninitialised_memory(tmp_path):
     p = subprocess.run(["valgrind", "--error-exitcode=9", "--track-origins=yes", str(exe), "800"],
                        capture_output=True, text=True)
     assert p.returncode == 0, p.stderr[-2000:]
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
+def test_the_column_bench_measures_each_size():
+    """runners bench --columns (runners.analysis.bench_column) for columns of 1 and 2 drums: a row per size, and with
+    valgrind the instructions per call, more for two drums than for one (no timing is asserted)."""
+    from runners.analysis.bench_column import run_column_bench
+
+    rows = [line for line in run_column_bench(range(1, 3)).splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert [r.split("|")[1].strip() for r in rows] == ["1", "2"]
+    cells = [[c.strip() for c in r.split("|")[1:-1]] for r in rows]
+    assert [c[7] for c in cells] == ["4", "8"]  # the choice's unknowns: 4 per drum
+    if shutil.which("valgrind"):
+        motion, choice = [float(c[2].replace(",", "")) for c in cells], [float(c[5].replace(",", "")) for c in cells]
+        assert 0 < motion[0] < motion[1] and 0 < choice[0] < choice[1]

@@ -292,16 +292,19 @@ def _instructions(exe: Path, lib: Path, guid: str, case: int | list[str], repeat
     of its custom form), counted by valgrind's cachegrind (exact and unaffected by other work on
     the machine): a run of `repeats` simulations less one of none (loading, instantiating nothing)."""
     which = [str(case)] if isinstance(case, int) else list(case)
+    return (cachegrind_instructions([str(exe), str(lib), guid, str(repeats), *which]) -
+            cachegrind_instructions([str(exe), str(lib), guid, "0", *which])) / repeats
 
-    def count(n: int) -> int:
-        proc = subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=no", "--cachegrind-out-file=/dev/null",
-                               str(exe), str(lib), guid, str(n), *which], capture_output=True, text=True)
-        for line in proc.stderr.splitlines():
-            if "I" in line and "refs:" in line:
-                return int(line.split("refs:")[1].replace(",", "").split()[0])
-        raise OSError(f"valgrind gave no instruction count: {proc.stderr.strip()[-300:]}")
 
-    return (count(repeats) - count(0)) / repeats
+def cachegrind_instructions(argv: list[str]) -> int:
+    """The instructions a program runs (``argv``), counted by valgrind's cachegrind: exact, and unaffected by other
+    work on the machine. OSError where valgrind gives no count."""
+    proc = subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=no", "--cachegrind-out-file=/dev/null", *argv],
+                          capture_output=True, text=True)
+    for line in proc.stderr.splitlines():
+        if "I" in line and "refs:" in line:
+            return int(line.split("refs:")[1].replace(",", "").split()[0])
+    raise OSError(f"valgrind gave no instruction count: {proc.stderr.strip()[-300:]}")
 
 
 def _stack_cases_of_both(paths: tuple[Path, Path]) -> list[tuple[str, dict, float]]:

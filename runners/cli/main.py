@@ -218,6 +218,8 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
         return [("FMI interfaces", interfaces)]
     if args.cosim:
         return [("co-simulation", _cosim_bench(fmu))]
+    if args.columns:
+        return [("columns of drums", _column_bench)]
     if args.supports:
         from runners.analysis.bench_supports import run_support_study_bench
 
@@ -251,7 +253,14 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
             ("sweep recordings", lambda: b.run_sweep_recording_bench(fmu)),
             ("FMI interfaces", interfaces),
             ("record-driven run", records), ("fragility study", study),
-            ("sweep size", lambda: b.run_sweep_size_bench(fmu)), ("co-simulation", _cosim_bench(fmu))]
+            ("sweep size", lambda: b.run_sweep_size_bench(fmu)), ("co-simulation", _cosim_bench(fmu)),
+            ("columns of drums", _column_bench)]
+
+
+def _column_bench() -> str:
+    from runners.analysis.bench_column import run_column_bench
+
+    return run_column_bench()
 
 
 def _cosim_bench(fmu: Path):
@@ -272,9 +281,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.out and not args.charts:
         raise ValueError("--out is the folder of --charts")
     if sum(map(bool, (args.dask, args.sweep_size, args.records, args.charts, args.interfaces, args.against,
-                      args.startup, args.throughput, args.cosim, args.supports))) > 1:
+                      args.startup, args.throughput, args.cosim, args.supports, args.columns))) > 1:
         raise ValueError("give one of --charts, --dask, --records, --sweep-size, --interfaces, --against, "
-                         "--startup, --throughput, --cosim and --supports (or none: every benchmark)")
+                         "--startup, --throughput, --cosim, --supports and --columns (or none: every benchmark)")
     if args.study and not args.against:
         raise ValueError("--study is a part of --against FMU: give the other build")
     if args.baseline and not (args.startup or args.throughput):

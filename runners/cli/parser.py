@@ -222,11 +222,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help="only sweep throughput: 1e4-, 1e5- and 1e6-point maps and a 5,000-run record study, "
                             "each against the native cost of its points")
     bench.add_argument("--cosim", action="store_true",
-                       help="only the co-simulation of examples/cabinet_on_floor.toml: the cost in fmpy and libcosim "
-                            "and the coupling's errors against the communication step (docs/cosimulation.md)")
+                       help="only the co-simulation of examples/cabinet_on_floor.toml: the held, default and iterated "
+                            "masters and libcosim, their cost and errors against the monolithic solution at each "
+                            "communication step (docs/cosimulation.md)")
     bench.add_argument("--supports", action="store_true",
                        help="only the 560-run cabinet study on a building's third floor (one-way and two-way) against "
                             "the same study on the ground, side by side (docs/supports.md)")
+    bench.add_argument("--columns", action="store_true",
+                       help="only the contact engine against the number of bodies: columns of 1 to 8 drums, one "
+                            "evaluation of their motion and one choice of their contact set (us and instructions)")
     bench.add_argument("--workers", type=int, default=None, metavar="N",
                        help="with --throughput or --supports: worker processes of each sweep (default 2)")
     bench.add_argument("--baseline", metavar="PYTHON",
