@@ -5,6 +5,8 @@
 #define _POSIX_C_SOURCE 200809L /* struct stat's st_mtim */
 #endif
 #include "instance.h"
+
+#include "coupling.h"
 #include "support.h"
 
 #include <ctype.h>
@@ -339,10 +341,11 @@ static int input_index(const Model *M, const double *p) {
     return p == &M->v.ahIn ? 0 : p == &M->v.avIn ? 1 : p == &M->v.supportForce ? 2 : -1;
 }
 
-/* support.force acts on a two-way support alone (its floor is in the state): 1 after logging an error elsewhere. */
+/* support.force acts on a two-way support alone (its floor is in the state; coupling_on, as the restored state's
+ * check): 1 after logging an error elsewhere. Running phases only, where the derived support is set. */
 static int force_refused(Instance *I, const char *fn) {
     const Variables *v = &I->s.model.v;
-    if (v->supportKind != 0 && v->supportCoupling == 1) return 0;
+    if (coupling_on(&I->s.model)) return 0;
     INSTANCE_ERROR(I, "%s: 'support.force' acts on a two-way support (support.kind 1 or 2 with support.coupling = 1), "
                       "not with support.kind = %d, support.coupling = %d", fn, v->supportKind, v->supportCoupling);
     return 1;

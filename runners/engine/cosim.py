@@ -868,6 +868,7 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
             order = first + [c for c in slaves if c not in first]
         # iterated where every FMU can roll back (else one pass, as without iterate)
         loops = iterate and lines is not None and all(states[c] for c in slaves)
+        back = lines.back(order) if loops else []  # the links whose settling ends an iterated step
         transfer()
         held = [slaves[a].getReal([out])[0] for a, out, _, _ in links]  # each link's value at the step's start
         rates = lines.rates(slaves) if lines else {}  # and its source's derivative there (rate links)
@@ -888,7 +889,9 @@ def run_ssp_fmpy(system: System, ssp: Path, progress=None, steps: int | None = N
                         for c in slaves:
                             slaves[c].setFMUstate(saved[c])
                     lines.step(slaves, order, held, rates, rates_before, ends, h, lambda name: step(name, k))
-                    new = {i: slaves[links[i][0]].getReal([links[i][1]])[0] for i in lines.back(order)}
+                    if not loops:
+                        break
+                    new = {i: slaves[links[i][0]].getReal([links[i][1]])[0] for i in back}
                     scale = max([scale] + [abs(x) for x in new.values()])
                     settled = sweep > 0 and all(abs(new[i] - ends[i]) <= SWEEP_TOL * scale for i in new)
                     ends = new
