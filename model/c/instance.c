@@ -422,10 +422,10 @@ Status instance_set_real_derivative(Instance *I, unsigned vr, int order, double 
                        order);
         return STATUS_ERROR;
     }
-    /* (a second derivative bends the input: the cells on which the ground's acceleration is monotone are then cut at
-     * the total's vertex, ground.c, which holds for the horizontal input on the ground) */
     if (which == 2 && (I->s.phase & RUNNING_PHASES) && force_refused(I, fn)) return STATUS_ERROR;
-    /* (support.force only enters the support's equations of motion: both orders) */
+    /* (a second derivative bends the input: the cells on which the ground's acceleration is monotone are then cut at
+     * the total's vertex, ground.c, which holds for the horizontal input on the ground; support.force only enters the
+     * support's equations of motion: both orders) */
     if (order == 2 && which != 2 && (which != 0 || M->v.supportKind != 0)) {
         INSTANCE_ERROR(I, "%s: '%s': a second derivative is taken for ground.ah of blocks on the ground (support.kind "
                        "= 0) and for support.force: give the first derivative alone", fn, name);

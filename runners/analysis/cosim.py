@@ -75,9 +75,10 @@ def coarse_system(system: System) -> System | None:
 def error_estimate(result: CosimResult, coarse: CosimResult | None = None, progress=None) -> dict:
     """An estimate of a run's error from the same system run at twice the step (``coarse``; else run here with the
     same engine, FMUs and scheme): at their last common communication point, the difference of the peak |theta| so far
-    (rad) and of block 1's slip (m), both impact counts, and the energy residual's (two-way). As the error falls at
-    least as the step (first order: held inputs; higher: the default masters), the difference bounds the finer run's
-    error (for order p it is 2^p - 1 times it). Keys ``error_estimate_*``; {} for a run of one step."""
+    (rad) and of block 1's slip (m), both impact counts, and the energy residual's (two-way). Where the error falls
+    at least as the step, the difference is of the finer run's error's size or above (for order p, 2^p - 1 times
+    it); an estimate, not a bound: where it does not fall with the step the two runs can agree by chance
+    (docs/cosimulation.md#error-estimate). Keys ``error_estimate_*``; {} for a run of one step."""
     from runners.engine import cosim
 
     system = result.system

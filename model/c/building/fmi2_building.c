@@ -369,14 +369,14 @@ static void inputs_changed(Instance *I) {
 
 /* 1 after logging when an input other than 0 is set on a storey above nStoreys after initialisation.
  * Before, nStoreys may still change: initialisation checks it (building_validate). */
-static int absent_storey(Instance *I, const VarInfo *info, double value) {
+static int absent_storey(Instance *I, const VarInfo *info, double value, const char *fn) {
     int n = I->b.v.nStoreys;
     if (info->causality != CAUSALITY_input || info->storey == 0 || value == 0.0 || (int)info->storey <= n) return 0;
     if (I->phase != PHASE_STEP_COMPLETE) {
         I->dirty = 1; /* validated again when initialisation ends or an output is read */
         return 0;
     }
-    LOG_ERROR(I, "fmi2SetReal: %s = %g N acts on a storey the building does not have (nStoreys = %d)", info->name,
+    LOG_ERROR(I, "%s: %s = %g N acts on a storey the building does not have (nStoreys = %d)", fn, info->name,
               value, n);
     return 1;
 }
@@ -387,7 +387,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     if (begin_access(I, 1, vr, nvr, value, "fmi2SetReal")) return fmi2Error;
     for (size_t i = 0; i < nvr; i++) {
         double *p = (double *)lookup(I, vr[i], TYPE_REAL, 1, "fmi2SetReal", &info);
-        if (!p || !isfinite(value[i]) || absent_storey(I, &info, value[i])) {
+        if (!p || !isfinite(value[i]) || absent_storey(I, &info, value[i], "fmi2SetReal")) {
             if (p && !isfinite(value[i]))
                 LOG_ERROR(I, "fmi2SetReal: '%s' = %g is not a finite number", info.name, value[i]);
             inputs_changed(I); /* the values before the refused one are set */
@@ -632,7 +632,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
             LOG_ERROR(I, "%s: derivative 1 of '%s' = %g is not a finite number", fn, info.name, value[i]);
             return fmi2Error;
         }
-        if (absent_storey(I, &info, value[i])) return fmi2Error;
+        if (absent_storey(I, &info, value[i], fn)) return fmi2Error;
         I->b.dForce[k] = value[i];
         I->b.forceT0[k] = I->tc;
     }
