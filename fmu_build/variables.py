@@ -15,6 +15,30 @@ _LINE = re.compile(
 )
 
 
+# Blocks 3 to 8 of a column: a BLOCK(...) line stands for blockK.member, K = 3..8, value reference
+# base + K (the C core expands it with the same macro, variables.def); RANGE and ITEM lines naming
+# "block*.member" hold for each of them.
+FAMILY_BLOCKS = range(3, 9)
+_BLOCK = re.compile(r'^BLOCK\(\s*(\w+)\s*,\s*(\d+)\s*,\s*(\w+)\s*,\s*"([^"]+)"\s*,(.*)$')
+
+
+def expand_families(text: str) -> list[str]:
+    """The lines of a variable table with every ``BLOCK(...)`` line written out as its six ``VAR(...)``
+    lines and every ``RANGE``/``ITEM`` line naming ``block*.`` as one line per block."""
+    out: list[str] = []
+    for line in text.splitlines():
+        stripped = line.strip()
+        m = _BLOCK.match(stripped)
+        if m:
+            typ, base, field, member, rest = m.groups()
+            out += [f'VAR({typ}, {int(base) + k}, {field}_{k}, "block{k}.{member}",{rest}' for k in FAMILY_BLOCKS]
+        elif stripped.startswith(("RANGE(", "ITEM(")) and '"block*.' in stripped:
+            out += [line.replace('"block*.', f'"block{k}.') for k in FAMILY_BLOCKS]
+        else:
+            out.append(line)
+    return out
+
+
 @dataclass(frozen=True)
 class Variable:
     """One FMI scalar variable as declared in variables.def."""
@@ -33,7 +57,7 @@ class Variable:
 def read_variables(path: Path) -> list[Variable]:
     """Parse every ``VAR(...)`` line of ``path``; raise ValueError on a malformed one."""
     variables: list[Variable] = []
-    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+    for lineno, line in enumerate(expand_families(path.read_text()), start=1):
         if not line.startswith("VAR("):
             continue
         m = _LINE.match(line.strip())
@@ -77,7 +101,7 @@ class Enumeration:
 def read_enumerations(path: Path) -> dict[str, Enumeration]:
     """The ``ITEM(...)`` lines of ``path``: variable name -> its Enumeration type."""
     found: dict[str, tuple[str, list[tuple[int, str, str]]]] = {}
-    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+    for lineno, line in enumerate(expand_families(path.read_text()), start=1):
         if not line.startswith("ITEM("):
             continue
         m = _ITEM.match(line.strip())
@@ -132,7 +156,7 @@ class Range:
 def read_ranges(path: Path) -> dict[str, Range]:
     """The ``RANGE(...)`` lines of ``path``: variable name -> its valid range."""
     ranges: dict[str, Range] = {}
-    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+    for lineno, line in enumerate(expand_families(path.read_text()), start=1):
         if not line.startswith("RANGE("):
             continue
         m = _RANGE.match(line.strip())

@@ -129,6 +129,11 @@ RANGE_CONTEXT: dict[str, dict] = {
     "platform.mass": {"support.kind": 2},
     "platform.stiffness": {"support.kind": 2},
     "platform.damping": {"support.kind": 2},
+    # a column's blocks 3 to 8 (every one in use), each on blocks as wide as the widest it may be and
+    # under blocks as narrow as the narrowest
+    **{f"block{k}.{q}": {"nBlocks": 8, "block1.halfWidth": 1e4, "block2.halfWidth": 1e4,
+                         **{f"block{j}.halfWidth": 1e4 if j < k else 1e-6 for j in range(3, 9) if j != k}}
+       for k in range(3, 9) for q in ("halfWidth", "halfHeight", "mass")},
 }
 
 
@@ -156,7 +161,7 @@ def test_both_editions_declare_the_ranges_of_variables_def_and_discrete_running_
     assert not set(declared) & set(enumerations)  # the items are an Enumeration's range
     # an open bound is declared as the next double inside it: mass > 0 is min = 5e-324
     assert declared["block1.mass"] == (5e-324, None) and declared["solver.restRatio"] == (5e-324, 1 - 2 ** -53)
-    assert declared["nBlocks"] == (1, 2)
+    assert declared["nBlocks"] == (1, 8)
     starts = {v.name: float(v.start) for v in md.modelVariables if v.name in declared}
     for name, (low, high) in declared.items():  # FMI: min <= start <= max
         assert (low is None or low <= starts[name]) and (high is None or starts[name] <= high), name

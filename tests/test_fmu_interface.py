@@ -53,7 +53,7 @@ INVALID = [
     ("block1.mass", 0.0), ("block1.mass", -3.0), ("restitution.eta", -0.01), ("restitution.eta", 1.01),
     ("restitution.k", -0.01), ("restitution.k", 1.5), ("restitution.correction", 0.0), ("g", 0.0),
     ("block1.theta0", 1.6), ("solver.relTol", 0.0), ("solver.absTol", -1.0), ("solver.restRatio", 0.0),
-    ("restitution.law", 3), ("excitation.kind", 8), ("excitation.kind", -1), ("nBlocks", 3),
+    ("restitution.law", 3), ("excitation.kind", 8), ("excitation.kind", -1), ("nBlocks", 9),
     ("excitation.kind", 4),
 ]
 REAL_PARAMETERS = ["block1.halfWidth", "block1.halfHeight", "block1.mass", "block1.theta0", "block1.omega0", "g",

@@ -358,7 +358,7 @@ def test_a_stack_landing_at_negligible_rates_comes_to_rest(fmu):
 # ------------------------------------------------------------ bad input
 
 @pytest.mark.parametrize("extra,text", [
-    ({"nBlocks": 3}, "nBlocks"),
+    ({"nBlocks": 9}, "nBlocks"),
     ({"block2.mass": 0.0}, "block2.mass"),
     ({"block2.halfWidth": -0.1}, "block2.halfWidth"),
     ({"block2.halfHeight": math.nan}, "block2.halfHeight"),

@@ -244,7 +244,36 @@ static void complete_last(Ctx *c, const double *rest, double *y) {
     }
 }
 
-static int nstate(const Model *M) { return EN_N(M->v.nBlocks == 2 ? 2 : 1) + coupling_size(M); }
+static int nstate(const Model *M) { return EN_N(M->d.en.nb) + coupling_size(M); }
+
+/* Body k's records: block 1's in the one-block fields, block 2's in their stack counterparts, blocks 3 to 8 in the
+ * column's (State) */
+typedef struct {
+    int *starts;       /* slides started */
+    double *since;     /* start of the slide under way, s */
+    double *dur;       /* time slid in finished slides, s */
+    double *first;     /* first slide's start, s (-1: none) */
+    double *maxSlip;   /* largest |slip|, m */
+    double *maxTheta;  /* largest |theta|, rad */
+} Track;
+static Track track(State *S, int k) {
+    if (k == 0) return (Track){&S->slideStarts, &S->slideSince, &S->slideDur, &S->slideStartTime1, &S->maxAbsSlip,
+                               &S->maxAbsTheta};
+    if (k == 1) return (Track){&S->slideStarts2, &S->slideSince2, &S->slideDur2, &S->slideStartTime2, &S->maxAbsSlip2,
+                               &S->maxAbsTheta2};
+    return (Track){&S->colSlideStarts[k - 2], &S->colSlideSince[k - 2], &S->colSlideDur[k - 2],
+                   &S->colSlideFirst[k - 2], &S->colMaxSlip[k - 2], &S->colMaxTheta[k - 2]};
+}
+
+/* The contact of body k for the event log: "" for one block, else " contact=ground", " contact=interface" (a stack's)
+ * or " contact=interfaceK" (a column's, between blocks K and K + 1) */
+static const char *contact_name(int nb, int k, char *buf, size_t n) {
+    if (nb == 1) return "";
+    if (k == 0) return " contact=ground";
+    if (nb == 2) return " contact=interface";
+    snprintf(buf, n, " contact=interface%d", k);
+    return buf;
+}
 static double time_scale(const Model *M) { return 1.0 / sqrt(M->d.p2); }
 
 static int flying(const EnMode *m, int k) { return !m->closed[k][0] && !m->closed[k][1]; }
@@ -377,7 +406,7 @@ static int plastic_op(const Model *M, double *y, void *ctx) {
 /* Bookkeeping of a change of contact set at S->t: slides and flights that start or end. */
 static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger *log) {
     State *S = &M->s;
-    int nb = M->v.nBlocks == 2 ? 2 : 1;
+    int nb = M->d.en.nb;
     for (int k = 0; k < nb; k++) {
         int fw = flying(was, k), fn = flying(now, k);
         if (!fw && fn) {
@@ -389,14 +418,14 @@ static void changed(Model *M, const EnMode *was, const EnMode *now, const Logger
             say(log, LOG_EVENTS, "land t=%.17g body=%d", S->t, k + 1);
         }
         /* a stack's flat contact that opens onto one corner (the rigid stack's "open") */
-        if (nb == 2 && S->pending == EVENT_OPEN && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
-            say(log, LOG_EVENTS, "open t=%.17g contact=%s", S->t, k ? "interface" : "ground");
-        /* block 1's slides in the one-block fields, block 2's in their stack counterparts */
-        int *starts = k ? &S->slideStarts2 : &S->slideStarts;
-        double *since = k ? &S->slideSince2 : &S->slideSince, *dur = k ? &S->slideDur2 : &S->slideDur;
-        double *first = k ? &S->slideStartTime2 : &S->slideStartTime1;
+        char buf[32];
+        const char *who = contact_name(nb, k, buf, sizeof(buf));
+        if (nb >= 2 && S->pending == EVENT_OPEN && was->closed[k][0] && was->closed[k][1] && now->closed[k][0] != now->closed[k][1])
+            say(log, LOG_EVENTS, "open t=%.17g%s", S->t, who);
+        Track r = track(S, k);
+        int *starts = r.starts;
+        double *since = r.since, *dur = r.dur, *first = r.first;
         int sw = was->sigma[k] != 0, sn = now->sigma[k] != 0;
-        const char *who = nb == 2 ? (k ? " contact=interface" : " contact=ground") : "";
         if (!sw && sn) {
             (*starts)++;
             *since = S->t;
@@ -594,12 +623,42 @@ static void settle_mode(Model *M, int touching[][2], int *stuck, const double *d
  * threshold that starts the bodies at rest, and a kinetic energy that would lift the centre of mass
  * less than a rebound to restRatio * alpha does. */
 static double rest_exit(const Model *M, double t, int piece);
-static void fell_off(Model *M, const Logger *log);
+static void fell_off(Model *M, int k, const Logger *log);
 
 /* A rebound of kinetic energy `energy` (J) lifts a body of mass m (kg), turning about a corner at R (m)
  * from its centre, under the gravity geff (m/s2), less than to restRatio of its slenderness angle alpha. */
 static int below_rest(const Model *M, double energy, double m, double R, double alpha, double geff) {
     return energy < m * geff * R * (cos(alpha - M->v.restRatio * alpha) - cos(alpha));
+}
+
+/* What a rebound at body k's contact lifts, as one rigid body about the corner it pivots on: the sub-column of body k
+ * and those above it, flat and centred, of mass m (kg), inertia I0 about the corner (kg m^2), centre R (m) from it at
+ * the angle alpha (rad) from the vertical. One block and a stack of two take the rigid models' values (the pair
+ * about block 1's corner, block 2 about its own). */
+static void sub_column(const Model *M, int k, double *m, double *R, double *alpha, double *I0) {
+    const EnSystem *sys = &M->d.en;
+    const Derived *d = &M->d;
+    if (sys->nb == 2) {
+        *m = k ? M->v.mass2 : d->mTot;
+        *R = k ? d->RI : d->RL;
+        *alpha = k ? d->alphaI : d->alphaL;
+        *I0 = k ? d->II : d->IL;
+        return;
+    }
+    double b = sys->body[k].b, mass = 0.0, moment = 0.0, I = 0.0, y = 0.0; /* y: a centre's height over body k's base */
+    for (int j = k; j < sys->nb; j++) {
+        const EnBody *B = &sys->body[j];
+        double yc = y + B->h;
+        mass += B->m;
+        moment += B->m * yc;
+        I += B->Ic + B->m * (b * b + yc * yc);
+        y += 2.0 * B->h;
+    }
+    double yG = moment / mass;
+    *m = mass;
+    *R = sqrt(b * b + yG * yG);
+    *alpha = atan(b / yG);
+    *I0 = I;
 }
 
 static int negligible(const Model *M, double t, const double *y) {
@@ -613,18 +672,22 @@ static int negligible(const Model *M, double t, const double *y) {
         ah = solve_at(M, t, &r, y, ah, av, &f);
     }
     double geff = M->v.g + av;
-    int two = M->v.nBlocks == 2;
-    if (two ? !(rest_exit(M, t, model_piece(M, t)) <= 0.0) : !(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope))
-        return 0;
-    /* one block; a stack: the pair as one body about block 1's corner */
-    double alpha = two ? M->d.alphaL : M->d.alpha, R = two ? M->d.RL : M->d.R;
-    double m = M->v.mass + (two ? M->v.mass2 : 0.0);
     const EnSystem *sys = &M->d.en;
+    int stack = sys->nb >= 2;
+    if (stack ? !(rest_exit(M, t, model_piece(M, t)) <= 0.0) : !(geff > 0 && fabs(ah) <= geff * M->d.upliftSlope))
+        return 0;
+    /* one block; a stack or column: all of it as one body about block 1's corner */
+    double alpha = M->d.alpha, R = M->d.R, m = M->v.mass, I0;
+    if (stack) sub_column(M, 0, &m, &R, &alpha, &I0);
     if (!below_rest(M, engine_kinetic(sys, y), m, R, alpha, geff)) return 0;
-    if (!two) return 1;
-    /* and block 2's rocking on block 1 as the rigid stack settles it: about its corner, to restRatio of alphaI */
-    double w = y[EN_W(1)] - y[EN_W(0)];
-    return below_rest(M, 0.5 * M->d.II * w * w, M->v.mass2, M->d.RI, M->d.alphaI, geff);
+    /* and each upper block's rocking on the one below as the rigid stack settles block 2's: the sub-column it
+     * carries about its corner, to restRatio of that one's alpha */
+    for (int k = 1; k < sys->nb; k++) {
+        double w = y[EN_W(k)] - y[EN_W(k - 1)];
+        sub_column(M, k, &m, &R, &alpha, &I0);
+        if (!below_rest(M, 0.5 * I0 * w * w, m, R, alpha, geff)) return 0;
+    }
+    return 1;
 }
 
 /* The restitution law on the plastic impact's rates (kineticBefore: the kinetic energy before the impact,
@@ -637,7 +700,7 @@ static int negligible(const Model *M, double t, const double *y) {
 static void restitution(const Model *M, double *y, double kineticBefore, int contact) {
     const EnSystem *sys = &M->d.en;
     double after = engine_kinetic(sys, y), factor;
-    if (sys->nb == 2) {
+    if (sys->nb >= 2) {
         if (M->v.law != 2 || !(after > 0)) return;
         double eta = contact ? M->v.etaInterface : M->v.etaGround;
         factor = eta * sqrt(kineticBefore / after);
@@ -657,7 +720,7 @@ static void restitution(const Model *M, double *y, double kineticBefore, int con
  * still; the slides and flights under way end. */
 static void finish(Model *M) {
     State *S = &M->s;
-    int nb = M->v.nBlocks == 2 ? 2 : 1;
+    int nb = M->d.en.nb;
     S->mode = MODE_OVERTURNED;
     /* two-way: the bodies stop on their floor (a plastic hit that keeps the horizontal momentum of bodies plus
      * floor), which carries them from then on (support_after_end) */
@@ -672,8 +735,11 @@ static void finish(Model *M) {
         S->denseValid = 0;
         rest_closed(M); /* the floor carries them: in closed form where it can */
     }
-    if (S->en.sigma[0]) S->slideDur += S->t - S->slideSince;
-    if (nb == 2 && S->en.sigma[1]) S->slideDur2 += S->t - S->slideSince2;
+    for (int j = 0; j < nb; j++)
+        if (S->en.sigma[j]) {
+            Track r = track(S, j);
+            *r.dur += S->t - *r.since;
+        }
     for (int j = 0; j < nb; j++)
         if (flying(&S->en, j)) S->flightDur[j] += S->t - S->flightSince[j];
     S->enFinal = S->en; /* each contact as it was at the end */
@@ -681,34 +747,39 @@ static void finish(Model *M) {
     S->sigma = 0;
 }
 
-/* Body k's rotation relative to its support reached pi/2: block 1 falls (and takes block 2 with it),
- * or block 2 falls off block 1 on its side; the run ends. */
+/* Body k's rotation relative to its support reached pi/2: it falls, and takes the blocks above it with it (block 1
+ * the whole stack or column); the run ends. */
 static void overturn(Model *M, int k, const Logger *log) {
     State *S = &M->s;
+    int nb = M->d.en.nb;
     double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
     int side = rel > 0 ? 1 : -1;
     S->overturnTime = S->t;
-    S->overturned2 = M->v.nBlocks == 2;
+    S->overturned2 = nb == 2 || (nb > 2 && k <= 1);
+    S->fallenBody = k + 1;
     if (k == 0) {
         S->overturned1 = 1;
         S->maxAbsTheta = M_PI / 2;
         S->side = side;
     }
     finish(M);
-    if (M->v.nBlocks == 2) say(log, LOG_EVENTS, "overturn t=%.17g blocks=%s", S->t, k == 0 ? "1+2" : "2");
+    if (nb == 2) say(log, LOG_EVENTS, "overturn t=%.17g blocks=%s", S->t, k == 0 ? "1+2" : "2");
+    else if (nb > 2) say(log, LOG_EVENTS, "overturn t=%.17g blocks=%d-%d side=%d", S->t, k + 1, nb, side);
     else say(log, LOG_EVENTS, "overturn t=%.17g side=%d", S->t, side);
 }
 
-/* Block 2 has left block 1's top (a corner it stood on passed the edge, or a corner came down beyond
- * it): it falls off; the run ends. */
-static void fell_off(Model *M, const Logger *log) {
+/* Body k (k > 0) has left the top of the one below it (a corner it stood on passed the edge, or a corner came down
+ * beyond it): it falls off, with the blocks above it; the run ends. */
+static void fell_off(Model *M, int k, const Logger *log) {
     State *S = &M->s;
     S->fellOff = 1;
     S->fellOffTime = S->t;
+    S->fallenBody = k + 1;
     const EnSystem *sys = &M->d.en;
-    double u2 = slip_of(sys, 1, S->y, NULL, NULL);
+    double u = slip_of(sys, k, S->y, NULL, NULL);
     finish(M);
-    say(log, LOG_EVENTS, "fell-off t=%.17g u2=%.17g", S->t, u2);
+    if (sys->nb == 2) say(log, LOG_EVENTS, "fell-off t=%.17g u2=%.17g", S->t, u);
+    else say(log, LOG_EVENTS, "fell-off t=%.17g block=%d u=%.17g", S->t, k + 1, u);
 }
 
 /* After an impact, a body left rocking on one corner with a rotation rate (relative to its support)
@@ -728,8 +799,7 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
         /* what the rebound lifts: the body about its corner; in a stack the rigid stack's (docs/two_blocks.md),
          * the pair about block 1's corner for the ground, block 2 about its corner for the interface */
         double R = hypot(B->b, B->h), alpha = atan2(B->b, B->h), I0 = B->Ic + B->m * R * R, m = B->m;
-        if (sys->nb == 2 && k == 0) R = M->d.RL, alpha = M->d.alphaL, I0 = M->d.IL, m = M->d.mTot;
-        if (sys->nb == 2 && k == 1) R = M->d.RI, alpha = M->d.alphaI, I0 = M->d.II;
+        if (sys->nb >= 2) sub_column(M, k, &m, &R, &alpha, &I0);
         double w = S->y[EN_W(k)] - (k > 0 ? S->y[EN_W(k - 1)] : 0.0);
         double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
         if (fabs(rel) > 1e-9 * alpha) continue;
@@ -782,8 +852,8 @@ static void impact(Model *M, const Logger *log) {
     if (k > 0) {
         EnPoint p;
         engine_corner(sys, k, 2 * i - 1, S->y, &p);
-        if (engine_beyond_edge(sys, k, p.xi)) { /* it comes down beyond block 1's edge */
-            fell_off(M, log);
+        if (engine_beyond_edge(sys, k, p.xi)) { /* it comes down beyond the edge of the block below */
+            fell_off(M, k, log);
             return;
         }
     }
@@ -839,6 +909,10 @@ static void impact(Model *M, const Logger *log) {
                 "slip_rate_minus=%.17g,%.17g slip_rate_plus=%.17g,%.17g",
                 S->t, k ? "interface" : "ground", S->y[EN_TH(0)], S->y[EN_TH(1)], wm, before[EN_W(1)],
                 S->y[EN_W(0)], S->y[EN_W(1)], vm, v2m, vp, v2p);
+        } else if (sys->nb > 2) {
+            char buf[32];
+            say(log, LOG_EVENTS, "impact t=%.17g%s block=%d theta=%.17g omega_minus=%.17g omega_plus=%.17g", S->t,
+                contact_name(sys->nb, k, buf, sizeof(buf)), k + 1, S->y[EN_TH(k)], before[EN_W(k)], S->y[EN_W(k)]);
         } else {
             say(log, LOG_EVENTS,
                 "impact t=%.17g omega_minus=%.17g omega_plus=%.17g slip_rate_minus=%.17g slip_rate_plus=%.17g",
@@ -914,11 +988,13 @@ static int apply_event(Model *M, const Logger *log) {
     commit_peaks(M, log);
     for (int k = 0; k < sys->nb; k++) {
         double sl = fabs(!flying(&S->en, k) && S->en.sigma[k] == 0 ? S->enAnchor[k] : slip_of(sys, k, S->y, NULL, NULL));
-        double *mx = k ? &S->maxAbsSlip2 : &S->maxAbsSlip;
-        if (sl > *mx) *mx = sl;
+        Track r = track(S, k);
+        if (sl > *r.maxSlip) *r.maxSlip = sl;
     }
-    if (sys->nb == 2 && fabs(S->y[EN_TH(1)]) > S->maxAbsTheta2) S->maxAbsTheta2 = fabs(S->y[EN_TH(1)]);
-    if (fabs(S->y[EN_TH(0)]) > S->maxAbsTheta) S->maxAbsTheta = fabs(S->y[EN_TH(0)]);
+    for (int k = sys->nb - 1; k >= 0; k--) {
+        double *mx = track(S, k).maxTheta;
+        if (fabs(S->y[EN_TH(k)]) > *mx) *mx = fabs(S->y[EN_TH(k)]);
+    }
     switch (S->pending) {
     case EVENT_IMPACT:
         impact(M, log);
@@ -930,7 +1006,7 @@ static int apply_event(Model *M, const Logger *log) {
         jam(M, log);
         break;
     case EVENT_FELL_OFF:
-        fell_off(M, log);
+        fell_off(M, S->eventContact, log);
         break;
     default:
         reselect(M, log);
@@ -949,7 +1025,7 @@ static void start_moving(Model *M, double t, int side, const Logger *log) {
     rest_closed_end(M, t);
     S->t = t;
     S->h = 0.0;
-    int nb = M->v.nBlocks == 2 ? 2 : 1;
+    int nb = M->d.en.nb;
     int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
     for (int k = 0; k < nb; k++) {
         touching[k][0] = touching[k][1] = 1;
@@ -1133,7 +1209,8 @@ static int take_step(Model *M, const Logger *log) {
     /* a body rocking on one corner lands its other corner exactly when its rotation relative to its
      * support returns to zero: the first such root of the dense output, found exactly (the
      * samples above could step over a short excursion) */
-    double rootAt[EN_MAX_BODIES] = {2.0, 2.0}, overAt[EN_MAX_BODIES] = {2.0, 2.0}, stopAt[EN_MAX_BODIES] = {2.0, 2.0};
+    double rootAt[EN_MAX_BODIES], overAt[EN_MAX_BODIES], stopAt[EN_MAX_BODIES]; /* (2: no root in the step) */
+    for (int k = 0; k < EN_MAX_BODIES; k++) rootAt[k] = overAt[k] = stopAt[k] = 2.0;
     for (int k = 0; k < nb; k++) {
         /* a chain's sliding contact stops exactly when its slip rate (a component) reaches zero */
         if (c.slides && S->en.sigma[k]) {
@@ -1331,9 +1408,9 @@ static int take_step(Model *M, const Logger *log) {
         slip_of(c.sys, k, S->y, NULL, &gap);
         if (gap > S->gapMax[k]) S->gapMax[k] = gap;
     }
-    if (nb == 2) {
-        S->maxAbsTheta = fmax(S->maxAbsTheta, dense_abs_max(&cont, EN_TH(0), 1.0));
-        S->maxAbsTheta2 = fmax(S->maxAbsTheta2, dense_abs_max(&cont, EN_TH(1), 1.0));
+    for (int k = 0; k < nb && nb >= 2; k++) {
+        double *mx = track(S, k).maxTheta;
+        *mx = fmax(*mx, dense_abs_max(&cont, EN_TH(k), 1.0));
     }
     if (!isfinite(S->y[0]) || !isfinite(S->y[EN_TH(0)])) {
         say(log, LOG_ERROR, "non-finite state at t=%.17g", S->t);
@@ -1537,7 +1614,10 @@ void engine_initialize(Model *M) {
     memset(&S->en, 0, sizeof(S->en));
     S->slideTime = S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1;
     for (int k = 0; k < EN_MAX_BODIES; k++) S->flightSince[k] = -1;
-    double th[2] = {v->theta0, nb == 2 ? v->theta02 : 0.0}, w[2] = {v->omega0, nb == 2 ? v->omega02 : 0.0};
+    for (int k = 0; k < MAX_BLOCKS - 2; k++) S->colSlideFirst[k] = -1;
+    /* blocks 3 and up start seated on the block below them (its rotation and rate) */
+    double th[EN_MAX_BODIES] = {v->theta0, nb >= 2 ? v->theta02 : 0.0}, w[EN_MAX_BODIES] = {v->omega0, nb >= 2 ? v->omega02 : 0.0};
+    for (int k = 2; k < nb; k++) th[k] = th[k - 1], w[k] = w[k - 1];
     int still = S->mode == MODE_REST && (nb == 1 || (th[1] == 0.0 && w[1] == 0.0));
     if (still) {
         memcpy(S->y, y, sizeof(y));
@@ -1549,7 +1629,8 @@ void engine_initialize(Model *M) {
     S->mode = MODE_ROCKING;
     /* released rocking on the corners the rotations give (block 1 on the ground, block 2 on block 1's
      * top, centred), each pivot where it stands at rest */
-    int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES] = {1, 1};
+    int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES];
+    for (int k = 0; k < EN_MAX_BODIES; k++) stuck[k] = 1;
     double O[2] = {0.0, 0.0}, V[2] = {0.0, 0.0}, thS = 0.0, wS = 0.0, hS = 0.0; /* the support's frame */
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &sys->body[k];
@@ -1591,18 +1672,17 @@ void engine_initialize(Model *M) {
             S->flightSince[k] = S->t;
         }
     }
-    if (m.sigma[0]) {
-        S->slideStarts = 1;
-        S->slideSince = S->slideTime = S->slideStartTime1 = S->t;
+    for (int k = 0; k < nb; k++) {
+        Track r = track(S, k);
+        if (m.sigma[k]) {
+            *r.starts = 1;
+            *r.since = *r.first = S->t;
+            if (S->slideTime < 0) S->slideTime = S->t;
+        }
+        *r.maxTheta = fabs(th[k]);
     }
-    if (nb == 2 && m.sigma[1]) {
-        S->slideStarts2 = 1;
-        S->slideSince2 = S->slideStartTime2 = S->t;
-        if (S->slideTime < 0) S->slideTime = S->t;
-    }
-    S->sigma = m.sigma[0];
-    S->maxAbsTheta = fabs(th[0]);
     S->maxAbsTheta2 = fabs(th[1]);
+    S->sigma = m.sigma[0];
 }
 
 int engine_advance(Model *M, double tc, const Logger *log, EventStop *stop) {
@@ -1671,6 +1751,34 @@ static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const do
     return o;
 }
 
+/* Block k's contact mode (block*.mode) in a column (nBlocks > 2): a block that fell, or rides one that fell, is
+ * overturned (4), the one that fell off the block below it 5. */
+static int column_mode(const State *S, const EnMode *end, int k) {
+    if (S->mode == MODE_REST) return 0;
+    if (S->mode == MODE_OVERTURNED && S->fallenBody > 0 && S->fallenBody - 1 <= k)
+        return S->fellOff && S->fallenBody - 1 == k ? 5 : 4;
+    return contact_mode(end, k);
+}
+
+/* A column's blocks 3 to nBlocks: their family outputs (variables.def's BLOCK lines) */
+static void column_outputs(Model *M, const double *y, const EnMode *m, const EnMode *end, double tc, int over) {
+    State *S = &M->s;
+    Variables *v = &M->v;
+    const EnSystem *sys = &M->d.en;
+    for (int k = 2; k < MAX_BLOCKS; k++) {
+        int i = k - 2, on = k < sys->nb;
+        BodyOut o = on ? body_outputs(M, sys, k, y, m, tc, over) : (BodyOut){0};
+        v->thetaN[i] = on ? y[EN_TH(k)] : 0.0;
+        v->omegaN[i] = on && !over ? y[EN_W(k)] : 0.0;
+        v->slipN[i] = o.slip;
+        v->modeN[i] = on ? column_mode(S, end, k) : 0;
+        v->maxAbsThetaN[i] = on ? fmax(S->colMaxTheta[i], fabs(v->thetaN[i])) : 0.0;
+        v->maxAbsSlipN[i] = on ? fmax(S->colMaxSlip[i], fabs(o.slip)) : 0.0;
+        v->overturnedN[i] = on && over && S->fallenBody > 0 && S->fallenBody - 1 <= k;
+        v->fellOffN[i] = on && S->fellOff && S->fallenBody - 1 == k;
+    }
+}
+
 void engine_outputs(Model *M, double tc) {
     State *S = &M->s;
     Variables *v = &M->v;
@@ -1680,7 +1788,7 @@ void engine_outputs(Model *M, double tc) {
     model_ground(M, tc, &ah, &av);
     v->ahTotal = ah;
     v->avTotal = av;
-    int nb = sys->nb, over = S->mode == MODE_OVERTURNED, two = nb == 2;
+    int nb = sys->nb, over = S->mode == MODE_OVERTURNED, two = nb >= 2, column = nb > 2;
     EnForces f;
     memset(&f, 0, sizeof(f));
     if (S->mode == MODE_REST || over) {
@@ -1720,7 +1828,7 @@ void engine_outputs(Model *M, double tc) {
     v->impacts = S->impacts;
     v->impactsGround = two ? S->impactsGround : S->impacts;
     v->lastImpactTime = S->lastImpactTime;
-    v->overturned = two ? S->overturned2 : over;
+    v->overturned = column ? S->fallenBody > 0 && !S->fellOff : two ? S->overturned2 : over;
     v->overturned1 = two ? S->overturned1 : over;
     v->atRest = S->mode == MODE_REST;
     v->overturnTime = S->overturnTime;
@@ -1741,14 +1849,15 @@ void engine_outputs(Model *M, double tc) {
         v->flightTime2 = b2.flightTime;
         v->impactsInterface = S->impactsInterface;
         v->overturned2 = S->overturned2;
-        v->contactMode2 = S->mode == MODE_REST ? 0 : S->fellOff ? 5 : S->overturned2 ? 4 : contact_mode(end, 1);
+        v->contactMode2 = column ? column_mode(S, end, 1)
+                          : S->mode == MODE_REST ? 0 : S->fellOff ? 5 : S->overturned2 ? 4 : contact_mode(end, 1);
         v->maxAbsSlip2 = fmax(S->maxAbsSlip2, fabs(v->slip2));
         v->slideDuration2 =
             S->slideDur2 + (m.sigma[1] && !over && tc > S->slideSince2 ? tc - S->slideSince2 : 0.0);
         v->slideStartTime2 = S->slideStartTime2;
         v->slideStarts2 = S->slideStarts2;
         v->frictionLoss2 = y[EN_LOSS(nb, 1)];
-        v->fellOff = S->fellOff;
+        v->fellOff = column ? S->fellOff && S->fallenBody == 2 : S->fellOff;
         v->fellOffTime = S->fellOffTime;
         v->peaks = 0; /* a stack counts no peaks */
         v->lastPeakTime = -1.0;
@@ -1758,8 +1867,12 @@ void engine_outputs(Model *M, double tc) {
         v->theta2 = v->omega2 = v->alphaDD2 = v->maxAbsTheta2 = 0.0;
         v->impactsInterface = 0;
     }
-    int rocking0 = !(m.closed[0][0] && m.closed[0][1]), rocking1 = two && !(m.closed[1][0] && m.closed[1][1]);
-    int slides = m.sigma[0] || (two && m.sigma[1]);
+    /* rocking1: a block above block 1 rocks on the one below it */
+    int rocking0 = !(m.closed[0][0] && m.closed[0][1]), rocking1 = 0, slides = m.sigma[0];
+    for (int k = 1; k < nb; k++) {
+        rocking1 |= !(m.closed[k][0] && m.closed[k][1]);
+        slides |= m.sigma[k];
+    }
     v->locked = two && !over && S->mode != MODE_REST && rocking0 && !rocking1 && !slides;
     v->pattern = over                      ? MODE_OVERTURNED
                  : S->mode == MODE_REST    ? MODE_REST
@@ -1779,8 +1892,10 @@ void engine_outputs(Model *M, double tc) {
         v->groundT = mass * ah;
         v->groundN = mass * (sys->g + av);
         if (two) {
-            v->interfaceT = sys->body[1].m * ah;
-            v->interfaceN = sys->body[1].m * (sys->g + av);
+            double above = 0.0; /* what the interface carries */
+            for (int k = 1; k < nb; k++) above += sys->body[k].m;
+            v->interfaceT = above * ah;
+            v->interfaceN = above * (sys->g + av);
         }
     }
     double p = 0.0, q = 0.0;
@@ -1810,6 +1925,7 @@ void engine_outputs(Model *M, double tc) {
     v->slideStartTime = two ? S->slideStartTime1 : S->slideTime;
     v->slideStarts = S->slideStarts;
     v->painleve = S->painleve;
+    column_outputs(M, y, &m, end, tc, over);
     contact_outputs(M, v);
 }
 
@@ -1821,7 +1937,7 @@ static int finite_all(const double *x, int count) {
 
 int engine_check_state(const Model *M, char *msg, size_t n) {
     const State *S = &M->s;
-    int nb = M->v.nBlocks == 2 ? 2 : 1, ny = nstate(M), mode = (int)S->mode, pending = (int)S->pending;
+    int nb = M->d.en.nb, ny = nstate(M), mode = (int)S->mode, pending = (int)S->pending;
 #define BAD(...)                       \
     do {                               \
         snprintf(msg, n, __VA_ARGS__); \
@@ -1873,6 +1989,16 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
         snprintf(msg, n, "painleve = %d is negative", S->painleve);
         return 1;
     }
+    if (S->fallenBody < 0 || S->fallenBody > nb || (S->fallenBody > 0) != (mode == MODE_OVERTURNED)) {
+        snprintf(msg, n, "fallenBody = %d is not a body of %d (0 unless the run ended by a fall)", S->fallenBody, nb);
+        return 1;
+    }
+    for (int k = 0; k < MAX_BLOCKS - 2; k++)
+        if (S->colSlideStarts[k] < 0 || !isfinite(S->colMaxTheta[k]) || !isfinite(S->colMaxSlip[k]) ||
+            !isfinite(S->colSlideSince[k]) || !isfinite(S->colSlideDur[k]) || !isfinite(S->colSlideFirst[k])) {
+            snprintf(msg, n, "the records of block %d are not finite, or count negative slides", k + 3);
+            return 1;
+        }
     /* the last step's end indicators, which the next step starts from */
     if (S->enIndValid != 0 && S->enIndValid != 1) {
         snprintf(msg, n, "the flag enIndValid = %d must be 0 or 1", S->enIndValid);

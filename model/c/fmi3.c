@@ -15,6 +15,7 @@
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
+#include <ctype.h>
 #include <string.h>
 
 #include "fmi3Functions.h"
@@ -93,6 +94,14 @@ static int intermediate_variable(fmi3ValueReference vr) {
 /* Nonzero for an Enumeration variable (one an ITEM line of variables.def names): FMI 3.0
  * reads and sets those with fmi3GetInt64 and fmi3SetInt64 only (the C type of an
  * Enumeration is fmi3Int64), its Int32 functions serve the Int32 variables only. */
+static int item_names(const char *pattern, const char *name) {
+    /* "block*.member" (an ITEM line of the blocks' families) names blockK.member for every K */
+    const char *star = strchr(pattern, '*');
+    if (!star) return strcmp(pattern, name) == 0;
+    size_t head = (size_t)(star - pattern);
+    if (strncmp(pattern, name, head) != 0 || !isdigit((unsigned char)name[head])) return 0;
+    return strcmp(star + 1, name + head + 1) == 0;
+}
 static int is_enumeration(fmi3ValueReference vr) {
     const char *name;
     switch (vr) {
@@ -109,7 +118,7 @@ static int is_enumeration(fmi3ValueReference vr) {
 #define RANGE(...)
 #define CODE(code, field, codeName, enumName)
 #define ITEM(var, type, value, item, desc) \
-    if (strcmp(var, name) == 0) return 1;
+    if (item_names(var, name)) return 1;
 #include "variables.def"
 #undef ITEM
 #undef CODE

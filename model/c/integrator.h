@@ -9,12 +9,13 @@
 #ifndef ROCKING_INTEGRATOR_H
 #define ROCKING_INTEGRATOR_H
 
-/* Largest number of components. RockingBlock's: 41, the contact engine's two bodies (three coordinates
- * each and their rates, the ground's work, two friction losses, and two slips and their rates: 19) and a
- * two-way support (ten floors' displacements and velocities, its base work and damping loss: 22). A model with more defines NMAX before including
- * this header, in every file that does (ShearBuilding: model/c/building/building_integrator.c). */
+/* Largest number of components. RockingBlock's: 95, the contact engine's column of eight bodies (three
+ * coordinates each and their rates, the ground's work, eight friction losses, eight slips and their rates:
+ * EN_N(8) = 73) and a two-way support (ten floors' displacements and velocities, its base work and damping
+ * loss: 22). A model with more defines NMAX before including this header, in every file that does
+ * (ShearBuilding: model/c/building/building_integrator.c). */
 #ifndef NMAX
-#define NMAX 44
+#define NMAX 96
 #endif
 
 typedef void (*RhsFn)(const void *ctx, double t, const double *y, double *dy);

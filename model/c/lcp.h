@@ -8,7 +8,7 @@
 #define ROCKING_LCP_H
 
 #ifndef LCP_MAX
-#define LCP_MAX 12
+#define LCP_MAX 48
 #endif
 
 typedef enum {

@@ -52,8 +52,8 @@ int model_validate(const Variables *v, char *msg, size_t n) {
 #undef CHECK_BOOLEAN
 #undef CHECK_STRING
 #undef VAR
-    if (v->nBlocks != 1 && v->nBlocks != 2)
-        FAIL("nBlocks = %d must be 1 (one block) or 2 (two stacked blocks)", v->nBlocks);
+    if (v->nBlocks < 1 || v->nBlocks > MAX_BLOCKS)
+        FAIL("nBlocks = %d must be 1 (one block) to %d (a column: block k + 1 on block k)", v->nBlocks, MAX_BLOCKS);
     if (!(v->halfWidth > 0)) FAIL("block1.halfWidth = %g must be > 0 m", v->halfWidth);
     if (!(v->halfHeight > 0)) FAIL("block1.halfHeight = %g must be > 0 m", v->halfHeight);
     if (!(v->halfWidth >= MIN_SIZE && v->halfWidth <= MAX_SIZE && v->halfHeight >= MIN_SIZE &&
@@ -81,7 +81,7 @@ int model_validate(const Variables *v, char *msg, size_t n) {
             FAIL("block1.theta0 = %g must satisfy |theta0| < pi/2 (the block would lie on its side)",
                  v->theta0);
     }
-    if (v->nBlocks == 2) {
+    if (v->nBlocks >= 2) {
         if (!(v->halfWidth2 > 0)) FAIL("block2.halfWidth = %g must be > 0 m", v->halfWidth2);
         if (!(v->halfHeight2 > 0)) FAIL("block2.halfHeight = %g must be > 0 m", v->halfHeight2);
         if (!(v->halfWidth2 >= MIN_SIZE && v->halfWidth2 <= MAX_SIZE && v->halfHeight2 >= MIN_SIZE &&
@@ -91,10 +91,10 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (!(v->mass2 > 0)) FAIL("block2.mass = %g must be > 0 kg", v->mass2);
         if (v->law == 1)
             FAIL("restitution.law = 1 (modified, impact position k) is defined for one block only; "
-                 "use 0 (momentum) or 2 (constant per interface) with nBlocks = 2");
+                 "use 0 (momentum) or 2 (constant per interface) with nBlocks = %d", v->nBlocks);
         if (v->correction != 1.0)
-            FAIL("restitution.correction = %g must be 1 with nBlocks = 2 (use law 2 with "
-                 "restitution.etaGround and restitution.etaInterface)", v->correction);
+            FAIL("restitution.correction = %g must be 1 with nBlocks = %d (use law 2 with "
+                 "restitution.etaGround and restitution.etaInterface)", v->correction, v->nBlocks);
         if (!(v->etaGround >= 0 && v->etaGround <= 1))
             FAIL("restitution.etaGround = %g must be in [0, 1]", v->etaGround);
         if (!(v->etaInterface >= 0 && v->etaInterface <= 1))
@@ -105,19 +105,34 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (v->earlyOverturn)
             FAIL("solver.earlyOverturn is available for nBlocks = 1 only");
     }
+    for (int k = 2; k < v->nBlocks; k++) { /* blocks 3 to nBlocks: the families (variables.def's BLOCK lines) */
+        double b = v->halfWidthN[k - 2], h = v->halfHeightN[k - 2], m = v->massN[k - 2], mu = v->muN[k - 2];
+        if (!(b >= MIN_SIZE && b <= MAX_SIZE && h >= MIN_SIZE && h <= MAX_SIZE))
+            FAIL("block%d half sizes %g x %g m must be in [%g, %g] m (half width and half height, in metres)", k + 1, b,
+                 h, MIN_SIZE, MAX_SIZE);
+        if (!(m > 0)) FAIL("block%d.mass = %g must be > 0 kg", k + 1, m);
+        if (!(mu > 0 || mu == -1))
+            FAIL("block%d.mu = %g must be > 0 (or -1: contact.muInterface)", k + 1, mu);
+    }
     if (!(v->muGround > 0)) FAIL("contact.muGround = %g must be > 0", v->muGround);
     if (v->contactModel != 0 && v->contactModel != 1)
         FAIL("contact.model = %d must be 0 (rigid rocking) or 1 (rocking-sliding)", v->contactModel);
     if (model_engine(v)) {
         /* the contact engine's runs: rocking-sliding, and rigid rocking on a two-way support */
-        const char *who =
-            v->contactModel == 1 ? "contact.model = 1 (rocking-sliding)" : "rigid rocking on a two-way support";
+        const char *who = v->contactModel == 1                              ? "contact.model = 1 (rocking-sliding)"
+                          : v->supportKind != 0 && v->supportCoupling == 1 ? "rigid rocking on a two-way support"
+                                                                           : "rigid rocking of a column (nBlocks > 2)";
         double alpha = atan(v->halfWidth / v->halfHeight), s2 = sin(alpha) * sin(alpha);
         double eta = model_law_restitution(v, alpha) * v->correction;
-        if (v->nBlocks == 2 && v->halfWidth2 > v->halfWidth)
-            FAIL("%s with nBlocks = 2 needs block 2 no wider than block 1 (block2.halfWidth = %g > "
-                 "block1.halfWidth = %g): a wider block 2 would turn about block 1's edge, not modelled", who,
-                 v->halfWidth2, v->halfWidth);
+        for (int k = 1; k < v->nBlocks; k++) {
+            double b, h, m, below, hb, mb;
+            model_block(v, k, &b, &h, &m);
+            model_block(v, k - 1, &below, &hb, &mb);
+            if (b > below)
+                FAIL("%s needs block %d no wider than block %d (block%d.halfWidth = %g > block%d.halfWidth = %g): "
+                     "a wider block would turn about the edge of the one below, not modelled", who, k + 1, k, k + 1, b,
+                     k, below);
+        }
         if (v->method == 1) FAIL("%s needs solver.method = 0 (Dormand-Prince) or 2 (auto)", who);
         if (v->earlyOverturn) FAIL("solver.earlyOverturn is not available for %s", who);
         if (!(v->restRatio >= 1e-12))
@@ -134,7 +149,7 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     if (v->method < 0 || v->method > 2)
         FAIL("solver.method = %d must be 0 (Dormand-Prince 5(4)), 1 (Taylor series) or 2 (auto: the Taylor series "
              "for one block in rigid rocking, else Dormand-Prince)", v->method);
-    if (v->method == 1 && v->nBlocks == 2)
+    if (v->method == 1 && v->nBlocks >= 2)
         FAIL("solver.method = 1 (Taylor series) is available for nBlocks = 1 only");
     if (!(v->relTol >= REL_TOL_MIN && v->relTol <= 0.1))
         FAIL("solver.relTol = %g must be in [1e-14, 0.1] (a tighter one is below double precision's rounding)",
@@ -162,23 +177,35 @@ double model_law_restitution(const Variables *v, double alpha) {
 }
 
 int model_engine(const Variables *v) {
-    return v->contactModel == 1 || (v->contactModel == 0 && v->supportKind != 0 && v->supportCoupling == 1);
+    return v->contactModel == 1 || (v->contactModel == 0 && v->supportKind != 0 && v->supportCoupling == 1) ||
+           v->nBlocks > 2;
+}
+
+void model_block(const Variables *v, int k, double *b, double *h, double *m) {
+    *b = k == 0 ? v->halfWidth : k == 1 ? v->halfWidth2 : v->halfWidthN[k - 2];
+    *h = k == 0 ? v->halfHeight : k == 1 ? v->halfHeight2 : v->halfHeightN[k - 2];
+    *m = k == 0 ? v->mass : k == 1 ? v->mass2 : v->massN[k - 2];
+}
+
+double model_block_mu(const Variables *v, int k) {
+    if (v->contactModel != 1) return RIGID_MU;
+    return k == 0 ? v->muGround : k == 1 || v->muN[k - 2] == -1 ? v->muInterface : v->muN[k - 2];
 }
 
 /* The contact engine's bodies (the memset of model_derive leaves the rest 0). Rigid rocking (on a two-way support)
  * is the engine's contacts with friction that never lets them slip, RIGID_MU. */
 static void engine_bodies(const Variables *v, EnSystem *s) {
-    s->nb = v->nBlocks == 2 ? 2 : 1;
+    s->nb = v->nBlocks;
     s->g = v->g;
-    double b[2] = {v->halfWidth, v->halfWidth2}, h[2] = {v->halfHeight, v->halfHeight2}, m[2] = {v->mass, v->mass2};
-    s->mu[0] = v->contactModel == 1 ? v->muGround : RIGID_MU;
-    s->mu[1] = v->contactModel == 1 ? v->muInterface : RIGID_MU;
     for (int k = 0; k < s->nb; k++) {
-        s->body[k].b = b[k];
-        s->body[k].h = h[k];
-        s->body[k].m = m[k];
-        s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
-        s->body[k].iIo = 1.0 / (m[k] * (b[k] * b[k] + h[k] * h[k]) + s->body[k].Ic);
+        double b, h, m;
+        model_block(v, k, &b, &h, &m);
+        s->mu[k] = model_block_mu(v, k);
+        s->body[k].b = b;
+        s->body[k].h = h;
+        s->body[k].m = m;
+        s->body[k].Ic = m * (b * b + h * h) / 3.0;
+        s->body[k].iIo = 1.0 / (m * (b * b + h * h) + s->body[k].Ic);
     }
     for (int k = s->nb - 1; k >= 0; k--)
         s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);
@@ -203,9 +230,9 @@ void model_derive(Model *M) {
     /* the rocking-sliding stack at rest also starts to slide at either contact */
     if (v->nBlocks == 2 && v->contactModel == 1)
         d->upliftSlope = fmin(d->upliftSlope, fmin(v->muGround, v->muInterface));
-    d->weight[0] = (v->nBlocks == 2 ? v->mass + v->mass2 : v->mass) * v->g;
-    d->weight[1] = v->mass2 * v->g;
     engine_bodies(v, &d->en);
+    d->weight[0] = v->nBlocks == 1 ? v->mass * v->g : v->nBlocks == 2 ? (v->mass + v->mass2) * v->g : d->en.weight[0];
+    d->weight[1] = v->nBlocks > 2 ? d->en.weight[1] : v->mass2 * v->g; /* what the interface carries */
     support_derive(v, &d->sup);
     /* two-way: the support with every block at rest on its floor, in closed form where it can be */
     double mb = 0.0;

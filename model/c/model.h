@@ -51,17 +51,23 @@ typedef enum {
 /* most edges of the cells on which a built-in pulse is monotone (ground.c) */
 #define MAX_CELLS 64
 
+/* The most blocks of a column (nBlocks): blocks 1 and 2 have variables of their own, blocks 3 to 8
+ * the families of variables.def's BLOCK lines (field[K - 3]). */
+#define MAX_BLOCKS 8
+
 /* All FMI variables: parameters, inputs and outputs, generated from the table. */
 typedef struct Variables {
 #define VAR(T, vr, field, name, caus, var, start, unit, desc) T##_TYPE field;
+#define BLOCK(T, base, field, member, caus, var, start, unit, desc) T##_TYPE field[MAX_BLOCKS - 2];
 #include "variables.def"
+#undef BLOCK
 #undef VAR
 } Variables;
 
 /* The contact engine (engine.h): which corners of each body touch its support (0 left, 1 right)
  * and how its contact slides (0 sticks, +-1 the sign of the slip rate). */
-#ifndef EN_MAX_BODIES /* (a white-box check builds the engine with more: tests/c/engine_column.c) */
-#define EN_MAX_BODIES 2
+#ifndef EN_MAX_BODIES /* (white-box checks build the engine with their own: tests/c/engine_column.c) */
+#define EN_MAX_BODIES MAX_BLOCKS
 #endif
 typedef struct {
     int closed[EN_MAX_BODIES][2];
@@ -218,6 +224,11 @@ typedef struct {
     /* rocking-sliding stack: the interface's counterparts of the above (the ground's are the fields above) */
     double maxAbsSlip2, slideSince2, slideDur2, slideStartTime1, slideStartTime2, fellOffTime;
     int slideStarts2, fellOff;
+    /* a column's blocks 3 to 8 (contact engine; index k - 2 of body k): their counterparts of block 2's fields above */
+    double colMaxTheta[MAX_BLOCKS - 2], colMaxSlip[MAX_BLOCKS - 2], colSlideSince[MAX_BLOCKS - 2];
+    double colSlideDur[MAX_BLOCKS - 2], colSlideFirst[MAX_BLOCKS - 2];
+    int colSlideStarts[MAX_BLOCKS - 2];
+    int fallenBody; /* contact engine: 1 + the body whose overturn or fall off the one below ended the run (0: none) */
     int eventContact, eventEnd; /* the pending event's contact (0 ground, 1 interface) and end (+1, -1) */
 
     /* the contact engine (engine_solver.c): the contact set now and of the last step, the slip
@@ -314,6 +325,10 @@ int model_validate(const Variables *v, char *msg, size_t n);
  * two-way support (its contacts then never slip: friction RIGID_MU; docs/supports.md). */
 int model_engine(const Variables *v);
 #define RIGID_MU 1e6
+/* Block k's (k = 0 for block 1) half width b, half height h (m) and mass m (kg), and the friction coefficient of
+ * its contact with what it stands on (RIGID_MU in rigid rocking). */
+void model_block(const Variables *v, int k, double *b, double *h, double *m);
+double model_block_mu(const Variables *v, int k);
 
 /* Compute the derived quantities (parameters valid, record attached). */
 void model_derive(Model *M);
