@@ -1,6 +1,7 @@
 /* Rocking rigid block: parameters, excitation, equation of motion, energy.
  * Conventions in model.h and docs/conventions.md. */
 #include "model.h"
+#include "engine.h" /* engine_body_rectangle */
 #include "ground.h"
 #include "stack.h"
 #include "support.h"
@@ -173,13 +174,7 @@ static void engine_bodies(const Variables *v, EnSystem *s) {
     double b[2] = {v->halfWidth, v->halfWidth2}, h[2] = {v->halfHeight, v->halfHeight2}, m[2] = {v->mass, v->mass2};
     s->mu[0] = v->contactModel == 1 ? v->muGround : RIGID_MU;
     s->mu[1] = v->contactModel == 1 ? v->muInterface : RIGID_MU;
-    for (int k = 0; k < s->nb; k++) {
-        s->body[k].b = b[k];
-        s->body[k].h = h[k];
-        s->body[k].m = m[k];
-        s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
-        s->body[k].iIo = 1.0 / (m[k] * (b[k] * b[k] + h[k] * h[k]) + s->body[k].Ic);
-    }
+    for (int k = 0; k < s->nb; k++) engine_body_rectangle(&s->body[k], b[k], h[k], m[k]);
     for (int k = s->nb - 1; k >= 0; k--)
         s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);
 }
