@@ -3,6 +3,8 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "lcp.h"
@@ -18,6 +20,167 @@ static void rot(double c, double s, double x, double y, double out[2]) {
 }
 static double dot(const double a[2], const double b[2]) { return a[0] * b[0] + a[1] * b[1]; }
 
+/* ------------------------------------------------------------------------ bodies */
+
+void engine_body_rectangle(EnBody *B, double b, double h, double m) {
+    memset(B, 0, sizeof(*B));
+    B->b = b;
+    B->h = h;
+    B->m = m;
+    B->Ic = m * (b * b + h * h) / 3.0;
+    B->iIo[0] = B->iIo[1] = 1.0 / (m * (b * b + h * h) + B->Ic);
+    B->cx[0] = B->xa[0] = -b;
+    B->cx[1] = B->xa[1] = b;
+    B->cy = -h;
+    B->xG = 0.0;
+    B->ht = h;
+    B->tm = 0.0;
+    B->tw = b;
+    B->over[0] = B->over[1] = M_PI / 2;
+}
+
+/* A one-line reason in msg (if any room), and 1. */
+static int refuse(char *msg, size_t len, const char *fmt, ...) {
+    if (msg && len) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(msg, len, fmt, ap);
+        va_end(ap);
+    }
+    return 1;
+}
+
+int engine_body_polygon(EnBody *B, int n, const double *x, const double *y, double m, const double *centre,
+                        double IG, char *msg, size_t len) {
+    if (msg && len) msg[0] = '\0';
+    if (!x || !y || n < 3) return refuse(msg, len, "a polygon needs at least 3 vertices (%d given)", x && y ? n : 0);
+    if (n > EN_POLY_MAX) return refuse(msg, len, "a polygon of %d vertices: at most %d", n, EN_POLY_MAX);
+    for (int i = 0; i < n; i++)
+        if (!isfinite(x[i]) || !isfinite(y[i]))
+            return refuse(msg, len, "vertex %d (%g, %g) is not finite", i, x[i], y[i]);
+    if (!(m > 0.0) || !isfinite(m)) return refuse(msg, len, "mass %g must be > 0 kg (and finite)", m);
+    if (centre && (!isfinite(centre[0]) || !isfinite(centre[1])))
+        return refuse(msg, len, "centre of mass (%g, %g) is not finite", centre[0], centre[1]);
+    if (isnan(IG) || isinf(IG) || IG == 0.0)
+        return refuse(msg, len, "inertia IG = %g must be > 0 kg m^2 (or < 0: the uniform polygon's)", IG);
+    if (IG < 0.0 && centre)
+        return refuse(msg, len, "a uniform inertia (IG < 0) needs the polygon's centroid as centre (centre NULL)");
+    /* lengths from vertex 0 (no cancellation of a frame far away); ext the polygon's extent, tol its square's
+     * rounding: a turn within it is a straight line */
+    double ext = 0.0;
+    for (int i = 0; i < n; i++) ext = fmax(ext, fmax(fabs(x[i] - x[0]), fabs(y[i] - y[0])));
+    double tol = 1e-12 * ext * ext, A2 = 0.0;
+    for (int i = 0; i < n; i++) {
+        int j = (i + 1) % n;
+        A2 += (x[i] - x[0]) * (y[j] - y[0]) - (x[j] - x[0]) * (y[i] - y[0]);
+    }
+    if (!(fabs(A2) > tol)) return refuse(msg, len, "the polygon has no area");
+    /* counter-clockwise, repeated vertices once */
+    double px[EN_POLY_MAX], py[EN_POLY_MAX], vx[EN_POLY_MAX], vy[EN_POLY_MAX];
+    int np = 0;
+    for (int i = 0; i < n; i++) {
+        int src = A2 > 0 ? i : n - 1 - i;
+        if (np && x[src] == px[np - 1] && y[src] == py[np - 1]) continue;
+        px[np] = x[src], py[np++] = y[src];
+    }
+    while (np > 1 && px[np - 1] == px[0] && py[np - 1] == py[0]) np--;
+    /* convex: every turn to the left; straight ones (collinear vertices) dropped */
+    int nv = 0;
+    for (int i = 0; i < np; i++) {
+        int a = (i + np - 1) % np, c = (i + 1) % np;
+        double cr = (px[i] - px[a]) * (py[c] - py[i]) - (py[i] - py[a]) * (px[c] - px[i]);
+        if (cr < -tol) return refuse(msg, len, "the polygon is not convex at vertex (%g, %g)", px[i], py[i]);
+        if (cr > tol) vx[nv] = px[i], vy[nv++] = py[i];
+    }
+    if (nv < 3) return refuse(msg, len, "the polygon has fewer than 3 corners that are not collinear");
+    /* simple: its turns add to one full turn (a star's to more) */
+    double turn = 0.0;
+    for (int i = 0; i < nv; i++) {
+        int a = (i + nv - 1) % nv, c = (i + 1) % nv;
+        double ux = vx[i] - vx[a], uy = vy[i] - vy[a], wx = vx[c] - vx[i], wy = vy[c] - vy[i];
+        turn += atan2(ux * wy - uy * wx, ux * wx + uy * wy);
+    }
+    if (fabs(turn - 2.0 * M_PI) > 1e-6) return refuse(msg, len, "the polygon crosses itself (it turns %g times)",
+                                                      turn / (2.0 * M_PI));
+    /* the base: the lowest vertices, at y = 0, two of them (a convex polygon has at most two at one height) */
+    double ymin = INFINITY, ymax = -INFINITY;
+    for (int i = 0; i < nv; i++) ymin = fmin(ymin, vy[i]), ymax = fmax(ymax, vy[i]);
+    if (ymin != 0.0) return refuse(msg, len, "the lowest vertex is at y = %g: the base must lie at y = 0", ymin);
+    int iL = -1, iR = -1, nTop = 0, iT[2] = {0, 0};
+    for (int i = 0; i < nv; i++) {
+        if (vy[i] == 0.0) {
+            if (iL < 0 || vx[i] < vx[iL]) iL = i;
+            if (iR < 0 || vx[i] > vx[iR]) iR = i;
+        }
+        if (vy[i] == ymax && nTop < 2) iT[nTop++] = i;
+    }
+    if (iL == iR) return refuse(msg, len, "one vertex at y = 0: the base is not flat (the body could not stand)");
+    double xL = vx[iL], xR = vx[iR];
+    /* area, centroid and polar second moment of the uniform polygon (Bourke 1988, Steger 1996: sums over its edges), from
+     * vertex 0 */
+    double A = 0.0, Cx = 0.0, Cy = 0.0, J = 0.0;
+    for (int i = 0; i < nv; i++) {
+        int j = (i + 1) % nv;
+        double xi = vx[i] - vx[0], yi = vy[i] - vy[0], xj = vx[j] - vx[0], yj = vy[j] - vy[0];
+        double cr = xi * yj - xj * yi;
+        A += 0.5 * cr;
+        Cx += (xi + xj) * cr;
+        Cy += (yi + yj) * cr;
+        J += (xi * xi + xi * xj + xj * xj + yi * yi + yi * yj + yj * yj) * cr;
+    }
+    Cx /= 6.0 * A;
+    Cy /= 6.0 * A;
+    J = J / 12.0 - A * (Cx * Cx + Cy * Cy); /* about the centroid */
+    double xG = centre ? centre[0] : Cx + vx[0], yG = centre ? centre[1] : Cy + vy[0];
+    double Ic = IG > 0.0 ? IG : m / A * J;
+    if (!(yG > 0.0)) return refuse(msg, len, "the centre of mass at y = %g must lie above the base", yG);
+    if (!(xL < xG && xG < xR))
+        return refuse(msg, len, "the centre of mass at x = %g must lie between the base corners %g and %g "
+                      "(the body could not stand)", xG, xL, xR);
+    for (int i = 0; i < nv; i++) {
+        int j = (i + 1) % nv;
+        if ((vx[j] - vx[i]) * (yG - vy[i]) - (vy[j] - vy[i]) * (xG - vx[i]) < -tol)
+            return refuse(msg, len, "the centre of mass (%g, %g) lies outside the polygon", xG, yG);
+    }
+    if (!(Ic > 0.0) || !isfinite(Ic)) return refuse(msg, len, "inertia IG = %g must be > 0 kg m^2", Ic);
+    memset(B, 0, sizeof(*B));
+    B->m = m;
+    B->Ic = Ic;
+    B->cx[0] = xL - xG;
+    B->cx[1] = xR - xG;
+    B->cy = -yG;
+    B->xG = xG;
+    B->xa[0] = xL;
+    B->xa[1] = xR;
+    B->b = fmax(xG - xL, xR - xG);
+    B->h = yG;
+    for (int i = 0; i < 2; i++) B->iIo[i] = 1.0 / (Ic + m * (B->cx[i] * B->cx[i] + yG * yG));
+    B->ht = ymax - yG;
+    if (nTop == 2) { /* a flat top: the edge at the greatest height */
+        double a = fmin(vx[iT[0]], vx[iT[1]]), c = fmax(vx[iT[0]], vx[iT[1]]);
+        B->tm = 0.5 * (a + c);
+        B->tw = 0.5 * (c - a);
+    } else {
+        B->tm = vx[iT[0]];
+        B->tw = 0.0;
+    }
+    /* the hull edges next to the corners (counter-clockwise: the base runs from left to right, the right corner's
+     * edge follows it, the left corner's comes before it); turning about a corner by their angle from the base
+     * lays them on the support */
+    int r = (iR + 1) % nv, l = (iL + nv - 1) % nv;
+    B->over[1] = atan2(vy[r] - vy[iR], vx[r] - vx[iR]);
+    B->over[0] = atan2(vy[l] - vy[iL], -(vx[l] - vx[iL]));
+    return 0;
+}
+
+int engine_check_stack(const EnSystem *s, char *msg, size_t len) {
+    if (msg && len) msg[0] = '\0';
+    for (int k = 0; k + 1 < s->nb; k++)
+        if (!(s->body[k].tw > 0.0))
+            return refuse(msg, len, "body %d carries body %d but has no flat top face", k + 1, k + 2);
+    return 0;
+}
+
 /* engine_point, and with ROWS = 0 engine_corner (a constant where this is inlined) */
 static inline __attribute__((always_inline)) void point(const EnSystem *s, int k, int c, const double *y, EnPoint *p,
                                                         const int ROWS) {
@@ -29,13 +192,15 @@ static inline __attribute__((always_inline)) void point(const EnSystem *s, int k
     double th = y[EN_TH(k)], ck = cos(th), sk = sin(th);
     double w = y[EN_W(k)];
     double Rd[2], JRd[2];
-    rot(ck, sk, c * B->b, -B->h, Rd);
+    rot(ck, sk, B->cx[c > 0], B->cy, Rd);
     JRd[0] = Rd[1]; /* d(rot d)/dtheta = J rot d, J (x, y) = (y, -x) */
     JRd[1] = -Rd[0];
     double P[2] = {y[EN_POS(nb, k, 0)] + Rd[0], y[EN_POS(nb, k, 1)] + Rd[1]};
     double Pd[2] = {y[EN_VEL(nb, k, 0)] + w * JRd[0], y[EN_VEL(nb, k, 1)] + w * JRd[1]};
-    /* the support's frame: origin O, top normal n, tangent t, half height hs, rotation rate ws */
+    /* the support's frame: origin its centre of mass, top normal n, tangent t, its top face's height above the
+     * centre hs, its axis's offset -xs from the centre along t (slips are measured from the axis), rotation rate ws */
     double n[2] = {0.0, 1.0}, t[2] = {1.0, 0.0}, D[2] = {P[0], P[1]}, Dd[2] = {Pd[0], Pd[1]}, hs = 0.0, ws = 0.0;
+    double xs = 0.0;
     int j = k - 1;
     if (j >= 0) {
         double thj = y[EN_TH(j)], cj = cos(thj), sj = sin(thj);
@@ -48,12 +213,13 @@ static inline __attribute__((always_inline)) void point(const EnSystem *s, int k
         D[1] -= y[EN_POS(nb, j, 1)];
         Dd[0] -= y[EN_VEL(nb, j, 0)];
         Dd[1] -= y[EN_VEL(nb, j, 1)];
-        hs = s->body[j].h;
+        hs = s->body[j].ht;
+        xs = s->body[j].xG;
     }
     double nD = dot(n, D), tD = dot(t, D), nDd = dot(n, Dd), tDd = dot(t, Dd);
     p->g = nD - hs;
     p->gd = ws * tD + nDd;
-    p->xi = tD;
+    p->xi = tD + xs;
     p->xid = -ws * nD + tDd;
     if (!ROWS) return;
     p->wN[EN_Q(k, 0)] = n[0];
@@ -270,8 +436,8 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
     if (m->closed[0][0] && m->closed[0][1]) { /* flat: at rest on the ground, or sliding on it */
         if (yout) {
             yout[EN_TH(0)] = yout[EN_W(0)] = 0.0;
-            yout[EN_POS(1, 0, 0)] = xi;
-            yout[EN_POS(1, 0, 1)] = B->h;
+            yout[EN_POS(1, 0, 0)] = xi + B->xG; /* the axis at the slip, the centre off it */
+            yout[EN_POS(1, 0, 1)] = -B->cy;
             yout[EN_VEL(1, 0, 0)] = xid;
             yout[EN_VEL(1, 0, 1)] = 0.0;
         }
@@ -284,26 +450,28 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
         f->qdd[1] = f->qdd[2] = 0.0;
         if (SLIDES) f->xidd[0] = f->qdd[0], f->xidd[1] = 0.0;
         f->T[0] = T;
-        f->N[0][1] = (N * B->b - T * B->h) / (2.0 * B->b); /* the moment balance about the centre */
+        /* the moment balance about the centre: cx0 N_left + cx1 N_right - cy T = 0 (counter-clockwise) */
+        f->N[0][1] = (B->cy * T - B->cx[0] * N) / (B->cx[1] - B->cx[0]);
         f->N[0][0] = N - f->N[0][1];
         if (fa) { /* the slopes in ah: sliding, the centre's -1 and no force; sticking, T's m and its moment */
             forces_clear(fa);
             fa->qdd[0] = SLIDES ? -1.0 : 0.0;
             if (SLIDES) fa->xidd[0] = -1.0;
             fa->T[0] = SLIDES ? 0.0 : B->m;
-            fa->N[0][1] = -fa->T[0] * B->h / (2.0 * B->b);
+            fa->N[0][1] = fa->T[0] * B->cy / (B->cx[1] - B->cx[0]);
             fa->N[0][0] = -fa->N[0][1];
         }
         return 1;
     }
     int c = m->closed[0][1] ? 1 : -1;
     double th = yin[EN_TH(0)], w = yin[EN_W(0)], ck = cos(th), sk = sin(th);
-    double r[2] = {c * B->b * ck - B->h * sk, -c * B->b * sk - B->h * ck}; /* the corner from the centre */
+    double cx = B->cx[c > 0], cy = B->cy, iIo = B->iIo[c > 0];
+    double r[2] = {cx * ck + cy * sk, -cx * sk + cy * ck}; /* the corner from the centre */
     double G[2] = {-r[1], r[0]};                                            /* -J r */
     if (yout) {
         yout[EN_TH(0)] = th;
         yout[EN_W(0)] = w;
-        yout[EN_POS(1, 0, 0)] = xi + c * B->b - r[0];
+        yout[EN_POS(1, 0, 0)] = xi + B->xa[c > 0] - r[0];
         yout[EN_POS(1, 0, 1)] = -r[1];
         yout[EN_VEL(1, 0, 0)] = w * G[0] + xid;
         yout[EN_VEL(1, 0, 1)] = w * G[1];
@@ -315,7 +483,7 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
     for (int q = 3; q < 3 * EN_READ_BODIES; q++) f->qdd[q] = 0.0;
     double kap[2] = {w * w * r[0], w * w * r[1]}, al, xdd = 0.0;
     if (!SLIDES) { /* the moment about the corner over the inertia about it (|G| = |r|: the corner's distance) */
-        al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) * B->iIo;
+        al = -B->m * (G[0] * (ah + kap[0]) + G[1] * (gv + kap[1])) * iIo;
     } else {
         double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic; /* coordinates (theta, xi): the reduced system of chain_nd, its friction row N = m (Y'' + g + av) */
         double fk0 = -B->m * (ah + kap[0]), fk1 = -B->m * (gv + kap[1]);
@@ -337,7 +505,7 @@ static inline __attribute__((always_inline)) int chain_one(const int SLIDES, con
     if (fa) { /* the same in ah alone: the right-hand side's -m (1, 0) on the centre */
         double dal, dxdd = 0.0;
         if (!SLIDES) {
-            dal = -B->m * G[0] * B->iIo;
+            dal = -B->m * G[0] * iIo;
         } else {
             double A = B->m * (G[0] * G[0] + G[1] * G[1]) + B->Ic, A01 = B->m * G[0], A10 = B->m * (G[0] + smu * G[1]);
             double A11 = B->m, det = A * A11 - A01 * A10, dr0 = -B->m * G[0], dr1 = -B->m;
@@ -379,9 +547,9 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
     int nb = s->nb, nd = 0;
     /* index 0 the ground (fixed: its accelerations are in the forces), body k at k + 1; so every body has
      * a support, and the loops over the coordinates have fixed lengths */
-    double G[NS][2][NDMAX], kap[NS][2], sel[NS][NDMAX], w[NS], th[NS], cs[NS][2], X[NS][2], V[NS][2], hs[NS];
+    double G[NS][2][NDMAX], kap[NS][2], sel[NS][NDMAX], w[NS], th[NS], cs[NS][2], X[NS][2], V[NS][2], hs[NS], xs[NS];
     for (int d = 0; d < ND; d++) G[0][0][d] = G[0][1][d] = sel[0][d] = 0.0;
-    kap[0][0] = kap[0][1] = X[0][0] = X[0][1] = V[0][0] = V[0][1] = w[0] = th[0] = hs[0] = cs[0][1] = 0.0;
+    kap[0][0] = kap[0][1] = X[0][0] = X[0][1] = V[0][0] = V[0][1] = w[0] = th[0] = hs[0] = xs[0] = cs[0][1] = 0.0;
     cs[0][0] = 1.0;
     double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
     double Rd[NB][2][2], D[NB][2], fk[NB][2];
@@ -389,7 +557,8 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
         int b = k + 1, a = k; /* the body's and its support's index */
-        hs[b] = B->h;
+        hs[b] = B->ht; /* its top face above its centre, and its centre from its axis (what a body on it reads) */
+        xs[b] = B->xG;
         flat[k] = m->closed[k][0] && m->closed[k][1];
         cor[k] = first_closed(m, k);
         if (flat[k]) { /* turning with its support */
@@ -411,7 +580,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
             yout[EN_W(k)] = w[b];
         }
         slip[k] = SLIDES && m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
-        for (int i = 0; i < 2; i++) rot(cs[b][0], cs[b][1], (2 * i - 1) * B->b, -B->h, Rd[k][i]);
+        for (int i = 0; i < 2; i++) rot(cs[b][0], cs[b][1], B->cx[i], B->cy, Rd[k][i]);
         const double *r = Rd[k][cor[k] > 0];
         n[k][0] = cs[a][1], n[k][1] = cs[a][0], t[k][0] = cs[a][0], t[k][1] = -cs[a][1];
         double JD[2], Jr[2];
@@ -419,7 +588,9 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
         double xid = 0.0; /* a sliding contact's slip rate xi' (along the support's top, relative to it) */
         if (xi0) { /* the corner at its anchor (or, sliding, its slip) on the support's top: the centre follows */
             int sl = SLIDES && slip[k] >= 0;
-            double xi = (sl ? yin[EN_XI(nb, k)] : xi0[k]) + cor[k] * B->b;
+            /* the corner along the support's top from the support's centre: slip plus the corner's offset from the
+             * body's axis, less the support's centre's from its axis */
+            double xi = (sl ? yin[EN_XI(nb, k)] : xi0[k]) + B->xa[cor[k] > 0] - xs[a];
             if (sl) xid = yin[EN_XID(nb, k)];
             for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs[a] * n[k][i];
             perp(D[k], JD);
@@ -700,12 +871,13 @@ double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double
     /* on the ground (its rows (0, 1, -r_x) and (1, 0, r_y), r the corner from the centre): the same, written out */
     const EnBody *B = &s->body[0];
     double th = y[EN_TH(0)], ck = cos(th), sk = sin(th);
-    double rx = c * B->b * ck - B->h * sk, ry = -c * B->b * sk - B->h * ck;
+    double cx = B->cx[c > 0], rx = cx * ck + B->cy * sk, ry = -cx * sk + B->cy * ck;
     return 1.0 + m->sigma[0] * s->mu[0] * B->m * rx * ry / (B->Ic + B->m * rx * rx);
 }
 
 int engine_beyond_edge(const EnSystem *s, int k, double xi) {
-    return fabs(xi) > s->body[k - 1].b * (1.0 + EN_EDGE_MARGIN);
+    const EnBody *S = &s->body[k - 1];
+    return fabs(xi - S->tm) > S->tw * (1.0 + EN_EDGE_MARGIN);
 }
 
 /* Block k (k > 0) leaving its support's top: on one corner, where that corner slides past the support's
@@ -715,7 +887,8 @@ int engine_beyond_edge(const EnSystem *s, int k, double xi) {
  * nothing to watch), so that each keeps its place along a step. */
 static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const double *y, const EnForces *f,
                           double *ind, int *kind, int *body, int *corner) {
-    double b = s->body[k - 1].b;
+    /* the support's top face: its middle (from the support's axis, as the slips) and its half width */
+    double tm = s->body[k - 1].tm, b = s->body[k - 1].tw;
     EnPoint p[2];
     int closed = m->closed[k][0] + m->closed[k][1];
     /* nothing to watch: a value that never crosses (the indicators keep their places in a step) */
@@ -724,15 +897,15 @@ static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const doubl
     if (closed == 1 && m->sigma[k]) {
         int i = m->closed[k][1];
         engine_corner(s, k, 2 * i - 1, y, &p[i]);
-        *ind = (b * (1.0 + EN_EDGE_MARGIN) - fabs(p[i].xi)) / b;
+        *ind = (b * (1.0 + EN_EDGE_MARGIN) - fabs(p[i].xi - tm)) / b;
         *corner = 2 * i - 1;
     } else if (closed == 2) {
         for (int i = 0; i < 2; i++) engine_corner(s, k, 2 * i - 1, y, &p[i]);
         if (engine_beyond_edge(s, k, p[0].xi) || engine_beyond_edge(s, k, p[1].xi)) {
             double N = f->N[k][0] + f->N[k][1];
             double xr = N > 0 ? (f->N[k][0] * p[0].xi + f->N[k][1] * p[1].xi) / N : 0.0;
-            *ind = (b - fabs(xr)) / b;
-            *corner = xr > 0 ? 1 : -1;
+            *ind = (b - fabs(xr - tm)) / b;
+            *corner = xr > tm ? 1 : -1;
         }
     }
     *kind = EN_IND_FELL_OFF;
@@ -762,7 +935,7 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
     int n = 0, nb = s->nb;
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
-        double R = sqrt(B->b * B->b + B->h * B->h);
+        double R = sqrt(B->b * B->b + B->h * B->h); /* the farther base corner's distance from the centre */
         int c = first_closed(m, k);
         for (int i = 0; i < 2; i++) {
             if (m->closed[k][i]) {
@@ -770,7 +943,7 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
                 kind[n] = EN_IND_OPEN;
             } else if (c) {
                 /* rocking on its other corner: this one lands when the rotation relative to the support
-                 * returns to zero (exact for a rectangle on a flat face, and free of the cancellation of
+                 * returns to zero (exact for a flat base on a flat face, and free of the cancellation of
                  * the gap, a difference of lengths of the body's size) */
                 double rel = y[EN_TH(k)] - (k > 0 ? y[EN_TH(k - 1)] : 0.0);
                 ind[n] = c * rel;
@@ -805,8 +978,9 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
                 corner[n++] = c;
             }
         }
+        /* rocking on its right corner (rel > 0) or its left one, it lands on the hull edge next to that corner */
         double rel = y[EN_TH(k)] - (k > 0 ? y[EN_TH(k - 1)] : 0.0);
-        ind[n] = M_PI / 2 - fabs(rel);
+        ind[n] = B->over[rel > 0] - fabs(rel);
         kind[n] = EN_IND_OVERTURN;
         body[n] = k;
         corner[n++] = rel > 0 ? 1 : -1;
@@ -1084,11 +1258,11 @@ double engine_kinetic(const EnSystem *s, const double *y) {
     return E;
 }
 
-/* The height of body k's centre at rest (stacked, flat). */
+/* The height of body k's centre at rest (stacked, flat): each support's base-to-top height, then its own centre's. */
 static double rest_height(const EnSystem *s, int k) {
     double Y = 0.0;
-    for (int j = 0; j < k; j++) Y += 2.0 * s->body[j].h;
-    return Y + s->body[k].h;
+    for (int j = 0; j < k; j++) Y += s->body[j].ht - s->body[j].cy;
+    return Y - s->body[k].cy;
 }
 
 double engine_energy(const EnSystem *s, const double *y) {
@@ -1126,7 +1300,7 @@ static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, 
             if (flat && i == 1) { /* the right corner's gap is the left one's */
                 if (m->sigma[k] == 0 && !done) {
                     for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = p.wT[q_];
-                    res[nr] = xi0 ? p.xi - (xi0[k] + s->body[k].b) : 0.0;
+                    res[nr] = xi0 ? p.xi - (xi0[k] + s->body[k].xa[1]) : 0.0;
                     rate[nr++] = p.xid;
                 }
                 continue;
@@ -1136,7 +1310,7 @@ static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, 
             rate[nr++] = p.gd;
             if (m->sigma[k] == 0 && !done) {
                 for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = p.wT[q_];
-                res[nr] = xi0 ? p.xi - (xi0[k] + (2 * i - 1) * s->body[k].b) : 0.0;
+                res[nr] = xi0 ? p.xi - (xi0[k] + s->body[k].xa[i]) : 0.0;
                 rate[nr++] = p.xid;
                 done = 1;
             }
@@ -1170,7 +1344,7 @@ static void flatten(const EnSystem *s, const EnMode *m, double *y, int rates) {
     for (int k = 0; k < nb; k++) {
         if (!(m->closed[k][0] && m->closed[k][1])) continue;
         y[EN_TH(k)] = k > 0 ? y[EN_TH(k - 1)] : 0.0;
-        if (k == 0) y[EN_POS(nb, 0, 1)] = s->body[0].h;
+        if (k == 0) y[EN_POS(nb, 0, 1)] = -s->body[0].cy;
         if (!rates) continue;
         y[EN_W(k)] = k > 0 ? y[EN_W(k - 1)] : 0.0;
         if (k == 0) y[EN_VEL(nb, 0, 1)] = 0.0;
@@ -1183,7 +1357,7 @@ void engine_hold_slips(const EnSystem *s, const EnMode *m, double *y) {
         EnPoint p;
         if (!c) continue;
         engine_corner(s, k, c, y, &p);
-        y[EN_XI(s->nb, k)] = p.xi - c * s->body[k].b;
+        y[EN_XI(s->nb, k)] = p.xi - s->body[k].xa[c > 0];
         y[EN_XID(s->nb, k)] = m->sigma[k] ? p.xid : 0.0;
     }
 }
@@ -1197,7 +1371,7 @@ void engine_project(const EnSystem *s, const EnMode *m, double *y, const double 
             int c = first_closed(m, k);
             EnPoint p;
             if (!xi0 || m->sigma[k]) engine_corner(s, k, c, y, &p);
-            a[k] = xi0 && !m->sigma[k] ? xi0[k] : p.xi - c * s->body[k].b;
+            a[k] = xi0 && !m->sigma[k] ? xi0[k] : p.xi - s->body[k].xa[c > 0];
             v[k] = m->sigma[k] ? p.xid : 0.0; /* a sliding contact's slip rate, as it is */
             st.sigma[k] = 0;
         }

@@ -2,14 +2,16 @@
  * a moving support, each bottom corner a unilateral contact with Coulomb friction.
  * Derivation and every rule: docs/flight.md, "The contact engine".
  *
- * Bodies k = 0 .. nb-1 are rectangles (half width b, half height h, mass m, inertia about the
- * centre Ic = m (b^2 + h^2) / 3); body k stands on its support: the ground for k = 0, body
- * k - 1 above that (a stack). Coordinates are relative to the ground's frame (which moves with
- * a_h, a_v), origin at body 0's base centre at rest, signs of docs/conventions.md: x right, y up,
- * theta clockwise. Body k: q = (X, Y, theta) of its centre.
+ * Bodies k = 0 .. nb-1 are convex polygons with a flat base, mass m, centre of mass G anywhere above the base
+ * between its corners and inertia Ic about G (EnBody, model.h; engine_body_polygon, engine_body_rectangle: a
+ * rectangle of half width b, half height h has G at its middle and Ic = m (b^2 + h^2) / 3); body k stands on its
+ * support: the ground for k = 0, body k - 1 above that (a stack), on the support's flat top face. Each body has an
+ * axis (x = 0 of its polygon): at rest a column's axes align. Coordinates are relative to the ground's frame
+ * (which moves with a_h, a_v), origin at body 0's axis on its base at rest, signs of docs/conventions.md: x right,
+ * y up, theta clockwise. Body k: q = (X, Y, theta) of its centre of mass.
  *
- * Contacts: body k's bottom corners c = -1 (left, index 0) and +1 (right, index 1) against
- * its support's top face. Each corner is open or closed; the corners of one body share its
+ * Contacts: body k's base corners c = -1 (left, index 0) and +1 (right, index 1) against
+ * its support's top face (slips measured along it from the support's axis). Each corner is open or closed; the corners of one body share its
  * friction: the contact sticks (sigma = 0) or slides (sigma = +-1, the sign of the slip rate),
  * with |T| <= mu (N_left + N_right). Between events the accelerations and forces come from
  * Newton-Euler with the closed corners' constraints; at an event the consistent contact set is
@@ -51,6 +53,23 @@
 #define EN_SLIDE_N(nb) (5 * (nb) + 1)
 
 /* EnBody, EnSystem: model.h (the system is derived from the parameters once, M->d.en). */
+
+/* A rectangle of half width b, half height h (m) and mass m (kg), uniform: its axis through its middle. */
+void engine_body_rectangle(EnBody *B, double b, double h, double m);
+/* A convex polygon of n vertices (x[i], y[i]) (m; either orientation) in its rest pose, in its body frame (y = 0
+ * its base, x = 0 its axis), of mass m (kg), centre of mass centre[0..1] (NULL: the polygon's centroid, a uniform
+ * density) and inertia IG about it (kg m^2; < 0: the uniform polygon's, which needs centre NULL). Its base is the
+ * edge at y = 0 (the lowest vertices: at least two), its contact corners the base's ends; its top face, if the
+ * highest vertices are two, the edge they span (else tw = 0: it can carry no body, engine_check_stack). Collinear
+ * vertices are dropped. Returns 0, or nonzero with a one-line reason in msg (len bytes; B then undefined) where
+ * the polygon is not convex, not finite, has fewer than 3 vertices (or more than EN_POLY_MAX), no flat base at
+ * y = 0, or where m or IG is not positive, or the centre does not lie inside the polygon strictly above the base
+ * and strictly between its corners (the body could not stand). */
+#define EN_POLY_MAX 64
+int engine_body_polygon(EnBody *B, int n, const double *x, const double *y, double m, const double *centre,
+                        double IG, char *msg, size_t len);
+/* 0 if every body that carries another has a flat top (tw > 0); else nonzero with a one-line reason in msg. */
+int engine_check_stack(const EnSystem *s, char *msg, size_t len);
 
 /* A corner against its support: gap (m, > 0 open), slip coordinate along the support's top
  * (m, support's frame) and their rates; rows of the gap's and slip's accelerations,
@@ -125,7 +144,8 @@ typedef enum {
     EN_IND_SLIP = 2,      /* a sticking contact's friction margin reaches 0 */
     EN_IND_STOP = 3,      /* a sliding contact's slip rate reaches 0 */
     EN_IND_LAND = 4,      /* an open corner's gap reaches 0 */
-    EN_IND_OVERTURN = 5,  /* a body's rotation relative to its support reaches pi/2 */
+    EN_IND_OVERTURN = 5,  /* a body's rotation relative to its support reaches its side's EnBody over (pi/2 for a
+                           * rectangle: it lands on the hull edge next to its corner) */
     EN_IND_FELL_OFF = 6,  /* a closed corner passes its support's edge */
     EN_IND_JAM = 7        /* a contact sliding on one corner nears Painleve's singularity (engine_jam_margin) */
 } EnIndicator;
@@ -166,7 +186,8 @@ int engine_plastic(const EnSystem *s, const EnMode *m, double *y);
 double engine_kinetic(const EnSystem *s, const double *y);
 double engine_energy(const EnSystem *s, const double *y);
 
-/* The state of the bodies at rest (flat, stacked, centred, at the given slips of each body). */
+/* The state of the bodies at rest (flat, stacked, at the given slips of each body): their heights, rotations and
+ * rates (the centres' x are left as given: centred, a column's X_k = X_(k-1) - xG_(k-1) + slip_k + xG_k). */
 void engine_rest_state(const EnSystem *s, double *y);
 
 /* Move the positions (and, with rates, the rates) onto the constraints of mode m: closed corners at

@@ -290,7 +290,7 @@ static double slip_of(const EnSystem *s, int k, const double *y, double *rate, d
     int c = p == &R ? 1 : -1;
     if (rate) *rate = p->xid;
     if (gap) *gap = fmax(0.0, fmin(L.g, R.g));
-    return p->xi - c * s->body[k].b;
+    return p->xi - s->body[k].xa[c > 0];
 }
 
 /* ------------------------------------------------------- impulses on a two-way support */

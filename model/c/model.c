@@ -1,6 +1,7 @@
 /* Rocking rigid block: parameters, excitation, equation of motion, energy.
  * Conventions in model.h and docs/conventions.md. */
 #include "model.h"
+#include "engine.h" /* engine_body_rectangle */
 #include "ground.h"
 #include "stack.h"
 #include "support.h"
@@ -201,11 +202,7 @@ static void engine_bodies(const Variables *v, EnSystem *s) {
         double b, h, m;
         model_block(v, k, &b, &h, &m);
         s->mu[k] = model_block_mu(v, k);
-        s->body[k].b = b;
-        s->body[k].h = h;
-        s->body[k].m = m;
-        s->body[k].Ic = m * (b * b + h * h) / 3.0;
-        s->body[k].iIo = 1.0 / (m * (b * b + h * h) + s->body[k].Ic);
+        engine_body_rectangle(&s->body[k], b, h, m);
     }
     for (int k = s->nb - 1; k >= 0; k--)
         s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);

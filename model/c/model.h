@@ -73,11 +73,24 @@ typedef struct {
     int closed[EN_MAX_BODIES][2];
     int sigma[EN_MAX_BODIES];
 } EnMode;
-/* The engine's bodies (engine.h): rectangles of half width b, half height h (m), mass m (kg) and inertia
- * about the centre Ic = m (b^2 + h^2) / 3 (kg m^2), iIo = 1 / (m (b^2 + h^2) + Ic) the inverse of the inertia
- * about a corner (1/(kg m^2)); body k stands on body k - 1 (the ground for k = 0). */
+/* The engine's bodies (engine.h): convex polygons in their rest pose, in a body frame (x right, y up, y = 0 the
+ * base, x = 0 the axis: a column's axes align at rest), derived once by engine_body_polygon or
+ * engine_body_rectangle; body k stands on body k - 1 (the ground for k = 0). Lengths in m. Contacts are the base's
+ * two end corners (index 0 left, 1 right) against the support's top face. */
 typedef struct {
-    double b, h, m, Ic, iIo;
+    double b, h;    /* size scales: the larger horizontal distance of a base corner from the centre of mass, and the
+                     * centre's height above the base (a rectangle's half width and half height); hypot(b, h) is the
+                     * farther base corner's distance from the centre */
+    double m, Ic;   /* mass (kg), inertia about the centre of mass (kg m^2) */
+    double cx[2], cy; /* the base corners (left, right) from the centre of mass, body frame (cy = -h < 0) */
+    double xG;      /* the centre of mass from the axis (x; 0 for a symmetric body) */
+    double xa[2];   /* the base corners from the axis (x; the slip of a contact is its corner's slip less this) */
+    double ht;      /* the top face above the centre of mass (what a body on it stands on) */
+    double tm, tw;  /* the top face's middle from the axis (x) and its half width (tw = 0: no flat top, it carries
+                     * nothing) */
+    double iIo[2];  /* 1 / (Ic + m |c|^2): the inverse inertia about each base corner c, 1/(kg m^2) */
+    double over[2]; /* rotation relative to the support (rad, > 0) at which the body, rocking on that corner, lands
+                     * on the hull edge next to it: pi less the polygon's interior angle there (pi/2 for a rectangle) */
 } EnBody;
 
 typedef struct {

@@ -33,11 +33,7 @@ int main(int argc, char **argv) {
         s.g = g;
         for (int k = 0; k < s.nb; k++) {
             double f = 1.0 + 0.5 * rnd(); /* sizes and masses varied around the statue on its plinth */
-            s.body[k].b = b[k] * f;
-            s.body[k].h = h[k] / f;
-            s.body[k].m = m[k] * f * f;
-            s.body[k].Ic = s.body[k].m * (s.body[k].b * s.body[k].b + s.body[k].h * s.body[k].h) / 3.0;
-            s.body[k].iIo = 1.0 / (4.0 * s.body[k].Ic);
+            engine_body_rectangle(&s.body[k], b[k] * f, h[k] / f, m[k] * f * f);
             s.mu[k] = 0.3;
         }
         for (int k = s.nb - 1; k >= 0; k--) s.weight[k] = s.body[k].m * g + (k + 1 < s.nb ? s.weight[k + 1] : 0.0);

@@ -25,11 +25,7 @@ static void drums(EnSystem *s, int nb, const double *b, const double *h, const d
     s->nb = nb;
     s->g = 9.81;
     for (int k = 0; k < nb; k++) {
-        s->body[k].b = b[k];
-        s->body[k].h = h[k];
-        s->body[k].m = m[k];
-        s->body[k].Ic = m[k] * (b[k] * b[k] + h[k] * h[k]) / 3.0;
-        s->body[k].iIo = 1.0 / (4.0 * s->body[k].Ic);
+        engine_body_rectangle(&s->body[k], b[k], h[k], m[k]);
         s->mu[k] = mu[k];
     }
     for (int k = nb - 1; k >= 0; k--) s->weight[k] = s->body[k].m * s->g + (k + 1 < nb ? s->weight[k + 1] : 0.0);

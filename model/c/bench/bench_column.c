@@ -34,11 +34,7 @@ int main(int argc, char **argv) {
     s.nb = N;
     s.g = 9.81;
     for (int k = 0; k < N; k++) {
-        s.body[k].b = 0.25;
-        s.body[k].h = 0.4;
-        s.body[k].m = 500.0;
-        s.body[k].Ic = 500.0 * (0.25 * 0.25 + 0.4 * 0.4) / 3.0;
-        s.body[k].iIo = 1.0 / (4.0 * s.body[k].Ic);
+        engine_body_rectangle(&s.body[k], 0.25, 0.4, 500.0);
         s.mu[k] = 0.8;
     }
     for (int k = N - 1; k >= 0; k--) s.weight[k] = s.body[k].m * s.g + (k + 1 < N ? s.weight[k + 1] : 0.0);
