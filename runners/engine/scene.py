@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +47,8 @@ MAX_PGA_G = 5.0
 # the run starts (docs/limits.md); 2e6 is 2000 s at a 1 ms step
 MAX_SAMPLES = 2_000_000
 
+# the FMU's largest column (nBlocks 1 to 8): block K + 1 stands on block K (docs/columns_runners.md)
+MAX_BLOCKS = 8
 # table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
 SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
     "block": {
@@ -61,6 +64,21 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "mass": ("block2.mass", "real"),
         "theta0": ("block2.theta0", "real"),
         "omega0": ("block2.omega0", "real"),
+    },
+    # blocks 3 to 8 of a column (block K stands on block K - 1; they start seated, so no theta0 or omega0)
+    **{f"block{k}": {
+        "half_width": (f"block{k}.halfWidth", "real"),
+        "half_height": (f"block{k}.halfHeight", "real"),
+        "mass": (f"block{k}.mass", "real"),
+        "mu": (f"block{k}.mu", "real"),  # friction with the block below (default: contact.muInterface)
+    } for k in range(3, MAX_BLOCKS + 1)},
+    # a column of identical drums: block1..blockN (column_parameters)
+    "column": {
+        "drums": (None, "count"),
+        "half_width": (None, "real"),
+        "half_height": (None, "real"),
+        "mass": (None, "real"),
+        "mu": (None, "real"),
     },
     "restitution": {
         "law": ("restitution.law", LAWS),
@@ -114,8 +132,11 @@ EXCITATION_USES = {0: set(), 1: _PULSE | {"cycles"}, 2: _PULSE | {"cycles"},
 def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
     """Why the FMU ignores parameter `name` in a scene of parameters `p` (defaults included),
     or None when it uses it."""
-    kind, law, two = int(p.get("excitation.kind", 0)), int(p.get("restitution.law", 0)), int(p.get("nBlocks", 1)) == 2
+    kind, law, n = int(p.get("excitation.kind", 0)), int(p.get("restitution.law", 0)), int(p.get("nBlocks", 1))
+    two = n >= 2  # a stack or a column
     table, _, key = name.partition(".")
+    if re.fullmatch(r"block[3-8]", table) and int(table[5:]) > n:
+        return f"{name} belongs to block {table[5:]}, and the scene has {n} (add a [{table}] table)"
     if table == "excitation" and key != "kind" and key not in EXCITATION_USES.get(kind, set()):
         return f"{name} is not used by a scene of excitation kind \"{KIND_NAMES.get(kind, kind)}\""
     if name == "block1.mass" and not two:
@@ -143,7 +164,7 @@ def implausible_sizes(p: dict[str, Any]) -> list[str]:
     """Notes (not errors) for blocks of parameters `p` (defaults included) with a half size above
     PLAUSIBLE_HALF_SIZE: a 400 mm x 1600 mm block entered as 400 x 1600 runs as a building."""
     notes = []
-    for i in (1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,):
+    for i in range(1, int(p.get("nBlocks", 1)) + 1):
         b, h = float(p.get(f"block{i}.halfWidth", 0.0)), float(p.get(f"block{i}.halfHeight", 0.0))
         if max(b, h) > PLAUSIBLE_HALF_SIZE:
             notes.append(f"block{i} is {2 * b:g} m x {2 * h:g} m (half_width {b:g} m, half_height {h:g} m): sizes "
@@ -157,6 +178,8 @@ def uplift_threshold(p: dict[str, Any]) -> tuple[float, str]:
     for a stack the lower of the pair's g b1 / yG (yG the height of the pair's centre of mass)
     and block 2's g min(b1, b2) / h2."""
     g, b1, h1 = float(p["g"]), float(p["block1.halfWidth"]), float(p["block1.halfHeight"])
+    if int(p.get("nBlocks", 1)) >= 3:
+        return column_uplift(p)
     if int(p.get("nBlocks", 1)) != 2:
         return g * b1 / h1, "the block rocks"
     m1, b2, h2, m2 = (float(p[k]) for k in ("block1.mass", "block2.halfWidth", "block2.halfHeight", "block2.mass"))
@@ -167,16 +190,38 @@ def uplift_threshold(p: dict[str, Any]) -> tuple[float, str]:
     return g * upper, "the upper block rocks alone"
 
 
+def column_uplift(p: dict[str, Any]) -> tuple[float, str]:
+    """A column's uplift threshold (m/s^2, what starts then) from rest, all blocks locked: the least
+    over K of g b_K / y_K, the blocks from K up tipping as one body about the edge of their base (half
+    width b_K, no wider than the block below), y_K the height of their centre of mass above it."""
+    g, n = float(p["g"]), int(p["nBlocks"])
+    best = (math.inf, "")
+    for k in range(1, n + 1):
+        m = [float(p[f"block{j}.mass"]) for j in range(k, n + 1)]
+        h = [float(p[f"block{j}.halfHeight"]) for j in range(k, n + 1)]
+        base = [sum(2 * x for x in h[:i]) for i in range(len(h))]
+        y = sum(mj * (zj + hj) for mj, zj, hj in zip(m, base, h)) / sum(m)
+        a = g * float(p[f"block{k}.halfWidth"]) / y
+        if a < best[0]:
+            best = (a, "the column rocks as one body" if k == 1 else
+                    f"blocks {k}-{n} rock as one body on block {k - 1}" if k < n else f"block {n} rocks on block {n - 1}")
+    return best
+
+
 def motion_threshold(p: dict[str, Any]) -> tuple[float, str]:
     """(|a_h| in m/s^2 below which nothing of the scene of parameters `p` moves from rest with
     a_v = 0, what it is): the uplift threshold (uplift_threshold), or with rocking-sliding
     (contact.model = 1) the least of it and the contacts' mu g (Shenton 1996)."""
     uplift, _ = uplift_threshold(p)
     if int(p.get("contact.model", 0)) != CONTACT_MODELS["rocking-sliding"]:
-        return uplift, "uplift, g tan(alpha)" if int(p.get("nBlocks", 1)) != 2 else "uplift of the stack"
+        return uplift, ("uplift, g tan(alpha)" if int(p.get("nBlocks", 1)) == 1 else "uplift of the stack"
+                        if int(p.get("nBlocks", 1)) == 2 else "uplift of the column")
     mu = float(p["contact.muGround"])
-    if int(p.get("nBlocks", 1)) == 2:
+    if int(p.get("nBlocks", 1)) >= 2:
         mu = min(mu, float(p["contact.muInterface"]))
+    for k in range(3, int(p.get("nBlocks", 1)) + 1):  # a column's own mu per block (-1: muInterface's)
+        if float(p.get(f"block{k}.mu", -1.0)) > 0:
+            mu = min(mu, float(p[f"block{k}.mu"]))
     slide = mu * float(p["g"])
     return (slide, "sliding, mu g") if slide < uplift else (uplift, "uplift")
 
@@ -193,7 +238,7 @@ def weak_excitation(p: dict[str, Any]) -> list[str]:
 
     if int(p.get("excitation.kind", 0)) not in PULSE_KINDS:
         return []
-    blocks = (1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,)
+    blocks = (1, 2) if int(p.get("nBlocks", 1)) >= 2 else (1,)
     if any(p.get(f"block{i}.{k}", 0.0) != 0 for i in blocks for k in ("theta0", "omega0")):  # it moves anyway
         return []
     amplitude, vertical, g = abs(float(p["excitation.amplitude"])), abs(float(p["excitation.verticalAmplitude"])), float(p["g"])
@@ -247,6 +292,10 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
         if not math.isfinite(value):
             raise SceneError(f"{where}: {value!r} is not a finite number")
         return float(value)
+    if kind == "count":
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise SceneError(f"{where}: expected a whole number, got {value!r}")
+        return int(value)
     if kind == "bool":
         if not isinstance(value, bool):
             raise SceneError(f"{where}: expected true or false, got {value!r}")
@@ -277,9 +326,13 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
         scene.parameters.update(scene_support(data, source))
     except SupportError as exc:
         raise SceneError(str(exc)) from None
+    column = _column_table(data, source)
     for table, content in data.items():
-        if table == "name":
+        if table in ("name", "column"):
             continue
+        if re.fullmatch(r"block(\d+)", table) and int(table[5:]) > MAX_BLOCKS:
+            raise SceneError(f"{source}: [{table}]: a column has at most {MAX_BLOCKS} blocks ([block] and [block2] "
+                             f"to [block{MAX_BLOCKS}])")
         if table not in SCHEMA:
             raise SceneError(f"{source}: unknown table [{table}] (expected {', '.join((*SCHEMA, *SUPPORT_TABLES))})")
         if not isinstance(content, dict):
@@ -295,12 +348,15 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
                 scene.step_given |= key == "step"
             else:
                 scene.parameters[fmu_name] = v
-        if table == "block2":
-            scene.parameters["nBlocks"] = 2
+    if column is not None:
+        scene.parameters.update(column)
+    else:
+        scene.parameters.update(_block_tables(data, source))
+    _check_blocks(scene.parameters, source)
     _check_record(scene, source)
-    if scene.parameters.get("solver.method") == METHODS["taylor"] and scene.n_blocks == 2:
-        raise SceneError(f"{source}: [simulation] method = \"taylor\" integrates one block; a two-block scene "
-                         "([block2]) uses \"dormand-prince\"")
+    if scene.parameters.get("solver.method") == METHODS["taylor"] and scene.n_blocks >= 2:
+        raise SceneError(f"{source}: [simulation] method = \"taylor\" integrates one block; a scene of "
+                         f"{scene.n_blocks} blocks uses \"dormand-prince\" (or \"auto\")")
     wrong = contact_model_problem(scene.parameters, coupled=False)
     if wrong:
         raise SceneError(f"{source}: {wrong}")
@@ -309,6 +365,84 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
     except SceneError as exc:
         raise SceneError(f"{source}: {exc}") from None
     return scene
+
+
+def _block_tables(data: dict[str, Any], source: str) -> dict[str, Any]:
+    """nBlocks from the block tables present: the highest K of [block2] ... [block8] (none: one
+    block); a gap ([block4] without [block3]) is refused in one line."""
+    present = sorted(int(t[5:]) for t in data if re.fullmatch(r"block[2-8]", t))
+    if not present:
+        return {}
+    top = present[-1]
+    missing = [k for k in range(2, top) if k not in present]
+    if missing:
+        raise SceneError(f"{source}: [block{top}] without [block{missing[0]}]: a column's blocks are [block], "
+                         f"[block2], ... [block{top}] with none left out (block K stands on block K - 1)")
+    return {"nBlocks": top}
+
+
+def _column_table(data: dict[str, Any], source: str) -> dict[str, Any] | None:
+    """The FMU parameters of a [column] table (drums identical drums: block1 ... blockN of its
+    half_width, half_height and mass; its mu the friction of every interface, contact.muInterface),
+    or None without one. Mixing it with [block] or [blockK] tables is refused in one line."""
+    col = data.get("column")
+    if col is None:
+        return None
+    if not isinstance(col, dict):
+        raise SceneError(f"{source}: 'column' must be a table")
+    blocks = [t for t in data if t == "block" or re.fullmatch(r"block\d+", t)]
+    if blocks:
+        raise SceneError(f"{source}: [column] gives every drum; it cannot be mixed with [{blocks[0]}] (use either "
+                         "[column] or [block], [block2], ... tables)")
+    values = {}
+    for key, value in col.items():
+        if key not in SCHEMA["column"]:
+            raise SceneError(f"{source}: [column] unknown key '{key}' (expected {', '.join(SCHEMA['column'])})")
+        values[key] = _value(f"{source}: [column] {key}", value, SCHEMA["column"][key][1])
+    for key in ("drums", "half_width", "half_height", "mass"):
+        if key not in values:
+            raise SceneError(f"{source}: [column] needs {key} (drums, half_width, half_height and mass; mu optional)")
+    n = values["drums"]
+    if not 1 <= n <= MAX_BLOCKS:
+        raise SceneError(f"{source}: [column] drums = {n}: a column has 1 to {MAX_BLOCKS} drums")
+    p: dict[str, Any] = {"nBlocks": n}
+    for k in range(1, n + 1):
+        p.update({f"block{k}.halfWidth": values["half_width"], f"block{k}.halfHeight": values["half_height"],
+                  f"block{k}.mass": values["mass"]})
+    if "mu" in values:
+        if "mu_interface" in (data.get("contact") or {}):
+            raise SceneError(f"{source}: [column] mu and [contact] mu_interface both give the interfaces' friction: "
+                             "give one")
+        p["contact.muInterface"] = values["mu"]
+    return p
+
+
+def _check_blocks(p: dict[str, Any], source: str) -> None:
+    """Sizes and masses the scene gives: above zero; a column's block (3 or more blocks) no wider
+    than the one below it; a block's mu above zero. One line each (defaults are the FMU's, valid)."""
+    n = int(p.get("nBlocks", 1))
+    for k in range(1, MAX_BLOCKS + 1):
+        table = "[block]" if k == 1 else f"[block{k}]"
+        for key, what in (("halfWidth", "half_width"), ("halfHeight", "half_height"), ("mass", "mass"),
+                          ("mu", "mu")):
+            v = p.get(f"block{k}.{key}")
+            if v is not None and not v > 0:
+                unit = "kg" if key == "mass" else "m" if key != "mu" else ""
+                raise SceneError(f"{source}: {table} {what} = {v:g} must be above 0{' ' + unit if unit else ''}")
+    if "contact.muInterface" in p and not p["contact.muInterface"] > 0:
+        raise SceneError(f"{source}: the interfaces' mu = {p['contact.muInterface']:g} must be above 0")
+    if n < 3:
+        return
+    widths = [p.get(f"block{k}.halfWidth", 0.1) for k in range(1, n + 1)]  # (the FMU's default: 0.1 m for every block)
+    for k in range(2, n + 1):
+        if widths[k - 1] > widths[k - 2]:
+            raise SceneError(f"{source}: block {k} is wider than block {k - 1} under it (half_width {widths[k - 1]:g} > "
+                             f"{widths[k - 2]:g} m): a column's block must be no wider than the one below it")
+
+
+def column_blocks(p: dict[str, Any]) -> range:
+    """The blocks of FMU parameters `p`: 1 .. nBlocks."""
+    return range(1, int(p.get("nBlocks", 1)) + 1)
 
 
 def contact_model_problem(p: dict[str, Any], coupled: bool = True) -> str | None:
