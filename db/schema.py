@@ -146,6 +146,8 @@ class Run(Base):
     excitation: Mapped[Excitation | None] = relationship()
     summary: Mapped["RunSummary | None"] = relationship(back_populates="run", cascade="all, delete-orphan")
     series: Mapped["RunSeries | None"] = relationship(back_populates="run", cascade="all, delete-orphan")
+    blocks: Mapped[list["RunBlock"]] = relationship(back_populates="run", cascade="all, delete-orphan",
+                                                    order_by="RunBlock.block")
 
 
 class RunSummary(Base):
@@ -186,7 +188,29 @@ class RunSummary(Base):
     block2_slide_time: Mapped[float | None] = mapped_column(Float)  # s, block 2's first slide (None: never)
     block2_fell_off: Mapped[bool | None] = mapped_column(Boolean)  # block 2 left block 1's top
     block2_fell_off_time: Mapped[float | None] = mapped_column(Float)  # s (None: it never fell off)
+    # columns (nBlocks 3 to 8; each block's outcome: run_blocks); None for one block and two
+    collapsed: Mapped[bool | None] = mapped_column(Boolean)  # a block overturned or fell off
+    lowest_fallen: Mapped[int | None] = mapped_column(Integer)  # the lowest block that did (None: none)
+    max_residual_slip: Mapped[float | None] = mapped_column(Float)  # m, largest |residual slip| of a standing block
+    max_residual_slip_block: Mapped[int | None] = mapped_column(Integer)  # the block it is of
     run: Mapped[Run] = relationship(back_populates="summary")
+
+
+class RunBlock(Base):
+    """One block's outcome in a run of a column (nBlocks 3 to 8; revision 0014): slips relative to
+    what the block stands on (block 1's on the ground, block K's along the top of block K - 1), m, +x."""
+
+    __tablename__ = "run_blocks"
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id"), primary_key=True)
+    block: Mapped[int] = mapped_column(Integer, primary_key=True)  # 1 (on the ground) to nBlocks
+    max_abs_theta: Mapped[float] = mapped_column(Float)  # rad, peak |theta| (absolute)
+    peak_over_alpha: Mapped[float | None] = mapped_column(Float)  # over its own alpha; None once it fell
+    max_abs_slip: Mapped[float | None] = mapped_column(Float)  # m, peak |slip| on what it stands on
+    residual_slip: Mapped[float | None] = mapped_column(Float)  # m, slip at the end (+x): its residual dislocation
+    overturned: Mapped[bool] = mapped_column(Boolean)  # it fell, or rode a block under it that fell
+    fell_off: Mapped[bool] = mapped_column(Boolean)  # it left the top of the block below
+    final_mode: Mapped[str | None] = mapped_column(String(12))  # rest, slide, rock, slide-rock, overturned, ...
+    run: Mapped[Run] = relationship(back_populates="blocks")
 
 
 class RunSeries(Base):

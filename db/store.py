@@ -27,7 +27,7 @@ from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session, sessionmaker
 
 from db import leftovers, series
-from db.schema import (Block, CosimRun, CosimSeries, Excitation, Measurement, Record, Run, RunSeries,
+from db.schema import (Block, CosimRun, CosimSeries, Excitation, Measurement, Record, Run, RunBlock, RunSeries,
                        RunSummary, Scene)
 from db.session import DatabaseError, database_failure, database_name, display_url, sqlite_file
 
@@ -86,9 +86,11 @@ def add_run(session: Session, scene: Scene, merged: dict[str, Any], summary: dic
             model: str, method: str, stop_time: float, fmu_path: str | None, wall_time: float | None,
             time: np.ndarray | None = None, outputs: dict[str, np.ndarray] | None = None,
             events: list[dict[str, Any]] | None = None, error: str | None = None,
-            sweep_id: int | None = None, grid_index: int | None = None, excitation: Excitation | None = None) -> Run:
-    """One run with its summary (if it succeeded) and series (if sampled); its excitation is
-    `excitation` (a recorded one, say) or the built-in one its parameters describe."""
+            sweep_id: int | None = None, grid_index: int | None = None, excitation: Excitation | None = None,
+            blocks: list[dict[str, Any]] | None = None) -> Run:
+    """One run with its summary (if it succeeded), its blocks' outcomes (a column's: run_blocks rows
+    without run_id) and series (if sampled); its excitation is `excitation` (a recorded one, say) or
+    the built-in one its parameters describe."""
     run = Run(scene=scene, excitation=excitation if excitation is not None else excitation_of(merged), sweep_id=sweep_id, grid_index=grid_index,
               model=model, method=method, rel_tol=merged.get("solver.relTol"), abs_tol=merged.get("solver.absTol"),
               stop_time=stop_time, fmu_sha256=file_sha256(str(fmu_path)) if fmu_path else None,
@@ -97,6 +99,8 @@ def add_run(session: Session, scene: Scene, merged: dict[str, Any], summary: dic
     session.add(run)
     if summary is not None:
         run.summary = RunSummary(**summary)
+    if blocks:
+        run.blocks = [RunBlock(**b) for b in blocks]
     if time is not None and outputs:
         names, n, blob = series.pack(time, outputs)
         run.series = RunSeries(names=names, n_samples=n, data=blob, events=events)
@@ -139,7 +143,7 @@ def pending_run(*, scene_name: str, parameters: dict[str, Any], source: str | No
                 summary: dict[str, Any] | None, model: str, method: str, stop_time: float, fmu_path: str | None,
                 wall_time: float | None, time: np.ndarray | None = None, outputs: dict[str, np.ndarray] | None = None,
                 events: list[dict[str, Any]] | None = None, recording: str | None = None,
-                record: tuple[int, str] | None = None) -> dict[str, Any]:
+                record: tuple[int, str] | None = None, blocks: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """A simulated run as plain JSON values, ready to store (store_pending) or to keep in a
     file (keep_unsaved): its scene, the FMU parameters it ran with, its summary row, its series
     packed as they are stored (db.series, base64), when it ran and with which code and FMU,
@@ -152,6 +156,8 @@ def pending_run(*, scene_name: str, parameters: dict[str, Any], source: str | No
         "merged": dict(merged), "summary": summary, "model": model, "method": method, "stop_time": stop_time,
         "wall_time": wall_time, "recording": recording,
         "record": None if record is None else {"id": record[0], "name": record[1]}, "series": None}
+    if blocks:  # a column's blocks (run_blocks rows); absent for one block and two, as in files of before
+        p["blocks"] = [dict(b) for b in blocks]
     if time is not None and outputs:
         names, n, blob = series.pack(time, outputs)
         p["series"] = {"names": names, "n_samples": n, "data": base64.b64encode(blob).decode("ascii"),
@@ -178,7 +184,7 @@ def store_pending(session: Session, p: dict[str, Any]) -> Run:
     sc.created_at = created
     run = add_run(session, sc, p["merged"], p["summary"], model=p["model"], method=p["method"],
                   stop_time=p["stop_time"], fmu_path=None, wall_time=p["wall_time"],
-                  excitation=excitation_of(p["merged"], rec))
+                  excitation=excitation_of(p["merged"], rec), blocks=p.get("blocks"))
     run.fmu_sha256, run.code_version, run.created_at = p["fmu_sha256"], p["code_version"], created
     run.recording = p["recording"]
     if p["series"] is not None:
@@ -257,6 +263,26 @@ def read_unsaved(path: str | Path) -> dict[str, Any]:
     return p
 
 
+def _blocks_problem(blocks: Any) -> str | None:
+    """What is wrong with an unsaved run's blocks (run_blocks rows without run_id), None if nothing."""
+    if blocks is None:
+        return None
+    columns = {c.name: c for c in RunBlock.__table__.columns if c.name != "run_id"}
+    if not isinstance(blocks, list) or not all(isinstance(b, dict) for b in blocks):
+        return "blocks is not a list of tables"
+    for b in blocks:
+        for k, v in b.items():
+            if k not in columns:
+                return f"blocks has an unknown field {k!r}"
+            want = columns[k].type.python_type
+            if (v is None and not columns[k].nullable) or (v is not None and not (
+                    isinstance(v, want) or (want is float and isinstance(v, int))) or (want is not bool and isinstance(v, bool))):
+                return f"blocks: {k} = {v!r} is not a {want.__name__}"
+            if want is float and v is not None and not math.isfinite(v):
+                return f"blocks: {k} = {v!r} is not a finite number"
+    return None
+
+
 def _unsaved_problem(p: dict[str, Any]) -> str | None:
     """What is wrong with the values of an unsaved run (None if nothing): the types its rows
     need, and series whose data hold the samples they announce."""
@@ -285,8 +311,11 @@ def _unsaved_problem(p: dict[str, Any]) -> str | None:
     text = [k for k, v in p["merged"].items() if k.startswith(("block1.", "block2.")) and isinstance(v, str)]
     if text:
         return f"merged.{text[0]} = {p['merged'][text[0]]!r} is not a number"
-    if p["merged"].get("nBlocks", 1) not in (1, 2) or isinstance(p["merged"].get("nBlocks"), (bool, str)):
-        return f"merged.nBlocks = {p['merged'].get('nBlocks')!r} is not 1 or 2"
+    if p["merged"].get("nBlocks", 1) not in range(1, 9) or isinstance(p["merged"].get("nBlocks"), (bool, str)):
+        return f"merged.nBlocks = {p['merged'].get('nBlocks')!r} is not 1 to 8"
+    wrong = _blocks_problem(p.get("blocks"))
+    if wrong:
+        return wrong
     try:
         datetime.fromisoformat(p["created_at"])
     except (TypeError, ValueError):

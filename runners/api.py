@@ -409,7 +409,7 @@ def _store(factory, found, method: str, fmu_path, recording=None, rec=None) -> i
     if factory is None:
         return None
     from db.store import pending_run, store_or_keep
-    from runners.engine.summary import summary_row
+    from runners.engine.summary import block_rows, summary_row
 
     scene, result, s = found.scene, found.result, found.summary
     source = Path(scene.source).read_text() if scene.source and Path(scene.source).is_file() else None
@@ -420,7 +420,7 @@ def _store(factory, found, method: str, fmu_path, recording=None, rec=None) -> i
                           outputs=None if result is None else result.outputs,
                           events=None if result is None else [e.as_dict() for e in result.events],
                           recording=None if recording is None else str(Path(recording).resolve()),
-                          record=None if rec is None else (rec.record_id, rec.name))
+                          record=None if rec is None else (rec.record_id, rec.name), blocks=block_rows(s))
     return store_or_keep(factory, pending)
 
 

@@ -453,7 +453,7 @@ def test_a_database_killed_while_being_created_is_absent_or_whole(tmp_path):
     (lambda p: p["series"].update(names=["block1.theta", "block1.theta"]), "series.names"),
     (lambda p: p["series"].update(n_samples=0), "series.n_samples"),
     # well-typed but impossible values (the hostile re-run: each was stored without a word)
-    (lambda p: p["merged"].update(nBlocks=3), "merged.nBlocks"),
+    (lambda p: p["merged"].update(nBlocks=9), "merged.nBlocks"),
     (lambda p: p["merged"].update({"block1.halfWidth": float("nan")}), "merged.block1.halfWidth"),
     (lambda p: p["merged"].update({"block1.halfWidth": "x"}), "merged.block1.halfWidth"),
     (lambda p: p.update(stop_time=0.0), "stop_time"),

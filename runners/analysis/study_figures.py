@@ -358,19 +358,22 @@ def _ida_column(pairs, oc: Outcomes, demand: str, block: int | None, unanswered:
             ax.annotate(f"largest: record {oc.record[j]}", (oc.x[j], shown[j]), xytext=(-6 if right else 6, -10),
                         textcoords="offset points", fontsize=7, color="0.2", ha="right" if right else "left",
                         arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6})
-        where = "" if not oc.two else " on the ground" if i == 1 else " on block 1"
+        where = ("" if not (oc.two or oc.column is not None) or i == 0 else " on the ground" if i == 1 else
+                 f" on block {i - 1}")
+        who = "any standing block" if i == 0 else f"block {i}"
         if demand == "slip":
             ax.set_yscale("log")
-            ax.set_ylabel(f"peak |slip| of block {i}{where} (m, log axis;\nat {SLIP_FLOOR:g} m: no slip or less)")
+            ax.set_ylabel(f"peak |slip| of {who}{where} (m, log axis;\nat {SLIP_FLOOR:g} m: no slip or less)")
         else:
             ax.axhline(1.0, color="0.5", lw=0.8, ls=":")
             ax.set_ylim(bottom=0)
-            ax.set_ylabel(f"peak |theta| / alpha of block {i}")
+            ax.set_ylabel(f"peak |theta| / alpha of {who}")
         top.set_ylim(-0.6, 1.6)
         top.set_yticks([1, 0] if fell is not None else [1],
                        ["overturned", "fell off"] if fell is not None else ["overturned"], fontsize=7)
         top.tick_params(labelbottom=False)
-        top.set_title(f"block {i}" if oc.two else "", fontsize=8, loc="right")
+        top.set_title(("collapse (any block)" if i == 0 else f"block {i}") if oc.column is not None else
+                      f"block {i}" if oc.two else "", fontsize=8, loc="right")
         ax.set_xlabel(f"{oc.label} ({oc.unit})")
         handles = [Line2D([], [], color=cmap(k), lw=0.8, marker=".", label=n) for k, n in enumerate(names)] \
             if len(names) <= 12 else [Line2D([], [], color="0.5", lw=0.8, label=f"{len(names)} records, one line each")]

@@ -213,7 +213,8 @@ def cmd_fragility(args: argparse.Namespace) -> int:
     from runners.engine.fragility import FragilityError
 
     study, sets, out = _study(args)
-    cs = study.curves(sets, args.ds, args.unanswered)
+    study.check_block(args.block, sets)
+    cs = study.curves(sets, study.with_block(args.ds, args.block), args.unanswered)
     study_figures.plot_curves(out, cs)
     if all(c.fragility is None for c in cs):  # still show what was observed
         if len(cs) == 1:
@@ -380,14 +381,21 @@ def add_parser(sub) -> None:
                                  "beyond X), slides (a contact needed more friction than mu; rocking-sliding: the "
                                  "block slid), [BLOCK:]slide>D (peak slip beyond D: slide>0.05, block1:slide>5cm; "
                                  "rocking-sliding sweeps; block 2's on block 1), block2:falloff (block 2 fell off "
-                                 "block 1; rocking-sliding stacks)")
+                                 "block 1; rocking-sliding stacks); columns (3 to 8 blocks): collapse, "
+                                 "[blockK:|any:]overturn, [blockK:|any:]residual>D (residual dislocation, e.g. "
+                                 "residual>5mm), [blockK:|any:]slide>D, [blockK:|any:]rot>Xalpha, [blockK:|any:]falloff")
+            st.add_argument("--block", action=Once, metavar="K|any",
+                            help="the block the damage states without a block prefix are of: 1 to the number of "
+                                 "blocks, or any (default: any block; of a column, any drum)")
         else:
             st.add_argument("--demand", choices=("rotation", "slip"), default="rotation",
                             help="what is drawn against intensity: rotation (peak |theta| / alpha, default) or slip "
                                  "(each block's peak |slip| in m, block 2's along block 1's top; rocking-sliding "
                                  "sweeps)")
-            st.add_argument("--block", action=Once, metavar="1|2",
-                            help="of a stack, only this block's demand (default: one panel per block)")
+            st.add_argument("--block", action=Once, metavar="K|any",
+                            help="of a stack, only this block's demand (default: one panel per block); of a column, "
+                                 "block K's (1 to its number of blocks) or any (the largest demand of any standing "
+                                 "block, gone at a collapse; the default)")
         st.add_argument("--unanswered", choices=("omit", "reached", "not-reached", "as-run"), default="omit",
                         help="the runs the model did not answer (its assumptions broke first: rigid rocking slid or "
                              "lifted off, rocking-sliding lifted off): omit (left out, the default), or counted as "

@@ -27,7 +27,8 @@ from typing import Any
 from sqlalchemy import delete, func, select, update
 from sqlalchemy.orm import sessionmaker
 
-from db.schema import CosimRun, CosimSeries, Excitation, Measurement, Record, Run, RunSeries, RunSummary, Scene, Sweep
+from db.schema import (CosimRun, CosimSeries, Excitation, Measurement, Record, Run, RunBlock, RunSeries, RunSummary,
+                       Scene, Sweep)
 from runners.errors import RockingError
 
 KINDS = ("sweep", "run", "cosim", "record")
@@ -36,8 +37,8 @@ KEY_WORDS = {"sweep": "a sweep's id (a whole number) or 'latest'", "run": "a run
              "cosim": "a co-simulated run's id (a whole number) or 'latest'", "record": "a record's name or id"}
 TABLES = {"runs": "run", "run_summaries": "run summary", "run_series": "run series", "excitations": "excitation",
           "sweeps": "sweep", "scenes": "scene", "measurements": "measurement", "records": "record"}  # table -> one row
-# tables Deleted.rows counts only when a delete removed rows of them (co-simulated runs)
-OTHER_TABLES = {"cosim_runs": "cosim run", "cosim_series": "cosim series"}
+# tables Deleted.rows counts only when a delete removed rows of them (co-simulated runs, columns' blocks)
+OTHER_TABLES = {"cosim_runs": "cosim run", "cosim_series": "cosim series", "run_blocks": "run block"}
 
 
 class InUse(RockingError, ValueError):
@@ -225,6 +226,7 @@ def _delete_runs(session, which, scenes: bool = True) -> dict[str, int]:
     used_scenes = list(session.scalars(select(Run.scene_id).distinct().where(which))) if scenes else []
     counts = {"run_summaries": _execute(session, delete(RunSummary).where(RunSummary.run_id.in_(ids))),
               "run_series": _execute(session, delete(RunSeries).where(RunSeries.run_id.in_(ids))),
+              "run_blocks": _execute(session, delete(RunBlock).where(RunBlock.run_id.in_(ids))),
               "runs": _execute(session, delete(Run).where(which))}
     counts["excitations"] = 0 if lo is None else _execute(session, delete(Excitation).where(
         Excitation.id.between(lo, hi),  # (a sweep's own excitations: the range keeps the NOT IN below cheap)

@@ -330,7 +330,12 @@ def sweep_units(grid: dict) -> dict[str, str]:
     units = {"w": "1 (omega_g / p)", "a": "1 (a_g / (g tan alpha))", "scale": "", "pga": "m/s2", "pgv": "m/s",
              "pgd": "m", "arias": "m/s", "pga_g": "g", "pfa": "m/s2", "sa_t1": "m/s2", "overturn_time": "s", "rest_time": "s",
              "slide_time": "s", "lift_time": "s", "fall_time": "s",
-             "peak1_over_alpha": "1 (max |theta1| / alpha1)", "peak2_over_alpha": "1 (max |theta2| / alpha2)"}
+             "peak1_over_alpha": "1 (max |theta1| / alpha1)", "peak2_over_alpha": "1 (max |theta2| / alpha2)",
+             "max_abs_slip": "m", "residual_slip": "m", "block2_max_abs_slip": "m", "block2_residual_slip": "m",
+             "max_residual_slip": "m"}
+    for k in range(1, 9):  # a column's blocks
+        units.update({f"block{k}_peak_over_alpha": f"1 (max |theta{k}| / alpha{k})", f"block{k}_max_abs_slip": "m",
+                      f"block{k}_residual_slip": "m"})
     if grid.get("intensity"):
         from runners.engine.sweep import IM_UNITS
 
@@ -354,7 +359,7 @@ def export_sweep(factory: sessionmaker, sweep_id: int, fmt: str = "csv", out: st
     if sw.done == 0:
         raise ValueError(f"sweep {sweep_id} has no stored points yet: run them with runners sweep {sweep_id}")
     main = Path(out) if out is not None else Path(f"sweep-{sweep_id}{FORMATS[fmt]}")
-    columns = sweep_columns(sw)
+    columns = sweep_columns(sw, params)
     units = {c: sweep_units(sw.grid).get(c, "") for c in columns}
     meta = {"sweep": sweep_id, "grid": grid_text(sw.grid), "axes": sw.grid["axes"], "total": sw.total,
             "stored": sw.done, "status": sw.status, "stop_time": sw.grid["stop_time"], "units": units,

@@ -89,7 +89,9 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
 
 ROCKING_SLIDING = "rocking-sliding"  # the model's name in summaries and stored runs (one block)
 ROCKING_SLIDING_STACK = "rocking-sliding stack"  # the same for a stack (nBlocks = 2, contact.model = 1)
-SLIDING_MODELS = (ROCKING_SLIDING, ROCKING_SLIDING_STACK)
+ROCKING_SLIDING_COLUMN = "rocking-sliding column"  # a column (nBlocks 3 to 8, contact.model = 1)
+RIGID_COLUMN = "column"  # a column in rigid rocking (contact.model = 0: the engine's contacts never slip)
+SLIDING_MODELS = (ROCKING_SLIDING, ROCKING_SLIDING_STACK, ROCKING_SLIDING_COLUMN)
 
 # where each contact is, in a reason's words: (the contact, what slides there)
 CONTACT_WORDS = {"ground": ("on the ground", "block 1 slides on the ground"),
@@ -100,7 +102,8 @@ CONTACT_WORDS = {"ground": ("on the ground", "block 1 slides on the ground"),
 def sliding_model(p: dict[str, Any]) -> str:
     """The name of the rocking-sliding model of a scene of merged parameters `p`: one block's or
     the stack's."""
-    return ROCKING_SLIDING_STACK if int(p.get("nBlocks", 1)) == 2 else ROCKING_SLIDING
+    n = int(p.get("nBlocks", 1))
+    return ROCKING_SLIDING_COLUMN if n >= 3 else ROCKING_SLIDING_STACK if n == 2 else ROCKING_SLIDING
 
 
 def sliding_contact(s: dict[str, Any], p: dict[str, Any]) -> str | None:
@@ -295,6 +298,14 @@ def answer(fm, scene: Scene, method: str = "fmu", accuracy: float = 1e-2, output
     if int(merged.get("support.kind", 0)) != 0 and method not in ("fmu", "auto"):
         raise ArgumentError(f"method {method} solves a block on the ground; the scene's [building] or [platform] "
                             "runs inside the FMU (method fmu, or auto)")
+    if int(merged.get("nBlocks", 1)) >= 3 and method not in ("fmu", "auto"):
+        raise ArgumentError(f"method {method} solves one block or two; a column of {int(merged['nBlocks'])} blocks runs "
+                            "in the FMU's contact engine (method fmu, or auto)")
+    if int(merged.get("nBlocks", 1)) >= 3:  # a column: the model the scene describes (auto has no lesser one)
+        model = sliding_model(merged) if int(merged.get("contact.model", 0)) == 1 else RIGID_COLUMN
+        why = ("the model the scene describes (--method fmu)" if method == "fmu" else
+               f"a column of {int(merged['nBlocks'])} blocks: the contact engine, the scene's own contact model")
+        return run_model(fm, scene, model, why, merged, outputs)
     if method in PYTHON_METHODS:
         return _python_answer(fm, scene, merged, method, h, rtol)
     if method == "auto":  # auto tries rigid rocking first, as for every scene

@@ -119,14 +119,46 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
                 K2[m] = K
         shapes.append(pts2)
         pivot_points.append(K2)
+    for k in range(2, int(p.get("nBlocks", 1)) + 1) if int(p.get("nBlocks", 1)) >= 3 else ():
+        pts, K = _stacked_outline(time, out, p, k, shapes[-1])
+        shapes.append(pts)
+        pivot_points.append(K)
     return shapes, pivot_points
 
 
-def pivots(out: dict[str, np.ndarray], two: bool) -> dict[str, np.ndarray]:
+def _stacked_outline(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any], k: int,
+                     below: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Block `k` of a column (outline (n, 5, 2) and pivot (n, 2), m) on the block below, whose outline
+    is `below`: its pivot on the top of the block below at s c + ``blockK.slip`` from that top's
+    centre, along it (c = min(b_{K-1}, b_K), s = +1 when it turns clockwise relative to the block
+    below, -1 otherwise, its slip 0 when `out` has none), its outline rotated by its absolute theta."""
+    b, h = p[f"block{k}.halfWidth"], p[f"block{k}.halfHeight"]
+    c = min(p[f"block{k - 1}.halfWidth"], b)
+    th, th_below = np.asarray(out[f"block{k}.theta"], float), np.asarray(out[f"block{k - 1}.theta"], float)
+    slip = np.asarray(out.get(f"block{k}.slip", np.zeros(len(time))), float)
+    side = np.where(th - th_below >= 0, 1.0, -1.0)
+    top_left, top_right = below[:, 3, :], below[:, 2, :]  # the outline's corners: bottom-left, -right, top-right, -left
+    centre = 0.5 * (top_left + top_right)
+    along = top_right - top_left
+    along = along / np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-300)
+    K = centre + (side * c + slip)[:, None] * along
+    rect = np.array([[-b, 0], [b, 0], [b, 2 * h], [-b, 2 * h], [-b, 0]])
+    pts = np.empty((len(time), 5, 2))
+    for sd in (1.0, -1.0):
+        m = side == sd
+        if m.any():
+            pts[m] = K[m, None, :] + _rot(th[m], rect - np.array([sd * c, 0.0]))
+    return pts, K
+
+
+def pivots(out: dict[str, np.ndarray], two: bool | int) -> dict[str, np.ndarray]:
+    """Each block's pivot side (+1 right, -1 left, 0 flat) relative to what it stands on; `two`:
+    True for two blocks, or the number of blocks."""
+    n = int(two) + 1 if isinstance(two, bool) else int(two)
     th1 = out["block1.theta"]
     piv = {"block1": np.sign(th1)}
-    if two:
-        piv["block2"] = np.sign(out["block2.theta"] - th1)
+    for k in range(2, n + 1):
+        piv[f"block{k}"] = np.sign(np.asarray(out[f"block{k}.theta"]) - np.asarray(out[f"block{k - 1}.theta"]))
     return piv
 
 
@@ -190,14 +222,15 @@ def axis_range(*series: np.ndarray) -> tuple[float, float]:
     return (-10.0 ** (k + 1), 10.0 ** (k + 1))  # not reached
 
 
-def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float, float], record: bool = False,
+def _blueprint(two: bool | int, measured: list[str], bounds: tuple[float, float, float, float], record: bool = False,
                ranges: dict[str, tuple[float, float]] | None = None, sliding: bool = False):
     """Scene on the left (over the record's text, if any); angles, velocities and excitation on the
     right, each plot with its y range (`ranges`: theta, omega, ground -> (low, high), axis_range);
     the run playing in a loop."""
     import rerun.blueprint as rrb
 
-    blocks = ["block1", "block2"] if two else ["block1"]
+    n = int(two) + 1 if isinstance(two, bool) else int(two)
+    blocks = [f"block{k}" for k in range(1, n + 1)]
     ranges = ranges or {}
 
     def y_axis(key: str) -> "rrb.ScalarAxis | None":
@@ -224,7 +257,8 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
                                    axis_y=y_axis("demand")),
                 *([rrb.TimeSeriesView(name="slip and gap (m), slip rate (m/s)",
                                       contents=["/block1/slip", "/block1/slip_rate", "/block1/gap", "/block2/slip",
-                                                "/block2/slip_rate"], axis_y=y_axis("slip"))]
+                                                "/block2/slip_rate", *[f"/{b}/slip" for b in blocks[2:]]],
+                                      axis_y=y_axis("slip"))]
                   if sliding else []),
             ),
             column_shares=[2, 3],
@@ -235,7 +269,9 @@ def _blueprint(two: bool, measured: list[str], bounds: tuple[float, float, float
     )
 
 
-COLOURS = {"block1": (70, 110, 200), "block2": (200, 90, 70), "ground/ah": (60, 60, 60),
+COLOURS = {"block1": (70, 110, 200), "block2": (200, 90, 70), "block3": (60, 160, 90), "block4": (150, 90, 180),
+           "block5": (200, 150, 40), "block6": (40, 160, 170), "block7": (170, 80, 120), "block8": (110, 110, 110),
+           "ground/ah": (60, 60, 60),
            "ground/av": (150, 150, 150), "record": (220, 150, 40), "energy": (120, 80, 160),
            "demand": (40, 150, 90), "mu": (200, 40, 40)}
 
@@ -270,6 +306,9 @@ SERIES = {"/block1/theta": "block1.theta", "/block1/omega": "block1.omega", "/bl
           "/block1/slip": "block1.slip", "/block1/slip_rate": "block1.slipRate", "/block1/mode": "block1.mode",
           "/block1/gap": "block1.gap",
           "/block2/slip": "block2.slip", "/block2/slip_rate": "block2.slipRate", "/block2/mode": "block2.mode"}
+# blocks 3 to 8 of a column: angle, velocity, slip on the block below, mode
+SERIES.update({f"/block{k}/{var}": f"block{k}.{name}" for k in range(3, 9)
+               for var, name in (("theta", "theta"), ("omega", "omega"), ("slip", "slip"), ("mode", "mode"))})
 SHADES = {"/block1/slip_rate": 0.6, "/block1/mode": 0.4, "/block1/gap": 0.8, "/block2/slip_rate": 0.6, "/block2/mode": 0.4}  # lighter than the block's colour, in the same plot
 
 
@@ -306,7 +345,8 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     """
     import rerun as rr
 
-    two = int(p.get("nBlocks", 1)) == 2
+    n_blocks = int(p.get("nBlocks", 1))
+    two = n_blocks == 2
     time = np.asarray(time, float)
     measured = measured or {}
     unknown = sorted(set(measured) - {"block1.theta", "block1.omega", "block2.theta", "block2.omega"})
@@ -327,10 +367,13 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     slid = float(np.abs(np.asarray(out["block1.slip"], float)).max(initial=0.0)) if "block1.slip" in out else 0.0
     width = 4 * max(b1, p.get("block2.halfWidth", b1) if two else b1) + slid
     height = 2 * p["block1.halfHeight"] + (2 * p["block2.halfHeight"] if two else 0.0)
+    if n_blocks >= 3:  # a column: its whole height, and its lean (a column sways more than it slides)
+        height = sum(2 * p[f"block{k}.halfHeight"] for k in range(1, n_blocks + 1))
+        width = max(width, 0.6 * height)
     reach = max(np.abs(xg).max(initial=0.0), np.abs(yg).max(initial=0.0))
     bounds = (-width - reach, width + reach, -1.15 * height - reach, 0.25 * height + reach)  # y down
 
-    blocks = ["block1", "block2"] if two else ["block1"]
+    blocks = [f"block{k}" for k in range(1, n_blocks + 1)]
     ranges = {var: axis_range(*[np.asarray(out[f"{b}.{var}"], float) for b in blocks if f"{b}.{var}" in out],
                               *[np.asarray(v[1], float) for k, v in measured.items() if k.endswith(f".{var}")])
               for var in ("theta", "omega")}
@@ -342,10 +385,11 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     sliding = "block1.slip" in out
     if sliding:
         ranges["slip"] = axis_range(*[np.asarray(out[k], float) for k in ("block1.slip", "block1.slipRate", "block1.gap",
-                                                                          "block2.slip", "block2.slipRate")
+                                                                          "block2.slip", "block2.slipRate",
+                                                                          *[f"{b}.slip" for b in blocks[2:]])
                                       if k in out])
     path = Path(path)
-    with _stream(path, _blueprint(two, measured_paths, bounds, record is not None, ranges, sliding)) as rec:
+    with _stream(path, _blueprint(n_blocks, measured_paths, bounds, record is not None, ranges, sliding)) as rec:
         rec.send_property("run", rr.AnyValues(name=name))
         if record is not None:
             from runners.engine.record_files import read_record_file
@@ -363,11 +407,11 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
                                      columns=rr.Scalars.columns(scalars=scale * values))
         idx = [rr.TimeColumn("sim_time", duration=_ns(time))]
         for entity, var in SERIES.items():
-            if var in out and (two or not entity.startswith("/block2")):
+            if var in out and int(entity.split("/")[1][5:] if entity.startswith("/block") else 1) <= n_blocks:
                 rec.log(entity, rr.SeriesLines(colors=[_colour(entity, SHADES.get(entity, 1.0))],
                                                names=[entity.strip("/")]), static=True)
                 rec.send_columns(entity, indexes=idx, columns=rr.Scalars.columns(scalars=np.asarray(out[var], float)))
-        for block, piv in pivots(out, two).items():
+        for block, piv in pivots(out, n_blocks).items():
             rec.send_columns(f"/{block}/pivot", indexes=idx, columns=rr.Scalars.columns(scalars=piv))
         for contact, (values, mu) in demand.items():
             rec.log(f"/contact/{contact}/demand",
@@ -394,7 +438,7 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
         rec.send_columns("/scene/ground", indexes=frame_idx,
                          columns=rr.LineStrips2D.columns(strips=_to_view(hatch.reshape(-1, 2, 2)).reshape(-1, 2, 2))
                          .partition([hatch.shape[1]] * len(frames)))
-        for (block, piv), where in zip(pivots(at_frames, two).items(), pivot_points):
+        for (block, piv), where in zip(pivots(at_frames, n_blocks).items(), pivot_points):
             rec.log(f"/scene/pivot/{block}", rr.Points2D.from_fields(colors=[(170, 40, 170)]), static=True)
             rec.send_columns(f"/scene/pivot/{block}", indexes=frame_idx,
                              columns=rr.Points2D.columns(positions=_to_view(where + offset[:, 0, :]),

@@ -53,6 +53,44 @@ DISPLAY = {"pga": ("PGA", "g", G0), "pgv": ("PGV", "m/s", 1.0), "pgd": ("PGD", "
 
 
 @dataclass
+class ColumnRuns:
+    """Each block's outcome in the runs of a column (3 to 8 blocks; run_blocks), arrays of shape
+    (runs, blocks), block K in column K - 1: peak |theta| / its alpha (NaN once it fell), peak and
+    residual slip on what it stands on (m; residual signed, +x), gone (it overturned, fell off or
+    rode a block that did), fell off (it left the top of the block below)."""
+
+    peak: np.ndarray
+    slip: np.ndarray
+    residual: np.ndarray
+    gone: np.ndarray
+    fell_off: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.peak.shape[1]
+
+    @property
+    def collapsed(self) -> np.ndarray:
+        return self.gone.any(axis=1)
+
+    @classmethod
+    def of(cls, runs: list, n: int) -> "ColumnRuns":
+        """From the runs' stored blocks (Run.blocks); a block a run lacks is NaN, not gone."""
+        shape = (len(runs), n)
+        peak, slip, res = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
+        gone, fell = np.zeros(shape, bool), np.zeros(shape, bool)
+        for i, r in enumerate(runs):
+            for b in r.blocks:
+                if 1 <= b.block <= n:
+                    k = b.block - 1
+                    peak[i, k] = np.nan if b.peak_over_alpha is None else b.peak_over_alpha
+                    slip[i, k] = np.nan if b.max_abs_slip is None else b.max_abs_slip
+                    res[i, k] = np.nan if b.residual_slip is None else b.residual_slip
+                    gone[i, k], fell[i, k] = bool(b.overturned or b.fell_off), bool(b.fell_off)
+        return cls(peak, slip, res, gone, fell)
+
+
+@dataclass
 class Outcomes:
     """The runs of a record sweep, in the display unit of `measure`."""
 
@@ -92,6 +130,8 @@ class Outcomes:
     # s per run, NaN for none: the last time every block was within its stability limit before a
     # fall (the FMU's fallTime), None where not stored
     fall_t: np.ndarray | None = None
+    # a column's runs (3 to 8 blocks): each block's outcome; None for one block and two
+    column: ColumnRuns | None = None
 
     def __post_init__(self) -> None:
         if self.over1 is None:
@@ -144,7 +184,7 @@ class Outcomes:
         """Whether a run whose model broke ended there: a rocking–sliding stack's run stops at a
         lift-off (flight), so what it reached by its end it reached before the model broke; the
         other models hold the contacts and run on past the break."""
-        return self.two and self.sliding
+        return (self.two or self.column is not None) and self.sliding
 
     @property
     def sliding(self) -> bool:
@@ -200,6 +240,13 @@ class Outcomes:
         if self.slip2 is not None:
             columns.update(block2_max_abs_slip=np.asarray(self.slip2, float), block2_motion=list(self.motion2),
                            block2_fell_off=np.asarray(self.fell_off, bool))
+        if self.column is not None:  # a column: each block's, and the column's
+            c = self.column
+            columns["collapsed"] = c.collapsed
+            for k in range(c.n):
+                columns.update({f"block{k + 1}_peak_over_alpha": c.peak[:, k], f"block{k + 1}_max_abs_slip": c.slip[:, k],
+                                f"block{k + 1}_residual_slip": c.residual[:, k], f"block{k + 1}_gone": c.gone[:, k],
+                                f"block{k + 1}_fell_off": c.fell_off[:, k]})
         if self.broke is not None:
             columns["rigid_rocking_held"] = ~np.asarray(self.broke, bool)
         return pd.DataFrame(columns)
@@ -231,6 +278,11 @@ class Outcomes:
         def size(i: int) -> str:
             return f"{2 * p[f'block{i}.halfWidth']:g} m wide, {2 * p[f'block{i}.halfHeight']:g} m high"
 
+        if self.column is not None:
+            n = self.column.n
+            same = all(size(k) == size(1) for k in range(2, n + 1))
+            return (f"a column of {n} blocks, each {size(1)}" if same else
+                    f"a column of {n} blocks: " + "; ".join(f"block {k} {size(k)}" for k in range(1, n + 1)))
         return f"two stacked blocks: lower {size(1)}, upper {size(2)}" if self.two else f"one block {size(1)}"
 
     def records_text(self) -> str:
@@ -257,6 +309,10 @@ class Outcomes:
             return None
         from runners.engine.sweep import scales
 
+        if self.column is not None:  # the column's (runners.engine.scene.column_uplift), and its contacts' mu g
+            from runners.engine.scene import motion_threshold
+
+            return motion_threshold(self.params)[0] / G0
         if self.sliding and self.two:  # a stack at rest moves when it lifts or either contact slides
             return min(scales(self.params)[1], self.params["g"] * self._start_ratio()) / G0
         if self.sliding:  # rocking–sliding: a block at rest moves (slides or rocks) beyond min(mu, tan alpha) g
@@ -279,6 +335,11 @@ class Outcomes:
         return self._uplift_words(thr).replace("PGA", "PFA") if self.measure == "pfa" else self._uplift_words(thr)
 
     def _uplift_words(self, thr: float) -> str:
+        if self.column is not None:
+            return (f"no record below PGA {thr:.4g} g can move the column from rest: its threshold of motion (the "
+                    f"least uplift of the blocks above any joint as one body{', or mu g of its contacts' if self.sliding else ''}) "
+                    f"= {thr * G0:.4g} m/s2 with the model's g = {self.params['g']:g} m/s2, over g0 = {G0} m/s2, the g "
+                    "of every PGA here")
         if self.sliding and self.two:
             return (f"no record below PGA {thr:.4g} g can move the stack from rest: the least of its uplift "
                     f"acceleration and mu g of its two contacts (muGround {float(self.params['contact.muGround']):g}, "
@@ -398,7 +459,8 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
     base = {**sw.grid["defaults"], **scene.parameters, **fixed}
     out = []
     for combo in combos:
-        two = int(round(float({**base, **combo}.get("nBlocks", scene.n_blocks)))) == 2  # (an nBlocks axis)
+        n_blocks = int(round(float({**base, **combo}.get("nBlocks", scene.n_blocks))))  # (an nBlocks axis)
+        two = n_blocks == 2
         def here(r) -> bool:
             return all(_same(float(r.point[k]), v) for k, v in combo.items())
 
@@ -432,6 +494,12 @@ def outcome_sets(factory, sweep_id: str | int, measure: str = "pga",
                 oc.slid_blocks = tuple(np.array([(getattr(r.summary, f"{pre}slide_duration") or 0.0) > 0
                                                  or (getattr(r.summary, f"{pre}max_abs_slip") or 0.0) > 0
                                                  for r in mine]) for pre in ("", "block2_"))
+        if n_blocks >= 3:  # a column: each block's outcome (run_blocks); overturned is its collapse
+            oc.column = ColumnRuns.of(mine, n_blocks)
+            oc.overturned = oc.column.collapsed
+            oc.over1 = oc.column.gone[:, 0]
+            if oc.slip is not None:
+                oc.slip = np.nanmax(np.where(oc.column.gone, np.nan, oc.column.slip), axis=1, initial=0.0)
         if len(mine) < expected:
             oc.notes.append(f"{expected - len(done)} of {expected} points not run yet, {oc.failed} failed")
         out.append(oc)
@@ -475,7 +543,9 @@ DS_FORMS = ("[block1:|block2:|either:]overturn, [block1:|block2:|either:]rot>Xal
             "beyond X), slides (a contact needed more friction than its mu; rocking–sliding: the block slid), "
             "[block1:|block2:|either:]slide>D (peak slip beyond D, in m or with cm/mm, e.g. slide>5cm; "
             "rocking–sliding sweeps; block 2's along block 1's top), or block2:falloff (block 2 fell off block 1; "
-            "rocking–sliding stacks)")
+            "rocking–sliding stacks); of a column (3 to 8 blocks) also blockK: and any: prefixes, collapse (any "
+            "block overturned or fell off), [blockK:|any:]residual>D (residual dislocation on the block below "
+            "beyond D, e.g. residual>5mm) and [blockK:|any:]falloff")
 SLIP_UNITS = {"": 1.0, "m": 1.0, "cm": 0.01, "mm": 0.001}
 BARE_SLIP_MAX = 1.0  # m: slide>D without a unit is read in m below this; from it on the unit must be given
 
@@ -489,7 +559,7 @@ class DamageState:
     as beyond), or block 2 falling off block 1 (a rocking–sliding stack). `block` is "1", "2" or
     "either" (of a stack; a single block is block 1)."""
 
-    kind: str  # "overturn", "rot", "slides", "slip" or "falloff"
+    kind: str  # "overturn", "rot", "slides", "slip", "residual" (columns) or "falloff"
     block: str = "either"
     limit: float | None = None  # rot: the fraction of alpha; slip: the distance D in m
 
@@ -499,10 +569,14 @@ class DamageState:
         prefix = "" if self.block == "either" else f"block{self.block}:"
         if self.kind == "slip":
             return f"{prefix}slide>{self.limit:g}m"
+        if self.kind == "residual":
+            return f"{prefix}residual>{self.limit:g}m"
         return prefix + (f"rot>{self.limit:g}alpha" if self.kind == "rot" else self.kind)
 
-    def label(self, two: bool, sliding: bool = False) -> str:
-        """What the state means, in words (`sliding`: of rocking–sliding runs)."""
+    def label(self, two: bool, sliding: bool = False, column: bool = False) -> str:
+        """What the state means, in words (`sliding`: of rocking–sliding runs; `column`: of a column's)."""
+        if column:
+            return self._column_label()
         who = {"1": "block 1", "2": "block 2", "either": "either block" if two else "the block"}[self.block]
         if self.kind == "overturn":
             return f"{who} overturned"
@@ -520,8 +594,42 @@ class DamageState:
             return "either block slid" if two else "the block slid"
         return "a contact slid (friction demand above mu)"
 
+    def _column_label(self) -> str:
+        k = self.block
+        who = "any block" if k == "either" else f"block {k}"
+        on = "" if k == "either" else " on the ground" if k == "1" else f" on block {int(k) - 1}"
+        if self.kind == "overturn":
+            return ("collapse: any block overturned or fell off" if k == "either" else
+                    f"block {k} gone (overturned, fell off, or rode a block that did)")
+        if self.kind == "falloff":
+            return f"{who} fell off the block below" if k == "either" else f"block {k} fell off block {int(k) - 1}"
+        if self.kind == "rot":
+            return f"{who}: peak |theta| / alpha > {self.limit:g} (or collapse)" if k == "either" else \
+                f"{who}: peak |theta| / alpha > {self.limit:g} (or gone)"
+        if self.kind == "slip":
+            return f"{who}: peak |slip|{on} > {1e3 * self.limit:g} mm (or {'collapse' if k == 'either' else 'gone'})"
+        if self.kind == "residual":
+            return (f"{who}: residual dislocation{on or ' on the block below (or the ground)'} > {1e3 * self.limit:g} mm "
+                    f"(or {'collapse' if k == 'either' else 'gone'})")
+        return f"{who} slid"
+
+    def _column_reached(self, c: ColumnRuns) -> np.ndarray:
+        cols = list(range(c.n)) if self.block == "either" else [int(self.block) - 1]
+        gone = c.gone[:, cols]
+        if self.kind == "overturn":
+            return gone.any(axis=1)
+        if self.kind == "falloff":
+            return c.fell_off[:, cols].any(axis=1)
+        # a block gone (or, for any block, a collapse) has moved beyond any demand
+        beyond = c.collapsed if self.block == "either" else gone.any(axis=1)
+        value = {"rot": c.peak, "slip": c.slip, "residual": np.abs(c.residual)}[self.kind][:, cols]
+        with np.errstate(invalid="ignore"):
+            return beyond | (np.nan_to_num(value, nan=0.0) > self.limit).any(axis=1)
+
     def reached(self, oc: Outcomes) -> np.ndarray:
         """Bool per run of `oc`: whether the run reached this state."""
+        if oc.column is not None:
+            return self._column_reached(oc.column)
         blocks = {"1": [1], "2": [2], "either": [1, 2] if oc.two else [1]}[self.block]
         if self.kind == "slides":
             return np.asarray(oc.slid if self.block == "either" else oc.slid_blocks[int(self.block) - 1], bool)
@@ -571,8 +679,13 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
     text = re.sub(r"\s+", "", spec.lower())
     block, _, state = text.rpartition(":")
     blocks = {"": "either", "either": "either", "block1": "1", "block2": "2"}
+    if oc.column is not None:
+        return _column_state(spec, block, state, oc)
     if block not in blocks:
         raise StudyError(f"damage state {spec!r}: {block!r} is not a block (block1, block2 or either)")
+    if state == "collapse" or state.startswith("residual>") or block == "any":
+        raise StudyError(f"damage state {spec!r}: collapse, residual>D and the any: prefix are of columns (3 to 8 "
+                         "blocks); these runs have " + ("two blocks" if oc.two else "one block") + f": {DS_FORMS}")
     which = blocks[block]
     if which == "2" and not oc.two:
         raise StudyError(f"damage state {spec!r}: {one_block(oc)}")
@@ -601,6 +714,51 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
         return _slip_state(spec, state.partition(">")[2], which, oc)
     if state.replace("-", "").replace("_", "") in ("falloff", "falloffs", "fallsoff", "felloff"):
         return _falloff_state(spec, which, oc)
+    raise StudyError(f"unknown damage state {spec!r}: expected {DS_FORMS}")
+
+
+def _column_state(spec: str, block: str, state: str, oc: Outcomes) -> DamageState:
+    """A damage state of a column's runs (oc.column): [blockK:|any:] overturn, collapse, rot>Xalpha,
+    slide>D, residual>D, falloff; StudyError in one line otherwise."""
+    import re
+
+    n = oc.column.n
+    m = re.fullmatch(r"block(\d+)", block)
+    if block in ("", "any", "either", "column"):
+        which = "either"
+    elif m and 1 <= int(m.group(1)) <= n:
+        which = m.group(1)
+    else:
+        raise StudyError(f"damage state {spec!r}: {block!r} is not a block of this column (block1 to block{n}, or any)")
+    if state in ("collapse", "collapsed"):
+        if which != "either":
+            raise StudyError(f"damage state {spec!r}: collapse is the column's (any block); of one block: "
+                             f"block{which}:overturn")
+        return DamageState("overturn", "either")
+    if state in ("overturn", "overturned"):
+        return DamageState("overturn", which)
+    if state.replace("-", "").replace("_", "") in ("falloff", "falloffs", "fallsoff", "felloff"):
+        if which == "1":
+            raise StudyError(f"damage state {spec!r}: block 1 stands on the ground and cannot fall off; "
+                             f"block2:falloff to block{n}:falloff, or any:falloff")
+        return DamageState("falloff", which)
+    r = re.fullmatch(r"rot>([0-9.eE+-]+)\*?alpha", state)
+    if r:
+        try:
+            limit = float(r.group(1))
+        except ValueError:
+            limit = math.nan
+        if not (math.isfinite(limit) and limit > 0):
+            raise StudyError(f"damage state {spec!r}: X in rot>Xalpha must be a number above 0, e.g. rot>0.5alpha")
+        return DamageState("rot", which, limit)
+    for prefixes, kind in ((("slide>", "slip>", "slides>", "sliding>"), "slip"),
+                           (("residual>", "dislocation>", "residualslip>"), "residual")):
+        if state.startswith(prefixes):
+            d = _slip_state(spec, state.partition(">")[2], "either", oc).limit
+            return DamageState(kind, which, d)
+    if state in ("slides", "slide"):
+        raise StudyError(f"damage state {spec!r}: a column's runs store each block's peak slip, not whether it "
+                         "started to slide: slide>D (e.g. any:slide>1mm)")
     raise StudyError(f"unknown damage state {spec!r}: expected {DS_FORMS}")
 
 
@@ -724,7 +882,7 @@ class Curve:
 
     @property
     def label(self) -> str:
-        return self.state.label(self.outcomes.two, self.outcomes.sliding)
+        return self.state.label(self.outcomes.two, self.outcomes.sliding, self.outcomes.column is not None)
 
     @property
     def n_unanswered(self) -> int:
@@ -975,6 +1133,21 @@ def check_block(block: int | str | None, sets: list[Outcomes]) -> int | None:
     """The block an IDA draws (1 or 2; None: each block), checked against the runs; StudyError in one line."""
     if block is None:
         return None
+    columns = [o for o in sets if o.column is not None]
+    if columns:  # a column: 1 to N, or any (the largest demand of any block; 0)
+        n = min(o.column.n for o in columns)
+        text = str(block).strip().lower()
+        if text in ("any", "either"):
+            return 0
+        try:
+            b = int(text.removeprefix("block"))
+        except ValueError:
+            b = -1
+        if not 1 <= b <= n:
+            raise StudyError(f"--block {block!r}: expected 1 to {n} (a block of the column, 1 on the ground) or any")
+        return b
+    if str(block).strip().lower() == "any":
+        return None
     try:
         b = int(str(block).strip().removeprefix("block"))
     except ValueError:
@@ -996,11 +1169,36 @@ def ida_panels(oc: Outcomes, demand: str = "rotation", block: int | None = None)
     block is gone: overturned, or for block 2 of a stack overturned or fallen off block 1, bool per
     run where the model answered the demand: its assumptions held until the outcome was decided,
     or, in a rocking–sliding stack's run, which ends where they broke, the block was gone before.
-    Where it did not, the demand is the peak up to the break: a lower bound)."""
+    Where it did not, the demand is the peak up to the break: a lower bound). A column's: block 0
+    is any block (the largest demand of its standing blocks, gone at a collapse), the default; 1 to
+    N each block's."""
+    if oc.column is not None:
+        return _column_panels(oc, demand, 0 if block is None else block)
     panels = [(1, np.asarray(oc.peak1 if demand == "rotation" else oc.slip, float), np.asarray(oc.over1, bool))]
     if oc.two and (demand == "rotation" or oc.slip2 is not None):
         panels.append((2, np.asarray(oc.peak2 if demand == "rotation" else oc.slip2, float), oc.gone2))
     return [(i, peak, gone, oc.answered(gone)) for i, peak, gone in panels if block is None or i == block]
+
+
+def _column_panels(oc: Outcomes, demand: str, block: int) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    c = oc.column
+    value = c.peak if demand == "rotation" else c.slip
+    if block == 0:
+        gone = c.collapsed
+        peak = np.nanmax(np.where(c.gone, np.nan, value), axis=1, initial=0.0)
+    else:
+        gone = c.gone[:, block - 1]
+        peak = np.nan_to_num(value[:, block - 1], nan=0.0)
+    return [(block, peak, gone, oc.answered(gone))]
+
+
+def with_block(states: list[str] | None, block: str | int | None) -> list[str] | None:
+    """Damage states `states` (None: the default, overturn) for one block (runners fragility --block K
+    or any): each state without a block prefix gets ``blockK:`` (any: none, which is any block)."""
+    if block is None or str(block).strip().lower() in ("any", "either"):
+        return states
+    text = str(block).strip().lower().removeprefix("block")
+    return [s if ":" in s else f"block{text}:{s}" for s in (states or ["overturn"])]
 
 
 def ida_median(oc: Outcomes, peak: np.ndarray, gone: np.ndarray, answered: np.ndarray,

@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 from runners.engine import supports
+from runners.engine.column import column_outputs, format_table, is_column, summary_part
 from runners.engine.fmu import RunResult
 from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene, uplift_threshold
 
@@ -93,10 +94,11 @@ def sliding_outputs(p: dict[str, Any]) -> tuple[str, ...]:
     if int(p.get("support.kind", 0)):
         two = TWO_WAY_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else tuple(o for o in TWO_WAY_OUTPUTS if "block2" not in o)
         support = SUPPORT_OUTPUTS + (two if int(p.get("support.coupling", 0)) == 1 else ())
+    column = column_outputs(p)  # a column's blocks (3 or more), whatever its contact model
     if not rocking_sliding(p):
-        return support
+        return tuple(dict.fromkeys(column + support))
     own = STACK_SLIDING_OUTPUTS if int(p.get("nBlocks", 1)) == 2 else SLIDING_OUTPUTS
-    return tuple(dict.fromkeys(own + support))
+    return tuple(dict.fromkeys(own + column + support))
 
 
 def two_way_balance(out: dict[str, Any], p: dict[str, Any]) -> float:
@@ -145,7 +147,7 @@ def block_sizes(p: dict[str, Any]) -> list[dict[str, Any]]:
     """Each block's full width and height (m) and mass (kg) from parameters `p` (defaults
     included; the FMU's are half sizes)."""
     return [{"block": i, "width_m": 2 * float(p[f"block{i}.halfWidth"]), "height_m": 2 * float(p[f"block{i}.halfHeight"]),
-             "mass_kg": float(p[f"block{i}.mass"])} for i in ((1, 2) if int(p.get("nBlocks", 1)) == 2 else (1,))]
+             "mass_kg": float(p[f"block{i}.mass"])} for i in range(1, int(p.get("nBlocks", 1)) + 1)]
 
 
 RICKER_HALF_WINDOW = 3.0  # a Ricker pulse lasts 2 x 3 / frequency s (model/c/ground.c)
@@ -188,7 +190,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
     law = {0: "momentum" if two else "housner", 1: "modified", 2: "constant"}[int(p["restitution.law"])]
     summary: dict[str, Any] = {
         "scene": scene.name,
-        "blocks": 2 if two else 1,
+        "blocks": int(p.get("nBlocks", 1)),
         "sizes": block_sizes(p),
         "alpha_rad": alpha,
         "p_rad_per_s": math.sqrt(3 * g / (4 * R)),
@@ -246,6 +248,16 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         summary["per_block"] = block_outcomes({name: values[-1] for name, values in out.items()}, p, sliding)
         if sliding and summary["per_block"][1]["fell_off"] and not overturned:
             summary["final_state"] = "block 2 fell off"
+    if is_column(p) and all(f"block{k}.maxAbsSlip" in out for k in range(1, summary["blocks"] + 1)):
+        summary.update(summary_part({name: values[-1] for name, values in out.items()}, p, result.events))
+        summary["overturned_blocks"] = [r["block"] for r in summary["per_block"] if r["overturned"] or r["fell_off"]]
+        if "contact_model" in summary:
+            summary["mu_interface"] = float(p["contact.muInterface"])
+        summary["uplift_threshold_m_s2"], summary["first_pattern"] = uplift_threshold(p)
+        if summary["column"]["collapsed"]:
+            k = summary["column"]["lowest_fallen"]
+            summary["final_state"] = "collapsed"
+            summary["collapse"] = f"block {k} " + ("fell off" if summary["per_block"][k - 1]["fell_off"] else "overturned")
     ended = run_end(summary, excitation_end(p) if int(p["excitation.kind"]) else 0.0)  # (a record's end: run_summary)
     if ended is not None:
         summary["run_end"] = ended
@@ -515,6 +527,8 @@ def violations(a: dict[str, Any]) -> str:
 
 def format_summary(s: dict[str, Any]) -> str:
     """A readable multi-line summary."""
+    if "column" in s:
+        return _format_column(s)
     if s["blocks"] == 2:
         block = (f"two blocks       uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2, "
                  f"then {s['first_pattern']}")
@@ -586,11 +600,34 @@ def format_summary(s: dict[str, Any]) -> str:
     return "\n".join(lines + _assumption_lines(s) + _notes(s))
 
 
+def _format_column(s: dict[str, Any]) -> str:
+    """A column's summary (3 blocks or more): the scene, the run, then its outcome and one row per block."""
+    lines = [
+        f"scene            {s['scene']}",
+        *size_lines(s),
+        *([f"model            {s['model']}: {s['model_reason']}"] if "model" in s else []),
+        f"column           {s['blocks']} blocks, block K on block K - 1; uplift at |a_h| > "
+        f"{s['uplift_threshold_m_s2']:.3f} m/s2, then {s['first_pattern']}"
+        + (f"; {mu_text(s)}" if "contact_model" in s else "; rigid rocking (contacts that never slip)"),
+        f"restitution      {s['restitution_law']}",
+        f"excitation       {s['excitation']}",
+        *([f"support          {s['support']}"] if "support" in s else []),
+        simulated_line(s),
+        *format_table(s),
+    ]
+    return "\n".join(lines + _assumption_lines(s) + _notes(s))
+
+
 def size_lines(s: dict[str, Any]) -> list[str]:
     """The summary's line of block sizes (full width x height in m, mass in kg), if it has them."""
     sizes = s.get("sizes")
     if not sizes:
         return []
+    if len(sizes) > 2 and all((b["width_m"], b["height_m"], b["mass_kg"]) == (sizes[0]["width_m"], sizes[0]["height_m"],
+                                                                             sizes[0]["mass_kg"]) for b in sizes):
+        b = sizes[0]
+        return [f"{'block sizes':<17}{len(sizes)} identical blocks {b['width_m']:g} m x {b['height_m']:g} m, "
+                f"{b['mass_kg']:g} kg (width x height, mass)"]
     text = "; ".join(("" if len(sizes) == 1 else f"block {b['block']} ")
                      + f"{b['width_m']:g} m x {b['height_m']:g} m, {b['mass_kg']:g} kg" for b in sizes)
     return [f"{'block size' if len(sizes) == 1 else 'block sizes':<17}{text} (width x height, mass)"]
@@ -617,6 +654,10 @@ def run_end(s: dict[str, Any], excitation_end: float | None) -> dict[str, Any] |
     (``run_ended``: a block overturned and lies on its side, block 2 fell off block 1, for which
     the model has no contact; the outputs keep their values after), or the motion ended at rest after the excitation ended (`excitation_end`, s;
     None while it goes on, 0 for none). None otherwise."""
+    column = s.get("column")
+    if column is not None and column["collapsed"] and column.get("collapse_time_s") is not None:
+        return {"t_s": column["collapse_time_s"], "why": f"{s['collapse']} (the column's run ends at a fall)",
+                "run_ended": True}
     if s.get("overturned") and s.get("overturn_time_s") is not None:
         fell = s.get("overturned_blocks") or [1]
         which = ("the block overturned" if s["blocks"] == 1 else "block 1 overturned, taking block 2 with it"
@@ -711,6 +752,16 @@ def _notes(s: dict[str, Any]) -> list[str]:
     return [f"note             {n}" for n in s.get("notes", ())]
 
 
+def block_rows(s: dict[str, Any]) -> list[dict[str, Any]] | None:
+    """The database's per-block rows (db.schema.RunBlock, without run_id) of a column's summary, None
+    for one or two blocks (their run_summaries columns hold them)."""
+    if "column" not in s:
+        return None
+    keys = ("block", "max_abs_theta", "peak_over_alpha", "max_abs_slip", "residual_slip", "overturned", "fell_off",
+            "final_mode")
+    return [{k: r[k] for k in keys} for r in s["per_block"]]
+
+
 def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
     """The database's run summary (db.schema.RunSummary) from a summary dict of any method."""
     from runners.engine.motion import first_of
@@ -749,7 +800,13 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
                        block2_slide_time=upper["slide_start_time_s"], block2_fell_off=upper["fell_off"],
                        block2_fell_off_time=upper["fell_off_time_s"],
                        slide_time=first_of(s["slide_start_time_s"], upper["slide_start_time_s"]))
-    if two:
+    if "column" in s:  # a column: block 2's peak, and the column's outcome (each block's: block_rows)
+        from runners.engine.column import summary_columns_rows
+
+        alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
+        row["peak2_over_alpha"] = s["per_block"][1]["max_abs_theta"] / alpha2
+        summary_columns_rows(row, s["column"], int(s["blocks"]))
+    elif two:
         alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
         row["peak2_over_alpha"] = s["max_abs_theta2_rad"] / alpha2
         blocks = s.get("overturned_blocks")

@@ -1074,7 +1074,9 @@ def run_sweep(factory, sweep_id: int, fmu_path: Path, workers: int | None = None
     stats = {"sweep": sweep_id, "total": plan.total, "already": plan.already, "ran": 0, "errors": 0,
              "recorded": 0, "skipped": 0, "fmu_seconds": 0.0, "db_seconds": 0.0, "db_cpu_seconds": 0.0,
              "python_seconds": 0.0, "workers": workers, "batch": lib is not None, "batch_unavailable": why}
-    constants = RunConstants(plan.scene_id, sweep_id, "two blocks" if plan.two else "one block", sha, version)
+    n_blocks = int(plan.base.get("nBlocks", 1))
+    constants = RunConstants(plan.scene_id, sweep_id, "column" if n_blocks >= 3 else "two blocks" if plan.two
+                             else "one block", sha, version)
     t_start = time.perf_counter()
     pending: list[Chunk] = []
     last_flush = [t_start]

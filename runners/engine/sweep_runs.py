@@ -50,7 +50,7 @@ def load(factory, sweep_id: str) -> tuple[Sweep, Scene, list[Run]]:
     sw, scene = sweep_and_scene(factory, sweep_id)
     with factory() as session:
         runs = session.scalars(select(Run).where(Run.sweep_id == sw.id)
-                               .options(selectinload(Run.summary))).all()  # one query, not one per run
+                               .options(selectinload(Run.summary), selectinload(Run.blocks))).all()  # one query, not one per run
         return sw, scene, list(runs)
 
 

@@ -21,7 +21,7 @@ from datetime import datetime, timezone
 
 from sqlalchemy import insert, update
 
-from db.schema import Excitation, Run, RunSeries, RunSummary, Sweep
+from db.schema import Excitation, Run, RunBlock, RunSeries, RunSummary, Sweep
 from db.series import pack as pack_series
 from runners.engine.sweep_worker import Chunk, Recorded
 
@@ -89,6 +89,19 @@ def _summary_table(chunk: Chunk, ids: list[int]) -> dict[str, list]:
     return cols if len(ok) == len(chunk) else {k: [v[i] for i in ok] for k, v in cols.items()}
 
 
+BLOCK_COLUMNS = [c.name for c in RunBlock.__table__.columns]
+
+
+def _block_table(chunk: Chunk, ids: list[int]) -> dict[str, list]:
+    """The run_blocks columns of a chunk's points of a column that ran (run_id first); {} if none."""
+    if not chunk.blocks:
+        return {}
+    rows = [{"run_id": i, **b} for i, blocks in zip(ids, chunk.blocks) for b in blocks]
+    if not rows:
+        return {}
+    return {k: [r[k] for r in rows] for k in BLOCK_COLUMNS}
+
+
 def _rows(cols: dict[str, list]) -> list[tuple]:
     return list(zip(*cols.values()))
 
@@ -125,6 +138,9 @@ def _store_core(session, c: RunConstants, chunks: list[Chunk], created: datetime
         summaries = _summary_table(chunk, ids)
         if summaries:
             session.execute(insert(RunSummary), [dict(zip(summaries, r)) for r in _rows(summaries)])
+        blocks = _block_table(chunk, ids)
+        if blocks:
+            session.execute(insert(RunBlock), [dict(zip(blocks, r)) for r in _rows(blocks)])
         _store_series(session, chunk, ids)
 
 
@@ -162,6 +178,9 @@ def _store_postgresql(session, c: RunConstants, chunks: list[Chunk], created: da
         summaries = _summary_table(chunk, run_ids)
         if summaries:
             copy("run_summaries", list(summaries), _rows(summaries))
+        blocks = _block_table(chunk, run_ids)
+        if blocks:
+            copy("run_blocks", list(blocks), _rows(blocks))
         _store_series(session, chunk, run_ids)
 
 
@@ -229,6 +248,9 @@ def _store_sqlite(session, c: RunConstants, chunks: list[Chunk], created: dateti
             summaries = _summary_table(chunk, ids)
             if summaries:
                 cur.executemany(*_insert(cur, "run_summaries", summaries, len(summaries["run_id"])))
+            blocks = _block_table(chunk, ids)
+            if blocks:
+                cur.executemany(*_insert(cur, "run_blocks", blocks, len(blocks["run_id"])))
             _store_series(session, chunk, ids)
     finally:
         cur.close()

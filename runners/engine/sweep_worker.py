@@ -23,6 +23,7 @@ import numpy as np
 
 from runners.engine import batch as batch_lib
 from runners.engine.fmu import RockingFMU, with_scene_defaults
+from runners.engine.column import MIN_COLUMN, final_outputs, sweep_rows
 from runners.engine.grid import Grid, Points
 from runners.engine.motion import ROCKING_SLIDING, SLIP_OUTPUTS, STACK_SLIP_OUTPUTS, slip_summary, stack_slip_summary
 
@@ -74,12 +75,14 @@ class Chunk:
     simulation), status ("ok" or "error"), error_message, recording (path or None);
     summaries: the db.schema.RunSummary columns (entries of failed points are None and not
     stored); excitations: a record sweep's kind, record_id, scale and start_time (s), else None;
-    recorded: position in the chunk -> the full result of a recorded point."""
+    recorded: position in the chunk -> the full result of a recorded point; blocks: a column's
+    points' run_blocks rows (without run_id; [] for a failed point), None for one block or two."""
 
     runs: dict[str, list]
     summaries: dict[str, list]
     excitations: dict[str, list] | None
     recorded: dict[int, Recorded]
+    blocks: list[list[dict]] | None = None
 
     def __len__(self) -> int:
         return len(self.runs["grid_index"])
@@ -100,7 +103,8 @@ class Chunk:
             return None if cols is None else {name: [col[k] for k in keep] for name, col in cols.items()}
 
         return Chunk(pick(self.runs), pick(self.summaries), pick(self.excitations),
-                     {j: self.recorded[k] for j, k in enumerate(keep) if k in self.recorded})
+                     {j: self.recorded[k] for j, k in enumerate(keep) if k in self.recorded},
+                     None if self.blocks is None else [self.blocks[k] for k in keep])
 
 
 def check_outputs(fmu_path: str | Path, two: bool) -> None:
@@ -115,6 +119,12 @@ def check_outputs(fmu_path: str | Path, two: bool) -> None:
                          "build (make fmu, or python -m fmu_build, builds build/RockingBlock.fmu)")
 
 
+def column_size(setup: Setup) -> int:
+    """The blocks of a sweep's column (3 to 8), 0 for one block or two."""
+    n = int(setup.grid_base.get("nBlocks", 1))
+    return n if n >= MIN_COLUMN else 0
+
+
 def worker() -> dict[str, Any]:
     return _LOCAL.state
 
@@ -125,6 +135,9 @@ def start_worker(fmu_path: str, unzipdir: str, setup: Setup) -> None:
     errors: list[str] = []
     slips = SLIP_OUTPUTS + (STACK_SLIP_OUTPUTS if setup.two else [])
     names = ONE + (TWO if setup.two else []) + [n for n in slips if n in fmu.vars]  # (an FMU without sliding lacks them)
+    blocks = column_size(setup)
+    if blocks:  # a column: every block's final outcome (and block 2's, as a stack's)
+        names = list(dict.fromkeys(names + TWO + final_outputs(blocks)))
     runner = None
     if setup.batch:
         md = fmu.model_description
@@ -346,6 +359,18 @@ def run_chunk(task: tuple[np.ndarray, dict[int, tuple]]) -> Chunk:
     base = gb
     summaries = summary_columns(columns, lambda name: _column(pts, name, w["summary_base"]), setup.two) \
         if "impacts" in columns else {}
+    blocks = None
+    if summaries and column_size(setup):
+        extra, blocks = sweep_rows(columns, lambda name: _column(pts, name, w["summary_base"]), column_size(setup),
+                                   (~failed).tolist())
+        summaries.update(extra)
+        alpha2 = np.arctan2(np.asarray(_column(pts, "block2.halfWidth", w["summary_base"]), float),
+                            np.asarray(_column(pts, "block2.halfHeight", w["summary_base"]), float))
+        summaries["peak2_over_alpha"] = (np.asarray(columns["block2.maxAbsTheta"], float) / alpha2).tolist()
+        summaries["friction_demand_max_interface"] = np.asarray(columns["friction.demandMaxInterface"], float).tolist()
+        summaries["normal_min_interface"] = np.asarray(columns["contact.normalMinInterface"], float).tolist()
+        summaries["impacts_ground"] = np.asarray(columns["impactsGround"]).astype(int).tolist()
+        summaries["impacts_interface"] = np.asarray(columns["impactsInterface"]).astype(int).tolist()
     for col in summaries.values():
         for k in np.flatnonzero(failed).tolist():
             col[k] = None
@@ -360,7 +385,7 @@ def run_chunk(task: tuple[np.ndarray, dict[int, tuple]]) -> Chunk:
         excitations = {"kind": ["record"] * n, "record_id": [r.id for r in pts.records],
                        "scale": _floats(pts, "excitation.scale", {"excitation.scale": 1.0, **base}),
                        "start_time": _floats(pts, "excitation.startTime", {"excitation.startTime": 0.0, **base})}
-    return Chunk(runs, summaries, excitations, done)
+    return Chunk(runs, summaries, excitations, done, blocks)
 
 
 def _floats(pts: Points, name: str, start: Mapping[str, Any]) -> list[float]:

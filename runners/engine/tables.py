@@ -67,6 +67,19 @@ OUTCOMES: dict[str, str] = {
     "block2_slide_time": "float64",  # s, block 2's first slide
     "block2_fell_off": "boolean",  # block 2 left block 1's top
     "block2_fell_off_time": "float64",  # s
+    # columns (3 to 8 blocks; each block's: BLOCK_OUTCOMES); empty for one block and two
+    "collapsed": "boolean",  # a block overturned or fell off
+    "lowest_fallen": "Int64",  # the lowest block that did
+    "max_residual_slip": "float64",  # m, the largest |residual slip| of a standing block ("any drum")
+    "max_residual_slip_block": "Int64",  # the block it is of
+}
+# each block's outcome in a column's run (db.schema.RunBlock), as columns block{K}_{name} of a sweep's frame
+BLOCK_OUTCOMES: dict[str, str] = {
+    "peak_over_alpha": "float64",  # peak |theta| over its own alpha (empty once it fell)
+    "max_abs_slip": "float64",  # m, peak |slip| on what it stands on
+    "residual_slip": "float64",  # m, slip at the end (+x): the residual dislocation
+    "overturned": "boolean",  # it fell, or rode a block under it that fell
+    "fell_off": "boolean",  # it left the top of the block below
 }
 EVENT_COLUMNS = ("time", "kind")  # every events frame starts with these: time in s, kind of event
 SCALED = ("pga", "pgv", "pgd", "arias")  # a scaled record's measures a sweep point stores (SI)
@@ -222,10 +235,18 @@ def grid_of(sw: Sweep, refs: list | None):
     return Grid([Axis(*a) for a in g["axes"]], refs, Intensity(*g["intensity"]) if g.get("intensity") else None)
 
 
-def sweep_columns(sw: Sweep) -> dict[str, str]:
+def column_blocks(sw: Sweep, params: dict | None = None) -> int:
+    """The blocks of a sweep's column (3 to 8) from its defaults and its scene's parameters `params`; 0
+    for one block or two."""
+    n = int({**(sw.grid.get("defaults") or {}), **(params or {})}.get("nBlocks", 1))
+    return n if n >= 3 else 0
+
+
+def sweep_columns(sw: Sweep, params: dict | None = None) -> dict[str, str]:
     """The columns of a sweep's frame and their dtypes, from its grid alone (the same in
     every chunk): grid_index, run_id, the records and levels where it runs records, the
-    --grid axes, status, error_message, then the outcomes."""
+    --grid axes, status, error_message, then the outcomes; of a column (its scene's parameters
+    `params` say) each block's, block{K}_peak_over_alpha ... block{K}_fell_off."""
     g = sw.grid
     cols: dict[str, str] = {"grid_index": "int64", "run_id": "Int64"}
     if g.get("records"):
@@ -242,6 +263,8 @@ def sweep_columns(sw: Sweep) -> dict[str, str]:
             cols.update({m: "float64" for m in SUPPORT_MEASURES})
     cols.update(status="string", error_message="string")
     cols.update(OUTCOMES)
+    for k in range(1, column_blocks(sw, params) + 1):
+        cols.update({f"block{k}_{name}": dtype for name, dtype in BLOCK_OUTCOMES.items()})
     return cols
 
 
@@ -274,7 +297,8 @@ def frames_of(factory, sw, params, refs, chunk: int, stored_only: bool) -> Itera
     each (SQL Core on the session's connection: rows are tuples, not ORM objects)."""
     from runners.engine.intensity import G0
 
-    columns = sweep_columns(sw)
+    columns = sweep_columns(sw, params)
+    n_blocks = column_blocks(sw, params)
     grid = None
     base = {**sw.grid["defaults"], **params}
     stmt = (select(Run.grid_index, Run.id, type_coerce(Run.point, Text), Run.status, Run.error_message,
@@ -319,7 +343,26 @@ def frames_of(factory, sw, params, refs, chunk: int, stored_only: bool) -> Itera
                         data[key][k] = v
         if "pga_g" in data:
             data["pga_g"] = [None if v is None else v / G0 for v in data["pga"]]
+        if n_blocks and rows:  # a column: each block's outcome, one select for the chunk
+            _put_blocks(factory, data, dict(zip(stored[1], at.tolist())))
         yield pd.DataFrame({c: _column(data[c], dtype) for c, dtype in columns.items()}, columns=list(columns))
+
+
+def _put_blocks(factory, data: dict[str, list], row_of: dict[int, int]) -> None:
+    """Each block's outcome (run_blocks) into the frame's columns block{K}_{name}, at the row of each run."""
+    from db.schema import RunBlock
+
+    names = list(BLOCK_OUTCOMES)
+    stmt = select(RunBlock.run_id, RunBlock.block, *[getattr(RunBlock, k) for k in names])
+    with factory() as session:
+        ids = list(row_of)
+        for lo in range(0, len(ids), 30_000):  # (SQLite's bound variables)
+            for run_id, block, *values in session.connection().execute(
+                    stmt.where(RunBlock.run_id.in_(ids[lo:lo + 30_000]))).all():
+                for name, v in zip(names, values):
+                    column = data.get(f"block{block}_{name}")
+                    if column is not None:
+                        column[row_of[run_id]] = v
 
 
 def _column(values, dtype: str) -> pd.Series | np.ndarray:
@@ -351,7 +394,7 @@ def sweep_frame(factory: sessionmaker, sweep_id: int, stored_only: bool = False)
     sw, params, refs = stored_sweep(factory, sweep_id)
     parts = list(frames_of(factory, sw, params, refs, CHUNK, stored_only))
     if not parts:
-        return pd.DataFrame({c: _column([], d) for c, d in sweep_columns(sw).items()})
+        return pd.DataFrame({c: _column([], d) for c, d in sweep_columns(sw, params).items()})
     return parts[0] if len(parts) == 1 else pd.concat(parts, ignore_index=True)
 
 
