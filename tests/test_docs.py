@@ -134,18 +134,20 @@ def test_every_fmu_variable_named_in_the_docs_exists():
 
 
 def test_model_page_states_the_block_counts_the_fmu_accepts(fmu_path):
-    """docs/model.md once said nBlocks must be 1; the FMU takes 1 and 2 and refuses anything else."""
+    """docs/model.md once said nBlocks must be 1; the FMU takes 1 to 8 (a column) and refuses anything else."""
     text = (ROOT / "docs" / "model.md").read_text(encoding="utf-8")
     assert not re.search(r"nBlocks`?\s+must be 1", text)
     assert "`nBlocks = 1`" in text and "`nBlocks = 2`" in text and "(two_blocks.md)" in text
+    assert "`8`" in text and "(columns.md)" in text
     params = {"block1.halfWidth": 0.1, "block1.halfHeight": 0.3, "block2.halfWidth": 0.1, "block2.halfHeight": 0.3,
               "restitution.law": 2, "block1.theta0": 0.05}
     with RockingFMU(fmu_path) as fmu:
-        for n in (1, 2):
+        for n in (1, 2, 3, 8):
             r = fmu.run({**params, "nBlocks": n}, stop_time=0.1, step=0.1, outputs=["block1.theta"])
             assert r.outputs["block1.theta"][0] == 0.05
-        with pytest.raises(FMUError, match="nBlocks"):
-            fmu.run({**params, "nBlocks": 3}, stop_time=0.1, step=0.1, outputs=["block1.theta"])
+        for n in (0, 9):
+            with pytest.raises(FMUError, match="nBlocks"):
+                fmu.run({**params, "nBlocks": n}, stop_time=0.1, step=0.1, outputs=["block1.theta"])
 
 
 @pytest.mark.parametrize("path", sorted((ROOT / "examples").glob("*.toml")), ids=lambda p: p.name)

@@ -118,6 +118,7 @@ RANGE_CONTEXT: dict[str, dict] = {
     "block2.halfWidth": {"nBlocks": 2, "restitution.law": 2},
     "block2.halfHeight": {"nBlocks": 2, "restitution.law": 2},
     "block2.mass": {"nBlocks": 2},
+    "block2.inertia": {"nBlocks": 2},
     "restitution.etaGround": {"nBlocks": 2},
     "restitution.etaInterface": {"nBlocks": 2},
     # a support's parameters are checked where it is chosen (a building's floors up to its storeys)
@@ -134,6 +135,7 @@ RANGE_CONTEXT: dict[str, dict] = {
     **{f"block{k}.{q}": {"nBlocks": 8, "block1.halfWidth": 1e4, "block2.halfWidth": 1e4,
                          **{f"block{j}.halfWidth": 1e4 if j < k else 1e-6 for j in range(3, 9) if j != k}}
        for k in range(3, 9) for q in ("halfWidth", "halfHeight", "mass")},
+    **{f"block{k}.inertia": {"nBlocks": 8} for k in range(3, 9)},
 }
 
 

@@ -158,15 +158,19 @@ class Fields:
         r.s.setInteger([r.vr["nBlocks"]], [2])
         two = r.blob()
         (self.n_blocks,) = int_diffs(one, two)
-        # excitation.file: the text set there (the region random mutations leave alone)
-        r.s.setString([r.vr["excitation.file"]], ["x" * 100])
-        diff = np.nonzero(np.frombuffer(two, np.uint8) != np.frombuffer(r.blob(), np.uint8))[0]
-        assert len(diff) == 100 and diff[-1] - diff[0] == 99
-        self.file = int(diff[0])
-        end = self.file
-        while one[end] == 0:  # the unused rest of the text buffer (zeros) up to the next parameter
-            end += 1
-        self.file_end = end // 8 * 8
+        # the String parameters (excitation.file, the blocks' outlines): each one's text buffer, found by the text set
+        # there; random mutations leave its unused rest alone
+        self.strings: list[tuple[int, int]] = []
+        for name in [n for n, v in fmu.vars.items() if v.type == "String" and v.causality == "parameter"]:
+            before = r.blob()
+            r.s.setString([r.vr[name]], ["x" * 100])
+            diff = np.nonzero(np.frombuffer(before, np.uint8) != np.frombuffer(r.blob(), np.uint8))[0]
+            assert len(diff) == 100 and diff[-1] - diff[0] == 99, name
+            start = end = int(diff[0])
+            while one[end] == 0:  # the unused rest of the text buffer (zeros) up to the next parameter
+                end += 1
+            self.strings.append((start, end // 8 * 8))
+            r.s.setString([r.vr[name]], [""])
         r.close()
         # the motion pattern: at rest and rocking from the same start, right after initialisation;
         # the state's pattern and the outputs pattern and atRest change from 1 to 0 together
@@ -493,7 +497,7 @@ def mutations(blob: bytes, fields: Fields, seed: int, checked: bool = True) -> l
     checked, and the state built, when the instance initialises), random bit flips and byte runs,
     truncations and extensions (always refused)."""
     rng = np.random.default_rng(seed)
-    skip = range(fields.file + 8, fields.file_end)  # the unused text buffer of excitation.file
+    skip = set().union(*(range(a + 8, b) for a, b in fields.strings))  # the String parameters' unused buffers
     out: list[tuple[str, bytes, bool]] = []
     for k, o in enumerate(range(0, len(blob) - 7, 8)):
         if o not in skip:

@@ -497,6 +497,17 @@ static void rest_closed_end(Model *M, double t) {
     M->sup = NULL;
 }
 
+/* The bodies' centres' x at rest (y's EN_POS(., k, 0)): each body's axis at its contact's slip (slip[k]; NULL: 0)
+ * from its support's axis (the ground's: x = 0), its centre xG from its axis. */
+static void rest_centres(const EnSystem *s, double *y, const double *slip) {
+    double axis = 0.0;
+    for (int k = 0; k < s->nb; k++) {
+        double X = axis + (slip ? slip[k] : 0.0);
+        y[EN_POS(s->nb, k, 0)] = X + s->body[k].xG;
+        axis = X;
+    }
+}
+
 /* Every body flat and sticking on its support, at rest relative to it (announce: log "rest"; a slide that
  * stops has logged its "stick"). */
 static void come_to_rest(Model *M, const Logger *log, int announce) {
@@ -509,7 +520,7 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
     int two = coupling_on(M);
     double E0 = energy(M, S->y), mtot, px = coupling_momentum(sys, S->y, &mtot);
     engine_rest_state(sys, S->y);
-    for (int k = 0; k < sys->nb; k++) S->y[EN_POS(sys->nb, k, 0)] = S->enAnchor[k] + (k > 0 ? S->y[EN_POS(sys->nb, k - 1, 0)] : 0.0);
+    rest_centres(sys, S->y, S->enAnchor);
     if (two) { /* the bodies stop on their floor, which keeps the horizontal momentum of both */
         for (int k = 0; k < sys->nb; k++) S->y[EN_XI(sys->nb, k)] = S->y[EN_XID(sys->nb, k)] = 0.0;
         coupling_carry(M, S->y, px, mtot);
@@ -632,29 +643,36 @@ static int below_rest(const Model *M, double energy, double m, double R, double 
 }
 
 /* What a rebound at body k's contact lifts, as one rigid body about the corner it pivots on: the sub-column of body k
- * and those above it, flat and centred, of mass m (kg), inertia I0 about the corner (kg m^2), centre R (m) from it at
- * the angle alpha (rad) from the vertical. One block and a stack of two take the rigid models' values (the pair
- * about block 1's corner, block 2 about its own). */
+ * and those above it, at rest (axes aligned), of mass m (kg), inertia I0 about the corner (kg m^2), centre R (m) from
+ * it at the angle alpha (rad) from the vertical; of its two corners the one of the smaller alpha (the easier to lift).
+ * A stack of two rectangles takes the rigid stack's values (the pair about block 1's corner, block 2 about its own). */
 static void sub_column(const Model *M, int k, double *m, double *R, double *alpha, double *I0) {
     const EnSystem *sys = &M->d.en;
     const Derived *d = &M->d;
-    if (sys->nb == 2) {
+    if (sys->nb == 2 && !model_polygons(&M->v)) {
         *m = k ? M->v.mass2 : d->mTot;
         *R = k ? d->RI : d->RL;
         *alpha = k ? d->alphaI : d->alphaL;
         *I0 = k ? d->II : d->IL;
         return;
     }
-    double b = sys->body[k].b, mass = 0.0, moment = 0.0, I = 0.0, y = 0.0; /* y: a centre's height over body k's base */
+    /* the centres from body k's axis (x) and base (y) */
+    double mass = 0.0, mx = 0.0, my = 0.0, base = 0.0, xc[EN_MAX_BODIES], yc[EN_MAX_BODIES];
     for (int j = k; j < sys->nb; j++) {
         const EnBody *B = &sys->body[j];
-        double yc = y + B->h;
+        xc[j] = B->xG;
+        yc[j] = base - B->cy;
         mass += B->m;
-        moment += B->m * yc;
-        I += B->Ic + B->m * (b * b + yc * yc);
-        y += 2.0 * B->h;
+        mx += B->m * xc[j];
+        my += B->m * yc[j];
+        base = yc[j] + B->ht;
     }
-    double yG = moment / mass;
+    double xG = mx / mass, yG = my / mass, bL = xG - sys->body[k].xa[0], bR = sys->body[k].xa[1] - xG;
+    double corner = bR <= bL ? sys->body[k].xa[1] : sys->body[k].xa[0], b = fmin(bL, bR), I = 0.0;
+    for (int j = k; j < sys->nb; j++) {
+        double dx = xc[j] - corner;
+        I += sys->body[j].Ic + sys->body[j].m * (dx * dx + yc[j] * yc[j]);
+    }
     *m = mass;
     *R = sqrt(b * b + yG * yG);
     *alpha = atan(b / yG);
@@ -759,7 +777,7 @@ static void overturn(Model *M, int k, const Logger *log) {
     S->fallenBody = k + 1;
     if (k == 0) {
         S->overturned1 = 1;
-        S->maxAbsTheta = M_PI / 2;
+        S->maxAbsTheta = M->d.en.body[0].over[side > 0];
         S->side = side;
     }
     finish(M);
@@ -800,6 +818,7 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
          * the pair about block 1's corner for the ground, block 2 about its corner for the interface */
         double R = hypot(B->b, B->h), alpha = atan2(B->b, B->h), I0 = B->Ic + B->m * R * R, m = B->m;
         if (sys->nb >= 2) sub_column(M, k, &m, &R, &alpha, &I0);
+        else if (model_block_polygon(&M->v, 0)) R = M->d.R, alpha = M->d.alpha, I0 = M->d.I0;
         double w = S->y[EN_W(k)] - (k > 0 ? S->y[EN_W(k - 1)] : 0.0);
         double rel = S->y[EN_TH(k)] - (k > 0 ? S->y[EN_TH(k - 1)] : 0.0);
         if (fabs(rel) > 1e-9 * alpha) continue;
@@ -1017,6 +1036,27 @@ static int apply_event(Model *M, const Logger *log) {
     return 0;
 }
 
+/* Where the rest's indicator turned positive but the complementarity problem, within its rounding, keeps the rest
+ * (a force margin within about RIGID_MU eps of zero: rigid rocking's friction), the rest's own least margin decides,
+ * so that the two agree and time advances: the corner whose normal force turns negative opens, or the contact
+ * whose friction runs out slides against its force. */
+static void leave_rest(const Model *M, EnMode *m) {
+    const EnSystem *sys = &M->d.en;
+    const State *S = &M->s;
+    double ah, av, ind[EN_IND];
+    int kind[EN_IND], body[EN_IND], corner[EN_IND];
+    EnForces f;
+    model_ground(M, S->t, &ah, &av);
+    if (isnan(solve_at(M, S->t, m, S->y, ah, av, &f))) return;
+    int n = engine_indicators(sys, m, S->y, &f, ind, kind, body, corner), least = -1;
+    for (int i = 0; i < n; i++)
+        if ((kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) && (least < 0 || ind[i] < ind[least])) least = i;
+    if (least < 0 || !(ind[least] <= 0)) return;
+    int k = body[least];
+    if (kind[least] == EN_IND_OPEN) m->closed[k][corner[least] > 0] = 0;
+    else m->sigma[k] = f.T[k] > 0 ? -1 : 1;
+}
+
 /* The ground moves the bodies resting at time t (the rest's complementarity problem has another solution
  * there): "uplift" when body 1 starts to rock, then the slide or flight that starts. */
 static void start_moving(Model *M, double t, int side, const Logger *log) {
@@ -1038,6 +1078,7 @@ static void start_moving(Model *M, double t, int side, const Logger *log) {
         settle_mode(M, touching, stuck, dy, log);
         return;
     }
+    if (!memcmp(&m, &S->en, sizeof(m))) leave_rest(M, &m);
     if (m.closed[0][0] != m.closed[0][1]) say(log, LOG_EVENTS, "uplift t=%.17g side=%d", t, m.closed[0][1] ? 1 : -1);
     set_mode(M, &m, log);
 }
@@ -1230,7 +1271,7 @@ static int take_step(Model *M, const Logger *log) {
         if (k > 0) dense_poly(&cont, EN_TH(k - 1), cj);
         int sgn = S->en.closed[k][1] ? 1 : -1; /* rocking on the right corner: relative rotation > 0 */
         for (int i = 0; i <= deg; i++) P[i] = Q[i] = sgn * (ck[i] - cj[i]);
-        Q[0] -= M_PI / 2;
+        Q[0] -= c.sys->body[k].over[sgn > 0]; /* where it lands on the hull's next edge (pi/2 for a rectangle) */
         rootAt[k] = first_crossing(P, deg, -1);
         overAt[k] = first_crossing(Q, deg, +1);
         double r = fmin(rootAt[k], overAt[k]);
@@ -1276,7 +1317,7 @@ static int take_step(Model *M, const Logger *log) {
                 /* a linear function of the components reaching its target: the relative rotation, or the slip rate */
                 double w[NMAX] = {0}, r = stop ? stopAt[k] : kind[i] == EN_IND_LAND ? rootAt[k] : overAt[k];
                 int sgn = S->en.closed[k][1] ? 1 : -1;
-                double target = stop || kind[i] == EN_IND_LAND ? 0.0 : sgn * M_PI / 2;
+                double target = stop || kind[i] == EN_IND_LAND ? 0.0 : sgn * c.sys->body[k].over[sgn > 0];
                 if (stop) {
                     w[EN_XID(nb, k)] = 1.0;
                 } else {
@@ -1611,6 +1652,7 @@ void engine_initialize(Model *M) {
     int nb = sys->nb;
     double y[NMAX] = {0};
     engine_rest_state(sys, y);
+    rest_centres(sys, y, NULL);
     memset(&S->en, 0, sizeof(S->en));
     S->slideTime = S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1;
     for (int k = 0; k < EN_MAX_BODIES; k++) S->flightSince[k] = -1;
@@ -1631,17 +1673,19 @@ void engine_initialize(Model *M) {
      * top, centred), each pivot where it stands at rest */
     int touching[EN_MAX_BODIES][2] = {{0}}, stuck[EN_MAX_BODIES];
     for (int k = 0; k < EN_MAX_BODIES; k++) stuck[k] = 1;
-    double O[2] = {0.0, 0.0}, V[2] = {0.0, 0.0}, thS = 0.0, wS = 0.0, hS = 0.0; /* the support's frame */
+    /* the support's frame: its centre O, velocity V, rotation thS and rate wS, its top's height hS above O and its
+     * axis' x, xS, from O (the ground's: the origin, its axis x = 0) */
+    double O[2] = {0.0, 0.0}, V[2] = {0.0, 0.0}, thS = 0.0, wS = 0.0, hS = 0.0, xS = 0.0;
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &sys->body[k];
         double rel = th[k] - thS, wrel = w[k] - wS;
-        int c = side_from(rel, wrel);
-        /* the pivot: (c b, 0) on the ground, (c b2, h1) in block 1's frame */
-        double cs = cos(thS), sn = sin(thS), px = c * B->b, py = hS;
+        int c = side_from(rel, wrel), i = c > 0;
+        /* the pivot, in the support's frame: the corner where it stands at rest, the axes aligned */
+        double cs = cos(thS), sn = sin(thS), px = B->xa[i] + xS, py = hS;
         double P[2] = {O[0] + px * cs + py * sn, O[1] - px * sn + py * cs};
         double Pv[2] = {V[0] + wS * (-px * sn + py * cs), V[1] + wS * (-px * cs - py * sn)};
         double ck = cos(th[k]), sk = sin(th[k]);
-        double rx = -c * B->b * ck + B->h * sk, ry = c * B->b * sk + B->h * ck; /* pivot -> centre */
+        double rx = -B->cx[i] * ck - B->cy * sk, ry = B->cx[i] * sk - B->cy * ck; /* pivot -> centre */
         y[EN_POS(nb, k, 0)] = P[0] + rx;
         y[EN_POS(nb, k, 1)] = P[1] + ry;
         y[EN_TH(k)] = th[k];
@@ -1654,7 +1698,7 @@ void engine_initialize(Model *M) {
         if (rel == 0.0 && wrel == 0.0) touching[k][0] = touching[k][1] = 1;
         O[0] = y[EN_POS(nb, k, 0)], O[1] = y[EN_POS(nb, k, 1)];
         V[0] = y[EN_VEL(nb, k, 0)], V[1] = y[EN_VEL(nb, k, 1)];
-        thS = th[k], wS = w[k], hS = B->h;
+        thS = th[k], wS = w[k], hS = B->ht, xS = -B->xG;
     }
     memcpy(S->y, y, sizeof(y));
     EnMode m;
@@ -1814,7 +1858,7 @@ void engine_outputs(Model *M, double tc) {
         engine_solve(sys, &r, y, ah, av, &f);
     }
     /* one block overturned lies on its side; a stack's run that ended keeps its last state */
-    v->theta = over && !two ? S->side * M_PI / 2 : y[EN_TH(0)];
+    v->theta = over && !two ? S->side * sys->body[0].over[S->side > 0] : y[EN_TH(0)];
     v->omega = over ? 0.0 : y[EN_W(0)];
     v->alphaDD = f.qdd[EN_Q(0, 2)];
     BodyOut b1 = body_outputs(M, sys, 0, y, &m, tc, over);

@@ -6,8 +6,10 @@
 #include "stack.h"
 #include "support.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 void model_set_defaults(Model *M) {
@@ -71,10 +73,14 @@ int model_validate(const Variables *v, char *msg, size_t n) {
     {
         double alpha = atan(v->halfWidth / v->halfHeight);
         double eta = model_law_restitution(v, alpha) * v->correction;
-        if (v->law == 0 && v->nBlocks == 1 && model_law_restitution(v, alpha) < 0)
+        if (v->law == 0 && v->nBlocks == 1 && !model_block_polygon(v, 0) && model_law_restitution(v, alpha) < 0)
             FAIL("block1 is too squat for Housner's law (b/h = %g > sqrt(2) gives the negative coefficient "
                  "1 - 3/2 sin^2(alpha) = %g): set restitution.law = 2 (constant) and restitution.eta",
                  v->halfWidth / v->halfHeight, model_law_restitution(v, alpha));
+        if (v->nBlocks == 1 && model_block_polygon(v, 0) && (v->law != 0 || v->correction != 1.0))
+            FAIL("block1.outline: one body of real shape takes restitution.law = 0 (its plastic impact: the angular "
+                 "momentum about the landing corner kept) with restitution.correction = 1, not law %d x %g", v->law,
+                 v->correction);
         if (v->nBlocks == 1 && !(eta >= 0 && eta <= 1)) /* a stack's laws: momentum, or etaGround/etaInterface */
             FAIL("effective restitution %g (law %d x correction %g) must be in [0, 1]",
                  eta, v->law, v->correction);
@@ -106,6 +112,12 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         if (v->earlyOverturn)
             FAIL("solver.earlyOverturn is available for nBlocks = 1 only");
     }
+    for (int k = 0; k < v->nBlocks; k++) { /* bodies of real shape: their outlines */
+        double I = k == 0 ? v->inertia1 : k == 1 ? v->inertia2 : v->inertiaN[k - 2];
+        if (!(I >= 0)) FAIL("block%d.inertia = %g must be >= 0 kg m2 (0: a uniform polygon's)", k + 1, I);
+        EnBody B;
+        if (model_block_body(v, k, &B, msg, n)) return 1;
+    }
     for (int k = 2; k < v->nBlocks; k++) { /* blocks 3 to nBlocks: the families (variables.def's BLOCK lines) */
         double b = v->halfWidthN[k - 2], h = v->halfHeightN[k - 2], m = v->massN[k - 2], mu = v->muN[k - 2];
         if (!(b >= MIN_SIZE && b <= MAX_SIZE && h >= MIN_SIZE && h <= MAX_SIZE))
@@ -122,17 +134,30 @@ int model_validate(const Variables *v, char *msg, size_t n) {
         /* the contact engine's runs: rocking-sliding, and rigid rocking on a two-way support */
         const char *who = v->contactModel == 1                              ? "contact.model = 1 (rocking-sliding)"
                           : v->supportKind != 0 && v->supportCoupling == 1 ? "rigid rocking on a two-way support"
-                                                                           : "rigid rocking of a column (nBlocks > 2)";
+                          : v->nBlocks > 2                                 ? "rigid rocking of a column (nBlocks > 2)"
+                                                                           : "rigid rocking of a body of real shape";
         double alpha = atan(v->halfWidth / v->halfHeight), s2 = sin(alpha) * sin(alpha);
         double eta = model_law_restitution(v, alpha) * v->correction;
         for (int k = 1; k < v->nBlocks; k++) {
             double b, h, m, below, hb, mb;
             model_block(v, k, &b, &h, &m);
             model_block(v, k - 1, &below, &hb, &mb);
-            if (b > below)
-                FAIL("%s needs block %d no wider than block %d (block%d.halfWidth = %g > block%d.halfWidth = %g): "
-                     "a wider block would turn about the edge of the one below, not modelled", who, k + 1, k, k + 1, b,
-                     k, below);
+            if (!model_block_polygon(v, k) && !model_block_polygon(v, k - 1)) {
+                if (b > below)
+                    FAIL("%s needs block %d no wider than block %d (block%d.halfWidth = %g > block%d.halfWidth = %g): "
+                         "a wider block would turn about the edge of the one below, not modelled", who, k + 1, k, k + 1,
+                         b, k, below);
+                continue;
+            }
+            EnBody B, S;
+            model_block_body(v, k, &B, msg, n);
+            model_block_body(v, k - 1, &S, msg, n);
+            if (!(S.tw > 0))
+                FAIL("block %d carries block %d but its outline has no flat top (two highest vertices)", k, k + 1);
+            if (B.xa[0] < S.tm - S.tw || B.xa[1] > S.tm + S.tw)
+                FAIL("block %d's base [%g, %g] m (from its axis) must stand within the top face [%g, %g] m of block %d "
+                     "(from its axis; the axes align at rest): a block beyond it would turn about the edge below, not "
+                     "modelled", k + 1, B.xa[0], B.xa[1], S.tm - S.tw, S.tm + S.tw, k);
         }
         if (v->method == 1) FAIL("%s needs solver.method = 0 (Dormand-Prince) or 2 (auto)", who);
         if (v->earlyOverturn) FAIL("solver.earlyOverturn is not available for %s", who);
@@ -179,13 +204,96 @@ double model_law_restitution(const Variables *v, double alpha) {
 
 int model_engine(const Variables *v) {
     return v->contactModel == 1 || (v->contactModel == 0 && v->supportKind != 0 && v->supportCoupling == 1) ||
-           v->nBlocks > 2;
+           v->nBlocks > 2 || model_polygons(v);
 }
 
 void model_block(const Variables *v, int k, double *b, double *h, double *m) {
     *b = k == 0 ? v->halfWidth : k == 1 ? v->halfWidth2 : v->halfWidthN[k - 2];
     *h = k == 0 ? v->halfHeight : k == 1 ? v->halfHeight2 : v->halfHeightN[k - 2];
     *m = k == 0 ? v->mass : k == 1 ? v->mass2 : v->massN[k - 2];
+}
+
+static const char *block_outline(const Variables *v, int k) {
+    return k == 0 ? v->outline1 : k == 1 ? v->outline2 : v->outlineN[k - 2];
+}
+
+int model_block_polygon(const Variables *v, int k) { return block_outline(v, k)[0] != '\0'; }
+
+int model_polygons(const Variables *v) {
+    for (int k = 0; k < v->nBlocks; k++)
+        if (model_block_polygon(v, k)) return 1;
+    return 0;
+}
+
+/* The vertices of an outline "x,y; x,y; ..." (m; separators: ',' between the coordinates, ';' between the vertices,
+ * spaces anywhere): their count, or -1 with a reason in msg. */
+static int parse_outline(const char *text, double *x, double *y, char *msg, size_t n) {
+    int count = 0;
+    const char *p = text;
+    for (;;) {
+        while (isspace((unsigned char)*p)) p++;
+        if (*p == '\0') break;
+        if (count == EN_POLY_MAX) {
+            snprintf(msg, n, "has more than %d vertices", EN_POLY_MAX);
+            return -1;
+        }
+        char *end;
+        double c[2];
+        for (int i = 0; i < 2; i++) {
+            c[i] = strtod(p, &end);
+            if (end == p) {
+                snprintf(msg, n, "vertex %d: '%.20s' is not a number (write 'x,y; x,y; ...' in m)", count + 1, p);
+                return -1;
+            }
+            p = end;
+            while (isspace((unsigned char)*p)) p++;
+            if (i == 0) {
+                if (*p != ',') {
+                    snprintf(msg, n, "vertex %d: x and y must be separated by ',' (write 'x,y; x,y; ...' in m)",
+                             count + 1);
+                    return -1;
+                }
+                p++;
+            }
+        }
+        x[count] = c[0];
+        y[count] = c[1];
+        count++;
+        if (*p == ';') p++;
+        else if (*p != '\0') {
+            snprintf(msg, n, "vertex %d: vertices must be separated by ';' (write 'x,y; x,y; ...' in m)", count);
+            return -1;
+        }
+    }
+    return count;
+}
+
+int model_block_body(const Variables *v, int k, EnBody *B, char *msg, size_t n) {
+    double b, h, m;
+    model_block(v, k, &b, &h, &m);
+    if (!model_block_polygon(v, k)) {
+        engine_body_rectangle(B, b, h, m);
+        return 0;
+    }
+    double x[EN_POLY_MAX], y[EN_POLY_MAX];
+    char reason[240];
+    int count = parse_outline(block_outline(v, k), x, y, reason, sizeof(reason));
+    if (count < 0) {
+        snprintf(msg, n, "block%d.outline %s", k + 1, reason);
+        return 1;
+    }
+    double I = k == 0 ? v->inertia1 : k == 1 ? v->inertia2 : v->inertiaN[k - 2];
+    double centre[2] = {k == 0 ? v->centreX1 : k == 1 ? v->centreX2 : v->centreXN[k - 2],
+                        k == 0 ? v->centreY1 : k == 1 ? v->centreY2 : v->centreYN[k - 2]};
+    if (!(I >= 0)) {
+        snprintf(msg, n, "block%d.inertia = %g must be >= 0 kg m2 (0: the uniform polygon's)", k + 1, I);
+        return 1;
+    }
+    if (engine_body_polygon(B, count, x, y, m, I > 0 ? centre : NULL, I > 0 ? I : -1.0, reason, sizeof(reason))) {
+        snprintf(msg, n, "block%d.outline: %s", k + 1, reason);
+        return 1;
+    }
+    return 0;
 }
 
 double model_block_mu(const Variables *v, int k) {
@@ -198,11 +306,10 @@ double model_block_mu(const Variables *v, int k) {
 static void engine_bodies(const Variables *v, EnSystem *s) {
     s->nb = v->nBlocks;
     s->g = v->g;
+    char msg[8];
     for (int k = 0; k < s->nb; k++) {
-        double b, h, m;
-        model_block(v, k, &b, &h, &m);
         s->mu[k] = model_block_mu(v, k);
-        engine_body_rectangle(&s->body[k], b, h, m);
+        model_block_body(v, k, &s->body[k], msg, sizeof(msg)); /* (valid: model_validate) */
     }
     for (int k = s->nb - 1; k >= 0; k--)
         s->weight[k] = s->body[k].m * s->g + (k + 1 < s->nb ? s->weight[k + 1] : 0.0);
@@ -228,6 +335,18 @@ void model_derive(Model *M) {
     if (v->nBlocks == 2 && v->contactModel == 1)
         d->upliftSlope = fmin(d->upliftSlope, fmin(v->muGround, v->muInterface));
     engine_bodies(v, &d->en);
+    if (model_block_polygon(v, 0)) { /* block 1 of real shape: its quantities about the corner it lifts from first */
+        const EnBody *B = &d->en.body[0];
+        double h = -B->cy, bs = fmin(-B->cx[0], B->cx[1]); /* the side of the smaller slenderness angle */
+        d->R = hypot(bs, h);
+        d->alpha = atan(bs / h);
+        d->tanAlpha = bs / h;
+        d->I0 = B->Ic + B->m * d->R * d->R;
+        d->mROverI0 = B->m * d->R / d->I0;
+        d->p2 = v->g * d->mROverI0;
+        d->eta = model_law_restitution(v, d->alpha) * v->correction;
+        d->upliftSlope = v->contactModel == 1 ? fmin(d->tanAlpha, v->muGround) : d->tanAlpha;
+    }
     d->weight[0] = v->nBlocks == 1 ? v->mass * v->g : v->nBlocks == 2 ? (v->mass + v->mass2) * v->g : d->en.weight[0];
     d->weight[1] = v->nBlocks > 2 ? d->en.weight[1] : v->mass2 * v->g; /* what the interface carries */
     support_derive(v, &d->sup);

@@ -342,6 +342,12 @@ int model_engine(const Variables *v);
  * its contact with what it stands on (RIGID_MU in rigid rocking). */
 void model_block(const Variables *v, int k, double *b, double *h, double *m);
 double model_block_mu(const Variables *v, int k);
+/* Block k given by its outline (a body of real shape, blockK.outline set); any block of the run so. */
+int model_block_polygon(const Variables *v, int k);
+int model_polygons(const Variables *v);
+/* Block k as the contact engine's body: its outline's polygon (engine_body_polygon), or the rectangle of its half
+ * sizes. Returns nonzero with a one-line reason (naming the block) in msg where the outline is refused. */
+int model_block_body(const Variables *v, int k, EnBody *B, char *msg, size_t n);
 
 /* Compute the derived quantities (parameters valid, record attached). */
 void model_derive(Model *M);
