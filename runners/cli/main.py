@@ -219,7 +219,7 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
     if args.cosim:
         return [("co-simulation", _cosim_bench(fmu))]
     if args.columns:
-        return [("columns of drums", _column_bench)]
+        return [("columns of drums", _column_bench(fmu))]
     if args.supports:
         from runners.analysis.bench_supports import run_support_study_bench
 
@@ -254,13 +254,15 @@ def _bench_stages(args: argparse.Namespace, fmu: Path) -> list[tuple[str, object
             ("FMI interfaces", interfaces),
             ("record-driven run", records), ("fragility study", study),
             ("sweep size", lambda: b.run_sweep_size_bench(fmu)), ("co-simulation", _cosim_bench(fmu)),
-            ("columns of drums", _column_bench)]
+            ("columns of drums", _column_bench(fmu))]
 
 
-def _column_bench() -> str:
-    from runners.analysis.bench_column import run_column_bench
+def _column_bench(fmu: Path):
+    def run() -> str:
+        from runners.analysis.bench_column import run_column_bench, run_fmu_column_bench
 
-    return run_column_bench()
+        return run_fmu_column_bench(fmu) + "\n" + run_column_bench()
+    return run
 
 
 def _cosim_bench(fmu: Path):
