@@ -54,3 +54,21 @@ def test_the_column_bench_measures_each_size():
     if shutil.which("valgrind"):
         motion, choice = [float(c[2].replace(",", "")) for c in cells], [float(c[5].replace(",", "")) for c in cells]
         assert 0 < motion[0] < motion[1] and 0 < choice[0] < choice[1]
+
+
+def test_the_column_bench_simulates_the_fmus_columns(fmu_path):
+    """runners bench --columns' FMU table for columns of 1 and 2 drums: a row per size with the pulse of 1.2 g b / (N h)
+    and the simulation's impacts, and with valgrind more instructions for two drums than for one (no timing is
+    asserted)."""
+    from runners.analysis.bench_column import DRUM, run_fmu_column_bench
+
+    rows = [line for line in run_fmu_column_bench(fmu_path, range(1, 3)).splitlines()
+            if line.startswith("| ") and line[2].isdigit()]
+    cells = [[c.strip() for c in r.split("|")[1:-1]] for r in rows]
+    assert [c[0] for c in cells] == ["1", "2"]
+    assert [float(c[1]) for c in cells] == pytest.approx([1.2 * 9.81 * DRUM["b"] / (n * DRUM["h"]) for n in (1, 2)],
+                                                         rel=1e-2)
+    assert all(int(c[2]) > 0 for c in cells)  # they rock and land
+    if shutil.which("valgrind"):
+        counts = [float(c[5].replace(",", "")) for c in cells]
+        assert 0 < counts[0] < counts[1]
