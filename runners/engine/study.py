@@ -691,14 +691,8 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
         raise StudyError(f"damage state {spec!r}: {one_block(oc)}")
     if state in ("overturn", "overturned"):
         return DamageState("overturn", which)
-    m = re.fullmatch(r"rot>([0-9.eE+-]+)\*?alpha", state)
-    if m:
-        try:
-            limit = float(m.group(1))
-        except ValueError:
-            limit = math.nan
-        if not (math.isfinite(limit) and limit > 0):
-            raise StudyError(f"damage state {spec!r}: X in rot>Xalpha must be a number above 0, e.g. rot>0.5alpha")
+    limit = _rot_limit(spec, state)
+    if limit is not None:
         return DamageState("rot", which, limit)
     if state in ("slides", "slide"):
         if which != "either" and oc.slid_blocks is not None:  # a rocking–sliding stack: each contact's
@@ -715,6 +709,23 @@ def damage_state(spec: str, oc: Outcomes) -> DamageState:
     if state.replace("-", "").replace("_", "") in ("falloff", "falloffs", "fallsoff", "felloff"):
         return _falloff_state(spec, which, oc)
     raise StudyError(f"unknown damage state {spec!r}: expected {DS_FORMS}")
+
+
+def _rot_limit(spec: str, state: str) -> float | None:
+    """X of a rot>Xalpha damage state (peak rotation beyond X times the slenderness), None for another state;
+    StudyError in one line where X is not a number above 0."""
+    import re
+
+    m = re.fullmatch(r"rot>([0-9.eE+-]+)\*?alpha", state)
+    if not m:
+        return None
+    try:
+        limit = float(m.group(1))
+    except ValueError:
+        limit = math.nan
+    if not (math.isfinite(limit) and limit > 0):
+        raise StudyError(f"damage state {spec!r}: X in rot>Xalpha must be a number above 0, e.g. rot>0.5alpha")
+    return limit
 
 
 def _column_state(spec: str, block: str, state: str, oc: Outcomes) -> DamageState:
@@ -742,14 +753,8 @@ def _column_state(spec: str, block: str, state: str, oc: Outcomes) -> DamageStat
             raise StudyError(f"damage state {spec!r}: block 1 stands on the ground and cannot fall off; "
                              f"block2:falloff to block{n}:falloff, or any:falloff")
         return DamageState("falloff", which)
-    r = re.fullmatch(r"rot>([0-9.eE+-]+)\*?alpha", state)
-    if r:
-        try:
-            limit = float(r.group(1))
-        except ValueError:
-            limit = math.nan
-        if not (math.isfinite(limit) and limit > 0):
-            raise StudyError(f"damage state {spec!r}: X in rot>Xalpha must be a number above 0, e.g. rot>0.5alpha")
+    limit = _rot_limit(spec, state)
+    if limit is not None:
         return DamageState("rot", which, limit)
     for prefixes, kind in ((("slide>", "slip>", "slides>", "sliding>"), "slip"),
                            (("residual>", "dislocation>", "residualslip>"), "residual")):
