@@ -171,6 +171,8 @@ def _doc_tables() -> dict[str, dict[str, list[str]]]:
 
 def _default_matches(cell: str, kind, start) -> bool:
     cell = cell.strip("`")
+    if kind == "outline":  # a String: empty, the rectangle of the half sizes
+        return cell == '""' and start == ""
     if isinstance(kind, dict):
         return kind.get(cell.strip('"')) == int(start)
     if kind == "bool":
@@ -195,6 +197,9 @@ def test_docs_list_every_scene_key_with_the_runners_default(fmu):
                     assert float(default) == scene_defaults[key], where
                 continue
             v = fmu.variable(var)
+            if kind == "point":  # centre = [x, y]: blockK.centreX and blockK.centreY
+                assert fmu_cell == f"`{var}`, `{var[:-1]}Y`" and fmu.variable(var[:-1] + "Y").causality == "parameter", where
+                fmu_cell = f"`{var}`"
             assert fmu_cell == f"`{var}`" and v.causality == "parameter", where
             expected = runner_defaults.get(var, v.start)  # the FMU's start value unless SCENE_DEFAULTS says
             assert _default_matches(default, kind, expected), f"{where}: the runners' default is {expected}"
@@ -210,6 +215,7 @@ def test_docs_list_every_scene_key_with_the_runners_default(fmu):
 def test_every_fmu_parameter_is_a_scene_key(fmu):
     """A new FMU parameter must get a scene key (and so a row in docs/scenes.md)."""
     set_by_keys = {var for keys in SCHEMA.values() for var, _ in keys.values() if var}
+    set_by_keys |= {var[:-1] + "Y" for keys in SCHEMA.values() for var, kind in keys.values() if var and kind == "point"}
     implied = {"nBlocks", "excitation.file"}  # by [block2], and by record or file
     params = {n for n, v in fmu.vars.items() if v.causality == "parameter"}
     from fmu_build.build import C_DIR

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from runners.engine.shapes import MAX_VERTICES, format_outline, has_outline
 from runners.engine.supports import TABLES as SUPPORT_TABLES
 from runners.engine.supports import SupportError, scene_support
 from runners.errors import RockingError
@@ -49,6 +50,11 @@ MAX_SAMPLES = 2_000_000
 
 # the FMU's largest column (nBlocks 1 to 8): block K + 1 stands on block K (docs/columns_runners.md)
 MAX_BLOCKS = 8
+# a body of real shape (docs/columns_runners.md, runners.engine.shapes): in any block table, its convex
+# outline [[x, y], ...] (m; the FMU's blockK.outline String) and, both or neither, its centre of mass
+# [x, y] (m; blockK.centreX, blockK.centreY) and inertia about it (kg m2); neither: a uniform polygon
+# (centre's FMU variable is named by its x: it sets blockK.centreX and blockK.centreY)
+SHAPE_KEYS = {"outline": ("outline", "outline"), "centre": ("centreX", "point"), "inertia": ("inertia", "real")}
 # table -> key -> (FMU variable, kind); kind is "real", "bool" or a choice dict
 SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
     "block": {
@@ -57,6 +63,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "mass": ("block1.mass", "real"),
         "theta0": ("block1.theta0", "real"),
         "omega0": ("block1.omega0", "real"),
+        **{key: (f"block1.{name}", kind) for key, (name, kind) in SHAPE_KEYS.items()},
     },
     "block2": {
         "half_width": ("block2.halfWidth", "real"),
@@ -64,6 +71,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "mass": ("block2.mass", "real"),
         "theta0": ("block2.theta0", "real"),
         "omega0": ("block2.omega0", "real"),
+        **{key: (f"block2.{name}", kind) for key, (name, kind) in SHAPE_KEYS.items()},
     },
     # blocks 3 to 8 of a column (block K stands on block K - 1; they start seated, so no theta0 or omega0)
     **{f"block{k}": {
@@ -71,6 +79,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "half_height": (f"block{k}.halfHeight", "real"),
         "mass": (f"block{k}.mass", "real"),
         "mu": (f"block{k}.mu", "real"),  # friction with the block below (default: contact.muInterface)
+        **{key: (f"block{k}.{name}", kind) for key, (name, kind) in SHAPE_KEYS.items()},
     } for k in range(3, MAX_BLOCKS + 1)},
     # a column of identical drums: block1..blockN (column_parameters)
     "column": {
@@ -79,6 +88,9 @@ SCHEMA: dict[str, dict[str, tuple[str | None, Any]]] = {
         "half_height": (None, "real"),
         "mass": (None, "real"),
         "mu": (None, "real"),
+        "outline": (None, "outline"),  # every drum of this outline (instead of half_width, half_height)
+        "centre": (None, "point"),
+        "inertia": (None, "real"),
     },
     "restitution": {
         "law": ("restitution.law", LAWS),
@@ -137,9 +149,15 @@ def unused_parameter(name: str, p: dict[str, Any]) -> str | None:
     table, _, key = name.partition(".")
     if re.fullmatch(r"block[3-8]", table) and int(table[5:]) > n:
         return f"{name} belongs to block {table[5:]}, and the scene has {n} (add a [{table}] table)"
+    if re.fullmatch(r"block[1-8]", table) and key in ("halfWidth", "halfHeight") and has_outline(p, int(table[5:])):
+        return f"{name} is not used: {table}.outline gives the block's shape"
+    if re.fullmatch(r"block[1-8]", table) and key in ("centreX", "centreY", "inertia") and (
+            not has_outline(p, int(table[5:])) or not float(p.get(f"{table}.inertia", 0.0) or 0.0) > 0):
+        return (f"{name} is used by a body of real shape with its inertia above 0 ({table}.outline, "
+                f"{table}.inertia; 0: a uniform polygon's centroid and inertia)")
     if table == "excitation" and key != "kind" and key not in EXCITATION_USES.get(kind, set()):
         return f"{name} is not used by a scene of excitation kind \"{KIND_NAMES.get(kind, kind)}\""
-    if name == "block1.mass" and not two:
+    if name == "block1.mass" and not two and not (has_outline(p, 1) and float(p.get("block1.inertia", 0.0) or 0.0) > 0):
         return "one block's rocking does not depend on its mass (theta, impacts and overturning are the same)"
     if table == "block2" and not two:
         return f"{name} belongs to a second block, and the scene has one (add a [block2] table)"
@@ -165,6 +183,17 @@ def implausible_sizes(p: dict[str, Any]) -> list[str]:
     PLAUSIBLE_HALF_SIZE: a 400 mm x 1600 mm block entered as 400 x 1600 runs as a building."""
     notes = []
     for i in range(1, int(p.get("nBlocks", 1)) + 1):
+        if has_outline(p, i):  # its vertices' largest coordinate
+            from runners.engine.shapes import parse_outline
+
+            try:
+                far = max(max(abs(x), abs(y)) for x, y in parse_outline(str(p[f"block{i}.outline"])))
+            except ValueError:
+                continue  # (the FMU says what is wrong with it)
+            if far > 2 * PLAUSIBLE_HALF_SIZE:
+                notes.append(f"block{i}'s outline reaches {far:g} m from its axis and base: its vertices are in "
+                             "metres (docs/scenes.md)")
+            continue
         b, h = float(p.get(f"block{i}.halfWidth", 0.0)), float(p.get(f"block{i}.halfHeight", 0.0))
         if max(b, h) > PLAUSIBLE_HALF_SIZE:
             notes.append(f"block{i} is {2 * b:g} m x {2 * h:g} m (half_width {b:g} m, half_height {h:g} m): sizes "
@@ -177,6 +206,10 @@ def uplift_threshold(p: dict[str, Any]) -> tuple[float, str]:
     included) off its base from rest with a_v = 0, what starts then): g tan(alpha) for one block;
     for a stack the lower of the pair's g b1 / yG (yG the height of the pair's centre of mass)
     and block 2's g min(b1, b2) / h2."""
+    if has_outline(p):  # bodies of real shape: every joint, both sides (runners.engine.shapes)
+        from runners.engine.shapes import uplift
+
+        return uplift(p)
     g, b1, h1 = float(p["g"]), float(p["block1.halfWidth"]), float(p["block1.halfHeight"])
     if int(p.get("nBlocks", 1)) >= 3:
         return column_uplift(p)
@@ -214,7 +247,8 @@ def motion_threshold(p: dict[str, Any]) -> tuple[float, str]:
     (contact.model = 1) the least of it and the contacts' mu g (Shenton 1996)."""
     uplift, _ = uplift_threshold(p)
     if int(p.get("contact.model", 0)) != CONTACT_MODELS["rocking-sliding"]:
-        return uplift, ("uplift, g tan(alpha)" if int(p.get("nBlocks", 1)) == 1 else "uplift of the stack"
+        return uplift, ("uplift, g b / yG on its nearer side" if has_outline(p) and int(p.get("nBlocks", 1)) == 1
+                        else "uplift, g tan(alpha)" if int(p.get("nBlocks", 1)) == 1 else "uplift of the stack"
                         if int(p.get("nBlocks", 1)) == 2 else "uplift of the column")
     mu = float(p["contact.muGround"])
     if int(p.get("nBlocks", 1)) >= 2:
@@ -242,7 +276,10 @@ def weak_excitation(p: dict[str, Any]) -> list[str]:
     if any(p.get(f"block{i}.{k}", 0.0) != 0 for i in blocks for k in ("theta0", "omega0")):  # it moves anyway
         return []
     amplitude, vertical, g = abs(float(p["excitation.amplitude"])), abs(float(p["excitation.verticalAmplitude"])), float(p["g"])
-    threshold, what = motion_threshold(p)
+    try:
+        threshold, what = motion_threshold(p)
+    except ValueError:  # an outline the FMU will refuse, in its own words, when the run starts
+        return []
     if not 0 < amplitude < threshold * max(g - vertical, 0.0) / g:
         return []
     return [f"excitation amplitude {amplitude:g} m/s2 is below the threshold of motion {threshold:.4g} m/s2 ({what}): "
@@ -285,7 +322,11 @@ class Scene:
         return int(self.parameters.get("excitation.kind", 0)) == KINDS["record"]
 
 
-def _value(where: str, value: Any, kind: Any) -> float | int | bool:
+def _value(where: str, value: Any, kind: Any) -> Any:
+    if kind == "outline":  # [[x, y], ...] in m -> the FMU's String "x,y; x,y; ..."
+        return format_outline(_outline(where, value))
+    if kind == "point":  # [x, y] in m
+        return _pair(where, value, "[x, y] in m, e.g. centre = [0.0, 0.35]")
     if kind == "real":  # numpy's scalars too (a dict scene built in Python)
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise SceneError(f"{where}: expected a number, got {value!r}")
@@ -311,6 +352,30 @@ def _value(where: str, value: Any, kind: Any) -> float | int | bool:
     if not isinstance(value, str) or value not in kind:
         raise SceneError(f"{where}: expected one of {', '.join(kind)}, got {value!r}")
     return kind[value]
+
+
+def _pair(where: str, value: Any, example: str) -> tuple[float, float]:
+    """Two finite numbers [x, y] (m), in one line otherwise."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise SceneError(f"{where}: expected {example}, got {value!r}")
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):
+            raise SceneError(f"{where}: expected {example}; {v!r} is not a number")
+        if not math.isfinite(v):
+            raise SceneError(f"{where}: {v!r} is not a finite number")
+    return float(value[0]), float(value[1])
+
+
+def _outline(where: str, value: Any) -> list[tuple[float, float]]:
+    """The vertices of a scene's outline (a list of 3 to MAX_VERTICES pairs [x, y] of finite numbers, m);
+    whether they make a convex polygon with a flat base is the FMU's to say (its one-line refusal)."""
+    if not isinstance(value, (list, tuple)):
+        raise SceneError(f"{where}: expected a list of vertices [[x, y], [x, y], ...] in m, got {value!r}")
+    if len(value) < 3:
+        raise SceneError(f"{where}: an outline needs at least 3 vertices [x, y] (m), got {len(value)}")
+    if len(value) > MAX_VERTICES:
+        raise SceneError(f"{where}: an outline has at most {MAX_VERTICES} vertices, got {len(value)}")
+    return [_pair(f"{where} vertex {i}", v, "a vertex [x, y] in m") for i, v in enumerate(value, start=1)]
 
 
 def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
@@ -342,7 +407,10 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
                 raise SceneError(f"{source}: [{table}] unknown key '{key}' (expected {', '.join(SCHEMA[table])})")
             fmu_name, kind = SCHEMA[table][key]
             v = _value(f"{source}: [{table}] {key}", value, kind)
-            if fmu_name is None:
+            if kind == "point":  # centre = [x, y]: blockK.centreX, blockK.centreY
+                stem = fmu_name.rpartition(".")[0]
+                scene.parameters[f"{stem}.centreX"], scene.parameters[f"{stem}.centreY"] = v
+            elif fmu_name is None:
                 setattr(scene, key, v)
                 scene.stop_time_given |= key == "stop_time"
                 scene.step_given |= key == "step"
@@ -352,6 +420,8 @@ def scene_from_dict(data: dict[str, Any], source: str = "<scene>") -> Scene:
         scene.parameters.update(column)
     else:
         scene.parameters.update(_block_tables(data, source))
+        for table in [t for t in data if t == "block" or re.fullmatch(r"block[2-8]", t)]:
+            _check_shape(data[table], f"{source}: [{table}]")
     _check_blocks(scene.parameters, source)
     _check_record(scene, source)
     if scene.parameters.get("solver.method") == METHODS["taylor"] and scene.n_blocks >= 2:
@@ -399,22 +469,52 @@ def _column_table(data: dict[str, Any], source: str) -> dict[str, Any] | None:
         if key not in SCHEMA["column"]:
             raise SceneError(f"{source}: [column] unknown key '{key}' (expected {', '.join(SCHEMA['column'])})")
         values[key] = _value(f"{source}: [column] {key}", value, SCHEMA["column"][key][1])
-    for key in ("drums", "half_width", "half_height", "mass"):
+    _check_shape(values, f"{source}: [column]")
+    sizes = ("outline",) if "outline" in values else ("half_width", "half_height")
+    for key in ("drums", *sizes, "mass"):
         if key not in values:
-            raise SceneError(f"{source}: [column] needs {key} (drums, half_width, half_height and mass; mu optional)")
+            raise SceneError(f"{source}: [column] needs {key} (drums, half_width, half_height and mass, or drums, "
+                             "outline and mass; mu optional)")
     n = values["drums"]
     if not 1 <= n <= MAX_BLOCKS:
         raise SceneError(f"{source}: [column] drums = {n}: a column has 1 to {MAX_BLOCKS} drums")
     p: dict[str, Any] = {"nBlocks": n}
     for k in range(1, n + 1):
-        p.update({f"block{k}.halfWidth": values["half_width"], f"block{k}.halfHeight": values["half_height"],
-                  f"block{k}.mass": values["mass"]})
+        if "outline" in values:  # identical drums of that outline (and mass distribution)
+            p.update({f"block{k}.outline": values["outline"], f"block{k}.mass": values["mass"]})
+            if "centre" in values:
+                p.update({f"block{k}.centreX": values["centre"][0], f"block{k}.centreY": values["centre"][1],
+                          f"block{k}.inertia": values["inertia"]})
+        else:
+            p.update({f"block{k}.halfWidth": values["half_width"], f"block{k}.halfHeight": values["half_height"],
+                      f"block{k}.mass": values["mass"]})
     if "mu" in values:
         if "mu_interface" in (data.get("contact") or {}):
             raise SceneError(f"{source}: [column] mu and [contact] mu_interface both give the interfaces' friction: "
                              "give one")
         p["contact.muInterface"] = values["mu"]
     return p
+
+
+def _check_shape(table: dict[str, Any], where: str) -> None:
+    """A block table's (or [column]'s) body of real shape: outline instead of half_width and half_height,
+    centre and inertia both or neither and only with an outline, inertia above 0. One line each."""
+    if "outline" in table:
+        given = [k for k in ("half_width", "half_height") if k in table]
+        if given:
+            raise SceneError(f"{where}: give outline or half_width and half_height, not both ({given[0]} with "
+                             "outline: the outline is the block's shape)")
+    elif "centre" in table or "inertia" in table:
+        key = "centre" if "centre" in table else "inertia"
+        raise SceneError(f"{where}: {key} is the mass distribution of a body of real shape: give its outline too")
+    if ("centre" in table) != ("inertia" in table):
+        have, lack = ("centre", "inertia") if "centre" in table else ("inertia", "centre")
+        raise SceneError(f"{where}: {have} needs {lack} too (both, or neither for a uniform polygon)")
+    if "inertia" in table:
+        v = table["inertia"]
+        if isinstance(v, numbers.Real) and not isinstance(v, bool) and not v > 0:
+            raise SceneError(f"{where}: inertia = {v:g} must be above 0 kg m2 (leave out centre and inertia for a "
+                             "uniform polygon)")
 
 
 def _check_blocks(p: dict[str, Any], source: str) -> None:
@@ -435,6 +535,8 @@ def _check_blocks(p: dict[str, Any], source: str) -> None:
         return
     widths = [p.get(f"block{k}.halfWidth", 0.1) for k in range(1, n + 1)]  # (the FMU's default: 0.1 m for every block)
     for k in range(2, n + 1):
+        if has_outline(p, k) or has_outline(p, k - 1):  # the FMU checks a body stands within the top below it
+            continue
         if widths[k - 1] > widths[k - 2]:
             raise SceneError(f"{source}: block {k} is wider than block {k - 1} under it (half_width {widths[k - 1]:g} > "
                              f"{widths[k - 2]:g} m): a column's block must be no wider than the one below it")
@@ -462,7 +564,7 @@ def contact_model_problem(p: dict[str, Any], coupled: bool = True) -> str | None
                     "on a two-way support the contact engine integrates it: use \"auto\" or \"dormand-prince\", or "
                     "couple the support one way")
         return None
-    if int(p.get("nBlocks", 1)) == 2 and p.get("block2.halfWidth", 0.1) > p.get("block1.halfWidth", 0.1):
+    if int(p.get("nBlocks", 1)) == 2 and not has_outline(p) and p.get("block2.halfWidth", 0.1) > p.get("block1.halfWidth", 0.1):
         return ("[contact] model = \"rocking-sliding\" of a stack needs block 2 no wider than block 1 (block2 "
                 f"half_width {p.get('block2.halfWidth')} > block1 half_width {p.get('block1.halfWidth')}): a wider "
                 "block 2 would turn about block 1's edge, which is not modelled")
