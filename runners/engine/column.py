@@ -55,7 +55,10 @@ def column_outputs(p: Mapping[str, Any]) -> tuple[str, ...]:
 
 
 def alpha(p: Mapping[str, Any], k: int) -> float:
-    return math.atan2(float(p[f"block{k}.halfWidth"]), float(p[f"block{k}.halfHeight"]))
+    """Block k's alpha (rad): atan(b / h), or a body of real shape's smaller side's (runners.engine.shapes)."""
+    from runners.engine.shapes import alpha as shape_alpha
+
+    return shape_alpha(p, k)
 
 
 def block_rows(final: Mapping[str, Any], p: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -133,13 +136,16 @@ def sweep_rows(out: Mapping[str, np.ndarray], param, n: int, ok: list[bool]) -> 
                                                         "max_residual_slip_block", "overturned_blocks")}
     blocks: list[list[dict]] = []
     sizes = {f"block{k}.{s}": np.broadcast_to(np.asarray(param(f"block{k}.{s}"), dtype=float), (count,))
-             for k in range(1, n + 1) for s in ("halfWidth", "halfHeight")}
+             for k in range(1, n + 1) for s in ("halfWidth", "halfHeight", "mass", "centreX", "centreY", "inertia")}
+    outlines = {f"block{k}.outline": np.broadcast_to(np.asarray(param(f"block{k}.outline"), dtype=object), (count,))
+                for k in range(1, n + 1)}
     for i in range(count):
         if not ok[i]:
             blocks.append([])
             continue
         final = {name: np.asarray(col)[i].item() for name, col in out.items() if name.startswith("block")}
-        p = {"nBlocks": n, **{k: float(v[i]) for k, v in sizes.items()}}
+        p = {"nBlocks": n, **{k: float(v[i]) for k, v in sizes.items()},
+             **{k: v[i] if isinstance(v[i], str) else "" for k, v in outlines.items()}}
         rows = block_rows(final, p)
         row: dict[str, Any] = {}
         summary_columns_rows(row, column_outcome(rows), n)

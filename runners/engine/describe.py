@@ -15,6 +15,7 @@ from typing import Any, Iterable, Mapping
 
 from runners.engine import supports
 from runners.engine.scene import KIND_NAMES, restitution
+from runners.engine.shapes import body, has_outline
 
 LAW_NAMES = {0: "Housner (1963)", 1: "modified (Čeh & Jelenić 2022)", 2: "constant"}
 PULSES = {1: "one-sine pulse", 2: "one-cosine pulse", 5: "Ricker wavelet", 6: "antisymmetric Ricker wavelet",
@@ -24,6 +25,9 @@ PULSES = {1: "one-sine pulse", 2: "one-cosine pulse", 5: "Ricker wavelet", 6: "a
 def blocks(p: Mapping[str, Any]) -> str:
     """The block, or the stack's two blocks, in full sizes and masses."""
     def one(i: int) -> str:
+        if has_outline(p, i):  # a body of real shape: its outline's extent
+            b = body(p, i)
+            return f"{b.width:.4g} m wide x {b.top:.4g} m high (an outline), {b.mass:.4g} kg"
         return (f"{2 * float(p[f'block{i}.halfWidth']):.4g} m wide x {2 * float(p[f'block{i}.halfHeight']):.4g} m "
                 f"high, {float(p[f'block{i}.mass']):.4g} kg")
 
@@ -59,6 +63,10 @@ def restitution_text(p: Mapping[str, Any]) -> str:
                     f"{float(p['restitution.etaInterface']):.3g} between the blocks")
         names = {0: "momentum restitution (docs/two_blocks.md)", 1: "modified restitution"}
         return names.get(law, f"restitution {law}")
+    if has_outline(p, 1):  # one body of real shape: the plastic impact about the landing corner, per side
+        b = body(p, 1)
+        return (f"plastic impact about the landing corner (Housner 1963's law), eta {b.impact_ratio(1):.3f} landing "
+                f"on the right corner, {b.impact_ratio(-1):.3f} on the left")
     alpha = math.atan2(float(p["block1.halfWidth"]), float(p["block1.halfHeight"]))
     text = f"{LAW_NAMES.get(law, law)} restitution, eta {restitution(dict(p), alpha):.3f}"
     if law != 2 and float(p.get("restitution.correction", 1.0)) != 1.0:

@@ -54,6 +54,12 @@ def _linspace_at(start: float, stop: float, count: int, i: int) -> float:
 def scales(p: dict[str, Any]) -> tuple[float, float]:
     """(p, uplift acceleration) of the scene: rad/s and m/s^2 per unit of w and a; ValueError,
     in one line, where they do not exist (g or a half height not above zero)."""
+    from runners.engine.shapes import has_outline
+
+    if has_outline(p):
+        raise ValueError("w and a are scaled by a rectangular block's p = sqrt(3 g / (4 R)) and g tan(alpha); a body of "
+                         "real shape (an outline) has one of each per side: use --grid axes on excitation.frequency and "
+                         "excitation.amplitude instead")
     b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
     two = int(p.get("nBlocks", 1)) == 2
     if not (g > 0 and h > 0 and (not two or p["block2.halfHeight"] > 0)):

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Sequence
 
 from runners.engine.scene import Scene, restitution
+from runners.engine.shapes import has_outline
 from runners.errors import ArgumentError
 
 TWO_BLOCK_PARAMETERS = ("block2.halfWidth", "block2.halfHeight", "block2.mass", "block2.theta0", "block2.omega0",
@@ -61,6 +62,9 @@ def choose_model(p: dict[str, Any], accuracy: float) -> tuple[str, str]:
     """("closed form" | "one block" | "two blocks", why) for the merged parameters p (defaults included)."""
     if not 0 < accuracy < 1:
         raise ValueError(f"--accuracy must be in (0, 1), got {accuracy}")
+    if has_outline(p):  # no closed form, no rigid one-block or two-block model takes a polygon
+        return shape_model(p), ("a body of real shape runs in the contact engine (rigid contacts first): it has no "
+                                "closed form and no rigid one-block least model")
     if int(p["nBlocks"]) == 2:
         ratio = p["block2.mass"] / p["block1.mass"]
         seated = p["block2.theta0"] == p["block1.theta0"] and p["block2.omega0"] == p["block1.omega0"]
@@ -91,12 +95,20 @@ ROCKING_SLIDING = "rocking-sliding"  # the model's name in summaries and stored 
 ROCKING_SLIDING_STACK = "rocking-sliding stack"  # the same for a stack (nBlocks = 2, contact.model = 1)
 ROCKING_SLIDING_COLUMN = "rocking-sliding column"  # a column (nBlocks 3 to 8, contact.model = 1)
 RIGID_COLUMN = "column"  # a column in rigid rocking (contact.model = 0: the engine's contacts never slip)
+# bodies of real shape in rigid rocking (contact.model = 0: the contact engine, contacts that never slip)
+RIGID_SHAPE = "body of real shape"  # one body
+RIGID_SHAPE_STACK = "two blocks, contact engine"  # a stack with a body of real shape
 SLIDING_MODELS = (ROCKING_SLIDING, ROCKING_SLIDING_STACK, ROCKING_SLIDING_COLUMN)
 
 # where each contact is, in a reason's words: (the contact, what slides there)
 CONTACT_WORDS = {"ground": ("on the ground", "block 1 slides on the ground"),
                  "interface": ("between the blocks", "block 2 slides on block 1")}
 
+
+
+def shape_model(p: dict[str, Any]) -> str:
+    """The rigid-rocking model's name of a scene of 1 or 2 blocks with a body of real shape (merged `p`)."""
+    return RIGID_SHAPE_STACK if int(p.get("nBlocks", 1)) == 2 else RIGID_SHAPE
 
 
 def sliding_model(p: dict[str, Any]) -> str:
@@ -298,6 +310,9 @@ def answer(fm, scene: Scene, method: str = "fmu", accuracy: float = 1e-2, output
     if int(merged.get("support.kind", 0)) != 0 and method not in ("fmu", "auto"):
         raise ArgumentError(f"method {method} solves a block on the ground; the scene's [building] or [platform] "
                             "runs inside the FMU (method fmu, or auto)")
+    if has_outline(merged) and method not in ("fmu", "auto"):
+        raise ArgumentError(f"method {method} solves rectangular blocks; a body of real shape (an outline) runs in "
+                            "the FMU's contact engine (method fmu, or auto)")
     if int(merged.get("nBlocks", 1)) >= 3 and method not in ("fmu", "auto"):
         raise ArgumentError(f"method {method} solves one block or two; a column of {int(merged['nBlocks'])} blocks runs "
                             "in the FMU's contact engine (method fmu, or auto)")
@@ -325,6 +340,7 @@ def pick_model(merged: dict[str, Any], method: str, accuracy: float) -> tuple[st
     (ArgumentError where the closed forms do not apply) for the merged parameters."""
     if method == "fmu":
         model = (sliding_model(merged) if int(merged.get("contact.model", 0)) == 1
+                 else shape_model(merged) if has_outline(merged)
                  else "two blocks" if int(merged["nBlocks"]) == 2 else "one block")
         return model, "the model the scene describes (--method fmu)"
     model, why = choose_model(merged, accuracy)
@@ -361,7 +377,7 @@ def run_model(fm, described: Scene, model: str, why: str, merged: dict[str, Any]
     result = fm.run(scene.parameters, scene.stop_time, scene.step, outputs=wanted)
     s = summarize(scene, result, defaults)
     s["model"], s["model_reason"] = model, why
-    if monitor and two and model not in ("two blocks", ROCKING_SLIDING_STACK):
+    if monitor and two and model not in ("two blocks", ROCKING_SLIDING_STACK, RIGID_SHAPE_STACK):
         # a stack run as one block: only the two-block model sees its interface
         s["assumptions"] = monitored(fm, described, merged)
     columns = list(outputs) if outputs else [*SUMMARY_OUTPUTS, *MONITOR_OUTPUTS, *own]  # stored, exported

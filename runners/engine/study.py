@@ -276,6 +276,11 @@ class Outcomes:
         p = self.params
 
         def size(i: int) -> str:
+            from runners.engine.shapes import body, has_outline
+
+            if has_outline(p, i):
+                b = body(p, i)
+                return f"{b.width:.4g} m wide, {b.top:.4g} m high (an outline of {len(b.vertices)} vertices)"
             return f"{2 * p[f'block{i}.halfWidth']:g} m wide, {2 * p[f'block{i}.halfHeight']:g} m high"
 
         if self.column is not None:
@@ -309,8 +314,10 @@ class Outcomes:
             return None
         from runners.engine.sweep import scales
 
-        if self.column is not None:  # the column's (runners.engine.scene.column_uplift), and its contacts' mu g
-            from runners.engine.scene import motion_threshold
+        from runners.engine.shapes import has_outline
+
+        if self.column is not None or has_outline(self.params):  # the column's (runners.engine.scene.column_uplift),
+            from runners.engine.scene import motion_threshold  # or its bodies of real shape's; and its contacts' mu g
 
             return motion_threshold(self.params)[0] / G0
         if self.sliding and self.two:  # a stack at rest moves when it lifts or either contact slides
@@ -335,6 +342,13 @@ class Outcomes:
         return self._uplift_words(thr).replace("PGA", "PFA") if self.measure == "pfa" else self._uplift_words(thr)
 
     def _uplift_words(self, thr: float) -> str:
+        from runners.engine.shapes import has_outline
+
+        if self.column is None and has_outline(self.params):  # bodies of real shape (runners.engine.shapes.uplift)
+            return (f"no record below PGA {thr:.4g} g can move the {'stack' if self.two else 'body'} from rest: its "
+                    f"threshold of motion (the least uplift, onto either side, of the blocks above any joint, g b / yG"
+                    f"{', or mu g of its contacts' if self.sliding else ''}) = {thr * G0:.4g} m/s2 with the model's g = "
+                    f"{self.params['g']:g} m/s2, over g0 = {G0} m/s2, the g of every PGA here")
         if self.column is not None:
             return (f"no record below PGA {thr:.4g} g can move the column from rest: its threshold of motion (the "
                     f"least uplift of the blocks above any joint as one body{', or mu g of its contacts' if self.sliding else ''}) "

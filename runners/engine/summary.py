@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from runners.engine import supports
+from runners.engine import shapes, supports
 from runners.engine.column import column_outputs, format_table, is_column, summary_part
 from runners.engine.fmu import RunResult
 from runners.engine.scene import CONTACT_MODELS, KIND_NAMES, Scene, uplift_threshold
@@ -146,8 +146,37 @@ PATTERNS = {0: "rocking", 1: "at rest", 2: "overturned", 3: "upper block rocking
 def block_sizes(p: dict[str, Any]) -> list[dict[str, Any]]:
     """Each block's full width and height (m) and mass (kg) from parameters `p` (defaults
     included; the FMU's are half sizes)."""
-    return [{"block": i, "width_m": 2 * float(p[f"block{i}.halfWidth"]), "height_m": 2 * float(p[f"block{i}.halfHeight"]),
-             "mass_kg": float(p[f"block{i}.mass"])} for i in range(1, int(p.get("nBlocks", 1)) + 1)]
+    sizes = []
+    for i in range(1, int(p.get("nBlocks", 1)) + 1):
+        if shapes.has_outline(p, i):  # a body of real shape: the extent of its outline
+            b = shapes.body(p, i)
+            sizes.append({"block": i, "width_m": b.width, "height_m": b.top, "mass_kg": b.mass,
+                          "outline_vertices": len(b.vertices)})
+            continue
+        sizes.append({"block": i, "width_m": 2 * float(p[f"block{i}.halfWidth"]),
+                      "height_m": 2 * float(p[f"block{i}.halfHeight"]), "mass_kg": float(p[f"block{i}.mass"])})
+    return sizes
+
+
+def shape_summary(p: dict[str, Any]) -> dict[str, Any]:
+    """A summary's facts of a scene with bodies of real shape (parameters `p`, defaults included): ``shapes``
+    (each outlined block's vertices, centre, inertia, alphas and landing angles per side: shapes.shape_facts),
+    ``uplift_joints`` (every joint's uplift threshold onto either side, m/s^2: shapes.joints),
+    ``uplift_threshold_right_m_s2`` and ``_left_`` (the least of them per side: a_h below minus the first tips
+    something onto a right corner, a_h above the second onto a left one), ``uplift_threshold_m_s2`` the least
+    of both; for one body ``alpha_left_rad``, ``alpha_right_rad`` and ``p_right_rad_per_s``,
+    ``p_left_rad_per_s`` (sqrt(m g rho / I) about each corner), ``alpha_rad`` the smaller alpha and no single
+    ``p_rad_per_s``."""
+    joints = shapes.joints(p)
+    right, left = min(j["right_m_s2"] for j in joints), min(j["left_m_s2"] for j in joints)
+    out: dict[str, Any] = {"shapes": shapes.shape_facts(p), "uplift_joints": joints,
+                           "uplift_threshold_right_m_s2": right, "uplift_threshold_left_m_s2": left,
+                           "uplift_threshold_m_s2": min(right, left)}
+    if int(p.get("nBlocks", 1)) == 1:
+        b, g = shapes.body(p, 1), float(p["g"])
+        out.update(alpha_left_rad=b.alpha_left, alpha_right_rad=b.alpha_right, alpha_rad=min(b.alpha_left, b.alpha_right),
+                   p_rad_per_s=None, p_right_rad_per_s=b.rate(g, 1), p_left_rad_per_s=b.rate(g, -1))
+    return out
 
 
 RICKER_HALF_WINDOW = 3.0  # a Ricker pulse lasts 2 x 3 / frequency s (model/c/ground.c)
@@ -180,7 +209,7 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
                          "runners.simulate)")
     p = {**defaults, **scene.parameters}
     b, h, g = p["block1.halfWidth"], p["block1.halfHeight"], p["g"]
-    alpha = math.atan2(b, h)
+    alpha = shapes.alpha(p, 1)  # atan(b / h); a body of real shape's smaller of its two sides'
     R = math.hypot(b, h)
     out = result.outputs
     two = int(p.get("nBlocks", 1)) == 2
@@ -210,6 +239,8 @@ def summarize(scene: Scene, result: RunResult, defaults: dict[str, float]) -> di
         "final_energy_J": float(out["energy"][-1]),
         "wall_time_s": result.wall_time,
     }
+    if shapes.has_outline(p):  # bodies of real shape: their own geometry, per side (runners.engine.shapes)
+        summary.update(shape_summary(p))
     support = supports.describe(p)
     if support is not None:
         summary["support"] = support
@@ -278,7 +309,7 @@ def block_outcomes(final: dict[str, Any], p: dict[str, Any], sliding: bool) -> l
     for i, contact in ((1, "ground"), (2, "block 1")):
         over = bool(final[f"block{i}.overturned"])
         peak = float(final[f"block{i}.maxAbsTheta"])
-        alpha = math.atan2(p[f"block{i}.halfWidth"], p[f"block{i}.halfHeight"])
+        alpha = shapes.alpha(p, i)
         b: dict[str, Any] = {"block": i, "stands_on": contact, "overturned": over,
                              "overturn_time_s": over_t if over and over_t >= 0 else None,
                              "with_block1": i == 2 and over and bool(final["block1.overturned"]),
@@ -536,6 +567,10 @@ def format_summary(s: dict[str, Any]) -> str:
             first = ("the stack slides on the ground first" if s["mu_ground"] <= s["mu_interface"]
                      else "block 2 slides on block 1 first")
             block += f"; sliding at |a_h| > {s['slide_threshold_m_s2']:.3f} m/s2 ({mu_text(s)}: {first})"
+    elif "alpha_right_rad" in s:  # one body of real shape: each side its own
+        block = (f"body             alpha {s['alpha_right_rad']:.4f} rad onto its right corner, "
+                 f"{s['alpha_left_rad']:.4f} rad onto its left; uplift at a_h < -{s['uplift_threshold_right_m_s2']:.3f} "
+                 f"m/s2 (right corner) or a_h > {s['uplift_threshold_left_m_s2']:.3f} m/s2 (left)")
     else:
         block = (f"block            alpha = {s['alpha_rad']:.4f} rad, p = {s['p_rad_per_s']:.3f} rad/s, "
                  f"uplift at |a_h| > {s['uplift_threshold_m_s2']:.3f} m/s2")
@@ -544,6 +579,7 @@ def format_summary(s: dict[str, Any]) -> str:
     lines = [
         f"scene            {s['scene']}",
         *size_lines(s),
+        *shape_lines(s),
         *([f"model            {s['model']}: {s['model_reason']}"] if "model" in s else []),
         block,
         f"restitution      {s['restitution_law']}",
@@ -558,7 +594,8 @@ def format_summary(s: dict[str, Any]) -> str:
         outcome += f" at t = {s['overturn_time_s']:.4f} s"
     elif s["rest_time_s"] is not None:
         outcome += f" since t = {s['rest_time_s']:.4f} s"
-    elif s["final_state"] == "at rest" and (s.get("slid") or s.get("rocked")):
+    elif s["final_state"] == "at rest" and (s.get("slid") or s.get("rocked") or any(
+            b.get("slid") or b.get("rocked") for b in s.get("per_block") or ())):
         pass  # rocking-sliding: it moved, then stopped (the sliding line tells how)
     elif s["final_state"] == "at rest":
         flew = (s.get("assumptions") or {}).get("lifts")
@@ -605,6 +642,7 @@ def _format_column(s: dict[str, Any]) -> str:
     lines = [
         f"scene            {s['scene']}",
         *size_lines(s),
+        *shape_lines(s),
         *([f"model            {s['model']}: {s['model_reason']}"] if "model" in s else []),
         f"column           {s['blocks']} blocks, block K on block K - 1; uplift at |a_h| > "
         f"{s['uplift_threshold_m_s2']:.3f} m/s2, then {s['first_pattern']}"
@@ -629,8 +667,30 @@ def size_lines(s: dict[str, Any]) -> list[str]:
         return [f"{'block sizes':<17}{len(sizes)} identical blocks {b['width_m']:g} m x {b['height_m']:g} m, "
                 f"{b['mass_kg']:g} kg (width x height, mass)"]
     text = "; ".join(("" if len(sizes) == 1 else f"block {b['block']} ")
-                     + f"{b['width_m']:g} m x {b['height_m']:g} m, {b['mass_kg']:g} kg" for b in sizes)
+                     + f"{b['width_m']:g} m x {b['height_m']:g} m, {b['mass_kg']:g} kg"
+                     + (f" (outline of {b['outline_vertices']} vertices)" if b.get("outline_vertices") else "")
+                     for b in sizes)
     return [f"{'block size' if len(sizes) == 1 else 'block sizes':<17}{text} (width x height, mass)"]
+
+
+def shape_lines(s: dict[str, Any]) -> list[str]:
+    """The summary's lines of bodies of real shape (shape_summary): each one's centre of mass and inertia,
+    alphas and landing angles per side, and for a stack or column each joint's uplift thresholds."""
+    lines = []
+    for f in s.get("shapes") or ():
+        who = "" if s.get("blocks", 1) == 1 else f"block {f['block']}: "
+        x, y = (0.0 if abs(v) < 1e-12 * f["height_m"] else v for v in f["centre_m"])  # (a centroid's rounding)
+        lines.append(f"{'shape':<17}{who}centre of mass ({x:.4g}, {y:.4g}) m, inertia "
+                     f"{f['inertia_kg_m2']:.4g} kg m2 {'(uniform polygon)' if f['uniform'] else '(given)'}; alpha "
+                     f"{f['alpha_right_rad']:.4f} rad right, {f['alpha_left_rad']:.4f} left; lands on its side at "
+                     f"{f['landing_right_rad']:.4f} rad right, {f['landing_left_rad']:.4f} left")
+    if s.get("blocks", 1) > 1:
+        for j in s.get("uplift_joints") or ():
+            who = "block" if len(j["blocks"]) == 1 else "blocks"
+            above = f"{who} {j['blocks'][0]}" + (f"-{j['blocks'][-1]}" if len(j["blocks"]) > 1 else "")
+            lines.append(f"{'uplift':<17}{above} on {j['on']}: a_h < -{j['right_m_s2']:.3f} m/s2 onto the right end, "
+                         f"a_h > {j['left_m_s2']:.3f} m/s2 onto the left")
+    return lines
 
 
 def simulated_line(s: dict[str, Any]) -> str:
@@ -766,7 +826,7 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
     """The database's run summary (db.schema.RunSummary) from a summary dict of any method."""
     from runners.engine.motion import first_of
 
-    alpha1 = math.atan2(p["block1.halfWidth"], p["block1.halfHeight"])
+    alpha1 = shapes.alpha(p, 1)
     two = s.get("blocks") == 2
     peak1 = s.get("max_abs_theta_rad")
     if peak1 is None and s.get("peak_after_first_impact_rad") is not None:  # closed form
@@ -803,11 +863,11 @@ def summary_row(s: dict[str, Any], p: dict[str, float]) -> dict[str, Any]:
     if "column" in s:  # a column: block 2's peak, and the column's outcome (each block's: block_rows)
         from runners.engine.column import summary_columns_rows
 
-        alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
+        alpha2 = shapes.alpha(p, 2)
         row["peak2_over_alpha"] = s["per_block"][1]["max_abs_theta"] / alpha2
         summary_columns_rows(row, s["column"], int(s["blocks"]))
     elif two:
-        alpha2 = math.atan2(p["block2.halfWidth"], p["block2.halfHeight"])
+        alpha2 = shapes.alpha(p, 2)
         row["peak2_over_alpha"] = s["max_abs_theta2_rad"] / alpha2
         blocks = s.get("overturned_blocks")
         row["overturned_blocks"] = ",".join(str(i) for i in blocks) if blocks else None

@@ -364,8 +364,7 @@ def run_chunk(task: tuple[np.ndarray, dict[int, tuple]]) -> Chunk:
         extra, blocks = sweep_rows(columns, lambda name: _column(pts, name, w["summary_base"]), column_size(setup),
                                    (~failed).tolist())
         summaries.update(extra)
-        alpha2 = np.arctan2(np.asarray(_column(pts, "block2.halfWidth", w["summary_base"]), float),
-                            np.asarray(_column(pts, "block2.halfHeight", w["summary_base"]), float))
+        alpha2 = _alphas(lambda name: _column(pts, name, w["summary_base"]), 2, n)
         summaries["peak2_over_alpha"] = (np.asarray(columns["block2.maxAbsTheta"], float) / alpha2).tolist()
         summaries["friction_demand_max_interface"] = np.asarray(columns["friction.demandMaxInterface"], float).tolist()
         summaries["normal_min_interface"] = np.asarray(columns["contact.normalMinInterface"], float).tolist()
@@ -413,6 +412,34 @@ def _pairwise(f: Callable[[float, float], float], x: np.ndarray, y: np.ndarray) 
     return np.array([f(a, b) for a, b in u.tolist()])[inv.reshape(-1)]
 
 
+SHAPE_PARAMETERS = ("outline", "mass", "centreX", "centreY", "inertia")
+
+
+def _alphas(param: Callable[[str], Any], k: int, n: int) -> np.ndarray:
+    """Block `k`'s alpha (rad) at each of `n` points of parameters `param(name)`: atan(b / h) of a rectangle,
+    of a body of real shape the smaller side's (runners.engine.shapes.alpha), once per distinct body."""
+    outline = np.broadcast_to(np.asarray(param(f"block{k}.outline"), dtype=object), (n,))
+    if not any(isinstance(v, str) and v.strip() for v in outline.tolist()):
+        return _pairwise(math.atan2, param(f"block{k}.halfWidth"), param(f"block{k}.halfHeight"))
+    from runners.engine.shapes import alpha as shape_alpha
+
+    cols = {name: np.broadcast_to(np.asarray(param(f"block{k}.{name}"), dtype=object), (n,)).tolist()
+            for name in (*SHAPE_PARAMETERS, "halfWidth", "halfHeight")}
+    found: dict[tuple, float] = {}
+    out = np.empty(n)
+    for i in range(n):
+        key = tuple(cols[name][i] for name in cols)
+        if key not in found:
+            values = {f"block{k}.{name}": v for name, v in zip(cols, key)
+                      if v is not None and not (isinstance(v, float) and math.isnan(v))}
+            try:
+                found[key] = shape_alpha(values, k)
+            except (KeyError, ValueError):  # (a point the FMU refused: its row is failed anyway)
+                found[key] = math.nan
+        out[i] = found[key]
+    return out
+
+
 def _where(keep: np.ndarray, values: np.ndarray) -> list:
     """values where keep, None elsewhere, as Python floats."""
     return np.where(keep, np.asarray(values, dtype=float), None).tolist()
@@ -426,7 +453,7 @@ def summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], 
     and the rocking–sliding columns (runners.engine.motion) of points with contact.model = 1."""
     n = len(out["impacts"])
     none = [None] * n
-    alpha1 = _pairwise(math.atan2, param("block1.halfWidth"), param("block1.halfHeight"))
+    alpha1 = _alphas(param, 1, n)
     over = np.asarray(out["overturned"]).astype(bool)
     slide, lift, fall = (np.asarray(out[k], dtype=float) for k in ("slideTime", "liftTime", "fallTime"))
     rest = np.asarray(out["restTime"], dtype=float)
@@ -451,7 +478,7 @@ def summary_columns(out: Mapping[str, np.ndarray], param: Callable[[str], Any], 
             row.setdefault(key, list(none))[k] = v
         row["assumptions_held"][k] = row["lift_time"][k] is None
     if two:
-        alpha2 = _pairwise(math.atan2, param("block2.halfWidth"), param("block2.halfHeight"))
+        alpha2 = _alphas(param, 2, n)
         row["friction_demand_max_interface"] = np.asarray(out["friction.demandMaxInterface"], dtype=float).tolist()
         row["normal_min_interface"] = np.asarray(out["contact.normalMinInterface"], dtype=float).tolist()
         row["peak2_over_alpha"] = (np.asarray(out["block2.maxAbsTheta"], dtype=float) / alpha2).tolist()
