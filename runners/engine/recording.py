@@ -45,6 +45,7 @@ from typing import Any, Iterator
 import numpy as np
 
 from runners.engine.files import staged
+from runners.engine.shapes import has_outline, stack_bodies
 from runners.errors import FileError
 
 MAX_FPS = 100.0  # animation frames per simulated second
@@ -76,6 +77,8 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
     raised by ``block1.gap`` (m) while it flies (its lowest corner at that height).
     Block 2 stands on block 1 where it has slid along its top: its pivot at s2 c + ``block2.slip``
     in block 1's frame (c = min(b1, b2); the slip 0 when `out` has none)."""
+    if has_outline(p):  # bodies of real shape: every block's own polygon
+        return shape_outlines(time, out, p)
     b1, h1 = p["block1.halfWidth"], p["block1.halfHeight"]
     th1 = out["block1.theta"]
     slip = np.asarray(out.get("block1.slip", np.zeros(len(time))), float)
@@ -121,6 +124,50 @@ def block_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, An
         pivot_points.append(K2)
     for k in range(2, int(p.get("nBlocks", 1)) + 1) if int(p.get("nBlocks", 1)) >= 3 else ():
         pts, K = _stacked_outline(time, out, p, k, shapes[-1])
+        shapes.append(pts)
+        pivot_points.append(K)
+    return shapes, pivot_points
+
+
+def _turn(theta: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Points q (n, 2), one per sample, rotated clockwise by theta (n,)."""
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([c * q[:, 0] + s * q[:, 1], -s * q[:, 0] + c * q[:, 1]], 1)
+
+
+def shape_outlines(time: np.ndarray, out: dict[str, np.ndarray], p: dict[str, Any]
+                   ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """block_outlines of blocks that may be bodies of real shape (runners.engine.shapes.Body): each block's
+    closed polygon (n, k + 1, 2) in the ground frame (m) and its pivot (n, 2). Block 1 turns by its theta
+    about its base corner (xR when theta >= 0, else xL; x from its axis) at x = slip + that corner, raised
+    by its gap; block K turns by its absolute theta about the end of its contact with block K - 1 (its
+    base's right end, within the top below, when it turns clockwise relative to block K - 1, else the
+    left), placed at that end + blockK.slip along the top of block K - 1 as block K - 1 stands. The centre
+    of a body is drawn where its own outline puts it (its centre of mass needs no drawing of its own)."""
+    n = len(time)
+    zero = np.zeros(n)
+    bodies = stack_bodies(p)
+    shapes, pivot_points = [], []
+    poses: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (world pivot, pivot in the body's frame, theta)
+    for k, bd in enumerate(bodies, start=1):
+        poly = np.array([*bd.vertices, bd.vertices[0]], float)
+        th = np.asarray(out[f"block{k}.theta"], float)
+        slip = np.asarray(out.get(f"block{k}.slip", zero), float)
+        if k == 1:
+            side = np.where(th >= 0, 1.0, -1.0)
+            corner = np.where(side > 0, bd.xR, bd.xL)
+            gap = np.asarray(out.get("block1.gap", zero), float)
+            K = np.stack([slip + corner, gap], 1)
+        else:
+            below = bodies[k - 2]
+            K_b, P_b, th_b = poses[-1]
+            side = np.where(th - th_b >= 0, 1.0, -1.0)
+            corner = np.where(side > 0, min(bd.xR, below.top_right), max(bd.xL, below.top_left))
+            on_top = np.stack([corner + slip, np.full(n, below.top)], 1)  # in block K - 1's frame
+            K = K_b + _turn(th_b, on_top - P_b)
+        P = np.stack([corner, zero], 1)
+        pts = K[:, None, :] + _rot(th, poly)  - _turn(th, P)[:, None, :]
+        poses.append((K, P, th))
         shapes.append(pts)
         pivot_points.append(K)
     return shapes, pivot_points
@@ -370,6 +417,11 @@ def write_recording(path: Path, name: str, time: np.ndarray, out: dict[str, np.n
     if n_blocks >= 3:  # a column: its whole height, and its lean (a column sways more than it slides)
         height = sum(2 * p[f"block{k}.halfHeight"] for k in range(1, n_blocks + 1))
         width = max(width, 0.6 * height)
+    if has_outline(p):  # bodies of real shape: their outlines' extents
+        bodies = stack_bodies(p)
+        b1 = 0.5 * (bodies[0].xR - bodies[0].xL)  # (the pivots' marker size)
+        height = sum(bd.top for bd in bodies)
+        width = max(2 * max(bd.width for bd in bodies) + slid, 0.6 * height)
     reach = max(np.abs(xg).max(initial=0.0), np.abs(yg).max(initial=0.0))
     bounds = (-width - reach, width + reach, -1.15 * height - reach, 0.25 * height + reach)  # y down
 
