@@ -4,6 +4,7 @@
  * step) and the Model Exchange interface of the model (me.c). No global
  * state. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -43,36 +44,44 @@ fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nC
                                             "fmi2SetDebugLogging");
 }
 
-fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
-                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
-                              fmi2Boolean visible, fmi2Boolean loggingOn) {
-    (void)visible;
-    if (!functions || !functions->allocateMemory || !functions->freeMemory) return NULL;
-    /* a stand-in, to log why there will be no instance */
+/* Log why there will be no instance, through a stand-in (zeroed here only, on this path: an Instance is
+ * large, and instantiation is on the path of every short simulation). */
+static void refuse_instance(const fmi2CallbackFunctions *functions, fmi2String instanceName, const char *why) {
     Instance tmp;
     memset(&tmp, 0, sizeof(tmp));
     tmp.emit = emit;
     tmp.env = functions->componentEnvironment;
     tmp.logger = (void (*)(void))functions->logger;
-    tmp.name = (char *)(instanceName ? instanceName : "RockingBlock");
+    tmp.name = (char *)(instanceName && instanceName[0] ? instanceName : "RockingBlock");
+    INSTANCE_ERROR(&tmp, "%s", why);
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    (void)visible;
+    if (!functions || !functions->allocateMemory || !functions->freeMemory) return NULL;
+    char why[MSG_LEN];
     if (!instanceName || !instanceName[0]) {
-        INSTANCE_ERROR(&tmp, "fmi2Instantiate: missing instance name");
+        refuse_instance(functions, instanceName, "fmi2Instantiate: missing instance name");
         return NULL;
     }
     if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
-        INSTANCE_ERROR(&tmp, "fmi2Instantiate: unknown FMU type %d", (int)fmuType);
+        snprintf(why, sizeof(why), "fmi2Instantiate: unknown FMU type %d", (int)fmuType);
+        refuse_instance(functions, instanceName, why);
         return NULL;
     }
     if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
-        INSTANCE_ERROR(&tmp, "fmi2Instantiate: GUID '%s' does not match this binary (%s)", fmuGUID ? fmuGUID : "(null)",
-                  MODEL_GUID);
+        snprintf(why, sizeof(why), "fmi2Instantiate: GUID '%s' does not match this binary (%s)",
+                 fmuGUID ? fmuGUID : "(null)", MODEL_GUID);
+        refuse_instance(functions, instanceName, why);
         return NULL;
     }
     Instance *I = instance_new(instanceName, fmuType == fmi2CoSimulation ? INTERFACE_CS : INTERFACE_ME,
                                fmuResourceLocation, emit, functions->componentEnvironment,
                                (void (*)(void))functions->logger, functions->allocateMemory, functions->freeMemory,
                                loggingOn);
-    if (!I) INSTANCE_ERROR(&tmp, "fmi2Instantiate: out of memory");
+    if (!I) refuse_instance(functions, instanceName, "fmi2Instantiate: out of memory");
     return I;
 }
 
