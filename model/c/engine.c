@@ -242,8 +242,64 @@ static inline __attribute__((always_inline)) void point(const EnSystem *s, int k
     }
 }
 
+/* The support's top corner c against body k's base face (k > 0; docs/columns.md, "Overhangs"): E the corner Q from
+ * k's centre, n and t k's base normal (up) and tangent; gap cy - n . E (Q below the base: open), slip coordinate
+ * xtop + cx - t . E (xtop Q's place from the support's axis, cx k's corner from its centre: k's corner's place on the
+ * support's top were the two flat, so that xi - xa is k's slip). With dn/dtheta = t, dt/dtheta = -n. */
+static void point_over(const EnSystem *s, int k, int c, const double *y, EnPoint *p, const int ROWS) {
+    int nb = s->nb, j = k - 1;
+    const EnBody *B = &s->body[k], *S = &s->body[j];
+    if (ROWS)
+        for (int q = 0; q < 3 * nb; q++) p->wN[q] = p->wT[q] = 0.0;
+    double th = y[EN_TH(k)], ck = cos(th), sk = sin(th), w = y[EN_W(k)];
+    double thj = y[EN_TH(j)], cj = cos(thj), sj = sin(thj), wj = y[EN_W(j)];
+    double xtop = S->tm + c * S->tw, Rq[2], JRq[2];
+    rot(cj, sj, xtop - S->xG, S->ht, Rq);
+    JRq[0] = Rq[1];
+    JRq[1] = -Rq[0];
+    double n[2] = {sk, ck}, t[2] = {ck, -sk};
+    double E[2] = {y[EN_POS(nb, j, 0)] + Rq[0] - y[EN_POS(nb, k, 0)], y[EN_POS(nb, j, 1)] + Rq[1] - y[EN_POS(nb, k, 1)]};
+    double Ed[2] = {y[EN_VEL(nb, j, 0)] + wj * JRq[0] - y[EN_VEL(nb, k, 0)],
+                    y[EN_VEL(nb, j, 1)] + wj * JRq[1] - y[EN_VEL(nb, k, 1)]};
+    double nE = dot(n, E), tE = dot(t, E), nEd = dot(n, Ed), tEd = dot(t, Ed);
+    p->g = B->cy - nE;
+    p->gd = -(w * tE + nEd);
+    p->xi = xtop + B->cx[c > 0] - tE;
+    p->xid = w * nE - tEd;
+    if (!ROWS) return;
+    p->wN[EN_Q(k, 0)] = n[0];
+    p->wN[EN_Q(k, 1)] = n[1];
+    p->wN[EN_Q(k, 2)] = -tE;
+    p->wN[EN_Q(j, 0)] = -n[0];
+    p->wN[EN_Q(j, 1)] = -n[1];
+    p->wN[EN_Q(j, 2)] = -dot(n, JRq);
+    p->wT[EN_Q(k, 0)] = t[0];
+    p->wT[EN_Q(k, 1)] = t[1];
+    p->wT[EN_Q(k, 2)] = nE;
+    p->wT[EN_Q(j, 0)] = -t[0];
+    p->wT[EN_Q(j, 1)] = -t[1];
+    p->wT[EN_Q(j, 2)] = -dot(t, JRq);
+    p->bN = w * w * nE - 2.0 * w * tEd + wj * wj * dot(n, Rq);
+    p->bT = w * w * tE + 2.0 * w * nEd + wj * wj * dot(t, Rq);
+}
+
 void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p) { point(s, k, c, y, p, 1); }
 void engine_corner(const EnSystem *s, int k, int c, const double *y, EnPoint *p) { point(s, k, c, y, p, 0); }
+static inline int over_of(const EnMode *m, int k, int c) { return m && k > 0 && m->over[k][c > 0]; }
+void engine_point_m(const EnSystem *s, const EnMode *m, int k, int c, const double *y, EnPoint *p) {
+    if (over_of(m, k, c)) point_over(s, k, c, y, p, 1);
+    else point(s, k, c, y, p, 1);
+}
+void engine_corner_m(const EnSystem *s, const EnMode *m, int k, int c, const double *y, EnPoint *p) {
+    if (over_of(m, k, c)) point_over(s, k, c, y, p, 0);
+    else point(s, k, c, y, p, 0);
+}
+double engine_overhang(const EnSystem *s, int k, int c, const double *y) {
+    EnPoint p;
+    point(s, k, c, y, &p, 0);
+    const EnBody *S = &s->body[k - 1];
+    return c * (p.xi - S->tm) - S->tw;
+}
 
 /* The inverse mass matrix (diagonal) and the generalised forces of gravity and of the ground's
  * motion (the inertial force -m (ah, av)) of the free bodies. */
@@ -343,7 +399,7 @@ static int solve_set(const EnSystem *s, const EnMode *m, const double *y, const 
         int any = 0;
         for (int i = 0; i < 2; i++) {
             if (!m->closed[k][i]) continue;
-            engine_point(s, k, 2 * i - 1, y, &P[i]);
+            engine_point_m(s, m, k, 2 * i - 1, y, &P[i]);
             for (int q_ = 0; q_ < nq; q_++) row[nr][q_] = P[i].wN[q_];
             for (int q = 0; q < nq; q++) col[nr][q] = P[i].wN[q] - m->sigma[k] * s->mu[k] * P[i].wT[q];
             bias[nr] = P[i].bN;
@@ -548,17 +604,21 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
     /* index 0 the ground (fixed: its accelerations are in the forces), body k at k + 1; so every body has
      * a support, and the loops over the coordinates have fixed lengths */
     double G[NS][2][NDMAX], kap[NS][2], sel[NS][NDMAX], w[NS], th[NS], cs[NS][2], X[NS][2], V[NS][2], hs[NS], xs[NS];
+    double tms[NS], tws[NS];
     for (int d = 0; d < ND; d++) G[0][0][d] = G[0][1][d] = sel[0][d] = 0.0;
     kap[0][0] = kap[0][1] = X[0][0] = X[0][1] = V[0][0] = V[0][1] = w[0] = th[0] = hs[0] = xs[0] = cs[0][1] = 0.0;
+    tms[0] = tws[0] = 0.0;
     cs[0][0] = 1.0;
-    double n[NB][2], t[NB][2]; /* each body's support's top normal and tangent */
-    double Rd[NB][2][2], D[NB][2], fk[NB][2];
+    double n[NB][2], t[NB][2]; /* each contact's face's normal and tangent (the support's top; overhanging, k's base) */
+    double Rd[NB][2][2], D[NB][2], fk[NB][2], rk[NB][2];
     int cor[NB], flat[NB], slip[NB];
     for (int k = 0; k < nb; k++) {
         const EnBody *B = &s->body[k];
         int b = k + 1, a = k; /* the body's and its support's index */
         hs[b] = B->ht; /* its top face above its centre, and its centre from its axis (what a body on it reads) */
         xs[b] = B->xG;
+        tms[b] = B->tm;
+        tws[b] = B->tw;
         flat[k] = m->closed[k][0] && m->closed[k][1];
         cor[k] = first_closed(m, k);
         if (flat[k]) { /* turning with its support */
@@ -581,42 +641,80 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
         }
         slip[k] = SLIDES && m->sigma[k] ? nd++ : -1; /* a sliding contact's slip along the support's top */
         for (int i = 0; i < 2; i++) rot(cs[b][0], cs[b][1], B->cx[i], B->cy, Rd[k][i]);
+        /* the contact the chain holds (its first closed end): body k's corner on the support's top, or with an overhang
+         * (ov) the support's top corner on k's base (docs/columns.md, "Overhangs"): D the point from the support's
+         * centre, r from body k's; n, t the face's normal and tangent (the support's top, or k's base) */
+        int ov = k > 0 && m->over[k][cor[k] > 0];
         const double *r = Rd[k][cor[k] > 0];
-        n[k][0] = cs[a][1], n[k][1] = cs[a][0], t[k][0] = cs[a][0], t[k][1] = -cs[a][1];
-        double JD[2], Jr[2];
-        perp(r, Jr);
+        double JD[2], Jr[2], rv[2];
         double xid = 0.0; /* a sliding contact's slip rate xi' (along the support's top, relative to it) */
-        if (xi0) { /* the corner at its anchor (or, sliding, its slip) on the support's top: the centre follows */
-            int sl = SLIDES && slip[k] >= 0;
-            /* the corner along the support's top from the support's centre: slip plus the corner's offset from the
-             * body's axis, less the support's centre's from its axis */
-            double xi = (sl ? yin[EN_XI(nb, k)] : xi0[k]) + B->xa[cor[k] > 0] - xs[a];
-            if (sl) xid = yin[EN_XID(nb, k)];
-            for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs[a] * n[k][i];
-            perp(D[k], JD);
-            for (int i = 0; i < 2; i++) {
-                X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
-                V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i] + xid * t[k][i];
+        if (!ov) {
+            n[k][0] = cs[a][1], n[k][1] = cs[a][0], t[k][0] = cs[a][0], t[k][1] = -cs[a][1];
+            perp(r, Jr);
+            if (xi0) { /* the corner at its anchor (or, sliding, its slip) on the support's top: the centre follows */
+                int sl = SLIDES && slip[k] >= 0;
+                /* the corner along the support's top from the support's centre: slip plus the corner's offset from the
+                 * body's axis, less the support's centre's from its axis */
+                double xi = (sl ? yin[EN_XI(nb, k)] : xi0[k]) + B->xa[cor[k] > 0] - xs[a];
+                if (sl) xid = yin[EN_XID(nb, k)];
+                for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs[a] * n[k][i];
+                perp(D[k], JD);
+                for (int i = 0; i < 2; i++) {
+                    X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
+                    V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i] + xid * t[k][i];
+                }
+            } else {
+                for (int i = 0; i < 2; i++) {
+                    X[b][i] = yin[EN_POS(nb, k, i)];
+                    V[b][i] = yin[EN_VEL(nb, k, i)];
+                    D[k][i] = X[b][i] + r[i] - X[a][i];
+                }
+                perp(D[k], JD);
             }
         } else {
-            for (int i = 0; i < 2; i++) {
-                X[b][i] = yin[EN_POS(nb, k, i)];
-                V[b][i] = yin[EN_VEL(nb, k, i)];
-                D[k][i] = X[b][i] + r[i] - X[a][i];
-            }
+            n[k][0] = cs[b][1], n[k][1] = cs[b][0], t[k][0] = cs[b][0], t[k][1] = -cs[b][1];
+            /* the support's top corner: fixed on it */
+            double xtop = tms[a] + cor[k] * tws[a], dx = xtop - xs[a];
+            D[k][0] = dx * cs[a][0] + hs[a] * cs[a][1];
+            D[k][1] = -dx * cs[a][1] + hs[a] * cs[a][0];
             perp(D[k], JD);
+            if (xi0) { /* the point of k's base at the slip (xtop - xG - slip from k's centre) on it */
+                int sl = SLIDES && slip[k] >= 0;
+                double sb = xtop - B->xG - (sl ? yin[EN_XI(nb, k)] : xi0[k]);
+                if (sl) xid = yin[EN_XID(nb, k)];
+                for (int i = 0; i < 2; i++) rv[i] = sb * t[k][i] + B->cy * n[k][i];
+                r = rv;
+                perp(r, Jr);
+                for (int i = 0; i < 2; i++) {
+                    X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
+                    V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i] + xid * t[k][i];
+                }
+            } else {
+                for (int i = 0; i < 2; i++) {
+                    X[b][i] = yin[EN_POS(nb, k, i)];
+                    V[b][i] = yin[EN_VEL(nb, k, i)];
+                    rv[i] = D[k][i] + X[a][i] - X[b][i];
+                }
+                r = rv;
+                perp(r, Jr);
+            }
         }
-        /* a sliding contact's slip rate (placed: as given); on a turning support its Coriolis term 2 xi' w_j J t */
+        rk[k][0] = r[0], rk[k][1] = r[1];
+        /* a sliding contact's slip rate (placed: as given); its Coriolis term 2 xi' w J t, w the face's rate (the
+         * support's, or with an overhang k's own) */
         double cor2[2] = {0.0, 0.0};
         if (!IMP && SLIDES && slip[k] >= 0) {
-            if (!xi0) {
+            if (!xi0 && !ov) {
                 double Pd[2] = {V[b][0] + w[b] * Jr[0] - V[a][0], V[b][1] + w[b] * Jr[1] - V[a][1]};
                 xid = dot(t[k], Pd) - w[a] * dot(n[k], D[k]);
+            } else if (!xi0) {
+                double Ed[2] = {V[a][0] + w[a] * JD[0] - V[b][0], V[a][1] + w[a] * JD[1] - V[b][1]};
+                xid = w[b] * dot(n[k], r) - dot(t[k], Ed);
             }
-            double Jt[2];
+            double Jt[2], wf = ov ? w[b] : w[a];
             perp(t[k], Jt);
-            cor2[0] = 2.0 * xid * w[a] * Jt[0];
-            cor2[1] = 2.0 * xid * w[a] * Jt[1];
+            cor2[0] = 2.0 * xid * wf * Jt[0];
+            cor2[1] = 2.0 * xid * wf * Jt[1];
             if (slipRate) slipRate[k] = xid;
         }
         for (int i = 0; i < 2; i++) {
@@ -680,11 +778,28 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
         F[1] += IMP ? B->m * acc[k][1] - fk[k][1] : B->m * (acc[k][1] + s->g + av);
         double N = dot(F, n[k]), T = SLIDES && m->sigma[k] ? -m->sigma[k] * s->mu[k] * N : dot(F, t[k]);
         f->T[k] = T;
-        const double *rf = Rd[k][cor[k] > 0];
+        const double *rf = rk[k];
+        /* the contact points of a flat body from its centre (with an overhang, the support's corner there) and from
+         * its support's */
+        double pc[2][2] = {{0.0}}, pd[2][2] = {{0.0}};
+        for (int i = 0; i < 2; i++) {
+            if (!(flat[k] || m->closed[k][i])) continue;
+            if (k > 0 && m->over[k][i]) {
+                double dx = s->body[k - 1].tm + (2 * i - 1) * s->body[k - 1].tw - s->body[k - 1].xG, hh = s->body[k - 1].ht;
+                pd[i][0] = dx * cs[k][0] + hh * cs[k][1];
+                pd[i][1] = -dx * cs[k][1] + hh * cs[k][0];
+                pc[i][0] = pd[i][0] - D[k][0] + rf[0];
+                pc[i][1] = pd[i][1] - D[k][1] + rf[1];
+            } else {
+                pc[i][0] = Rd[k][i][0], pc[i][1] = Rd[k][i][1];
+                pd[i][0] = D[k][0] - rf[0] + Rd[k][i][0];
+                pd[i][1] = D[k][1] - rf[1] + Rd[k][i][1];
+            }
+        }
         if (flat[k]) {
             double JL[2], JR[2];
-            perp(Rd[k][0], JL);
-            perp(Rd[k][1], JR);
+            perp(pc[0], JL);
+            perp(pc[1], JR);
             double aL = dot(n[k], JL), aR = dot(n[k], JR), bT = dot(t[k], JL);
             double NR = (B->Ic * (IMP ? al[k] - yin[EN_W(k)] : al[k]) - T * bT - tau - N * aL) / (aR - aL);
             f->N[k][1] = NR;
@@ -697,8 +812,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
             tau = -T * dot(n[k], D[k]);
             for (int i = 0; i < 2; i++) {
                 if (!m->closed[k][i]) continue;
-                double Di[2] = {D[k][0] - rf[0] + Rd[k][i][0], D[k][1] - rf[1] + Rd[k][i][1]};
-                tau += f->N[k][i] * dot(t[k], Di);
+                tau += f->N[k][i] * dot(t[k], pd[i]);
             }
         }
     }
@@ -779,7 +893,7 @@ static double slip_rate(const EnSystem *s, const EnMode *m, int k, const double 
     int c = first_closed(m, k);
     if (!c) return 0.0;
     EnPoint p;
-    engine_corner(s, k, c, y, &p);
+    engine_corner_m(s, m, k, c, y, &p);
     return p.xid;
 }
 
@@ -859,7 +973,7 @@ static double jam_margin_rows(const EnSystem *s, const EnMode *m, int k, int c, 
     double Minv[EN_NQ], fext[EN_NQ], col[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     EnPoint p;
-    engine_point(s, k, c, y, &p);
+    engine_point_m(s, m, k, c, y, &p);
     for (int q = 0; q < nq; q++) col[q] = p.wN[q] - m->sigma[k] * s->mu[k] * p.wT[q];
     return wdot(p.wN, Minv, col, nq) / wdot(p.wN, Minv, p.wN, nq);
 }
@@ -880,37 +994,43 @@ int engine_beyond_edge(const EnSystem *s, int k, double xi) {
     return fabs(xi - S->tm) > S->tw * (1.0 + EN_EDGE_MARGIN);
 }
 
-/* Block k (k > 0) leaving its support's top: on one corner, where that corner slides past the support's
- * edge; flat with a corner beyond the edge (its base overhangs), where the resultant of its normal forces
- * reaches the edge (it would tip about the edge: the pressure under it lies on the support's top, the
- * corner forces stand for it while their resultant lies there). Always one indicator (1 where there is
- * nothing to watch), so that each keeps its place along a step. */
-static int edge_indicator(const EnSystem *s, const EnMode *m, int k, const double *y, const EnForces *f,
-                          double *ind, int *kind, int *body, int *corner) {
-    /* the support's top face: its middle (from the support's axis, as the slips) and its half width */
-    double tm = s->body[k - 1].tm, b = s->body[k - 1].tw;
-    EnPoint p[2];
-    int closed = m->closed[k][0] + m->closed[k][1];
-    /* nothing to watch: a value that never crosses (the indicators keep their places in a step) */
-    *ind = 1.0;
-    *corner = 1;
-    if (closed == 1 && m->sigma[k]) {
-        int i = m->closed[k][1];
-        engine_corner(s, k, 2 * i - 1, y, &p[i]);
-        *ind = (b * (1.0 + EN_EDGE_MARGIN) - fabs(p[i].xi - tm)) / b;
-        *corner = 2 * i - 1;
-    } else if (closed == 2) {
-        for (int i = 0; i < 2; i++) engine_corner(s, k, 2 * i - 1, y, &p[i]);
-        if (engine_beyond_edge(s, k, p[0].xi) || engine_beyond_edge(s, k, p[1].xi)) {
-            double N = f->N[k][0] + f->N[k][1];
-            double xr = N > 0 ? (f->N[k][0] * p[0].xi + f->N[k][1] * p[1].xi) / N : 0.0;
-            *ind = (b - fabs(xr - tm)) / b;
-            *corner = xr > tm ? 1 : -1;
-        }
+/* Body k (k > 0) on its support's top (docs/columns.md, "Overhangs"): at each end c its corner's overhang u (how far
+ * it lies beyond the support's top corner c, engine_overhang) against the pair of that end: the support's corner on
+ * k's base (over) holds while u > -EN_EDGE_MARGIN tw, k's corner on the support's top while u < EN_EDGE_MARGIN tw (a
+ * hysteresis far above rounding, far below any size: a block as wide as the one below keeps its pair, and at a switch
+ * the two pairs' contact points lie within it of each other). Then the fall off the support: where one end
+ * overhangs, the other corner passing the support's corner at that end (k's base has left the support's top). Three
+ * indicators always, each 1 where there is nothing to watch (a contact that sticks keeps its corner's place: a
+ * sticking corner on the top, or a support's corner at a sticking point of k's base, turning with k), so that each
+ * keeps its place along a step. */
+static int edge_indicators(const EnSystem *s, const EnMode *m, int k, const double *y, double *ind, int *kind,
+                           int *body, int *corner) {
+    double b = s->body[k - 1].tw, tol = EN_EDGE_MARGIN * b;
+    int sticks = (m->closed[k][0] || m->closed[k][1]) && m->sigma[k] == 0;
+    double u[2] = {0.0, 0.0};
+    if (!sticks)
+        for (int i = 0; i < 2; i++) u[i] = engine_overhang(s, k, 2 * i - 1, y);
+    for (int i = 0; i < 2; i++) {
+        ind[i] = sticks ? 1.0 : (m->over[k][i] ? u[i] + tol : tol - u[i]) / b;
+        kind[i] = EN_IND_OVERHANG;
+        body[i] = k;
+        corner[i] = 2 * i - 1;
     }
-    *kind = EN_IND_FELL_OFF;
-    *body = k;
-    return 1;
+    /* the fall: end i overhangs and the other corner passes the support's corner i (its overhang there, u + the base's
+     * width along the top, reaches ... ): measured as the other corner's place beyond the support's corner i */
+    ind[2] = 1.0;
+    corner[2] = 1;
+    if (!sticks && m->over[k][0] != m->over[k][1]) {
+        int i = m->over[k][1], c = 2 * i - 1;
+        EnPoint p;
+        engine_corner(s, k, -c, y, &p);
+        const EnBody *S = &s->body[k - 1];
+        ind[2] = (S->tw + tol - c * (p.xi - S->tm)) / b;
+        corner[2] = c;
+    }
+    kind[2] = EN_IND_FELL_OFF;
+    body[2] = k;
+    return 3;
 }
 
 /* The indicators of the forces, over the weight the contact carries: a closed corner's normal force, a sticking
@@ -950,15 +1070,14 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
                 kind[n] = EN_IND_LAND;
             } else {
                 EnPoint p;
-                engine_corner(s, k, 2 * i - 1, y, &p);
-                ind[n] = p.g / R;
-                /* beyond its support's edge a corner that comes down falls past it */
-                kind[n] = k > 0 && engine_beyond_edge(s, k, p.xi) ? EN_IND_FELL_OFF : EN_IND_LAND;
+                engine_corner_m(s, m, k, 2 * i - 1, y, &p);
+                ind[n] = p.g / R; /* (beyond the support's corner, the gap of that corner below k's base: over) */
+                kind[n] = EN_IND_LAND;
             }
             body[n] = k;
             corner[n++] = 2 * i - 1;
         }
-        if (k > 0) n += edge_indicator(s, m, k, y, f, ind + n, kind + n, body + n, corner + n);
+        if (k > 0) n += edge_indicators(s, m, k, y, ind + n, kind + n, body + n, corner + n);
         if (c && m->sigma[k] == 0) {
             ind[n] = slip_margin(s, f, k);
             kind[n] = EN_IND_SLIP;
@@ -999,7 +1118,7 @@ typedef struct {
     EnPoint P[EN_CORNERS];
 } Candidates;
 
-static void candidates(const EnSystem *s, const double *y, const int touching[][2], const int *withFriction,
+static void candidates(const EnSystem *s, const EnMode *cur, const double *y, const int touching[][2], const int *withFriction,
                        Candidates *c) {
     memset(c, 0, sizeof(*c));
     for (int k = 0; k < s->nb; k++) {
@@ -1009,7 +1128,7 @@ static void candidates(const EnSystem *s, const double *y, const int touching[][
             if (touching[k][i]) {
                 c->k[c->nc] = k;
                 c->i[c->nc] = i;
-                engine_point(s, k, 2 * i - 1, y, &c->P[c->nc]);
+                engine_point_m(s, cur, k, 2 * i - 1, y, &c->P[c->nc]);
                 c->nc++;
                 any = 1;
             }
@@ -1096,6 +1215,11 @@ static double velocity_unit(const EnSystem *s) {
 
 int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
                   const int stuck[], EnMode *out, EnForces *f) {
+    return engine_choose_m(s, NULL, y, ah, av, touching, stuck, out, f);
+}
+
+int engine_choose_m(const EnSystem *s, const EnMode *cur, const double *y, double ah, double av,
+                    const int touching[][2], const int stuck[], EnMode *out, EnForces *f) {
     int nb = s->nb, nq = 3 * nb;
     /* a body that slides keeps the sign of its slip rate (at its first touching corner) */
     int sig[EN_MAX_BODIES] = {0};
@@ -1103,7 +1227,7 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
         int i = touching[k][0] ? 0 : touching[k][1] ? 1 : -1;
         if (i < 0 || stuck[k]) continue;
         EnPoint p;
-        engine_corner(s, k, 2 * i - 1, y, &p);
+        engine_corner_m(s, cur, k, 2 * i - 1, y, &p);
         sig[k] = p.xid > 0 ? 1 : p.xid < 0 ? -1 : 0;
     }
     /* the likely set first: every touching corner closed, every candidate sticking. Where every closed corner
@@ -1111,6 +1235,7 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
      * solves the problem (its other solutions, if any, need a force or margin at zero) */
     EnMode guess;
     memset(&guess, 0, sizeof(guess));
+    if (cur) memcpy(guess.over, cur->over, sizeof(guess.over));
     for (int k = 0; k < nb; k++) {
         guess.closed[k][0] = touching[k][0];
         guess.closed[k][1] = touching[k][1];
@@ -1121,7 +1246,7 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
         return 0;
     }
     Candidates c;
-    candidates(s, y, touching, stuck, &c);
+    candidates(s, cur, y, touching, stuck, &c);
     double Minv[EN_NQ], fext[EN_NQ], a0[EN_NQ];
     free_terms(s, ah, av, Minv, fext);
     for (int q = 0; q < nq; q++) a0[q] = Minv[q] * fext[q];
@@ -1130,6 +1255,7 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
     int n = assemble(s, &c, Minv, a0, sig, s->weight, au, A, q);
     add_bias(&c, au, q);
     memset(out, 0, sizeof(*out));
+    if (cur) memcpy(out->over, cur->over, sizeof(out->over));
     int status = n ? lcp_solve(n, A, q, z, w, NULL) : LCP_SOLVED;
     if (status != LCP_SOLVED) return 1;
     /* a corner that carries nothing and does not separate (to rounding) stays closed: a statue in free fall
@@ -1156,18 +1282,19 @@ int engine_choose(const EnSystem *s, const double *y, double ah, double av, cons
  * strictly inside its cone and every touching corner left open separates, it solves the problem: then the
  * rates in y become the rates after, with the impulses and the sets after as engine_impact's, and it returns
  * 1; else 0 with nothing changed. */
-static int impact_guess(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2],
+static int impact_guess(const EnSystem *s, const EnMode *cur, double *y, int touching[][2], int stuck[], double PN[][2],
                         double PT[]) {
     int nb = s->nb, approach[EN_MAX_BODIES] = {0};
     EnMode m;
     memset(&m, 0, sizeof(m));
+    if (cur) memcpy(m.over, cur->over, sizeof(m.over));
     double gd[EN_MAX_BODIES][2] = {{0}};
     double slow = -1e-9 * velocity_unit(s); /* (a corner on the constraint has a normal rate of rounding) */
     for (int k = 0; k < nb; k++)
         for (int i = 0; i < 2; i++) {
             if (!touching[k][i]) continue;
             EnPoint p;
-            engine_corner(s, k, 2 * i - 1, y, &p);
+            engine_corner_m(s, cur, k, 2 * i - 1, y, &p);
             gd[k][i] = p.gd;
             approach[k] |= p.gd < slow;
         }
@@ -1184,7 +1311,7 @@ static int impact_guess(const EnSystem *s, double *y, int touching[][2], int stu
         for (int i = 0; i < 2; i++) {
             if (!touching[k][i] || m.closed[k][i]) continue;
             EnPoint p;
-            engine_corner(s, k, 2 * i - 1, ya, &p);
+            engine_corner_m(s, cur, k, 2 * i - 1, ya, &p);
             if (p.gd < 0.0) return 0;
             sep[k][i] = p.gd > 0.0;
         }
@@ -1200,14 +1327,19 @@ static int impact_guess(const EnSystem *s, double *y, int touching[][2], int stu
 }
 
 int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]) {
+    return engine_impact_m(s, NULL, y, touching, stuck, PN, PT);
+}
+
+int engine_impact_m(const EnSystem *s, const EnMode *cur, double *y, int touching[][2], int stuck[], double PN[][2],
+                    double PT[]) {
     int nb = s->nb;
     int all[EN_MAX_BODIES];
     for (int k = 0; k < EN_MAX_BODIES; k++) all[k] = 1;
     memset(PN, 0, sizeof(double) * 2 * (size_t)nb);
     memset(PT, 0, sizeof(double) * (size_t)nb);
-    if (impact_guess(s, y, touching, stuck, PN, PT)) return 0;
+    if (impact_guess(s, cur, y, touching, stuck, PN, PT)) return 0;
     Candidates c;
-    candidates(s, y, touching, all, &c);
+    candidates(s, cur, y, touching, all, &c);
     double Minv[EN_NQ], fext[EN_NQ], v0[EN_NQ];
     free_terms(s, 0.0, 0.0, Minv, fext);
     gather(s, y, 1, v0);
@@ -1223,6 +1355,7 @@ int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], 
      * cost digits for a large mu) */
     EnMode m;
     memset(&m, 0, sizeof(m));
+    if (cur) memcpy(m.over, cur->over, sizeof(m.over));
     for (int j = 0; j < c.nc; j++) m.closed[c.k[j]][c.i[j]] = z[j] > 0.0;
     const double small = 1e-14; /* of the velocity unit: a slip rate after below it is a stick */
     for (int t = 0; t < c.ns; t++) {
@@ -1294,7 +1427,7 @@ static int constraint_rows(const EnSystem *s, const EnMode *m, const double *y, 
         for (int i = 0; i < 2; i++) {
             if (!m->closed[k][i]) continue;
             EnPoint p;
-            engine_point(s, k, 2 * i - 1, y, &p);
+            engine_point_m(s, m, k, 2 * i - 1, y, &p);
             /* the rotations stay as integrated (they carry the error control; the centres follow) */
             for (int j = 0; j < s->nb; j++) p.wN[EN_Q(j, 2)] = p.wT[EN_Q(j, 2)] = 0.0;
             if (flat && i == 1) { /* the right corner's gap is the left one's */
@@ -1356,7 +1489,7 @@ void engine_hold_slips(const EnSystem *s, const EnMode *m, double *y) {
         int c = first_closed(m, k);
         EnPoint p;
         if (!c) continue;
-        engine_corner(s, k, c, y, &p);
+        engine_corner_m(s, m, k, c, y, &p);
         y[EN_XI(s->nb, k)] = p.xi - s->body[k].xa[c > 0];
         y[EN_XID(s->nb, k)] = m->sigma[k] ? p.xid : 0.0;
     }
@@ -1370,7 +1503,7 @@ void engine_project(const EnSystem *s, const EnMode *m, double *y, const double 
         for (int k = 0; k < nb; k++) { /* the anchors given (a contact that sticks), or the current slips */
             int c = first_closed(m, k);
             EnPoint p;
-            if (!xi0 || m->sigma[k]) engine_corner(s, k, c, y, &p);
+            if (!xi0 || m->sigma[k]) engine_corner_m(s, m, k, c, y, &p);
             a[k] = xi0 && !m->sigma[k] ? xi0[k] : p.xi - s->body[k].xa[c > 0];
             v[k] = m->sigma[k] ? p.xid : 0.0; /* a sliding contact's slip rate, as it is */
             st.sigma[k] = 0;

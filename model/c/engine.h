@@ -105,6 +105,19 @@ int engine_beyond_edge(const EnSystem *s, int k, double xi);
 void engine_point(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
 /* Its gap, slip and their rates alone (p's rows and biases left unset). */
 void engine_corner(const EnSystem *s, int k, int c, const double *y, EnPoint *p);
+/* The contact at end c (-1, +1) of body k in the pair mode m gives it (m->over; m NULL: body k's corner on its
+ * support's top): with over, the support's top corner c against body k's base face (docs/columns.md, "Overhangs"):
+ * its gap (the corner below k's base, along k's base normal), and as slip coordinate the value body k's corner c
+ * would have on the support's top were it flat there, so that xi less the corner's offset xa is body k's slip (its
+ * axis from the support's axis) in both pairs and at the switch (the corners coincide) the two agree. The rows are
+ * the gap's and slip's gradients in the generalised coordinates (the forces act at the support's corner, normal to
+ * k's base). */
+void engine_point_m(const EnSystem *s, const EnMode *m, int k, int c, const double *y, EnPoint *p);
+void engine_corner_m(const EnSystem *s, const EnMode *m, int k, int c, const double *y, EnPoint *p);
+/* How far body k's corner c lies beyond its support's top corner c (m, > 0 beyond), measured along the support's top
+ * (the projection of the corner on it): the overhang at that end; with over it has the sign of the overhang measured
+ * along k's base. */
+double engine_overhang(const EnSystem *s, int k, int c, const double *y);
 
 /* Solve mode m at the state y under (ah, av): returns 0 if its system is singular. */
 int engine_solve(const EnSystem *s, const EnMode *m, const double *y, double ah, double av, EnForces *f);
@@ -147,7 +160,8 @@ typedef enum {
     EN_IND_OVERTURN = 5,  /* a body's rotation relative to its support reaches its side's EnBody over (pi/2 for a
                            * rectangle: it lands on the hull edge next to its corner) */
     EN_IND_FELL_OFF = 6,  /* a closed corner passes its support's edge */
-    EN_IND_JAM = 7        /* a contact sliding on one corner nears Painleve's singularity (engine_jam_margin) */
+    EN_IND_JAM = 7,       /* a contact sliding on one corner nears Painleve's singularity (engine_jam_margin) */
+    EN_IND_OVERHANG = 8   /* body k's corner passes its support's top corner at that end (the pair switches) */
 } EnIndicator;
 /* The margin of a contact sliding on one corner (body k in mode m) from Painleve's singularity: the normal
  * acceleration a unit normal force gives its corner with the sliding friction it carries, over that of the
@@ -156,7 +170,7 @@ double engine_jam_margin(const EnSystem *s, const EnMode *m, int k, const double
 /* The jam indicator fires at this margin (the motion after it converges as the margin falls: 1e-5, 1e-7 and
  * 1e-9 give slips within 4e-5 m, 4e-7 m of one another on the case of tests/test_engine_hostile.py). */
 #define EN_JAM_MARGIN 1e-8
-#define EN_IND (6 * EN_MAX_BODIES)
+#define EN_IND (8 * EN_MAX_BODIES)
 /* The least of mode m's force indicators (those of kinds EN_IND_OPEN and EN_IND_SLIP) under the forces f. */
 double engine_force_margin(const EnSystem *s, const EnMode *m, const EnForces *f);
 /* (a chain's sliding contacts' slip rates are read from y's EN_XID: it holds them, engine_project) */
@@ -169,12 +183,18 @@ int engine_indicators(const EnSystem *s, const EnMode *m, const double *y, const
  * 1 if no solution exists (Painleve: a sliding contact with no consistent force). */
 int engine_choose(const EnSystem *s, const double *y, double ah, double av, const int touching[][2],
                   const int stuck[], EnMode *out, EnForces *f);
+/* The same with the pairs of cur (cur->over; NULL: every corner on its support's top), which out keeps. */
+int engine_choose_m(const EnSystem *s, const EnMode *cur, const double *y, double ah, double av,
+                    const int touching[][2], const int stuck[], EnMode *out, EnForces *f);
 
 /* A plastic impact with Coulomb friction of the corners touching (touching[k][i], gap 0): rates
  * in y become the rates after; P_N, P_T the impulses (N s). Writes which corners keep zero normal
  * rate after (touching) and which contacts have zero slip rate (stuck). Returns 0, or 1 if no
  * solution was found. */
 int engine_impact(const EnSystem *s, double *y, int touching[][2], int stuck[], double PN[][2], double PT[]);
+/* The same with the pairs of cur (cur->over; NULL: none). */
+int engine_impact_m(const EnSystem *s, const EnMode *cur, double *y, int touching[][2], int stuck[], double PN[][2],
+                    double PT[]);
 
 /* The plastic impact onto the constraints of m (closed corners' normal rates and sticking contacts' slip
  * rates zero, sliding contacts' friction impulses at mu of their normal ones): the rates in y become the

@@ -281,11 +281,12 @@ static int flying(const EnMode *m, int k) { return !m->closed[k][0] && !m->close
 /* ----------------------------------------------------------------- bookkeeping */
 
 /* The slip of body k's contact: the x (along the support) of its lowest corner less that
- * corner's offset c b: the base centre's whenever the base is flat. Its rate in *rate. */
-static double slip_of(const EnSystem *s, int k, const double *y, double *rate, double *gap) {
+ * corner's offset c b: the base centre's whenever the base is flat; with an overhang at that end (m's over) the same
+ * from the support's corner's place on k's base (engine_point_m). Its rate in *rate. */
+static double slip_of(const EnSystem *s, const EnMode *m, int k, const double *y, double *rate, double *gap) {
     EnPoint L, R;
-    engine_corner(s, k, -1, y, &L);
-    engine_corner(s, k, 1, y, &R);
+    engine_corner_m(s, m, k, -1, y, &L);
+    engine_corner_m(s, m, k, 1, y, &R);
     const EnPoint *p = R.g < L.g ? &R : &L;
     int c = p == &R ? 1 : -1;
     if (rate) *rate = p->xid;
@@ -370,7 +371,7 @@ static int impact_op(const Model *M, double *y, void *ctx) {
     ImpactOp *o = ctx;
     memcpy(o->touching, o->in, sizeof(o->in));
     double E0 = engine_kinetic(&M->d.en, y);
-    int fail = engine_impact(&M->d.en, y, o->touching, o->stuck, o->PN, o->PT);
+    int fail = engine_impact_m(&M->d.en, &M->s.en, y, o->touching, o->stuck, o->PN, o->PT);
     if (o->k >= 0) restitution(M, y, E0, o->k);
     return !fail;
 }
@@ -455,7 +456,7 @@ static void set_mode(Model *M, const EnMode *m, const Logger *log) {
     const EnSystem *sys = &M->d.en;
     for (int k = 0; k < sys->nb; k++) { /* a contact that sticks on through the event has not slipped */
         int stuckBefore = !flying(&S->en, k) && S->en.sigma[k] == 0 && S->mode != MODE_OVERTURNED;
-        if (!flying(m, k) && !(stuckBefore && m->sigma[k] == 0)) S->enAnchor[k] = slip_of(sys, k, S->y, NULL, NULL);
+        if (!flying(m, k) && !(stuckBefore && m->sigma[k] == 0)) S->enAnchor[k] = slip_of(sys, m, k, S->y, NULL, NULL);
     }
     changed(M, &S->en, m, log);
     S->en = *m;
@@ -515,8 +516,9 @@ static void come_to_rest(Model *M, const Logger *log, int announce) {
     const EnSystem *sys = &M->d.en;
     EnMode m;
     memset(&m, 0, sizeof(m));
+    memcpy(m.over, S->en.over, sizeof(m.over)); /* (an overhang stays) */
     for (int k = 0; k < sys->nb; k++) m.closed[k][0] = m.closed[k][1] = 1;
-    for (int k = 0; k < sys->nb; k++) S->enAnchor[k] = slip_of(sys, k, S->y, NULL, NULL);
+    for (int k = 0; k < sys->nb; k++) S->enAnchor[k] = slip_of(sys, &S->en, k, S->y, NULL, NULL);
     int two = coupling_on(M);
     double E0 = energy(M, S->y), mtot, px = coupling_momentum(sys, S->y, &mtot);
     engine_rest_state(sys, S->y);
@@ -554,7 +556,7 @@ static int choose_on_floor(const Model *M, double t, const double *y, double ag,
     EnMode m;
     for (int it = 0; it < 60; it++) {
         EnForces f, g;
-        int rc = engine_choose(sys, y, ag + d, av, (const int(*)[2])touching, stuck, &m, &f);
+        int rc = engine_choose_m(sys, &M->s.en, y, ag + d, av, (const int(*)[2])touching, stuck, &m, &f);
         if (rc) return rc;
         if (!engine_solve(sys, &m, y, ag + d, av, &f) || !engine_solve(sys, &m, y, ag + d + 1.0, av, &g)) break;
         double h = mj * (d - r[M->d.sup.j]) + f.T[0], Ta = g.T[0] - f.T[0];
@@ -585,7 +587,7 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
     model_ground_piece(M, t + (dy ? d : 0.0), model_piece(M, t), &ah, &av);
     EnForces f;
     if (coupling_on(M)) return choose_on_floor(M, t + (dy ? d : 0.0), ya, ah, av, touching, stuck, out);
-    return engine_choose(sys, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
+    return engine_choose_m(sys, &M->s.en, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
 }
 
 /* The derivative of the state at S->t in the contact set m. */
@@ -686,6 +688,7 @@ static int negligible(const Model *M, double t, const double *y) {
         EnMode r;
         EnForces f;
         memset(&r, 0, sizeof(r));
+        memcpy(r.over, M->s.en.over, sizeof(r.over));
         for (int k = 0; k < M->d.en.nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
         ah = solve_at(M, t, &r, y, ah, av, &f);
     }
@@ -794,7 +797,7 @@ static void fell_off(Model *M, int k, const Logger *log) {
     S->fellOffTime = S->t;
     S->fallenBody = k + 1;
     const EnSystem *sys = &M->d.en;
-    double u = slip_of(sys, k, S->y, NULL, NULL);
+    double u = slip_of(sys, &S->en, k, S->y, NULL, NULL);
     finish(M);
     if (sys->nb == 2) say(log, LOG_EVENTS, "fell-off t=%.17g u2=%.17g", S->t, u);
     else say(log, LOG_EVENTS, "fell-off t=%.17g block=%d u=%.17g", S->t, k + 1, u);
@@ -827,7 +830,7 @@ static void close_negligible(Model *M, int touching[][2], int *stuck, const Logg
         EnMode flat = S->en;
         for (int j = 0; j < sys->nb; j++) {
             double vs;
-            slip_of(sys, j, S->y, &vs, NULL);
+            slip_of(sys, &S->en, j, S->y, &vs, NULL);
             flat.closed[j][0] = touching[j][0] || j == k;
             flat.closed[j][1] = touching[j][1] || j == k;
             flat.sigma[j] = stuck[j] ? 0 : vs > 0 ? 1 : vs < 0 ? -1 : 0;
@@ -868,14 +871,6 @@ static void impact(Model *M, const Logger *log) {
     const EnSystem *sys = &M->d.en;
     int k = S->eventContact, i = S->eventEnd > 0 ? 1 : 0;
     int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
-    if (k > 0) {
-        EnPoint p;
-        engine_corner(sys, k, 2 * i - 1, S->y, &p);
-        if (engine_beyond_edge(sys, k, p.xi)) { /* it comes down beyond the edge of the block below */
-            fell_off(M, k, log);
-            return;
-        }
-    }
     EnMode land = S->en;
     land.closed[k][i] = 1;
     /* the other corners within the integrator's resolution of their support land with it (a body that
@@ -887,7 +882,7 @@ static void impact(Model *M, const Logger *log) {
     for (int j = 0; j < sys->nb; j++)
         for (int c = 0; c < 2; c++) {
             EnPoint p;
-            engine_corner(sys, j, 2 * c - 1, S->y, &p);
+            engine_corner_m(sys, &land, j, 2 * c - 1, S->y, &p);
             if (!land.closed[j][c] && ((p.g <= tol && p.gd <= 0) || p.g <= zero)) land.closed[j][c] = 1;
         }
     engine_project(sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
@@ -899,7 +894,7 @@ static void impact(Model *M, const Logger *log) {
     int logs = says(log, LOG_EVENTS);
     if (logs) { /* (the rates before, for the message alone) */
         memcpy(before, S->y, sizeof(before));
-        slip_of(sys, 0, S->y, &vm, NULL);
+        slip_of(sys, &S->en, 0, S->y, &vm, NULL);
     }
     ImpactOp op;
     memcpy(op.in, touching, sizeof(op.in));
@@ -918,11 +913,11 @@ static void impact(Model *M, const Logger *log) {
     S->impactLoss += E0 - kinetic(M, S->y);
     if (logs) { /* (slip rates for the message alone) */
         double vp;
-        slip_of(sys, 0, S->y, &vp, NULL);
+        slip_of(sys, &S->en, 0, S->y, &vp, NULL);
         if (sys->nb == 2) {
             double v2m = 0.0, v2p;
-            slip_of(sys, 1, before, &v2m, NULL);
-            slip_of(sys, 1, S->y, &v2p, NULL);
+            slip_of(sys, &S->en, 1, before, &v2m, NULL);
+            slip_of(sys, &S->en, 1, S->y, &v2p, NULL);
             say(log, LOG_EVENTS,
                 "impact t=%.17g contact=%s theta1=%.17g theta2=%.17g w1m=%.17g w2m=%.17g w1p=%.17g w2p=%.17g "
                 "slip_rate_minus=%.17g,%.17g slip_rate_plus=%.17g,%.17g",
@@ -943,6 +938,40 @@ static void impact(Model *M, const Logger *log) {
         return;
     }
     close_negligible(M, touching, stuck, log);
+    settle_mode(M, touching, stuck, NULL, log);
+}
+
+/* Body k's corner at end c passed its support's top corner c (docs/columns.md, "Overhangs"): the contact at that end
+ * changes its pair (EnMode's over). Where the end is closed the two pairs' points coincide there (to EN_EDGE_MARGIN of
+ * the support's half width): a flat body's gap, forces and rates go on, and so does its slip (either pair's slip is
+ * its axis from the support's). A body on that end alone, tilted, meets the new pair with a normal rate (its slip
+ * rate times the sine of its rotation relative to the support): its base turns away from the support's corner (a
+ * corner that slides past the edge of the top with the body tipped over it: it drops there, the end opens) or comes
+ * down onto the top (an impact of its corner). An open end changes its gap's pair alone. */
+static void overhang(Model *M, const Logger *log) {
+    State *S = &M->s;
+    const EnSystem *sys = &M->d.en;
+    int k = S->eventContact, c = S->eventEnd, i = c > 0;
+    S->en.over[k][i] = !S->en.over[k][i];
+    say(log, LOG_EVENTS, "overhang t=%.17g body=%d end=%d over=%d", S->t, k + 1, c, S->en.over[k][i]);
+    S->fValid = 0;
+    S->enIndValid = 0;
+    if (!S->en.closed[k][i] || S->en.closed[k][!i]) return;
+    EnPoint p;
+    engine_corner_m(sys, &S->en, k, c, S->y, &p);
+    double slow = 1e-9 * sqrt(sys->g * M->d.R);
+    if (p.gd < -slow) { /* k's corner comes down onto the top */
+        impact(M, log);
+        return;
+    }
+    if (!(p.gd > slow)) return;
+    int touching[EN_MAX_BODIES][2], stuck[EN_MAX_BODIES];
+    for (int j = 0; j < sys->nb; j++) {
+        touching[j][0] = S->en.closed[j][0];
+        touching[j][1] = S->en.closed[j][1];
+        stuck[j] = S->en.sigma[j] == 0;
+    }
+    touching[k][i] = 0; /* it separates */
     settle_mode(M, touching, stuck, NULL, log);
 }
 
@@ -1006,7 +1035,7 @@ static int apply_event(Model *M, const Logger *log) {
     const EnSystem *sys = &M->d.en;
     commit_peaks(M, log);
     for (int k = 0; k < sys->nb; k++) {
-        double sl = fabs(!flying(&S->en, k) && S->en.sigma[k] == 0 ? S->enAnchor[k] : slip_of(sys, k, S->y, NULL, NULL));
+        double sl = fabs(!flying(&S->en, k) && S->en.sigma[k] == 0 ? S->enAnchor[k] : slip_of(sys, &S->en, k, S->y, NULL, NULL));
         Track r = track(S, k);
         if (sl > *r.maxSlip) *r.maxSlip = sl;
     }
@@ -1026,6 +1055,9 @@ static int apply_event(Model *M, const Logger *log) {
         break;
     case EVENT_FELL_OFF:
         fell_off(M, S->eventContact, log);
+        break;
+    case EVENT_OVERHANG:
+        overhang(M, log);
         break;
     default:
         reselect(M, log);
@@ -1141,6 +1173,7 @@ static int sampled(const Ctx *c, int kind, int k) {
         return !c->chain;
     case EN_IND_JAM:
     case EN_IND_FELL_OFF:
+    case EN_IND_OVERHANG:
         return 1;
     default:
         return 0;
@@ -1377,6 +1410,9 @@ static int take_step(Model *M, const Logger *log) {
             case EN_IND_JAM:
                 ev = EVENT_JAM;
                 break;
+            case EN_IND_OVERHANG:
+                ev = EVENT_OVERHANG;
+                break;
             default:
                 ev = EVENT_FELL_OFF;
                 break;
@@ -1446,7 +1482,7 @@ static int take_step(Model *M, const Logger *log) {
     for (int k = 0; k < nb; k++) { /* (a body that touches has no gap) */
         if (!flying(&S->en, k)) continue;
         double gap;
-        slip_of(c.sys, k, S->y, NULL, &gap);
+        slip_of(c.sys, &S->en, k, S->y, NULL, &gap);
         if (gap > S->gapMax[k]) S->gapMax[k] = gap;
     }
     for (int k = 0; k < nb && nb >= 2; k++) {
@@ -1515,6 +1551,7 @@ static double rest_exit(const Model *M, double t, int piece) {
     const EnSystem *sys = &M->d.en;
     EnMode r;
     memset(&r, 0, sizeof(r));
+    memcpy(r.over, M->s.en.over, sizeof(r.over));
     for (int k = 0; k < sys->nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
     double ah, av;
     model_ground_piece(M, t, piece, &ah, &av);
@@ -1654,6 +1691,14 @@ void engine_initialize(Model *M) {
     engine_rest_state(sys, y);
     rest_centres(sys, y, NULL);
     memset(&S->en, 0, sizeof(S->en));
+    /* the pair at each end at rest, the axes aligned: an end of a block whose corner lies beyond the top of the one
+     * below (a wider block) starts with that one's corner on its base (docs/columns.md, "Overhangs") */
+    for (int k = 1; k < nb; k++)
+        for (int i = 0; i < 2; i++) {
+            const EnBody *B = &sys->body[k], *Sb = &sys->body[k - 1];
+            S->en.over[k][i] = (2 * i - 1) * (B->xa[i] - Sb->tm) - Sb->tw > EN_EDGE_MARGIN * Sb->tw;
+        }
+    EnMode rest0 = S->en;
     S->slideTime = S->slideStartTime1 = S->slideStartTime2 = S->fellOffTime = -1;
     for (int k = 0; k < EN_MAX_BODIES; k++) S->flightSince[k] = -1;
     for (int k = 0; k < MAX_BLOCKS - 2; k++) S->colSlideFirst[k] = -1;
@@ -1664,6 +1709,7 @@ void engine_initialize(Model *M) {
     if (still) {
         memcpy(S->y, y, sizeof(y));
         for (int k = 0; k < nb; k++) S->en.closed[k][0] = S->en.closed[k][1] = 1;
+        (void)rest0;
         /* (two-way: at rest in closed form, or as a contact set the engine integrates with the support, come_to_rest) */
         S->mode = coupling_on(M) && !rest_closed(M) ? MODE_ROCKING : MODE_REST;
         return;
@@ -1681,11 +1727,17 @@ void engine_initialize(Model *M) {
         double rel = th[k] - thS, wrel = w[k] - wS;
         int c = side_from(rel, wrel), i = c > 0;
         /* the pivot, in the support's frame: the corner where it stands at rest, the axes aligned */
-        double cs = cos(thS), sn = sin(thS), px = B->xa[i] + xS, py = hS;
+        /* (with an overhang at that end, the support's corner, at its place on k's base) */
+        int ov = k > 0 && rest0.over[k][i];
+        double cs = cos(thS), sn = sin(thS), px = B->xa[i] + xS, py = hS, qx = B->cx[i];
+        if (ov) {
+            px = sys->body[k - 1].tm + c * sys->body[k - 1].tw + xS;
+            qx = px - xS - B->xG;
+        }
         double P[2] = {O[0] + px * cs + py * sn, O[1] - px * sn + py * cs};
         double Pv[2] = {V[0] + wS * (-px * sn + py * cs), V[1] + wS * (-px * cs - py * sn)};
         double ck = cos(th[k]), sk = sin(th[k]);
-        double rx = -B->cx[i] * ck - B->cy * sk, ry = B->cx[i] * sk - B->cy * ck; /* pivot -> centre */
+        double rx = -qx * ck - B->cy * sk, ry = qx * sk - B->cy * ck; /* pivot -> centre */
         y[EN_POS(nb, k, 0)] = P[0] + rx;
         y[EN_POS(nb, k, 1)] = P[1] + ry;
         y[EN_TH(k)] = th[k];
@@ -1703,7 +1755,7 @@ void engine_initialize(Model *M) {
     memcpy(S->y, y, sizeof(y));
     EnMode m;
     if (choose(M, S->t, S->y, NULL, touching, stuck, &m) != 0) {
-        memset(&m, 0, sizeof(m));
+        m = rest0;
         for (int k = 0; k < nb; k++) memcpy(m.closed[k], touching[k], sizeof(m.closed[k]));
     }
     S->en = m;
@@ -1787,7 +1839,7 @@ static BodyOut body_outputs(const Model *M, const EnSystem *sys, int k, const do
         int inStep = S->t > tc && S->denseValid && S->mode != MODE_REST;
         o.slip = inStep ? S->enDenseAnchor[k] : S->enAnchor[k];
     } else {
-        o.slip = slip_of(sys, k, y, &rate, &gap);
+        o.slip = slip_of(sys, m, k, y, &rate, &gap);
     }
     o.slipRate = over || S->mode == MODE_REST ? 0.0 : rate;
     o.gap = over ? 0.0 : gap;
@@ -1854,6 +1906,7 @@ void engine_outputs(Model *M, double tc) {
     if (S->mode == MODE_REST) {
         EnMode r;
         memset(&r, 0, sizeof(r));
+        memcpy(r.over, S->en.over, sizeof(r.over));
         for (int k = 0; k < nb; k++) r.closed[k][0] = r.closed[k][1] = 1;
         engine_solve(sys, &r, y, ah, av, &f);
     }
@@ -1990,8 +2043,9 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
     if (!(mode == MODE_ROCKING || mode == MODE_REST || mode == MODE_OVERTURNED))
         BAD("pattern %d is not one of 0 (moving), 1 (rest), 2 (overturned)", mode);
     if (!(pending == EVENT_NONE || pending == EVENT_IMPACT || pending == EVENT_OVERTURN || pending == EVENT_OPEN ||
-          pending == EVENT_SLIP_START || pending == EVENT_SLIP_STOP || pending == EVENT_JAM))
-        BAD("pending event %d is not one of 0, 1, 2, 5, 6, 7, 11", pending);
+          pending == EVENT_SLIP_START || pending == EVENT_SLIP_STOP || pending == EVENT_JAM ||
+          pending == EVENT_OVERHANG))
+        BAD("pending event %d is not one of 0, 1, 2, 5, 6, 7, 11, 12", pending);
     if (pending != EVENT_NONE && (mode != MODE_ROCKING || S->eventContact < 0 || S->eventContact >= nb ||
                                   !(S->eventEnd == 1 || S->eventEnd == -1)))
         BAD("event %d is pending at contact %d, end %d of a state that does not move or has no such contact", pending,
@@ -2019,6 +2073,15 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
                 snprintf(msg, n, "contact %d of body %d is neither open nor closed", i, k + 1);
                 return 1;
             }
+        for (int i = 0; i < 2; i++) {
+            const int *o[3] = {S->en.over[k], S->enDense.over[k], S->enFinal.over[k]};
+            for (int j = 0; j < 3; j++)
+                if (!(o[j][i] == 0 || o[j][i] == 1) || (o[j][i] && (k == 0 || k >= nb))) {
+                    snprintf(msg, n, "the pair at end %d of body %d (over = %d) is neither 0 nor 1, or is 1 on the ground "
+                             "or past the bodies", i, k + 1, o[j][i]);
+                    return 1;
+                }
+        }
         if (S->en.sigma[k] < -1 || S->en.sigma[k] > 1 || S->enDense.sigma[k] < -1 || S->enDense.sigma[k] > 1) {
             snprintf(msg, n, "the slip direction of body %d is not -1, 0 or 1", k + 1);
             return 1;
@@ -2055,7 +2118,7 @@ int engine_check_state(const Model *M, char *msg, size_t n) {
             return 1;
         }
         for (int i = 0; i < S->enIndN; i++)
-            if (S->enIndKind[i] < EN_IND_OPEN || S->enIndKind[i] > EN_IND_JAM || S->enIndBody[i] < 0 ||
+            if (S->enIndKind[i] < EN_IND_OPEN || S->enIndKind[i] > EN_IND_OVERHANG || S->enIndBody[i] < 0 ||
                 S->enIndBody[i] >= nb || !(S->enIndCorner[i] == 1 || S->enIndCorner[i] == -1)) {
                 snprintf(msg, n, "the last step's indicator %d (kind %d, body %d, corner %d) is no indicator of these bodies",
                          i, S->enIndKind[i], S->enIndBody[i], S->enIndCorner[i]);

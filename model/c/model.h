@@ -72,6 +72,10 @@ typedef struct Variables {
 typedef struct {
     int closed[EN_MAX_BODIES][2];
     int sigma[EN_MAX_BODIES];
+    /* which pair makes the contact at each end i (0 left, 1 right) of body k on body k - 1 (docs/columns.md,
+     * "Overhangs"): 0 body k's base corner i on its support's top face, 1 the support's top corner i against body
+     * k's base face (body k's corner i lies beyond the support's edge: an overhang). Always 0 on the ground. */
+    int over[EN_MAX_BODIES][2];
 } EnMode;
 /* The engine's bodies (engine.h): convex polygons in their rest pose, in a body frame (x right, y up, y = 0 the
  * base, x = 0 the axis: a column's axes align at rest), derived once by engine_body_polygon or
@@ -168,7 +172,9 @@ typedef enum {
     EVENT_FELL_OFF = 8,  /* contact engine, a stack: block 2 leaves block 1's top */
     EVENT_FLIGHT = 9,    /* (unused: kept so that the codes after it keep their values) */
     EVENT_RECHOOSE = 10, /* contact engine: the contact set no longer holds where a step starts */
-    EVENT_JAM = 11       /* contact engine: a contact sliding on one corner reaches Painleve's singularity */
+    EVENT_JAM = 11,      /* contact engine: a contact sliding on one corner reaches Painleve's singularity */
+    EVENT_OVERHANG = 12  /* contact engine: a corner of body k passes the corner of the support's top (the contact at
+                          * that end changes its pair: EnMode's over) */
 } EventKind;
 
 
@@ -251,8 +257,8 @@ typedef struct {
     double enAnchor[EN_MAX_BODIES], enDenseAnchor[EN_MAX_BODIES];
     double flightSince[EN_MAX_BODIES], flightDur[EN_MAX_BODIES], gapMax[EN_MAX_BODIES];
     int flights[EN_MAX_BODIES], painleve;
-    double enInd[6 * EN_MAX_BODIES]; /* the indicators at the end of the last step, while fValid and enIndValid */
-    int enIndN, enIndKind[6 * EN_MAX_BODIES], enIndBody[6 * EN_MAX_BODIES], enIndCorner[6 * EN_MAX_BODIES]; /* theirs */
+    double enInd[8 * EN_MAX_BODIES]; /* the indicators at the end of the last step, while fValid and enIndValid */
+    int enIndN, enIndKind[8 * EN_MAX_BODIES], enIndBody[8 * EN_MAX_BODIES], enIndCorner[8 * EN_MAX_BODIES]; /* theirs */
     double enT[EN_MAX_BODIES], enN[EN_MAX_BODIES]; /* and each contact's forces there (N), while enIndValid */
     int enIndValid;
 

@@ -71,8 +71,9 @@ MAX_EVENTS = 1_000_000
 # reverse (the slip turns) and slide-rock (uplift onto a sliding corner); the rocking-sliding stack
 # adds fell-off (block 2 left block 1) and flight (a contact would have to pull: the run ends); the contact
 # engine of one block (docs/flight.md) adds flight (it leaves the ground), land, flat (a negligible rebound
-# lands flat), painleve (an impact without collision) and rechoose (a set chosen again at a step's start)
-_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift|fell-off|flight|land|flat|painleve|rechoose) (.*)$")
+# lands flat), painleve (an impact without collision) and rechoose (a set chosen again at a step's start); a
+# column's overhang (a block's corner passes the edge of the one below: the contact there changes its pair)
+_EVENT = re.compile(r"^(impact|peak|uplift|rest|settle|open|overturn|slide-rock|slide|stick|reverse|lift|fell-off|flight|land|flat|painleve|rechoose|overhang) (.*)$")
 
 
 def fmu_path_from(arg: str | None) -> Path:
