@@ -54,9 +54,23 @@ sanitize: $(INSTALLED)
 
 # The benchmarks, then the tests marked slow (e.g. the viewer screenshot, which
 # needs Debian's chromium and pip install -e '.[docs]'; skipped with a reason without them).
+# The Siconos peer (model/siconos_blocks.py, tests/test_siconos.py) runs under /usr/bin/python3 with
+# Debian's python3-siconos and python3-scipy: installed here where missing (as root, with apt-get, as
+# .ci/run does); where they cannot be, one warning, and those tests skip saying so.
+SICONOS_PACKAGES := python3-siconos python3-scipy
 bench: fmu
 	$(BIN)/runners bench
 	$(BIN)/runners bench --throughput
+	@missing=""; for p in $(SICONOS_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	    if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	        { apt-get install -y --no-install-recommends $$missing >/dev/null 2>&1 \
+	            || { apt-get update >/dev/null 2>&1 && apt-get install -y --no-install-recommends $$missing >/dev/null; }; } \
+	            || echo "warning: could not install$$missing; the Siconos tests (tests/test_siconos.py) will be skipped" >&2; \
+	    else \
+	        echo "warning:$$missing not installed and cannot be installed here; the Siconos tests (tests/test_siconos.py) will be skipped" >&2; \
+	    fi; \
+	fi
 	$(BIN)/python -m pytest -m slow
 
 clean:
