@@ -30,6 +30,13 @@
 /* A force indicator (normal force or friction margin over the weight carried) below -RECHOOSE_SLACK at
  * a step's start says the contact set no longer holds there: far below a located event's rounding. */
 #define RECHOOSE_SLACK 1e-9
+/* A flying corner's landing indicator (its gap over its body's size, engine_indicators) negative where a step starts: a
+ * penetration left by rounding (a corner an impact opened at zero gap, a projection of the bodies below it, a pair
+ * switched at its corner). It would never cross zero again, and the corner would pass through its face unseen: its
+ * landing is watched as the crossing of its start value less LAND_ROUNDING instead. Below -LAND_PENETRATION (far above
+ * rounding, far below any motion) no step starts from it: the corner touches, an impact there at once (before_step). */
+#define LAND_ROUNDING (64.0 * DBL_EPSILON)
+#define LAND_PENETRATION 1e-12
 
 int engine_on(const Model *M) { return model_engine(&M->v); }
 
@@ -879,13 +886,22 @@ static void impact(Model *M, const Logger *log) {
      * impacts: the impact's complementarity problem keeps it open if it separates, and does not leave it
      * to land again at once) */
     double tol = 100.0 * fmax(M->v.relTol, M->v.absTol) * M->d.R, zero = 64.0 * DBL_EPSILON * M->d.R;
-    for (int j = 0; j < sys->nb; j++)
-        for (int c = 0; c < 2; c++) {
-            EnPoint p;
-            engine_corner_m(sys, &land, j, 2 * c - 1, S->y, &p);
-            if (!land.closed[j][c] && ((p.g <= tol && p.gd <= 0) || p.g <= zero)) land.closed[j][c] = 1;
-        }
-    engine_project(sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
+    /* the projection puts the landing corners exactly at zero gap, and moves their bodies (a penetration found
+     * late, or the integrator's error): it moves the support of a body above with them, whose corner may then
+     * penetrate or come within the resolution. Those land too, and the projection is taken again, until no
+     * corner is left penetrating (each pass closes at least one corner, so at most all of them) */
+    for (int pass = 0; pass <= 2 * sys->nb; pass++) {
+        int more = 0;
+        for (int j = 0; j < sys->nb; j++)
+            for (int c = 0; c < 2; c++) {
+                EnPoint p;
+                if (land.closed[j][c]) continue;
+                engine_corner_m(sys, &land, j, 2 * c - 1, S->y, &p);
+                if ((p.g <= tol && p.gd <= 0) || p.g <= zero) land.closed[j][c] = more = 1;
+            }
+        if (pass > 0 && !more) break;
+        engine_project(sys, &land, S->y, NULL, 0); /* the landing corner exactly at zero gap */
+    }
     for (int j = 0; j < sys->nb; j++) {
         touching[j][0] = land.closed[j][0];
         touching[j][1] = land.closed[j][1];
@@ -1140,15 +1156,19 @@ typedef struct {
     Dense *cont;
     Dop853Stages *st; /* (the DOP853 step's stages, to complete its dense output) */
     double x;         /* the length of the step whose result y1, f1, cont hold (-1: none) */
+    double shift;     /* added to indicator `which` (a landing watched below its start, LAND_ROUNDING) */
 } Search;
 
 static void step_indicators(Search *s, double x, double *ind);
+
+/* v watched from a start shifted by s (take_step's sh; v itself where s is 0) */
+static inline double shifted(double v, double s) { return s != 0.0 ? v + s : v; }
 
 static double indicator_after(void *ctx, double x) {
     Search *s = ctx;
     double ind[EN_IND];
     step_indicators(s, x, ind);
-    return ind[s->which];
+    return shifted(ind[s->which], s->shift);
 }
 
 /* Every indicator after a real step of length x from the step's start (one step for all). */
@@ -1214,6 +1234,11 @@ static int take_step(Model *M, const Logger *log) {
     } else {
         ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
     }
+    /* a flying corner whose gap starts negative by rounding: its landing is the crossing of its start value less
+     * LAND_ROUNDING (LAND_ROUNDING; 0 for every other indicator, which crosses zero) */
+    double sh[EN_IND];
+    for (int i = 0; i < ni; i++)
+        sh[i] = kind[i] == EN_IND_LAND && flying(&S->en, body[i]) && ind0[i] < 0 ? LAND_ROUNDING - ind0[i] : 0.0;
 
     /* positions in units of R, rates of R p (angles and angular rates as they are); the integrals ride along */
     double scale[NMAX], R = M->d.R, p = sqrt(M->d.p2);
@@ -1272,7 +1297,7 @@ static int take_step(Model *M, const Logger *log) {
         }
         for (int i = 0; i < ni; i++) {
             if (j < DENSE_SAMPLES && !sampled(&c, kind[i], body[i])) continue;
-            if (ind0[i] >= 0 && ind[i] < 0) {
+            if (shifted(ind0[i], sh[i]) >= 0 && shifted(ind[i], sh[i]) < 0) {
                 first = 0;
                 sHi = s;
                 sLo = (double)(j - 1) / DENSE_SAMPLES;
@@ -1327,7 +1352,7 @@ static int take_step(Model *M, const Logger *log) {
         varying(&c, &sa);
         double indA[EN_IND], indB[EN_IND], a = sLo * h, b = sHi * h;
         int which = -1, any = 0;
-        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, &ca, &sa, -1.0};
+        Search se = {&c, n, 0, S->t, S->y, S->f, ya, fa, &ca, &sa, -1.0, 0.0};
         step_indicators(&se, b, indB);
         /* a rocking body's landing or overturn whose dense root lies in the bracket crosses there, whatever the
          * sign its indicator takes by rounding after the real step (its root is found exactly below) */
@@ -1336,13 +1361,14 @@ static int take_step(Model *M, const Logger *log) {
             double r = kind[i] == EN_IND_LAND ? rootAt[body[i]] : kind[i] == EN_IND_OVERTURN ? overAt[body[i]]
                      : kind[i] == EN_IND_STOP ? stopAt[body[i]] : 2.0;
             atRoot[i] = r <= sHi ? -1.0 : indB[i];
-            any |= ind0[i] >= 0 && atRoot[i] < 0;
+            any |= shifted(ind0[i], sh[i]) >= 0 && shifted(atRoot[i], sh[i]) < 0;
         }
         if (!any && b < h) step_indicators(&se, b = h, indB);
         if (a > 0) step_indicators(&se, a, indA);
         else memcpy(indA, ind0, sizeof(indA));
         for (int i = 0; i < ni; i++) {
-            if (!(ind0[i] >= 0 && (indB[i] < 0 || atRoot[i] < 0))) continue;
+            if (!(shifted(ind0[i], sh[i]) >= 0 && (shifted(indB[i], sh[i]) < 0 || shifted(atRoot[i], sh[i]) < 0)))
+                continue;
             int k = body[i], rocking = S->en.closed[k][0] != S->en.closed[k][1], x0 = 0;
             double x;
             int stop = c.slides && kind[i] == EN_IND_STOP;
@@ -1366,12 +1392,14 @@ static int take_step(Model *M, const Logger *log) {
                 x0 = 1;
             } else {
                 se.which = i;
-                double va = indA[i], lo = a;
+                se.shift = sh[i];
+                double va = shifted(indA[i], sh[i]), lo = a;
                 if (va < 0) {
                     lo = 0.0;
-                    va = ind0[i];
+                    va = shifted(ind0[i], sh[i]);
                 }
-                x = first_negative_costly(indicator_after, &se, lo, va, b, indB[i], 4.0, fabs(S->t), 0.0, 100);
+                x = first_negative_costly(indicator_after, &se, lo, va, b, shifted(indB[i], sh[i]), 4.0, fabs(S->t), 0.0,
+                                          100);
             }
             if (x < best) {
                 best = x;
@@ -1578,6 +1606,16 @@ static void before_step(Model *M, const Logger *log) {
     double ind[EN_IND];
     int kind[EN_IND], body[EN_IND], corner[EN_IND];
     int n = indicators(&c, S->t, S->y, NULL, ind, kind, body, corner);
+    /* a flying corner that penetrates its face (a projection of the bodies below it, a pair switched at its corner):
+     * it touches, an impact here (the step would start from a penetration its landing indicator never crosses) */
+    for (int i = 0; i < n; i++)
+        if (kind[i] == EN_IND_LAND && flying(&S->en, body[i]) && ind[i] < -LAND_PENETRATION) {
+            S->pending = EVENT_IMPACT;
+            S->eventContact = body[i];
+            S->eventEnd = corner[i];
+            apply_event(M, log);
+            return;
+        }
     for (int i = 0; i < n; i++) {
         if ((kind[i] == EN_IND_OPEN || kind[i] == EN_IND_SLIP) && ind[i] < -RECHOOSE_SLACK) {
             say(log, LOG_EVENTS, "rechoose t=%.17g body=%d", S->t, body[i] + 1);
