@@ -198,6 +198,9 @@ def test_a_column_study_goes_from_scene_to_fragility(study, fmu_path):
     assert p.returncode == 0 and json.loads(p.stdout)["blocks"] == [0], p.stderr
     p = run_cli("ida", "latest", "--block", "4", "--json", "--out", str(tmp / "ida4.png"), db=db, fmu_path=fmu_path)
     assert p.returncode == 0 and json.loads(p.stdout)["blocks"] == [4], p.stderr
+    p = run_cli("ida", "latest", "--block", "any", "--demand", "slip", "--json", "--out", str(tmp / "ida_any.png"),
+                db=db, fmu_path=fmu_path)  # (any was checked twice, and refused the second time as block 0)
+    assert p.returncode == 0 and json.loads(p.stdout)["blocks"] == [0], p.stderr
     # the export: each block's outcome as columns of the sweep's rows
     out = tmp / "sweep.csv"
     p = run_cli("export", "--sweep", "latest", "--format", "csv", "--out", str(out), db=db, fmu_path=fmu_path)

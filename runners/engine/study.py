@@ -1156,7 +1156,7 @@ def check_block(block: int | str | None, sets: list[Outcomes]) -> int | None:
     if columns:  # a column: 1 to N, or any (the largest demand of any block; 0)
         n = min(o.column.n for o in columns)
         text = str(block).strip().lower()
-        if text in ("any", "either"):
+        if text in ("any", "either", "0"):  # (0: any, as checked once already)
             return 0
         try:
             b = int(text.removeprefix("block"))
