@@ -31,8 +31,13 @@ def blocks(p: Mapping[str, Any]) -> str:
         return (f"{2 * float(p[f'block{i}.halfWidth']):.4g} m wide x {2 * float(p[f'block{i}.halfHeight']):.4g} m "
                 f"high, {float(p[f'block{i}.mass']):.4g} kg")
 
-    if int(p.get("nBlocks", 1)) == 2:
+    n = int(p.get("nBlocks", 1))
+    if n == 2:
         return f"block 1 (below) {one(1)}; block 2 (on it) {one(2)}"
+    if n > 2:  # a column: its height, its foot and its mass (each block's sizes would not fit a title)
+        heights = [body(p, i).top if has_outline(p, i) else 2 * float(p[f"block{i}.halfHeight"]) for i in range(1, n + 1)]
+        mass = sum(float(p[f"block{i}.mass"]) for i in range(1, n + 1))
+        return f"a column of {n} blocks, {sum(heights):.4g} m high, {mass:.4g} kg; block 1 {one(1)}"
     return f"block {one(1)}"
 
 
@@ -49,6 +54,8 @@ def contact(p: Mapping[str, Any], varied: Iterable[str] = ()) -> str:
     mu = f"mu {mu_of('contact.muGround')} on the ground"
     if two:
         mu += f", {mu_of('contact.muInterface')} between the blocks"
+    elif int(p.get("nBlocks", 1)) > 2:
+        mu += f", {mu_of('contact.muInterface')} at the joints"
     if int(p.get("contact.model", 0)) == 1:
         return f"rocking–sliding, {mu}"
     return f"rigid rocking ({mu}, monitored)"
@@ -63,6 +70,11 @@ def restitution_text(p: Mapping[str, Any]) -> str:
                     f"{float(p['restitution.etaInterface']):.3g} between the blocks")
         names = {0: "momentum restitution (docs/two_blocks.md)", 1: "modified restitution"}
         return names.get(law, f"restitution {law}")
+    if int(p.get("nBlocks", 1)) > 2:  # a column: one plastic impact over every contact that touches
+        if law == 2:
+            return (f"constant restitution, {float(p['restitution.etaGround']):.3g} on the ground, "
+                    f"{float(p['restitution.etaInterface']):.3g} at the joints")
+        return "plastic impact over every contact that touches (docs/columns.md)"
     if has_outline(p, 1):  # one body of real shape: the plastic impact about the landing corner, per side
         b = body(p, 1)
         return (f"plastic impact about the landing corner (Housner 1963's law), eta {b.impact_ratio(1):.3f} landing "
