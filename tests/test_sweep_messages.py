@@ -196,8 +196,8 @@ def test_an_unknown_table_of_a_system_file_lists_building_and_coupling(tmp_path,
     system = tmp_path / "system.toml"
     system.write_text((EX / "cabinet_on_floor.toml").read_text().replace("[coupling]", "[floor]\nx = 1\n\n[coupling]"))
     line = one_line_error(run_cli("cosim", str(system), db=db, fmu_path=fmu_path))
-    assert line == (f"error: {system}: unknown table [floor] (expected building, coupling, block, block2, "
-                    "restitution, contact, excitation, simulation)")
+    assert line == (f"error: {system}: unknown table [floor] (expected building, coupling, block, block2, block3, "
+                    "block4, block5, block6, block7, block8, column, restitution, contact, excitation, simulation)")
 
 
 def test_a_base_that_does_not_move_has_no_energy_to_balance(tmp_path, db, fmu_path, building_fmu_path, monkeypatch):

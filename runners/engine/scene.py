@@ -528,7 +528,8 @@ def _check_blocks(p: dict[str, Any], source: str) -> None:
             v = p.get(f"block{k}.{key}")
             if v is not None and not v > 0:
                 unit = "kg" if key == "mass" else "m" if key != "mu" else ""
-                raise SceneError(f"{source}: {table} {what} = {v:g} must be above 0{' ' + unit if unit else ''}")
+                raise SceneError(f"{source}: {table} {what} = {v:g} must be above 0{' ' + unit if unit else ''} "
+                                 f"(block{k}.{key})")
     if "contact.muInterface" in p and not p["contact.muInterface"] > 0:
         raise SceneError(f"{source}: the interfaces' mu = {p['contact.muInterface']:g} must be above 0")
     if n < 3:
