@@ -49,6 +49,22 @@ def drums(n: int, b: float, h: float, m: float, mu: float, amplitude: float, fre
     return p
 
 
+def tapered(n: int, amplitude: float, frequency: float, b0: float = 0.25, h: float = 0.4, taper: float = 0.05,
+            mu: float = 0.7) -> dict:
+    """n trapezoidal drums whose joints have equal widths (examples/classical_column.toml's, smaller): the lowest
+    0.5 m wide at its base, each 0.4 m high and 5 % narrower at its top than at its base, of 2,700 kg/m3 (per metre
+    of depth), mu 0.7, under a sine pulse."""
+    p = {"nBlocks": n, "contact.model": 1, "contact.muGround": mu, "contact.muInterface": mu, "restitution.law": 0,
+         "excitation.kind": 1, "excitation.amplitude": amplitude, "excitation.frequency": frequency}
+    b = b0
+    for k in range(1, n + 1):
+        t = b * (1.0 - taper)
+        p[f"block{k}.outline"] = f"{-b},0.0; {b},0.0; {t},{h}; {-t},{h}"
+        p[f"block{k}.mass"] = 2700.0 * (b + t) * h
+        b = t
+    return p
+
+
 SCENES = {
     # measured: bound held to 1.6e-5 J (the old engine: 3,259 J over), longest flight 2 ms (5 s), no fall-off
     "classical column": (CLASSICAL, 8.0),
@@ -58,6 +74,10 @@ SCENES = {
     # tests/test_fmu_columns.py's eight squat drums at 1.5 times the column's uplift: an interface opens (the old
     # engine: drums 7 and 8 flew 1.65 s, 1,374 J over the bound)
     "eight squat drums": (drums(8, 0.5, 0.25, 400.0, 0.9, 1.5 * 9.81 * 0.5 / (8 * 0.25), 2.0), 2.0),
+    # eight small tapered drums under a 2 m/s2 3 Hz pulse: an event's choice left a drum rocking on one corner with its
+    # other corner at its face, on the wrong side of zero or driven into it, whose landing was never seen (the old
+    # engine: 16.3 J created by 0.28 s, 0.59 of the ground work; now 3e-8 J)
+    "eight tapered drums": (tapered(8, 2.0, 3.0), 4.0),
 }
 STEP = 0.001  # s
 
@@ -84,7 +104,7 @@ def test_no_energy_is_created_by_a_penetration(fmu, name):
     n, r = run(fmu, name)
     o = r.outputs
     work = np.abs(o["groundWork"]).max()
-    assert work > 100.0, "the ground moves the column"
+    assert work > 10.0, "the ground moves the column"
     excess = o["energy"] + o["impactLoss"] + o["block1.frictionLoss"] + o["block2.frictionLoss"] - o["groundWork"]
     i = int(np.argmax(excess))
     assert excess[i] <= 1e-6 * work, f"{excess[i]:.6g} J created by t = {r.time[i]:.4f} s (ground work {work:.6g} J)"
@@ -111,3 +131,33 @@ def test_the_classical_column_keeps_its_drums_on_one_another(fmu):
     assert "fell-off" not in {e.kind for e in r.events}
     for k in range(2, n + 1):
         assert np.abs(r.outputs[f"block{k}.slip"]).max() < 0.05, k
+
+
+# Small tapered columns the old engine let create energy (a sweep of N = 3..8 drums, 2..6 m/s2, 1..3 Hz): the created
+# energy over the ground work it reached, old engine -> now (all now within 1e-7)
+SWEEP = {
+    (7, 2.0, 3.0): "0.10 -> 5e-8",
+    (8, 6.0, 3.0): "0.11 -> 1e-9",
+    (5, 6.0, 3.0): "4.2e-3 -> 7e-10",
+    (7, 2.0, 2.0): "0.046 -> 8e-9",
+    (6, 3.0, 3.0): "6.5e-4 -> 7e-10",
+    (8, 2.0, 1.0): "1.7e-4 -> 3e-10",
+    (7, 2.0, 1.0): "0.028 -> 3e-9",
+}
+
+
+@pytest.mark.parametrize("n,amplitude,frequency", list(SWEEP), ids=[f"{n} drums {a:g} m/s2 {f:g} Hz" for n, a, f in SWEEP])
+def test_tapered_columns_create_no_energy(fmu, n, amplitude, frequency):
+    """Each runs to its end (no stall: "time does not advance" would raise) and never creates energy: a landing missed
+    at an event (a corner left open at its face and driven into it, a rocking body's relative rotation starting on the
+    wrong side of zero, a flying corner leaving its face whose landing the search lost) let a drum sink into the one
+    below it until another impact pushed it out."""
+    names = ["energy", "impactLoss", "groundWork", "block1.frictionLoss", "block2.frictionLoss"]
+    r = fmu.run(tapered(n, amplitude, frequency), 4.0, STEP, names)
+    assert r.time[-1] == pytest.approx(4.0)
+    o = r.outputs
+    work = np.abs(o["groundWork"]).max()
+    assert work > 0.5, "the ground moves the column"
+    excess = o["energy"] + o["impactLoss"] + o["block1.frictionLoss"] + o["block2.frictionLoss"] - o["groundWork"]
+    i = int(np.argmax(excess))
+    assert excess[i] <= 1e-6 * work, f"{excess[i]:.6g} J created by t = {r.time[i]:.4f} s (ground work {work:.6g} J)"

@@ -34,7 +34,11 @@
  * penetration left by rounding (a corner an impact opened at zero gap, a projection of the bodies below it, a pair
  * switched at its corner). It would never cross zero again, and the corner would pass through its face unseen: its
  * landing is watched as the crossing of its start value less LAND_ROUNDING instead. Below -LAND_PENETRATION (far above
- * rounding, far below any motion) no step starts from it: the corner touches, an impact there at once (before_step). */
+ * rounding, far below any motion) no step starts from it: the corner touches, an impact there at once (before_step).
+ * So is a rocking body's open corner whose indicator (its rotation relative to its support) starts on the wrong side
+ * of zero: its landing is its dense root (the relative rotation back at zero, after it rose), which the step no longer
+ * drops for the start's sign. One that approaches its face there is an impact at the event that left it so
+ * (resolve_approach), not at a step's start. */
 #define LAND_ROUNDING (64.0 * DBL_EPSILON)
 #define LAND_PENETRATION 1e-12
 
@@ -579,6 +583,13 @@ static int choose_on_floor(const Model *M, double t, const double *y, double ag,
     return 0;
 }
 
+/* A rate (m/s) below rounding's reach and far below any motion: an open corner at its face approaching it faster comes
+ * down onto it (an impact); a slip rate against a contact's sliding direction by more is not rounding. */
+static double approach_rate(const Model *M) { return 1e-9 * sqrt(M->d.en.g * M->d.R); }
+/* A normal rate (m/s) within rounding of zero (64 eps of sqrt(g R)): an open corner at its face that moves no faster
+ * stays at it (a rebound of 1e-9 m/s leaves it: a motion, which the landing indicator follows). */
+static double rest_rate(const Model *M) { return 64.0 * DBL_EPSILON * sqrt(M->d.en.g * M->d.R); }
+
 /* The complementarity problem's choice at (t, y) over the corners `touching` and the sticking
  * candidates `stuck`, its data taken LOOK_AHEAD / p after the event along the motion dy (the
  * problem is degenerate at an event located where a force or margin vanishes). Returns 0, or 1 if
@@ -593,8 +604,19 @@ static int choose(const Model *M, double t, const double *y, const double *dy, i
         for (int i = 0; i < n; i++) ya[i] += d * dy[i];
     model_ground_piece(M, t + (dy ? d : 0.0), model_piece(M, t), &ah, &av);
     EnForces f;
-    if (coupling_on(M)) return choose_on_floor(M, t + (dy ? d : 0.0), ya, ah, av, touching, stuck, out);
-    return engine_choose_m(sys, &M->s.en, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
+    int rc = coupling_on(M) ? choose_on_floor(M, t + (dy ? d : 0.0), ya, ah, av, touching, stuck, out)
+                            : engine_choose_m(sys, &M->s.en, ya, ah, av, (const int(*)[2])touching, stuck, out, &f);
+    if (rc || !dy) return rc;
+    /* the look-ahead passed a slip's stop (a contact left sliding by an impact at a rate that friction stops within
+     * it): the set would slide it against its slip rate at the event, its friction feeding the slip. The choice at
+     * the event itself instead. */
+    for (int k = 0; k < sys->nb; k++) {
+        double vs;
+        if (!out->sigma[k] || flying(out, k)) continue;
+        slip_of(sys, out, k, y, &vs, NULL);
+        if (out->sigma[k] * vs < -approach_rate(M)) return choose(M, t, y, NULL, touching, stuck, out);
+    }
+    return 0;
 }
 
 /* The derivative of the state at S->t in the contact set m. */
@@ -606,6 +628,69 @@ static void derivative(const Model *M, const EnMode *m, double *dy) {
     rhs_cb(&c, M->s.t, M->s.y, dy);
 }
 
+/* An open corner (index i) of body j in the contact set m at y that lies at its face or below it: its gap within
+ * rounding (64 eps R) or negative, or, the body rocking on its other corner, its rotation relative to its support on
+ * the wrong side of zero (its landing indicator, engine_indicators, not positive). Its normal rate to *gd. An event's
+ * projection of the rates onto a new contact set (a settling body, a contact that sticks) can leave such a corner
+ * approaching its face, a landing its indicator, already at or below zero, would never see. */
+static int open_at_face(const Model *M, const EnMode *m, const double *y, int j, int i, double *gd) {
+    const EnSystem *sys = &M->d.en;
+    if (m->closed[j][i]) return 0;
+    EnPoint p;
+    engine_corner_m(sys, m, j, 2 * i - 1, y, &p);
+    *gd = p.gd;
+    if (p.g <= 64.0 * DBL_EPSILON * M->d.R) return 1;
+    if (!m->closed[j][!i]) return 0;
+    double rel = y[EN_TH(j)] - (j > 0 ? y[EN_TH(j - 1)] : 0.0);
+    return (1 - 2 * i) * rel <= 0.0; /* (the closed corner's side times rel: engine_indicators' landing) */
+}
+
+/* The corners an event's choice covers: those touching, and every open corner at its face (open_at_face, its body's
+ * other corner as touching has it) that does not leave it (its normal rate not above rest_rate): the choice
+ * closes it, or opens it with a normal acceleration that lifts it (left out, it would sink through its face unseen:
+ * its landing indicator starts at or below zero). */
+static int touching_at_face(const Model *M, int touching[][2]) {
+    const EnSystem *sys = &M->d.en;
+    EnMode m = M->s.en;
+    int added = 0;
+    for (int j = 0; j < sys->nb; j++) {
+        m.closed[j][0] = touching[j][0];
+        m.closed[j][1] = touching[j][1];
+    }
+    for (int j = 0; j < sys->nb; j++)
+        for (int i = 0; i < 2; i++) {
+            double gd;
+            if (open_at_face(M, &m, M->s.y, j, i, &gd) && gd <= rest_rate(M)) touching[j][i] = added = 1;
+        }
+    return added;
+}
+
+/* Whether the contact set m at S->y leaves a corner open at its face (open_at_face), not leaving it, whose normal
+ * acceleration in m drives it into the face (beyond rounding): it would sink unseen. */
+static int sinks(const Model *M, const EnMode *m) {
+    const State *S = &M->s;
+    const EnSystem *sys = &M->d.en;
+    EnForces f;
+    double ah, av;
+    int solved = 0;
+    for (int j = 0; j < sys->nb; j++)
+        for (int i = 0; i < 2; i++) {
+            double gd;
+            if (!open_at_face(M, m, S->y, j, i, &gd) || gd > rest_rate(M)) continue;
+            if (!solved) {
+                model_ground(M, S->t, &ah, &av);
+                if (isnan(solve_at(M, S->t, m, S->y, ah, av, &f))) return 0;
+                solved = 1;
+            }
+            EnPoint p;
+            engine_point_m(sys, m, j, 2 * i - 1, S->y, &p);
+            double gdd = p.bN;
+            for (int q = 0; q < 3 * sys->nb; q++) gdd += p.wN[q] * f.qdd[q];
+            if (gdd < -EN_ROUNDING * sys->g) return 1;
+        }
+    return 0;
+}
+
 /* The contact set that follows at S->t from the touching corners and sticking candidates, with a
  * Painleve point (no consistent set) resolved by the impact without collision of Genot & Brogliato
  * (1999): the sliding contact takes the plastic impact of the impact law; if that leaves no
@@ -614,6 +699,16 @@ static void settle_mode(Model *M, int touching[][2], int *stuck, const double *d
     State *S = &M->s;
     EnMode m;
     if (choose(M, S->t, S->y, dy, touching, stuck, &m) == 0) {
+        /* a corner the choice leaves open at its face, not leaving it, that the set's accelerations drive into it:
+         * the choice again with it (and every such corner) among the touching */
+        int face[EN_MAX_BODIES][2];
+        memcpy(face, touching, sizeof(face));
+        EnMode again;
+        if (sinks(M, &m) && touching_at_face(M, face) &&
+            choose(M, S->t, S->y, dy, face, stuck, &again) == 0) {
+            memcpy(touching, face, sizeof(face));
+            m = again;
+        }
         set_mode(M, &m, log);
         return;
     }
@@ -1019,6 +1114,34 @@ static void jam(Model *M, const Logger *log) {
     set_mode(M, &m, log);
 }
 
+/* After an event: an open corner at its face (open_at_face) that approaches it lands, an impact over it (with every
+ * corner at zero gap); repeated while the contact set the impact settles into leaves another (at most a few times:
+ * each impact leaves the corners it covers at non-negative normal rates). */
+static void resolve_approach(Model *M, const Logger *log) {
+    State *S = &M->s;
+    const EnSystem *sys = &M->d.en;
+    for (int pass = 0; pass < 4 * sys->nb && S->mode == MODE_ROCKING; pass++) {
+        int hit = -1, end = 0;
+        double worst = -approach_rate(M);
+        for (int j = 0; j < sys->nb; j++)
+            for (int i = 0; i < 2; i++) {
+                double gd;
+                if (open_at_face(M, &S->en, S->y, j, i, &gd) && gd < worst) {
+                    worst = gd;
+                    hit = j;
+                    end = 2 * i - 1;
+                }
+            }
+        if (hit < 0) return;
+        S->pending = EVENT_IMPACT;
+        S->eventContact = hit;
+        S->eventEnd = end;
+        impact(M, log);
+        S->pending = EVENT_NONE;
+        S->fValid = 0;
+    }
+}
+
 /* An event located at S->t where a force, friction margin or slip rate vanished. */
 static void reselect(Model *M, const Logger *log) {
     State *S = &M->s;
@@ -1081,6 +1204,7 @@ static int apply_event(Model *M, const Logger *log) {
     }
     S->pending = EVENT_NONE;
     S->fValid = 0;
+    resolve_approach(M, log);
     return 0;
 }
 
@@ -1234,11 +1358,12 @@ static int take_step(Model *M, const Logger *log) {
     } else {
         ni = indicators(&c, S->t, S->y, NULL, ind0, kind, body, corner);
     }
-    /* a flying corner whose gap starts negative by rounding: its landing is the crossing of its start value less
-     * LAND_ROUNDING (LAND_ROUNDING; 0 for every other indicator, which crosses zero) */
+    /* an open corner whose landing indicator starts negative by rounding (flying: its gap; rocking: its rotation
+     * relative to its support): its landing is the crossing of its start value less LAND_ROUNDING (LAND_ROUNDING; a
+     * rocking body's, its dense root, below; 0 for every other indicator, which crosses zero) */
     double sh[EN_IND];
     for (int i = 0; i < ni; i++)
-        sh[i] = kind[i] == EN_IND_LAND && flying(&S->en, body[i]) && ind0[i] < 0 ? LAND_ROUNDING - ind0[i] : 0.0;
+        sh[i] = kind[i] == EN_IND_LAND && ind0[i] < 0 ? LAND_ROUNDING - ind0[i] : 0.0;
 
     /* positions in units of R, rates of R p (angles and angular rates as they are); the integrals ride along */
     double scale[NMAX], R = M->d.R, p = sqrt(M->d.p2);
@@ -1398,8 +1523,19 @@ static int take_step(Model *M, const Logger *log) {
                     lo = 0.0;
                     va = shifted(ind0[i], sh[i]);
                 }
-                x = first_negative_costly(indicator_after, &se, lo, va, b, shifted(indB[i], sh[i]), 4.0, fabs(S->t), 0.0,
-                                          100);
+                /* a start at the face (a corner that left it at this instant, its indicator within rounding of
+                 * zero): regula falsi's estimates stay at that end (within its bracket's rounding of it) while the
+                 * corner rises and comes down again later; halving first, until the start value is no longer
+                 * negligible beside the end's */
+                double hi = b, vb = shifted(indB[i], sh[i]);
+                int atFace = kind[i] == EN_IND_LAND && flying(&S->en, k) && va <= LAND_ROUNDING;
+                for (int it = 0; it < 60 && atFace && va < 1e-6 * -vb && hi - lo > 4.0 * DBL_EPSILON * fabs(S->t + hi);
+                     it++) {
+                    double xm = 0.5 * (lo + hi), vm = indicator_after(&se, xm);
+                    if (vm < 0) hi = xm, vb = vm;
+                    else lo = xm, va = vm;
+                }
+                x = first_negative_costly(indicator_after, &se, lo, va, hi, vb, 4.0, fabs(S->t), 0.0, 100);
             }
             if (x < best) {
                 best = x;
@@ -1623,6 +1759,7 @@ static void before_step(Model *M, const Logger *log) {
             reselect(M, log);
             S->pending = EVENT_NONE;
             S->fValid = 0;
+            resolve_approach(M, log);
             return;
         }
         /* a sliding contact whose slip rate is of the other sign stops here: its friction would push the slip
