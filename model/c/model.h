@@ -223,6 +223,7 @@ typedef struct {
     int impacts, peaks;
     double lastImpactTime, lastPeakTime, lastPeakTheta, maxAbsTheta;
     int impactRun;                /* contact engine: impacts in a row, each within CHATTER_INTERVAL of the last */
+    int impactsNow;               /* contact engine: impacts at the time of the last one (lastImpactTime) */
     double overturnTime, restTime;
     long long steps, rejected;
 
