@@ -50,7 +50,8 @@ sanitize: $(INSTALLED)
 	LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libubsan.so)" \
 	ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	$(BIN)/python -m pytest -p no:cacheprovider tests/test_fmu_physics.py tests/test_fmu_interface.py tests/test_fmu_two_blocks.py tests/test_two_block_solver.py tests/test_taylor.py tests/test_records_fmu.py tests/test_support_fmu.py tests/test_support_two_way.py tests/test_fmu_state_fuzz.py tests/test_fmi3.py tests/test_fmu_hostile.py tests/test_fmu_me.py tests/test_fmi2_rules.py tests/test_contact_forces.py tests/test_contact_monitors.py tests/test_input_derivatives.py tests/test_floor_coupling.py \
-		tests/test_building_fmu.py
+		tests/test_building_fmu.py tests/test_fmu_columns.py tests/test_fmu_polygons.py tests/test_fmu_overhang.py \
+		tests/test_fmu_landing.py
 
 # The benchmarks, then the tests marked slow (e.g. the viewer screenshot, which
 # needs Debian's chromium and pip install -e '.[docs]'; skipped with a reason without them).
