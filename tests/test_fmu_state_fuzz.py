@@ -490,7 +490,26 @@ def base_states(fmu: RockingFMU, record: Path) -> list[tuple[str, bytes]]:
     return out
 
 
-def mutations(blob: bytes, fields: Fields, seed: int, checked: bool = True) -> list[tuple[str, bytes, bool]]:
+def _patch(blob: bytes, data: bytes) -> bytes | tuple[int, bytes]:
+    """A mutated state as the bytes it changed, (offset, those bytes) (the state itself where its length changed):
+    thousands of 60 kB states would not fit in memory."""
+    if len(data) != len(blob):
+        return data
+    diff = np.nonzero(np.frombuffer(blob, np.uint8) != np.frombuffer(data, np.uint8))[0]
+    if not len(diff):
+        return (0, b"")
+    return int(diff[0]), data[int(diff[0]):int(diff[-1]) + 1]
+
+
+def patched(blob: bytes, data: bytes | tuple[int, bytes]) -> bytes:
+    """The state a case (mutations) stands for, on its base `blob`."""
+    if isinstance(data, bytes):
+        return data
+    offset, payload = data
+    return blob[:offset] + payload + blob[offset + len(payload):]
+
+
+def mutations(blob: bytes, fields: Fields, seed: int, checked: bool = True) -> list[tuple[str, object, bool]]:
     """(label, bytes, must be refused) for one state: every 8-byte field set to an absurd double,
     every 4-byte field to an absurd integer (values rotating with the seed), the named fields out of
     range (refused unless the state is not checked yet: parameters set before initialisation are
@@ -498,33 +517,38 @@ def mutations(blob: bytes, fields: Fields, seed: int, checked: bool = True) -> l
     truncations and extensions (always refused)."""
     rng = np.random.default_rng(seed)
     skip = set().union(*(range(a + 8, b) for a, b in fields.strings))  # the String parameters' unused buffers
-    out: list[tuple[str, bytes, bool]] = []
+    out: list[tuple[str, object, bool]] = []
+
+    def add(case: tuple[str, bytes, bool]) -> None:  # (each kept as the bytes it changes)
+        out.append((case[0], _patch(blob, case[1]), case[2]))
     for k, o in enumerate(range(0, len(blob) - 7, 8)):
         if o not in skip:
             v = DOUBLE_VALUES[(k + seed) % len(DOUBLE_VALUES)]
-            out.append((f"double@{o}={v!r}", put_double(blob, o, v), False))
+            add((f"double@{o}={v!r}", put_double(blob, o, v), False))
     for k, o in enumerate(range(0, len(blob) - 3, 4)):
         if o not in skip:
             v = INT_VALUES[(k + seed) % len(INT_VALUES)]
-            out.append((f"int@{o}={v}", put_int(blob, o, v), False))
+            add((f"int@{o}={v}", put_int(blob, o, v), False))
     named = [(fields.n_step_peaks, v) for v in (5, 77, -1, 2**31 - 1)] + \
             [(fields.n_blocks, v) for v in (0, 3, 7, -1)] + [(o, 77) for o in fields.pattern]
-    out += [(f"field@{o}={v}", put_int(blob, o, v), checked) for o, v in named]
+    for o, v in named:
+        add((f"field@{o}={v}", put_int(blob, o, v), checked))
     positions = np.array([o for o in range(len(blob)) if o not in skip])
     for k in range(150):
         b = bytearray(blob)
         for _ in range(1 + k % 3):
             o = int(rng.choice(positions))
             b[o] ^= 1 << int(rng.integers(8))
-        out.append((f"flip#{k}", bytes(b), False))
+        add((f"flip#{k}", bytes(b), False))
     for k in range(100):
         o, n = int(rng.choice(positions)), int(rng.integers(1, 17))
         b = bytearray(blob)
         b[o:o + n] = rng.integers(0, 256, size=len(b[o:o + n]), dtype=np.uint8).tobytes()
-        out.append((f"bytes#{k}@{o}+{n}", bytes(b), False))
+        add((f"bytes#{k}@{o}+{n}", bytes(b), False))
     for n in [0, 1, 4, 8, 100, len(blob) // 2] + [int(x) for x in rng.integers(1, len(blob), 8)]:
-        out.append((f"truncated-{n}", blob[: len(blob) - n] if n else b"", True))
-    out += [("extended-1", blob + b"\0", True), ("extended-8", blob + b"\0" * 8, True)]
+        add((f"truncated-{n}", blob[: len(blob) - n] if n else b"", True))
+    add(("extended-1", blob + b"\0", True))
+    add(("extended-8", blob + b"\0" * 8, True))
     return out
 
 
@@ -545,6 +569,7 @@ def _worker(fmu_path: str, unzipdir: str, cases_path: str, start: int) -> None:
     print("ready", flush=True)
     for i in range(start, len(cases)):
         base, data, _ = cases[i]
+        data = patched(bases[base], data)
         try:
             run.s.setFMUstate(pristine[base])
             status = "refused"
