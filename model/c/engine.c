@@ -481,6 +481,19 @@ static inline void forces_clear(EnForces *f) {
  * sticking or sliding (sigma: the slip xi then a second coordinate, X'' gains xi'' along the ground, and the
  * friction -sigma mu N works on it). As chain_nd for one body, its terms of the support dropped (the ground
  * does not turn); tests/c/engine_chain.c checks both against the constrained system. */
+/* Body k of a chain placed from its support a (centre Xa, velocity Va, rate wa): its contact point D from the support's
+ * centre and r from its own centre (their perpendiculars JD, Jr), its rate wb and slip rate xid along the tangent t:
+ * its centre and velocity to Xb, Vb and yout. */
+static inline __attribute__((always_inline)) void place(double Xb[2], double Vb[2], double *yout, int nb, int k,
+                                                        const double Xa[2], const double Va[2], double wa, double wb,
+                                                        const double D[2], const double JD[2], const double *r,
+                                                        const double Jr[2], double xid, const double t[2]) {
+    for (int i = 0; i < 2; i++) {
+        Xb[i] = yout[EN_POS(nb, k, i)] = Xa[i] + D[i] - r[i];
+        Vb[i] = yout[EN_VEL(nb, k, i)] = Va[i] + wa * JD[i] - wb * Jr[i] + xid * t[i];
+    }
+}
+
 static inline __attribute__((always_inline)) int chain_one(const int SLIDES, const EnSystem *s, const EnMode *m,
                                                            const double *xi0, const double *yin, double *yout,
                                                            double ah, double av, EnForces *f, double *slipRate,
@@ -659,10 +672,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
                 if (sl) xid = yin[EN_XID(nb, k)];
                 for (int i = 0; i < 2; i++) D[k][i] = xi * t[k][i] + hs[a] * n[k][i];
                 perp(D[k], JD);
-                for (int i = 0; i < 2; i++) {
-                    X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
-                    V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i] + xid * t[k][i];
-                }
+                place(X[b], V[b], yout, nb, k, X[a], V[a], w[a], w[b], D[k], JD, r, Jr, xid, t[k]);
             } else {
                 for (int i = 0; i < 2; i++) {
                     X[b][i] = yin[EN_POS(nb, k, i)];
@@ -685,10 +695,7 @@ static inline __attribute__((always_inline)) int chain_nd(const int ND, const in
                 for (int i = 0; i < 2; i++) rv[i] = sb * t[k][i] + B->cy * n[k][i];
                 r = rv;
                 perp(r, Jr);
-                for (int i = 0; i < 2; i++) {
-                    X[b][i] = yout[EN_POS(nb, k, i)] = X[a][i] + D[k][i] - r[i];
-                    V[b][i] = yout[EN_VEL(nb, k, i)] = V[a][i] + w[a] * JD[i] - w[b] * Jr[i] + xid * t[k][i];
-                }
+                place(X[b], V[b], yout, nb, k, X[a], V[a], w[a], w[b], D[k], JD, r, Jr, xid, t[k]);
             } else {
                 for (int i = 0; i < 2; i++) {
                     X[b][i] = yin[EN_POS(nb, k, i)];
